@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Sets up attribot in ./.venv on a fresh machine: the system libraries MuJoCo needs for headless
+# rendering (EGL, with OSMesa as fallback), then the package.
+#   scripts/install.sh          the package and its core dependencies (enough for `attribot ask`)
+#   scripts/install.sh --test   also the model, server and test extras, for the test suite
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+want_test=0
+[ "${1:-}" = "--test" ] && want_test=1
+
+# Headless rendering: MuJoCo loads libEGL (Mesa's llvmpipe works without a GPU) or libOSMesa.
+missing=()
+ldconfig -p | grep -q 'libEGL.so.1' || missing+=(libegl1)
+ldconfig -p | grep -q 'libEGL_mesa.so.0' || missing+=(libegl-mesa0)
+[ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/aarch64-linux-gnu/dri/swrast_dri.so ] \
+  || missing+=(libgl1-mesa-dri)
+ldconfig -p | grep -q 'libOSMesa.so' || missing+=(libosmesa6)
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    echo "installing system packages for headless rendering: ${missing[*]}"
+    apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "warning: missing system packages for headless rendering: ${missing[*]}" >&2
+    echo "         install them with: sudo apt-get install ${missing[*]}" >&2
+  fi
+fi
+
+PY=${PYTHON:-python3}
+[ -x .venv/bin/python ] || "$PY" -m venv .venv
+pip=(.venv/bin/python -m pip install -q --disable-pip-version-check)
+if [ $want_test = 1 ]; then
+  # The CPU build of torch keeps the test install small; any torch>=2.4 works for the package.
+  "${pip[@]}" "torch==2.13.0" 2>/dev/null || true
+  "${pip[@]}" -e ".[models,server,plots,test]"
+else
+  "${pip[@]}" -e .
+fi

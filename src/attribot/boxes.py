@@ -1,0 +1,122 @@
+"""Box maths, and the one place where box conventions are converted.
+
+Inside the project a box is `(x0, y0, x1, y1)` in pixels, origin top-left, y down (OpenCV/PIL).
+`ImagePatch` speaks the paper's convention, `left, lower, right, upper` with y growing upward; the
+conversions between the two live here and nowhere else.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "Box",
+    "as_boxes",
+    "area",
+    "iou",
+    "iou_matrix",
+    "nms",
+    "clip",
+    "center",
+    "crop_array",
+    "to_upward",
+    "from_upward",
+]
+
+Box = tuple[float, float, float, float]
+
+
+def as_boxes(boxes: Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
+    """An (N, 4) float array of xyxy boxes; raises ValueError on a wrong shape or x1 < x0."""
+    arr = np.asarray(boxes, dtype=np.float64).reshape(-1, 4) if len(boxes) else np.zeros((0, 4))
+    if np.any(arr[:, 2] < arr[:, 0]) or np.any(arr[:, 3] < arr[:, 1]):
+        raise ValueError("boxes must be (x0, y0, x1, y1) with x1 >= x0 and y1 >= y0")
+    return arr
+
+
+def area(boxes: np.ndarray) -> np.ndarray:
+    """Areas of xyxy boxes, in square pixels."""
+    b = as_boxes(boxes)
+    return (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Pairwise intersection over union, shape (len(a), len(b)); 0 where both boxes are empty."""
+    a, b = as_boxes(a), as_boxes(b)
+    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
+    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
+    x1 = np.minimum(a[:, None, 2], b[None, :, 2])
+    y1 = np.minimum(a[:, None, 3], b[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    union = area(a)[:, None] + area(b)[None, :] - inter
+    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+
+
+def iou(a: Sequence[float], b: Sequence[float]) -> float:
+    """Intersection over union of two xyxy boxes.
+
+    >>> iou((0, 0, 2, 2), (1, 0, 3, 2))
+    0.3333333333333333
+    """
+    return float(iou_matrix(np.asarray([a]), np.asarray([b]))[0, 0])
+
+
+def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float = 0.5) -> np.ndarray:
+    """Indices of the boxes kept by greedy non-maximum suppression, highest score first."""
+    b = as_boxes(boxes)
+    order = np.argsort(-np.asarray(scores, dtype=np.float64), kind="stable")
+    keep: list[int] = []
+    while order.size:
+        i = int(order[0])
+        keep.append(i)
+        if order.size == 1:
+            break
+        overlaps = iou_matrix(b[i : i + 1], b[order[1:]])[0]
+        order = order[1:][overlaps <= iou_threshold]
+    return np.asarray(keep, dtype=np.int64)
+
+
+def clip(boxes: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Boxes clipped to the image `[0, width] x [0, height]`."""
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4).copy()
+    b[:, [0, 2]] = np.clip(b[:, [0, 2]], 0, width)
+    b[:, [1, 3]] = np.clip(b[:, [1, 3]], 0, height)
+    return b
+
+
+def center(box: Sequence[float]) -> tuple[float, float]:
+    """Centre `(x, y)` of an xyxy box, in pixels, y down."""
+    x0, y0, x1, y1 = box
+    return (x0 + x1) / 2.0, (y0 + y1) / 2.0
+
+
+def crop_array(array: np.ndarray, box: Sequence[float]) -> np.ndarray:
+    """The pixels of `array` (H, W, ...) inside the xyxy box, rounded outward and clipped; never empty."""
+    h, w = array.shape[:2]
+    x0, y0, x1, y1 = box
+    ix0 = int(np.clip(np.floor(x0), 0, max(w - 1, 0)))
+    iy0 = int(np.clip(np.floor(y0), 0, max(h - 1, 0)))
+    ix1 = int(np.clip(np.ceil(x1), ix0 + 1, w))
+    iy1 = int(np.clip(np.ceil(y1), iy0 + 1, h))
+    return array[iy0:iy1, ix0:ix1]
+
+
+def to_upward(box: Sequence[float], image_height: int) -> tuple[float, float, float, float]:
+    """xyxy (y down) to `(left, lower, right, upper)` with y growing upward, as ImagePatch has it.
+
+    >>> to_upward((10, 0, 20, 5), image_height=100)
+    (10.0, 95.0, 20.0, 100.0)
+    """
+    x0, y0, x1, y1 = (float(v) for v in box)
+    return x0, image_height - y1, x1, image_height - y0
+
+
+def from_upward(left: float, lower: float, right: float, upper: float, image_height: int) -> Box:
+    """`(left, lower, right, upper)` with y upward back to xyxy pixels with y down.
+
+    >>> from_upward(10, 95, 20, 100, image_height=100)
+    (10.0, 0.0, 20.0, 5.0)
+    """
+    return float(left), float(image_height - upper), float(right), float(image_height - lower)

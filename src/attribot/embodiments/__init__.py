@@ -1,0 +1,1 @@
+"""Worlds and robots behind one low-level interface (`base.py`)."""

@@ -1,0 +1,126 @@
+"""The low-level contract every world and real robot implements.
+
+An embodiment says what it can do (`capabilities()`) before it is asked. Every method that needs a
+capability the embodiment lacks raises `UnsupportedAction` naming it: the defaults below do exactly that,
+and an implementation overrides what it supports. Units: metres, radians, seconds, newtons.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+
+from attribot.errors import UnsupportedAction
+from attribot.frame import CameraInfo, Frame
+from attribot.registry import Registry
+
+__all__ = ["Capability", "Pose2D", "Embodiment", "EMBODIMENTS", "UnsupportedAction"]
+
+
+class Capability(StrEnum):
+    CAMERA = "camera"  # RGB frames
+    DEPTH = "depth"  # depth layer in frames
+    SEGMENTATION = "segmentation"  # segmentation + object truth in frames (simulators)
+    BASE = "base"  # holonomic base velocity commands
+    HEAD = "head"  # pan/tilt camera head
+    ARM = "arm"  # lift and telescoping arm targets
+    GRIPPER = "gripper"  # grasp and release
+    DISTANCE = "distance"  # rangefinder along the optical axis
+    FORCE = "force"  # wrist force/torque sensor
+    POSE = "pose"  # base pose and joint states
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    """Base pose in the world frame: metres and radians (yaw counter-clockwise from +x)."""
+
+    x: float
+    y: float
+    yaw: float
+
+
+class Embodiment:
+    """Base class of worlds and robots. Override what you support and list it in `capabilities()`."""
+
+    name: str = "embodiment"
+
+    def capabilities(self) -> frozenset[Capability]:
+        return frozenset()
+
+    def _unsupported(self, capability: Capability, what: str) -> UnsupportedAction:
+        return UnsupportedAction(
+            f"{self.name} cannot {what}: it has no {capability.value!s} capability",
+            f"available here: {', '.join(sorted(c.value for c in self.capabilities())) or 'nothing'}",
+        )
+
+    def require(self, capability: Capability, what: str) -> None:
+        """Raise `UnsupportedAction` unless this embodiment has `capability`."""
+        if capability not in self.capabilities():
+            raise self._unsupported(capability, what)
+
+    # --- camera -----------------------------------------------------------------------------------
+    def observe(self) -> Frame:
+        """The current camera frame, with depth and segmentation where the world has them."""
+        raise self._unsupported(Capability.CAMERA, "take a camera frame")
+
+    def camera_info(self) -> CameraInfo:
+        raise self._unsupported(Capability.CAMERA, "describe its camera")
+
+    # --- time and motion --------------------------------------------------------------------------
+    def step(self, seconds: float) -> None:
+        """Advance the world (or wait on a real robot) by `seconds`, holding the last commands."""
+        raise self._unsupported(Capability.BASE, "advance time")
+
+    def command_base(self, vx: float, vy: float, wz: float) -> None:
+        """Base velocity in the robot frame: forward m/s, left m/s, counter-clockwise rad/s."""
+        raise self._unsupported(Capability.BASE, "drive its base")
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        """Head targets in radians: pan left positive, tilt up positive."""
+        raise self._unsupported(Capability.HEAD, "move a camera head")
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        """Lift height and arm extension targets, in metres."""
+        raise self._unsupported(Capability.ARM, "move an arm")
+
+    def grasp(self) -> bool:
+        """Close the gripper; True when an object is now held."""
+        raise self._unsupported(Capability.GRIPPER, "grasp")
+
+    def release(self) -> None:
+        raise self._unsupported(Capability.GRIPPER, "release")
+
+    # --- sensors ----------------------------------------------------------------------------------
+    def read_distance(self) -> float:
+        """Rangefinder along the camera's optical axis, metres; `inf` when nothing is in range."""
+        raise self._unsupported(Capability.DISTANCE, "measure distance")
+
+    def tare_force(self) -> None:
+        """Zero the wrist force sensor with what it holds now."""
+        raise self._unsupported(Capability.FORCE, "tare a force sensor")
+
+    def read_force(self) -> np.ndarray:
+        """Wrist force in newtons, (3,) in the world frame, relative to the last tare."""
+        raise self._unsupported(Capability.FORCE, "measure force")
+
+    def base_pose(self) -> Pose2D:
+        raise self._unsupported(Capability.POSE, "report its base pose")
+
+    def joint_states(self) -> dict[str, float]:
+        raise self._unsupported(Capability.POSE, "report joint states")
+
+    def close(self) -> None:
+        """Free renderers, sockets and threads. Safe to call twice."""
+
+    def __enter__(self) -> Embodiment:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+EMBODIMENTS: Registry[type[Embodiment]] = Registry(
+    "world", ("attribot.embodiments.mujoco",)
+)

@@ -1,0 +1,44 @@
+"""The project's exception types. Every error names the problem and, where there is one, the fix."""
+
+from __future__ import annotations
+
+__all__ = [
+    "AttribotError",
+    "ConfigError",
+    "MissingDependency",
+    "UnknownName",
+    "UnsupportedAction",
+    "InputError",
+]
+
+
+class AttribotError(Exception):
+    """Base class: a message for a person, and an optional line that says how to fix it."""
+
+    def __init__(self, message: str, fix: str | None = None) -> None:
+        self.message = message
+        self.fix = fix
+        super().__init__(message if fix is None else f"{message} ({fix})")
+
+
+class InputError(AttribotError):
+    """Bad user input: an empty query, an unreadable image, a bad seed."""
+
+
+class ConfigError(AttribotError):
+    """A configuration that cannot work: an unknown backend spec, a missing model path."""
+
+
+class UnknownName(AttribotError, KeyError):
+    """A name looked up in a registry (layout, backend, category, planner) that is not there."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return Exception.__str__(self)
+
+
+class MissingDependency(AttribotError, ImportError):
+    """An optional extra is not installed; the message carries the exact pip line."""
+
+
+class UnsupportedAction(AttribotError):
+    """A world or robot was asked for a capability it does not have; the message names it."""

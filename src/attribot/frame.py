@@ -1,0 +1,122 @@
+"""A camera frame and what a world knows about it.
+
+`Frame` is what an embodiment's camera returns and what perception backends take: an RGB image and, where
+the world can give them, depth, a segmentation and the ground truth of the objects in view. Real
+backends read `rgb` alone; the oracle backends need `segmentation` and `objects` and say so when absent.
+A crop keeps all layers aligned and remembers where it sits in the full frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from attribot.boxes import crop_array
+from attribot.errors import InputError
+
+__all__ = ["ObjectTruth", "CameraInfo", "Frame", "load_image", "check_rgb"]
+
+
+@dataclass(frozen=True)
+class ObjectTruth:
+    """What a simulator knows about one object: its id, category, colour name and synonyms."""
+
+    id: str
+    category: str
+    color: str = ""
+    synonyms: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CameraInfo:
+    """Pinhole intrinsics in pixels (origin top-left, y down) and the image size."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+
+def check_rgb(rgb: np.ndarray) -> np.ndarray:
+    """`rgb` if it is a uint8 (H, W, 3) array with H, W > 0; otherwise a ValueError that says what it is."""
+    if not isinstance(rgb, np.ndarray) or rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
+        shape = getattr(rgb, "shape", None)
+        dtype = getattr(rgb, "dtype", type(rgb).__name__)
+        raise ValueError(f"an image must be a uint8 array of shape (H, W, 3), RGB; got {dtype} {shape}")
+    if rgb.shape[0] == 0 or rgb.shape[1] == 0:
+        raise ValueError("an image must have at least one pixel")
+    return rgb
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """One camera frame.
+
+    rgb: uint8 (H, W, 3). depth: float32 (H, W) metres along the optical axis, or None.
+    segmentation: int32 (H, W) keys into `objects`, -1 where no object is seen, or None.
+    origin: `(x, y)` of this frame's top-left pixel in the full frame it was cropped from.
+    """
+
+    rgb: np.ndarray
+    depth: np.ndarray | None = None
+    segmentation: np.ndarray | None = None
+    objects: dict[int, ObjectTruth] = field(default_factory=dict)
+    camera: CameraInfo | None = None
+    origin: tuple[int, int] = (0, 0)
+
+    def __post_init__(self) -> None:
+        check_rgb(self.rgb)
+        for name in ("depth", "segmentation"):
+            layer = getattr(self, name)
+            if layer is not None and layer.shape[:2] != self.rgb.shape[:2]:
+                raise ValueError(f"{name} has shape {layer.shape[:2]}, the image {self.rgb.shape[:2]}")
+
+    @property
+    def width(self) -> int:
+        return int(self.rgb.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.rgb.shape[0])
+
+    @property
+    def has_truth(self) -> bool:
+        """True when the frame carries a segmentation and object ground truth (simulators)."""
+        return self.segmentation is not None
+
+    def crop(self, box: tuple[float, float, float, float]) -> Frame:
+        """The part of this frame inside the xyxy box (pixels of this frame), all layers aligned."""
+        x0, y0 = int(np.clip(np.floor(box[0]), 0, self.width - 1)), int(np.clip(np.floor(box[1]), 0, self.height - 1))
+        return Frame(
+            rgb=np.ascontiguousarray(crop_array(self.rgb, box)),
+            depth=None if self.depth is None else crop_array(self.depth, box),
+            segmentation=None if self.segmentation is None else crop_array(self.segmentation, box),
+            objects=self.objects,
+            camera=self.camera,
+            origin=(self.origin[0] + x0, self.origin[1] + y0),
+        )
+
+
+def load_image(path: str | Path) -> np.ndarray:
+    """Read an image file as uint8 RGB; a missing, unreadable or corrupt file is an `InputError`."""
+    from PIL import Image, UnidentifiedImageError
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"image file {str(p)!r} does not exist", "check the path")
+    try:
+        with Image.open(p) as im:
+            im.load()
+            rgb = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    except (UnidentifiedImageError, OSError, ValueError) as exc:
+        raise InputError(
+            f"image file {str(p)!r} cannot be read as an image ({exc.__class__.__name__})",
+            "give a PNG or JPEG file that opens in an image viewer",
+        ) from exc
+    if rgb.size == 0:
+        raise InputError(f"image file {str(p)!r} has no pixels", "give a non-empty image")
+    return np.ascontiguousarray(rgb)

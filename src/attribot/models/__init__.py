@@ -1,0 +1,1 @@
+"""Perception backends behind small protocols (`base.py`); implementations register by spec kind."""

@@ -1,0 +1,133 @@
+"""What the API knows of perception: three small protocols, one result type, and the backend registries.
+
+A backend spec is `KIND` or `KIND:ARG` (`oracle`, `catalog`, `hf:google/owlv2-base-patch16-ensemble`,
+`openai:gpt-4o`, `remote:http://127.0.0.1:8500`). Each role has one registry of builders keyed by KIND;
+a builder takes the ARG (or None) and the settings and returns the backend.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+
+from pydantic import BaseModel, ConfigDict, field_validator
+
+from attribot.errors import ConfigError
+from attribot.frame import Frame
+from attribot.registry import Registry
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = [
+    "Detection",
+    "Detector",
+    "VisualQA",
+    "LanguageModel",
+    "ROLES",
+    "DETECTORS",
+    "VQAS",
+    "LANGUAGE_MODELS",
+    "parse_spec",
+    "build_backend",
+    "UNKNOWN",
+]
+
+UNKNOWN = "unknown"
+"""What a VQA or language backend answers when it cannot tell."""
+
+
+class Detection(BaseModel):
+    """One detected object: xyxy box in pixels of the frame given (origin top-left), score in [0, 1]."""
+
+    model_config = ConfigDict(frozen=True)
+
+    box: tuple[float, float, float, float]
+    score: float
+    label: str
+    object_id: str | None = None  # the world's id, when the backend knows it (oracle)
+
+    @field_validator("box")
+    @classmethod
+    def _box_ordered(cls, box: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+        if not all(math.isfinite(v) for v in box) or box[2] < box[0] or box[3] < box[1]:
+            raise ValueError(f"box must be finite (x0, y0, x1, y1) with x1 >= x0, y1 >= y0; got {box}")
+        return box
+
+    @field_validator("score")
+    @classmethod
+    def _score_range(cls, score: float) -> float:
+        if not 0.0 <= score <= 1.0:
+            raise ValueError(f"score must lie in [0, 1]; got {score}")
+        return score
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """Open-vocabulary detection: boxes for the noun phrases in `queries`, best first."""
+
+    name: str
+
+    def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]: ...
+
+
+@runtime_checkable
+class VisualQA(Protocol):
+    """Visual question answering about one frame: a short text answer, `UNKNOWN` when unsure."""
+
+    name: str
+
+    def answer(self, frame: Frame, question: str) -> str: ...
+
+
+@runtime_checkable
+class LanguageModel(Protocol):
+    """A text question in, a short text answer out, `UNKNOWN` when unsure."""
+
+    name: str
+
+    def complete(self, question: str) -> str: ...
+
+
+Builder = Callable[[str | None, "Settings"], Any]
+B = TypeVar("B")
+
+_BACKEND_MODULES = (
+    "attribot.models.oracle",
+    "attribot.models.catalog",
+    "attribot.models.hf",
+    "attribot.models.openai_chat",
+    "attribot.models.remote",
+)
+
+
+def _existing(modules: tuple[str, ...]) -> tuple[str, ...]:
+    """The backend modules present in this installation (some are added by later work)."""
+    import importlib.util
+
+    return tuple(m for m in modules if importlib.util.find_spec(m) is not None)
+
+
+DETECTORS: Registry[Builder] = Registry("detector backend", _existing(_BACKEND_MODULES))
+VQAS: Registry[Builder] = Registry("vqa backend", _existing(_BACKEND_MODULES))
+LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", _existing(_BACKEND_MODULES))
+
+ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "language": LANGUAGE_MODELS}
+
+
+def parse_spec(spec: str) -> tuple[str, str | None]:
+    """`"hf:owlv2"` -> `("hf", "owlv2")`; `"oracle"` -> `("oracle", None)`. Empty parts are errors."""
+    text = spec.strip()
+    kind, sep, arg = text.partition(":")
+    if not kind or (sep and not arg.strip()):
+        raise ConfigError(f"backend spec {spec!r} is malformed", "write KIND or KIND:ARG, e.g. hf:MODEL_ID")
+    return kind.strip(), (arg.strip() if sep else None)
+
+
+def build_backend(role: str, spec: str, settings: Settings) -> Any:
+    """The backend for `role` built from `spec`; unknown roles or kinds raise with the known ones."""
+    if role not in ROLES:
+        raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
+    kind, arg = parse_spec(spec)
+    return ROLES[role].get(kind)(arg, settings)

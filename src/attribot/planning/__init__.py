@@ -1,0 +1,1 @@
+"""Planners turn a query into a program: `llm` (any OpenAI-compatible endpoint) and `rules` (offline)."""

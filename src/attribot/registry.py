@@ -1,0 +1,77 @@
+"""The one plug-in mechanism: a named registry per kind of plug-in (layouts, backends, planners, ...).
+
+Plug-ins register themselves with a decorator in the module that defines them. A registry knows the
+modules that hold its plug-ins and imports them on the first look-up, so importing attribot stays cheap
+and free of side effects.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator
+from typing import Generic, TypeVar
+
+from attribot.errors import UnknownName
+
+__all__ = ["Registry"]
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """A mapping from names to plug-ins of one kind.
+
+    >>> shapes = Registry[int]("shape")
+    >>> _ = shapes.register("box")(3)
+    >>> shapes.get("box")
+    3
+    """
+
+    def __init__(self, kind: str, modules: tuple[str, ...] = ()) -> None:
+        self.kind = kind
+        self._modules = modules
+        self._loaded = not modules
+        self._entries: dict[str, T] = {}
+        self._aliases: dict[str, str] = {}
+
+    def register(self, name: str, *, aliases: tuple[str, ...] = ()) -> Callable[[T], T]:
+        """Decorator that adds `obj` under `name` (and its aliases); a name used twice is an error."""
+
+        def add(obj: T) -> T:
+            for key in (name, *aliases):
+                if key in self._entries or key in self._aliases:
+                    raise ValueError(f"{self.kind} {key!r} is registered twice")
+            self._entries[name] = obj
+            for alias in aliases:
+                self._aliases[alias] = name
+            return obj
+
+        return add
+
+    def _load(self) -> None:
+        if not self._loaded:
+            self._loaded = True
+            for module in self._modules:
+                importlib.import_module(module)
+
+    def get(self, name: str) -> T:
+        """The plug-in called `name`; an unknown name raises `UnknownName` listing the known ones."""
+        self._load()
+        key = self._aliases.get(name, name)
+        if key not in self._entries:
+            known = ", ".join(self.names()) or "none"
+            raise UnknownName(f"unknown {self.kind} {name!r}", f"choose one of: {known}")
+        return self._entries[key]
+
+    def names(self) -> list[str]:
+        """Registered names, in registration order."""
+        self._load()
+        return list(self._entries)
+
+    def items(self) -> Iterator[tuple[str, T]]:
+        self._load()
+        return iter(list(self._entries.items()))
+
+    def __contains__(self, name: object) -> bool:
+        self._load()
+        return name in self._entries or name in self._aliases

@@ -1,0 +1,1 @@
+"""The embedded MuJoCo household world: catalog, scenes, robot, sensors and rendering."""
