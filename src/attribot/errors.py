@@ -9,6 +9,7 @@ __all__ = [
     "UnknownName",
     "UnsupportedAction",
     "InputError",
+    "BackendError",
 ]
 
 
@@ -42,3 +43,7 @@ class MissingDependency(AttribotError, ImportError):
 
 class UnsupportedAction(AttribotError):
     """A world or robot was asked for a capability it does not have; the message names it."""
+
+
+class BackendError(AttribotError):
+    """A model backend or endpoint failed: unreachable, refused the key, timed out, answered garbage."""

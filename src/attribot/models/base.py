@@ -32,6 +32,8 @@ __all__ = [
     "parse_spec",
     "build_backend",
     "UNKNOWN",
+    "detect_many",
+    "answer_many",
 ]
 
 UNKNOWN = "unknown"
@@ -88,6 +90,22 @@ class LanguageModel(Protocol):
     name: str
 
     def complete(self, question: str) -> str: ...
+
+
+def detect_many(detector: Detector, frames: Sequence[Frame], queries: Sequence[Sequence[str]]) -> list[list[Detection]]:
+    """Batched detection: the backend's own `detect_batch` when it has one, else one call per frame."""
+    batch = getattr(detector, "detect_batch", None)
+    if batch is not None:
+        return batch(frames, queries)
+    return [detector.detect(f, q) for f, q in zip(frames, queries, strict=True)]
+
+
+def answer_many(vqa: VisualQA, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:
+    """Batched VQA: the backend's own `answer_batch` when it has one, else one call per frame."""
+    batch = getattr(vqa, "answer_batch", None)
+    if batch is not None:
+        return batch(frames, questions)
+    return [vqa.answer(f, q) for f, q in zip(frames, questions, strict=True)]
 
 
 Builder = Callable[[str | None, "Settings"], Any]
