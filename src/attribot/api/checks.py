@@ -1,0 +1,55 @@
+"""Argument checks shared by the API classes: each failure names the method, the argument and the fix."""
+
+from __future__ import annotations
+
+import math
+from typing import TypeVar
+
+from attribot.api.errors import ApiArgumentError
+
+__all__ = ["check_text", "check_number", "check_patch", "MAX_TEXT"]
+
+MAX_TEXT = 2000
+"""Longest question or object name accepted, in characters."""
+
+T = TypeVar("T")
+
+
+def check_text(value: object, arg: str, method: str) -> str:
+    """`value` stripped, if it is a non-empty str of at most MAX_TEXT characters."""
+    if not isinstance(value, str):
+        raise ApiArgumentError(
+            f"{method}() needs {arg} as text, got {type(value).__name__} {value!r:.60}",
+            f'pass a string, e.g. {method}("cup")' if arg == "object_name" else f'pass a string, e.g. {method}("What is this?")',
+        )
+    text = value.strip()
+    if not text:
+        raise ApiArgumentError(f"{method}() got an empty {arg}", f"pass a non-empty {arg}")
+    if len(text) > MAX_TEXT:
+        raise ApiArgumentError(
+            f"{method}() got a {arg} of {len(text)} characters, more than {MAX_TEXT}", f"shorten the {arg}"
+        )
+    return text
+
+
+def check_number(value: object, arg: str, method: str) -> float:
+    """`value` as a float, if it is a finite int or float (not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ApiArgumentError(
+            f"{method}() needs {arg} as a number, got {type(value).__name__} {value!r:.60}",
+            "pass a number, e.g. a patch attribute such as patch.horizontal_center",
+        )
+    number = float(value)
+    if not math.isfinite(number):
+        raise ApiArgumentError(f"{method}() got {arg}={number}, which is not finite", "pass a finite number")
+    return number
+
+
+def check_patch(value: object, cls: type[T], arg: str, method: str) -> T:
+    """`value` if it is an instance of `cls` (an ImagePatch), else an error that says what to pass."""
+    if not isinstance(value, cls):
+        raise ApiArgumentError(
+            f"{method}() needs {arg} as an {cls.__name__}, got {type(value).__name__} {value!r:.60}",
+            f'pass a patch returned by image.find(...), e.g. {method}(image.find("cup")[0])',
+        )
+    return value

@@ -1,0 +1,372 @@
+"""`ImagePatch`: the perception half of the API that programs see (after the paper and ViperGPT).
+
+The class docstring and the docstrings of the names in `API_ATTRIBUTES` / `API_METHODS` are written for
+the LLM: `attribot.api.prompt` renders them, with the signatures, into the prompt. Everything else here
+is for the host (the runner and the integrator) and never reaches a program.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from attribot.api.checks import check_number, check_patch, check_text
+from attribot.api.errors import ApiArgumentError
+from attribot.api.perception import Perception
+from attribot.boxes import from_upward, to_upward
+from attribot.control.base import Capture, Target
+from attribot.errors import BackendError
+from attribot.frame import Frame, load_image
+from attribot.models.base import Detection
+
+__all__ = ["ImagePatch"]
+
+_EDGE_TOL = 1e-6  # pixels: boxes may touch the image border, not cross it
+
+
+class ImagePatch:
+    """A rectangle of the camera image (the whole image, or one detected object) that you can query.
+
+    Coordinates are pixels of the whole image with y growing upward (`upper > lower`; a larger
+    `vertical_center` is higher in the image; `left` < `right` as usual).
+    """
+
+    API_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
+        "left",
+        "lower",
+        "right",
+        "upper",
+        "width",
+        "height",
+        "horizontal_center",
+        "vertical_center",
+        "area",
+    )
+    API_METHODS: ClassVar[tuple[str, ...]] = (
+        "find",
+        "exists",
+        "visual_query",
+        "language_query",
+        "crop",
+        "overlaps",
+        "distance_to",
+    )
+    # public names for the host only (runner, integrator, Robot); programs never see them
+    HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("frame", "perception", "box", "label", "score", "object_id", "capture")
+    HOST_METHODS: ClassVar[tuple[str, ...]] = ("from_image", "summary", "target", "same_object")
+
+    def __init__(
+        self,
+        frame: Frame,
+        perception: Perception,
+        box: Sequence[float] | None = None,
+        *,
+        capture: Capture | None = None,
+        object_id: str | None = None,
+        label: str = "",
+        score: float | None = None,
+    ) -> None:
+        """Host side: a patch of `frame` (the whole camera frame) inside the xyxy `box` (pixels of `frame`,
+        y down; None for the whole frame). `capture` says when and from where the frame was taken (None for
+        a still image); `object_id`, `label`, `score` come from the detection that produced the patch."""
+        if not isinstance(frame, Frame):
+            raise TypeError(f"ImagePatch needs an attribot.frame.Frame, got {type(frame).__name__}")
+        if not isinstance(perception, Perception):
+            raise TypeError(f"ImagePatch needs an attribot.api.Perception, got {type(perception).__name__}")
+        self.frame = frame
+        self.perception = perception
+        self.box = _check_box(box, frame)
+        self.capture = capture
+        self.object_id = object_id
+        self.label = label
+        self.score = score
+        self._pixels: Frame | None = None
+        self._upward = to_upward(self.box, frame.height)
+
+    # ---- host side ---------------------------------------------------------------------------------
+    @classmethod
+    def from_image(cls, image: str | Path | np.ndarray, perception: Perception) -> ImagePatch:
+        """Host side: the whole-image patch of an image file or uint8 RGB array (no camera, no robot)."""
+        rgb = image if isinstance(image, np.ndarray) else load_image(image)
+        return cls(Frame(rgb=rgb), perception)
+
+    def summary(self) -> dict[str, Any]:
+        """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""
+        return {
+            "label": self.label or None,
+            "object_id": self.object_id,
+            "box": [round(v, 2) for v in self.box],
+            "score": self.score,
+        }
+
+    def target(self) -> Target | None:
+        """Host side: what a controller needs to act on this patch; None when it has no capture."""
+        if self.capture is None:
+            return None
+        return Target(box=self.box, capture=self.capture, object_id=self.object_id, label=self.label)
+
+    def same_object(self, other: ImagePatch) -> bool:
+        """Host side: True when both patches show the same object (same world id, else same box and image)."""
+        if self.object_id is not None and other.object_id is not None:
+            return self.object_id == other.object_id
+        return self.frame is other.frame and np.allclose(self.box, other.box)
+
+    def _crop_frame(self) -> Frame:
+        if self._pixels is None:
+            whole = self.box == (0.0, 0.0, float(self.frame.width), float(self.frame.height))
+            self._pixels = self.frame if whole else self.frame.crop(self.box)
+        return self._pixels
+
+    def __repr__(self) -> str:
+        what = f"{self.label!r} " if self.label else ""
+        return (
+            f"ImagePatch({what}left={self.left:.0f}, lower={self.lower:.0f}, "
+            f"right={self.right:.0f}, upper={self.upper:.0f})"
+        )
+
+    # ---- attributes (for programs) -----------------------------------------------------------------
+    @property
+    def left(self) -> float:
+        """x of the left edge, pixels"""
+        return self._upward[0]
+
+    @property
+    def lower(self) -> float:
+        """y of the bottom edge, pixels (y grows upward)"""
+        return self._upward[1]
+
+    @property
+    def right(self) -> float:
+        """x of the right edge, pixels"""
+        return self._upward[2]
+
+    @property
+    def upper(self) -> float:
+        """y of the top edge, pixels (y grows upward)"""
+        return self._upward[3]
+
+    @property
+    def width(self) -> float:
+        """right - left, pixels"""
+        return self.right - self.left
+
+    @property
+    def height(self) -> float:
+        """upper - lower, pixels"""
+        return self.upper - self.lower
+
+    @property
+    def horizontal_center(self) -> float:
+        """(left + right) / 2, pixels"""
+        return (self.left + self.right) / 2.0
+
+    @property
+    def vertical_center(self) -> float:
+        """(lower + upper) / 2, pixels; larger is higher in the image"""
+        return (self.lower + self.upper) / 2.0
+
+    @property
+    def area(self) -> float:
+        """width * height, square pixels"""
+        return self.width * self.height
+
+    # ---- methods (for programs) --------------------------------------------------------------------
+    def find(self, object_name: str) -> list[ImagePatch]:
+        """Returns a list of ImagePatch objects, one per `object_name` found inside this patch, best match
+        first; an empty list when there is none. Their coordinates are in the whole image.
+
+        >>> # return the leftmost cup
+        >>> def execute_command(image, robot):
+        >>>     cup_patches = image.find("cup")
+        >>>     cup_patches.sort(key=lambda cup: cup.horizontal_center)
+        >>>     return cup_patches[0]
+
+        >>> # return the second apple from the top
+        >>> def execute_command(image, robot):
+        >>>     apple_patches = image.find("apple")
+        >>>     apple_patches.sort(key=lambda apple: apple.vertical_center, reverse=True)
+        >>>     return apple_patches[1]
+
+        >>> # return the tallest bottle
+        >>> def execute_command(image, robot):
+        >>>     bottle_patches = image.find("bottle")
+        >>>     return max(bottle_patches, key=lambda bottle: bottle.height)
+
+        >>> # return the window in the middle of the bottom row
+        >>> def execute_command(image, robot):
+        >>>     windows = image.find("window")
+        >>>     lowest = min(w.vertical_center for w in windows)
+        >>>     bottom_row = [w for w in windows if abs(w.vertical_center - lowest) < w.height / 2]
+        >>>     bottom_row.sort(key=lambda w: w.horizontal_center)
+        >>>     return bottom_row[len(bottom_row) // 2]
+        """
+        name = check_text(object_name, "object_name", "find")
+        pixels = self._crop_frame()
+        detections = self.perception.detector.detect(pixels, [name])
+        if not isinstance(detections, list) or not all(isinstance(d, Detection) for d in detections):
+            raise BackendError(
+                f"the detector {self.perception.detector.name!r} did not return a list of Detection",
+                "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
+            )
+        dx = pixels.origin[0] - self.frame.origin[0]
+        dy = pixels.origin[1] - self.frame.origin[1]
+        found: list[ImagePatch] = []
+        for det in sorted(detections, key=lambda d: -d.score):
+            x0, y0, x1, y1 = det.box
+            box = (
+                min(max(x0 + dx, 0.0), self.frame.width),
+                min(max(y0 + dy, 0.0), self.frame.height),
+                min(max(x1 + dx, 0.0), self.frame.width),
+                min(max(y1 + dy, 0.0), self.frame.height),
+            )
+            found.append(
+                ImagePatch(
+                    self.frame,
+                    self.perception,
+                    box,
+                    capture=self.capture,
+                    object_id=det.object_id,
+                    label=det.label or name,
+                    score=det.score,
+                )
+            )
+        return found
+
+    def exists(self, object_name: str) -> bool:
+        """Returns True if an object called `object_name` is found inside this patch, else False.
+
+        >>> # are there both forks and knives on the table?
+        >>> def execute_command(image, robot):
+        >>>     return image.exists("fork") and image.exists("knife")
+        """
+        check_text(object_name, "object_name", "exists")
+        return len(self.find(object_name)) > 0
+
+    def visual_query(self, question: str) -> str:
+        """Returns the answer of a visual question-answering model to a question about this patch's pixels.
+        Use it for what can be seen: what something is, its colour, its material, what is in the image.
+
+        >>> # return the red mug
+        >>> def execute_command(image, robot):
+        >>>     for mug in image.find("mug"):
+        >>>         if mug.visual_query("What color is this?") == "red":
+        >>>             return mug
+        >>>     return image
+
+        >>> # what items are in the image?
+        >>> def execute_command(image, robot):
+        >>>     return image.visual_query("What are the items in this image?")
+        """
+        q = check_text(question, "question", "visual_query")
+        return _answer(self.perception.vqa.answer(self._crop_frame(), q), self.perception.vqa.name)
+
+    def language_query(self, question: str) -> str:
+        """Returns a language model's answer to a text question: commonsense and factual knowledge (which
+        object is usually heavier, what a thing is used for). It does not see the image: put what you
+        learnt from visual_query into the question.
+
+        >>> # return the heaviest item, judging from what the items are
+        >>> def execute_command(image, robot):
+        >>>     names = image.visual_query("What are the items in this image?")
+        >>>     heaviest = image.language_query("Out of these items: " + names + ", which one is usually the heaviest? Answer with its name only.")
+        >>>     patches = image.find(heaviest)
+        >>>     return patches[0] if patches else image
+        """
+        q = check_text(question, "question", "language_query")
+        return _answer(self.perception.language.complete(q), self.perception.language.name)
+
+    def crop(self, left: float, lower: float, right: float, upper: float) -> ImagePatch:
+        """Returns a new ImagePatch of the part of this patch inside the given box, given in whole-image
+        coordinates with y growing upward like the attributes. Use it to look only at a region.
+
+        >>> # is there a book on the top half of the shelf?
+        >>> def execute_command(image, robot):
+        >>>     shelf = image.find("shelf")[0]
+        >>>     top_half = shelf.crop(shelf.left, shelf.vertical_center, shelf.right, shelf.upper)
+        >>>     return top_half.exists("book")
+        """
+        values = [check_number(v, n, "crop") for v, n in zip((left, lower, right, upper), ("left", "lower", "right", "upper"), strict=True)]
+        left, lower, right, upper = values
+        w, h = self.frame.width, self.frame.height
+        if right <= left or upper <= lower:
+            raise ApiArgumentError(
+                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) is empty: it needs right > left and upper > lower",
+                "pass (left, lower, right, upper) with y growing upward, e.g. patch.crop(patch.left, patch.lower, "
+                "patch.right, patch.vertical_center)",
+            )
+        if left < -_EDGE_TOL or lower < -_EDGE_TOL or right > w + _EDGE_TOL or upper > h + _EDGE_TOL:
+            raise ApiArgumentError(
+                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) reaches outside the image, which spans "
+                f"left=0, lower=0, right={w}, upper={h}",
+                "keep the box inside the image (use max/min with 0, image.right, image.upper)",
+            )
+        il, ilo = max(left, self.left), max(lower, self.lower)
+        ir, iu = min(right, self.right), min(upper, self.upper)
+        if ir <= il or iu <= ilo:
+            raise ApiArgumentError(
+                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) does not overlap this patch ({self.left:g}, "
+                f"{self.lower:g}, {self.right:g}, {self.upper:g})",
+                "crop a region inside the patch, or crop the whole image instead",
+            )
+        return ImagePatch(self.frame, self.perception, from_upward(il, ilo, ir, iu, h), capture=self.capture)
+
+    def overlaps(self, other: ImagePatch) -> bool:
+        """Returns True if this patch and `other` share some area (touching edges do not count).
+
+        >>> # return the plate that has an apple on it
+        >>> def execute_command(image, robot):
+        >>>     apples = image.find("apple")
+        >>>     for plate in image.find("plate"):
+        >>>         if any(plate.overlaps(apple) for apple in apples):
+        >>>             return plate
+        >>>     return image
+        """
+        o = check_patch(other, ImagePatch, "other", "overlaps")
+        return min(self.right, o.right) > max(self.left, o.left) and min(self.upper, o.upper) > max(self.lower, o.lower)
+
+    def distance_to(self, other: ImagePatch) -> float:
+        """Returns the distance in pixels between the centres of this patch and `other` (in the image, not
+        in the world: use robot.measure_distance for metres).
+
+        >>> # return the cup closest to the laptop in the image
+        >>> def execute_command(image, robot):
+        >>>     laptop = image.find("laptop")[0]
+        >>>     return min(image.find("cup"), key=lambda cup: cup.distance_to(laptop))
+        """
+        o = check_patch(other, ImagePatch, "other", "distance_to")
+        return math.hypot(self.horizontal_center - o.horizontal_center, self.vertical_center - o.vertical_center)
+
+
+def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float, float, float]:
+    w, h = frame.width, frame.height
+    if box is None:
+        return (0.0, 0.0, float(w), float(h))
+    try:
+        x0, y0, x1, y1 = (float(v) for v in box)
+    except (TypeError, ValueError):
+        raise ApiArgumentError(
+            f"a patch box must be four numbers (x0, y0, x1, y1); got {box!r}", "pass an xyxy box in pixels"
+        ) from None
+    if not all(math.isfinite(v) for v in (x0, y0, x1, y1)) or x1 < x0 or y1 < y0:
+        raise ApiArgumentError(
+            f"a patch box must be finite with x1 >= x0 and y1 >= y0; got {box!r}", "pass an xyxy box in pixels"
+        )
+    if x0 < -_EDGE_TOL or y0 < -_EDGE_TOL or x1 > w + _EDGE_TOL or y1 > h + _EDGE_TOL:
+        raise ApiArgumentError(
+            f"the box {tuple(box)!r} lies outside the {w}x{h} image",
+            "clip boxes to [0, width] x [0, height] (attribot.boxes.clip)",
+        )
+    return (max(x0, 0.0), max(y0, 0.0), min(x1, float(w)), min(y1, float(h)))
+
+
+def _answer(value: object, backend: str) -> str:
+    if not isinstance(value, str):
+        raise BackendError(
+            f"the backend {backend!r} answered a {type(value).__name__}, not text",
+            "fix the backend: answer() and complete() must return str",
+        )
+    return value

@@ -1,0 +1,49 @@
+"""The perception bundle an `ImagePatch` uses: a detector, a VQA model and a language model."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from attribot.errors import ConfigError
+from attribot.models.base import Detector, LanguageModel, VisualQA, build_backend
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = ["Perception"]
+
+
+@dataclass(frozen=True)
+class Perception:
+    """The three backends behind `find`/`exists`, `visual_query` and `language_query`."""
+
+    detector: Detector
+    vqa: VisualQA
+    language: LanguageModel
+
+    def __post_init__(self) -> None:
+        for role, proto, method in (
+            ("detector", Detector, "detect"),
+            ("vqa", VisualQA, "answer"),
+            ("language", LanguageModel, "complete"),
+        ):
+            backend = getattr(self, role)
+            if not isinstance(backend, proto):
+                raise ConfigError(
+                    f"the {role} backend {type(backend).__name__} does not follow the {proto.__name__} protocol",
+                    f"give an object with a `name` and a `{method}` method (see attribot.models.base)",
+                )
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> Perception:
+        """Build each role from its spec in the settings (`detector`, `vqa`, `language`)."""
+        return cls(
+            detector=build_backend("detector", settings.detector, settings),
+            vqa=build_backend("vqa", settings.vqa, settings),
+            language=build_backend("language", settings.language, settings),
+        )
+
+    def names(self) -> dict[str, str]:
+        """Backend name per role, as answers and traces report them."""
+        return {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}

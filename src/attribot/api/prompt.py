@@ -1,0 +1,142 @@
+"""The planner's prompt, generated from the API classes themselves.
+
+The API reference is Python source rendered from `ImagePatch` and `Robot`: the names in their
+`API_ATTRIBUTES` / `API_METHODS`, signatures from `inspect`, docstrings (with their `>>>` examples) as
+written in the classes. The rest of the prompt (guidelines after the paper and ViperGPT, the sensors, the
+query, the answer format) is the template `prompts/program.jinja`, package data rendered with
+`StrictUndefined`. There is no other copy of the API text.
+
+Robot methods are offered only when the robot has the sensor they need (`Robot.REQUIRES`); the ones left
+out are named in one line with the sensor that would enable them, so that the LLM does not invent them.
+With `embodied=False` (a still image) no robot method is offered.
+"""
+
+from __future__ import annotations
+
+import inspect
+import textwrap
+from collections.abc import Sequence
+from functools import cache
+from importlib import resources
+
+import jinja2
+
+from attribot.api.patch import ImagePatch
+from attribot.api.robot import SENSORS, Robot, check_sensors
+from attribot.errors import InputError
+
+__all__ = ["build_prompt", "api_reference", "offered_robot_methods", "MAX_QUERY_CHARS", "ENTRY_POINT"]
+
+MAX_QUERY_CHARS = 1000
+ENTRY_POINT = "execute_command"
+_TEMPLATE = "program.jinja"
+
+
+def offered_robot_methods(sensors: Sequence[str], embodied: bool = True) -> tuple[list[str], dict[str, str]]:
+    """The Robot methods the prompt offers for `sensors`, and those left out with the sensor each needs."""
+    have = check_sensors(sensors)
+    if not embodied:
+        return [], {}
+    offered, missing = [], {}
+    for name in Robot.API_METHODS:
+        need = Robot.REQUIRES.get(name)
+        if need is None or need in have:
+            offered.append(name)
+        else:
+            missing[name] = need
+    return offered, missing
+
+
+def signature_text(func: object) -> str:
+    """`(self, object_name: str) -> list[ImagePatch]`: parameters and annotations as written in the source."""
+    sig = inspect.signature(func)  # annotations stay strings (postponed evaluation in the API modules)
+    params = []
+    for p in sig.parameters.values():
+        text = p.name if p.annotation is inspect.Parameter.empty else f"{p.name}: {_ann(p.annotation)}"
+        if p.default is not inspect.Parameter.empty:
+            text += f" = {p.default!r}"
+        params.append(text)
+    ret = "" if sig.return_annotation is inspect.Signature.empty else f" -> {_ann(sig.return_annotation)}"
+    return f"({', '.join(params)}){ret}"
+
+
+def _ann(annotation: object) -> str:
+    return annotation if isinstance(annotation, str) else getattr(annotation, "__name__", repr(annotation))
+
+
+def _doc(obj: object) -> str:
+    doc = inspect.getdoc(obj)
+    if not doc:
+        raise RuntimeError(f"{obj!r} is part of the API and has no docstring")  # a bug in api/, not input
+    return doc
+
+
+def _docstring_block(doc: str, indent: str) -> str:
+    return textwrap.indent(f'"""{doc}\n"""', indent)
+
+
+def render_class(cls: type, attributes: Sequence[str], methods: Sequence[str]) -> str:
+    """Python source of `cls` as a program sees it: docstring, attributes with their types and meaning,
+    methods with signatures and docstrings (bodies elided)."""
+    lines = [f"class {cls.__name__}:", _docstring_block(_doc(cls), "    "), ""]
+    for name in attributes:
+        prop = inspect.getattr_static(cls, name)
+        if not isinstance(prop, property):
+            raise RuntimeError(f"{cls.__name__}.{name} is listed in API_ATTRIBUTES and is not a property")
+        ret = inspect.signature(prop.fget).return_annotation
+        lines.append(f"    {name}: {_ann(ret)}  # {_doc(prop)}")
+    for name in methods:
+        func = getattr(cls, name)
+        lines += ["", f"    def {name}{signature_text(func)}:", _docstring_block(_doc(func), "        "), "        ..."]
+    return "\n".join(lines)
+
+
+def api_reference(sensors: Sequence[str], embodied: bool = True) -> str:
+    """The API part of the prompt: `ImagePatch` and the offered part of `Robot`, as Python source."""
+    offered, _ = offered_robot_methods(sensors, embodied)
+    return "\n\n\n".join(
+        [
+            render_class(ImagePatch, ImagePatch.API_ATTRIBUTES, ImagePatch.API_METHODS),
+            render_class(Robot, Robot.API_ATTRIBUTES, offered),
+        ]
+    )
+
+
+@cache
+def _environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FunctionLoader(_load_template),
+        undefined=jinja2.StrictUndefined,
+        autoescape=False,  # the output is a plain-text prompt, never HTML
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+
+
+def _load_template(name: str) -> str:
+    return resources.files("attribot.api").joinpath("prompts", name).read_text(encoding="utf-8")
+
+
+def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True) -> str:
+    """The whole prompt for `query` and a robot with `sensors` (names from SENSORS).
+
+    embodied=False says the query runs on a still image: no robot action is offered.
+    """
+    if not isinstance(query, str) or not query.strip():
+        raise InputError("the query is empty", 'ask a question, e.g. "the second cup from the left"')
+    text = " ".join(query.split())
+    if len(text) > MAX_QUERY_CHARS:
+        raise InputError(f"the query has {len(text)} characters, more than {MAX_QUERY_CHARS}", "shorten the query")
+    have = check_sensors(sensors)
+    offered, missing = offered_robot_methods(have, embodied)
+    return _environment().get_template(_TEMPLATE).render(
+        api=api_reference(have, embodied),
+        entry_point=ENTRY_POINT,
+        sensors=have,
+        known_sensors=SENSORS,
+        embodied=embodied,
+        offered=offered,
+        missing=missing,
+        query=text,
+    )
