@@ -34,6 +34,8 @@ __all__ = [
     "UNKNOWN",
     "detect_many",
     "answer_many",
+    "BackendStatus",
+    "probe_backend",
 ]
 
 UNKNOWN = "unknown"
@@ -149,3 +151,50 @@ def build_backend(role: str, spec: str, settings: Settings) -> Any:
         raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
     kind, arg = parse_spec(spec)
     return ROLES[role].get(kind)(arg, settings)
+
+
+class BackendStatus(BaseModel):
+    """Whether a configured backend can be used here: what `attribot backends` prints.
+
+    `available` is None where the kind has no check (it runs in-process, or its module gives no probe).
+    """
+
+    role: str
+    spec: str
+    kind: str | None
+    arg: str | None
+    registered: bool
+    available: bool | None
+    detail: str
+
+
+def probe_backend(role: str, spec: str, settings: Settings) -> BackendStatus:
+    """Check `spec` for `role` without building it.
+
+    A builder may carry a `probe` attribute, `probe(arg, settings) -> (available, detail)`, that checks
+    cheaply (extra installed, model folder present, endpoint answering within a short time-out) and
+    never raises; kinds without one are reported as registered with no check.
+    """
+    if role not in ROLES:
+        raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
+    try:
+        kind, arg = parse_spec(spec)
+    except ConfigError as exc:
+        return BackendStatus(role=role, spec=spec, kind=None, arg=None, registered=False, available=False, detail=str(exc))
+    registry = ROLES[role]
+    if kind not in registry:
+        known = ", ".join(registry.names()) or "none"
+        return BackendStatus(
+            role=role, spec=spec, kind=kind, arg=arg, registered=False, available=False,
+            detail=f"no {role} backend of kind {kind!r}; choose one of: {known}",
+        )
+    probe = getattr(registry.get(kind), "probe", None)
+    if probe is None:
+        return BackendStatus(
+            role=role, spec=spec, kind=kind, arg=arg, registered=True, available=None, detail="registered; no check for this kind"
+        )
+    try:
+        available, detail = probe(arg, settings)
+    except Exception as exc:  # noqa: BLE001 - a probe must not take the whole listing down
+        available, detail = False, f"check failed: {exc.__class__.__name__}: {exc}"
+    return BackendStatus(role=role, spec=spec, kind=kind, arg=arg, registered=True, available=available, detail=detail)

@@ -1,0 +1,466 @@
+"""transformers backends: OWLv2 and Grounding DINO detection, BLIP-2 visual question answering.
+
+Spec `hf:MODEL_ID_OR_PATH` for the detector and VQA roles; the model family comes from the model's own
+config (`model_type`). Processors and models are called directly, not through pipelines: the
+`zero-shot-object-detection` pipeline runs one forward pass per label, and transformers v5 has no VQA
+pipeline at all. Everything that imports torch or transformers happens inside functions, so importing
+this module (which the backend registries do) stays cheap and works without the `models` extra.
+
+What the raw models leave to us, and this module does:
+- OWLv2 pads every image to a square (bottom and right) before resizing, so its normalised boxes are
+  relative to the square side and can fall outside the image: boxes are scaled by the longer side and
+  clipped to the image. Its text-query output has no non-maximum suppression: we apply it per label.
+- Grounding DINO scores boxes against text *tokens*; transformers' post-processing decodes the tokens
+  above a threshold into phrases, which can merge two labels ("cup bowl") or cut one. We instead map
+  each token back to the candidate label whose characters it covers (tokenizer offsets) and score a box
+  for a label by its best token, so every label is one of the candidates.
+- Batches: many images at once, each with its own list of text queries (padded and masked).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from attribot import boxes as boxmath
+from attribot.deps import require
+from attribot.errors import ConfigError, InputError
+from attribot.frame import Frame
+from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = [
+    "DETECTOR_FAMILIES",
+    "VQA_FAMILIES",
+    "HFDetector",
+    "HFVisualQA",
+    "resolve_device",
+    "resolve_dtype",
+    "model_family",
+    "probe_hf",
+    "build_hf_detector",
+    "build_hf_vqa",
+]
+
+DETECTOR_FAMILIES = ("owlv2", "grounding-dino")
+"""`model_type` values of the detectors this backend runs."""
+VQA_FAMILIES = ("blip-2",)
+"""`model_type` values of the VQA models this backend runs."""
+
+_PURPOSE = "the hf: (transformers) backends"
+_EXAMPLES = {
+    "detector": "hf:google/owlv2-base-patch16-ensemble or hf:IDEA-Research/grounding-dino-tiny",
+    "vqa": "hf:Salesforce/blip2-opt-2.7b",
+}
+_DTYPES = {
+    "float32": "float32",
+    "fp32": "float32",
+    "float16": "float16",
+    "fp16": "float16",
+    "half": "float16",
+    "bfloat16": "bfloat16",
+    "bf16": "bfloat16",
+}
+
+
+def _torch() -> Any:
+    require("transformers", _PURPOSE)
+    return require("torch", _PURPOSE)
+
+
+def resolve_device(name: str) -> str:
+    """`auto` -> `cuda` when torch sees a GPU, else `cpu`; `cpu`, `cuda`, `cuda:N` are checked."""
+    torch = _torch()
+    text = name.strip().lower()
+    if text == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if text == "cpu":
+        return "cpu"
+    if text == "cuda" or text.startswith("cuda:"):
+        if not torch.cuda.is_available():
+            raise ConfigError(
+                f"hf_device is {name!r} but torch sees no CUDA GPU",
+                "set ATTRIBOT_HF_DEVICE=auto or cpu, or install a CUDA build of torch",
+            )
+        return text
+    raise ConfigError(f"hf_device {name!r} is not a device", "use auto, cpu, cuda or cuda:N")
+
+
+def resolve_dtype(name: str, device: str) -> Any:
+    """The torch dtype for `name`; `auto` is float16 on a GPU (what the speed figures use), else float32."""
+    torch = _torch()
+    text = name.strip().lower()
+    if text == "auto":
+        return torch.float16 if device.startswith("cuda") else torch.float32
+    if text not in _DTYPES:
+        raise ConfigError(f"hf_dtype {name!r} is not a dtype", "use auto, float32, float16 or bfloat16")
+    return getattr(torch, _DTYPES[text])
+
+
+def _looks_like_path(model: str) -> bool:
+    return model.startswith(("/", "./", "../", "~")) or Path(model).expanduser().exists()
+
+
+def model_family(model: str) -> str:
+    """The `model_type` in the config of `model` (a local folder or a hub id)."""
+    transformers = require("transformers", _PURPOSE)
+    if _looks_like_path(model):
+        folder = Path(model).expanduser()
+        if not (folder / "config.json").is_file():
+            raise ConfigError(
+                f"model folder {str(folder)!r} does not exist or has no config.json",
+                "give a folder saved with save_pretrained (model and processor), or a hub model id",
+            )
+        model = str(folder)
+    try:
+        config = transformers.AutoConfig.from_pretrained(model)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(
+            f"cannot read the model config of {model!r}: {str(exc).splitlines()[0][:200]}",
+            "check the model id or path; a hub id downloads once, then loads from the cache",
+        ) from exc
+    return str(config.model_type)
+
+
+def _load(model: str, family: str, model_class: str, device: str, dtype: str) -> tuple[Any, Any, str, Any]:
+    """(processor, model on device in dtype, device, dtype) for `model`."""
+    transformers = require("transformers", _PURPOSE)
+    cls = getattr(transformers, model_class, None)
+    if cls is None:
+        raise ConfigError(
+            f"this transformers ({transformers.__version__}) has no {model_class} for {family} models",
+            "pip install -U 'attribot[models]'",
+        )
+    dev = resolve_device(device)
+    dt = resolve_dtype(dtype, dev)
+    path = str(Path(model).expanduser()) if _looks_like_path(model) else model
+    try:
+        processor = transformers.AutoProcessor.from_pretrained(path)
+        net = cls.from_pretrained(path)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(
+            f"cannot load {family} model {model!r}: {str(exc).splitlines()[0][:200]}",
+            "the folder needs the model and its processor (save_pretrained of both)",
+        ) from exc
+    net = net.to(device=dev, dtype=dt).eval()
+    return processor, net, dev, dt
+
+
+def _clean_queries(queries: Sequence[str]) -> list[str]:
+    """Stripped, de-duplicated (order kept) noun phrases; an empty one is an input error."""
+    if isinstance(queries, str):
+        raise InputError("detector queries must be a list of strings, got one string", f"pass [{queries!r}]")
+    out: list[str] = []
+    for q in queries:
+        if not isinstance(q, str) or not q.strip():
+            raise InputError(f"detector query {q!r} is empty or not a string", "pass non-empty noun phrases")
+        text = " ".join(q.split())
+        if text not in out:
+            out.append(text)
+    return out
+
+
+def _corners(cxcywh: Any) -> Any:
+    cx, cy, w, h = cxcywh.unbind(-1)
+    return _torch().stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], dim=-1)
+
+
+class HFDetector:
+    """Zero-shot detection with OWLv2 or Grounding DINO through transformers.
+
+    `detect(frame, queries)` gives the boxes of all `queries` in the frame, best score first;
+    `detect_batch(frames, queries)` does many frames (each with its own queries) in batched forward
+    passes of at most `max_batch` images. Boxes are xyxy pixels of the frame, clipped to it; scores
+    are probabilities in [0, 1], at least `threshold`; per label, boxes overlapping a better one by more
+    than `nms_iou` are dropped.
+    """
+
+    def __init__(
+        self,
+        model: str,
+        *,
+        device: str = "auto",
+        dtype: str = "auto",
+        threshold: float = 0.1,
+        nms_iou: float = 0.5,
+        max_detections: int = 100,
+        max_batch: int = 32,
+    ) -> None:
+        if not 0.0 <= threshold <= 1.0:
+            raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "set detector_threshold, e.g. 0.1")
+        if not 0.0 < nms_iou <= 1.0:
+            raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.5")
+        family = model_family(model)
+        if family not in DETECTOR_FAMILIES:
+            raise ConfigError(
+                f"model {model!r} is a {family!r} model, not a detector this backend runs",
+                f"use an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
+            )
+        model_class = "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
+        self.processor, self.model, self.device, self.dtype = _load(model, family, model_class, device, dtype)
+        self.family = family
+        self.name = f"hf:{model}"
+        self.threshold = float(threshold)
+        self.nms_iou = float(nms_iou)
+        self.max_detections = int(max_detections)
+        self.max_batch = max(1, int(max_batch))
+
+    # ---- public -----------------------------------------------------------------------------------
+
+    def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
+        """Detections of `queries` in `frame`, best first."""
+        return self.detect_batch([frame], [queries])[0]
+
+    def detect_batch(self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]) -> list[list[Detection]]:
+        """One list of detections per frame; `queries[i]` are the noun phrases looked for in `frames[i]`."""
+        if len(frames) != len(queries):
+            raise InputError(f"detect_batch got {len(frames)} frames and {len(queries)} query lists", "pass one list per frame")
+        cleaned = [_clean_queries(q) for q in queries]
+        results: list[list[Detection]] = [[] for _ in frames]
+        todo = [i for i, q in enumerate(cleaned) if q]  # a frame with no query has no detection
+        for chunk in self._chunks(frames, todo):
+            rgbs = [frames[i].rgb for i in chunk]
+            labels = [cleaned[i] for i in chunk]
+            raw = self._run_owl(rgbs, labels) if self.family == "owlv2" else self._run_gdino(rgbs, labels)
+            for i, rgb, lab, (bx, sc, li) in zip(chunk, rgbs, labels, raw, strict=True):
+                results[i] = self._finish(bx, sc, li, lab, width=rgb.shape[1], height=rgb.shape[0])
+        return results
+
+    def _chunks(self, frames: Sequence[Frame], todo: list[int]) -> list[list[int]]:
+        """Batches of at most `max_batch` frame indices. Grounding DINO pads a batch to its largest image
+        and its backbone sees the padding, so it batches only frames of one size: then a batched answer
+        equals the one-by-one answer (camera frames share a size, so real batches stay full)."""
+        groups: dict[tuple[int, ...], list[int]] = {}
+        for i in todo:
+            key = frames[i].rgb.shape[:2] if self.family == "grounding-dino" else ()
+            groups.setdefault(key, []).append(i)
+        return [g[s : s + self.max_batch] for g in groups.values() for s in range(0, len(g), self.max_batch)]
+
+    # ---- model families ---------------------------------------------------------------------------
+
+    def _run_owl(self, rgbs: list[np.ndarray], labels: list[list[str]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        torch = _torch()
+        inputs = self.processor(text=labels, images=rgbs, return_tensors="pt", truncation=True)
+        with torch.inference_mode():
+            out = self.model(
+                input_ids=inputs["input_ids"].to(self.device),
+                attention_mask=inputs["attention_mask"].to(self.device),
+                pixel_values=inputs["pixel_values"].to(self.device, self.dtype),
+            )
+            logits = out.logits.float()  # (B, boxes, max queries); short query lists are padded with " "
+            n_labels = torch.tensor([len(lab) for lab in labels], device=logits.device)
+            pad = torch.arange(logits.shape[-1], device=logits.device)[None, :] >= n_labels[:, None]
+            logits = logits.masked_fill(pad[:, None, :], float("-inf"))
+            scores, label_idx = logits.sigmoid().max(dim=-1)
+            # boxes are normalised to the padded square: scale by each image's longer side
+            side = torch.tensor([max(r.shape[:2]) for r in rgbs], dtype=torch.float32, device=logits.device)
+            corners = _corners(out.pred_boxes.float()) * side[:, None, None]
+        return self._select(corners, scores, label_idx)
+
+    def _run_gdino(self, rgbs: list[np.ndarray], labels: list[list[str]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        torch = _torch()
+        tokenizer = self.processor.tokenizer
+        texts, spans = [], []
+        for lab in labels:  # "a cat. a dog." with the character span of each label
+            text, sp = "", []
+            for name in lab:
+                sp.append((len(text), len(text) + len(name)))
+                text += name + ". "
+            texts.append(text.strip())
+            spans.append(sp)
+        max_len = min(int(getattr(self.model.config, "max_text_len", 256)), int(tokenizer.model_max_length or 256))
+        try:
+            enc = tokenizer(
+                texts, padding="longest", truncation=True, max_length=max_len, return_tensors="pt",
+                return_offsets_mapping=True,
+            )
+        except NotImplementedError as exc:  # slow tokenizers give no offsets
+            raise ConfigError("Grounding DINO needs a fast tokenizer (with offsets)", "save the model with its tokenizer.json") from exc
+        offsets = enc.pop("offset_mapping").tolist()
+        pixels = self.processor.image_processor(rgbs, return_tensors="pt")
+        model_inputs = {k: v.to(self.device) for k, v in enc.items()}
+        model_inputs["pixel_values"] = pixels["pixel_values"].to(self.device, self.dtype)
+        if "pixel_mask" in pixels:
+            model_inputs["pixel_mask"] = pixels["pixel_mask"].to(self.device)
+        with torch.inference_mode():
+            out = self.model(**model_inputs)
+            probs = out.logits.float().sigmoid()  # (B, boxes, text positions), -inf beyond the text
+            label_scores = torch.zeros(probs.shape[:2] + (max(len(lab) for lab in labels),), device=probs.device)
+            for b, (sp, offs) in enumerate(zip(spans, offsets, strict=True)):
+                for j, tokens in enumerate(_tokens_of_labels(sp, offs, probs.shape[-1])):
+                    if tokens:  # a label cut off by truncation keeps score 0
+                        label_scores[b, :, j] = probs[b][:, tokens].max(dim=-1).values
+            scores, label_idx = label_scores.max(dim=-1)
+            wh = torch.tensor([[r.shape[1], r.shape[0]] for r in rgbs], dtype=torch.float32, device=probs.device)
+            corners = _corners(out.pred_boxes.float()) * wh.repeat(1, 2)[:, None, :]
+        return self._select(corners, scores, label_idx)
+
+    # ---- shared post-processing -------------------------------------------------------------------
+
+    def _select(self, corners: Any, scores: Any, label_idx: Any) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per image: the boxes scoring at least the threshold, as numpy."""
+        out = []
+        for c, s, li in zip(corners, scores, label_idx, strict=True):
+            keep = s >= self.threshold
+            out.append((c[keep].cpu().numpy(), s[keep].cpu().numpy(), li[keep].cpu().numpy()))
+        return out
+
+    def _finish(
+        self, bx: np.ndarray, sc: np.ndarray, li: np.ndarray, labels: list[str], *, width: int, height: int
+    ) -> list[Detection]:
+        """Clip to the image, drop boxes left empty, NMS per label, best first, capped."""
+        if len(bx) == 0:
+            return []
+        bx = boxmath.clip(bx.astype(np.float64), width, height)
+        sc = np.clip(sc.astype(np.float64), 0.0, 1.0)
+        solid = (bx[:, 2] > bx[:, 0]) & (bx[:, 3] > bx[:, 1])  # wholly outside the image before clipping
+        bx, sc, li = bx[solid], sc[solid], li[solid]
+        kept: list[int] = []
+        for label in np.unique(li):
+            idx = np.flatnonzero(li == label)
+            kept.extend(idx[boxmath.nms(bx[idx], sc[idx], self.nms_iou)].tolist())
+        kept.sort(key=lambda k: (-sc[k], k))
+        return [
+            Detection(box=tuple(float(v) for v in bx[k]), score=float(sc[k]), label=labels[int(li[k])])
+            for k in kept[: self.max_detections]
+        ]
+
+
+def _tokens_of_labels(spans: list[tuple[int, int]], offsets: list[list[int]], width: int) -> list[list[int]]:
+    """For each label's character span, the token positions (< width) whose characters lie inside it."""
+    out: list[list[int]] = [[] for _ in spans]
+    for t, (s, e) in enumerate(offsets[:width]):
+        if e <= s:  # special and padding tokens
+            continue
+        for j, (a, b) in enumerate(spans):
+            if s >= a and e <= b:
+                out[j].append(t)
+                break
+    return out
+
+
+class HFVisualQA:
+    """Visual question answering with BLIP-2 through `generate` (prompt "Question: ... Answer:").
+
+    `answer_batch` runs many (frame, question) pairs in batched `generate` calls of at most `max_batch`,
+    left-padded so that every answer continues its own prompt; the prompt is cut off the output.
+    """
+
+    def __init__(
+        self,
+        model: str,
+        *,
+        device: str = "auto",
+        dtype: str = "auto",
+        max_new_tokens: int = 10,
+        max_batch: int = 32,
+    ) -> None:
+        family = model_family(model)
+        if family not in VQA_FAMILIES:
+            raise ConfigError(
+                f"model {model!r} is a {family!r} model, not a VQA model this backend runs",
+                f"use a BLIP-2 model, e.g. {_EXAMPLES['vqa']}",
+            )
+        self.processor, self.model, self.device, self.dtype = _load(
+            model, family, "Blip2ForConditionalGeneration", device, dtype
+        )
+        # decoder-only language models continue the last token: pad on the left
+        self.processor.tokenizer.padding_side = "left"
+        self.name = f"hf:{model}"
+        self.max_new_tokens = int(max_new_tokens)
+        self.max_batch = max(1, int(max_batch))
+
+    def answer(self, frame: Frame, question: str) -> str:
+        """A short answer to `question` about `frame`, `UNKNOWN` when the model says nothing."""
+        return self.answer_batch([frame], [question])[0]
+
+    def answer_batch(self, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:
+        """One answer per (frame, question) pair."""
+        if len(frames) != len(questions):
+            raise InputError(f"answer_batch got {len(frames)} frames and {len(questions)} questions", "pass one question per frame")
+        prompts = []
+        for q in questions:
+            if not isinstance(q, str) or not q.strip():
+                raise InputError(f"question {q!r} is empty or not a string", "ask a question in words")
+            prompts.append(f"Question: {' '.join(q.split())} Answer:")
+        answers: list[str] = []
+        for start in range(0, len(prompts), self.max_batch):
+            chunk = slice(start, start + self.max_batch)
+            answers.extend(self._generate([f.rgb for f in frames[chunk]], prompts[chunk]))
+        return answers
+
+    def _generate(self, rgbs: list[np.ndarray], prompts: list[str]) -> list[str]:
+        torch = _torch()
+        inputs = self.processor(images=rgbs, text=prompts, return_tensors="pt", padding=True)
+        inputs = {k: (v.to(self.device, self.dtype) if k == "pixel_values" else v.to(self.device)) for k, v in inputs.items()}
+        with torch.inference_mode():
+            out = self.model.generate(**inputs, max_new_tokens=self.max_new_tokens, do_sample=False, num_beams=1)
+        new = _strip_prompt(out, inputs["input_ids"])
+        texts = self.processor.batch_decode(new, skip_special_tokens=True)
+        return [_clean_answer(t) for t in texts]
+
+
+def _strip_prompt(out: Any, input_ids: Any) -> Any:
+    """The generated tokens alone: recent transformers return prompt + answer, older ones the answer."""
+    n = input_ids.shape[1]
+    if out.shape[1] >= n and bool((out[:, :n] == input_ids.to(out.device)).all()):
+        return out[:, n:]
+    return out
+
+
+def _clean_answer(text: str) -> str:
+    lines = text.strip().splitlines()
+    answer = lines[0].strip() if lines else ""
+    return answer or UNKNOWN
+
+
+# ---- registration and probing ------------------------------------------------------------------------
+
+
+def probe_hf(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
+    """Whether an `hf:` backend can load here, without importing torch: extra installed, model present."""
+    missing = [m for m in ("torch", "transformers") if importlib.util.find_spec(m) is None]
+    if missing:
+        return False, f"{', '.join(missing)} not installed: pip install 'attribot[models]'"
+    if not arg:
+        return False, "no model given: write hf:MODEL_ID_OR_PATH"
+    if _looks_like_path(arg):
+        folder = Path(arg).expanduser()
+        if (folder / "config.json").is_file():
+            return True, f"local model folder {folder}"
+        return False, f"model folder {folder} does not exist or has no config.json"
+    try:
+        from huggingface_hub import try_to_load_from_cache
+
+        cached = try_to_load_from_cache(arg, "config.json")
+    except Exception:  # noqa: BLE001 - a malformed id or an old hub library: say we cannot tell
+        cached = None
+    if isinstance(cached, str):
+        return True, f"hub model {arg} is in the local cache"
+    return None, f"hub model {arg} is not in the local cache: downloaded on first use (needs network)"
+
+
+def build_hf_detector(arg: str | None, settings: Settings) -> HFDetector:
+    """`hf:MODEL` detector from the settings' device, dtype and threshold."""
+    if not arg:
+        raise ConfigError("the hf detector needs a model", f"write e.g. {_EXAMPLES['detector']}")
+    return HFDetector(arg, device=settings.hf_device, dtype=settings.hf_dtype, threshold=settings.detector_threshold)
+
+
+def build_hf_vqa(arg: str | None, settings: Settings) -> HFVisualQA:
+    """`hf:MODEL` VQA (BLIP-2) from the settings' device and dtype."""
+    if not arg:
+        raise ConfigError("the hf VQA backend needs a model", f"write e.g. {_EXAMPLES['vqa']}")
+    return HFVisualQA(arg, device=settings.hf_device, dtype=settings.hf_dtype)
+
+
+build_hf_detector.probe = probe_hf  # type: ignore[attr-defined]
+build_hf_vqa.probe = probe_hf  # type: ignore[attr-defined]
+DETECTORS.register("hf")(build_hf_detector)
+VQAS.register("hf")(build_hf_vqa)
