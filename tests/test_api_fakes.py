@@ -56,7 +56,9 @@ class FakeDetector:
             x0, y0 = max(x0, 0.0), max(y0, 0.0)
             x1, y1 = min(x1, frame.width), min(y1, frame.height)
             if x1 > x0 and y1 > y0:
-                out.append(Detection(box=(x0, y0, x1, y1), score=t.score, label=t.label, object_id=t.object_id))
+                out.append(
+                    Detection(box=(x0, y0, x1, y1), score=t.score, label=t.label, object_id=t.object_id)
+                )
         return out
 
 
@@ -106,13 +108,17 @@ CAM_HEIGHT = 1.0
 def _rot_head_to_world(pan: float, tilt: float, v: np.ndarray) -> np.ndarray:
     f, left, up = v
     f1, u1 = f * math.cos(tilt) - up * math.sin(tilt), f * math.sin(tilt) + up * math.cos(tilt)
-    return np.array([f1 * math.cos(pan) - left * math.sin(pan), f1 * math.sin(pan) + left * math.cos(pan), u1])
+    return np.array(
+        [f1 * math.cos(pan) - left * math.sin(pan), f1 * math.sin(pan) + left * math.cos(pan), u1]
+    )
 
 
 def _rot_world_to_head(pan: float, tilt: float, v: np.ndarray) -> np.ndarray:
     x, y, z = v
     f1, left = x * math.cos(pan) + y * math.sin(pan), -x * math.sin(pan) + y * math.cos(pan)
-    return np.array([f1 * math.cos(tilt) + z * math.sin(tilt), left, -f1 * math.sin(tilt) + z * math.cos(tilt)])
+    return np.array(
+        [f1 * math.cos(tilt) + z * math.sin(tilt), left, -f1 * math.sin(tilt) + z * math.cos(tilt)]
+    )
 
 
 class BallWorld(Embodiment):
@@ -205,8 +211,16 @@ class WorldDetector(FakeDetector):
 
     name = "world-detector"
 
+    relabel = False  # True: report every ball under whatever name is asked for
+
     def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
-        self.things = [Thing(d.label, d.box, d.score, d.object_id) for d in frame.__dict__.get("_detections", [])]
+        # a crop of a frame carries no detections of its own: use those of the last whole frame
+        if "_detections" in frame.__dict__:
+            self.root = list(frame.__dict__["_detections"])
+        found = getattr(self, "root", [])
+        self.things = [
+            Thing(queries[0] if self.relabel else d.label, d.box, d.score, d.object_id) for d in found
+        ]
         return super().detect(frame, queries)
 
 
@@ -233,8 +247,10 @@ BALLS = [
 ]
 
 
-def world_perception() -> Perception:
-    return Perception(WorldDetector(), FakeVQA(), FakeLanguage())
+def world_perception(relabel: bool = False) -> Perception:
+    detector = WorldDetector()
+    detector.relabel = relabel
+    return Perception(detector, FakeVQA(), FakeLanguage())
 
 
 # ---- the fakes are what they claim -------------------------------------------------------------------

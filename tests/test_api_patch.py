@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_api_fakes import FakeDetector, Thing, perception_for
 
 from attribot.api import ApiArgumentError, ImagePatch, Perception
 from attribot.boxes import to_upward
 from attribot.errors import AttribotError, BackendError, ConfigError
 from attribot.frame import Frame
+from test_api_fakes import FakeDetector, Thing, perception_for
 
 W, H = 200, 100
 
@@ -45,7 +45,9 @@ def test_find_best_first_with_ids_and_upward_boxes(image):
     assert [c.object_id for c in cups] == ["cup_2", None, "cup_1"]
     top_right, _, bottom_left = cups
     assert top_right.box == (150, 5, 170, 25)
-    assert (top_right.left, top_right.lower, top_right.right, top_right.upper) == to_upward((150, 5, 170, 25), H)
+    assert (top_right.left, top_right.lower, top_right.right, top_right.upper) == to_upward(
+        (150, 5, 170, 25), H
+    )
     # y grows upward: the cup at the top of the image has the larger vertical_center
     assert top_right.vertical_center > bottom_left.vertical_center
     assert top_right.upper > top_right.lower

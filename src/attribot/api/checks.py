@@ -20,7 +20,9 @@ def check_text(value: object, arg: str, method: str) -> str:
     if not isinstance(value, str):
         raise ApiArgumentError(
             f"{method}() needs {arg} as text, got {type(value).__name__} {value!r:.60}",
-            f'pass a string, e.g. {method}("cup")' if arg == "object_name" else f'pass a string, e.g. {method}("What is this?")',
+            f'pass a string, e.g. {method}("cup")'
+            if arg == "object_name"
+            else f'pass a string, e.g. {method}("What is this?")',
         )
     text = value.strip()
     if not text:

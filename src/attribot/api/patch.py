@@ -56,7 +56,15 @@ class ImagePatch:
         "distance_to",
     )
     # public names for the host only (runner, integrator, Robot); programs never see them
-    HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("frame", "perception", "box", "label", "score", "object_id", "capture")
+    HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
+        "frame",
+        "perception",
+        "box",
+        "label",
+        "score",
+        "object_id",
+        "capture",
+    )
     HOST_METHODS: ClassVar[tuple[str, ...]] = ("from_image", "summary", "target", "same_object")
 
     def __init__(
@@ -272,7 +280,8 @@ class ImagePatch:
         >>> # return the heaviest item, judging from what the items are
         >>> def execute_command(image, robot):
         >>>     names = image.visual_query("What are the items in this image?")
-        >>>     heaviest = image.language_query("Out of these items: " + names + ", which one is usually the heaviest? Answer with its name only.")
+        >>>     question = "Out of these items: " + names + ", which one is usually the heaviest?"
+        >>>     heaviest = image.language_query(question + " Answer with its name only.")
         >>>     patches = image.find(heaviest)
         >>>     return patches[0] if patches else image
         """
@@ -289,13 +298,18 @@ class ImagePatch:
         >>>     top_half = shelf.crop(shelf.left, shelf.vertical_center, shelf.right, shelf.upper)
         >>>     return top_half.exists("book")
         """
-        values = [check_number(v, n, "crop") for v, n in zip((left, lower, right, upper), ("left", "lower", "right", "upper"), strict=True)]
+        values = [
+            check_number(v, n, "crop")
+            for v, n in zip((left, lower, right, upper), ("left", "lower", "right", "upper"), strict=True)
+        ]
         left, lower, right, upper = values
         w, h = self.frame.width, self.frame.height
         if right <= left or upper <= lower:
             raise ApiArgumentError(
-                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) is empty: it needs right > left and upper > lower",
-                "pass (left, lower, right, upper) with y growing upward, e.g. patch.crop(patch.left, patch.lower, "
+                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) is empty: "
+                "it needs right > left and upper > lower",
+                "pass (left, lower, right, upper) with y growing upward, "
+                "e.g. patch.crop(patch.left, patch.lower, "
                 "patch.right, patch.vertical_center)",
             )
         if left < -_EDGE_TOL or lower < -_EDGE_TOL or right > w + _EDGE_TOL or upper > h + _EDGE_TOL:
@@ -308,7 +322,8 @@ class ImagePatch:
         ir, iu = min(right, self.right), min(upper, self.upper)
         if ir <= il or iu <= ilo:
             raise ApiArgumentError(
-                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) does not overlap this patch ({self.left:g}, "
+                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) does not overlap this patch "
+                f"({self.left:g}, "
                 f"{self.lower:g}, {self.right:g}, {self.upper:g})",
                 "crop a region inside the patch, or crop the whole image instead",
             )
@@ -326,7 +341,9 @@ class ImagePatch:
         >>>     return image
         """
         o = check_patch(other, ImagePatch, "other", "overlaps")
-        return min(self.right, o.right) > max(self.left, o.left) and min(self.upper, o.upper) > max(self.lower, o.lower)
+        return min(self.right, o.right) > max(self.left, o.left) and min(self.upper, o.upper) > max(
+            self.lower, o.lower
+        )
 
     def distance_to(self, other: ImagePatch) -> float:
         """Returns the distance in pixels between the centres of this patch and `other` (in the image, not
@@ -338,7 +355,9 @@ class ImagePatch:
         >>>     return min(image.find("cup"), key=lambda cup: cup.distance_to(laptop))
         """
         o = check_patch(other, ImagePatch, "other", "distance_to")
-        return math.hypot(self.horizontal_center - o.horizontal_center, self.vertical_center - o.vertical_center)
+        return math.hypot(
+            self.horizontal_center - o.horizontal_center, self.vertical_center - o.vertical_center
+        )
 
 
 def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float, float, float]:
@@ -353,7 +372,8 @@ def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float,
         ) from None
     if not all(math.isfinite(v) for v in (x0, y0, x1, y1)) or x1 < x0 or y1 < y0:
         raise ApiArgumentError(
-            f"a patch box must be finite with x1 >= x0 and y1 >= y0; got {box!r}", "pass an xyxy box in pixels"
+            f"a patch box must be finite with x1 >= x0 and y1 >= y0; got {box!r}",
+            "pass an xyxy box in pixels",
         )
     if x0 < -_EDGE_TOL or y0 < -_EDGE_TOL or x1 > w + _EDGE_TOL or y1 > h + _EDGE_TOL:
         raise ApiArgumentError(

@@ -31,7 +31,8 @@ class Perception:
             backend = getattr(self, role)
             if not isinstance(backend, proto):
                 raise ConfigError(
-                    f"the {role} backend {type(backend).__name__} does not follow the {proto.__name__} protocol",
+                    f"the {role} backend {type(backend).__name__} does not follow the "
+                    f"{proto.__name__} protocol",
                     f"give an object with a `name` and a `{method}` method (see attribot.models.base)",
                 )
 

@@ -87,7 +87,12 @@ def render_class(cls: type, attributes: Sequence[str], methods: Sequence[str]) -
         lines.append(f"    {name}: {_ann(ret)}  # {_doc(prop)}")
     for name in methods:
         func = getattr(cls, name)
-        lines += ["", f"    def {name}{signature_text(func)}:", _docstring_block(_doc(func), "        "), "        ..."]
+        lines += [
+            "",
+            f"    def {name}{signature_text(func)}:",
+            _docstring_block(_doc(func), "        "),
+            "        ...",
+        ]
     return "\n".join(lines)
 
 
@@ -127,16 +132,22 @@ def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True) -
         raise InputError("the query is empty", 'ask a question, e.g. "the second cup from the left"')
     text = " ".join(query.split())
     if len(text) > MAX_QUERY_CHARS:
-        raise InputError(f"the query has {len(text)} characters, more than {MAX_QUERY_CHARS}", "shorten the query")
+        raise InputError(
+            f"the query has {len(text)} characters, more than {MAX_QUERY_CHARS}", "shorten the query"
+        )
     have = check_sensors(sensors)
     offered, missing = offered_robot_methods(have, embodied)
-    return _environment().get_template(_TEMPLATE).render(
-        api=api_reference(have, embodied),
-        entry_point=ENTRY_POINT,
-        sensors=have,
-        known_sensors=SENSORS,
-        embodied=embodied,
-        offered=offered,
-        missing=missing,
-        query=text,
+    return (
+        _environment()
+        .get_template(_TEMPLATE)
+        .render(
+            api=api_reference(have, embodied),
+            entry_point=ENTRY_POINT,
+            sensors=have,
+            known_sensors=SENSORS,
+            embodied=embodied,
+            offered=offered,
+            missing=missing,
+            query=text,
+        )
     )

@@ -87,14 +87,17 @@ class Robot:
         through `controller` (default: the one registered for the world, see attribot.control.base)."""
         self._sensors: list[str] = check_sensors(sensors)
         if world is not None and not isinstance(world, Embodiment):
-            raise TypeError(f"Robot needs an attribot.embodiments.base.Embodiment, got {type(world).__name__}")
+            raise TypeError(
+                f"Robot needs an attribot.embodiments.base.Embodiment, got {type(world).__name__}"
+            )
         if world is not None:
             have = {str(c) for c in world.capabilities()}
             for sensor in self.sensors:
                 if str(_CAPABILITY_OF[sensor]) not in have:
                     raise UnsupportedAction(
                         f"the world {world.name!r} has no {sensor} sensor",
-                        f"leave {sensor!r} out of --sensors; this world offers: {', '.join(sorted(have)) or 'nothing'}",
+                        f"leave {sensor!r} out of --sensors; this world offers: "
+                        f"{', '.join(sorted(have)) or 'nothing'}",
                     )
         self.world = world
         self.controller: Controller = controller if controller is not None else build_controller(world)
@@ -119,7 +122,9 @@ class Robot:
         """Host side: take a camera frame now and return its whole-image patch, remembering the head
         angles and base pose so that boxes in it can be acted on later."""
         if self.world is None:
-            raise UnsupportedAction("a robot without a world has no camera to look with", "build Robot(world=...)")
+            raise UnsupportedAction(
+                "a robot without a world has no camera to look with", "build Robot(world=...)"
+            )
         frame = self.world.observe()
         caps = {str(c) for c in self.world.capabilities()}
         head = base = None
@@ -142,8 +147,10 @@ class Robot:
         sensor = self.REQUIRES.get(method)
         if sensor is not None and sensor not in self.sensors:
             raise MissingSensor(
-                f"robot.{method}() needs the {sensor!r} sensor, and this robot has only: {', '.join(self.sensors)}",
-                f"add it with --sensors {','.join([*self.sensors, sensor])}, or answer without robot.{method}",
+                f"robot.{method}() needs the {sensor!r} sensor, and this robot has only: "
+                f"{', '.join(self.sensors)}",
+                f"add it with --sensors {','.join([*self.sensors, sensor])}, "
+                f"or answer without robot.{method}",
             )
 
     def _target(self, patch: object, method: str) -> tuple[ImagePatch, Target]:
@@ -224,7 +231,11 @@ class Robot:
         self._need("measure_weight")
         p, target = self._target(patch, "measure_weight")
         if self.held is None or not self.held.same_object(p):
-            holding = f"the robot holds {self.held.label or 'another object'}" if self.held else "the robot holds nothing"
+            holding = (
+                f"the robot holds {self.held.label or 'another object'}"
+                if self.held
+                else "the robot holds nothing"
+            )
             raise PreconditionError(
                 f"robot.measure_weight() needs {target.describe()} in the gripper, and {holding}",
                 ("call robot.put_down() first, then " if self.held else "call ")
@@ -264,7 +275,8 @@ class Robot:
         fx, fy = check_number(x, "x", "go_to_coords"), check_number(y, "y", "go_to_coords")
         if self.capture is None or self.world is None:
             raise UnsupportedAction(
-                "robot.go_to_coords() is not available here: there is no camera image of a world to navigate in",
+                "robot.go_to_coords() is not available here: "
+                "there is no camera image of a world to navigate in",
                 "run the query in a world (--layout) to use robot actions",
             )
         cam = self.capture.camera
@@ -305,7 +317,8 @@ class Robot:
         p, target = self._target(patch, "pick_up")
         if self.held is not None:
             raise PreconditionError(
-                f"robot.pick_up() needs an empty gripper, and the robot holds {self.held.label or 'an object'}",
+                "robot.pick_up() needs an empty gripper, and the robot holds "
+                f"{self.held.label or 'an object'}",
                 "call robot.put_down() first",
             )
         if self._near is None or not self._near.same_object(p):
@@ -331,8 +344,10 @@ class Robot:
         >>>     return melon
         """
         if self.held is None:
-            raise PreconditionError("robot.put_down() needs an object in the gripper, and it is empty",
-                                    "call robot.pick_up(patch) before robot.put_down()")
+            raise PreconditionError(
+                "robot.put_down() needs an object in the gripper, and it is empty",
+                "call robot.pick_up(patch) before robot.put_down()",
+            )
         self.controller.put_down()
         self.held = None
 
@@ -350,8 +365,10 @@ class Robot:
         """
         _, target = self._target(patch, "put_on")
         if self.held is None:
-            raise PreconditionError("robot.put_on() needs an object in the gripper, and it is empty",
-                                    "call robot.go_to_object(obj) and robot.pick_up(obj) first")
+            raise PreconditionError(
+                "robot.put_on() needs an object in the gripper, and it is empty",
+                "call robot.go_to_object(obj) and robot.pick_up(obj) first",
+            )
         self.controller.put_on(target)
         self.held = None
 
@@ -373,13 +390,16 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
     """Sensor names lower-cased, deduplicated, "camera" first (always present); unknown names raise."""
     if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
         raise InputError(
-            f"sensors must be a list of names, got {sensors!r}", f"e.g. Robot(sensors=['camera', 'distance']); known: {', '.join(SENSORS)}"
+            f"sensors must be a list of names, got {sensors!r}",
+            f"e.g. Robot(sensors=['camera', 'distance']); known: {', '.join(SENSORS)}",
         )
     out: list[str] = []
     for s in sensors:
         name = s.strip().lower()
         if name not in SENSORS:
-            raise InputError(f"unknown sensor {s!r}", f"choose from: {', '.join(SENSORS)} (e.g. --sensors camera,distance)")
+            raise InputError(
+                f"unknown sensor {s!r}", f"choose from: {', '.join(SENSORS)} (e.g. --sensors camera,distance)"
+            )
         if name not in out:
             out.append(name)
     if "camera" not in out:

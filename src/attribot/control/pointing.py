@@ -42,7 +42,9 @@ def pixel_ray(camera: CameraInfo, u: float, v: float) -> tuple[float, float, flo
     return f / n, (left / n) + 0.0, (up / n) + 0.0
 
 
-def pan_tilt_towards(camera: CameraInfo, head: tuple[float, float], u: float, v: float) -> tuple[float, float]:
+def pan_tilt_towards(
+    camera: CameraInfo, head: tuple[float, float], u: float, v: float
+) -> tuple[float, float]:
     """Head `(pan, tilt)` radians that put pixel `(u, v)` of an image taken at `head` on the optical axis.
 
     >>> cam = CameraInfo(width=640, height=480, fx=320.0, fy=320.0, cx=320.0, cy=240.0)
@@ -79,7 +81,9 @@ class PointingController(UnsupportedController):
         cap = target.capture
         if cap.camera is None or cap.head is None:
             raise not_available(
-                "focus_on_patch", self._world_name, "the image was taken without known intrinsics or head angles"
+                "focus_on_patch",
+                self._world_name,
+                "the image was taken without known intrinsics or head angles",
             )
         caps = {str(c) for c in self.world.capabilities()}
         if "head" not in caps:
@@ -110,11 +114,16 @@ class PointingController(UnsupportedController):
             now = _head(self.world)
             if angle_close(now[0], pan, self.tol_rad) and angle_close(now[1], tilt, self.tol_rad):
                 return
-            if elapsed >= 0.5 and last is not None and all(angle_close(a, b, 1e-5) for a, b in zip(now, last, strict=True)):
+            if (
+                elapsed >= 0.5
+                and last is not None
+                and all(angle_close(a, b, 1e-5) for a, b in zip(now, last, strict=True))
+            ):
                 raise ControlError(
                     f"the camera head stopped at pan {math.degrees(now[0]):.1f}, tilt "
                     f"{math.degrees(now[1]):.1f} degrees short of {target.describe()} (pan "
-                    f"{math.degrees(pan):.1f}, tilt {math.degrees(tilt):.1f}): it lies beyond the head's range",
+                    f"{math.degrees(pan):.1f}, tilt {math.degrees(tilt):.1f}): "
+                    "it lies beyond the head's range",
                     "go_to_object first so that the object is in front of the robot",
                 )
             last = now

@@ -63,7 +63,9 @@ class SimController(PointingController):
         raise not_available("push", self._world_name, "pushing is not scripted yet")
 
     def go_to_coords(self, target: Target) -> None:
-        raise not_available("go_to_coords", self._world_name, "navigating to image coordinates needs visual servoing")
+        raise not_available(
+            "go_to_coords", self._world_name, "navigating to image coordinates needs visual servoing"
+        )
 
 
 @CONTROLLERS.register("mujoco")
