@@ -44,6 +44,8 @@ def chat_text(client: Any, model: str, messages: list[dict[str, Any]], **params:
         raise BackendError(f"{where} answered HTTP {exc.status_code}: {_short(exc.message)}") from exc
     except openai.APIError as exc:  # malformed bodies and other protocol errors
         raise BackendError(f"{where} gave an unusable answer: {_short(str(exc))}") from exc
+    except ValueError as exc:  # a 200 whose body is not JSON: the SDK lets the decoder's error through
+        raise BackendError(f"{where} answered with a body that is not JSON: {_short(str(exc))}") from exc
     choices = getattr(reply, "choices", None) or []
     content = choices[0].message.content if choices and choices[0].message is not None else None
     if not isinstance(content, str):

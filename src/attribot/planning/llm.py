@@ -1,0 +1,181 @@
+"""The LLM planner: any OpenAI-compatible chat endpoint writes the program.
+
+The prompt comes from the API itself (`attribot.api.prompt.build_prompt`). Each failed attempt (an error
+from the runner, or a reply with no usable code) goes back to the model as the assistant's earlier reply
+followed by a user message with the structured error, and the model is asked again. Replies are cached on
+disk under a hash of the model, the messages and the sampling parameters, so that a rerun is reproducible
+and costs nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from attribot.errors import ConfigError
+from attribot.planning.base import ENTRY_POINT, PLANNERS, Attempt, Plan, PlanRequest, check_query
+from attribot.planning.extract import extract_program
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = ["LLMPlanner", "ReplyCache", "PromptBuilder", "feedback_message", "cache_key"]
+
+PromptBuilder = Callable[[str, Sequence[str]], "str | list[dict[str, str]]"]
+"""`(query, sensors) -> prompt`: the whole prompt as one user message, or a list of chat messages."""
+
+_OUTPUT_TAIL = 1500  # characters of program output sent back: enough to see what it printed last
+
+
+def feedback_message(error: Any) -> str:
+    """The follow-up user message for a failed attempt: the structured error, and what to do."""
+    where = f", line {error.line}" if getattr(error, "line", None) else ""
+    lines = [f"Your program failed ({error.category} error{where}): {error.message}"]
+    if getattr(error, "snippet", None):
+        lines.append(f"The failing line: {error.snippet.strip()}")
+    output = getattr(error, "output", "") or ""
+    if output.strip():
+        tail = output if len(output) <= _OUTPUT_TAIL else "..." + output[-_OUTPUT_TAIL:]
+        lines.append(f"Its output so far:\n{tail}")
+    lines.append(
+        f"Fix it and answer with the whole program again, as one ```python code block that defines "
+        f"{ENTRY_POINT}(image, robot)."
+    )
+    return "\n".join(lines)
+
+
+def cache_key(model: str, messages: Sequence[dict[str, Any]], params: dict[str, Any]) -> str:
+    """The hash a reply is cached under: the model, the messages and the sampling parameters."""
+    data = json.dumps({"model": model, "messages": list(messages), "params": params}, sort_keys=True, ensure_ascii=False)
+    return hashlib.sha256(data.encode("utf-8")).hexdigest()
+
+
+class ReplyCache:
+    """Model replies on disk, one JSON file per key. Writes are atomic (a temporary file renamed into
+    place); a file that cannot be read or is not what was written is ignored and written anew."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root)
+
+    def path(self, key: str) -> Path:
+        return self.root / key[:2] / f"{key}.json"
+
+    def get(self, key: str) -> str | None:
+        try:
+            data = json.loads(self.path(key).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return None
+        if not isinstance(data, dict) or data.get("key") != key or not isinstance(data.get("reply"), str):
+            return None
+        return data["reply"]
+
+    def put(self, key: str, reply: str, model: str) -> None:
+        path = self.path(key)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
+            try:
+                with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                    json.dump({"key": key, "model": model, "reply": reply}, handle, ensure_ascii=False)
+                os.replace(tmp, path)
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
+        except OSError as exc:  # a read-only or full disk costs the cache, not the answer
+            warnings.warn(f"could not cache the LLM reply in {path.parent}: {exc}", RuntimeWarning, stacklevel=2)
+
+
+class LLMPlanner:
+    """Plans with an OpenAI-compatible chat model; see the module docstring."""
+
+    name = "llm"
+
+    def __init__(
+        self,
+        settings: Settings,
+        *,
+        prompt_builder: PromptBuilder | None = None,
+        use_cache: bool = True,
+        http_retries: int = 2,
+    ) -> None:
+        self.settings = settings
+        self.model = settings.llm_model
+        self.max_tries = settings.llm_max_tries
+        self.params: dict[str, Any] = {"temperature": settings.llm_temperature}
+        self.cache = ReplyCache(Path(settings.cache_dir) / "llm") if use_cache else None
+        self.http_retries = http_retries
+        self._prompt_builder = prompt_builder
+        self._client: Any = None
+
+    # -- the conversation ---------------------------------------------------------------------------
+
+    def messages(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> list[dict[str, str]]:
+        """The chat messages for `request`: the prompt, then each failed attempt and its error."""
+        query = check_query(request.query)
+        prompt = self._builder()(query, list(request.sensors))
+        if isinstance(prompt, str):
+            messages = [{"role": "user", "content": prompt}]
+        else:
+            messages = [{"role": str(m["role"]), "content": str(m["content"])} for m in prompt]
+        for attempt in feedback:
+            if attempt.error is None:
+                continue
+            said = attempt.reply if attempt.reply is not None else f"```python\n{attempt.program}```"
+            messages.append({"role": "assistant", "content": said})
+            messages.append({"role": "user", "content": feedback_message(attempt.error)})
+        return messages
+
+    def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
+        """Ask the model (or the cache); raises `NoProgram` when the reply holds no usable program."""
+        messages = self.messages(request, feedback)
+        reply, cached = self.complete(messages)
+        return Plan(program=extract_program(reply), reply=reply, cached=cached)
+
+    def complete(self, messages: list[dict[str, str]]) -> tuple[str, bool]:
+        """The model's reply to `messages` and whether it came from the cache."""
+        from attribot.models.openai_client import chat_text
+
+        key = cache_key(self.model, messages, self.params)
+        if self.cache is not None:
+            hit = self.cache.get(key)
+            if hit is not None:
+                return hit, True
+        reply = chat_text(self._get_client(), self.model, messages, **self.params)
+        if self.cache is not None:
+            self.cache.put(key, reply, self.model)
+        return reply, False
+
+    # -- plumbing ----------------------------------------------------------------------------------
+
+    def _builder(self) -> PromptBuilder:
+        if self._prompt_builder is None:
+            from attribot.api.prompt import build_prompt
+
+            self._prompt_builder = build_prompt
+        return self._prompt_builder
+
+    def _get_client(self) -> Any:
+        if self._client is None:
+            if self.settings.llm_base_url is None and self.settings.llm_api_key is None:
+                raise ConfigError(
+                    "the llm planner has no endpoint: neither a base URL nor an API key is set",
+                    "set ATTRIBOT_LLM_BASE_URL (e.g. http://127.0.0.1:8000/v1 for vLLM, http://127.0.0.1:11434/v1 "
+                    "for Ollama) or ATTRIBOT_LLM_API_KEY for OpenAI, or use --planner rules",
+                )
+            from attribot.models.openai_client import make_client
+
+            self._client = make_client(
+                self.settings.llm_base_url, self.settings.llm_api_key, self.settings.llm_timeout_s, self.http_retries
+            )
+        return self._client
+
+
+@PLANNERS.register("llm")
+def _build_llm(settings: Settings) -> LLMPlanner:
+    return LLMPlanner(settings)

@@ -1,0 +1,824 @@
+"""The offline planner: a deterministic parser for the query families of the paper.
+
+It reads location, size, weight and distance queries (see `FAMILIES`) and writes the same kind of program
+an LLM writes against the API: `find` the objects the query names, then order or measure them. Rows and
+columns are found by clustering box centres, not by cutting the image into equal bands (the failure the
+paper reports for GPT-3.5). "long" and "short" follow the object's orientation (the longer box side).
+Weight and distance are measured with the robot's sensors when it has them; otherwise the program uses
+the paper's VQA + language-model chain (weight) or a visual proxy that it states in a comment
+(distance). A query outside these families raises `UnsupportedQuery`, which lists what is supported: the
+planner never guesses.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+from attribot.errors import InputError
+from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = [
+    "FAMILIES",
+    "UnsupportedQuery",
+    "ObjectSpec",
+    "LineSpec",
+    "Pick",
+    "LocationQuery",
+    "SizeQuery",
+    "WeightQuery",
+    "DistanceQuery",
+    "ParsedQuery",
+    "parse_query",
+    "write_program",
+    "rules_program",
+    "RulesPlanner",
+]
+
+FAMILIES: dict[str, tuple[str, ...]] = {
+    "location": (
+        "the second dog from the right",
+        "top right cocktail",
+        "the second umbrella from the left in the second to last row",
+        "the pill in the middle of the right column",
+    ),
+    "size": ("the third tallest item", "the smallest red apple", "the long carrot"),
+    "weight": ("the heaviest item", "Out of the laptop, the chair and the credit card, which one is the most lightweight?"),
+    "distance": ("Is the laptop or the tv closer to me?", "the closest chair", "Out of the mugs, which one is closer to me?"),
+}
+"""The families the rules planner reads, each with example phrasings."""
+
+
+class UnsupportedQuery(InputError):
+    """The rules planner cannot read the query; the message lists the families it supports."""
+
+    def __init__(self, query: str, reason: str | None = None) -> None:
+        families = "; ".join(f"{name} (e.g. {' / '.join(repr(x) for x in ex[:2])})" for name, ex in FAMILIES.items())
+        why = f": {reason}" if reason else ""
+        super().__init__(
+            f"the rules planner cannot read the query {query!r}{why}",
+            f"rephrase it in one of the supported families: {families}; or use the llm planner (--planner llm)",
+        )
+        self.query = query
+        self.reason = reason
+
+
+# ---- the parsed form ---------------------------------------------------------------------------------
+
+Side = Literal["left", "right", "top", "bottom"]
+GENERIC_NOUNS = {"item", "items", "object", "objects", "thing", "things", "one", "ones"}
+COLORS = (
+    "red orange yellow green blue purple violet pink brown black white gray grey silver gold golden beige "
+    "cyan magenta turquoise"
+).split()
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """What to look for: the query's own noun ("item", "object", "thing" mean any), and colour words."""
+
+    noun: str
+    colors: tuple[str, ...] = ()
+
+    @property
+    def generic(self) -> bool:
+        return self.noun in GENERIC_NOUNS
+
+    @property
+    def phrase(self) -> str:
+        return " ".join((*self.colors, self.noun))
+
+
+@dataclass(frozen=True)
+class LineSpec:
+    """A row (counted from the top) or a column (counted from the left), or the middle one."""
+
+    kind: Literal["row", "column"]
+    index: int = 1  # 1-based
+    from_end: bool = False  # counted from the bottom (rows) or the right (columns)
+    middle: bool = False
+
+
+@dataclass(frozen=True)
+class Pick:
+    """How to choose within a group: the k-th from a side, the middle along an axis, or the most central."""
+
+    kind: Literal["ordinal", "middle", "central", "only"]
+    side: Side | None = None
+    k: int = 1
+    axis: Literal["x", "y"] | None = None
+
+
+@dataclass(frozen=True)
+class LocationQuery:
+    obj: ObjectSpec
+    line: LineSpec | None
+    pick: Pick
+
+
+@dataclass(frozen=True)
+class SizeQuery:
+    obj: ObjectSpec
+    adjective: str  # as written, for comments
+    measure: Literal["area", "height", "width", "length", "thickness"]
+    largest: bool
+    rank: int = 1
+
+
+@dataclass(frozen=True)
+class WeightQuery:
+    objects: tuple[ObjectSpec, ...]  # one spec, or the named candidates of "Out of the X, Y and Z"
+    heaviest: bool
+    named: bool = False  # the candidates were listed by name
+
+
+@dataclass(frozen=True)
+class DistanceQuery:
+    objects: tuple[ObjectSpec, ...]
+    nearest: bool
+    named: bool = False
+
+
+ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery
+
+
+# ---- the parser ----------------------------------------------------------------------------------------
+
+_ORDINAL_WORDS = {
+    w: i + 1
+    for i, w in enumerate(
+        "first second third fourth fifth sixth seventh eighth ninth tenth eleventh twelfth thirteenth "
+        "fourteenth fifteenth sixteenth seventeenth eighteenth nineteenth twentieth".split()
+    )
+}
+_ORD = (
+    r"(?:(?:second|third|fourth|fifth|\d+(?:st|nd|rd|th))\s+(?:to|from)\s+(?:the\s+)?last|penultimate|last|"
+    + "|".join(_ORDINAL_WORDS)
+    + r"|\d+(?:st|nd|rd|th))"
+)
+_SIDES = {"left": "left", "right": "right", "top": "top", "upper": "top", "bottom": "bottom", "lower": "bottom"}
+_OPPOSITE: dict[str, Side] = {"left": "right", "right": "left", "top": "bottom", "bottom": "top"}
+
+# size adjectives: word -> (measure, largest)
+_SIZE = {
+    "big": ("area", True), "large": ("area", True), "huge": ("area", True),
+    "small": ("area", False), "little": ("area", False), "tiny": ("area", False),
+    "tall": ("height", True), "high": ("height", True),
+    "long": ("length", True), "short": ("length", False),
+    "wide": ("width", True), "broad": ("width", True), "narrow": ("width", False),
+    "thin": ("thickness", False), "thick": ("thickness", True), "slim": ("thickness", False),
+}
+_SUPERLATIVE = {
+    "biggest": "big", "largest": "large", "hugest": "huge", "smallest": "small", "littlest": "little",
+    "tiniest": "tiny", "tallest": "tall", "longest": "long", "shortest": "short", "widest": "wide",
+    "broadest": "broad", "narrowest": "narrow", "thinnest": "thin", "thickest": "thick", "slimmest": "slim",
+}
+_COMPARATIVE = {
+    "bigger": "big", "larger": "large", "smaller": "small", "taller": "tall", "longer": "long",
+    "shorter": "short", "wider": "wide", "narrower": "narrow", "thinner": "thin", "thicker": "thick",
+}
+_SIZE_WORDS = "|".join(sorted([*_SIZE, *_SUPERLATIVE, *_COMPARATIVE], key=len, reverse=True))
+_WEIGHT_HEAVY = {"heaviest", "heavy", "heavier", "most heavy", "least lightweight", "least light"}
+_WEIGHT_LIGHT = {"lightest", "light", "lighter", "lightweight", "most lightweight", "least heavy", "more lightweight"}
+_WEIGHT_WORDS = "|".join(sorted(_WEIGHT_HEAVY | _WEIGHT_LIGHT, key=len, reverse=True))
+_NEAR = {"closer", "closest", "nearer", "nearest"}
+_FAR = {"farther", "farthest", "further", "furthest", "more distant", "most distant"}
+_DIST_WORDS = "|".join(sorted(_NEAR | _FAR, key=len, reverse=True))
+_ME = r"(?:\s+(?:to|from)\s+(?:me|you|us|the\s+robot|the\s+camera))?"
+
+# words that cannot be part of an object's name here: left over from a phrase the parser did not read
+_STOP = {
+    "from", "row", "rows", "column", "columns", "left", "right", "top", "bottom", "middle",
+    "center", "centre", "is", "are", "which", "what", "where", "who", "how", "why", "or", "than", "and",
+    "me", "you", "in", "on", "at", "to", "the", "a", "an", "not", "no", "leftmost", "rightmost", "topmost",
+    "bottommost", "most", "least", "very", "side", "corner", "between", "next", "near", "behind", "under",
+    "above", "below", "beside", "inside", "if", "does", "do", "there", "any", "all", "every",
+    *_ORDINAL_WORDS, "last", "penultimate", *_SIZE, *_SUPERLATIVE, *_COMPARATIVE,
+    "heaviest", "heavier", "heavy", "lightest", "lighter", "lightweight", *_NEAR, *_FAR, "distant",
+}
+
+
+def _normalize(query: str) -> str:
+    text = query.lower().replace("\u2019", "'").replace("-", " ")
+    text = re.sub(r"[^a-z0-9',\s]", " ", text)
+    text = " ".join(text.split()).strip(" ,")
+    # polite or imperative openings carry no meaning for the plan
+    lead = r"^(?:please\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|give\s+me|locate|" \
+        r"detect|identify|where\s+is|which\s+is|what\s+is|grab)\s+"
+    text = re.sub(lead, "", text)
+    return _strip_article(text)
+
+
+def _strip_article(text: str) -> str:
+    return re.sub(r"^(?:the|a|an|some)\s+", "", text.strip(" ,")).strip(" ,")
+
+
+def _ordinal(text: str) -> tuple[int, bool]:
+    """(k, counted from the far end) for an ordinal phrase: "second" (2, False), "second to last" (2, True)."""
+    text = " ".join(text.split())
+    if text == "last":
+        return 1, True
+    if text == "penultimate":
+        return 2, True
+    match = re.fullmatch(r"(\w+)\s+(?:to|from)\s+(?:the\s+)?last", text)
+    if match:
+        return _ordinal(match.group(1))[0], True
+    if text in _ORDINAL_WORDS:
+        return _ORDINAL_WORDS[text], False
+    match = re.fullmatch(r"(\d+)(?:st|nd|rd|th)", text)
+    if match:
+        return int(match.group(1)), False
+    raise ValueError(text)
+
+
+def _object(phrase: str) -> ObjectSpec | None:
+    """The object named by what is left of a phrase, or None when the rest is not a plain name."""
+    phrase = _strip_article(phrase)
+    phrase = re.sub(r"\s+(?:in|of|from)\s+(?:the\s+)?(?:image|picture|photo|frame|scene|view)$", "", phrase)
+    words = phrase.split()
+    if not words:
+        return ObjectSpec("object")
+    if len(words) > 6 or any(not re.fullmatch(r"[a-z0-9']+", w) or w in _STOP for w in words):
+        return None
+    if all(w.isdigit() for w in words):
+        return None
+    colors = tuple(w for w in words[:-1] if w in COLORS)
+    noun_words = [w for w in words if w not in colors] if colors else words
+    if not noun_words:
+        return None
+    noun = " ".join(noun_words)
+    if noun in ("items", "objects", "things", "ones"):
+        noun = noun[:-1]
+    return ObjectSpec(noun=noun, colors=colors)
+
+
+def _take(pattern: str, text: str) -> tuple[re.Match[str] | None, str]:
+    """The first match of `pattern` and the text with it cut out."""
+    match = re.search(pattern, text)
+    if match is None:
+        return None, text
+    return match, " ".join((text[: match.start()] + " " + text[match.end() :]).split())
+
+
+def _parse_location(text: str) -> LocationQuery | None:
+    text = re.sub(r"\s+(?:of|in)\s+(?:the\s+)?(?:image|picture|photo|frame|scene)\b", "", text)
+    line: LineSpec | None = None
+    pick: Pick | None = None
+    middle_of = False
+
+    # rows and columns: "in the middle of the second row from the top", "at the second to last row"
+    which = _ORD + r"|top|bottom|upper|lower|middle|center|centre|central|left|right|leftmost|rightmost|topmost|bottommost"
+    match, text = _take(
+        r"\b(?:(?:in|on|at|of|from|within|along)\s+)?(?:the\s+)?(?P<mid>(?:very\s+)?(?:middle|center|centre)\s+of\s+"
+        r"(?:the\s+)?)?(?P<which>" + which + r")\s+(?P<kind>rows?|lines?|columns?|cols?)"
+        r"(?:\s+(?:starting\s+|counting\s+)?from\s+(?:the\s+)?(?P<side>top|bottom|left|right))?\b",
+        text,
+    )
+    if match:
+        kind: Literal["row", "column"] = "column" if match["kind"].startswith("col") else "row"
+        word = match["which"]
+        side = match["side"]
+        if word in ("middle", "center", "centre", "central"):
+            line = LineSpec(kind, middle=True)
+        elif word in ("top", "upper", "topmost", "bottom", "lower", "bottommost"):
+            if kind != "row":
+                return None
+            line = LineSpec(kind, 1, from_end=word in ("bottom", "lower", "bottommost"))
+        elif word in ("left", "leftmost", "right", "rightmost"):
+            if kind != "column":
+                return None
+            line = LineSpec(kind, 1, from_end=word in ("right", "rightmost"))
+        else:
+            k, from_end = _ordinal(word)
+            if side is not None:
+                expected = ("top", "bottom") if kind == "row" else ("left", "right")
+                if side not in expected:
+                    return None
+                from_end = from_end != (side == expected[1])
+            line = LineSpec(kind, k, from_end=from_end)
+        if _k_invalid(line):
+            return None
+        middle_of = match["mid"] is not None
+
+    # corners: "top right cocktail", "the egg in the bottom left corner"
+    corner, text = _take(r"\b(?:(?:at|in|on)\s+the\s+)?(top|upper|bottom|lower)\s+(left|right)(?:\s+corner)?\b", text)
+    # extremes: "leftmost", "at the very bottom", "with the highest altitude"
+    extreme: Side | None = None
+    match, text = _take(r"\bwith\s+the\s+(highest|lowest)\s+(?:altitude|position|height)\b", text)
+    if match:
+        extreme = "top" if match[1] == "highest" else "bottom"
+    if extreme is None:
+        match, text = _take(r"\b(?:at|on|in|to)\s+the\s+(?:very|far|furthest|farthest)\s+(top|bottom|left|right)\b", text)
+        if match:
+            extreme = _SIDES[match[1]]
+    if extreme is None:
+        match, text = _take(r"\b(leftmost|rightmost|topmost|uppermost|bottommost|lowermost|highest|lowest)\b", text)
+        if match:
+            extreme = {"leftmost": "left", "rightmost": "right", "topmost": "top", "uppermost": "top",
+                       "highest": "top", "bottommost": "bottom", "lowermost": "bottom", "lowest": "bottom"}[match[1]]
+    # ordinal with a direction: "second dog from the right", "second from the left dog head"
+    direction: Side | None = None
+    ordinal: tuple[int, bool] | None = None
+    match, text = _take(r"\b(?:starting\s+|counting\s+)?from\s+(?:the\s+)?(left|right|top|bottom)(?:\s+side)?\b", text)
+    if match:
+        direction = _SIDES[match[1]]  # type: ignore[assignment]
+    match, text = _take(r"^(?:the\s+)?(" + _ORD + r")\b", text)
+    if match:
+        ordinal = _ordinal(match[1])
+    elif direction is not None:
+        return None  # "from the left" with no ordinal: nothing to count
+    # positions: "at the bottom", "on the right", "in the middle"
+    position: str | None = None
+    match, text = _take(
+        r"\b(?:at|on|in|to|towards)\s+(?:the\s+)?(top|bottom|left|right|middle|center|centre)(?:\s+(?:side|part|edge))?\b",
+        text,
+    )
+    if match:
+        position = {"center": "middle", "centre": "middle"}.get(match[1], match[1])
+    # a leading "middle", "right", "top" used as an adjective: "middle window", "right eye"
+    middle_adj = False
+    side_adj: Side | None = None
+    match, text = _take(r"^(?:the\s+)?(middle|center|centre|central)\b", text)
+    if match:
+        middle_adj = True
+    else:
+        match, text = _take(r"^(?:the\s+)?(left|right|top|bottom|upper|lower)\s+(?=\S)", text)
+        if match:
+            side_adj = _SIDES[match[1]]  # type: ignore[assignment]
+
+    # what is chosen within the group
+    if ordinal is not None:
+        k, from_end = ordinal
+        side: Side = direction or ("top" if line is not None and line.kind == "column" else "left")
+        pick = Pick("ordinal", _OPPOSITE[side] if from_end else side, k)
+    elif extreme is not None:
+        pick = Pick("ordinal", extreme, 1)
+    elif middle_of or middle_adj:
+        pick = Pick("middle")  # the axis follows the line, below
+    elif side_adj is not None:
+        pick = Pick("ordinal", side_adj, 1)
+    if corner is not None:
+        vertical, horizontal = _SIDES[corner[1]], _SIDES[corner[2]]
+        if line is not None or (pick is not None and pick.kind != "middle"):
+            return None  # "second top right X": more than one way to read it
+        line = LineSpec("row", 1, from_end=vertical == "bottom")
+        pick = Pick("ordinal", horizontal, 1)  # type: ignore[arg-type]
+    if position is not None:
+        if pick is None:
+            pick = Pick("central") if position == "middle" else Pick("ordinal", position, 1)  # type: ignore[arg-type]
+        elif line is None:
+            line = {
+                "top": LineSpec("row", 1), "bottom": LineSpec("row", 1, from_end=True),
+                "left": LineSpec("column", 1), "right": LineSpec("column", 1, from_end=True),
+                "middle": LineSpec("row", middle=True),
+            }[position]
+        else:
+            return None
+    if pick is None:
+        if line is None:
+            return None
+        pick = Pick("only")
+    if pick.kind == "middle":
+        if line is None:
+            pick = Pick("central")
+        else:
+            pick = Pick("middle", axis="x" if line.kind == "row" else "y")
+    if pick.kind == "ordinal" and line is not None:
+        # an ordinal along the line's own cross axis ("topmost X in the top row") is no choice at all
+        cross = ("top", "bottom") if line.kind == "row" else ("left", "right")
+        if pick.side in cross and pick.k > 1:
+            return None
+    obj = _object(text)
+    if obj is None or pick.k < 1:
+        return None
+    return LocationQuery(obj=obj, line=line, pick=pick)
+
+
+def _k_invalid(line: LineSpec) -> bool:
+    return not line.middle and line.index < 1
+
+
+def _parse_size(text: str) -> SizeQuery | None:
+    match = re.fullmatch(
+        r"(?:(?P<ord>" + _ORD + r")\s+)?(?:(?P<deg>most|least)\s+)?(?P<adj>" + _SIZE_WORDS + r")(?:\s+(?P<rest>.+))?",
+        text,
+    )
+    if match is None:
+        match = re.fullmatch(
+            r"(?P<rest>.+?)\s+(?:that|which|who)\s+(?:is|are)\s+(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?"
+            r"(?:(?P<deg>most|least)\s+)?(?P<adj>" + _SIZE_WORDS + r")(?:\s+one)?",
+            text,
+        )
+    if match is None:
+        return None
+    adjective = match["adj"]
+    base = _SUPERLATIVE.get(adjective) or _COMPARATIVE.get(adjective) or adjective
+    measure, largest = _SIZE[base]
+    if match["deg"] == "least":
+        largest = not largest
+    rank = 1
+    if match["ord"]:
+        rank, from_end = _ordinal(match["ord"])
+        if from_end:  # "the second to last tallest": count from the other end
+            largest = not largest
+    obj = _object(match["rest"] or "")
+    if obj is None:
+        return None
+    return SizeQuery(obj=obj, adjective=" ".join(w for w in (match["deg"], adjective) if w), measure=measure,  # type: ignore[arg-type]
+                     largest=largest, rank=rank)
+
+
+def _split_names(text: str) -> tuple[ObjectSpec, ...] | None:
+    parts = [p for p in re.split(r"\s*,\s*(?:and\s+|or\s+)?|\s+(?:and|or)\s+", text) if p.strip()]
+    specs: list[ObjectSpec] = []
+    for part in parts:
+        spec = _object(part)
+        if spec is None:
+            return None
+        if spec not in specs:
+            specs.append(spec)
+    return tuple(specs) or None
+
+
+def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
+    """The comparative and "out of" forms of weight and distance queries."""
+    words = _WEIGHT_WORDS + "|" + _DIST_WORDS
+    forms = (
+        # "Is the laptop or the tv closer to me?"
+        r"(?:is|are)\s+(?P<list>.+?\s+or\s+.+?)\s+(?P<adj>" + words + r")" + _ME,
+        # "Out of the laptop, chair and card, which one is the most lightweight?"
+        r"(?:out\s+of|of|among|amongst|between|from)\s+(?P<list>.+?),?\s+which(?:\s+one|\s+item|\s+object)?"
+        r"(?:\s+of\s+(?:them|these|those))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
+        # "Which one is closer to me, the laptop or the tv?"
+        r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME
+        + r",?\s+(?:(?:out\s+)?of\s+|among\s+|between\s+)?(?P<list>.+)",
+        # "Which one is the heaviest?"
+        r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
+        # "the X or the Y: which is closer?"
+        r"(?P<list>.+?\s+or\s+.+?),?\s+which(?:\s+one)?\s+is\s+(?P<adj>" + words + r")" + _ME,
+    )
+    for form in forms:
+        match = re.fullmatch(form, text)
+        if match is None:
+            continue
+        adjective = match["adj"]
+        listed = match.groupdict().get("list")
+        if listed is not None:
+            objects = _split_names(_strip_article(listed))
+            if objects is None:
+                return None
+            named = True
+        else:
+            objects, named = (ObjectSpec("object"),), False
+        if adjective in _NEAR or adjective in _FAR:
+            return DistanceQuery(objects=objects, nearest=adjective in _NEAR, named=named)
+        return WeightQuery(objects=objects, heaviest=adjective in _WEIGHT_HEAVY, named=named)
+    return None
+
+
+def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
+    """ "the heaviest item", "the light box", "the closest chair", "the mug nearest to me". """
+    words = _WEIGHT_WORDS + "|" + _DIST_WORDS
+    match = re.fullmatch(r"(?P<adj>" + words + r")(?:\s+(?P<rest>.+?))?" + _ME, text) or re.fullmatch(
+        r"(?P<rest>.+?)\s+(?:that\s+is\s+|which\s+is\s+)?(?:the\s+)?(?P<adj>" + words + r")" + _ME, text
+    )
+    if match is None:
+        return None
+    obj = _object(match["rest"] or "")
+    if obj is None:
+        return None
+    adjective = match["adj"]
+    if adjective in _NEAR or adjective in _FAR:
+        return DistanceQuery(objects=(obj,), nearest=adjective in _NEAR)
+    return WeightQuery(objects=(obj,), heaviest=adjective in _WEIGHT_HEAVY)
+
+
+def parse_query(query: str) -> ParsedQuery:
+    """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text)."""
+    original = check_query(query)
+    text = _normalize(original)
+    if not text:
+        raise UnsupportedQuery(original, "it has no words the planner reads")
+    for parser in (_parse_compare, _parse_location, _parse_size, _parse_superlative):
+        parsed = parser(text)
+        if parsed is not None:
+            return parsed
+    raise UnsupportedQuery(original)
+
+
+# ---- the program writer --------------------------------------------------------------------------------
+
+_ORDINAL_NAMES = {1: "1st", 2: "2nd", 3: "3rd"}
+
+
+def _nth(k: int) -> str:
+    return _ORDINAL_NAMES.get(k, f"{k}th") if not 10 < k % 100 < 14 else f"{k}th"
+
+
+def _q(text: str) -> str:
+    """A Python string literal (double quotes)."""
+    return json.dumps(text)
+
+
+_GROUP_HELPER = '''
+def group_into_lines(patches, kind):
+    """Group patches into rows (kind "row", top row first) or columns (kind "column", left first).
+
+    Rows and columns follow the objects, not equal bands of the image: box centres are sorted across the
+    lines, and a new line starts wherever two neighbouring centres are further apart than half the
+    median box size in that direction.
+    """
+    if kind == "row":
+        # y grows upward, so the top row has the largest vertical_center
+        ordered = sorted(patches, key=lambda patch: -patch.vertical_center)
+        positions = [-patch.vertical_center for patch in ordered]
+        sizes = sorted([patch.height for patch in ordered])
+    else:
+        ordered = sorted(patches, key=lambda patch: patch.horizontal_center)
+        positions = [patch.horizontal_center for patch in ordered]
+        sizes = sorted([patch.width for patch in ordered])
+    gap = 0.5 * sizes[len(sizes) // 2]
+    lines = [[ordered[0]]]
+    for index in range(1, len(ordered)):
+        if positions[index] - positions[index - 1] > gap:
+            lines.append([])
+        lines[-1].append(ordered[index])
+    return lines
+'''.lstrip("\n")
+
+_SORT_KEYS = {
+    "left": ("patch.horizontal_center", False, "from the left"),
+    "right": ("patch.horizontal_center", True, "from the right"),
+    "top": ("patch.vertical_center", True, "from the top (y grows upward)"),
+    "bottom": ("patch.vertical_center", False, "from the bottom (y grows upward)"),
+}
+
+
+class _Writer:
+    """Collects the lines of `execute_command` with their indentation."""
+
+    def __init__(self, query: str) -> None:
+        self.helpers: list[str] = []
+        self.body: list[str] = [f"# Query: {_q(query)}", "# Written by the offline rules planner."]
+        self.uses_math = False
+
+    def line(self, text: str = "") -> None:
+        self.body.append(text)
+
+    def fail(self, condition: str, message_expr: str) -> None:
+        self.line(f"if {condition}:")
+        self.line(f"    raise ValueError({message_expr})")
+
+    def source(self) -> str:
+        parts = []
+        if self.uses_math:
+            parts.append("import math\n")
+        parts.extend(h + "\n" for h in self.helpers)
+        body = "\n".join(("    " + b) if b else "" for b in self.body)
+        parts.append("def execute_command(image, robot):\n" + body + "\n")
+        return "\n".join(parts)
+
+
+def _sorted(group: str, key: str, reverse: bool) -> str:
+    return f"sorted({group}, key=lambda patch: {key}{', reverse=True' if reverse else ''})"
+
+
+def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
+    """`var = image.find(noun)`, the colour filter, and the "none found" error."""
+    what = "object" if obj.generic else obj.noun
+    w.line(f"{var} = image.find({_q(obj.noun)})")
+    for color in obj.colors:
+        w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask about each")
+        w.line(
+            f"{var} = [patch for patch in {var} if {_q(color)} in patch.visual_query({_q('What color is this ' + what + '?')}).lower()]"
+        )
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
+
+
+def _write_location(w: _Writer, q: LocationQuery) -> None:
+    _find(w, q.obj)
+    group = "candidates"
+    if q.line is not None:
+        w.helpers.append(_GROUP_HELPER)
+        kind, plural = q.line.kind, q.line.kind + "s"
+        first = "top" if kind == "row" else "left"
+        last = "bottom" if kind == "row" else "right"
+        w.line(f"{plural} = group_into_lines(candidates, {_q(kind)})")
+        if q.line.middle:
+            w.line(f"# the middle {kind}; with an even number of {plural}, the one just past the centre")
+            w.line(f"{kind} = {plural}[len({plural}) // 2]")
+        else:
+            k = q.line.index
+            side = last if q.line.from_end else first
+            if k > 1:
+                w.fail(
+                    f"len({plural}) < {k}",
+                    f'"asked for the {_nth(k)} {kind} from the {side}, but the {q.obj.phrase}s form only " + str(len({plural})) + {_q(" " + kind + "(s)")}',
+                )
+            index = f"len({plural}) - {k}" if q.line.from_end else str(k - 1)
+            w.line(f"# the {_nth(k)} {kind} from the {side}")
+            w.line(f"{kind} = {plural}[{index}]")
+        group = kind
+    pick = q.pick
+    if pick.kind == "ordinal":
+        assert pick.side is not None
+        key, reverse, words = _SORT_KEYS[pick.side]
+        w.line(f"# order them {words} and take the {_nth(pick.k)}")
+        w.line(f"ordered = {_sorted(group, key, reverse)}")
+        where = f" in that {group}" if group != "candidates" else ""
+        if pick.k > 1:
+            w.fail(
+                f"len(ordered) < {pick.k}",
+                f'"asked for the {_nth(pick.k)} {q.obj.phrase} {words.split(" (")[0]}{where}, but only " + str(len(ordered)) + " were found"',
+            )
+        w.line(f"return ordered[{pick.k - 1}]")
+    elif pick.kind == "middle":
+        key = "patch.horizontal_center" if pick.axis == "x" else "patch.vertical_center"
+        along = "left to right" if pick.axis == "x" else "top to bottom"
+        w.line(f"# the middle one of the {group}, counted {along}")
+        w.line(f"ordered = {_sorted(group, key, pick.axis == 'y')}")
+        w.line("return ordered[len(ordered) // 2]")
+    elif pick.kind == "central":
+        w.uses_math = True
+        w.line("# the one nearest the centre of the group (the middle of the span of their box centres)")
+        w.line("xs = [patch.horizontal_center for patch in candidates]")
+        w.line("ys = [patch.vertical_center for patch in candidates]")
+        w.line("centre_x = (min(xs) + max(xs)) / 2")
+        w.line("centre_y = (min(ys) + max(ys)) / 2")
+        w.line(
+            "return min(candidates, key=lambda patch: math.hypot(patch.horizontal_center - centre_x, "
+            "patch.vertical_center - centre_y))"
+        )
+    else:  # "only": the line alone names the object
+        w.fail(
+            f"len({group}) > 1",
+            f'"there are " + str(len({group})) + " {q.obj.phrase}s in that {group}; say which one, e.g. the 2nd from the left"',
+        )
+        w.line(f"return {group}[0]")
+
+
+_MEASURES = {
+    "area": ("patch.width * patch.height", "the area of its box"),
+    "height": ("patch.height", "the height of its box"),
+    "width": ("patch.width", "the width of its box"),
+    "length": (
+        "max(patch.width, patch.height)",
+        "the longer side of its box, so that long and short follow the object's orientation",
+    ),
+    "thickness": (
+        "min(patch.width, patch.height)",
+        "the shorter side of its box, so that thin and thick follow the object's orientation",
+    ),
+}
+
+
+def _write_size(w: _Writer, q: SizeQuery) -> None:
+    _find(w, q.obj)
+    key, meaning = _MEASURES[q.measure]
+    w.line(f'# "{q.adjective}" is measured as {meaning}')
+    if q.adjective in _SIZE:
+        w.line(f'# the absolute form ("the {q.adjective} {q.obj.phrase}") names the one that stands out: the extreme')
+    order = "largest" if q.largest else "smallest"
+    superlative = {v: k for k, v in _SUPERLATIVE.items()}
+    base = q.adjective.split()[-1]
+    base = _SUPERLATIVE.get(base) or _COMPARATIVE.get(base) or base
+    word = superlative.get(base, base) if " " not in q.adjective else q.adjective
+    w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
+    w.line(f"ordered = {_sorted('candidates', key, q.largest)}")
+    if q.rank > 1:
+        w.fail(
+            f"len(ordered) < {q.rank}",
+            f'"asked for the {_nth(q.rank)} {word} {q.obj.phrase}, but only " + str(len(ordered)) + " were found"',
+        )
+    w.line(f"return ordered[{q.rank - 1}]")
+
+
+def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
+    """Candidates from several named objects ("the laptop or the tv"): every patch of each."""
+    if len(objects) == 1:
+        _find(w, objects[0])
+        return
+    w.line("candidates = []")
+    for index, obj in enumerate(objects):
+        var = f"found{index + 1}"
+        _find(w, obj, var)
+        w.line(f"candidates = candidates + {var}")
+
+
+def _write_extreme_loop(w: _Writer, values: str, largest: bool) -> None:
+    better = ">" if largest else "<"
+    w.line("best = 0")
+    w.line("for index in range(1, len(candidates)):")
+    w.line(f"    if {values}[index] {better} {values}[best]:")
+    w.line("        best = index")
+    w.line("return candidates[best]")
+
+
+def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: bool) -> None:
+    word = "heaviest" if q.heaviest else "lightest"
+    if "force" in sensors and embodied:
+        _find_all(w, q.objects)
+        w.line("# weigh each one: the force sensor reads only what the gripper holds,")
+        w.line("# so go to the object, pick it up, weigh it and put it back down")
+        w.line("weights = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.go_to_object(patch)")
+        w.line("    robot.pick_up(patch)")
+        w.line("    weights.append(robot.measure_weight(patch))")
+        w.line("    robot.put_down()")
+        _write_extreme_loop(w, "weights", q.heaviest)
+        return
+    w.line("# no force sensor: weight cannot be measured, so it is reasoned about (the paper's VQA + LLM chain)")
+    if q.named:
+        names = [o.phrase for o in q.objects]
+        # longest names first, so that "remote control" is matched before "remote"
+        w.line(f"names = {json.dumps(sorted(names, key=len, reverse=True))}")
+        question = f"Out of these items: {', '.join(names)}, which one is more likely to be the {word} one? Answer with the name of one item only."
+        w.line(f"answer = image.language_query({_q(question)}).lower()")
+        w.line("# map the answer back to one of the named objects (whole words only: a pen is no pencil)")
+        w.line('words = " " + " ".join(answer.replace(".", " ").replace(",", " ").split()) + " "')
+        w.line("for name in names:")
+        w.line('    if " " + name + " " in words:')
+        w.line("        matches = image.find(name)")
+        w.line("        if len(matches) > 0:")
+        w.line("            return matches[0]")
+        w.line('raise ValueError("the language model answered " + answer + ", which is none of the named objects in view")')
+        return
+    obj = q.objects[0]
+    if obj.generic and not obj.colors:
+        w.line('items = image.visual_query("What are the items in this image?")')
+        w.line(
+            f'answer = image.language_query("Out of these items: " + items + ", which one is more likely to be the {word} '
+            'one? Answer with the name of one item only.")'
+        )
+        w.line('name = answer.strip().strip(".").lower()')
+        w.line('if name.startswith("the "):')
+        w.line("    name = name[4:]")
+        w.line("matches = image.find(name)")
+        w.line("if len(matches) > 0:")
+        w.line("    return matches[0]")
+        w.line("return name")
+        return
+    # several objects of one kind: language knowledge cannot tell them apart, so size stands in for weight
+    _find(w, obj)
+    w.line(f"# objects of one kind: with no force sensor, the biggest box is taken as the heaviest (a visual proxy,")
+    w.line("# not a measurement)")
+    w.line(f"ordered = {_sorted('candidates', 'patch.width * patch.height', q.heaviest)}")
+    w.line("return ordered[0]")
+
+
+def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodied: bool) -> None:
+    _find_all(w, q.objects)
+    if "distance" in sensors and embodied:
+        w.line("# measure each: turn the camera (and the distance sensor with it) onto the object first")
+        w.line("distances = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.focus_on_patch(patch)")
+        w.line("    distances.append(robot.measure_distance(patch))")
+        _write_extreme_loop(w, "distances", not q.nearest)
+        return
+    w.line("# no distance sensor: a visual proxy, not a measurement. Objects standing on the same floor or table")
+    w.line("# sit lower in the picture the closer they are, so the box whose bottom edge is lowest is taken as the")
+    w.line("# closest (y grows upward: a smaller `lower` is lower in the picture)")
+    w.line(f"ordered = {_sorted('candidates', 'patch.lower', not q.nearest)}")
+    w.line("return ordered[0]")
+
+
+def write_program(parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False) -> str:
+    """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
+    w = _Writer(query)
+    if isinstance(parsed, LocationQuery):
+        _write_location(w, parsed)
+    elif isinstance(parsed, SizeQuery):
+        _write_size(w, parsed)
+    elif isinstance(parsed, WeightQuery):
+        _write_weight(w, parsed, sensors, embodied)
+    else:
+        _write_distance(w, parsed, sensors, embodied)
+    return w.source()
+
+
+def rules_program(query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False) -> str:
+    """Parse `query` and write its program in one step."""
+    return write_program(parse_query(query), check_query(query), sensors, embodied)
+
+
+class RulesPlanner:
+    """The offline, deterministic planner. It ignores feedback: the same query gives the same program."""
+
+    name = "rules"
+    max_tries = 1
+
+    def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
+        return Plan(program=rules_program(request.query, request.sensors, request.embodied))
+
+
+@PLANNERS.register("rules")
+def _build_rules(settings: Settings) -> RulesPlanner:
+    return RulesPlanner()
