@@ -184,3 +184,32 @@ def test_from_image_file_and_summary(tmp_path, image):
     assert cup.summary() == {"label": "cup", "object_id": "cup_2", "box": [150, 5, 170, 25], "score": 0.9}
     assert cup.same_object(image.find("cup")[0]) and not cup.same_object(image.find("cup")[2])
     assert "ImagePatch('cup' left=150" in repr(cup)
+
+
+def test_real_offline_backends_through_settings():
+    """The oracle detector/VQA and catalog language model, built from default settings, behind ImagePatch."""
+    from attribot.config import Settings
+    from attribot.frame import ObjectTruth
+
+    seg = np.full((H, W), -1, np.int32)
+    seg[60:90, 10:30] = 0  # a mug at the bottom left (y down: rows 60..89)
+    seg[5:25, 150:170] = 1  # a mug at the top right
+    seg[40:70, 80:130] = 2  # a plate in the middle
+    objects = {
+        0: ObjectTruth("mug_0", "mug", "red"),
+        1: ObjectTruth("mug_1", "mug", "blue"),
+        2: ObjectTruth("plate_0", "plate", "white"),
+    }
+    f = Frame(rgb=np.zeros((H, W, 3), np.uint8), segmentation=seg, objects=objects)
+    perception = Perception.from_settings(Settings(_env_file=None))
+    assert perception.names() == {"detector": "oracle", "vqa": "oracle", "language": "catalog"}
+    image = ImagePatch(f, perception)
+    mugs = sorted(image.find("mug"), key=lambda m: m.vertical_center)
+    assert [m.object_id for m in mugs] == ["mug_0", "mug_1"]  # bottom one first: y grows upward
+    assert mugs[1].box == (150, 5, 170, 25) and mugs[1].upper == H - 5
+    plate = image.find("plate")[0]
+    # a find inside the plate's patch sees only the pixels there: no mug; boxes map back to the frame
+    assert plate.find("mug") == [] and plate.find("plate")[0].box == plate.box
+    # the VQA sees only the patch's pixels: each mug answers with its own colour
+    assert [m.visual_query("What color is this?") for m in mugs] == ["red", "blue"]
+    assert image.language_query("Which is heavier, a mug or a plate?") in {"mug", "plate"}
