@@ -88,7 +88,11 @@ def test_owl_grid_boxes_are_pixels_clipped_to_the_image(models):
     dets = det.detect(frame, ["cat"])
     _check_detections(dets, frame, {"cat"}, 0.0)
     got = sorted(tuple(round(v, 1) for v in d.box) for d in dets)
-    want = sorted((max(cx - 10, 0), max(cy - 10, 0), min(cx + 10, 80), min(cy + 10, 40)) for cx in (20, 40, 60, 80) for cy in (20, 40))
+    want = sorted(
+        (max(cx - 10, 0), max(cy - 10, 0), min(cx + 10, 80), min(cy + 10, 40))
+        for cx in (20, 40, 60, 80)
+        for cy in (20, 40)
+    )
     assert got == [tuple(float(v) for v in b) for b in want]
 
     # the raw model output really does reach outside the image: the clipping is ours
@@ -100,10 +104,14 @@ def test_owl_grid_boxes_are_pixels_clipped_to_the_image(models):
 
 def test_owl_threshold_keeps_only_scores_above(models):
     frame = _frame(48, 48, 1)
-    low = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=0.0)).detect(frame, ["cup"])
+    low = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=0.0)).detect(
+        frame, ["cup"]
+    )
     cut = float(np.median([d.score for d in low]))
     assert 0.73 - 1e-3 <= min(d.score for d in low) and max(d.score for d in low) <= 0.953 + 1e-3
-    high = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=cut)).detect(frame, ["cup"])
+    high = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=cut)).detect(
+        frame, ["cup"]
+    )
     assert 0 < len(high) < len(low)
     assert all(d.score >= cut for d in high)
     assert _key(high) == [k for k in _key(low) if k[2] >= round(cut, 5)]
@@ -145,7 +153,9 @@ def test_owl_batch_equals_one_by_one(models):
 def test_owl_duplicate_and_spaced_queries_are_merged(models):
     det = hf.HFDetector(str(models["owl_grid"]), threshold=0.0)
     frame = _frame(32, 32, 7)
-    assert _key(det.detect(frame, ["red  cup", " red cup", "red cup"])) == _key(det.detect(frame, ["red cup"]))
+    assert _key(det.detect(frame, ["red  cup", " red cup", "red cup"])) == _key(
+        det.detect(frame, ["red cup"])
+    )
 
 
 def test_bfloat16_dtype_is_used(models):
@@ -217,7 +227,9 @@ def test_blip2_answers_batched_like_one_by_one(models):
 
 def test_blip2_prompt_is_cut_off_the_generated_tokens(models):
     vqa = hf.HFVisualQA(str(models["blip2"]), max_new_tokens=3)
-    inputs = vqa.processor(images=[_frame(20, 20, 17).rgb], text=["Question: what? Answer:"], return_tensors="pt")
+    inputs = vqa.processor(
+        images=[_frame(20, 20, 17).rgb], text=["Question: what? Answer:"], return_tensors="pt"
+    )
     with torch.no_grad():
         out = vqa.model.generate(**inputs, max_new_tokens=3, do_sample=False)
     new = hf._strip_prompt(out, inputs["input_ids"])

@@ -44,7 +44,9 @@ def server(_running_server):
 def _completion(content, choices=True) -> dict:
     body = {"id": "c1", "object": "chat.completion", "created": 0, "model": "m"}
     body["choices"] = (
-        [{"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}] if choices else []
+        [{"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]
+        if choices
+        else []
     )
     return body
 
@@ -64,12 +66,14 @@ def _decode_data_url(url: str) -> np.ndarray:
 
 
 def test_vqa_sends_question_and_png_data_url(server):
-    server.expect_request("/v1/chat/completions", method="POST").respond_with_json(_completion(' "A red cup." '))
+    server.expect_request("/v1/chat/completions", method="POST").respond_with_json(
+        _completion(' "A red cup." ')
+    )
     vqa = build_backend("vqa", "openai:vision-model", _settings(server))
     assert isinstance(vqa, OpenAIVisualQA) and vqa.name == "openai:vision-model"
     frame = _frame()
     assert vqa.answer(frame, "  What is on the table? ") == "A red cup"
-    (request, _), = server.log
+    ((request, _),) = server.log
     assert request.headers["Authorization"] == "Bearer sk-test"
     body = json.loads(request.get_data())
     assert body["model"] == "vision-model" and body["temperature"] == 0.0
@@ -151,7 +155,9 @@ def _closed_port() -> int:
 
 
 def test_unreachable_endpoint_is_a_backend_error():
-    lm = OpenAILanguageModel("m", base_url=f"http://127.0.0.1:{_closed_port()}/v1", max_retries=0, timeout_s=2)
+    lm = OpenAILanguageModel(
+        "m", base_url=f"http://127.0.0.1:{_closed_port()}/v1", max_retries=0, timeout_s=2
+    )
     with pytest.raises(BackendError, match="cannot reach"):
         lm.complete("hello?")
 
@@ -169,7 +175,10 @@ def test_bad_questions_fail_before_any_request(server):
 
 def test_probe_lists_models_or_says_why_not(server):
     server.expect_request("/v1/models").respond_with_json(
-        {"object": "list", "data": [{"id": "vision-model", "object": "model", "created": 0, "owned_by": "me"}]}
+        {
+            "object": "list",
+            "data": [{"id": "vision-model", "object": "model", "created": 0, "owned_by": "me"}],
+        }
     )
     s = _settings(server)
     ok = probe_backend("vqa", "openai:vision-model", s)
@@ -189,8 +198,15 @@ def test_probe_reports_a_refused_key(server):
 
 @pytest.mark.parametrize(
     ("raw", "want"),
-    [("yes", "yes"), (" 'Blue.' ", "Blue"), ("", UNKNOWN), ("\n\n", UNKNOWN), ("UNKNOWN", UNKNOWN),
-     ("two\nthree", "two"), ("Wait...", "Wait...")],
+    [
+        ("yes", "yes"),
+        (" 'Blue.' ", "Blue"),
+        ("", UNKNOWN),
+        ("\n\n", UNKNOWN),
+        ("UNKNOWN", UNKNOWN),
+        ("two\nthree", "two"),
+        ("Wait...", "Wait..."),
+    ],
 )
 def test_clean_answer_table(raw, want):
     assert clean_answer(raw) == want

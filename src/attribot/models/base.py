@@ -94,7 +94,9 @@ class LanguageModel(Protocol):
     def complete(self, question: str) -> str: ...
 
 
-def detect_many(detector: Detector, frames: Sequence[Frame], queries: Sequence[Sequence[str]]) -> list[list[Detection]]:
+def detect_many(
+    detector: Detector, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
+) -> list[list[Detection]]:
     """Batched detection: the backend's own `detect_batch` when it has one, else one call per frame."""
     batch = getattr(detector, "detect_batch", None)
     if batch is not None:
@@ -180,21 +182,36 @@ def probe_backend(role: str, spec: str, settings: Settings) -> BackendStatus:
     try:
         kind, arg = parse_spec(spec)
     except ConfigError as exc:
-        return BackendStatus(role=role, spec=spec, kind=None, arg=None, registered=False, available=False, detail=str(exc))
+        return BackendStatus(
+            role=role, spec=spec, kind=None, arg=None, registered=False, available=False, detail=str(exc)
+        )
     registry = ROLES[role]
     if kind not in registry:
         known = ", ".join(registry.names()) or "none"
         return BackendStatus(
-            role=role, spec=spec, kind=kind, arg=arg, registered=False, available=False,
+            role=role,
+            spec=spec,
+            kind=kind,
+            arg=arg,
+            registered=False,
+            available=False,
             detail=f"no {role} backend of kind {kind!r}; choose one of: {known}",
         )
     probe = getattr(registry.get(kind), "probe", None)
     if probe is None:
         return BackendStatus(
-            role=role, spec=spec, kind=kind, arg=arg, registered=True, available=None, detail="registered; no check for this kind"
+            role=role,
+            spec=spec,
+            kind=kind,
+            arg=arg,
+            registered=True,
+            available=None,
+            detail="registered; this kind defines no availability check",
         )
     try:
         available, detail = probe(arg, settings)
     except Exception as exc:  # noqa: BLE001 - a probe must not take the whole listing down
         available, detail = False, f"check failed: {exc.__class__.__name__}: {exc}"
-    return BackendStatus(role=role, spec=spec, kind=kind, arg=arg, registered=True, available=available, detail=detail)
+    return BackendStatus(
+        role=role, spec=spec, kind=kind, arg=arg, registered=True, available=available, detail=detail
+    )

@@ -193,7 +193,9 @@ class HFDetector:
         max_batch: int = 32,
     ) -> None:
         if not 0.0 <= threshold <= 1.0:
-            raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "set detector_threshold, e.g. 0.1")
+            raise ConfigError(
+                f"detector threshold {threshold} is outside [0, 1]", "set detector_threshold, e.g. 0.1"
+            )
         if not 0.0 < nms_iou <= 1.0:
             raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.5")
         family = model_family(model)
@@ -202,7 +204,9 @@ class HFDetector:
                 f"model {model!r} is a {family!r} model, not a detector this backend runs",
                 f"use an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
             )
-        model_class = "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
+        model_class = (
+            "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
+        )
         self.processor, self.model, self.device, self.dtype = _load(model, family, model_class, device, dtype)
         self.family = family
         self.name = f"hf:{model}"
@@ -217,10 +221,15 @@ class HFDetector:
         """Detections of `queries` in `frame`, best first."""
         return self.detect_batch([frame], [queries])[0]
 
-    def detect_batch(self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]) -> list[list[Detection]]:
+    def detect_batch(
+        self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
+    ) -> list[list[Detection]]:
         """One list of detections per frame; `queries[i]` are the noun phrases looked for in `frames[i]`."""
         if len(frames) != len(queries):
-            raise InputError(f"detect_batch got {len(frames)} frames and {len(queries)} query lists", "pass one list per frame")
+            raise InputError(
+                f"detect_batch got {len(frames)} frames and {len(queries)} query lists",
+                "pass one list per frame",
+            )
         cleaned = [_clean_queries(q) for q in queries]
         results: list[list[Detection]] = [[] for _ in frames]
         todo = [i for i, q in enumerate(cleaned) if q]  # a frame with no query has no detection
@@ -244,7 +253,9 @@ class HFDetector:
 
     # ---- model families ---------------------------------------------------------------------------
 
-    def _run_owl(self, rgbs: list[np.ndarray], labels: list[list[str]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    def _run_owl(
+        self, rgbs: list[np.ndarray], labels: list[list[str]]
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         torch = _torch()
         inputs = self.processor(text=labels, images=rgbs, return_tensors="pt", truncation=True)
         with torch.inference_mode():
@@ -263,7 +274,9 @@ class HFDetector:
             corners = _corners(out.pred_boxes.float()) * side[:, None, None]
         return self._select(corners, scores, label_idx)
 
-    def _run_gdino(self, rgbs: list[np.ndarray], labels: list[list[str]]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    def _run_gdino(
+        self, rgbs: list[np.ndarray], labels: list[list[str]]
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         torch = _torch()
         tokenizer = self.processor.tokenizer
         texts, spans = [], []
@@ -274,14 +287,23 @@ class HFDetector:
                 text += name + ". "
             texts.append(text.strip())
             spans.append(sp)
-        max_len = min(int(getattr(self.model.config, "max_text_len", 256)), int(tokenizer.model_max_length or 256))
+        max_len = min(
+            int(getattr(self.model.config, "max_text_len", 256)), int(tokenizer.model_max_length or 256)
+        )
         try:
             enc = tokenizer(
-                texts, padding="longest", truncation=True, max_length=max_len, return_tensors="pt",
+                texts,
+                padding="longest",
+                truncation=True,
+                max_length=max_len,
+                return_tensors="pt",
                 return_offsets_mapping=True,
             )
         except NotImplementedError as exc:  # slow tokenizers give no offsets
-            raise ConfigError("Grounding DINO needs a fast tokenizer (with offsets)", "save the model with its tokenizer.json") from exc
+            raise ConfigError(
+                "Grounding DINO needs a fast tokenizer (with offsets)",
+                "save the model with its tokenizer.json",
+            ) from exc
         offsets = enc.pop("offset_mapping").tolist()
         pixels = self.processor.image_processor(rgbs, return_tensors="pt")
         model_inputs = {k: v.to(self.device) for k, v in enc.items()}
@@ -291,19 +313,25 @@ class HFDetector:
         with torch.inference_mode():
             out = self.model(**model_inputs)
             probs = out.logits.float().sigmoid()  # (B, boxes, text positions), -inf beyond the text
-            label_scores = torch.zeros(probs.shape[:2] + (max(len(lab) for lab in labels),), device=probs.device)
+            label_scores = torch.zeros(
+                probs.shape[:2] + (max(len(lab) for lab in labels),), device=probs.device
+            )
             for b, (sp, offs) in enumerate(zip(spans, offsets, strict=True)):
                 for j, tokens in enumerate(_tokens_of_labels(sp, offs, probs.shape[-1])):
                     if tokens:  # a label cut off by truncation keeps score 0
                         label_scores[b, :, j] = probs[b][:, tokens].max(dim=-1).values
             scores, label_idx = label_scores.max(dim=-1)
-            wh = torch.tensor([[r.shape[1], r.shape[0]] for r in rgbs], dtype=torch.float32, device=probs.device)
+            wh = torch.tensor(
+                [[r.shape[1], r.shape[0]] for r in rgbs], dtype=torch.float32, device=probs.device
+            )
             corners = _corners(out.pred_boxes.float()) * wh.repeat(1, 2)[:, None, :]
         return self._select(corners, scores, label_idx)
 
     # ---- shared post-processing -------------------------------------------------------------------
 
-    def _select(self, corners: Any, scores: Any, label_idx: Any) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    def _select(
+        self, corners: Any, scores: Any, label_idx: Any
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Per image: the boxes scoring at least the threshold, as numpy."""
         out = []
         for c, s, li in zip(corners, scores, label_idx, strict=True):
@@ -383,7 +411,10 @@ class HFVisualQA:
     def answer_batch(self, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:
         """One answer per (frame, question) pair."""
         if len(frames) != len(questions):
-            raise InputError(f"answer_batch got {len(frames)} frames and {len(questions)} questions", "pass one question per frame")
+            raise InputError(
+                f"answer_batch got {len(frames)} frames and {len(questions)} questions",
+                "pass one question per frame",
+            )
         prompts = []
         for q in questions:
             if not isinstance(q, str) or not q.strip():
@@ -398,9 +429,14 @@ class HFVisualQA:
     def _generate(self, rgbs: list[np.ndarray], prompts: list[str]) -> list[str]:
         torch = _torch()
         inputs = self.processor(images=rgbs, text=prompts, return_tensors="pt", padding=True)
-        inputs = {k: (v.to(self.device, self.dtype) if k == "pixel_values" else v.to(self.device)) for k, v in inputs.items()}
+        inputs = {
+            k: (v.to(self.device, self.dtype) if k == "pixel_values" else v.to(self.device))
+            for k, v in inputs.items()
+        }
         with torch.inference_mode():
-            out = self.model.generate(**inputs, max_new_tokens=self.max_new_tokens, do_sample=False, num_beams=1)
+            out = self.model.generate(
+                **inputs, max_new_tokens=self.max_new_tokens, do_sample=False, num_beams=1
+            )
         new = _strip_prompt(out, inputs["input_ids"])
         texts = self.processor.batch_decode(new, skip_special_tokens=True)
         return [_clean_answer(t) for t in texts]
@@ -450,7 +486,9 @@ def build_hf_detector(arg: str | None, settings: Settings) -> HFDetector:
     """`hf:MODEL` detector from the settings' device, dtype and threshold."""
     if not arg:
         raise ConfigError("the hf detector needs a model", f"write e.g. {_EXAMPLES['detector']}")
-    return HFDetector(arg, device=settings.hf_device, dtype=settings.hf_dtype, threshold=settings.detector_threshold)
+    return HFDetector(
+        arg, device=settings.hf_device, dtype=settings.hf_dtype, threshold=settings.detector_threshold
+    )
 
 
 def build_hf_vqa(arg: str | None, settings: Settings) -> HFVisualQA:

@@ -50,7 +50,13 @@ def _clip_tokenizer(folder: Path, max_length: int) -> Any:
     """CLIP BPE over letters and digits (no merges: a word is its letters). OWL needs BOS != 0 and
     EOS the highest id (the text model pools at the highest id when EOS is not set to 2)."""
     vocab: dict[str, int] = {"!": 0, "<|startoftext|>": 1}
-    for tok in _LETTERS + [c + "</w>" for c in _LETTERS] + _DIGITS + [d + "</w>" for d in _DIGITS] + [".", ".</w>", ",", ",</w>", "-", "-</w>"]:
+    for tok in (
+        _LETTERS
+        + [c + "</w>" for c in _LETTERS]
+        + _DIGITS
+        + [d + "</w>" for d in _DIGITS]
+        + [".", ".</w>", ",", ",</w>", "-", "-</w>"]
+    ):
         vocab.setdefault(tok, len(vocab))
     vocab["<|endoftext|>"] = len(vocab)
     (folder / "vocab.json").write_text(json.dumps(vocab))
@@ -95,7 +101,12 @@ def _gpt2_tokenizer(folder: Path, max_length: int) -> Any:
     (folder / "merges.txt").write_text("#version: 0.2\n")
     cls = _cls("GPT2TokenizerFast", "GPT2Tokenizer")
     return cls.from_pretrained(
-        str(folder), bos_token="</s>", eos_token="</s>", pad_token="<pad>", unk_token="<unk>", model_max_length=max_length
+        str(folder),
+        bos_token="</s>",
+        eos_token="</s>",
+        pad_token="<pad>",
+        unk_token="<unk>",
+        model_max_length=max_length,
     )
 
 
@@ -105,13 +116,19 @@ def _gpt2_tokenizer(folder: Path, max_length: int) -> Any:
 # IDEA-Research/grounding-dino-tiny, Salesforce/blip2-opt-2.7b.
 
 
-def _owl(text: dict[str, int], vision: dict[str, int], projection_dim: int, text_len: int) -> Callable[[Path], tuple[Any, Any]]:
+def _owl(
+    text: dict[str, int], vision: dict[str, int], projection_dim: int, text_len: int
+) -> Callable[[Path], tuple[Any, Any]]:
     def make(folder: Path) -> tuple[Any, Any]:
         tok = _clip_tokenizer(folder, text_len)
         config = _cls("Owlv2Config")(
             text_config=dict(
-                text, max_position_embeddings=text_len, vocab_size=max(text.get("vocab_size", 0), len(tok)),
-                bos_token_id=1, eos_token_id=len(tok) - 1, pad_token_id=0,
+                text,
+                max_position_embeddings=text_len,
+                vocab_size=max(text.get("vocab_size", 0), len(tok)),
+                bos_token_id=1,
+                eos_token_id=len(tok) - 1,
+                pad_token_id=0,
             ),
             vision_config=dict(vision),
             projection_dim=projection_dim,
@@ -124,7 +141,9 @@ def _owl(text: dict[str, int], vision: dict[str, int], projection_dim: int, text
     return make
 
 
-def _gdino(backbone: dict[str, Any], text: dict[str, int], main: dict[str, Any], image_size: dict[str, int]) -> Callable[[Path], tuple[Any, Any]]:
+def _gdino(
+    backbone: dict[str, Any], text: dict[str, int], main: dict[str, Any], image_size: dict[str, int]
+) -> Callable[[Path], tuple[Any, Any]]:
     def make(folder: Path) -> tuple[Any, Any]:
         tok = _bert_tokenizer(folder, main["max_text_len"])
         config = _cls("GroundingDinoConfig")(
@@ -139,13 +158,19 @@ def _gdino(backbone: dict[str, Any], text: dict[str, int], main: dict[str, Any],
     return make
 
 
-def _blip2(vision: dict[str, int], qformer: dict[str, int], text: dict[str, int], n_query: int) -> Callable[[Path], tuple[Any, Any]]:
+def _blip2(
+    vision: dict[str, int], qformer: dict[str, int], text: dict[str, int], n_query: int
+) -> Callable[[Path], tuple[Any, Any]]:
     def make(folder: Path) -> tuple[Any, Any]:
         tok = _gpt2_tokenizer(folder, text["max_position_embeddings"])
-        image_processor = _cls("BlipImageProcessor")(size={"height": vision["image_size"], "width": vision["image_size"]})
+        image_processor = _cls("BlipImageProcessor")(
+            size={"height": vision["image_size"], "width": vision["image_size"]}
+        )
         processor_cls = _cls("Blip2Processor")
         try:
-            processor = processor_cls(image_processor=image_processor, tokenizer=tok, num_query_tokens=n_query)
+            processor = processor_cls(
+                image_processor=image_processor, tokenizer=tok, num_query_tokens=n_query
+            )
         except TypeError:  # transformers without image-token expansion in the processor
             processor = processor_cls(image_processor=image_processor, tokenizer=tok)
         image_token = tok.convert_tokens_to_ids("<image>") if "<image>" in tok.get_vocab() else None
@@ -154,7 +179,9 @@ def _blip2(vision: dict[str, int], qformer: dict[str, int], text: dict[str, int]
         config = _cls("Blip2Config")(
             vision_config=dict(vision),
             qformer_config=dict(qformer, encoder_hidden_size=vision["hidden_size"]),
-            text_config=dict(text, model_type="opt", vocab_size=n_vocab, bos_token_id=1, eos_token_id=1, pad_token_id=0),
+            text_config=dict(
+                text, model_type="opt", vocab_size=n_vocab, bos_token_id=1, eos_token_id=1, pad_token_id=0
+            ),
             num_query_tokens=n_query,
             **extra,
         )
@@ -163,57 +190,212 @@ def _blip2(vision: dict[str, int], qformer: dict[str, int], text: dict[str, int]
     return make
 
 
-_TINY_SWIN = dict(embed_dim=8, depths=[1, 1, 1, 1], num_heads=[1, 1, 1, 1], window_size=2, image_size=64,
-                  out_indices=[2, 3, 4], out_features=["stage2", "stage3", "stage4"])
-_TINY_BERT = dict(vocab_size=0, hidden_size=16, num_hidden_layers=1, num_attention_heads=2, intermediate_size=32,
-                  max_position_embeddings=64)
+_TINY_SWIN = dict(
+    embed_dim=8,
+    depths=[1, 1, 1, 1],
+    num_heads=[1, 1, 1, 1],
+    window_size=2,
+    image_size=64,
+    out_indices=[2, 3, 4],
+    out_features=["stage2", "stage3", "stage4"],
+)
+_TINY_BERT = dict(
+    vocab_size=0,
+    hidden_size=16,
+    num_hidden_layers=1,
+    num_attention_heads=2,
+    intermediate_size=32,
+    max_position_embeddings=64,
+)
 
 RANDOM_MODELS: dict[str, tuple[str, Callable[[Path], tuple[Any, Any]]]] = {
     # name: (model class, make(folder) -> (config, processor))
-    "owlv2-tiny": ("Owlv2ForObjectDetection", _owl(
-        dict(vocab_size=0, hidden_size=16, intermediate_size=32, num_hidden_layers=1, num_attention_heads=2),
-        dict(hidden_size=16, intermediate_size=32, num_hidden_layers=1, num_attention_heads=2, image_size=32, patch_size=8),
-        projection_dim=16, text_len=8)),
-    "grounding-dino-tiny": ("GroundingDinoForObjectDetection", _gdino(
-        _TINY_SWIN, _TINY_BERT,
-        dict(num_queries=20, encoder_layers=1, decoder_layers=2, encoder_ffn_dim=32, decoder_ffn_dim=32,
-             encoder_attention_heads=2, decoder_attention_heads=2, d_model=32, num_feature_levels=3,
-             encoder_n_points=1, decoder_n_points=1, max_text_len=32, disable_custom_kernels=True),
-        {"shortest_edge": 64, "longest_edge": 96})),
-    "blip2-tiny": ("Blip2ForConditionalGeneration", _blip2(
-        dict(hidden_size=16, intermediate_size=32, num_hidden_layers=1, num_attention_heads=2, image_size=16, patch_size=8),
-        dict(vocab_size=32, hidden_size=16, num_hidden_layers=1, num_attention_heads=2, intermediate_size=32,
-             max_position_embeddings=32),
-        dict(vocab_size=0, hidden_size=16, num_hidden_layers=1, ffn_dim=32, num_attention_heads=2,
-             max_position_embeddings=128, word_embed_proj_dim=16),
-        n_query=4)),
-    "owlv2-b16": ("Owlv2ForObjectDetection", _owl(
-        dict(vocab_size=49408, hidden_size=512, intermediate_size=2048, num_hidden_layers=12, num_attention_heads=8),
-        dict(hidden_size=768, intermediate_size=3072, num_hidden_layers=12, num_attention_heads=12, image_size=960,
-             patch_size=16),
-        projection_dim=512, text_len=16)),
-    "owlv2-l14": ("Owlv2ForObjectDetection", _owl(
-        dict(vocab_size=49408, hidden_size=768, intermediate_size=3072, num_hidden_layers=12, num_attention_heads=12),
-        dict(hidden_size=1024, intermediate_size=4096, num_hidden_layers=24, num_attention_heads=16, image_size=1008,
-             patch_size=14),
-        projection_dim=768, text_len=16)),
-    "grounding-dino-t": ("GroundingDinoForObjectDetection", _gdino(
-        dict(embed_dim=96, depths=[2, 2, 6, 2], num_heads=[3, 6, 12, 24], window_size=7, image_size=224,
-             out_indices=[2, 3, 4], out_features=["stage2", "stage3", "stage4"]),
-        dict(vocab_size=30522, hidden_size=768, num_hidden_layers=12, num_attention_heads=12, intermediate_size=3072,
-             max_position_embeddings=512),
-        dict(num_queries=900, encoder_layers=6, decoder_layers=6, encoder_ffn_dim=2048, decoder_ffn_dim=2048,
-             encoder_attention_heads=8, decoder_attention_heads=8, d_model=256, num_feature_levels=4,
-             encoder_n_points=4, decoder_n_points=4, max_text_len=256, two_stage=True),
-        {"shortest_edge": 800, "longest_edge": 1333})),
-    "blip2-opt-2.7b": ("Blip2ForConditionalGeneration", _blip2(
-        dict(hidden_size=1408, intermediate_size=6144, num_hidden_layers=39, num_attention_heads=16, image_size=224,
-             patch_size=14),
-        dict(vocab_size=30522, hidden_size=768, num_hidden_layers=12, num_attention_heads=12, intermediate_size=3072,
-             max_position_embeddings=512, cross_attention_frequency=2),
-        dict(vocab_size=50304, hidden_size=2560, num_hidden_layers=32, ffn_dim=10240, num_attention_heads=32,
-             max_position_embeddings=2048, word_embed_proj_dim=2560),
-        n_query=32)),
+    "owlv2-tiny": (
+        "Owlv2ForObjectDetection",
+        _owl(
+            dict(
+                vocab_size=0, hidden_size=16, intermediate_size=32, num_hidden_layers=1, num_attention_heads=2
+            ),
+            dict(
+                hidden_size=16,
+                intermediate_size=32,
+                num_hidden_layers=1,
+                num_attention_heads=2,
+                image_size=32,
+                patch_size=8,
+            ),
+            projection_dim=16,
+            text_len=8,
+        ),
+    ),
+    "grounding-dino-tiny": (
+        "GroundingDinoForObjectDetection",
+        _gdino(
+            _TINY_SWIN,
+            _TINY_BERT,
+            dict(
+                num_queries=20,
+                encoder_layers=1,
+                decoder_layers=2,
+                encoder_ffn_dim=32,
+                decoder_ffn_dim=32,
+                encoder_attention_heads=2,
+                decoder_attention_heads=2,
+                d_model=32,
+                num_feature_levels=3,
+                encoder_n_points=1,
+                decoder_n_points=1,
+                max_text_len=32,
+                disable_custom_kernels=True,
+            ),
+            {"shortest_edge": 64, "longest_edge": 96},
+        ),
+    ),
+    "blip2-tiny": (
+        "Blip2ForConditionalGeneration",
+        _blip2(
+            dict(
+                hidden_size=16,
+                intermediate_size=32,
+                num_hidden_layers=1,
+                num_attention_heads=2,
+                image_size=16,
+                patch_size=8,
+            ),
+            dict(
+                vocab_size=32,
+                hidden_size=16,
+                num_hidden_layers=1,
+                num_attention_heads=2,
+                intermediate_size=32,
+                max_position_embeddings=32,
+            ),
+            dict(
+                vocab_size=0,
+                hidden_size=16,
+                num_hidden_layers=1,
+                ffn_dim=32,
+                num_attention_heads=2,
+                max_position_embeddings=128,
+                word_embed_proj_dim=16,
+            ),
+            n_query=4,
+        ),
+    ),
+    "owlv2-b16": (
+        "Owlv2ForObjectDetection",
+        _owl(
+            dict(
+                vocab_size=49408,
+                hidden_size=512,
+                intermediate_size=2048,
+                num_hidden_layers=12,
+                num_attention_heads=8,
+            ),
+            dict(
+                hidden_size=768,
+                intermediate_size=3072,
+                num_hidden_layers=12,
+                num_attention_heads=12,
+                image_size=960,
+                patch_size=16,
+            ),
+            projection_dim=512,
+            text_len=16,
+        ),
+    ),
+    "owlv2-l14": (
+        "Owlv2ForObjectDetection",
+        _owl(
+            dict(
+                vocab_size=49408,
+                hidden_size=768,
+                intermediate_size=3072,
+                num_hidden_layers=12,
+                num_attention_heads=12,
+            ),
+            dict(
+                hidden_size=1024,
+                intermediate_size=4096,
+                num_hidden_layers=24,
+                num_attention_heads=16,
+                image_size=1008,
+                patch_size=14,
+            ),
+            projection_dim=768,
+            text_len=16,
+        ),
+    ),
+    "grounding-dino-t": (
+        "GroundingDinoForObjectDetection",
+        _gdino(
+            dict(
+                embed_dim=96,
+                depths=[2, 2, 6, 2],
+                num_heads=[3, 6, 12, 24],
+                window_size=7,
+                image_size=224,
+                out_indices=[2, 3, 4],
+                out_features=["stage2", "stage3", "stage4"],
+            ),
+            dict(
+                vocab_size=30522,
+                hidden_size=768,
+                num_hidden_layers=12,
+                num_attention_heads=12,
+                intermediate_size=3072,
+                max_position_embeddings=512,
+            ),
+            dict(
+                num_queries=900,
+                encoder_layers=6,
+                decoder_layers=6,
+                encoder_ffn_dim=2048,
+                decoder_ffn_dim=2048,
+                encoder_attention_heads=8,
+                decoder_attention_heads=8,
+                d_model=256,
+                num_feature_levels=4,
+                encoder_n_points=4,
+                decoder_n_points=4,
+                max_text_len=256,
+                two_stage=True,
+            ),
+            {"shortest_edge": 800, "longest_edge": 1333},
+        ),
+    ),
+    "blip2-opt-2.7b": (
+        "Blip2ForConditionalGeneration",
+        _blip2(
+            dict(
+                hidden_size=1408,
+                intermediate_size=6144,
+                num_hidden_layers=39,
+                num_attention_heads=16,
+                image_size=224,
+                patch_size=14,
+            ),
+            dict(
+                vocab_size=30522,
+                hidden_size=768,
+                num_hidden_layers=12,
+                num_attention_heads=12,
+                intermediate_size=3072,
+                max_position_embeddings=512,
+                cross_attention_frequency=2,
+            ),
+            dict(
+                vocab_size=50304,
+                hidden_size=2560,
+                num_hidden_layers=32,
+                ffn_dim=10240,
+                num_attention_heads=32,
+                max_position_embeddings=2048,
+                word_embed_proj_dim=2560,
+            ),
+            n_query=32,
+        ),
+    ),
 }
 
 
@@ -243,7 +425,9 @@ def build_random(name: str, *, device: str = "cpu", dtype: str = "float32", seed
     return model.eval(), processor
 
 
-def save_random(name: str, folder: str | Path, *, seed: int = 0, edit: Callable[[Any], None] | None = None) -> Path:
+def save_random(
+    name: str, folder: str | Path, *, seed: int = 0, edit: Callable[[Any], None] | None = None
+) -> Path:
     """Build `name` (float32, CPU) and save model and processor to `folder`, loadable by path.
     `edit(model)` may change weights first (tests use it to fix a head's output)."""
     model, processor = build_random(name, seed=seed)

@@ -36,8 +36,9 @@ __all__ = [
 ]
 
 VQA_SYSTEM_PROMPT = (
-    "You answer questions about the image you are shown. Reply with a short answer only: a word, a number "
-    f"or a short phrase, no explanation. If the image does not show enough to answer, reply exactly: {UNKNOWN}"
+    "You answer questions about the image you are shown. Reply with a short answer only: a word, a "
+    "number or a short phrase, no explanation. If the image does not show enough to answer, reply "
+    f"exactly: {UNKNOWN}"
 )
 LANGUAGE_SYSTEM_PROMPT = (
     "You answer questions about everyday objects from common knowledge. Reply with a short answer only: a "
@@ -86,7 +87,9 @@ class _ChatBackend:
         max_workers: int = 8,
     ) -> None:
         if not model or not model.strip():
-            raise ConfigError("the openai backend needs a model name", "write openai:MODEL, e.g. openai:gpt-4o")
+            raise ConfigError(
+                "the openai backend needs a model name", "write openai:MODEL, e.g. openai:gpt-4o"
+            )
         self.model = model.strip()
         self.name = f"openai:{self.model}"
         self.temperature = float(temperature)
@@ -127,8 +130,13 @@ class OpenAIVisualQA(_ChatBackend):
     def answer_batch(self, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:
         """One answer per (frame, question) pair, requested concurrently."""
         if len(frames) != len(questions):
-            raise InputError(f"answer_batch got {len(frames)} frames and {len(questions)} questions", "pass one question per frame")
-        msgs = [self.messages(f, q) for f, q in zip(frames, questions, strict=True)]  # input errors before any call
+            raise InputError(
+                f"answer_batch got {len(frames)} frames and {len(questions)} questions",
+                "pass one question per frame",
+            )
+        msgs = [
+            self.messages(f, q) for f, q in zip(frames, questions, strict=True)
+        ]  # input errors before any call
         return self._map(self._chat, msgs)
 
 
