@@ -24,6 +24,7 @@ import numpy as np
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, ObjectTruth
 from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
+from attribot.sim.catalog import COLORS as CATALOG_COLORS
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -53,6 +54,7 @@ COLOR_WORDS = frozenset(
         "gray", "silver", "gold", "beige", "tan", "cyan", "magenta", "teal", "navy", "maroon", "cream",
         "ivory", "turquoise", "olive", "lime", "wooden", "transparent", "clear", "copper", "bronze",
     }
+    | set(CATALOG_COLORS)  # every colour the simulator paints with
 )  # fmt: skip
 """Colour names the phrase matcher treats as a filter (after folding spellings, see `_COLOR_ALIASES`)."""
 
