@@ -106,3 +106,13 @@ def test_load_image_errors(tmp_path):
     bad.write_bytes(b"\x89PNG not really")
     with pytest.raises(InputError, match="cannot be read"):
         load_image(bad)
+
+
+def test_draw_boxes_marks_pixels_and_keeps_input():
+    from attribot.draw import draw_boxes
+
+    rgb = np.zeros((40, 60, 3), np.uint8)
+    out = np.asarray(draw_boxes(rgb, [((10, 15, 30, 35), "mug")]))
+    assert out.shape == rgb.shape and rgb.max() == 0  # input untouched
+    assert out[35, 20].any() and out[25, 10].any()  # bottom and left edges drawn
+    assert not out[25, 20].any()  # inside stays clear
