@@ -206,3 +206,11 @@ def test_registered_builder():
     with pytest.raises(ConfigError, match="no argument"):
         build_backend("language", "catalog:gpt", Settings())
     assert "honest stand-in" in (CatalogLanguageModel.__doc__ or "")
+
+
+def test_probe_for_the_backends_listing():
+    from attribot.models.base import probe_backend
+
+    ok = probe_backend("language", "catalog", Settings())
+    assert ok.available is True and "catalog categories" in ok.detail
+    assert probe_backend("language", "catalog:x", Settings()).available is False

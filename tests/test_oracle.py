@@ -320,3 +320,11 @@ def test_oracle_on_a_rendered_world_frame():
             assert obj.id in ids(OracleDetector().detect(frame, [obj.category.replace("_", " ")]))
     items = OracleVQA().answer(frame, "What are the items in this image?").split(", ")
     assert len(items) == len(dets)
+
+
+def test_probe_for_the_backends_listing():
+    from attribot.models.base import probe_backend
+
+    ok = probe_backend("detector", "oracle", Settings())
+    assert ok.available is True and "simulator frames only" in ok.detail
+    assert probe_backend("vqa", "oracle:abc", Settings()).available is False

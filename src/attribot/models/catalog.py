@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 from attribot.errors import ConfigError, InputError
 from attribot.models.base import LANGUAGE_MODELS, UNKNOWN
 from attribot.models.oracle import singular_forms, words
-from attribot.sim.catalog import Category, find_category
+from attribot.sim.catalog import Category, categories, find_category
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -261,3 +261,13 @@ def _build(arg: str | None, settings: Settings) -> CatalogLanguageModel:
             f"the catalog language backend takes no argument; got {arg!r}", "write just `catalog`"
         )
     return CatalogLanguageModel()
+
+
+def _probe(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
+    """What `attribot backends` prints for the catalog: always usable, offline."""
+    if arg is not None:
+        return False, f"the catalog language backend takes no argument; got {arg!r}"
+    return True, f"offline weight/size comparisons over {len(categories())} catalog categories, no model"
+
+
+_build.probe = _probe  # type: ignore[attr-defined]

@@ -469,6 +469,15 @@ def _yes(flag: bool) -> str:
     return "yes" if flag else "no"
 
 
+def _probe(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
+    """What `attribot backends` prints for the oracle: usable on simulator frames only."""
+    try:
+        n = _min_pixels_from(arg)
+    except ConfigError as exc:
+        return False, str(exc)
+    return True, f"ground truth, no model; simulator frames only (needs segmentation), objects >= {n} px"
+
+
 @DETECTORS.register("oracle")
 def _build_detector(arg: str | None, settings: Settings) -> OracleDetector:
     """`oracle` or `oracle:N`: ground-truth detection, objects need N visible pixels (default 30)."""
@@ -479,3 +488,7 @@ def _build_detector(arg: str | None, settings: Settings) -> OracleDetector:
 def _build_vqa(arg: str | None, settings: Settings) -> OracleVQA:
     """`oracle` or `oracle:N`: ground-truth templated VQA, objects need N visible pixels (default 30)."""
     return OracleVQA(_min_pixels_from(arg))
+
+
+_build_detector.probe = _probe  # type: ignore[attr-defined]
+_build_vqa.probe = _probe  # type: ignore[attr-defined]
