@@ -122,12 +122,21 @@ def _rot_world_to_head(pan: float, tilt: float, v: np.ndarray) -> np.ndarray:
 
 
 class BallWorld(Embodiment):
-    """Spheres, a pan/tilt camera at (0, 0, CAM_HEIGHT) on a fixed base, a rangefinder and a force sensor."""
+    """Spheres, a pan/tilt head with axes at (0, 0, CAM_HEIGHT) on a fixed base carrying a camera (at
+    `cam_offset` from the axes: parallax), a rangefinder along its optical axis and a force sensor."""
 
     name = "balls"
 
-    def __init__(self, balls: Sequence[Ball], *, tilt_limit: float = 0.9, force_bias: float = 0.3) -> None:
+    def __init__(
+        self,
+        balls: Sequence[Ball],
+        *,
+        tilt_limit: float = 0.9,
+        force_bias: float = 0.3,
+        cam_offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
         self.balls = {b.id: b for b in balls}
+        self.cam_offset = np.asarray(cam_offset)  # optical centre from the pan/tilt axes, head frame
         self.pan = self.tilt = 0.0
         self.target = (0.0, 0.0)
         self.tilt_limit = tilt_limit
@@ -142,7 +151,8 @@ class BallWorld(Embodiment):
         return frozenset({c.CAMERA, c.HEAD, c.POSE, c.DISTANCE, c.FORCE, c.GRIPPER, c.BASE})
 
     def camera_position(self) -> np.ndarray:
-        return np.array([self.base.x, self.base.y, CAM_HEIGHT])
+        axes = np.array([self.base.x, self.base.y, CAM_HEIGHT])
+        return axes + _rot_head_to_world(self.pan, self.tilt, self.cam_offset)
 
     def boxes(self) -> list[Detection]:
         """Each visible ball's projected bounding box at the current head pose."""

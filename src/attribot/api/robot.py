@@ -21,6 +21,7 @@ from attribot.api.perception import Perception
 from attribot.control.base import Capture, Controller, Target, build_controller
 from attribot.embodiments.base import Capability, Embodiment
 from attribot.errors import InputError, UnsupportedAction
+from attribot.frame import CameraInfo
 
 __all__ = ["Robot", "Measurement", "SENSORS", "GRAVITY", "check_sensors"]
 
@@ -74,6 +75,8 @@ class Robot:
     HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("world", "controller", "held", "measurements", "capture")
     HOST_METHODS: ClassVar[tuple[str, ...]] = ("for_world", "look", "backend_name")
 
+    FOCUS_CORRECTIONS: ClassVar[int] = 3
+    FOCUS_TOL_PX: ClassVar[float] = 1.5
     FORCE_SAMPLES: ClassVar[int] = 10
     FORCE_SAMPLE_S: ClassVar[float] = 0.05
 
@@ -164,6 +167,53 @@ class Robot:
             )
         return p, target
 
+    def _focus(self, patch: ImagePatch, target: Target) -> None:
+        """Point the camera at `target`, then check in fresh images that the object sits at the image
+        centre and correct up to FOCUS_CORRECTIONS times: this absorbs what the controller's geometry
+        ignores (the camera's offset from the head axes, head tracking error)."""
+        self.controller.focus_on(target)
+        for _ in range(self.FOCUS_CORRECTIONS):
+            seen = self._reacquire(patch)
+            if seen is None:
+                return  # the detector cannot find it again (or it has no name): keep the geometric aim
+            cam = seen.capture.camera
+            u, v = seen.center
+            if math.hypot(u - cam.cx, v - cam.cy) <= self.FOCUS_TOL_PX:
+                return
+            self.controller.focus_on(seen)
+
+    def _reacquire(self, patch: ImagePatch) -> Target | None:
+        """The object of `patch` in a new camera image: by world id when known, else the detection of
+        the same name nearest the image centre (where the aim put it), within a quarter of the image."""
+        if not patch.label or self.world is None or "pose" not in {str(c) for c in self.world.capabilities()}:
+            return None
+        frame = self.world.observe()
+        cam = frame.camera or _camera_info(self.world)
+        if cam is None:
+            return None
+        js = self.world.joint_states()
+        pose = self.world.base_pose()
+        capture = Capture(
+            index=self._captures,
+            camera=cam,
+            head=(float(js["head_pan"]), float(js["head_tilt"])),
+            base=(float(pose.x), float(pose.y), float(pose.yaw)),
+        )
+        self._captures += 1
+        detections = patch.perception.detector.detect(frame, [patch.label])
+        if patch.object_id is not None:
+            same = [d for d in detections if d.object_id == patch.object_id]
+        else:
+            radius = min(cam.width, cam.height) / 4.0
+            same = sorted(
+                (d for d in detections if _dist_to_center(d.box, cam) <= radius),
+                key=lambda d: _dist_to_center(d.box, cam),
+            )
+        if not same:
+            return None
+        d = same[0]
+        return Target(box=d.box, capture=capture, object_id=patch.object_id, label=patch.label)
+
     # ---- methods (for programs) --------------------------------------------------------------------
     def focus_on_patch(self, patch: ImagePatch) -> None:
         """Turns the camera so that the centre of the image looks at the centre of `patch`.
@@ -175,8 +225,8 @@ class Robot:
         >>>     return clock
         """
         self._need("focus_on_patch")
-        _, target = self._target(patch, "focus_on_patch")
-        self.controller.focus_on(target)
+        p, target = self._target(patch, "focus_on_patch")
+        self._focus(p, target)
 
     def measure_distance(self, patch: ImagePatch) -> float:
         """Returns the distance in metres from the robot's camera to the object in `patch`, measured with the
@@ -196,7 +246,7 @@ class Robot:
         """
         self._need("measure_distance")
         p, target = self._target(patch, "measure_distance")
-        self.controller.focus_on(target)
+        self._focus(p, target)
         assert self.world is not None  # _target checked it
         metres = float(self.world.read_distance())
         if not math.isfinite(metres) or metres < 0:
@@ -405,6 +455,10 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
     if "camera" not in out:
         out.insert(0, "camera")  # every robot here sees through its camera: the image is the program's input
     return out
+
+
+def _dist_to_center(box: tuple[float, float, float, float], cam: CameraInfo) -> float:
+    return math.hypot((box[0] + box[2]) / 2.0 - cam.cx, (box[1] + box[3]) / 2.0 - cam.cy)
 
 
 def _camera_info(world: Embodiment) -> Any:
