@@ -235,7 +235,8 @@ def test_build_controller_registry():
 
 
 def test_focus_corrects_the_parallax_of_a_camera_off_the_head_axes():
-    """A camera 25 cm in front of, 10 cm left of and 15 cm above the axes: the geometric aim alone misses; re-detection fixes it."""
+    """A camera 25 cm in front of, 10 cm left of, 15 cm above the head axes: the geometric aim alone
+    misses by pixels; re-detecting the object and correcting centres it."""
 
     def centre_error(corrections: int) -> tuple[float, float, float]:
         world = BallWorld(BALLS, cam_offset=(0.25, 0.10, 0.15))
