@@ -28,6 +28,16 @@ QUERIES = Path("/work/shared/data/paper_queries/queries.jsonl")
         ("Out of the apple, book and laptop, which one is more likely to be the heaviest one?", "laptop"),
         ("out of the apple, book, laptop, which one is the most lightweight", "apple"),
         ("Out of these items: apple, book, laptop, which one is the heaviest?", "laptop"),
+        # what the rules planner and the API examples send
+        (
+            "Out of these items: remote control, lamp, which one is more likely to be the lightest one? "
+            "Answer with the name of one item only.",
+            "remote control",
+        ),
+        (
+            "Out of these items: apple, mug, laptop, which one is usually the heaviest? Name it.",
+            "laptop",
+        ),
         (
             "apple, mug, laptop. Out of these items, which one is more likely to be the heaviest one?",
             "laptop",

@@ -181,6 +181,7 @@ def test_empty_scene_frame_detects_nothing():
         ("What is it?", "laptop"),
         ("What colour is it?", "gray"),
         ("What color is the mug?", "blue"),
+        ("What color is this object?", "gray"),
         ("What is the colour of the green apple?", "green"),
         ("What is the mug's colour?", "blue"),
         ("What color is the dog?", UNKNOWN),
