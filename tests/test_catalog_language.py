@@ -57,7 +57,7 @@ QUERIES = Path("/work/shared/data/paper_queries/queries.jsonl")
         ("Which is bigger, a mug or a pot?", "pot"),
         ("Which is smaller, a mug or a pot?", "mug"),
         ("Which one is heavier: the toaster or the banana?", "toaster"),
-        ("Which is the tallest: a broom, a candle or an egg?", "broom"),
+        ("Which is the longest: a broom, a candle or an egg?", "broom"),
         ("Which is the largest weight, apple or laptop?", "laptop"),
         # yes / no
         ("Is a basketball heavier than an egg?", "yes"),
@@ -77,6 +77,8 @@ QUERIES = Path("/work/shared/data/paper_queries/queries.jsonl")
         ("What is the weight of an apple?", UNKNOWN),  # not a comparison
         ("Out of the apple and the mug, which one is closer to me?", UNKNOWN),  # distance: measure it
         ("Out of the apple and the mug, which one is warmer?", UNKNOWN),
+        ("Out of the apple and the mug, which one is lighter in colour?", UNKNOWN),  # not a weight
+        ("Which is taller, a pan or a mug?", UNKNOWN),  # the catalog has no heights
         ("Out of the apple and the mug, which one is heavier and bigger?", UNKNOWN),  # two properties
         ("Is this lightweight enough to pick up?", UNKNOWN),
         ("hello", UNKNOWN),

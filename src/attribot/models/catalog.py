@@ -46,8 +46,9 @@ _WEIGHT_WORDS = [
     ),
 ]
 _SIZE_WORDS = [
-    (r"biggest|bigger|largest|larger|tallest|taller|longest|longer|(?:most|more) (?:big|large)", +1),
-    (r"smallest|smaller|tiniest|tinier|shortest|shorter|littlest|(?:least|less) (?:big|large)", -1),
+    # the catalog knows each object's longest dimension, not its height: "taller" is left unknown
+    (r"biggest|bigger|largest|larger|longest|longer|(?:most|more) (?:big|large)", +1),
+    (r"smallest|smaller|tiniest|tinier|littlest|(?:least|less) (?:big|large)", -1),
 ]
 _ANY_KEYWORD = "|".join(p for p, _ in _WEIGHT_WORDS + _SIZE_WORDS)
 
@@ -120,6 +121,8 @@ def _normalise(question: str) -> str:
 
 def _property(text: str) -> tuple[str, int] | None:
     """The one (property, direction) the question asks about, or None when none or several."""
+    if re.search(r"\b(?:colou?rs?|shades?|tones?|brightness|darker|darkest|brighter|brightest)\b", text):
+        return None  # "lighter in colour" is not a weight
     found: set[tuple[str, int]] = set()
     rest = text
     for prop, table in (("mass", _WEIGHT_WORDS), ("size", _SIZE_WORDS)):
