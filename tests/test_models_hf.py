@@ -330,3 +330,33 @@ def test_import_attribot_does_not_import_torch():
         "assert 'torch' not in sys.modules and 'transformers' not in sys.modules, 'torch imported'"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+
+
+def test_from_loaded_matches_the_saved_and_loaded_model(models):
+    """The in-memory path (benchmarks, servers) gives what the folder path gives: same seed, same weights."""
+    frame = _frame(40, 60, 19)
+    model, processor = build_random("owlv2-tiny", seed=0)
+    mem = hf.HFDetector.from_loaded(model, processor, threshold=0.0)
+    disk = hf.HFDetector(str(models["owl"]), threshold=0.0)
+    assert mem.family == "owlv2" and _key(mem.detect(frame, ["cat"])) == _key(disk.detect(frame, ["cat"]))
+    vqa_model, vqa_processor = build_random("blip2-tiny", seed=0)
+    vqa = hf.HFVisualQA.from_loaded(vqa_model, vqa_processor, max_new_tokens=4)
+    assert vqa.answer(frame, "what?") == hf.HFVisualQA(str(models["blip2"]), max_new_tokens=4).answer(
+        frame, "what?"
+    )
+    with pytest.raises(ConfigError, match="not a detector"):
+        hf.HFDetector.from_loaded(vqa_model, vqa_processor)
+
+
+def test_gpu_preprocessing_only_for_torchvision_processors():
+    class TorchvisionBackend:  # stands for transformers' base class of that name
+        pass
+
+    class Fast(TorchvisionBackend):
+        pass
+
+    class Pil:
+        pass
+
+    assert hf._device_preprocessing(Fast(), "cuda") and hf._device_preprocessing(Fast(), "cuda:1")
+    assert not hf._device_preprocessing(Fast(), "cpu") and not hf._device_preprocessing(Pil(), "cuda")

@@ -152,6 +152,31 @@ def _load(model: str, family: str, model_class: str, device: str, dtype: str) ->
     return processor, net, dev, dt
 
 
+def _check_options(threshold: float, nms_iou: float) -> None:
+    if not 0.0 <= threshold <= 1.0:
+        raise ConfigError(
+            f"detector threshold {threshold} is outside [0, 1]", "set detector_threshold, e.g. 0.1"
+        )
+    if not 0.0 < nms_iou <= 1.0:
+        raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.5")
+
+
+def _check_family(family: str, allowed: tuple[str, ...], model: str, role: str, example: str) -> None:
+    if family not in allowed:
+        raise ConfigError(
+            f"model {model!r} is a {family!r} model, not {role} model this backend runs", f"use {example}"
+        )
+
+
+def _device_preprocessing(image_processor: Any, device: str) -> bool:
+    """True for image processors built on torchvision (v5 `TorchvisionBackend`, v4 `*Fast`), which take
+    a `device` argument; the PIL/numpy ones run on the CPU whatever we ask."""
+    if not device.startswith("cuda"):
+        return False
+    names = {c.__name__ for c in type(image_processor).__mro__}
+    return bool(names & {"TorchvisionBackend", "BaseImageProcessorFast"})
+
+
 def _clean_queries(queries: Sequence[str]) -> list[str]:
     """Stripped, de-duplicated (order kept) noun phrases; an empty one is an input error."""
     if isinstance(queries, str):
@@ -192,28 +217,80 @@ class HFDetector:
         max_detections: int = 100,
         max_batch: int = 32,
     ) -> None:
-        if not 0.0 <= threshold <= 1.0:
-            raise ConfigError(
-                f"detector threshold {threshold} is outside [0, 1]", "set detector_threshold, e.g. 0.1"
-            )
-        if not 0.0 < nms_iou <= 1.0:
-            raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.5")
+        _check_options(threshold, nms_iou)
         family = model_family(model)
-        if family not in DETECTOR_FAMILIES:
-            raise ConfigError(
-                f"model {model!r} is a {family!r} model, not a detector this backend runs",
-                f"use an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
-            )
+        _check_family(
+            family,
+            DETECTOR_FAMILIES,
+            model,
+            "a detector",
+            f"an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
+        )
         model_class = (
             "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
         )
-        self.processor, self.model, self.device, self.dtype = _load(model, family, model_class, device, dtype)
+        processor, net, dev, dt = _load(model, family, model_class, device, dtype)
+        self._setup(
+            processor, net, dev, dt, family, f"hf:{model}", threshold, nms_iou, max_detections, max_batch
+        )
+
+    @classmethod
+    def from_loaded(
+        cls,
+        model: Any,
+        processor: Any,
+        *,
+        name: str = "hf:in-memory",
+        threshold: float = 0.1,
+        nms_iou: float = 0.5,
+        max_detections: int = 100,
+        max_batch: int = 32,
+    ) -> HFDetector:
+        """A detector over a model and processor already in memory, on the model's device and dtype
+        (benchmarks of real-size random models; a server sharing one model)."""
+        _check_options(threshold, nms_iou)
+        family = str(model.config.model_type)
+        _check_family(family, DETECTOR_FAMILIES, name, "a detector", "an OWLv2 or Grounding DINO model")
+        param = next(model.parameters())
+        self = cls.__new__(cls)
+        self._setup(
+            processor,
+            model.eval(),
+            str(param.device),
+            param.dtype,
+            family,
+            name,
+            threshold,
+            nms_iou,
+            max_detections,
+            max_batch,
+        )
+        return self
+
+    def _setup(
+        self,
+        processor: Any,
+        model: Any,
+        device: str,
+        dtype: Any,
+        family: str,
+        name: str,
+        threshold: float,
+        nms_iou: float,
+        max_detections: int,
+        max_batch: int,
+    ) -> None:
+        self.processor, self.model, self.device, self.dtype = processor, model, device, dtype
         self.family = family
-        self.name = f"hf:{model}"
+        self.name = name
         self.threshold = float(threshold)
         self.nms_iou = float(nms_iou)
         self.max_detections = int(max_detections)
         self.max_batch = max(1, int(max_batch))
+        # torchvision-backed image processors can resize and normalise on the GPU
+        self._image_kwargs = (
+            {"device": device} if _device_preprocessing(processor.image_processor, device) else {}
+        )
 
     # ---- public -----------------------------------------------------------------------------------
 
@@ -257,12 +334,17 @@ class HFDetector:
         self, rgbs: list[np.ndarray], labels: list[list[str]]
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         torch = _torch()
-        inputs = self.processor(text=labels, images=rgbs, return_tensors="pt", truncation=True)
+        # What Owlv2Processor does with nested queries, done here so that the image half can run on the
+        # GPU: every image gets as many queries as the longest list, padded with " " (masked below)
+        width = max(len(lab) for lab in labels)
+        texts = [q for lab in labels for q in lab + [" "] * (width - len(lab))]
+        enc = self.processor.tokenizer(texts, padding="max_length", truncation=True, return_tensors="pt")
+        pixels = self.processor.image_processor(rgbs, return_tensors="pt", **self._image_kwargs)
         with torch.inference_mode():
             out = self.model(
-                input_ids=inputs["input_ids"].to(self.device),
-                attention_mask=inputs["attention_mask"].to(self.device),
-                pixel_values=inputs["pixel_values"].to(self.device, self.dtype),
+                input_ids=enc["input_ids"].to(self.device),
+                attention_mask=enc["attention_mask"].to(self.device),
+                pixel_values=pixels["pixel_values"].to(self.device, self.dtype),
             )
             logits = out.logits.float()  # (B, boxes, max queries); short query lists are padded with " "
             n_labels = torch.tensor([len(lab) for lab in labels], device=logits.device)
@@ -305,7 +387,7 @@ class HFDetector:
                 "save the model with its tokenizer.json",
             ) from exc
         offsets = enc.pop("offset_mapping").tolist()
-        pixels = self.processor.image_processor(rgbs, return_tensors="pt")
+        pixels = self.processor.image_processor(rgbs, return_tensors="pt", **self._image_kwargs)
         model_inputs = {k: v.to(self.device) for k, v in enc.items()}
         model_inputs["pixel_values"] = pixels["pixel_values"].to(self.device, self.dtype)
         if "pixel_mask" in pixels:
@@ -390,17 +472,41 @@ class HFVisualQA:
         max_batch: int = 32,
     ) -> None:
         family = model_family(model)
-        if family not in VQA_FAMILIES:
-            raise ConfigError(
-                f"model {model!r} is a {family!r} model, not a VQA model this backend runs",
-                f"use a BLIP-2 model, e.g. {_EXAMPLES['vqa']}",
-            )
-        self.processor, self.model, self.device, self.dtype = _load(
-            model, family, "Blip2ForConditionalGeneration", device, dtype
-        )
+        _check_family(family, VQA_FAMILIES, model, "a VQA", f"a BLIP-2 model, e.g. {_EXAMPLES['vqa']}")
+        processor, net, dev, dt = _load(model, family, "Blip2ForConditionalGeneration", device, dtype)
+        self._setup(processor, net, dev, dt, f"hf:{model}", max_new_tokens, max_batch)
+
+    @classmethod
+    def from_loaded(
+        cls,
+        model: Any,
+        processor: Any,
+        *,
+        name: str = "hf:in-memory",
+        max_new_tokens: int = 10,
+        max_batch: int = 32,
+    ) -> HFVisualQA:
+        """VQA over a BLIP-2 model and processor already in memory, on the model's device and dtype."""
+        _check_family(str(model.config.model_type), VQA_FAMILIES, name, "a VQA", "a BLIP-2 model")
+        param = next(model.parameters())
+        self = cls.__new__(cls)
+        self._setup(processor, model.eval(), str(param.device), param.dtype, name, max_new_tokens, max_batch)
+        return self
+
+    def _setup(
+        self,
+        processor: Any,
+        model: Any,
+        device: str,
+        dtype: Any,
+        name: str,
+        max_new_tokens: int,
+        max_batch: int,
+    ) -> None:
+        self.processor, self.model, self.device, self.dtype = processor, model, device, dtype
         # decoder-only language models continue the last token: pad on the left
         self.processor.tokenizer.padding_side = "left"
-        self.name = f"hf:{model}"
+        self.name = name
         self.max_new_tokens = int(max_new_tokens)
         self.max_batch = max(1, int(max_batch))
 
