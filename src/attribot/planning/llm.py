@@ -10,6 +10,7 @@ and costs nothing.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import os
 import tempfile
@@ -27,8 +28,9 @@ if TYPE_CHECKING:
 
 __all__ = ["LLMPlanner", "ReplyCache", "PromptBuilder", "feedback_message", "cache_key"]
 
-PromptBuilder = Callable[[str, Sequence[str]], "str | list[dict[str, str]]"]
-"""`(query, sensors) -> prompt`: the whole prompt as one user message, or a list of chat messages."""
+PromptBuilder = Callable[..., "str | list[dict[str, str]]"]
+"""`(query, sensors[, embodied=...]) -> prompt`: the whole prompt as one user message, or a list of chat
+messages. `embodied` is passed when the builder accepts it."""
 
 _OUTPUT_TAIL = 1500  # characters of program output sent back: enough to see what it printed last
 
@@ -118,7 +120,11 @@ class LLMPlanner:
     def messages(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> list[dict[str, str]]:
         """The chat messages for `request`: the prompt, then each failed attempt and its error."""
         query = check_query(request.query)
-        prompt = self._builder()(query, list(request.sensors))
+        builder = self._builder()
+        if _takes_embodied(builder):
+            prompt = builder(query, list(request.sensors), embodied=request.embodied)
+        else:
+            prompt = builder(query, list(request.sensors))
         if isinstance(prompt, str):
             messages = [{"role": "user", "content": prompt}]
         else:
@@ -174,6 +180,15 @@ class LLMPlanner:
                 self.settings.llm_base_url, self.settings.llm_api_key, self.settings.llm_timeout_s, self.http_retries
             )
         return self._client
+
+
+def _takes_embodied(builder: Callable[..., Any]) -> bool:
+    """Whether the prompt builder accepts `embodied=` (the API's does: no robot actions on a still image)."""
+    try:
+        parameters = inspect.signature(builder).parameters
+    except (TypeError, ValueError):
+        return False
+    return "embodied" in parameters or any(p.kind is p.VAR_KEYWORD for p in parameters.values())
 
 
 @PLANNERS.register("llm")

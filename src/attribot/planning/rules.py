@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import re
+import unicodedata
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
@@ -204,13 +205,18 @@ _STOP = {
 }
 
 
-def _normalize(query: str) -> str:
-    text = query.lower().replace("\u2019", "'").replace("-", " ")
+def _normalize(query: str) -> str | None:
+    """Lower case, accents folded, punctuation to spaces, polite openings and articles dropped; None when
+    the text holds letters outside a-z (another script), which the planner cannot read."""
+    text = unicodedata.normalize("NFKD", query.lower().replace("\u2019", "'").replace("-", " "))
+    text = "".join(ch for ch in text if not unicodedata.combining(ch))
+    if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
+        return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
     # polite or imperative openings carry no meaning for the plan
     lead = r"^(?:please\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|give\s+me|locate|" \
-        r"detect|identify|where\s+is|which\s+is|what\s+is|grab)\s+"
+        r"detect|identify|where\s+is|grab)\s+"
     text = re.sub(lead, "", text)
     return _strip_article(text)
 
@@ -503,9 +509,16 @@ def parse_query(query: str) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text)."""
     original = check_query(query)
     text = _normalize(original)
+    if text is None:
+        raise UnsupportedQuery(original, "it has letters outside the English alphabet")
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
-    for parser in (_parse_compare, _parse_location, _parse_size, _parse_superlative):
+    parsed = _parse_compare(text)
+    if parsed is not None:
+        return parsed
+    # "which is the second dog from the right" asks for the same as "the second dog from the right"
+    text = _strip_article(re.sub(r"^(?:which|what)\s+(?:one\s+)?(?:is|are)\s+", "", text))
+    for parser in (_parse_location, _parse_size, _parse_superlative):
         parsed = parser(text)
         if parsed is not None:
             return parsed
@@ -591,12 +604,11 @@ def _sorted(group: str, key: str, reverse: bool) -> str:
 
 def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     """`var = image.find(noun)`, the colour filter, and the "none found" error."""
-    what = "object" if obj.generic else obj.noun
     w.line(f"{var} = image.find({_q(obj.noun)})")
     for color in obj.colors:
         w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask about each")
         w.line(
-            f"{var} = [patch for patch in {var} if {_q(color)} in patch.visual_query({_q('What color is this ' + what + '?')}).lower()]"
+            f"{var} = [patch for patch in {var} if {_q(color)} in patch.visual_query(\"What color is this object?\").lower()]"
         )
     w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
 
