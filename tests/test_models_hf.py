@@ -65,6 +65,14 @@ def _key(dets):
     return [(d.label, tuple(round(v, 3) for v in d.box), round(d.score, 5)) for d in dets]
 
 
+def _same(a, b) -> bool:
+    """Same detections up to float noise (batched kernels sum in another order)."""
+    return len(a) == len(b) and all(
+        x.label == y.label and np.allclose(x.box, y.box, atol=1e-2) and abs(x.score - y.score) < 1e-4
+        for x, y in zip(a, b, strict=True)
+    )
+
+
 def _check_detections(dets, frame: Frame, labels, threshold: float) -> None:
     assert dets, "expected some detections"
     scores = [d.score for d in dets]
@@ -143,11 +151,11 @@ def test_owl_batch_equals_one_by_one(models):
     batched = det.detect_batch(frames, queries)
     assert batched[2] == []
     for f, q, got in zip(frames, queries, batched, strict=True):
-        assert _key(got) == _key(det.detect(f, q))
+        assert _same(got, det.detect(f, q))
         if got:  # random weights may put every box of a flat image outside it
             _check_detections(got, f, set(q), 0.0)
     assert sum(len(b) for b in batched) > 0
-    assert [_key(x) for x in detect_many(det, frames, queries)] == [_key(x) for x in batched]
+    assert all(_same(x, y) for x, y in zip(detect_many(det, frames, queries), batched, strict=True))
 
 
 def test_owl_duplicate_and_spaced_queries_are_merged(models):
@@ -196,7 +204,7 @@ def test_gdino_batch_equals_one_by_one_and_groups_sizes(models):
     assert [len(c) for c in det._chunks(frames, [0, 1, 2])] == [2, 1]
     batched = det.detect_batch(frames, queries)
     for f, q, got in zip(frames, queries, batched, strict=True):
-        assert _key(got) == _key(det.detect(f, q))
+        assert _same(got, det.detect(f, q))
 
 
 def test_gdino_threshold_and_nms(models):
@@ -338,7 +346,7 @@ def test_from_loaded_matches_the_saved_and_loaded_model(models):
     model, processor = build_random("owlv2-tiny", seed=0)
     mem = hf.HFDetector.from_loaded(model, processor, threshold=0.0)
     disk = hf.HFDetector(str(models["owl"]), threshold=0.0)
-    assert mem.family == "owlv2" and _key(mem.detect(frame, ["cat"])) == _key(disk.detect(frame, ["cat"]))
+    assert mem.family == "owlv2" and _same(mem.detect(frame, ["cat"]), disk.detect(frame, ["cat"]))
     vqa_model, vqa_processor = build_random("blip2-tiny", seed=0)
     vqa = hf.HFVisualQA.from_loaded(vqa_model, vqa_processor, max_new_tokens=4)
     assert vqa.answer(frame, "what?") == hf.HFVisualQA(str(models["blip2"]), max_new_tokens=4).answer(
