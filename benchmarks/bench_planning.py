@@ -1,0 +1,82 @@
+"""Rules planner latency per query over the paper's corpus, as a ratio to references in the same run.
+
+References: `compile()` of the very program the planner produced (what any planner's output costs before
+it can run), and, when the runner is installed, its static policy check `check_program`. Each figure is
+the median over rounds of the mean time per query.
+
+    .venv/bin/python benchmarks/bench_planning.py [--rounds 7] [--corpus PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from attribot.planning.rules import UnsupportedQuery, rules_program
+
+DEFAULT_CORPUS = Path("/work/shared/data/paper_queries/queries.jsonl")
+
+
+def load_queries(path: Path) -> list[str]:
+    queries = []
+    for line in path.read_text().splitlines():
+        if not line.strip():
+            continue
+        row = json.loads(line)
+        if row["task"] == "ai2thor_weight_scene_items":
+            queries.append(f"Out of the {row['items']}, which one is the most lightweight?")
+        elif "query" in row:
+            queries.append(row["query"])
+    return queries
+
+
+def per_item_us(fn: Callable[[str], object], items: Sequence[str], rounds: int) -> float:
+    """Median over rounds of the mean microseconds per item."""
+    samples = []
+    for _ in range(rounds):
+        start = time.perf_counter_ns()
+        for item in items:
+            fn(item)
+        samples.append((time.perf_counter_ns() - start) / len(items) / 1000)
+    return statistics.median(samples)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--corpus", type=Path, default=DEFAULT_CORPUS)
+    args = parser.parse_args()
+
+    queries = load_queries(args.corpus)
+    programs, readable = [], []
+    for query in queries:
+        try:
+            programs.append(rules_program(query))
+            readable.append(query)
+        except UnsupportedQuery:
+            pass
+    # warm both paths once (regex compilation, imports)
+    for q in readable:
+        rules_program(q)
+    plan_us = per_item_us(rules_program, readable, args.rounds)
+    compile_us = per_item_us(lambda src: compile(src, "<program>", "exec"), programs, args.rounds)
+    print(f"corpus: {len(queries)} queries, {len(readable)} parsed, rounds: {args.rounds}")
+    print(f"rules planner: {plan_us:.1f} us/query")
+    print(f"reference compile() of the produced program: {compile_us:.1f} us/program")
+    print(f"ratio rules planner / compile(): {plan_us / compile_us:.2f}")
+    try:
+        from attribot.runner import check_program
+    except ImportError:
+        print("runner check_program: not installed, skipped")
+        return
+    check_us = per_item_us(check_program, programs, args.rounds)
+    print(f"reference runner check_program(): {check_us:.1f} us/program")
+    print(f"ratio rules planner / check_program(): {plan_us / check_us:.2f}")
+
+
+if __name__ == "__main__":
+    main()
