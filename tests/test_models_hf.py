@@ -368,3 +368,45 @@ def test_gpu_preprocessing_only_for_torchvision_processors():
 
     assert hf._device_preprocessing(Fast(), "cuda") and hf._device_preprocessing(Fast(), "cuda:1")
     assert not hf._device_preprocessing(Fast(), "cpu") and not hf._device_preprocessing(Pil(), "cuda")
+
+
+def test_gpu_benchmark_code_path_runs_with_tiny_models(capsys, tmp_path):
+    """benchmarks/bench_models.py --tiny runs the --real-size code (build on a device, forward inputs of
+    the processors' shapes, the backends end to end) with tiny models, so the GPU run cannot fail on
+    something a CPU would catch."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_models.py"
+    spec = importlib.util.spec_from_file_location("bench_models", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    out = tmp_path / "rows.json"
+    bench.main(
+        [
+            "--tiny",
+            "--device",
+            "cpu",
+            "--batches",
+            "1,2",
+            "--warmup",
+            "0",
+            "--iters",
+            "1",
+            "--models",
+            "grounding-dino-t,blip2-opt-2.7b",
+            "--json",
+            str(out),
+        ]
+    )
+    import json
+
+    rows = json.loads(out.read_text())
+    assert {(r["model"], r["part"], r["batch"]) for r in rows} == {
+        (m, p, b)
+        for m in ("grounding-dino-t", "blip2-opt-2.7b")
+        for p in ("forward", "backend")
+        for b in (1, 2)
+    }
+    assert all("skipped" not in r and r["ms_per_image"] > 0 for r in rows), rows
+    assert "vs own batch 1" in capsys.readouterr().out
