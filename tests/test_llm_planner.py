@@ -30,7 +30,9 @@ def completion(content: str) -> dict:
         "object": "chat.completion",
         "created": 0,
         "model": "test-model",
-        "choices": [{"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}],
+        "choices": [
+            {"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}
+        ],
         "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2},
     }
 
@@ -60,7 +62,8 @@ def bodies(httpserver) -> list[dict]:
         f"```python\n{PROGRAM}```",
         f"Here is the program.\n\n```py\n{PROGRAM}```\nIt sorts the cups from the left.",
         f"Sure:\n{PROGRAM}\nThat returns the second cup.",
-        f"```python\ndef execute_command(image, robot):\n    return None\n```\nFixed:\n```python\n{PROGRAM}```",
+        f"```python\ndef execute_command(image, robot):\n    return None\n```\n"
+        f"Fixed:\n```python\n{PROGRAM}```",
     ],
     ids=["fenced", "prose-around", "bare", "several-blocks"],
 )
@@ -81,8 +84,11 @@ def test_the_program_is_extracted_and_the_request_is_what_was_configured(httpser
         ('{"choices": [', "application/json", "not JSON"),
         ("<html>Bad gateway</html>", "text/html", "no text content"),
         ('{"choices": []}', "application/json", "no text content"),
-        (json.dumps({"choices": [{"index": 0, "message": {"role": "assistant", "content": None}}]}),
-         "application/json", "no text content"),
+        (
+            json.dumps({"choices": [{"index": 0, "message": {"role": "assistant", "content": None}}]}),
+            "application/json",
+            "no text content",
+        ),
     ],
     ids=["truncated-json", "html", "no-choices", "null-content"],
 )
@@ -145,7 +151,10 @@ def test_a_reply_without_code_goes_back_to_the_model(httpserver, tmp_path):
     messages = bodies(httpserver)[-1]["messages"]
     assert [m["role"] for m in messages] == ["user", "assistant", "user"]
     assert messages[1]["content"] == refusal
-    assert "no code in the reply" in messages[2]["content"] and "I'm sorry, but I can't see any image." in messages[2]["content"]
+    assert (
+        "no code in the reply" in messages[2]["content"]
+        and "I'm sorry, but I can't see any image." in messages[2]["content"]
+    )
     assert "```python" in messages[2]["content"]
 
 
@@ -159,8 +168,13 @@ def test_runner_errors_are_fed_back_and_the_model_asked_again(httpserver, tmp_pa
     fixed = PROGRAM.replace("cups[1]", "cups[1] if len(cups) > 1 else cups[0]")
     httpserver.expect_ordered_request(PATH).respond_with_json(completion(f"```python\n{PROGRAM}```"))
     httpserver.expect_ordered_request(PATH).respond_with_json(completion(f"```python\n{fixed}```"))
-    error = RunError(category="runtime", message="IndexError: list index out of range", line=3,
-                     snippet="    return cups[1]", output="looking for cups\n")
+    error = RunError(
+        category="runtime",
+        message="IndexError: list index out of range",
+        line=3,
+        snippet="    return cups[1]",
+        output="looking for cups\n",
+    )
     results = iter([Result(False, error), Result(True)])
     runs = []
     outcome = solve(make_planner(httpserver, tmp_path), REQUEST, lambda p: runs.append(p) or next(results), 3)
@@ -168,7 +182,12 @@ def test_runner_errors_are_fed_back_and_the_model_asked_again(httpserver, tmp_pa
     second = bodies(httpserver)[1]["messages"]
     assert second[1] == {"role": "assistant", "content": f"```python\n{PROGRAM}```"}
     feedback = second[2]["content"]
-    for part in ("IndexError: list index out of range", "runtime error, line 3", "return cups[1]", "looking for cups"):
+    for part in (
+        "IndexError: list index out of range",
+        "runtime error, line 3",
+        "return cups[1]",
+        "looking for cups",
+    ):
         assert part in feedback
 
 
@@ -185,7 +204,9 @@ def test_the_cache_makes_a_rerun_free_and_reproducible(httpserver, tmp_path):
     assert not [f for f in files if f.name.startswith(".tmp-")]  # atomic writes leave no debris
 
 
-@pytest.mark.parametrize("garbage", [b"", b"{not json", b'{"key": "other", "reply": "x"}', b"\xff\xfe", b"[1, 2]"])
+@pytest.mark.parametrize(
+    "garbage", [b"", b"{not json", b'{"key": "other", "reply": "x"}', b"\xff\xfe", b"[1, 2]"]
+)
 def test_a_corrupt_cache_file_is_ignored_and_rewritten(httpserver, tmp_path, garbage):
     httpserver.expect_request(PATH).respond_with_json(completion(f"```python\n{PROGRAM}```"))
     planner = make_planner(httpserver, tmp_path)

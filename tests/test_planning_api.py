@@ -39,7 +39,11 @@ def run(query: str, frame: Frame):
 
 def test_second_mug_from_the_right_in_the_second_to_last_row():
     # three rows of four mugs (y down in pixels); the program must return mug-5 (middle row, 2nd from right)
-    objects = [("mug", "white", (60 + c * 120, 40 + r * 140, 120 + c * 120, 110 + r * 140)) for r in range(3) for c in range(4)]
+    objects = [
+        ("mug", "white", (60 + c * 120, 40 + r * 140, 120 + c * 120, 110 + r * 140))
+        for r in range(3)
+        for c in range(4)
+    ]
     chosen = run("the second mug from the right in the second to last row", frame_with(objects))
     assert chosen.object_id == "mug-6"  # row 1 (0-based from the top), column 2 from the left
 
@@ -55,16 +59,23 @@ def test_smallest_red_apple_uses_the_oracle_colour_answers():
 
 
 def test_heaviest_item_through_vqa_and_the_catalog_language_model():
-    objects = [("apple", "red", (40, 200, 100, 260)), ("laptop", "gray", (200, 150, 400, 300)),
-               ("pencil", "yellow", (450, 250, 600, 262))]
+    objects = [
+        ("apple", "red", (40, 200, 100, 260)),
+        ("laptop", "gray", (200, 150, 400, 300)),
+        ("pencil", "yellow", (450, 250, 600, 262)),
+    ]
     chosen = run("the heaviest item", frame_with(objects))
     assert chosen.object_id == "laptop-1"
-    lightest = run("Out of the apple, the laptop and the pencil, which one is the most lightweight?", frame_with(objects))
+    lightest = run(
+        "Out of the apple, the laptop and the pencil, which one is the most lightweight?", frame_with(objects)
+    )
     assert lightest.object_id == "pencil-2"
 
 
 def test_long_follows_orientation_with_real_patches():
-    objects = [("carrot", "orange", (50, 100, 70, 180)),  # upright, 80 long
-               ("carrot", "orange", (200, 300, 320, 318))]  # lying, 120 long but only 18 tall
+    objects = [
+        ("carrot", "orange", (50, 100, 70, 180)),  # upright, 80 long
+        ("carrot", "orange", (200, 300, 320, 318)),
+    ]  # lying, 120 long but only 18 tall
     assert run("the longest carrot", frame_with(objects)).object_id == "carrot-1"
     assert run("the tallest carrot", frame_with(objects)).object_id == "carrot-0"

@@ -32,7 +32,9 @@ class Result:  # what the runner's RunResult offers the loop: ok and a structure
 
 
 def failing(message: str, line: int | None = 2) -> Result:
-    return Result(False, RunError(category="runtime", message=message, line=line, snippet="x = y[3]", output=""))
+    return Result(
+        False, RunError(category="runtime", message=message, line=line, snippet="x = y[3]", output="")
+    )
 
 
 class ScriptedPlanner:
@@ -103,7 +105,9 @@ def test_a_reply_without_code_is_a_try_and_goes_back_as_feedback():
 
 
 def test_no_program_ever_leaves_no_result_and_names_the_error():
-    outcome = solve(ScriptedPlanner([None, None]), REQUEST, lambda p: pytest.fail("nothing to run"), max_tries=2)
+    outcome = solve(
+        ScriptedPlanner([None, None]), REQUEST, lambda p: pytest.fail("nothing to run"), max_tries=2
+    )
     assert outcome.result is None and not outcome.ok and outcome.program is None
     assert "no code" in outcome.error.message
 
@@ -147,13 +151,21 @@ ENTRY = "def execute_command(image, robot):\n    return image.find('cup')[0]\n"
         (f"Sure! The program is:\n{ENTRY}\nIt finds the cup and returns it.", ENTRY),
         (f"import math\n{ENTRY}", f"import math\n{ENTRY}"),
         # a draft, then the fix: the last block that defines the entry point and parses wins
-        (f"```python\ndef execute_command(image, robot):\n    return 0\n```\nBetter:\n```python\n{ENTRY}```", ENTRY),
+        (
+            "```python\ndef execute_command(image, robot):\n    return 0\n```\n"
+            f"Better:\n```python\n{ENTRY}```",
+            ENTRY,
+        ),
         # a broken block after a good one: the good one
         (f"```python\n{ENTRY}```\n```python\ndef execute_command(image, robot):\n    return (\n```", ENTRY),
         # a usage example in another language is ignored
         (f"```python\n{ENTRY}```\n```bash\nattribot ask 'the cup'\n```", ENTRY),
         # example calls for a reader are dropped
-        (f"```python\n{ENTRY}\nprint(execute_command(image, robot))\nif __name__ == '__main__':\n    execute_command(1, 2)\n```", ENTRY),
+        (
+            f"```python\n{ENTRY}\nprint(execute_command(image, robot))\n"
+            "if __name__ == '__main__':\n    execute_command(1, 2)\n```",
+            ENTRY,
+        ),
     ],
 )
 def test_extraction_reads_the_usual_shapes(reply, expected):
@@ -162,7 +174,8 @@ def test_extraction_reads_the_usual_shapes(reply, expected):
 
 def test_helpers_from_another_block_come_along():
     reply = (
-        "First a helper:\n```python\ndef leftmost(patches):\n    return min(patches, key=lambda p: p.left)\n```\n"
+        "First a helper:\n```python\ndef leftmost(patches):\n"
+        "    return min(patches, key=lambda p: p.left)\n```\n"
         "Then:\n```python\ndef execute_command(image, robot):\n    return leftmost(image.find('cup'))\n```"
     )
     program = extract_program(reply)
@@ -177,7 +190,10 @@ def test_helpers_from_another_block_come_along():
     [
         ("", "the reply is empty"),
         ("   \n ", "the reply is empty"),
-        ("I am sorry, I cannot see the image.\nPlease send it.", "no code in the reply.*I am sorry, I cannot see the image"),
+        (
+            "I am sorry, I cannot see the image.\nPlease send it.",
+            "no code in the reply.*I am sorry, I cannot see the image",
+        ),
         ("```python\ndef solve(image):\n    return 1\n```", "does not define execute_command"),
         ("```python\ndef execute_command(image):\n    return 1\n```", "takes 1 argument"),
         ("```python\nif True:\n    def execute_command(image, robot):\n        return 1\n```", "top level"),

@@ -19,7 +19,9 @@ CORPUS = Path("/work/shared/data/paper_queries/queries.jsonl")
 if not CORPUS.is_file():  # the corpus lies beside the repository, not in it
     CORPUS = Path(__file__).resolve().parents[2] / "shared/data/paper_queries/queries.jsonl"
 
-pytestmark = pytest.mark.skipif(not CORPUS.is_file(), reason="the paper's query corpus is not on this machine")
+pytestmark = pytest.mark.skipif(
+    not CORPUS.is_file(), reason="the paper's query corpus is not on this machine"
+)
 
 SENSOR_SETS = [(("camera",), False), (("camera", "distance", "force"), True)]
 
@@ -32,11 +34,36 @@ try:
     API_METHODS = set(ImagePatch.API_METHODS) | set(Robot.API_METHODS)
     API_ATTRIBUTES = set(ImagePatch.API_ATTRIBUTES) | set(Robot.API_ATTRIBUTES)
 except ImportError:  # the API is built alongside; the contract's names stand in
-    API_METHODS = {"find", "exists", "visual_query", "language_query", "crop", "overlaps", "distance_to",
-                   "focus_on_patch", "measure_distance", "measure_weight", "go_to_coords", "go_to_object",
-                   "pick_up", "put_down", "put_on", "push"}
-    API_ATTRIBUTES = {"left", "lower", "right", "upper", "width", "height", "horizontal_center",
-                      "vertical_center", "area", "sensors"}
+    API_METHODS = {
+        "find",
+        "exists",
+        "visual_query",
+        "language_query",
+        "crop",
+        "overlaps",
+        "distance_to",
+        "focus_on_patch",
+        "measure_distance",
+        "measure_weight",
+        "go_to_coords",
+        "go_to_object",
+        "pick_up",
+        "put_down",
+        "put_on",
+        "push",
+    }
+    API_ATTRIBUTES = {
+        "left",
+        "lower",
+        "right",
+        "upper",
+        "width",
+        "height",
+        "horizontal_center",
+        "vertical_center",
+        "area",
+        "sensors",
+    }
 VALUE_METHODS = {"append", "sort", "lower", "strip", "startswith", "replace", "split", "join"}
 SAFE_BUILTINS = {"len", "sorted", "min", "max", "str", "range", "abs", "ValueError", "math"}
 
@@ -57,8 +84,18 @@ def static_check(source: str) -> None:
     """The program compiles, keeps to the allowed syntax and uses only API names and plain values."""
     compile(source, "<program>", "exec")
     tree = ast.parse(source)
-    banned = (ast.Try, ast.ClassDef, ast.With, ast.Yield, ast.YieldFrom, ast.Global, ast.Nonlocal,
-              ast.AsyncFunctionDef, ast.Await, ast.ImportFrom)
+    banned = (
+        ast.Try,
+        ast.ClassDef,
+        ast.With,
+        ast.Yield,
+        ast.YieldFrom,
+        ast.Global,
+        ast.Nonlocal,
+        ast.AsyncFunctionDef,
+        ast.Await,
+        ast.ImportFrom,
+    )
     defined = {n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
     assert "execute_command" in defined
     entry = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "execute_command")
@@ -79,7 +116,16 @@ def static_check(source: str) -> None:
                 continue
             assert node.attr in API_METHODS | API_ATTRIBUTES | VALUE_METHODS, f"unknown attribute {node.attr}"
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
-            assert node.func.id not in {"getattr", "setattr", "eval", "exec", "open", "type", "vars", "format"}
+            assert node.func.id not in {
+                "getattr",
+                "setattr",
+                "eval",
+                "exec",
+                "open",
+                "type",
+                "vars",
+                "format",
+            }
     try:  # the runner's own policy check, when the runner is installed
         from attribot.runner import check_program
     except ImportError:
@@ -107,7 +153,13 @@ def test_every_corpus_query_parses_or_is_refused_and_coverage():
     for task in counts:
         print(f"rules coverage {task}: {parsed[task]}/{counts[task]}")
     print(f"rules coverage all: {sum(parsed.values())}/{sum(counts.values())}; refused: {refused}")
-    assert set(counts) >= {"location", "size", "weight_image", "ai2thor_distance", "ai2thor_weight_scene_items"}
+    assert set(counts) >= {
+        "location",
+        "size",
+        "weight_image",
+        "ai2thor_distance",
+        "ai2thor_weight_scene_items",
+    }
     spatial = parsed["location"] + parsed["size"]
     assert spatial >= 0.95 * (counts["location"] + counts["size"])
 

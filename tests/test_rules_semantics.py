@@ -266,8 +266,11 @@ def test_size_with_a_colour_and_a_category():
 
 
 def test_weight_is_measured_with_a_force_sensor():
-    items = [FakePatch("mug", (0, 0, 50, 50), kg=0.3), FakePatch("book", (100, 0, 150, 50), kg=0.9),
-             FakePatch("apple", (200, 0, 250, 50), kg=0.2)]
+    items = [
+        FakePatch("mug", (0, 0, 50, 50), kg=0.3),
+        FakePatch("book", (100, 0, 150, 50), kg=0.9),
+        FakePatch("apple", (200, 0, 250, 50), kg=0.2),
+    ]
     robot = FakeRobot(["camera", "force"])
     assert run("the heaviest item", scene(*items), ("camera", "force"), True, robot) is items[1]
     names = [name for name, _ in robot.calls]
@@ -279,8 +282,11 @@ def test_weight_is_measured_with_a_force_sensor():
 
 
 def test_weight_without_a_force_sensor_asks_vqa_then_the_language_model():
-    items = [FakePatch("feather", (0, 0, 50, 50), kg=0.01), FakePatch("car", (100, 0, 150, 50), kg=1500),
-             FakePatch("dog", (200, 0, 250, 50), kg=20)]
+    items = [
+        FakePatch("feather", (0, 0, 50, 50), kg=0.01),
+        FakePatch("car", (100, 0, 150, 50), kg=1500),
+        FakePatch("dog", (200, 0, 250, 50), kg=20),
+    ]
     image = scene(*items)
     assert run("the heaviest item", image) is items[1]
     assert image.asked[0] == "What are the items in this image?"
@@ -298,4 +304,10 @@ def test_distance_is_measured_with_a_distance_sensor_and_estimated_without():
     assert [n for n, _ in robot.calls] == ["focus_on_patch", "measure_distance"] * 2
     # no sensor: the visual proxy (the lower bottom edge is closer) says laptop, and says it is a proxy
     assert run(query, scene(laptop, tv)) is laptop
-    assert run("the farthest chair", scene(FakePatch("chair", (0, 10, 10, 20)), far := FakePatch("chair", (0, 50, 10, 60)))) is far
+    assert (
+        run(
+            "the farthest chair",
+            scene(FakePatch("chair", (0, 10, 10, 20)), far := FakePatch("chair", (0, 50, 10, 60))),
+        )
+        is far
+    )

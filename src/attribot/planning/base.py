@@ -58,7 +58,8 @@ def _run_error_type() -> type[BaseModel]:
     except ImportError:
 
         class RunError(BaseModel):
-            """A structured program error (the runner's contract): category, message, line, snippet, output."""
+            """A structured program error (the runner's contract): category, message, line, snippet,
+            output."""
 
             model_config = ConfigDict(frozen=True)
 

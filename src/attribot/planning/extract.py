@@ -43,7 +43,9 @@ def extract_program(reply: str) -> str:
     'def execute_command(image, robot):\\n    return 1\\n'
     """
     if not isinstance(reply, str) or not reply.strip():
-        raise NoProgram("no code in the reply: the reply is empty", _FIX, reply=reply if isinstance(reply, str) else None)
+        raise NoProgram(
+            "no code in the reply: the reply is empty", _FIX, reply=reply if isinstance(reply, str) else None
+        )
     blocks = [(m.group(2).lower(), m.group(3)) for m in _FENCE.finditer(reply)]
     defining = [(tag in _PYTHON_TAGS, body) for tag, body in blocks if _DEF.search(body)]
     if not blocks:
@@ -67,7 +69,9 @@ def extract_program(reply: str) -> str:
         key=lambda i: (_parses(defining[i][1]), defining[i][0], i),
     )
     chosen = defining[ranked[-1]][1]
-    chosen = _with_helpers(chosen, [body for tag, body in blocks if tag in _PYTHON_TAGS and body is not chosen])
+    chosen = _with_helpers(
+        chosen, [body for tag, body in blocks if tag in _PYTHON_TAGS and body is not chosen]
+    )
     program = _drop_harmful_top_level(chosen)
     _check_signature(program, reply)
     return program if program.endswith("\n") else program + "\n"
@@ -164,7 +168,8 @@ def _check_signature(program: str, reply: str) -> None:
             if positional >= 2 or args.vararg is not None:
                 return
             raise NoProgram(
-                f"{ENTRY_POINT} takes {positional} argument(s), but it is called as {ENTRY_POINT}(image, robot)",
+                f"{ENTRY_POINT} takes {positional} argument(s), "
+                f"but it is called as {ENTRY_POINT}(image, robot)",
                 _FIX,
                 reply=reply,
             )

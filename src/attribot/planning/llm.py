@@ -54,7 +54,9 @@ def feedback_message(error: Any) -> str:
 
 def cache_key(model: str, messages: Sequence[dict[str, Any]], params: dict[str, Any]) -> str:
     """The hash a reply is cached under: the model, the messages and the sampling parameters."""
-    data = json.dumps({"model": model, "messages": list(messages), "params": params}, sort_keys=True, ensure_ascii=False)
+    data = json.dumps(
+        {"model": model, "messages": list(messages), "params": params}, sort_keys=True, ensure_ascii=False
+    )
     return hashlib.sha256(data.encode("utf-8")).hexdigest()
 
 
@@ -90,7 +92,9 @@ class ReplyCache:
                 Path(tmp).unlink(missing_ok=True)
                 raise
         except OSError as exc:  # a read-only or full disk costs the cache, not the answer
-            warnings.warn(f"could not cache the LLM reply in {path.parent}: {exc}", RuntimeWarning, stacklevel=2)
+            warnings.warn(
+                f"could not cache the LLM reply in {path.parent}: {exc}", RuntimeWarning, stacklevel=2
+            )
 
 
 class LLMPlanner:
@@ -171,13 +175,17 @@ class LLMPlanner:
             if self.settings.llm_base_url is None and self.settings.llm_api_key is None:
                 raise ConfigError(
                     "the llm planner has no endpoint: neither a base URL nor an API key is set",
-                    "set ATTRIBOT_LLM_BASE_URL (e.g. http://127.0.0.1:8000/v1 for vLLM, http://127.0.0.1:11434/v1 "
+                    "set ATTRIBOT_LLM_BASE_URL (e.g. http://127.0.0.1:8000/v1 for vLLM, "
+                    "http://127.0.0.1:11434/v1 "
                     "for Ollama) or ATTRIBOT_LLM_API_KEY for OpenAI, or use --planner rules",
                 )
             from attribot.models.openai_client import make_client
 
             self._client = make_client(
-                self.settings.llm_base_url, self.settings.llm_api_key, self.settings.llm_timeout_s, self.http_retries
+                self.settings.llm_base_url,
+                self.settings.llm_api_key,
+                self.settings.llm_timeout_s,
+                self.http_retries,
             )
         return self._client
 

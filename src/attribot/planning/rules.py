@@ -50,8 +50,15 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "the pill in the middle of the right column",
     ),
     "size": ("the third tallest item", "the smallest red apple", "the long carrot"),
-    "weight": ("the heaviest item", "Out of the laptop, the chair and the credit card, which one is the most lightweight?"),
-    "distance": ("Is the laptop or the tv closer to me?", "the closest chair", "Out of the mugs, which one is closer to me?"),
+    "weight": (
+        "the heaviest item",
+        "Out of the laptop, the chair and the credit card, which one is the most lightweight?",
+    ),
+    "distance": (
+        "Is the laptop or the tv closer to me?",
+        "the closest chair",
+        "Out of the mugs, which one is closer to me?",
+    ),
 }
 """The families the rules planner reads, each with example phrasings."""
 
@@ -60,11 +67,14 @@ class UnsupportedQuery(InputError):
     """The rules planner cannot read the query; the message lists the families it supports."""
 
     def __init__(self, query: str, reason: str | None = None) -> None:
-        families = "; ".join(f"{name} (e.g. {' / '.join(repr(x) for x in ex[:2])})" for name, ex in FAMILIES.items())
+        families = "; ".join(
+            f"{name} (e.g. {' / '.join(repr(x) for x in ex[:2])})" for name, ex in FAMILIES.items()
+        )
         why = f": {reason}" if reason else ""
         super().__init__(
             f"the rules planner cannot read the query {query!r}{why}",
-            f"rephrase it in one of the supported families: {families}; or use the llm planner (--planner llm)",
+            f"rephrase it in one of the supported families: {families}; "
+            "or use the llm planner (--planner llm)",
         )
         self.query = query
         self.reason = reason
@@ -163,30 +173,75 @@ _ORD = (
     + "|".join(_ORDINAL_WORDS)
     + r"|\d+(?:st|nd|rd|th))"
 )
-_SIDES = {"left": "left", "right": "right", "top": "top", "upper": "top", "bottom": "bottom", "lower": "bottom"}
+_SIDES = {
+    "left": "left",
+    "right": "right",
+    "top": "top",
+    "upper": "top",
+    "bottom": "bottom",
+    "lower": "bottom",
+}
 _OPPOSITE: dict[str, Side] = {"left": "right", "right": "left", "top": "bottom", "bottom": "top"}
 
 # size adjectives: word -> (measure, largest)
 _SIZE = {
-    "big": ("area", True), "large": ("area", True), "huge": ("area", True),
-    "small": ("area", False), "little": ("area", False), "tiny": ("area", False),
-    "tall": ("height", True), "high": ("height", True),
-    "long": ("length", True), "short": ("length", False),
-    "wide": ("width", True), "broad": ("width", True), "narrow": ("width", False),
-    "thin": ("thickness", False), "thick": ("thickness", True), "slim": ("thickness", False),
+    "big": ("area", True),
+    "large": ("area", True),
+    "huge": ("area", True),
+    "small": ("area", False),
+    "little": ("area", False),
+    "tiny": ("area", False),
+    "tall": ("height", True),
+    "high": ("height", True),
+    "long": ("length", True),
+    "short": ("length", False),
+    "wide": ("width", True),
+    "broad": ("width", True),
+    "narrow": ("width", False),
+    "thin": ("thickness", False),
+    "thick": ("thickness", True),
+    "slim": ("thickness", False),
 }
 _SUPERLATIVE = {
-    "biggest": "big", "largest": "large", "hugest": "huge", "smallest": "small", "littlest": "little",
-    "tiniest": "tiny", "tallest": "tall", "longest": "long", "shortest": "short", "widest": "wide",
-    "broadest": "broad", "narrowest": "narrow", "thinnest": "thin", "thickest": "thick", "slimmest": "slim",
+    "biggest": "big",
+    "largest": "large",
+    "hugest": "huge",
+    "smallest": "small",
+    "littlest": "little",
+    "tiniest": "tiny",
+    "tallest": "tall",
+    "longest": "long",
+    "shortest": "short",
+    "widest": "wide",
+    "broadest": "broad",
+    "narrowest": "narrow",
+    "thinnest": "thin",
+    "thickest": "thick",
+    "slimmest": "slim",
 }
 _COMPARATIVE = {
-    "bigger": "big", "larger": "large", "smaller": "small", "taller": "tall", "longer": "long",
-    "shorter": "short", "wider": "wide", "narrower": "narrow", "thinner": "thin", "thicker": "thick",
+    "bigger": "big",
+    "larger": "large",
+    "smaller": "small",
+    "taller": "tall",
+    "longer": "long",
+    "shorter": "short",
+    "wider": "wide",
+    "narrower": "narrow",
+    "thinner": "thin",
+    "thicker": "thick",
 }
 _SIZE_WORDS = "|".join(sorted([*_SIZE, *_SUPERLATIVE, *_COMPARATIVE], key=len, reverse=True))
 _WEIGHT_HEAVY = {"heaviest", "heavy", "heavier", "most heavy", "least lightweight", "least light"}
-_WEIGHT_LIGHT = {"lightest", "light", "lighter", "lightweight", "most lightweight", "least heavy", "more lightweight"}
+_WEIGHT_LIGHT = {
+    "lightest",
+    "light",
+    "lighter",
+    "lightweight",
+    "most lightweight",
+    "least heavy",
+    "more lightweight",
+}
 _WEIGHT_WORDS = "|".join(sorted(_WEIGHT_HEAVY | _WEIGHT_LIGHT, key=len, reverse=True))
 _NEAR = {"closer", "closest", "nearer", "nearest"}
 _FAR = {"farther", "farthest", "further", "furthest", "more distant", "most distant"}
@@ -195,13 +250,80 @@ _ME = r"(?:\s+(?:to|from)\s+(?:me|you|us|the\s+robot|the\s+camera))?"
 
 # words that cannot be part of an object's name here: left over from a phrase the parser did not read
 _STOP = {
-    "from", "row", "rows", "column", "columns", "left", "right", "top", "bottom", "middle",
-    "center", "centre", "is", "are", "which", "what", "where", "who", "how", "why", "or", "than", "and",
-    "me", "you", "in", "on", "at", "to", "the", "a", "an", "not", "no", "leftmost", "rightmost", "topmost",
-    "bottommost", "most", "least", "very", "side", "corner", "between", "next", "near", "behind", "under",
-    "above", "below", "beside", "inside", "if", "does", "do", "there", "any", "all", "every",
-    *_ORDINAL_WORDS, "last", "penultimate", *_SIZE, *_SUPERLATIVE, *_COMPARATIVE,
-    "heaviest", "heavier", "heavy", "lightest", "lighter", "lightweight", *_NEAR, *_FAR, "distant",
+    "from",
+    "row",
+    "rows",
+    "column",
+    "columns",
+    "left",
+    "right",
+    "top",
+    "bottom",
+    "middle",
+    "center",
+    "centre",
+    "is",
+    "are",
+    "which",
+    "what",
+    "where",
+    "who",
+    "how",
+    "why",
+    "or",
+    "than",
+    "and",
+    "me",
+    "you",
+    "in",
+    "on",
+    "at",
+    "to",
+    "the",
+    "a",
+    "an",
+    "not",
+    "no",
+    "leftmost",
+    "rightmost",
+    "topmost",
+    "bottommost",
+    "most",
+    "least",
+    "very",
+    "side",
+    "corner",
+    "between",
+    "next",
+    "near",
+    "behind",
+    "under",
+    "above",
+    "below",
+    "beside",
+    "inside",
+    "if",
+    "does",
+    "do",
+    "there",
+    "any",
+    "all",
+    "every",
+    *_ORDINAL_WORDS,
+    "last",
+    "penultimate",
+    *_SIZE,
+    *_SUPERLATIVE,
+    *_COMPARATIVE,
+    "heaviest",
+    "heavier",
+    "heavy",
+    "lightest",
+    "lighter",
+    "lightweight",
+    *_NEAR,
+    *_FAR,
+    "distant",
 }
 
 
@@ -215,8 +337,10 @@ def _normalize(query: str) -> str | None:
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
     # polite or imperative openings carry no meaning for the plan
-    lead = r"^(?:please\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|give\s+me|locate|" \
+    lead = (
+        r"^(?:please\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|give\s+me|locate|"
         r"detect|identify|where\s+is|grab)\s+"
+    )
     text = re.sub(lead, "", text)
     return _strip_article(text)
 
@@ -226,7 +350,7 @@ def _strip_article(text: str) -> str:
 
 
 def _ordinal(text: str) -> tuple[int, bool]:
-    """(k, counted from the far end) for an ordinal phrase: "second" (2, False), "second to last" (2, True)."""
+    """(k, counted from the far end) of an ordinal: "second" (2, False), "second to last" (2, True)."""
     text = " ".join(text.split())
     if text == "last":
         return 1, True
@@ -279,7 +403,11 @@ def _parse_location(text: str) -> LocationQuery | None:
     middle_of = False
 
     # rows and columns: "in the middle of the second row from the top", "at the second to last row"
-    which = _ORD + r"|top|bottom|upper|lower|middle|center|centre|central|left|right|leftmost|rightmost|topmost|bottommost"
+    which = (
+        _ORD
+        + r"|top|bottom|upper|lower|middle|center|centre|central|left|right"
+        + r"|leftmost|rightmost|topmost|bottommost"
+    )
     match, text = _take(
         r"\b(?:(?:in|on|at|of|from|within|along)\s+)?(?:the\s+)?(?P<mid>(?:very\s+)?(?:middle|center|centre)\s+of\s+"
         r"(?:the\s+)?)?(?P<which>" + which + r")\s+(?P<kind>rows?|lines?|columns?|cols?)"
@@ -313,25 +441,41 @@ def _parse_location(text: str) -> LocationQuery | None:
         middle_of = match["mid"] is not None
 
     # corners: "top right cocktail", "the egg in the bottom left corner"
-    corner, text = _take(r"\b(?:(?:at|in|on)\s+the\s+)?(top|upper|bottom|lower)\s+(left|right)(?:\s+corner)?\b", text)
+    corner, text = _take(
+        r"\b(?:(?:at|in|on)\s+the\s+)?(top|upper|bottom|lower)\s+(left|right)(?:\s+corner)?\b", text
+    )
     # extremes: "leftmost", "at the very bottom", "with the highest altitude"
     extreme: Side | None = None
     match, text = _take(r"\bwith\s+the\s+(highest|lowest)\s+(?:altitude|position|height)\b", text)
     if match:
         extreme = "top" if match[1] == "highest" else "bottom"
     if extreme is None:
-        match, text = _take(r"\b(?:at|on|in|to)\s+the\s+(?:very|far|furthest|farthest)\s+(top|bottom|left|right)\b", text)
+        match, text = _take(
+            r"\b(?:at|on|in|to)\s+the\s+(?:very|far|furthest|farthest)\s+(top|bottom|left|right)\b", text
+        )
         if match:
             extreme = _SIDES[match[1]]
     if extreme is None:
-        match, text = _take(r"\b(leftmost|rightmost|topmost|uppermost|bottommost|lowermost|highest|lowest)\b", text)
+        match, text = _take(
+            r"\b(leftmost|rightmost|topmost|uppermost|bottommost|lowermost|highest|lowest)\b", text
+        )
         if match:
-            extreme = {"leftmost": "left", "rightmost": "right", "topmost": "top", "uppermost": "top",
-                       "highest": "top", "bottommost": "bottom", "lowermost": "bottom", "lowest": "bottom"}[match[1]]
+            extreme = {
+                "leftmost": "left",
+                "rightmost": "right",
+                "topmost": "top",
+                "uppermost": "top",
+                "highest": "top",
+                "bottommost": "bottom",
+                "lowermost": "bottom",
+                "lowest": "bottom",
+            }[match[1]]
     # ordinal with a direction: "second dog from the right", "second from the left dog head"
     direction: Side | None = None
     ordinal: tuple[int, bool] | None = None
-    match, text = _take(r"\b(?:starting\s+|counting\s+)?from\s+(?:the\s+)?(left|right|top|bottom)(?:\s+side)?\b", text)
+    match, text = _take(
+        r"\b(?:starting\s+|counting\s+)?from\s+(?:the\s+)?(left|right|top|bottom)(?:\s+side)?\b", text
+    )
     if match:
         direction = _SIDES[match[1]]  # type: ignore[assignment]
     match, text = _take(r"^(?:the\s+)?(" + _ORD + r")\b", text)
@@ -380,8 +524,10 @@ def _parse_location(text: str) -> LocationQuery | None:
             pick = Pick("central") if position == "middle" else Pick("ordinal", position, 1)  # type: ignore[arg-type]
         elif line is None:
             line = {
-                "top": LineSpec("row", 1), "bottom": LineSpec("row", 1, from_end=True),
-                "left": LineSpec("column", 1), "right": LineSpec("column", 1, from_end=True),
+                "top": LineSpec("row", 1),
+                "bottom": LineSpec("row", 1, from_end=True),
+                "left": LineSpec("column", 1),
+                "right": LineSpec("column", 1, from_end=True),
                 "middle": LineSpec("row", middle=True),
             }[position]
         else:
@@ -412,7 +558,11 @@ def _k_invalid(line: LineSpec) -> bool:
 
 def _parse_size(text: str) -> SizeQuery | None:
     match = re.fullmatch(
-        r"(?:(?P<ord>" + _ORD + r")\s+)?(?:(?P<deg>most|least)\s+)?(?P<adj>" + _SIZE_WORDS + r")(?:\s+(?P<rest>.+))?",
+        r"(?:(?P<ord>"
+        + _ORD
+        + r")\s+)?(?:(?P<deg>most|least)\s+)?(?P<adj>"
+        + _SIZE_WORDS
+        + r")(?:\s+(?P<rest>.+))?",
         text,
     )
     if match is None:
@@ -436,8 +586,13 @@ def _parse_size(text: str) -> SizeQuery | None:
     obj = _object(match["rest"] or "")
     if obj is None:
         return None
-    return SizeQuery(obj=obj, adjective=" ".join(w for w in (match["deg"], adjective) if w), measure=measure,  # type: ignore[arg-type]
-                     largest=largest, rank=rank)
+    return SizeQuery(
+        obj=obj,
+        adjective=" ".join(w for w in (match["deg"], adjective) if w),
+        measure=measure,  # type: ignore[arg-type]
+        largest=largest,
+        rank=rank,
+    )
 
 
 def _split_names(text: str) -> tuple[ObjectSpec, ...] | None:
@@ -462,7 +617,10 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
         r"(?:out\s+of|of|among|amongst|between|from)\s+(?P<list>.+?),?\s+which(?:\s+one|\s+item|\s+object)?"
         r"(?:\s+of\s+(?:them|these|those))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
         # "Which one is closer to me, the laptop or the tv?"
-        r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME
+        r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>"
+        + words
+        + r")"
+        + _ME
         + r",?\s+(?:(?:out\s+)?of\s+|among\s+|between\s+)?(?P<list>.+)",
         # "Which one is the heaviest?"
         r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
@@ -489,7 +647,7 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
 
 
 def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
-    """ "the heaviest item", "the light box", "the closest chair", "the mug nearest to me". """
+    """ "the heaviest item", "the light box", "the closest chair", "the mug nearest to me"."""
     words = _WEIGHT_WORDS + "|" + _DIST_WORDS
     match = re.fullmatch(r"(?P<adj>" + words + r")(?:\s+(?P<rest>.+?))?" + _ME, text) or re.fullmatch(
         r"(?P<rest>.+?)\s+(?:that\s+is\s+|which\s+is\s+)?(?:the\s+)?(?P<adj>" + words + r")" + _ME, text
@@ -586,7 +744,12 @@ class _Writer:
 
     def fail(self, condition: str, message_expr: str) -> None:
         self.line(f"if {condition}:")
-        self.line(f"    raise ValueError({message_expr})")
+        if len(message_expr) <= 80:
+            self.line(f"    raise ValueError({message_expr})")
+        else:  # keep the program readable: the message on its own line
+            self.line("    raise ValueError(")
+            self.line(f"        {message_expr}")
+            self.line("    )")
 
     def source(self) -> str:
         parts = []
@@ -602,14 +765,21 @@ def _sorted(group: str, key: str, reverse: bool) -> str:
     return f"sorted({group}, key=lambda patch: {key}{', reverse=True' if reverse else ''})"
 
 
+def _count_message(before: str, count: str, after: str) -> str:
+    """The expression of an error message with a count in it: "before" + str(count) + "after"."""
+    return f"{_q(before)} + str({count}) + {_q(after)}"
+
+
 def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     """`var = image.find(noun)`, the colour filter, and the "none found" error."""
     w.line(f"{var} = image.find({_q(obj.noun)})")
     for color in obj.colors:
-        w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask about each")
-        w.line(
-            f"{var} = [patch for patch in {var} if {_q(color)} in patch.visual_query(\"What color is this object?\").lower()]"
-        )
+        w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line(f'    if {_q(color)} in patch.visual_query("What color is this object?").lower():')
+        w.line("        kept.append(patch)")
+        w.line(f"{var} = kept")
     w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
 
 
@@ -631,7 +801,11 @@ def _write_location(w: _Writer, q: LocationQuery) -> None:
             if k > 1:
                 w.fail(
                     f"len({plural}) < {k}",
-                    f'"asked for the {_nth(k)} {kind} from the {side}, but the {q.obj.phrase}s form only " + str(len({plural})) + {_q(" " + kind + "(s)")}',
+                    _count_message(
+                        f"asked for the {_nth(k)} {kind} from the {side}, but the {q.obj.phrase}s form only ",
+                        f"len({plural})",
+                        f" {kind}(s)",
+                    ),
                 )
             index = f"len({plural}) - {k}" if q.line.from_end else str(k - 1)
             w.line(f"# the {_nth(k)} {kind} from the {side}")
@@ -647,7 +821,11 @@ def _write_location(w: _Writer, q: LocationQuery) -> None:
         if pick.k > 1:
             w.fail(
                 f"len(ordered) < {pick.k}",
-                f'"asked for the {_nth(pick.k)} {q.obj.phrase} {words.split(" (")[0]}{where}, but only " + str(len(ordered)) + " were found"',
+                _count_message(
+                    f"asked for the {_nth(pick.k)} {q.obj.phrase} {words.split(' (')[0]}{where}, but only ",
+                    "len(ordered)",
+                    " were found",
+                ),
             )
         w.line(f"return ordered[{pick.k - 1}]")
     elif pick.kind == "middle":
@@ -670,7 +848,11 @@ def _write_location(w: _Writer, q: LocationQuery) -> None:
     else:  # "only": the line alone names the object
         w.fail(
             f"len({group}) > 1",
-            f'"there are " + str(len({group})) + " {q.obj.phrase}s in that {group}; say which one, e.g. the 2nd from the left"',
+            _count_message(
+                "there are ",
+                f"len({group})",
+                f" {q.obj.phrase}s in that {group}; say which one, e.g. the 2nd from the left",
+            ),
         )
         w.line(f"return {group}[0]")
 
@@ -695,7 +877,7 @@ def _write_size(w: _Writer, q: SizeQuery) -> None:
     key, meaning = _MEASURES[q.measure]
     w.line(f'# "{q.adjective}" is measured as {meaning}')
     if q.adjective in _SIZE:
-        w.line(f'# the absolute form ("the {q.adjective} {q.obj.phrase}") names the one that stands out: the extreme')
+        w.line(f'# the absolute form ("the {q.adjective} {q.obj.phrase}") names the one that stands out')
     order = "largest" if q.largest else "smallest"
     superlative = {v: k for k, v in _SUPERLATIVE.items()}
     base = q.adjective.split()[-1]
@@ -706,7 +888,11 @@ def _write_size(w: _Writer, q: SizeQuery) -> None:
     if q.rank > 1:
         w.fail(
             f"len(ordered) < {q.rank}",
-            f'"asked for the {_nth(q.rank)} {word} {q.obj.phrase}, but only " + str(len(ordered)) + " were found"',
+            _count_message(
+                f"asked for the {_nth(q.rank)} {word} {q.obj.phrase}, but only ",
+                "len(ordered)",
+                " were found",
+            ),
         )
     w.line(f"return ordered[{q.rank - 1}]")
 
@@ -746,12 +932,17 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line("    robot.put_down()")
         _write_extreme_loop(w, "weights", q.heaviest)
         return
-    w.line("# no force sensor: weight cannot be measured, so it is reasoned about (the paper's VQA + LLM chain)")
+    w.line(
+        "# no force sensor: weight cannot be measured, so it is reasoned about (the paper's VQA + LLM chain)"
+    )
     if q.named:
         names = [o.phrase for o in q.objects]
         # longest names first, so that "remote control" is matched before "remote"
         w.line(f"names = {json.dumps(sorted(names, key=len, reverse=True))}")
-        question = f"Out of these items: {', '.join(names)}, which one is more likely to be the {word} one? Answer with the name of one item only."
+        question = (
+            f"Out of these items: {', '.join(names)}, which one is more likely to be the {word} one? "
+            "Answer with the name of one item only."
+        )
         w.line(f"answer = image.language_query({_q(question)}).lower()")
         w.line("# map the answer back to one of the named objects (whole words only: a pen is no pencil)")
         w.line('words = " " + " ".join(answer.replace(".", " ").replace(",", " ").split()) + " "')
@@ -760,15 +951,14 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line("        matches = image.find(name)")
         w.line("        if len(matches) > 0:")
         w.line("            return matches[0]")
-        w.line('raise ValueError("the language model answered " + answer + ", which is none of the named objects in view")')
+        w.line('raise ValueError("the language model answered " + answer + ", none of the named objects")')
         return
     obj = q.objects[0]
     if obj.generic and not obj.colors:
         w.line('items = image.visual_query("What are the items in this image?")')
-        w.line(
-            f'answer = image.language_query("Out of these items: " + items + ", which one is more likely to be the {word} '
-            'one? Answer with the name of one item only.")'
-        )
+        w.line('question = "Out of these items: " + items')
+        w.line(f'question = question + ", which one is more likely to be the {word} one?"')
+        w.line('answer = image.language_query(question + " Answer with the name of one item only.")')
         w.line('name = answer.strip().strip(".").lower()')
         w.line('if name.startswith("the "):')
         w.line("    name = name[4:]")
@@ -779,8 +969,8 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         return
     # several objects of one kind: language knowledge cannot tell them apart, so size stands in for weight
     _find(w, obj)
-    w.line(f"# objects of one kind: with no force sensor, the biggest box is taken as the heaviest (a visual proxy,")
-    w.line("# not a measurement)")
+    w.line("# objects of one kind: with no force sensor, the biggest box is taken as the heaviest")
+    w.line("# (a visual proxy, not a measurement)")
     w.line(f"ordered = {_sorted('candidates', 'patch.width * patch.height', q.heaviest)}")
     w.line("return ordered[0]")
 
@@ -795,14 +985,18 @@ def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodi
         w.line("    distances.append(robot.measure_distance(patch))")
         _write_extreme_loop(w, "distances", not q.nearest)
         return
-    w.line("# no distance sensor: a visual proxy, not a measurement. Objects standing on the same floor or table")
-    w.line("# sit lower in the picture the closer they are, so the box whose bottom edge is lowest is taken as the")
-    w.line("# closest (y grows upward: a smaller `lower` is lower in the picture)")
+    w.line(
+        "# no distance sensor: a visual proxy, not a measurement. Objects standing on the same floor or table"
+    )
+    w.line("# sit lower in the picture the closer they are, so the box whose bottom edge is lowest is taken")
+    w.line("# as the closest (y grows upward: a smaller `lower` is lower in the picture)")
     w.line(f"ordered = {_sorted('candidates', 'patch.lower', not q.nearest)}")
     w.line("return ordered[0]")
 
 
-def write_program(parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False) -> str:
+def write_program(
+    parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
+) -> str:
     """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
     w = _Writer(query)
     if isinstance(parsed, LocationQuery):
