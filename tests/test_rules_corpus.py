@@ -182,3 +182,23 @@ def test_programs_are_deterministic_and_sensor_aware():
 def test_rows_are_clustered_not_cut_into_bands():
     program = rules_program("the second umbrella from the left at the second to last row")
     assert "group_into_lines" in program and "image.height" not in program
+
+
+@pytest.mark.parametrize(
+    "query",
+    [
+        "the heaviest red item",
+        "the heaviest apple",
+        "the light box",
+        "which one is the lightest?",
+        "the farthest chair",
+        "Out of the mugs, which one is closer to me?",
+        "the egg in the top row",
+        "third from the top",
+        "the smallest red apple",
+        "the thickest book",
+    ],
+)
+@pytest.mark.parametrize(("sensors", "embodied"), SENSOR_SETS)
+def test_every_code_path_passes_the_static_check(query, sensors, embodied):
+    static_check(rules_program(query, sensors, embodied))

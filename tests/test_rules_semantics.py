@@ -35,6 +35,8 @@ class FakePatch:
 
     def visual_query(self, question):
         self.asked.append(question)
+        if question == "What is this?":
+            return self.label
         if question == "What are the items in this image?":
             return ", ".join(p.label for p in self.scene)
         if question.startswith("What color"):
@@ -311,3 +313,20 @@ def test_distance_is_measured_with_a_distance_sensor_and_estimated_without():
         )
         is far
     )
+
+
+def test_weight_of_coloured_items_without_a_force_sensor_names_each_then_asks():
+    items = [
+        FakePatch("feather", (0, 0, 50, 50), color="red", kg=0.01),
+        FakePatch("car", (100, 0, 150, 50), color="blue", kg=1500),
+        FakePatch("dog", (200, 0, 250, 50), color="red", kg=20),
+    ]
+    image = scene(*items)
+    assert run("the heaviest red item", image) is items[2]  # the car is heavier, but blue
+    assert "feather, dog" in image.asked[-1]
+
+
+def test_several_objects_of_one_kind_without_a_force_sensor_use_a_stated_size_proxy():
+    apples = [FakePatch("apple", (0, 0, 50, 50)), FakePatch("apple", (100, 0, 180, 80))]
+    assert run("the heaviest apple", scene(*apples)) is apples[1]
+    assert "proxy" in rules_program("the heaviest apple")

@@ -967,6 +967,21 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line("    return matches[0]")
         w.line("return name")
         return
+    if obj.generic:
+        # "the heaviest red item": name each candidate with VQA, then ask the language model
+        _find(w, obj)
+        w.line("# name each candidate with VQA, then ask the language model which is usually " + word)
+        w.line("names = []")
+        w.line("for patch in candidates:")
+        w.line('    names.append(patch.visual_query("What is this?").strip().lower())')
+        w.line('question = "Out of these items: " + ", ".join(names)')
+        w.line(f'question = question + ", which one is more likely to be the {word} one?"')
+        w.line('answer = image.language_query(question + " Answer with the name of one item only.").lower()')
+        w.line("for index in range(len(names)):")
+        w.line("    if names[index] in answer:")
+        w.line("        return candidates[index]")
+        w.line('raise ValueError("the language model answered " + answer + ", none of the items seen")')
+        return
     # several objects of one kind: language knowledge cannot tell them apart, so size stands in for weight
     _find(w, obj)
     w.line("# objects of one kind: with no force sensor, the biggest box is taken as the heaviest")
