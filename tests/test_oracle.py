@@ -290,42 +290,68 @@ def test_visible_objects_sorted_left_to_right(frame):
 _HAS_WORLD = importlib.util.find_spec("attribot.embodiments.mujoco") is not None
 
 
+def _projected_box(world, key: int, frame: Frame) -> tuple[float, float, float, float]:
+    """The image box of the corners of an object's world bounds: its pixels can only lie inside it."""
+    pos, rot = world.sim.camera_pose()  # rotation columns: right, up, backward
+    cam = frame.camera
+    lo, hi = world.sim.object_bounds(key)
+    us, vs = [], []
+    for corner in np.array(np.meshgrid(*zip(lo, hi, strict=True))).T.reshape(-1, 3):
+        x, y, z = rot.T @ (corner - pos)
+        assert z < 0, "object behind the camera"
+        us.append(cam.cx + cam.fx * x / -z)
+        vs.append(cam.cy - cam.fy * y / -z)
+    return min(us), min(vs), max(us), max(vs)
+
+
 @pytest.mark.skipif(not _HAS_WORLD, reason="the MuJoCo world (embodiments/mujoco.py) is not in this tree yet")
-def test_oracle_on_a_rendered_world_frame():
+@pytest.mark.parametrize(("layout", "seed"), [("triplet", 3), ("household", 7)])
+def test_oracle_on_a_rendered_world_frame(layout, seed):
     from attribot.embodiments.mujoco import MujocoWorld
 
-    world = MujocoWorld(layout="triplet", seed=3, width=320, height=240)
+    world = MujocoWorld(layout=layout, seed=seed, width=320, height=240)
     try:
         frame = world.observe()
         info = world.scene_info()
+        assert frame.has_truth
+        seg = frame.segmentation
+        dets = OracleDetector().detect(frame, ["item"])
+        by_id = {t.id: k for k, t in frame.objects.items()}
+        listed = {o.id: o for o in info.objects}
+        for det in dets:
+            key = by_id[det.object_id]
+            mask = seg == key
+            ys, xs = np.nonzero(mask)
+            # the box is the segmentation's, and the scene listing's box for the same object
+            assert det.box == (xs.min(), ys.min(), xs.max() + 1.0, ys.max() + 1.0)
+            assert mask.sum() >= 30
+            assert listed[det.object_id].box is not None
+            assert tuple(listed[det.object_id].box) == det.box
+            # ... and it lies inside the projection of the object's 3D bounds (visible pixels can be fewer)
+            px0, py0, px1, py1 = _projected_box(world, key, frame)
+            x0, y0, x1, y1 = det.box
+            assert x0 >= max(px0, 0) - 2 and y0 >= max(py0, 0) - 2, (det, (px0, py0, px1, py1))
+            assert x1 <= min(px1, frame.width) + 2 and y1 <= min(py1, frame.height) + 2, (
+                det,
+                (px0, py0, px1, py1),
+            )
+        # every object the scene lists as seen with enough pixels is detected, also by its own name
+        seen = [o for o in info.objects if o.box is not None and o.visible_pixels >= 30]
+        assert seen
+        assert {o.id for o in seen} == set(ids(dets))
+        for obj in seen:
+            assert obj.id in ids(OracleDetector().detect(frame, [obj.category]))
+            assert obj.id in ids(OracleDetector().detect(frame, [f"the {obj.color} {obj.category}s"]))
+        items = OracleVQA().answer(frame, "What are the items in this image?").split(", ")
+        left_to_right = sorted(seen, key=lambda o: (o.box[0] + o.box[2]) / 2)
+        assert items == [o.category for o in left_to_right]
+        # a crop around one object: the VQA names it, the detector boxes it in the crop's pixels
+        target = max(seen, key=lambda o: o.visible_pixels)
+        crop = frame.crop(tuple(target.box))
+        assert OracleVQA().answer(crop, "What is this?") == target.category
+        assert OracleVQA().answer(crop, "What colour is it?") == target.color
+        (inside,) = [d for d in OracleDetector().detect(crop, [target.category]) if d.object_id == target.id]
+        w, h = target.box[2] - target.box[0], target.box[3] - target.box[1]
+        assert inside.box == (0.0, 0.0, w, h)
     finally:
-        close = getattr(world, "close", None)
-        if close is not None:
-            close()
-    assert frame.has_truth
-    dets = OracleDetector().detect(frame, ["item"])
-    seg = frame.segmentation
-    by_id = {t.id: k for k, t in frame.objects.items()}
-    for det in dets:
-        mask = seg == by_id[det.object_id]
-        ys, xs = np.nonzero(mask)
-        assert det.box == (xs.min(), ys.min(), xs.max() + 1.0, ys.max() + 1.0)
-        assert mask.sum() >= 30
-    # every scene object the world reports as visible is detected, by its own category too
-    listed = [o for o in info.objects if o.box is not None]
-    assert listed
-    for obj in listed:
-        key = by_id[obj.id]
-        if (seg == key).sum() >= 30:
-            assert obj.id in ids(dets)
-            assert obj.id in ids(OracleDetector().detect(frame, [obj.category.replace("_", " ")]))
-    items = OracleVQA().answer(frame, "What are the items in this image?").split(", ")
-    assert len(items) == len(dets)
-
-
-def test_probe_for_the_backends_listing():
-    from attribot.models.base import probe_backend
-
-    ok = probe_backend("detector", "oracle", Settings())
-    assert ok.available is True and "simulator frames only" in ok.detail
-    assert probe_backend("vqa", "oracle:abc", Settings()).available is False
+        world.close()
