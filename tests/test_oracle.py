@@ -109,6 +109,26 @@ def test_exact_names_outrank_loose_matches_of_equal_size():
     assert ids(dets) == ["b", "a"] and dets[0].score > dets[1].score
 
 
+@pytest.mark.parametrize(
+    ("query", "expected"),
+    [
+        ("orange", ["fruit"]),  # a category name first, a colour only when no object is called so
+        ("oranges", ["fruit"]),
+        ("orange mug", ["mug"]),
+        ("orange things", ["fruit", "mug"]),
+        ("wooden spoon", ["spoon"]),  # a material the oracle cannot check is ignored, not a filter
+        ("teal", ["spoon"]),
+    ],
+)
+def test_colour_words_that_are_also_names(query, expected):
+    layout = {
+        0: (ObjectTruth("fruit", "orange", "orange"), (0, 0, 20, 20)),
+        1: (ObjectTruth("mug", "mug", "orange"), (30, 0, 50, 20)),
+        2: (ObjectTruth("spoon", "spoon", "teal"), (60, 0, 80, 20)),
+    }
+    assert sorted(ids(OracleDetector().detect(make_frame(layout), [query]))) == sorted(expected)
+
+
 def test_several_phrases_each_matched_and_deduplicated(frame):
     dets = OracleDetector().detect(frame, ["apple", "red thing", "mug"])
     assert sorted(ids(dets)) == ["apple_0", "apple_3", "mug_1"]  # apple_0 once, though two phrases name it

@@ -52,13 +52,13 @@ COLOR_WORDS = frozenset(
     {
         "red", "green", "blue", "yellow", "orange", "purple", "violet", "pink", "brown", "black", "white",
         "gray", "silver", "gold", "beige", "tan", "cyan", "magenta", "teal", "navy", "maroon", "cream",
-        "ivory", "turquoise", "olive", "lime", "wooden", "transparent", "clear", "copper", "bronze",
+        "ivory", "turquoise", "olive", "lime", "copper", "bronze",
     }
     | set(CATALOG_COLORS)  # every colour the simulator paints with
 )  # fmt: skip
 """Colour names the phrase matcher treats as a filter (after folding spellings, see `_COLOR_ALIASES`)."""
 
-_COLOR_ALIASES = {"grey": "gray", "golden": "gold", "colour": "color", "wood": "wooden"}
+_COLOR_ALIASES = {"grey": "gray", "golden": "gold", "colour": "color"}
 
 # Words dropped before matching: they carry no category or colour.
 _DETERMINERS = frozenset(
@@ -185,14 +185,6 @@ def _color_tokens(truth: ObjectTruth) -> set[str]:
     return set(words(truth.color))
 
 
-@dataclass(frozen=True)
-class _Parsed:
-    """A noun phrase reduced to what the oracle can check: head noun (None: generic) and colours."""
-
-    head: tuple[str, ...] | None
-    colors: frozenset[str]
-
-
 def _clean(phrase: str) -> list[str]:
     text = " ".join(words(phrase))
     while True:  # "a photo of a picture of an apple"
@@ -203,16 +195,16 @@ def _clean(phrase: str) -> list[str]:
     return text.split()
 
 
-def _parse(phrase: str) -> _Parsed:
+def _content(phrase: str) -> list[str]:
+    """The words of a noun phrase that can name or colour an object: prefixes, determiners and
+    anything after a preposition dropped."""
     tokens = _clean(phrase)
     # cut at the first preposition that follows some content ("apple on the table")
     for i, t in enumerate(tokens):
         if i > 0 and t in _CUT_WORDS and not (t == "of" and tokens[i - 1] == "pair"):
             tokens = tokens[:i]
             break
-    content = [t for t in tokens if t not in _DETERMINERS]
-    colors = frozenset(t for t in content if t in COLOR_WORDS)
-    return _Parsed(tuple(content) if content else None, colors)
+    return [t for t in tokens if t not in _DETERMINERS]
 
 
 @dataclass(frozen=True)
@@ -227,8 +219,7 @@ def match_phrase(objects: Sequence[VisibleObject], phrase: str) -> list[VisibleO
 
 
 def _match(objects: Sequence[VisibleObject], phrase: str) -> list[_Match]:
-    parsed = _parse(phrase)
-    tokens = list(parsed.head or ())
+    tokens = _content(phrase)
     if not tokens:
         return []
 
