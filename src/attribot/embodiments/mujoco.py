@@ -1,0 +1,109 @@
+"""The embedded MuJoCo world behind the `Embodiment` interface, registered as "mujoco".
+
+`MujocoWorld` wraps `attribot.sim.world.SimWorld` (scene, physics, sensors, truth) and exposes what a
+controller or the API may use: camera frames with depth, segmentation and object truth, base velocity,
+head, arm, gripper, time, the rangefinder, the wrist force sensor and poses. The privileged scripted
+manipulation of `attribot.sim.scripted` takes a `MujocoWorld` too.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
+from attribot.frame import CameraInfo, Frame
+from attribot.sim.world import SceneInfo, SimWorld
+
+__all__ = ["MujocoWorld"]
+
+
+@EMBODIMENTS.register("mujoco", aliases=("sim",))
+class MujocoWorld(Embodiment):
+    """A seeded MuJoCo scene with the mobile manipulator in it.
+
+    layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: same seed, same
+    scene and pixels; n_objects / categories: override the layout's choice; width, height: camera pixels;
+    profile: "fast" (no shadows or reflections) or "pretty"; force_noise_std: Gaussian noise of the wrist
+    force sensor, newtons per axis; options: layout options (e.g. {"pattern": "grid", "odd": "size"}).
+    """
+
+    name = "mujoco"
+
+    def __init__(
+        self,
+        layout: str = "household",
+        seed: int = 0,
+        *,
+        n_objects: int | None = None,
+        categories: Sequence[str] | None = None,
+        width: int = 640,
+        height: int = 480,
+        profile: str = "fast",
+        force_noise_std: float = 0.0,
+        options: dict[str, Any] | None = None,
+    ) -> None:
+        self.sim = SimWorld(layout, seed, n_objects=n_objects, categories=categories, width=width, height=height,
+                            profile=profile, force_noise_std=force_noise_std, options=options)
+        self.layout = self.sim.plan.layout
+        self.seed = self.sim.plan.seed
+
+    def capabilities(self) -> frozenset[Capability]:
+        return frozenset(Capability)
+
+    # camera
+    def observe(self) -> Frame:
+        return self.sim.observe()
+
+    def camera_info(self) -> CameraInfo:
+        return self.sim.camera_info()
+
+    # time and motion
+    def step(self, seconds: float) -> None:
+        self.sim.step(seconds)
+
+    def command_base(self, vx: float, vy: float, wz: float) -> None:
+        self.sim.command_base(vx, vy, wz)
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        self.sim.set_head(pan, tilt)
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        self.sim.set_arm(lift, extension)
+
+    def grasp(self) -> bool:
+        return self.sim.grasp()
+
+    def release(self) -> None:
+        self.sim.release()
+
+    # sensors
+    def read_distance(self) -> float:
+        return self.sim.read_distance()
+
+    def tare_force(self) -> None:
+        self.sim.tare_force()
+
+    def read_force(self) -> np.ndarray:
+        return self.sim.read_force()
+
+    def base_pose(self) -> Pose2D:
+        return Pose2D(*self.sim.base_pose())
+
+    def joint_states(self) -> dict[str, float]:
+        return self.sim.joint_states()
+
+    # truth (simulator only)
+    def scene_info(self) -> SceneInfo:
+        """The scene's truth now, with boxes from a fresh frame: what `attribot scene info` prints."""
+        return self.sim.scene_info()
+
+    def held_object(self) -> str | None:
+        """Id of the object in the gripper, or None."""
+        key = self.sim.held
+        return None if key is None else self.sim.objects[key].id
+
+    def close(self) -> None:
+        self.sim.close()

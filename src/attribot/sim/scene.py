@@ -1,0 +1,613 @@
+"""Seeded scenes: a room, furniture, objects and the robot, planned by a layout and built with `MjSpec`.
+
+A layout is a function `(rng, request) -> ScenePlan` registered in `LAYOUTS`. It decides everything that
+is random (furniture, categories, colours, sizes, masses, positions, the robot's pose and head angles)
+from one `numpy.random.Generator` seeded with the scene's seed, so the same layout and seed give the same
+plan, the same model and the same pixels. `build_model(plan)` turns a plan into a compiled `MjModel`.
+
+Layouts (the stand-ins for the paper's experiments):
+- `arrangement`: a row, a column or a grid of the same kind of object on a table, with controlled size
+  variation and one odd one out (another category, size or colour), seen from a fixed camera. Each
+  object's truth carries its `row` and `col` as seen in the image (row 0 at the top, col 0 at the left).
+- `triplet`: three objects of clearly increasing weight side by side on a table, in a shuffled order;
+  the truth carries each object's `weight_rank` (0 = lightest).
+- `household`: a room with two or three pieces of furniture and 2 to 6 candidate objects at different
+  distances from the robot, all in the robot camera's first view.
+
+Objects rest on their surface: each is placed with its lowest point on the surface, without overlapping
+another object's footprint, and the world lets them settle before the first frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from attribot.errors import InputError
+from attribot.registry import Registry
+from attribot.sim.catalog import COLORS, Category, categories, get_category
+from attribot.sim.robot import GEOMETRY, add_robot
+from attribot.sim.shapes import MATERIALS, Shape, build_shape
+
+__all__ = [
+    "Surface",
+    "Furniture",
+    "PlacedObject",
+    "ScenePlan",
+    "SceneRequest",
+    "LAYOUTS",
+    "plan_scene",
+    "build_model",
+    "MAX_OBJECTS",
+]
+
+MAX_OBJECTS = 30
+ROOM_HALF = 3.0  # the room is 6 m x 6 m, centred on the origin
+WALL_HEIGHT = 2.4
+
+
+@dataclass(frozen=True)
+class Surface:
+    """An axis-aligned rectangle at height z on which objects can rest; `avoid` are rectangles to keep off."""
+
+    name: str
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    z: float
+    avoid: tuple[tuple[float, float, float, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class Furniture:
+    """A table, counter, coffee table or shelf: centre (x, y), size (depth x, width y, height), colour."""
+
+    kind: str
+    name: str
+    x: float
+    y: float
+    size: tuple[float, float, float]
+    rgba: tuple[float, float, float, float]
+
+    def footprint(self, margin: float = 0.0) -> tuple[float, float, float, float]:
+        dx, dy = self.size[0] / 2 + margin, self.size[1] / 2 + margin
+        return (self.x - dx, self.y - dy, self.x + dx, self.y + dy)
+
+    def surfaces(self) -> list[Surface]:
+        x0, y0, x1, y1 = self.footprint(-0.03)
+        top = Surface(f"{self.name}", x0, y0, x1, y1, self.size[2])
+        if self.kind == "shelf":
+            return [top, Surface(f"{self.name}_low", x0, y0, x1, y1, _SHELF_LOW)]
+        return [top]
+
+
+_SHELF_LOW = 0.42
+
+
+@dataclass
+class PlacedObject:
+    """One object of a plan: what it is, how it looks, its hidden mass, and where it rests."""
+
+    key: int
+    id: str
+    category: Category
+    color: str
+    size_m: float
+    mass_kg: float
+    variant: str
+    shape: Shape
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0  # height of the surface it rests on
+    yaw: float = 0.0
+    surface: str = ""
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class ScenePlan:
+    """Everything random about a scene, decided by a layout from the seed."""
+
+    layout: str
+    seed: int
+    furniture: list[Furniture]
+    objects: list[PlacedObject]
+    robot: tuple[float, float, float]  # base x, y, yaw
+    head: tuple[float, float]  # pan, tilt
+    arm: tuple[float, float] = (0.2, 0.0)  # lift, extension: low and retracted, out of the camera's way
+    width: int = 640
+    height: int = 480
+
+
+@dataclass(frozen=True)
+class SceneRequest:
+    """What the caller asked for: object count, categories (None: the layout chooses), layout options."""
+
+    n_objects: int | None = None
+    categories: tuple[Category, ...] | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
+        value = self.options.get(name, default)
+        if choices is not None and value not in choices:
+            raise InputError(f"layout option {name}={value!r} is not allowed", f"choose one of: {', '.join(map(str, choices))}")
+        return value
+
+
+Layout = Callable[[np.random.Generator, SceneRequest], ScenePlan]
+LAYOUTS: Registry[Layout] = Registry("layout")
+
+
+# --- helpers ------------------------------------------------------------------------------------------
+
+def _make_object(rng: np.random.Generator, key: int, cat: Category, *, size: float | None = None,
+                 color: str | None = None, variant: str | None = None) -> PlacedObject:
+    lo, hi = cat.size_range_m
+    if size is None:
+        size = float(rng.uniform(lo, hi))
+    frac = 0.5 if hi <= lo else min(max((size - lo) / (hi - lo), 0.0), 1.0)
+    if color is None:
+        color = str(cat.colors[int(rng.integers(len(cat.colors)))])
+    if cat.mass_variants:
+        names = [v[0] for v in cat.mass_variants]
+        if variant is None:
+            variant = names[int(rng.integers(len(names)))]
+        mlo, mhi = dict(cat.mass_variants)[variant]
+    else:
+        variant = ""
+        mlo, mhi = cat.mass_range_kg
+    # bigger objects of a kind tend to be heavier, with some spread
+    u = 0.6 * frac + 0.4 * float(rng.uniform())
+    mass = round(mlo + (mhi - mlo) * u, 4)
+    obj_id = f"{cat.name.replace(' ', '_')}_{key}"
+    return PlacedObject(key, obj_id, cat, color, round(size, 4), mass, variant, build_shape(cat.shape, size))
+
+
+def _face(obj: PlacedObject, towards: tuple[float, float], rng: np.random.Generator, jitter: float) -> None:
+    """Turn the object so that its front (-x side) faces the point `towards`, with some random yaw."""
+    ang = math.atan2(towards[1] - obj.y, towards[0] - obj.x)
+    obj.yaw = float(ang + math.pi + rng.uniform(-jitter, jitter))
+
+
+def _fits(x: float, y: float, r: float, surface: Surface, placed: list[tuple[float, float, float]],
+          gap: float) -> bool:
+    if not (surface.x0 + r <= x <= surface.x1 - r and surface.y0 + r <= y <= surface.y1 - r):
+        return False
+    for ax0, ay0, ax1, ay1 in surface.avoid:
+        if ax0 - r < x < ax1 + r and ay0 - r < y < ay1 + r:
+            return False
+    return all(math.hypot(x - px, y - py) >= r + pr + gap for px, py, pr in placed)
+
+
+def _pool(request: SceneRequest, predicate: Callable[[Category], bool]) -> list[Category]:
+    pool = list(request.categories) if request.categories else [c for c in categories() if predicate(c)]
+    if not pool:
+        raise InputError("no object category fits this layout", "choose other categories")
+    return pool
+
+
+def _aim(cam: np.ndarray, base_yaw: float, target: np.ndarray) -> tuple[float, float]:
+    """Head (pan, tilt) that points the optical axis from `cam` at `target`."""
+    d = target - cam
+    pan = math.remainder(math.atan2(d[1], d[0]) - base_yaw, math.tau)
+    tilt = math.atan2(d[2], math.hypot(d[0], d[1]))
+    lo, hi = GEOMETRY.tilt_range
+    return pan, min(max(tilt, lo), hi)
+
+
+def camera_position(robot: tuple[float, float, float]) -> np.ndarray:
+    """World position of the optical centre for a base pose (it sits on the pan/tilt axes)."""
+    x, y, yaw = robot
+    mx, my = GEOMETRY.mast_xy
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([x + c * mx - s * my, y + s * mx + c * my, GEOMETRY.head_height])
+
+
+def object_center(obj: PlacedObject) -> np.ndarray:
+    """World position of the centre of the object's bounding box as planned."""
+    lo, hi = np.asarray(obj.shape.lo), np.asarray(obj.shape.hi)
+    c = (lo + hi) / 2
+    cy, sy = math.cos(obj.yaw), math.sin(obj.yaw)
+    return np.array([obj.x + cy * c[0] - sy * c[1], obj.y + sy * c[0] + cy * c[1], obj.z - lo[2] + c[2]])
+
+
+def _table(name: str, x: float, y: float, size: tuple[float, float, float], kind: str = "table") -> Furniture:
+    colors = {"table": (0.62, 0.45, 0.30, 1), "counter": (0.85, 0.84, 0.80, 1), "coffee_table": (0.40, 0.28, 0.18, 1),
+              "shelf": (0.70, 0.55, 0.38, 1)}
+    return Furniture(kind, name, x, y, size, colors[kind])
+
+
+def _gap(a: Furniture, b: Furniture) -> float:
+    """Free distance between two pieces of furniture along the axis where they are farthest apart."""
+    ax0, ay0, ax1, ay1 = a.footprint()
+    bx0, by0, bx1, by1 = b.footprint()
+    return max(bx0 - ax1, ax0 - bx1, by0 - ay1, ay0 - by1)
+
+
+def _count(request: SceneRequest, default: int, lo: int, hi: int, what: str) -> int:
+    n = default if request.n_objects is None else request.n_objects
+    if not lo <= n <= hi:
+        raise InputError(f"{what} takes {lo} to {hi} objects, not {n}", f"ask for between {lo} and {hi} objects")
+    return n
+
+
+# --- arrangement and triplet: objects on one table in front of a fixed camera -------------------------
+
+_TABLE_FRONT = GEOMETRY.base_half[0] + 0.05  # gap between the robot and the table's near edge
+
+
+def _row_plan(rng: np.random.Generator, layout: str, seed: int, objs: list[PlacedObject], rows: int,
+              cols: int) -> ScenePlan:
+    """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to it, in front of the robot.
+
+    Columns are as wide as their widest object; rows are deep enough that an object does not hide the one
+    behind it from the head camera (which looks down at about 40 degrees).
+    """
+    grid = [[objs[r * cols + c] if r * cols + c < len(objs) else None for c in range(cols)] for r in range(rows)]
+    col_w = [max(2 * o.shape.footprint_radius for o in (grid[r][c] for r in range(rows)) if o is not None) + 0.04
+             for c in range(cols)]
+    row_d = [max(2 * o.shape.footprint_radius + (1.2 * o.shape.height if rows > 1 else 0.0)
+                 for o in grid[r] if o is not None) + 0.04 for r in range(rows)]
+    need_w, need_d = sum(col_w), sum(row_d)
+    max_w, max_d = 1.9, 1.2
+    if need_w > max_w or need_d > max_d:
+        raise InputError(
+            f"{len(objs)} objects in {rows} row(s) x {cols} column(s) do not fit on the table "
+            f"(need {need_w:.2f} m x {need_d:.2f} m, at most {max_w:.2f} m x {max_d:.2f} m)",
+            "ask for fewer objects, or smaller categories",
+        )
+    depth, width = max(need_d + 0.1, 0.5), max(need_w + 0.16, 0.8)
+    table = _table("table", _TABLE_FRONT + depth / 2, 0.0, (depth, width, 0.72))
+    robot = (0.0, float(-GEOMETRY.mast_xy[1]), 0.0)  # camera straight in front of the table's centre line
+    cam = camera_position(robot)
+    x_edges = table.x + need_d / 2 - np.concatenate([[0.0], np.cumsum(row_d)])  # row 0 at the far side
+    y_edges = table.y + need_w / 2 - np.concatenate([[0.0], np.cumsum(col_w)])  # col 0 at the left (+y)
+    for r in range(rows):
+        for c in range(cols):
+            o = grid[r][c]
+            if o is None:
+                continue
+            o.x = float((x_edges[r] + x_edges[r + 1]) / 2)
+            o.y = float((y_edges[c] + y_edges[c + 1]) / 2)
+            o.z = table.size[2]
+            o.surface = table.name
+            o.extras.update(row=r, col=c)
+            _face(o, (cam[0], cam[1]), rng, 0.25)
+    centers = np.array([object_center(o) for o in objs])
+    target = (centers.min(axis=0) + centers.max(axis=0)) / 2
+    pan, tilt = _aim(cam, robot[2], target)
+    return ScenePlan(layout, seed, [table], objs, robot, (pan, tilt))
+
+
+def _small(c: Category) -> bool:
+    return c.placement == "surface" and c.size_range_m[1] <= 0.22
+
+
+@LAYOUTS.register("arrangement", aliases=("grid", "o3"))
+def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
+    """Rows, columns or grids of one kind of object with one odd one out.
+
+    Options: pattern "row" | "column" | "grid" (default: drawn), odd "category" | "size" | "color"
+    (default: drawn), size_variation (default 0.08: each size within +-8% of the common size).
+    """
+    pattern = request.option("pattern", str(rng.choice(["row", "column", "grid"])), ("row", "column", "grid"))
+    default_n = {"row": 5, "column": 3, "grid": 8}[pattern]
+    n = _count(request, default_n, 3, 20, f"an arrangement ({pattern})")
+    if pattern == "row":
+        rows, cols = 1, n
+    elif pattern == "column":
+        rows, cols = n, 1
+    else:
+        rows = 2 if n <= 10 else 3 if n <= 15 else 4
+        cols = math.ceil(n / rows)
+    pool = _pool(request, _small)
+    main = pool[int(rng.integers(len(pool)))] if not request.categories else pool[0]
+    odd_kinds = ["category", "size"] + (["color"] if len(main.colors) > 1 else [])
+    odd_kind = request.option("odd", str(rng.choice(odd_kinds)), ("category", "size", "color"))
+    if odd_kind == "color" and len(main.colors) < 2:
+        raise InputError(f"{main.name} comes in one colour only, so it cannot have an odd colour", "use odd=size")
+    variation = float(request.option("size_variation", 0.08))
+    if not 0 <= variation <= 0.3:
+        raise InputError(f"size_variation={variation} is out of range", "give a fraction between 0 and 0.3")
+    lo, hi = main.size_range_m
+    common = float(rng.uniform(lo, hi))
+    color = str(main.colors[int(rng.integers(len(main.colors)))])
+    odd_index = int(rng.integers(n))
+    objs: list[PlacedObject] = []
+    for i in range(n):
+        size = common * (1 + float(rng.uniform(-variation, variation)))
+        if i == odd_index and odd_kind == "size":
+            size = common * (1.6 if rng.uniform() < 0.5 else 0.6)
+        cat, col = main, color
+        if i == odd_index and odd_kind == "category":
+            others = [c for c in (pool[1:] if request.categories and len(pool) > 1 else _pool(SceneRequest(), _small))
+                      if c.name != main.name]
+            cat = others[int(rng.integers(len(others)))]
+            size = float(np.clip(common, *cat.size_range_m))
+            col = str(cat.colors[int(rng.integers(len(cat.colors)))])
+        if i == odd_index and odd_kind == "color":
+            col = str(rng.choice([c for c in main.colors if c != color]))
+        o = _make_object(rng, i, cat, size=size, color=col)
+        o.extras.update(odd_one_out=(i == odd_index), odd_kind=odd_kind if i == odd_index else "")
+        objs.append(o)
+    return _row_plan(rng, "arrangement", 0, objs, rows, cols)
+
+
+def _triplet_ok(c: Category) -> bool:
+    return c.placement == "surface" and not c.deceptive and c.size_range_m[1] <= 0.45 and c.pickable
+
+
+@LAYOUTS.register("triplet", aliases=("weights",))
+def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
+    """Three objects of clearly increasing weight (each range entirely above the last, typical mass at
+    least 3 times the last), side by side in a shuffled order."""
+    _count(request, 3, 3, 3, "a triplet")
+    if request.categories:
+        chosen = sorted(request.categories, key=lambda c: c.typical_mass_kg)
+        if len(chosen) != 3:
+            raise InputError(f"a triplet takes exactly 3 categories, got {len(chosen)}", "name three categories")
+        for a, b in zip(chosen, chosen[1:], strict=False):
+            if not a.mass_range_kg[1] < b.mass_range_kg[0]:
+                raise InputError(f"{a.name} and {b.name} overlap in weight", "choose categories of clearly different weight")
+    else:
+        pool = sorted(_pool(SceneRequest(), _triplet_ok), key=lambda c: c.typical_mass_kg)
+        for _ in range(1000):
+            first = pool[int(rng.integers(len(pool)))]
+            chosen = [first]
+            while len(chosen) < 3:
+                prev = chosen[-1]
+                nxt = [c for c in pool if c.mass_range_kg[0] > prev.mass_range_kg[1] and
+                       c.typical_mass_kg >= 3 * prev.typical_mass_kg]
+                if not nxt:
+                    break
+                chosen.append(nxt[int(rng.integers(len(nxt)))])
+            if len(chosen) == 3:
+                break
+    order = rng.permutation(3)
+    objs = []
+    for slot, idx in enumerate(order):
+        o = _make_object(rng, slot, chosen[int(idx)])
+        o.extras.update(weight_rank=int(idx))
+        objs.append(o)
+    return _row_plan(rng, "triplet", 0, objs, 1, 3)
+
+
+# --- household: furniture around the room, candidates at different distances ---------------------------
+
+@LAYOUTS.register("household", aliases=("room",))
+def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
+    """A room with 2-3 pieces of furniture and 2-6 candidate objects (up to 12 on request) at distances
+    from the robot that differ by at least `min_gap` metres (option, default 0.15)."""
+    n = _count(request, int(rng.integers(2, 7)), 1, 12, "a household scene")
+    min_gap = float(request.option("min_gap", 0.15))
+    robot = (-2.0 + float(rng.uniform(-0.2, 0.2)), float(rng.uniform(-0.3, 0.3)), float(rng.uniform(-0.12, 0.12)))
+    cam = camera_position(robot)
+    rx = robot[0]
+    ry = robot[1]
+    for _ in range(200):  # furniture with room for the robot to drive between the pieces
+        slots = [
+            ("coffee_table", (rx + rng.uniform(0.9, 1.1), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
+            ("table", (rx + rng.uniform(1.7, 2.1), ry + rng.choice([-1, 1]) * rng.uniform(0.9, 1.2)), (0.7, 0.9, 0.75)),
+            (str(rng.choice(["counter", "shelf"])), (rx + rng.uniform(2.6, 2.9), ry + rng.uniform(-0.6, 0.6)),
+             (0.45, 1.3, 0.9)),
+        ]
+        keep = sorted(rng.choice(3, size=int(rng.integers(2, 4)), replace=False).tolist())
+        furniture = [_table(f"{kind}_{i}", float(x), float(y), size, kind)
+                     for i, (kind, (x, y), size) in enumerate(slots) if i in keep]
+        if all(_gap(a, b) >= 0.6 for i, a in enumerate(furniture) for b in furniture[i + 1:]) and all(
+            max(abs(v) for v in f.footprint()) < ROOM_HALF - 0.6 for f in furniture
+        ):
+            break
+    surfaces = [s for f in furniture for s in f.surfaces()]
+    floor = Surface("floor", rx + 0.75, -ROOM_HALF + 0.3, ROOM_HALF - 0.3, ROOM_HALF - 0.3, 0.0,
+                    tuple(f.footprint(0.1) for f in furniture))
+    pool = _pool(request, lambda c: c.pickable)
+    picks: list[Category] = []
+    order = rng.permutation(len(pool)).tolist()
+    for i in range(n):
+        picks.append(pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))])
+    objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
+    placed: dict[str, list[tuple[float, float, float]]] = {}
+    dists: list[float] = []
+    half_h = math.radians(GEOMETRY.fovy_deg) / 2
+    for o in objs:
+        choices = [floor] if o.category.placement == "floor" else surfaces
+        r = o.shape.footprint_radius
+        for _ in range(400):
+            s = choices[int(rng.integers(len(choices)))]
+            if s is floor:  # the floor in front of the robot and within view
+                x = float(rng.uniform(rx + 0.9, rx + 2.8))
+                y = float(robot[1] + rng.uniform(-0.9, 0.9) * (x - rx) * 0.45)
+            else:
+                x, y = float(rng.uniform(s.x0, s.x1)), float(rng.uniform(s.y0, s.y1))
+            if not _fits(x, y, r, s, placed.get(s.name, []), 0.04):
+                continue
+            o.x, o.y, o.z, o.surface = x, y, s.z, s.name
+            _face(o, (cam[0], cam[1]), rng, 0.4)
+            # lower shelf: keep objects short enough to stand under the top board
+            if s.name.endswith("_low") and o.shape.height - o.shape.lo[2] > 0.9 - _SHELF_LOW - 0.06:
+                continue
+            d = float(np.linalg.norm(object_center(o) - cam))
+            if any(abs(d - e) < min_gap for e in dists):
+                continue
+            # big enough to see from here, whatever the image size: thin things (pencils) stay near
+            dims = sorted(np.asarray(o.shape.hi) - np.asarray(o.shape.lo))
+            if dims[2] / d < 0.05 or dims[1] / d < 0.006:
+                continue
+            # in the horizontal field of view of a head turned towards the candidates' middle
+            if abs(math.remainder(math.atan2(y - robot[1], x - rx) - robot[2], math.tau)) > half_h * 1.1:
+                continue
+            placed.setdefault(s.name, []).append((x, y, r))
+            dists.append(d)
+            break
+        else:
+            raise InputError(
+                f"cannot place {n} objects in a household scene with distances {min_gap} m apart "
+                f"(object {o.key}, a {o.category.name}, found no free spot)",
+                "ask for fewer objects, smaller categories, or a smaller min_gap",
+            )
+    centers = np.array([object_center(o) for o in objs])
+    lo, hi = centers.min(axis=0), centers.max(axis=0)
+    pan, tilt = _aim(cam, robot[2], (lo + hi) / 2)
+    # tilt so that the nearest and farthest candidates both fall in view
+    tilts = [math.atan2(c[2] - cam[2], math.hypot(c[0] - cam[0], c[1] - cam[1])) for c in centers]
+    tilt = float(np.clip((min(tilts) + max(tilts)) / 2, *GEOMETRY.tilt_range))
+    return ScenePlan("household", 0, furniture, objs, robot, (pan, tilt))
+
+
+def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, attempt: int = 0) -> ScenePlan:
+    """The plan of `layout` for `seed` (and `attempt`, for layouts whose plans can be rejected and redrawn):
+    same arguments, same plan."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**32:
+        raise InputError(f"seed {seed!r} is not valid", "give a whole number between 0 and 4294967295")
+    fn = LAYOUTS.get(layout)
+    req = request or SceneRequest()
+    if req.n_objects is not None and (req.n_objects < 1 or req.n_objects > MAX_OBJECTS):
+        raise InputError(f"{req.n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
+    rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
+    plan = fn(rng, req)
+    plan.seed = int(seed)
+    return plan
+
+
+def resolve_categories(names: Sequence[str] | None) -> tuple[Category, ...] | None:
+    """Categories for names (UnknownName for an unknown one); None stays None."""
+    if names is None:
+        return None
+    cats = tuple(get_category(n) for n in names)
+    return cats or None
+
+
+# --- building the MuJoCo model -----------------------------------------------------------------------
+
+def _rgba(rgb: tuple[float, float, float], a: float = 1.0) -> list[float]:
+    return [*rgb, a]
+
+
+def _add_room(spec: mujoco.MjSpec) -> None:
+    spec.add_texture(name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                     rgb1=[0.72, 0.66, 0.58], rgb2=[0.64, 0.58, 0.50], width=256, height=256)
+    mat = spec.add_material(name="floor_mat", texrepeat=[8, 8], reflectance=0.15)
+    mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = "floor_tex"
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+                     rgb1=[0.6, 0.7, 0.85], rgb2=[0.2, 0.25, 0.35], width=64, height=64)
+    wb = spec.worldbody
+    floor = wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[ROOM_HALF, ROOM_HALF, 0.05],
+                        material="floor_mat")
+    floor.contype = floor.conaffinity = 1
+    wall_rgb = [0.86, 0.84, 0.78, 1.0]
+    t = 0.05
+    for name, pos, size in (
+        ("wall_front", (ROOM_HALF + t, 0, WALL_HEIGHT / 2), (t, ROOM_HALF + 2 * t, WALL_HEIGHT / 2)),
+        ("wall_back", (-ROOM_HALF - t, 0, WALL_HEIGHT / 2), (t, ROOM_HALF + 2 * t, WALL_HEIGHT / 2)),
+        ("wall_left", (0, ROOM_HALF + t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
+        ("wall_right", (0, -ROOM_HALF - t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
+    ):
+        g = wb.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=wall_rgb)
+        g.contype = g.conaffinity = 1
+    skirting = [0.45, 0.40, 0.35, 1.0]
+    for name, pos, size in (
+        ("skirt_front", (ROOM_HALF - 0.005, 0, 0.05), (0.006, ROOM_HALF, 0.05)),
+        ("skirt_left", (0, ROOM_HALF - 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
+        ("skirt_right", (0, -ROOM_HALF + 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
+    ):
+        g = wb.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=skirting)
+        g.contype = g.conaffinity = 0
+    wb.add_light(name="ceiling", pos=[0, 0, WALL_HEIGHT - 0.05], dir=[0.1, 0.05, -1], diffuse=[0.55, 0.55, 0.55],
+                 specular=[0.1, 0.1, 0.1], castshadow=True, cutoff=80, attenuation=[1, 0, 0])
+    wb.add_light(name="fill", pos=[-2.5, -1.0, 2.0], dir=[1, 0.3, -0.6], diffuse=[0.3, 0.3, 0.3],
+                 specular=[0, 0, 0], castshadow=False, cutoff=90)
+
+
+def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
+    body = spec.worldbody.add_body(name=f"furniture:{f.name}", pos=[f.x, f.y, 0])
+    dx, dy, h = f.size[0] / 2, f.size[1] / 2, f.size[2]
+    rgba = list(f.rgba)
+    dark = [f.rgba[0] * 0.6, f.rgba[1] * 0.6, f.rgba[2] * 0.6, 1.0]
+
+    def box(half: tuple[float, float, float], pos: tuple[float, float, float], color: list[float]) -> None:
+        g = body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(half), pos=list(pos), rgba=color)
+        g.contype = g.conaffinity = 1
+        g.friction = [1.0, 0.01, 0.001]
+
+    top = 0.02
+    if f.kind in ("table", "coffee_table"):
+        box((dx, dy, top), (0, 0, h - top), rgba)
+        leg = 0.03
+        for sx in (-1, 1):
+            for sy in (-1, 1):
+                box((leg, leg, (h - 2 * top) / 2), (sx * (dx - leg - 0.02), sy * (dy - leg - 0.02), (h - 2 * top) / 2),
+                    dark)
+    elif f.kind == "counter":
+        box((dx, dy, (h - 2 * top) / 2), (0, 0, (h - 2 * top) / 2), dark)
+        box((dx + 0.01, dy + 0.01, top), (0, 0, h - top), rgba)
+        box((0.003, dy * 0.9, h * 0.35), (-dx - 0.002, 0, h * 0.45), [0.9, 0.9, 0.88, 1])
+    else:  # shelf: open towards -x, a top, a middle board, a back and two sides
+        box((dx, dy, top), (0, 0, h - top), rgba)
+        box((dx, dy, top), (0, 0, _SHELF_LOW - top), rgba)
+        box((dx, dy, top), (0, 0, 0.05), rgba)
+        box((0.01, dy, h / 2), (dx - 0.01, 0, h / 2), dark)
+        for sy in (-1, 1):
+            box((dx, 0.015, h / 2), (0, sy * (dy - 0.015), h / 2), dark)
+
+
+def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
+    main = COLORS[o.color]
+    body = spec.worldbody.add_body(name=f"obj:{o.id}", pos=[o.x, o.y, o.z - o.shape.lo[2] + 0.0005],
+                                   quat=[math.cos(o.yaw / 2), 0, 0, math.sin(o.yaw / 2)])
+    body.add_freejoint(name=f"obj:{o.id}")
+    hidden_mass = 1e-4 * o.mass_kg
+    n_hidden = sum(p.hidden for p in o.shape.parts)
+    visible_mass = o.mass_kg - hidden_mass * n_hidden
+    vol = o.shape.visible_volume
+    types = {"box": mujoco.mjtGeom.mjGEOM_BOX, "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+             "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+             "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID}
+    for p in o.shape.parts:
+        rgb = main if p.role == "main" else MATERIALS[p.role]
+        size = list(p.size) + [0.0] * (3 - len(p.size))
+        g = body.add_geom(type=types[p.kind], size=size, pos=list(p.pos), quat=list(p.quat), rgba=_rgba(rgb))
+        g.mass = hidden_mass if p.hidden else visible_mass * p.volume() / vol
+        g.group = 3 if p.hidden else 0
+        g.contype = g.conaffinity = 1
+        g.friction = [1.0, 0.01, 0.001]
+        g.condim = 4  # torsional friction too: things at rest stay at rest
+
+
+def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
+    """Compile the plan into a model: room, furniture, objects, robot, sensors, one weld per pickable object."""
+    spec = mujoco.MjSpec()
+    spec.modelname = f"attribot_{plan.layout}_{plan.seed}"
+    spec.compiler.degree = False  # every angle here is in radians (joint ranges included)
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    spec.visual.global_.offwidth = max(plan.width, 64)
+    spec.visual.global_.offheight = max(plan.height, 64)
+    spec.visual.quality.shadowsize = 2048
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
+    spec.visual.headlight.specular = [0.0, 0.0, 0.0]
+    spec.visual.map.znear = 0.005
+    spec.visual.map.zfar = 5.0
+    spec.stat.extent = 3.0  # clip planes scale with it: near 1.5 cm, far 15 m
+    spec.stat.center = [0, 0, 0.8]
+    _add_room(spec)
+    for f in plan.furniture:
+        _add_furniture(spec, f)
+    for o in plan.objects:
+        _add_object(spec, o)
+    add_robot(spec)
+    for o in plan.objects:
+        if o.category.pickable:
+            eq = spec.add_equality(name=f"grasp:{o.id}", type=mujoco.mjtEq.mjEQ_WELD,
+                                   objtype=mujoco.mjtObj.mjOBJ_BODY, name1="wrist", name2=f"obj:{o.id}")
+            eq.active = False
+            eq.solref = [0.01, 1.0]
+    return spec.compile()

@@ -1,0 +1,518 @@
+"""The simulated world: one scene, its physics, the robot's actuators and sensors, and ground truth.
+
+`SimWorld` holds the compiled model and its data. Motion goes through actuators (base velocities, head,
+lift, arm and finger position targets) and time advances only in `step`. Sensors read the simulation:
+the rangefinder casts along the camera's optical axis, the wrist force/torque sensor reports the force
+that the arm transmits to the gripper, so a held object's weight reaches it through the grasp weld and
+the physics, never from the catalog. Ground truth (object ids, categories, masses, boxes) is available
+separately for perception oracles, scoring and scene info.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+from pydantic import BaseModel
+
+from attribot.errors import InputError
+from attribot.frame import CameraInfo, Frame, ObjectTruth
+from attribot.sim.render import PROFILES, SceneRenderer
+from attribot.sim.robot import GEOMETRY
+from attribot.sim.scene import MAX_OBJECTS, ScenePlan, SceneRequest, build_model, plan_scene, resolve_categories
+
+__all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
+
+_ATTEMPTS = 30
+MIN_VISIBLE_PIXELS = 20  # fewer visible pixels than this and an object counts as not in view
+GRAVITY = 9.81
+
+
+class ObjectInfo(BaseModel):
+    """Truth about one object, as `attribot scene info` prints it (metres, kilograms, pixels)."""
+
+    id: str
+    key: int
+    category: str
+    color: str
+    mass_kg: float
+    position: list[float]
+    box: list[float] | None
+    visible_pixels: int
+    pickable: bool
+    size_m: float
+    variant: str = ""
+    deceptive: bool = False
+    distance_m: float
+    surface: str = ""
+    row: int | None = None
+    col: int | None = None
+    odd_one_out: bool | None = None
+    odd_kind: str | None = None
+    weight_rank: int | None = None
+
+
+class RobotInfo(BaseModel):
+    base: list[float]  # x, y, yaw
+    camera_position: list[float]
+    head: list[float]  # pan, tilt
+
+
+class SceneInfo(BaseModel):
+    """What `attribot scene info` prints: the scene's truth in the world frame and the camera's pixels."""
+
+    layout: str
+    seed: int
+    image_size: list[int]
+    objects: list[ObjectInfo]
+    robot: RobotInfo
+    furniture: list[str]
+
+
+def box_from_mask(mask: np.ndarray) -> tuple[float, float, float, float] | None:
+    """xyxy pixel box (x1, y1 exclusive) around the True pixels of a mask, or None when empty."""
+    ys, xs = np.nonzero(mask)
+    if xs.size == 0:
+        return None
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
+
+
+def _name2id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
+    i = mujoco.mj_name2id(model, kind, name)
+    if i < 0:
+        raise RuntimeError(f"the model has no {kind.name} {name!r}")
+    return i
+
+
+class SimWorld:
+    """One seeded scene with the robot in it. See the module docstring; close it to free the renderer."""
+
+    def __init__(
+        self,
+        layout: str = "household",
+        seed: int = 0,
+        *,
+        n_objects: int | None = None,
+        categories: Sequence[str] | None = None,
+        width: int = 640,
+        height: int = 480,
+        profile: str = "fast",
+        force_noise_std: float = 0.0,
+        options: dict[str, Any] | None = None,
+        settle_s: float = 0.6,
+    ) -> None:
+        if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
+            raise InputError(f"image size {width}x{height} is out of range", "give a width and height from 16 to 4096")
+        if profile not in PROFILES:
+            raise InputError(f"unknown render profile {profile!r}", f"choose one of: {', '.join(PROFILES)}")
+        if not force_noise_std >= 0:
+            raise InputError(f"force_noise_std={force_noise_std} is negative", "give a standard deviation >= 0 N")
+        if n_objects is not None and not 1 <= n_objects <= MAX_OBJECTS:
+            raise InputError(f"{n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
+        request = SceneRequest(n_objects, resolve_categories(categories), dict(options or {}))
+        self.width, self.height, self.profile = int(width), int(height), profile
+        self.force_noise_std = float(force_noise_std)
+        self._rng = np.random.default_rng([int(seed), 1])
+        self._renderer: SceneRenderer | None = None
+        # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
+        error: InputError | None = None
+        for attempt in range(_ATTEMPTS):
+            try:
+                self.plan: ScenePlan = plan_scene(layout, seed, request, attempt)
+            except InputError as exc:
+                if self._fixed(layout):
+                    raise
+                error = exc
+                continue
+            self.plan.width, self.plan.height = self.width, self.height
+            self.model = build_model(self.plan)
+            self.data = mujoco.MjData(self.model)
+            self._index()
+            self._start()
+            if self._fixed(layout) or all(self._in_view(k) for k in self.objects):
+                break
+            error = InputError(
+                f"no {layout} scene for seed {seed} shows all {len(self.objects)} objects to the camera",
+                "ask for fewer objects or another seed",
+            )
+        else:
+            assert error is not None
+            raise error
+        self.step(settle_s)
+        self._tare = np.zeros(3)
+        self._held: int | None = None
+        self.pick_record: Any = None  # where the last pick happened, for putting the object back
+
+    # --- set-up -----------------------------------------------------------------------------------
+    @staticmethod
+    def _fixed(layout: str) -> bool:
+        """Layouts whose plan is exact (no rejection): arrangement and triplet."""
+        from attribot.sim.scene import LAYOUTS
+
+        return LAYOUTS.get(layout) is not LAYOUTS.get("household")
+
+    def _in_view(self, key: int, margin: float = 0.04) -> bool:
+        """True when rays from the optical centre reach the object first and its centre is in the image."""
+        cam, rot = self.camera_pose()
+        info = self.camera_info()
+        lo, hi = self.object_bounds(key)
+        centre = (lo + hi) / 2
+        top = np.array([centre[0], centre[1], hi[2] - 0.01 * (hi[2] - lo[2])])
+        p = rot.T @ (centre - cam)  # camera frame: x right, y up, z backward
+        if p[2] >= -0.05:
+            return False
+        u = info.cx + info.fx * p[0] / -p[2]
+        v = info.cy - info.fy * p[1] / -p[2]
+        if not (margin * info.width <= u <= (1 - margin) * info.width and margin * info.height <= v <= (1 - margin) * info.height):
+            return False
+        groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+        head = _name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "head_tilt")
+        seen = 0
+        for target in (centre, top):
+            vec = target - cam
+            geom = np.array([-1], np.int32)
+            mujoco.mj_ray(self.model, self.data, cam, vec / np.linalg.norm(vec), groups, 1, head, geom)
+            seen += int(geom[0] >= 0 and self.geom_key[geom[0]] == key)
+        return seen >= 1
+
+    def _index(self) -> None:
+        m = self.model
+        J = mujoco.mjtObj.mjOBJ_JOINT
+        A = mujoco.mjtObj.mjOBJ_ACTUATOR
+        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in
+                      ("base_x", "base_y", "base_yaw", "head_pan", "head_tilt", "lift", "arm", "finger_l", "finger_r")}
+        self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
+        self._act = {n: _name2id(m, A, n) for n in
+                     ("base_x", "base_y", "base_yaw", "head_pan", "head_tilt", "lift", "arm", "finger_l", "finger_r")}
+        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "head_camera")
+        self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
+        self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
+        self._ft_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "ft_site")
+        self._probe = _name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "grip_probe")
+        self._pads = [_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{n}_pad") for n in ("finger_l", "finger_r")]
+        self.wrist_body = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, "wrist")
+        # objects: key -> body id, geoms; geom id -> object key (-1 for everything else)
+        self.objects = {o.key: o for o in self.plan.objects}
+        self.body_of: dict[int, int] = {}
+        self.geoms_of: dict[int, list[int]] = {}
+        self.weld_of: dict[int, int] = {}
+        self.geom_key = np.full(m.ngeom, -1, np.int32)
+        for o in self.plan.objects:
+            b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"obj:{o.id}")
+            self.body_of[o.key] = b
+            gs = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
+            self.geoms_of[o.key] = [g for g in gs if m.geom_group[g] < 3]
+            self.geom_key[gs] = o.key
+            if o.category.pickable:
+                self.weld_of[o.key] = _name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp:{o.id}")
+        self.key_of_id = {o.id: o.key for o in self.plan.objects}
+        self.truth = {
+            o.key: ObjectTruth(id=o.id, category=o.category.name, color=o.color, synonyms=o.category.synonyms)
+            for o in self.plan.objects
+        }
+
+    def _start(self) -> None:
+        d, q = self.data, self._qadr
+        x, y, yaw = self.plan.robot
+        pan, tilt = self.plan.head
+        lift, ext = self.plan.arm
+        open_ = GEOMETRY.finger_range[1]
+        for name, value in (("base_x", x), ("base_y", y), ("base_yaw", yaw), ("head_pan", pan), ("head_tilt", tilt),
+                            ("lift", lift), ("arm", ext), ("finger_l", open_), ("finger_r", open_)):
+            d.qpos[q[name]] = value
+        for name in ("base_x", "base_y", "base_yaw"):
+            d.ctrl[self._act[name]] = 0.0
+        self._targets = {"head_pan": pan, "head_tilt": tilt, "lift": lift, "arm": ext,
+                         "finger_l": open_, "finger_r": open_}
+        for name, v in self._targets.items():
+            d.ctrl[self._act[name]] = v
+        self._base_cmd = (0.0, 0.0, 0.0)
+        mujoco.mj_forward(self.model, d)
+
+    # --- time and motion --------------------------------------------------------------------------
+    def step(self, seconds: float) -> None:
+        """Advance the simulation by `seconds`, holding the current commands."""
+        if not seconds >= 0 or not math.isfinite(seconds):
+            raise InputError(f"cannot step {seconds!r} seconds", "give a finite duration >= 0")
+        n = int(round(seconds / self.model.opt.timestep))
+        m, d = self.model, self.data
+        if self._base_cmd == (0.0, 0.0, 0.0):
+            self._set_base_ctrl()
+            if n:
+                mujoco.mj_step(m, d, nstep=n)
+            return
+        # the base command is in the robot frame: re-express it in the world frame as the base turns
+        chunk = 5
+        while n > 0:
+            self._set_base_ctrl()
+            k = min(chunk, n)
+            mujoco.mj_step(m, d, nstep=k)
+            n -= k
+
+    def _set_base_ctrl(self) -> None:
+        vx, vy, wz = self._base_cmd
+        yaw = self.data.qpos[self._qadr["base_yaw"]]
+        c, s = math.cos(yaw), math.sin(yaw)
+        self.data.ctrl[self._act["base_x"]] = c * vx - s * vy
+        self.data.ctrl[self._act["base_y"]] = s * vx + c * vy
+        self.data.ctrl[self._act["base_yaw"]] = wz
+
+    def command_base(self, vx: float, vy: float, wz: float) -> None:
+        """Base velocity in the robot frame (forward m/s, left m/s, counter-clockwise rad/s), held until changed."""
+        vals = (float(vx), float(vy), float(wz))
+        if not all(math.isfinite(v) for v in vals):
+            raise InputError(f"base velocity {vals} is not finite", "give finite velocities")
+        self._base_cmd = (float(np.clip(vx, -1.0, 1.0)), float(np.clip(vy, -1.0, 1.0)), float(np.clip(wz, -2.0, 2.0)))
+        self._set_base_ctrl()
+
+    def _target(self, name: str, value: float) -> None:
+        if not math.isfinite(value):
+            raise InputError(f"{name} target {value!r} is not finite", "give a finite number")
+        lo, hi = self.model.actuator_ctrlrange[self._act[name]]
+        v = float(np.clip(value, lo, hi))
+        self._targets[name] = v
+        self.data.ctrl[self._act[name]] = v
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        """Head targets (radians, clipped to the joint ranges): pan left positive, tilt up positive."""
+        self._target("head_pan", math.remainder(float(pan), math.tau))
+        self._target("head_tilt", float(tilt))
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        """Lift height of the carriage and arm extension targets, metres (clipped to the joint ranges)."""
+        self._target("lift", float(lift))
+        self._target("arm", float(extension))
+
+    def set_gripper(self, opening: float) -> None:
+        """Each finger's distance from the centre line, metres (0 closed, 0.07 fully open)."""
+        self._target("finger_l", float(opening))
+        self._target("finger_r", float(opening))
+
+    # --- grasping ------------------------------------------------------------------------------------
+    def _geom_distance(self, g1: int, g2: int, cap: float = 0.2) -> float:
+        fromto = np.zeros(6)
+        return float(mujoco.mj_geomDistance(self.model, self.data, g1, g2, cap, fromto))
+
+    def _object_distance(self, geom: int, key: int, cap: float = 0.2) -> float:
+        return min(self._geom_distance(geom, g, cap) for g in self.geoms_of[key])
+
+    def grasp(self) -> bool:
+        """Close the fingers on what lies between them; weld it to the wrist when both fingers touch it.
+
+        Returns True when an object is now held. A pickable object counts only when the point between the
+        fingertips is within 3 cm of it; the fingers stop where they meet its surface.
+        """
+        if self._held is not None:
+            return True
+        near = [(self._object_distance(self._probe, k), k) for k in self.weld_of]
+        near = [(dist, k) for dist, k in near if dist < 0.03]
+        if not near:
+            self.set_gripper(0.0)
+            self.step(0.4)
+            return False
+        _, key = min(near)
+        moving = {0: True, 1: True}
+        names = ("finger_l", "finger_r")
+        for _ in range(150):
+            for i, name in enumerate(names):
+                if not moving[i]:
+                    continue
+                if self._object_distance(self._pads[i], key) <= 0.001:
+                    moving[i] = False
+                    self._target(name, float(self.data.qpos[self._qadr[name]]))
+                else:
+                    self._target(name, max(self._targets[name] - 0.004, 0.0))
+                    if self._targets[name] == 0.0 and self.data.qpos[self._qadr[name]] < 0.002:
+                        moving[i] = False
+            self.step(0.012)
+            if not any(moving.values()):
+                break
+        touching = all(self._object_distance(p, key) < 0.006 for p in self._pads)
+        if not touching:
+            return False
+        self._weld(key)
+        self.step(0.3)
+        return True
+
+    def _weld(self, key: int) -> None:
+        """Activate the weld between wrist and object at their current relative pose."""
+        m, d = self.model, self.data
+        eq = self.weld_of[key]
+        b1, b2 = self.wrist_body, self.body_of[key]
+        p1, p2 = d.xpos[b1], d.xpos[b2]
+        r1 = d.xmat[b1].reshape(3, 3)
+        q1, q2 = d.xquat[b1].copy(), d.xquat[b2].copy()
+        rel_pos = r1.T @ (p2 - p1)
+        q1inv = np.zeros(4)
+        mujoco.mju_negQuat(q1inv, q1)
+        rel_q = np.zeros(4)
+        mujoco.mju_mulQuat(rel_q, q1inv, q2)
+        m.eq_data[eq, 0:3] = 0.0  # anchor at the object's origin
+        m.eq_data[eq, 3:6] = rel_pos
+        m.eq_data[eq, 6:10] = rel_q
+        m.eq_data[eq, 10] = 1.0
+        d.eq_active[eq] = 1
+        self._held = key
+
+    def release(self) -> None:
+        """Drop the weld and open the fingers."""
+        if self._held is not None:
+            self.data.eq_active[self.weld_of[self._held]] = 0
+            self._held = None
+        self.set_gripper(GEOMETRY.finger_range[1])
+        self.step(0.3)
+
+    @property
+    def held(self) -> int | None:
+        """Key of the object held now, or None."""
+        return self._held
+
+    # --- sensors ------------------------------------------------------------------------------------
+    def read_distance(self) -> float:
+        """Rangefinder along the optical axis, metres from the optical centre; inf when nothing is in range."""
+        mujoco.mj_forward(self.model, self.data)
+        r = float(self.data.sensordata[self._range_adr])
+        return math.inf if r < 0 or r > GEOMETRY.range_max else r
+
+    def _raw_force(self) -> np.ndarray:
+        mujoco.mj_rnePostConstraint(self.model, self.data)
+        mujoco.mj_sensorAcc(self.model, self.data)
+        f_site = self.data.sensordata[self._force_adr:self._force_adr + 3].copy()
+        # MuJoCo reports, in the site frame, the force with which the arm holds the wrist's subtree up;
+        # its opposite is the load on the wrist, so that a held mass m adds (0, 0, -m*g) in the world frame
+        return -(self.data.site_xmat[self._ft_site].reshape(3, 3) @ f_site)
+
+    def tare_force(self) -> None:
+        """Zero the wrist force sensor with what it carries now (the gripper, and anything it holds)."""
+        self._tare = self._raw_force()
+
+    def read_force(self) -> np.ndarray:
+        """Wrist force in newtons, world frame, relative to the last tare, with the configured noise."""
+        f = self._raw_force() - self._tare
+        if self.force_noise_std > 0:
+            f = f + self._rng.normal(0.0, self.force_noise_std, 3)
+        return f
+
+    def joint_states(self) -> dict[str, float]:
+        q = self.data.qpos
+        out = {n: float(q[a]) for n, a in self._qadr.items() if not n.startswith("finger")}
+        out["gripper"] = float((q[self._qadr["finger_l"]] + q[self._qadr["finger_r"]]) / 2)
+        return out
+
+    def base_pose(self) -> tuple[float, float, float]:
+        q = self.data.qpos
+        return (float(q[self._qadr["base_x"]]), float(q[self._qadr["base_y"]]),
+                float(math.remainder(q[self._qadr["base_yaw"]], math.tau)))
+
+    def head(self) -> tuple[float, float]:
+        q = self.data.qpos
+        return float(q[self._qadr["head_pan"]]), float(q[self._qadr["head_tilt"]])
+
+    def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position of the optical centre and the camera's rotation (columns: right, up, backward)."""
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        return self.data.cam_xpos[self.camera_id].copy(), self.data.cam_xmat[self.camera_id].reshape(3, 3).copy()
+
+    # --- camera ---------------------------------------------------------------------------------------
+    def camera_info(self) -> CameraInfo:
+        fy = (self.height / 2) / math.tan(math.radians(self.model.cam_fovy[self.camera_id]) / 2)
+        return CameraInfo(width=self.width, height=self.height, fx=fy, fy=fy, cx=self.width / 2, cy=self.height / 2)
+
+    @property
+    def renderer(self) -> SceneRenderer:
+        if self._renderer is None:
+            self._renderer = SceneRenderer(self.model, self.width, self.height, self.profile)
+        return self._renderer
+
+    def observe(self, *, depth: bool = True, segmentation: bool = True) -> Frame:
+        """The head camera's frame: RGB, and depth and segmentation (object keys, -1 elsewhere) with truth."""
+        mujoco.mj_forward(self.model, self.data)
+        out = self.renderer.render(self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation)
+        seg = None
+        if out.geom_ids is not None:
+            ids = out.geom_ids
+            seg = np.where(ids >= 0, self.geom_key[np.clip(ids, 0, None)], -1).astype(np.int32)
+        assert out.rgb is not None
+        return Frame(rgb=out.rgb, depth=out.depth, segmentation=seg, objects=dict(self.truth),
+                     camera=self.camera_info())
+
+    # --- ground truth ---------------------------------------------------------------------------------
+    def object_position(self, key: int) -> np.ndarray:
+        """World position of the centre of the object's geometry (its bounding box of geom centres)."""
+        return self.object_bounds(key).mean(axis=0)
+
+    def object_bounds(self, key: int) -> np.ndarray:
+        """World axis-aligned bounds (2, 3) of the object's visible geoms."""
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        m, d = self.model, self.data
+        for g in self.geoms_of[key]:
+            r = np.abs(d.geom_xmat[g].reshape(3, 3)) @ _half_extents(m, g)
+            lo = np.minimum(lo, d.geom_xpos[g] - r)
+            hi = np.maximum(hi, d.geom_xpos[g] + r)
+        return np.stack([lo, hi])
+
+    def top_of(self, key: int, x: float, y: float) -> float | None:
+        """Height of the object's upper surface at world (x, y) by a ray cast downward, or None if missed."""
+        groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+        lo, hi = self.object_bounds(key)
+        start = np.array([x, y, hi[2] + 0.05])
+        geom = np.array([-1], np.int32)
+        dist = mujoco.mj_ray(self.model, self.data, start, np.array([0.0, 0.0, -1.0]), groups, 1, -1, geom)
+        if geom[0] < 0 or self.geom_key[geom[0]] != key:
+            return None
+        return float(start[2] - dist)
+
+    def scene_info(self, frame: Frame | None = None) -> SceneInfo:
+        """The truth of the scene now, with boxes from the segmentation of `frame` (or a fresh frame)."""
+        frame = frame or self.observe()
+        cam, _ = self.camera_pose()
+        objects = []
+        for o in self.plan.objects:
+            mask = frame.segmentation == o.key if frame.segmentation is not None else np.zeros((1, 1), bool)
+            n_px = int(mask.sum())
+            box = box_from_mask(mask) if n_px >= MIN_VISIBLE_PIXELS else None
+            pos = self.object_position(o.key)
+            extras = {k: v for k, v in o.extras.items() if k in ObjectInfo.model_fields}
+            objects.append(ObjectInfo(
+                id=o.id, key=o.key, category=o.category.name, color=o.color,
+                mass_kg=round(float(self.model.body_mass[self.body_of[o.key]]), 4),
+                position=[round(float(v), 4) for v in pos], box=list(box) if box else None, visible_pixels=n_px,
+                pickable=o.category.pickable, size_m=o.size_m, variant=o.variant, deceptive=o.category.deceptive,
+                distance_m=round(float(np.linalg.norm(pos - cam)), 4), surface=o.surface, **extras,
+            ))
+        x, y, yaw = self.base_pose()
+        return SceneInfo(
+            layout=self.plan.layout, seed=self.plan.seed, image_size=[self.width, self.height], objects=objects,
+            robot=RobotInfo(base=[round(x, 4), round(y, 4), round(yaw, 4)],
+                            camera_position=[round(float(v), 4) for v in cam],
+                            head=[round(v, 4) for v in self.head()]),
+            furniture=[f.name for f in self.plan.furniture],
+        )
+
+    def close(self) -> None:
+        """Free the renderer; safe to call twice."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __enter__(self) -> SimWorld:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _half_extents(m: mujoco.MjModel, g: int) -> np.ndarray:
+    s = m.geom_size[g]
+    t = m.geom_type[g]
+    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return np.array([s[0]] * 3)
+    if t == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return np.array([s[0], s[0], s[1]])
+    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return np.array([s[0], s[0], s[1] + s[0]])
+    return np.array(s[:3])
