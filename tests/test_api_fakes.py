@@ -134,7 +134,9 @@ class BallWorld(Embodiment):
         tilt_limit: float = 0.9,
         force_bias: float = 0.3,
         cam_offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        tilt_sag: float = 0.0,
     ) -> None:
+        self.tilt_sag = tilt_sag  # the tilt servo settles this far below its command (carrying the head)
         self.balls = {b.id: b for b in balls}
         self.cam_offset = np.asarray(cam_offset)  # optical centre from the pan/tilt axes, head frame
         self.pan = self.tilt = 0.0
@@ -180,7 +182,8 @@ class BallWorld(Embodiment):
     def step(self, seconds: float) -> None:
         k = min(1.0, 8.0 * seconds)
         self.pan += (self.target[0] - self.pan) * k
-        self.tilt += (max(-self.tilt_limit, min(self.tilt_limit, self.target[1])) - self.tilt) * k
+        command = max(-self.tilt_limit, min(self.tilt_limit, self.target[1]))
+        self.tilt += (command - self.tilt_sag - self.tilt) * k
         self.time += seconds
 
     def set_head(self, pan: float, tilt: float) -> None:

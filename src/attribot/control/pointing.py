@@ -66,15 +66,22 @@ def pan_tilt_towards(
 class PointingController(UnsupportedController):
     """Focuses the camera by geometry (see the module docstring); every other action is unsupported.
 
-    step_s: simulated (or waited) seconds per settling step; timeout_s: give up after this long;
-    tol_rad: how close the head must come to the commanded angles; base_tol: metres / radians of base
-    motion since the capture beyond which the box no longer says where to look.
+    step_s: simulated (or waited) seconds per settling step; min_wait_s / still_rad: the head is at rest
+    when it moved less than still_rad in one step after at least min_wait_s; timeout_s: give up after
+    this long; tol_rad: how close the head must come to the wanted angles; corrections: re-commands
+    that remove steady-state error; range_gap_rad: a head that stops further off than this has hit its
+    limit; base_tol: metres / radians of base motion since the capture beyond which the box no longer
+    says where to look.
     """
 
     name: str = "pointing"
     step_s: float = 0.05
+    min_wait_s: float = 0.15
+    still_rad: float = 2e-4
     timeout_s: float = 6.0
-    tol_rad: float = 3e-3
+    tol_rad: float = 1e-3
+    corrections: int = 3
+    range_gap_rad: float = 0.05
     base_tol: float = 0.01
 
     def focus_on(self, target: Target) -> None:
@@ -89,9 +96,27 @@ class PointingController(UnsupportedController):
         if "head" not in caps:
             raise not_available("focus_on_patch", self._world_name, "it has no pan/tilt camera head")
         self._check_base(cap.base, caps)
-        pan, tilt = pan_tilt_towards(cap.camera, cap.head, *target.center)
-        self.world.set_head(pan, tilt)
-        self._settle(pan, tilt, target)
+        want = pan_tilt_towards(cap.camera, cap.head, *target.center)
+        # command, wait until the head stops, and add what is still missing to the command: a position
+        # servo carrying the head's weight settles a few milliradians short (steady-state sag)
+        command = want
+        for _ in range(self.corrections + 1):
+            self.world.set_head(*command)
+            now = self._wait_still(target)
+            gap = (math.remainder(want[0] - now[0], math.tau), math.remainder(want[1] - now[1], math.tau))
+            if abs(gap[0]) <= self.tol_rad and abs(gap[1]) <= self.tol_rad:
+                return
+            if max(abs(gap[0]), abs(gap[1])) > self.range_gap_rad:
+                raise ControlError(
+                    f"the camera head stopped at pan {math.degrees(now[0]):.1f}, tilt "
+                    f"{math.degrees(now[1]):.1f} degrees short of {target.describe()} (pan "
+                    f"{math.degrees(want[0]):.1f}, tilt {math.degrees(want[1]):.1f}): "
+                    "it lies beyond the head's range",
+                    "go_to_object first so that the object is in front of the robot",
+                )
+            command = (command[0] + gap[0], command[1] + gap[1])
+        # within range_gap_rad but not within tol_rad after the corrections: close enough to aim the
+        # rangefinder at an object, and the Robot's visual check corrects what is left
 
     def _check_base(self, base: tuple[float, float, float] | None, caps: set[str]) -> None:
         if base is None or "pose" not in caps:
@@ -105,30 +130,21 @@ class PointingController(UnsupportedController):
                 "measure distances (focus_on_patch, measure_distance) before go_to_object or go_to_coords",
             )
 
-    def _settle(self, pan: float, tilt: float, target: Target) -> None:
-        last: tuple[float, float] | None = None
+    def _wait_still(self, target: Target) -> tuple[float, float]:
+        """Step the world until the head stops moving; its angles then."""
+        last = _head(self.world)
         elapsed = 0.0
         while elapsed < self.timeout_s:
             self.world.step(self.step_s)
             elapsed += self.step_s
             now = _head(self.world)
-            if angle_close(now[0], pan, self.tol_rad) and angle_close(now[1], tilt, self.tol_rad):
-                return
-            if (
-                elapsed >= 0.5
-                and last is not None
-                and all(angle_close(a, b, 1e-5) for a, b in zip(now, last, strict=True))
-            ):
-                raise ControlError(
-                    f"the camera head stopped at pan {math.degrees(now[0]):.1f}, tilt "
-                    f"{math.degrees(now[1]):.1f} degrees short of {target.describe()} (pan "
-                    f"{math.degrees(pan):.1f}, tilt {math.degrees(tilt):.1f}): "
-                    "it lies beyond the head's range",
-                    "go_to_object first so that the object is in front of the robot",
-                )
+            still = all(angle_close(a, b, self.still_rad) for a, b in zip(now, last, strict=True))
+            if still and elapsed >= self.min_wait_s:
+                return now
             last = now
         raise ControlError(
-            f"the camera head did not settle on {target.describe()} within {self.timeout_s:.1f} s",
+            f"the camera head did not come to rest while turning to {target.describe()} within "
+            f"{self.timeout_s:.1f} s",
             "check the world's head controller; this is a fault of the world, not of the program",
         )
 

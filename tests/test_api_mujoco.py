@@ -1,0 +1,102 @@
+"""The API in the embedded MuJoCo world: pointing + rangefinder, privileged manipulation + force sensor."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("attribot.embodiments.mujoco")
+pytest.importorskip("attribot.sim.scripted")
+
+from attribot.api import ImagePatch, Perception, PreconditionError, Robot  # noqa: E402
+from attribot.config import Settings  # noqa: E402
+from attribot.control.base import ControlError  # noqa: E402
+from attribot.control.sim import SimController  # noqa: E402
+from attribot.embodiments.mujoco import MujocoWorld  # noqa: E402
+from attribot.errors import UnsupportedAction  # noqa: E402
+
+ALL = ["camera", "distance", "force"]
+
+
+@pytest.fixture(scope="module")
+def perception() -> Perception:
+    return Perception.from_settings(Settings(detector="oracle", vqa="oracle", language="catalog"))
+
+
+def open_world(seed: int = 0, **kw) -> MujocoWorld:
+    return MujocoWorld("household", seed=seed, width=320, height=240, **kw)
+
+
+def patches_by_id(image: ImagePatch, infos) -> dict[str, ImagePatch]:
+    out = {}
+    for info in infos:
+        found = [p for p in image.find(info.category) if p.object_id == info.id]
+        if found:
+            out[info.id] = found[0]
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_measure_distance_reads_the_object_at_the_patch(perception, seed):
+    with open_world(seed) as world:
+        robot = Robot(ALL, world=world)
+        assert isinstance(robot.controller, SimController) and robot.backend_name() == "sim-privileged"
+        infos = [o for o in world.scene_info().objects if o.box is not None]
+        image = robot.look(perception)
+        patches = patches_by_id(image, infos)
+        assert len(patches) >= 2
+        for info in infos:
+            if info.id not in patches:
+                continue
+            metres = robot.measure_distance(patches[info.id])
+            # the rangefinder now looks at this object: the pixel at the image centre belongs to it
+            frame = world.observe()
+            cam = frame.camera
+            key = int(frame.segmentation[int(cam.cy), int(cam.cx)])
+            assert key >= 0 and frame.objects[key].id == info.id
+            # it reads the near surface: within half the object's size of the distance to its centre
+            assert info.distance_m - info.size_m / 2 - 0.02 <= metres <= info.distance_m + 0.02
+        assert [m.object_id for m in robot.measurements] == [i.id for i in infos if i.id in patches]
+
+
+def test_weighing_with_privileged_manipulation_returns_the_mass(perception):
+    with open_world(0, force_noise_std=0.05) as world:
+        robot = Robot(ALL, world=world)
+        infos = [o for o in world.scene_info().objects if o.box is not None and o.pickable]
+        image = robot.look(perception)
+        patches = patches_by_id(image, infos)
+        assert len(patches) >= 2
+        for info in infos:
+            patch = patches[info.id]
+            with pytest.raises(PreconditionError, match="holds nothing"):
+                robot.measure_weight(patch)
+            robot.go_to_object(patch)
+            robot.pick_up(patch)
+            assert world.held_object() == info.id
+            kg = robot.measure_weight(patch)
+            assert kg == pytest.approx(info.mass_kg, rel=0.03)
+            assert robot.measurements[-1].newtons == pytest.approx(kg * 9.81)
+            robot.put_down()
+            assert world.held_object() is None
+        # boxes of the first image no longer say where to look once the robot has driven
+        with pytest.raises(ControlError, match="has moved"):
+            robot.measure_distance(patches[infos[0].id])
+
+
+def test_unscripted_actions_and_id_less_patches_are_refused(perception):
+    with open_world(0) as world:
+        robot = Robot(ALL, world=world)
+        image = robot.look(perception)
+        info = next(o for o in world.scene_info().objects if o.box is not None)
+        patch = patches_by_id(image, [info])[info.id]
+        for call, name in [
+            (lambda: robot.push(patch), "push"),
+            (lambda: robot.go_to_coords(patch.horizontal_center, patch.vertical_center), "go_to_coords"),
+        ]:
+            with pytest.raises(
+                UnsupportedAction, match=f"'{name}' is not available in this world \\(mujoco\\)"
+            ):
+                call()
+        anonymous = ImagePatch(image.frame, perception, patch.box, capture=patch.capture, label=patch.label)
+        with pytest.raises(UnsupportedAction, match="needs the world's id") as exc:
+            robot.go_to_object(anonymous)
+        assert "--detector oracle" in exc.value.fix
