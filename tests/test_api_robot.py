@@ -265,3 +265,23 @@ def test_pointing_removes_the_steady_state_sag_of_the_head():
     robot.focus_on_patch(b1)
     assert world.tilt == pytest.approx(want[1], abs=robot.controller.tol_rad)
     assert world.target[1] > want[1] + 0.009  # it got there by commanding above the goal
+
+
+def test_control_docstring_examples_hold():
+    import doctest
+
+    import attribot.control.pointing as pointing
+
+    assert doctest.testmod(pointing).failed == 0
+
+
+def test_importing_the_api_loads_no_simulator():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, attribot.api, attribot.api.prompt; "
+        "print('mujoco' in sys.modules, 'torch' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "False"]
