@@ -44,6 +44,10 @@ __all__ = [
     "plan_scene",
     "build_model",
     "MAX_OBJECTS",
+    "check_seed",
+    "resolve_categories",
+    "camera_position",
+    "object_center",
 ]
 
 MAX_OBJECTS = 30
@@ -461,11 +465,17 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     return ScenePlan("household", 0, furniture, objs, robot, (pan, tilt))
 
 
+def check_seed(seed: object) -> int:
+    """`seed` as an int when it is a whole number from 0 to 2**32 - 1; otherwise an InputError."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
+        raise InputError(f"seed {seed!r} is not valid", "give a whole number between 0 and 4294967295")
+    return int(seed)
+
+
 def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, attempt: int = 0) -> ScenePlan:
     """The plan of `layout` for `seed` (and `attempt`, for layouts whose plans can be rejected and redrawn):
     same arguments, same plan."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**32:
-        raise InputError(f"seed {seed!r} is not valid", "give a whole number between 0 and 4294967295")
+    check_seed(seed)
     fn = LAYOUTS.get(layout)
     req = request or SceneRequest()
     if req.n_objects is not None and (req.n_objects < 1 or req.n_objects > MAX_OBJECTS):

@@ -22,7 +22,15 @@ from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
 from attribot.sim.render import PROFILES, SceneRenderer
 from attribot.sim.robot import GEOMETRY
-from attribot.sim.scene import MAX_OBJECTS, ScenePlan, SceneRequest, build_model, plan_scene, resolve_categories
+from attribot.sim.scene import (
+    MAX_OBJECTS,
+    ScenePlan,
+    SceneRequest,
+    build_model,
+    check_seed,
+    plan_scene,
+    resolve_categories,
+)
 
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
 
@@ -104,6 +112,7 @@ class SimWorld:
         options: dict[str, Any] | None = None,
         settle_s: float = 0.6,
     ) -> None:
+        seed = check_seed(seed)
         if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
             raise InputError(f"image size {width}x{height} is out of range", "give a width and height from 16 to 4096")
         if profile not in PROFILES:
