@@ -7,6 +7,8 @@ command with its message and fix on stderr and exit code 2; nothing prints a tra
 from __future__ import annotations
 
 import sys
+from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -42,6 +44,103 @@ def version() -> None:
 
 
 # ---- scene commands (the embodied world) -------------------------------------------------------------
+
+scene_app = typer.Typer(
+    help="Render and inspect the embedded MuJoCo scenes (layouts: household, arrangement, triplet).",
+    no_args_is_help=True,
+)
+app.add_typer(scene_app, name="scene")
+
+_S_LAYOUT = typer.Option("household", "--layout", help="Scene layout: household, arrangement or triplet.")
+_S_SEED = typer.Option(0, "--seed", help="Scene seed (0 to 4294967295): the same seed gives the same scene and pixels.")
+_S_OBJECTS = typer.Option(None, "--objects", help="Number of objects (default: the layout chooses).")
+_S_CATEGORIES = typer.Option(None, "--categories", help="Comma-separated object categories to draw from, e.g. mug,apple.")
+_S_OPTION = typer.Option(None, "--option", help="Layout option KEY=VALUE, repeatable (e.g. pattern=grid, odd=size).")
+_S_WIDTH = typer.Option(640, "--width", help="Image width in pixels.")
+_S_HEIGHT = typer.Option(480, "--height", help="Image height in pixels.")
+_S_PROFILE = typer.Option("fast", "--profile", help="Render profile: fast (no shadows) or pretty.")
+
+
+def _scene_world(layout: str, seed: int, objects: int | None, categories: str | None, option: list[str] | None,
+                 width: int, height: int, profile: str) -> Any:
+    from attribot.embodiments.mujoco import MujocoWorld
+
+    if seed < 0:
+        raise fail(f"--seed must be a whole number from 0 to 4294967295, got {seed}", "use e.g. --seed 7")
+    options: dict[str, Any] = {}
+    for item in option or []:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise fail(f"--option {item!r} is not KEY=VALUE", "write e.g. --option pattern=grid")
+        value: Any = raw.strip()
+        for cast in (int, float):
+            try:
+                value = cast(value)
+                break
+            except ValueError:
+                pass
+        options[key.strip()] = value
+    names = None if categories is None else [c.strip() for c in categories.split(",") if c.strip()]
+    try:
+        return MujocoWorld(layout, seed, n_objects=objects, categories=names, width=width, height=height,
+                           profile=profile, options=options)
+    except AttribotError as exc:
+        raise fail(exc.message, exc.fix) from None
+
+
+@scene_app.command("render")
+def scene_render(
+    out: Path = typer.Option(..., "--out", help="Image file to write (.png or .jpg)."),
+    boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
+    layout: str = _S_LAYOUT,
+    seed: int = _S_SEED,
+    objects: int | None = _S_OBJECTS,
+    categories: str | None = _S_CATEGORIES,
+    option: list[str] | None = _S_OPTION,
+    width: int = _S_WIDTH,
+    height: int = _S_HEIGHT,
+    profile: str = _S_PROFILE,
+) -> None:
+    """Write the robot camera's view of a scene to an image file."""
+    from PIL import Image
+
+    if out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        raise fail(f"cannot write {str(out)!r}: the file name must end in .png or .jpg", "use e.g. --out scene.png")
+    if not out.parent.exists():
+        raise fail(f"the folder {str(out.parent)!r} does not exist", "create it first or write elsewhere")
+    with _scene_world(layout, seed, objects, categories, option, width, height, profile) as world:
+        try:
+            frame = world.observe()
+            rgb = frame.rgb
+            if boxes:
+                from attribot.sim.draw import draw_boxes
+
+                info = world.sim.scene_info(frame)
+                rgb = draw_boxes(rgb, [(o.box, f"{o.category} ({o.color})") for o in info.objects if o.box])
+        except AttribotError as exc:
+            raise fail(exc.message, exc.fix) from None
+    Image.fromarray(rgb).save(out)
+    typer.echo(str(out))
+
+
+@scene_app.command("info")
+def scene_info(
+    layout: str = _S_LAYOUT,
+    seed: int = _S_SEED,
+    objects: int | None = _S_OBJECTS,
+    categories: str | None = _S_CATEGORIES,
+    option: list[str] | None = _S_OPTION,
+    width: int = _S_WIDTH,
+    height: int = _S_HEIGHT,
+) -> None:
+    """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
+    with _scene_world(layout, seed, objects, categories, option, width, height, "fast") as world:
+        try:
+            info = world.scene_info()
+        except AttribotError as exc:
+            raise fail(exc.message, exc.fix) from None
+    typer.echo(info.model_dump_json(indent=2))
+
 
 # ---- ask / exec (planner, runner, API) ---------------------------------------------------------------
 
