@@ -157,9 +157,7 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
 
     device = args.device
     if device.startswith("cuda") and not torch.cuda.is_available():
-        _fail(
-            "--device cuda but torch sees no CUDA GPU: install a CUDA build of torch, or use --tiny (CPU)"
-        )
+        _fail("--device cuda but torch sees no CUDA GPU: install a CUDA build of torch, or use --tiny (CPU)")
     gpu = torch.cuda.get_device_name(0) if device.startswith("cuda") else "cpu"
     print(f"# torch {torch.__version__}, transformers {transformers.__version__}, device {device} ({gpu})")
     dtypes = args.dtypes or (["float16", "bfloat16"] if device.startswith("cuda") else ["float32"])
@@ -183,6 +181,11 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
             except Exception as exc:  # noqa: BLE001 - one model that cannot be built must not stop the rest
                 print(f"{name} {dtype_name}: skipped, cannot build: {exc.__class__.__name__}: {exc}")
                 continue
+            if not args.no_backend:
+                print(
+                    f"{name}: image processor {type(processor.image_processor).__name__}, "
+                    f"on the GPU: {_gpu_preprocessing(processor, device)}"
+                )
             base: dict[str, float] = {}
             for part in ("forward", "backend"):
                 if part == "backend" and args.no_backend:
@@ -225,6 +228,14 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
             if device.startswith("cuda"):
                 torch.cuda.empty_cache()
     return rows
+
+
+def _gpu_preprocessing(processor: Any, device: str) -> str:
+    try:
+        from attribot.models.hf import _device_preprocessing
+    except ImportError as exc:
+        return f"unknown ({exc})"
+    return "yes" if _device_preprocessing(processor.image_processor, device) else "no (CPU)"
 
 
 def _measure(

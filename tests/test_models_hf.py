@@ -410,3 +410,26 @@ def test_gpu_benchmark_code_path_runs_with_tiny_models(capsys, tmp_path):
     }
     assert all("skipped" not in r and r["ms_per_image"] > 0 for r in rows), rows
     assert "vs own batch 1" in capsys.readouterr().out
+
+
+def test_max_detections_is_the_best_prefix(models):
+    frame = _frame(64, 64, 20)
+    every = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=10_000).detect(
+        frame, ["cat", "dog"]
+    )
+    few = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=5).detect(frame, ["cat", "dog"])
+    assert len(every) > 5 and _same(few, every[:5])
+
+
+def test_nms_early_stop_keeps_the_same_first_boxes():
+    from attribot.boxes import nms
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 100, (200, 2))
+    boxes = np.hstack([xy, xy + rng.uniform(1, 40, (200, 2))])
+    scores = rng.random(200)
+    full = nms(boxes, scores, 0.4)
+    assert 7 < len(full) < 200
+    assert nms(boxes, scores, 0.4, max_keep=7).tolist() == full[:7].tolist()
+    keep_all = nms(boxes, scores, 1.0)
+    assert sorted(keep_all.tolist()) == list(range(200))

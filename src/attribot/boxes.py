@@ -63,18 +63,30 @@ def iou(a: Sequence[float], b: Sequence[float]) -> float:
     return float(iou_matrix(np.asarray([a]), np.asarray([b]))[0, 0])
 
 
-def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float = 0.5) -> np.ndarray:
-    """Indices of the boxes kept by greedy non-maximum suppression, highest score first."""
+def nms(
+    boxes: np.ndarray, scores: np.ndarray, iou_threshold: float = 0.5, max_keep: int | None = None
+) -> np.ndarray:
+    """Indices of the boxes kept by greedy non-maximum suppression, highest score first.
+
+    `max_keep` stops after that many boxes: the same first boxes as a full run (a kept box depends only
+    on better ones), at a fraction of the cost when thousands of boxes pass a low score threshold.
+    """
     b = as_boxes(boxes)
+    areas = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])  # once, not per step: this loop is hot
     order = np.argsort(-np.asarray(scores, dtype=np.float64), kind="stable")
     keep: list[int] = []
-    while order.size:
+    while order.size and (max_keep is None or len(keep) < max_keep):
         i = int(order[0])
         keep.append(i)
-        if order.size == 1:
+        rest = order[1:]
+        if not rest.size:
             break
-        overlaps = iou_matrix(b[i : i + 1], b[order[1:]])[0]
-        order = order[1:][overlaps <= iou_threshold]
+        w = np.clip(np.minimum(b[i, 2], b[rest, 2]) - np.maximum(b[i, 0], b[rest, 0]), 0, None)
+        h = np.clip(np.minimum(b[i, 3], b[rest, 3]) - np.maximum(b[i, 1], b[rest, 1]), 0, None)
+        inter = w * h
+        union = areas[i] + areas[rest] - inter
+        overlaps = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+        order = rest[overlaps <= iou_threshold]
     return np.asarray(keep, dtype=np.int64)
 
 

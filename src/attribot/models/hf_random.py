@@ -424,7 +424,9 @@ def build_random(name: str, *, device: str = "cpu", dtype: str = "float32", seed
             model = cls(config)
     finally:
         torch.set_default_dtype(old)
-    return model.eval(), processor
+    # parameters made with the legacy `torch.Tensor(...)` constructor ignore the device context
+    # (Grounding DINO's `level_embed`): move whatever stayed behind
+    return model.to(device).eval(), processor
 
 
 def save_random(
