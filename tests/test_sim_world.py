@@ -186,20 +186,30 @@ def test_bad_requests_are_clear_errors(kwargs, error):
 
 # --- physics ----------------------------------------------------------------------------------------------
 
-def test_objects_rest_stably_without_interpenetration(household):
-    sim = household.sim
-    keys = list(sim.objects)
-    before = {k: sim.data.xpos[sim.body_of[k]].copy() for k in keys}
-    household.step(1.0)
-    for k in keys:
-        moved = np.linalg.norm(sim.data.xpos[sim.body_of[k]] - before[k])
-        speed = np.linalg.norm(sim.data.cvel[sim.body_of[k]])
-        assert moved < 0.003, f"{sim.objects[k].id} drifted {moved * 1000:.1f} mm"
-        assert speed < 0.02
-    for i in range(sim.data.ncon):
-        con = sim.data.contact[i]
-        if sim.geom_key[con.geom1] >= 0 or sim.geom_key[con.geom2] >= 0:
-            assert con.dist > -0.003, "objects sink into what they rest on"
+@pytest.mark.parametrize("layout", ["household", "arrangement", "triplet"])
+def test_objects_rest_stably_without_interpenetration(layout):
+    """From the planned placement, with sleeping off (a sleeping body would pass trivially)."""
+    with MujocoWorld(layout, 4, width=64, height=48) as world:
+        sim = world.sim
+        sim.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+        mujoco.mj_resetData(sim.model, sim.data)
+        sim._start()
+        world.step(0.3)  # placed 0.5 mm above their surface: let them touch down
+        keys = list(sim.objects)
+        before = {k: sim.data.xpos[sim.body_of[k]].copy() for k in keys}
+        world.step(1.5)
+        for k in keys:
+            moved = np.linalg.norm(sim.data.xpos[sim.body_of[k]] - before[k])
+            speed = np.linalg.norm(sim.data.cvel[sim.body_of[k]])
+            assert moved < 0.003, f"{sim.objects[k].id} drifted {moved * 1000:.1f} mm"
+            assert speed < 0.01
+        assert sim.data.ncon > 0
+        for i in range(sim.data.ncon):
+            con = sim.data.contact[i]
+            if sim.geom_key[con.geom1] >= 0 or sim.geom_key[con.geom2] >= 0:
+                assert con.dist > -0.003, "objects sink into what they rest on"
+                other = con.geom2 if sim.geom_key[con.geom1] >= 0 else con.geom1
+                assert sim.geom_key[other] < 0, "objects do not touch each other"
 
 
 def test_base_head_and_arm_follow_commands(household):

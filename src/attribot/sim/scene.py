@@ -227,6 +227,17 @@ def _table(name: str, x: float, y: float, size: tuple[float, float, float], kind
     return Furniture(kind, name, x, y, size, colors[kind])
 
 
+def _apparent_pixels(o: PlacedObject, cam: np.ndarray) -> float:
+    """Rough visible area of an object, in pixels of a 320x240 image, seen from `cam` (top and front)."""
+    lx, ly, lz = np.asarray(o.shape.hi) - np.asarray(o.shape.lo)
+    c = object_center(o)
+    d = float(np.linalg.norm(c - cam))
+    elev = math.asin(min(abs(cam[2] - c[2]) / d, 1.0))
+    area = lx * ly * math.sin(elev) + max(lx, ly) * lz * math.cos(elev)
+    f = 120 / math.tan(math.radians(GEOMETRY.fovy_deg) / 2)
+    return 0.7 * area / d**2 * f**2
+
+
 def _gap(a: Furniture, b: Furniture) -> float:
     """Free distance between two pieces of furniture along the axis where they are farthest apart."""
     ax0, ay0, ax1, ay1 = a.footprint()
@@ -396,10 +407,10 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     ry = robot[1]
     for _ in range(200):  # furniture with room for the robot to drive between the pieces
         slots = [
-            ("coffee_table", (rx + rng.uniform(0.9, 1.1), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
-            ("table", (rx + rng.uniform(1.7, 2.1), ry + rng.choice([-1, 1]) * rng.uniform(0.9, 1.2)), (0.7, 0.9, 0.75)),
-            (str(rng.choice(["counter", "shelf"])), (rx + rng.uniform(2.6, 2.9), ry + rng.uniform(-0.6, 0.6)),
-             (0.45, 1.3, 0.9)),
+            ("coffee_table", (rx + rng.uniform(0.85, 1.0), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
+            ("table", (rx + rng.uniform(1.55, 1.9), ry + rng.choice([-1, 1]) * rng.uniform(0.85, 1.1)), (0.7, 0.9, 0.75)),
+            (str(rng.choice(["counter", "shelf"])), (rx + rng.uniform(2.3, 2.6), ry + rng.uniform(-0.5, 0.5)),
+             (0.45, 1.2, 0.9)),
         ]
         keep = sorted(rng.choice(3, size=int(rng.integers(2, 4)), replace=False).tolist())
         furniture = [_table(f"{kind}_{i}", float(x), float(y), size, kind)
@@ -410,7 +421,7 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             break
     surfaces = [s for f in furniture for s in f.surfaces()]
     floor = Surface("floor", rx + 0.75, -ROOM_HALF + 0.3, ROOM_HALF - 0.3, ROOM_HALF - 0.3, 0.0,
-                    tuple(f.footprint(0.1) for f in furniture))
+                    tuple(f.footprint(0.55) for f in furniture))  # standing room at furniture
     pool = _pool(request, lambda c: c.pickable)
     picks: list[Category] = []
     order = rng.permutation(len(pool)).tolist()
@@ -435,14 +446,13 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             o.x, o.y, o.z, o.surface = x, y, s.z, s.name
             _face(o, (cam[0], cam[1]), rng, 0.4)
             # lower shelf: keep objects short enough to stand under the top board
-            if s.name.endswith("_low") and o.shape.height - o.shape.lo[2] > 0.9 - _SHELF_LOW - 0.06:
+            if s.name.endswith("_low") and o.shape.height - o.shape.lo[2] > 0.9 - _SHELF_LOW - 0.16:
                 continue
             d = float(np.linalg.norm(object_center(o) - cam))
             if any(abs(d - e) < min_gap for e in dists):
                 continue
             # big enough to see from here, whatever the image size: thin things (pencils) stay near
-            dims = sorted(np.asarray(o.shape.hi) - np.asarray(o.shape.lo))
-            if dims[2] / d < 0.05 or dims[1] / d < 0.006:
+            if _apparent_pixels(o, cam) < 60:
                 continue
             # in the horizontal field of view of a head turned towards the candidates' middle
             if abs(math.remainder(math.atan2(y - robot[1], x - rx) - robot[2], math.tau)) > half_h * 1.1:
@@ -568,26 +578,37 @@ def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
 
 
 def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
+    """The object's visible parts (which carry its mass) and one invisible collision box around them.
+
+    Contacts are made by the box alone: it rests flat and steady on any surface, collides cheaply, and
+    keeps visible parts from overlapping another object's. Being fully transparent, it is ignored by the
+    rangefinder and by rendering, so both see the visible shape.
+    """
     main = COLORS[o.color]
     body = spec.worldbody.add_body(name=f"obj:{o.id}", pos=[o.x, o.y, o.z - o.shape.lo[2] + 0.0005],
                                    quat=[math.cos(o.yaw / 2), 0, 0, math.sin(o.yaw / 2)])
     body.add_freejoint(name=f"obj:{o.id}")
-    hidden_mass = 1e-4 * o.mass_kg
-    n_hidden = sum(p.hidden for p in o.shape.parts)
-    visible_mass = o.mass_kg - hidden_mass * n_hidden
-    vol = o.shape.visible_volume
+    parts = [p for p in o.shape.parts if not p.hidden]
+    vol = sum(p.volume() for p in parts)
+    hull_mass = 1e-4 * o.mass_kg
     types = {"box": mujoco.mjtGeom.mjGEOM_BOX, "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
              "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
              "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID}
-    for p in o.shape.parts:
+    for p in parts:
         rgb = main if p.role == "main" else MATERIALS[p.role]
         size = list(p.size) + [0.0] * (3 - len(p.size))
         g = body.add_geom(type=types[p.kind], size=size, pos=list(p.pos), quat=list(p.quat), rgba=_rgba(rgb))
-        g.mass = hidden_mass if p.hidden else visible_mass * p.volume() / vol
-        g.group = 3 if p.hidden else 0
-        g.contype = g.conaffinity = 1
-        g.friction = [1.0, 0.01, 0.001]
-        g.condim = 4  # torsional friction too: things at rest stay at rest
+        g.mass = (o.mass_kg - hull_mass) * p.volume() / vol
+        g.group = 0
+        g.contype = g.conaffinity = 0
+    lo, hi = np.asarray(o.shape.lo), np.asarray(o.shape.hi)
+    hull = body.add_geom(name=f"hull:{o.id}", type=mujoco.mjtGeom.mjGEOM_BOX, size=list((hi - lo) / 2),
+                         pos=list((hi + lo) / 2), rgba=[0.5, 0.5, 0.5, 0.0])
+    hull.mass = hull_mass
+    hull.group = 3
+    hull.contype = hull.conaffinity = 1
+    hull.condim = 3
+    hull.friction = [1.0, 0.005, 0.0001]
 
 
 def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
@@ -598,6 +619,8 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    if hasattr(mujoco.mjtEnableBit, "mjENBL_SLEEP"):  # MuJoCo >= 3.4: objects at rest cost nothing
+        spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     spec.visual.global_.offwidth = max(plan.width, 64)
     spec.visual.global_.offheight = max(plan.height, 64)
     spec.visual.quality.shadowsize = 2048

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from attribot.errors import AttribotError, UnknownName
@@ -25,6 +26,7 @@ __all__ = ["ManipulationError", "approach_object", "pick_object", "place_back", 
 _STAND_OFF = 0.05  # gap between the base's front and the furniture's edge
 _LIFT_CLEAR = 0.08  # how far a picked object is raised
 _REST = (0.2, 0.0)  # lift and extension when nothing is being done
+_SCENERY = np.array([1, 0, 0, 0, 0, 0], np.uint8)  # geom group 0: room, furniture, objects (not the robot)
 
 
 class ManipulationError(AttribotError):
@@ -203,12 +205,22 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
             raise ManipulationError(f"no side of the {name} leaves room for the robot", "move the furniture")
         depth, _, n, along = min(feasible, key=lambda f: (f[0] > 0.5, f[0] + 0.5 * f[1]))
         ext = along - reach0
-    else:  # on the floor: come straight at it
-        n = np.array([bx - pos[0], by - pos[1]])
-        n = n / (np.linalg.norm(n) or 1.0)
+    else:  # on the floor: come at it from the robot's side, or turned as little as needed to stand clear
         radius = float(np.max(np.abs(sim.object_bounds(key)[:, :2] - pos[:2])))
         along = max(reach0 + 0.1, g.base_half[0] + 0.06 + radius)
         ext = along - reach0
+        towards = math.atan2(by - pos[1], bx - pos[0])
+        clearance = math.hypot(*g.base_half) + 0.03
+        blocked = [f.footprint(clearance) for f in sim.plan.furniture]
+        for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.6, -1.6, 2.2, -2.2, math.pi):
+            n = np.array([math.cos(towards + turn), math.sin(towards + turn)])
+            c = pos[:2] + n * along
+            if abs(c[0]) < 2.7 and abs(c[1]) < 2.7 and not any(
+                r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in blocked
+            ):
+                break
+        else:
+            raise ManipulationError(f"no free spot to stand at next to {obj.id}", "choose another object")
     if ext > g.arm_range[1]:
         raise ManipulationError(
             f"{obj.id} is {ext - g.arm_range[1]:.2f} m beyond the arm's reach from any side of its {name or 'place'}",
@@ -265,6 +277,20 @@ def _grip_height(sim: SimWorld, key: int) -> float:
     return float(np.clip(z, *GEOMETRY.lift_range))
 
 
+def _headroom(sim: SimWorld, key: int) -> float:
+    """How far the object can be raised (at most _LIFT_CLEAR) before it meets what is above it (a shelf)."""
+    lo, hi = sim.object_bounds(key)
+    free = math.inf
+    for fx in (0.1, 0.5, 0.9):
+        for fy in (0.1, 0.5, 0.9):
+            p = np.array([lo[0] + fx * (hi[0] - lo[0]), lo[1] + fy * (hi[1] - lo[1]), hi[2]])
+            geom = np.array([-1], np.int32)
+            d = mujoco.mj_ray(sim.model, sim.data, p, np.array([0.0, 0.0, 1.0]), _SCENERY, 1, sim.body_of[key], geom)
+            if geom[0] >= 0:
+                free = min(free, d)
+    return float(np.clip(free - 0.02, 0.005, _LIFT_CLEAR))
+
+
 def pick_object(world: Any, object_id: str | int) -> bool:
     """Approach (if needed), tare the wrist sensor, grasp the object and lift it clear. True when held."""
     sim = _sim(world)
@@ -298,7 +324,7 @@ def pick_object(world: Any, object_id: str | int) -> bool:
         world.set_arm(*_REST)
         _settle(world, 0.5)
         return False
-    world.set_arm(z + _LIFT_CLEAR, ext)
+    world.set_arm(z + _headroom(sim, key), ext)
     _settle(world, 1.5)
     sim.pick_record = before
     return True

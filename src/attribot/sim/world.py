@@ -339,8 +339,11 @@ class SimWorld:
             self.step(0.012)
             if not any(moving.values()):
                 break
-        touching = all(self._object_distance(p, key) < 0.006 for p in self._pads)
-        if not touching:
+        gaps = [self._object_distance(p, key) for p in self._pads]
+        # both fingers on it; or a thin object off the centre line: one finger on it, the other closed
+        # past it, and the point between the fingertips at the object
+        off_centre = min(gaps) < 0.006 and self._object_distance(self._probe, key) < 0.012
+        if not (max(gaps) < 0.006 or off_centre):
             return False
         self._weld(key)
         self.step(0.3)
