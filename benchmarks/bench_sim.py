@@ -91,8 +91,9 @@ def main() -> None:
             world.close()
 
     # physics with the robot and 20 objects
-    world = SimWorld("arrangement", 0, n_objects=20, categories=["apple"], options={"pattern": "grid"},
-                     width=64, height=48)
+    world = SimWorld(
+        "arrangement", 0, n_objects=20, categories=["apple"], options={"pattern": "grid"}, width=64, height=48
+    )
     assert len(world.objects) == 20
     rtf = _rtf(world.model, world.data, 2.0 if args.quick else 10.0)
     _line("physics robot + 20 objects (at rest)", rtf, "x rt", physics_ref)
@@ -102,6 +103,11 @@ def main() -> None:
     t = time.perf_counter()
     world.step(n_s)
     _line("physics robot + 20 objects (robot moving)", n_s / (time.perf_counter() - t), "x rt", physics_ref)
+    # the same with sleeping disabled: every body integrated and collided at every step
+    world.command_base(0.0, 0.0, 0.0)
+    world.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    rtf = _rtf(world.model, world.data, 2.0 if args.quick else 10.0)
+    _line("physics robot + 20 objects (sleeping off)", rtf, "x rt", physics_ref)
     world.close()
 
     # scene build: plan + MjSpec + compile + 0.6 s of settling, and the model alone

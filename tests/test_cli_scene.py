@@ -1,4 +1,4 @@
-"""`attribot scene render` and `attribot scene info`: files, JSON truth, and clear errors with a non-zero exit."""
+"""`attribot scene render` and `scene info`: files, JSON truth, clear errors with a non-zero exit."""
 
 from __future__ import annotations
 
@@ -49,8 +49,26 @@ def test_info_prints_the_scene_truth_as_json():
 
 
 def test_info_options_and_categories_reach_the_layout():
-    r = _run("scene", "info", "--layout", "arrangement", "--seed", "1", "--categories", "mug,apple", "--objects", "4",
-             "--option", "pattern=row", "--option", "odd=category", "--width", "96", "--height", "72")
+    r = _run(
+        "scene",
+        "info",
+        "--layout",
+        "arrangement",
+        "--seed",
+        "1",
+        "--categories",
+        "mug,apple",
+        "--objects",
+        "4",
+        "--option",
+        "pattern=row",
+        "--option",
+        "odd=category",
+        "--width",
+        "96",
+        "--height",
+        "72",
+    )
     assert r.exit_code == 0, r.output
     objs = json.loads(r.output)["objects"]
     assert sorted(o["category"] for o in objs) == ["apple", "mug", "mug", "mug"]

@@ -8,9 +8,41 @@ from attribot.errors import UnknownName
 from attribot.sim.catalog import COLORS, categories, category_names, find_category, get_category
 from attribot.sim.shapes import SHAPES, build_shape
 
-PAPER = ["laptop", "vase", "cactus", "pencil", "lamp", "book", "broom", "cd", "cell phone", "basketball", "apple",
-         "mug", "pot", "pan", "knife", "fork", "ladle", "toaster", "remote control", "pillow", "box", "tennis racket",
-         "painting", "plate", "bowl", "bottle", "can", "candle", "teapot", "egg", "tomato", "potato", "carrot"]
+PAPER = [
+    "laptop",
+    "vase",
+    "cactus",
+    "pencil",
+    "lamp",
+    "book",
+    "broom",
+    "cd",
+    "cell phone",
+    "basketball",
+    "apple",
+    "mug",
+    "pot",
+    "pan",
+    "knife",
+    "fork",
+    "ladle",
+    "toaster",
+    "remote control",
+    "pillow",
+    "box",
+    "tennis racket",
+    "painting",
+    "plate",
+    "bowl",
+    "bottle",
+    "can",
+    "candle",
+    "teapot",
+    "egg",
+    "tomato",
+    "potato",
+    "carrot",
+]
 
 
 def test_at_least_forty_categories_covering_the_papers_scenes():
@@ -46,15 +78,31 @@ def test_deceptive_objects_exist_for_box_and_ball():
     for name in ("box", "ball"):
         cat = get_category(name)
         assert cat.deceptive and cat.pickable
-        assert {v for v, _ in cat.mass_variants} >= ({"empty", "full"} if name == "box" else {"hollow", "solid"})
+        assert {v for v, _ in cat.mass_variants} >= (
+            {"empty", "full"} if name == "box" else {"hollow", "solid"}
+        )
 
 
 @pytest.mark.parametrize(
     ("word", "expected"),
-    [("mug", "mug"), ("Coffee Cups", "mug"), ("cell phones", "cell phone"), ("the red smartphone", "cell phone"),
-     ("knives", "knife"), ("tomatoes", "tomato"), ("boxes", "box"), ("cardboard box", "box"), ("ball", "ball"),
-     ("basketballs", "basketball"), ("tennis racket", "tennis racket"), ("racquets", "tennis racket"),
-     ("weight", None), ("heaviest", None), ("", None), ("item", None)],
+    [
+        ("mug", "mug"),
+        ("Coffee Cups", "mug"),
+        ("cell phones", "cell phone"),
+        ("the red smartphone", "cell phone"),
+        ("knives", "knife"),
+        ("tomatoes", "tomato"),
+        ("boxes", "box"),
+        ("cardboard box", "box"),
+        ("ball", "ball"),
+        ("basketballs", "basketball"),
+        ("tennis racket", "tennis racket"),
+        ("racquets", "tennis racket"),
+        ("weight", None),
+        ("heaviest", None),
+        ("", None),
+        ("item", None),
+    ],
 )
 def test_find_category_names_synonyms_plurals(word, expected):
     found = find_category(word)

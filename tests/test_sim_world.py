@@ -42,6 +42,7 @@ def household():
 
 # --- helpers computed independently of the world's own code -------------------------------------------
 
+
 def _surface_points(model: mujoco.MjModel, data: mujoco.MjData, g: int, n: int = 12) -> np.ndarray:
     """Points on the surface of geom `g` in the world frame (boxes: corners and edges; round: rings)."""
     s = model.geom_size[g]
@@ -49,8 +50,10 @@ def _surface_points(model: mujoco.MjModel, data: mujoco.MjData, g: int, n: int =
     u = np.linspace(0, 2 * np.pi, n, endpoint=False)
     if t == mujoco.mjtGeom.mjGEOM_BOX:
         lin = np.linspace(-1, 1, 5)
-        pts = np.array([[a, b, c] for a in lin for b in lin for c in lin
-                        if max(abs(a), abs(b), abs(c)) == 1]) * s[:3]
+        pts = (
+            np.array([[a, b, c] for a in lin for b in lin for c in lin if max(abs(a), abs(b), abs(c)) == 1])
+            * s[:3]
+        )
     elif t in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID):
         r = s[:3] if t == mujoco.mjtGeom.mjGEOM_ELLIPSOID else np.array([s[0]] * 3)
         v = np.linspace(0, np.pi, n)
@@ -61,8 +64,20 @@ def _surface_points(model: mujoco.MjModel, data: mujoco.MjData, g: int, n: int =
         pts = np.vstack(rings)
         if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
             v = np.linspace(0, np.pi / 2, 5)
-            caps = [np.array([[s[0] * np.cos(a) * np.cos(b), s[0] * np.sin(a) * np.cos(b), sign * (half + s[0] * np.sin(b))]
-                              for a in u for b in v]) for sign in (-1, 1)]
+            caps = [
+                np.array(
+                    [
+                        [
+                            s[0] * np.cos(a) * np.cos(b),
+                            s[0] * np.sin(a) * np.cos(b),
+                            sign * (half + s[0] * np.sin(b)),
+                        ]
+                        for a in u
+                        for b in v
+                    ]
+                )
+                for sign in (-1, 1)
+            ]
             pts = np.vstack([pts, *caps])
     return data.geom_xpos[g] + pts @ data.geom_xmat[g].reshape(3, 3).T
 
@@ -78,7 +93,9 @@ def _project(world: MujocoWorld, pts: np.ndarray) -> np.ndarray:
     return np.c_[cam.cx + cam.fx * p[:, 0] / z, cam.cy - cam.fy * p[:, 1] / z]
 
 
-def _ray_box(origin: np.ndarray, direction: np.ndarray, centre: np.ndarray, rot: np.ndarray, half: np.ndarray) -> float:
+def _ray_box(
+    origin: np.ndarray, direction: np.ndarray, centre: np.ndarray, rot: np.ndarray, half: np.ndarray
+) -> float:
     """Distance along a ray to an oriented box (slab method), inf on a miss."""
     o = rot.T @ (origin - centre)
     d = rot.T @ direction
@@ -89,6 +106,7 @@ def _ray_box(origin: np.ndarray, direction: np.ndarray, centre: np.ndarray, rot:
 
 
 # --- registry and determinism --------------------------------------------------------------------------
+
 
 def test_registered_as_an_embodiment_with_every_capability():
     assert EMBODIMENTS.get("mujoco") is MujocoWorld
@@ -101,10 +119,12 @@ def test_headless_backend_is_chosen_and_named():
 
 def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
-    code = ("import sys; from attribot.sim.render import gl_backend; import attribot.sim.render as r;"
-            "assert 'OpenGL' not in sys.modules or True; from attribot.sim.world import SimWorld;"
-            "w = SimWorld('triplet', 1, width=64, height=48); f = w.observe(); w.close();"
-            "print(gl_backend(), f.rgb.shape, int(f.rgb.std() > 5))")
+    code = (
+        "import sys; from attribot.sim.render import gl_backend; import attribot.sim.render as r;"
+        "assert 'OpenGL' not in sys.modules or True; from attribot.sim.world import SimWorld;"
+        "w = SimWorld('triplet', 1, width=64, height=48); f = w.observe(); w.close();"
+        "print(gl_backend(), f.rgb.shape, int(f.rgb.std() > 5))"
+    )
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     backend, *_ = out.stdout.split()
@@ -138,8 +158,9 @@ def test_every_object_in_the_first_view(layout, seed):
 
 
 def test_arrangement_truth_rows_columns_and_one_odd_one_out():
-    with MujocoWorld("arrangement", 5, width=W, height=H, options={"pattern": "grid", "odd": "size"},
-                     n_objects=8) as world:
+    with MujocoWorld(
+        "arrangement", 5, width=W, height=H, options={"pattern": "grid", "odd": "size"}, n_objects=8
+    ) as world:
         objs = world.scene_info().objects
     assert sum(o.odd_one_out for o in objs) == 1
     assert {(o.row, o.col) for o in objs} == {(r, c) for r in range(2) for c in range(4)}
@@ -173,10 +194,16 @@ def test_household_candidates_at_different_distances(household):
 
 @pytest.mark.parametrize(
     ("kwargs", "error"),
-    [({"layout": "castle"}, UnknownName), ({"categories": ["unicorn"]}, UnknownName), ({"seed": -1}, InputError),
-     ({"n_objects": 99}, InputError), ({"layout": "triplet", "n_objects": 4}, InputError),
-     ({"layout": "arrangement", "n_objects": 20, "categories": ["pot"]}, InputError),
-     ({"layout": "arrangement", "options": {"pattern": "spiral"}}, InputError), ({"profile": "ugly"}, InputError)],
+    [
+        ({"layout": "castle"}, UnknownName),
+        ({"categories": ["unicorn"]}, UnknownName),
+        ({"seed": -1}, InputError),
+        ({"n_objects": 99}, InputError),
+        ({"layout": "triplet", "n_objects": 4}, InputError),
+        ({"layout": "arrangement", "n_objects": 20, "categories": ["pot"]}, InputError),
+        ({"layout": "arrangement", "options": {"pattern": "spiral"}}, InputError),
+        ({"profile": "ugly"}, InputError),
+    ],
 )
 def test_bad_requests_are_clear_errors(kwargs, error):
     args = {"layout": "household", "seed": 0, **kwargs}
@@ -185,6 +212,7 @@ def test_bad_requests_are_clear_errors(kwargs, error):
 
 
 # --- physics ----------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("layout", ["household", "arrangement", "triplet"])
 def test_objects_rest_stably_without_interpenetration(layout):
@@ -243,49 +271,81 @@ def test_base_head_and_arm_follow_commands(household):
 def test_rangefinder_reads_the_geometric_distance(triplet):
     sim = triplet.sim
     m, d = sim.model, sim.data
-    boxes = [g for g in range(m.ngeom) if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX and m.geom_group[g] < 3
-             and m.geom_bodyid[g] not in (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "head_tilt"),)]
+    boxes = [
+        g
+        for g in range(m.ngeom)
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+        and m.geom_group[g] < 3
+        and m.geom_bodyid[g] not in (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "head_tilt"),)
+    ]
     for key in sim.objects:
         # aim at the centre of the object's biggest part (a bounding box centre may be empty space)
         main = max(sim.geoms_of[key], key=lambda g: float(np.prod(m.geom_size[g][:2])))
         target = d.geom_xpos[main].copy()
         cam, _ = sim.camera_pose()
         v = target - cam
-        triplet.set_head(math.atan2(v[1], v[0]) - triplet.base_pose().yaw, math.atan2(v[2], math.hypot(v[0], v[1])))
+        triplet.set_head(
+            math.atan2(v[1], v[0]) - triplet.base_pose().yaw, math.atan2(v[2], math.hypot(v[0], v[1]))
+        )
         triplet.step(1.0)
         reading = triplet.read_distance()
         cam, rot = sim.camera_pose()
         axis = -rot[:, 2]
         # independent truth: the nearest box face (table, walls, robot) or, for round parts, MuJoCo's ray
-        truth_boxes = min(_ray_box(cam, axis, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g])
-                          for g in boxes)
+        truth_boxes = min(
+            _ray_box(cam, axis, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g]) for g in boxes
+        )
         geomid = np.array([-1], np.int32)
-        truth_any = mujoco.mj_ray(m, d, cam, axis, np.array([1, 1, 1, 0, 0, 0], np.uint8), 1,
-                                  mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "head_tilt"), geomid)
+        truth_any = mujoco.mj_ray(
+            m,
+            d,
+            cam,
+            axis,
+            np.array([1, 1, 1, 0, 0, 0], np.uint8),
+            1,
+            mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "head_tilt"),
+            geomid,
+        )
         hit_box = m.geom_type[geomid[0]] == mujoco.mjtGeom.mjGEOM_BOX
         truth = truth_boxes if hit_box else truth_any
         assert sim.geom_key[geomid[0]] == key, "the optical axis goes through the object's centre"
         assert reading == pytest.approx(truth, abs=0.01)
         depth = triplet.observe().depth
-        assert float(depth[H // 2 - 1:H // 2 + 1, W // 2 - 1:W // 2 + 1].mean()) == pytest.approx(reading, abs=0.02)
+        assert float(depth[H // 2 - 1 : H // 2 + 1, W // 2 - 1 : W // 2 + 1].mean()) == pytest.approx(
+            reading, abs=0.02
+        )
     triplet.set_head(*sim.plan.head)
     triplet.step(1.0)
 
 
 def test_box_geometry_reading_with_a_cube():
-    with MujocoWorld("arrangement", 2, width=96, height=72, categories=["toy block"], n_objects=3,
-                     options={"pattern": "row", "odd": "color"}) as world:
+    with MujocoWorld(
+        "arrangement",
+        2,
+        width=96,
+        height=72,
+        categories=["toy block"],
+        n_objects=3,
+        options={"pattern": "row", "odd": "color"},
+    ) as world:
         sim = world.sim
         key = 1
         g = sim.geoms_of[key][0]
         centre = sim.data.geom_xpos[g].copy()
         cam, _ = sim.camera_pose()
         v = centre - cam
-        world.set_head(math.atan2(v[1], v[0]) - world.base_pose().yaw, math.atan2(v[2], math.hypot(v[0], v[1])))
+        world.set_head(
+            math.atan2(v[1], v[0]) - world.base_pose().yaw, math.atan2(v[2], math.hypot(v[0], v[1]))
+        )
         world.step(1.0)
         cam, rot = sim.camera_pose()
-        truth = _ray_box(cam, -rot[:, 2], sim.data.geom_xpos[g], sim.data.geom_xmat[g].reshape(3, 3),
-                         sim.model.geom_size[g])
+        truth = _ray_box(
+            cam,
+            -rot[:, 2],
+            sim.data.geom_xpos[g],
+            sim.data.geom_xmat[g].reshape(3, 3),
+            sim.model.geom_size[g],
+        )
         assert math.isfinite(truth)
         assert world.read_distance() == pytest.approx(truth, abs=0.01)
 
@@ -339,7 +399,9 @@ def test_force_noise_is_gaussian_with_the_given_spread():
 
 
 def test_pick_refuses_what_it_cannot_hold():
-    with MujocoWorld("household", 0, width=64, height=48, categories=["suitcase", "mug"], n_objects=2) as world:
+    with MujocoWorld(
+        "household", 0, width=64, height=48, categories=["suitcase", "mug"], n_objects=2
+    ) as world:
         suitcase = next(o.id for o in world.sim.plan.objects if o.category.name == "suitcase")
         with pytest.raises(scripted.ManipulationError, match="not something the robot can pick up"):
             scripted.pick_object(world, suitcase)

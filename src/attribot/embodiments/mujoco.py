@@ -45,8 +45,17 @@ class MujocoWorld(Embodiment):
         force_noise_std: float = 0.0,
         options: dict[str, Any] | None = None,
     ) -> None:
-        self.sim = SimWorld(layout, seed, n_objects=n_objects, categories=categories, width=width, height=height,
-                            profile=profile, force_noise_std=force_noise_std, options=options)
+        self.sim = SimWorld(
+            layout,
+            seed,
+            n_objects=n_objects,
+            categories=categories,
+            width=width,
+            height=height,
+            profile=profile,
+            force_noise_std=force_noise_std,
+            options=options,
+        )
         self.layout = self.sim.plan.layout
         self.seed = self.sim.plan.seed
 

@@ -8,8 +8,18 @@ import numpy as np
 
 __all__ = ["draw_boxes"]
 
-_PALETTE = [(230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180), (70, 240, 240),
-            (240, 50, 230), (210, 245, 60), (0, 128, 128), (170, 110, 40)]
+_PALETTE = [
+    (230, 25, 75),
+    (60, 180, 75),
+    (0, 130, 200),
+    (245, 130, 48),
+    (145, 30, 180),
+    (70, 240, 240),
+    (240, 50, 230),
+    (210, 245, 60),
+    (0, 128, 128),
+    (170, 110, 40),
+]
 
 
 def draw_boxes(rgb: np.ndarray, items: Sequence[tuple[Sequence[float], str]]) -> np.ndarray:
@@ -26,5 +36,7 @@ def draw_boxes(rgb: np.ndarray, items: Sequence[tuple[Sequence[float], str]]) ->
         (tw, th), base = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
         ty = y0 - 3 if y0 - th - base - 3 >= 0 else min(y1 + th + 3, img.shape[0] - base)
         cv2.rectangle(img, (x0, ty - th - 2), (x0 + tw + 2, ty + base - 1), color, -1)
-        cv2.putText(img, label, (x0 + 1, ty - 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(
+            img, label, (x0 + 1, ty - 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA
+        )
     return img

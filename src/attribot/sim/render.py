@@ -182,7 +182,13 @@ class SceneRenderer:
         )
 
     def render(
-        self, data: mujoco.MjData, camera: int, *, rgb: bool = True, depth: bool = False, segmentation: bool = False
+        self,
+        data: mujoco.MjData,
+        camera: int,
+        *,
+        rgb: bool = True,
+        depth: bool = False,
+        segmentation: bool = False,
     ) -> RenderOutput:
         """Render camera `camera` (model camera id) of `data`: the layers asked for, in two passes at most."""
         if self._mjr is None:
@@ -206,8 +212,9 @@ class SceneRenderer:
             flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
             try:
                 mujoco.mjr_render(self._rect, self._scene, self._mjr)
-                mujoco.mjr_readPixels(self._ids if segmentation else None, self._zbuf if depth else None,
-                                      self._rect, self._mjr)
+                mujoco.mjr_readPixels(
+                    self._ids if segmentation else None, self._zbuf if depth else None, self._rect, self._mjr
+                )
             finally:
                 flags[:] = saved
             if depth:
@@ -228,7 +235,11 @@ class SceneRenderer:
         return (d / (zbuf.astype(np.float64) + c)).astype(np.float32)
 
     def _geom_ids(self, ids: np.ndarray) -> np.ndarray:
-        seg = ids[..., 0].astype(np.int64) + (ids[..., 1].astype(np.int64) << 8) + (ids[..., 2].astype(np.int64) << 16)
+        seg = (
+            ids[..., 0].astype(np.int64)
+            + (ids[..., 1].astype(np.int64) << 8)
+            + (ids[..., 2].astype(np.int64) << 16)
+        )
         n = self._scene.ngeom
         table = np.full(n + 1, -1, np.int32)
         for i in range(n):

@@ -67,8 +67,14 @@ def camera_quat() -> np.ndarray:
     return q
 
 
-def _box(body: mujoco.MjsBody, half: tuple[float, float, float], pos: tuple[float, float, float],
-         rgba: tuple[float, ...], collide: bool = False, name: str = "") -> mujoco.MjsGeom:
+def _box(
+    body: mujoco.MjsBody,
+    half: tuple[float, float, float],
+    pos: tuple[float, float, float],
+    rgba: tuple[float, ...],
+    collide: bool = False,
+    name: str = "",
+) -> mujoco.MjsGeom:
     g = body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(half), pos=list(pos), rgba=list(rgba))
     if name:
         g.name = name
@@ -79,7 +85,7 @@ def _box(body: mujoco.MjsBody, half: tuple[float, float, float], pos: tuple[floa
 
 
 def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
-    """Add the robot to `spec` at the world origin; its start pose is set in the data (joints base_x/y/yaw)."""
+    """Add the robot to `spec` at the world origin; its start pose is set in the data (base_x/y/yaw)."""
     g = geometry
     root = spec.worldbody.add_body(name="robot", pos=[0, 0, 0])
     root.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0], armature=1.0)
@@ -91,43 +97,80 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     _box(root, (bx * 0.98, by * 0.98, 0.01), (0, 0, 0.155), _ACCENT)
     for sx in (-1, 1):
         for sy in (-1, 1):
-            w = root.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.05, 0.02],
-                              pos=[sx * (bx - 0.05), sy * (by + 0.02), 0.05],
-                              quat=[math.cos(math.pi / 4), math.sin(math.pi / 4), 0, 0], rgba=list(_GRAY))
+            w = root.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                size=[0.05, 0.02],
+                pos=[sx * (bx - 0.05), sy * (by + 0.02), 0.05],
+                quat=[math.cos(math.pi / 4), math.sin(math.pi / 4), 0, 0],
+                rgba=list(_GRAY),
+            )
             w.contype = w.conaffinity = 0
             w.group = 1
             w.mass = 0.3
     mx, my = g.mast_xy
-    mast = _box(root, (0.025, 0.025, (g.head_height - 0.2) / 2), (mx, my, 0.16 + (g.head_height - 0.2) / 2 - 0.06),
-                _LIGHT)
+    mast = _box(
+        root,
+        (0.025, 0.025, (g.head_height - 0.2) / 2),
+        (mx, my, 0.16 + (g.head_height - 0.2) / 2 - 0.06),
+        _LIGHT,
+    )
     mast.mass = 2.0
 
     # head: pan about z, tilt about -y (up positive); camera and rangefinder at the axes' crossing
     pan = root.add_body(name="head_pan", pos=[mx, my, g.head_height])
-    pan.add_joint(name="head_pan", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], range=list(g.pan_range),
-                  damping=2.0, armature=0.05)
+    pan.add_joint(
+        name="head_pan",
+        type=mujoco.mjtJoint.mjJNT_HINGE,
+        axis=[0, 0, 1],
+        range=list(g.pan_range),
+        damping=2.0,
+        armature=0.05,
+    )
     _box(pan, (0.03, 0.03, 0.02), (-0.06, 0, -0.06), _DARK).mass = 0.3  # behind and below: out of view
     tilt = pan.add_body(name="head_tilt", pos=[0, 0, 0])
-    tilt.add_joint(name="head_tilt", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, -1, 0], range=list(g.tilt_range),
-                   damping=2.0, armature=0.05)
+    tilt.add_joint(
+        name="head_tilt",
+        type=mujoco.mjtJoint.mjJNT_HINGE,
+        axis=[0, -1, 0],
+        range=list(g.tilt_range),
+        damping=2.0,
+        armature=0.05,
+    )
     _box(tilt, (0.035, 0.07, 0.025), (-0.045, 0, 0), _DARK).mass = 0.4
     _box(tilt, (0.002, 0.012, 0.012), (-0.009, 0.03, 0.0), (0.2, 0.2, 0.5, 1.0))
     tilt.add_camera(name="head_camera", pos=[0, 0, 0], quat=list(camera_quat()), fovy=g.fovy_deg)
     # rangefinder measures along the site's +z: turn z onto the optical axis (+x)
-    tilt.add_site(name="range_site", pos=[0, 0, 0], quat=[math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0],
-                  size=[0.005, 0.005, 0.005], group=4)
+    tilt.add_site(
+        name="range_site",
+        pos=[0, 0, 0],
+        quat=[math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0],
+        size=[0.005, 0.005, 0.005],
+        group=4,
+    )
 
     # lift carriage on the mast, telescoping arm forward, wrist with the force sensor, two fingers
     lo, hi = g.lift_range
     carriage = root.add_body(name="carriage", pos=[mx, my, 0])
-    carriage.add_joint(name="lift", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1], range=[lo, hi],
-                       damping=300.0, armature=2.0)
+    carriage.add_joint(
+        name="lift",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=[0, 0, 1],
+        range=[lo, hi],
+        damping=300.0,
+        armature=2.0,
+    )
     _box(carriage, (0.045, 0.045, 0.05), (0, 0, 0), _GRAY).mass = 1.0
     sleeve_len = g.arm_reach0 - 0.06
     _box(carriage, (sleeve_len / 2, 0.025, 0.02), (0.04 + sleeve_len / 2, 0, 0), _LIGHT).mass = 0.6
     arm = carriage.add_body(name="arm_link", pos=[0, 0, 0])
-    arm.add_joint(name="arm", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0], range=list(g.arm_range),
-                  damping=150.0, armature=1.0)
+    arm.add_joint(
+        name="arm",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=[1, 0, 0],
+        range=list(g.arm_range),
+        damping=150.0,
+        armature=1.0,
+    )
     _box(arm, (sleeve_len / 2, 0.02, 0.015), (0.06 + sleeve_len / 2, 0, 0), _GRAY).mass = 0.5
     wrist = arm.add_body(name="wrist", pos=[g.arm_reach0, 0, 0])
     wrist.add_site(name="ft_site", pos=[0, 0, 0], size=[0.01, 0.01, 0.01], group=4)
@@ -135,13 +178,24 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     _box(wrist, (0.01, 0.075, 0.02), (0.025, 0, 0), _GRAY).mass = 0.1
     for side, name in ((1, "finger_l"), (-1, "finger_r")):
         f = wrist.add_body(name=name, pos=[0.035, 0, 0])
-        f.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, side, 0], range=list(g.finger_range),
-                    damping=5.0, armature=0.05)
+        f.add_joint(
+            name=name,
+            type=mujoco.mjtJoint.mjJNT_SLIDE,
+            axis=[0, side, 0],
+            range=list(g.finger_range),
+            damping=5.0,
+            armature=0.05,
+        )
         _box(f, (0.045, 0.006, 0.022), (0.045, side * 0.006, 0), _ACCENT, name=f"{name}_pad").mass = 0.05
     wrist.add_site(name="grip_site", pos=[g.grip_offset, 0, 0], size=[0.008, 0.008, 0.008], group=4)
     # an invisible probe between the fingertips: grasping measures distances from it, it touches nothing
-    probe = wrist.add_geom(name="grip_probe", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.004, 0, 0],
-                           pos=[g.grip_offset, 0, 0], rgba=[1, 0, 0, 0])
+    probe = wrist.add_geom(
+        name="grip_probe",
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[0.004, 0, 0],
+        pos=[g.grip_offset, 0, 0],
+        rgba=[1, 0, 0, 0],
+    )
     probe.contype = probe.conaffinity = 0
     probe.group = 5
     probe.mass = 0.001
@@ -171,11 +225,23 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     position("finger_l", 300.0, g.finger_range, 30.0)
     position("finger_r", 300.0, g.finger_range, 30.0)
 
-    rf = spec.add_sensor(name="rangefinder", type=mujoco.mjtSensor.mjSENS_RANGEFINDER,
-                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname="range_site")
+    rf = spec.add_sensor(
+        name="rangefinder",
+        type=mujoco.mjtSensor.mjSENS_RANGEFINDER,
+        objtype=mujoco.mjtObj.mjOBJ_SITE,
+        objname="range_site",
+    )
     if hasattr(mujoco, "mjtRayDataField"):  # MuJoCo >= 3.4 asks which ray data to report: the distance
         rf.intprm[0] = 1 << int(mujoco.mjtRayDataField.mjRAYDATA_DIST)
-    spec.add_sensor(name="wrist_force", type=mujoco.mjtSensor.mjSENS_FORCE, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                    objname="ft_site")
-    spec.add_sensor(name="wrist_torque", type=mujoco.mjtSensor.mjSENS_TORQUE, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                    objname="ft_site")
+    spec.add_sensor(
+        name="wrist_force",
+        type=mujoco.mjtSensor.mjSENS_FORCE,
+        objtype=mujoco.mjtObj.mjOBJ_SITE,
+        objname="ft_site",
+    )
+    spec.add_sensor(
+        name="wrist_torque",
+        type=mujoco.mjtSensor.mjSENS_TORQUE,
+        objtype=mujoco.mjtObj.mjOBJ_SITE,
+        objname="ft_site",
+    )

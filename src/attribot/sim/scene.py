@@ -140,7 +140,10 @@ class SceneRequest:
     def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
         value = self.options.get(name, default)
         if choices is not None and value not in choices:
-            raise InputError(f"layout option {name}={value!r} is not allowed", f"choose one of: {', '.join(map(str, choices))}")
+            raise InputError(
+                f"layout option {name}={value!r} is not allowed",
+                f"choose one of: {', '.join(map(str, choices))}",
+            )
         return value
 
 
@@ -150,8 +153,16 @@ LAYOUTS: Registry[Layout] = Registry("layout")
 
 # --- helpers ------------------------------------------------------------------------------------------
 
-def _make_object(rng: np.random.Generator, key: int, cat: Category, *, size: float | None = None,
-                 color: str | None = None, variant: str | None = None) -> PlacedObject:
+
+def _make_object(
+    rng: np.random.Generator,
+    key: int,
+    cat: Category,
+    *,
+    size: float | None = None,
+    color: str | None = None,
+    variant: str | None = None,
+) -> PlacedObject:
     lo, hi = cat.size_range_m
     if size is None:
         size = float(rng.uniform(lo, hi))
@@ -179,8 +190,9 @@ def _face(obj: PlacedObject, towards: tuple[float, float], rng: np.random.Genera
     obj.yaw = float(ang + math.pi + rng.uniform(-jitter, jitter))
 
 
-def _fits(x: float, y: float, r: float, surface: Surface, placed: list[tuple[float, float, float]],
-          gap: float) -> bool:
+def _fits(
+    x: float, y: float, r: float, surface: Surface, placed: list[tuple[float, float, float]], gap: float
+) -> bool:
     if not (surface.x0 + r <= x <= surface.x1 - r and surface.y0 + r <= y <= surface.y1 - r):
         return False
     for ax0, ay0, ax1, ay1 in surface.avoid:
@@ -222,8 +234,12 @@ def object_center(obj: PlacedObject) -> np.ndarray:
 
 
 def _table(name: str, x: float, y: float, size: tuple[float, float, float], kind: str = "table") -> Furniture:
-    colors = {"table": (0.62, 0.45, 0.30, 1), "counter": (0.85, 0.84, 0.80, 1), "coffee_table": (0.40, 0.28, 0.18, 1),
-              "shelf": (0.70, 0.55, 0.38, 1)}
+    colors = {
+        "table": (0.62, 0.45, 0.30, 1),
+        "counter": (0.85, 0.84, 0.80, 1),
+        "coffee_table": (0.40, 0.28, 0.18, 1),
+        "shelf": (0.70, 0.55, 0.38, 1),
+    }
     return Furniture(kind, name, x, y, size, colors[kind])
 
 
@@ -248,7 +264,9 @@ def _gap(a: Furniture, b: Furniture) -> float:
 def _count(request: SceneRequest, default: int, lo: int, hi: int, what: str) -> int:
     n = default if request.n_objects is None else request.n_objects
     if not lo <= n <= hi:
-        raise InputError(f"{what} takes {lo} to {hi} objects, not {n}", f"ask for between {lo} and {hi} objects")
+        raise InputError(
+            f"{what} takes {lo} to {hi} objects, not {n}", f"ask for between {lo} and {hi} objects"
+        )
     return n
 
 
@@ -257,18 +275,30 @@ def _count(request: SceneRequest, default: int, lo: int, hi: int, what: str) -> 
 _TABLE_FRONT = GEOMETRY.base_half[0] + 0.05  # gap between the robot and the table's near edge
 
 
-def _row_plan(rng: np.random.Generator, layout: str, seed: int, objs: list[PlacedObject], rows: int,
-              cols: int) -> ScenePlan:
-    """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to it, in front of the robot.
+def _row_plan(
+    rng: np.random.Generator, layout: str, seed: int, objs: list[PlacedObject], rows: int, cols: int
+) -> ScenePlan:
+    """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to fit, before the robot.
 
     Columns are as wide as their widest object; rows are deep enough that an object does not hide the one
     behind it from the head camera (which looks down at about 40 degrees).
     """
-    grid = [[objs[r * cols + c] if r * cols + c < len(objs) else None for c in range(cols)] for r in range(rows)]
-    col_w = [max(2 * o.shape.footprint_radius for o in (grid[r][c] for r in range(rows)) if o is not None) + 0.04
-             for c in range(cols)]
-    row_d = [max(2 * o.shape.footprint_radius + (1.2 * o.shape.height if rows > 1 else 0.0)
-                 for o in grid[r] if o is not None) + 0.04 for r in range(rows)]
+    grid = [
+        [objs[r * cols + c] if r * cols + c < len(objs) else None for c in range(cols)] for r in range(rows)
+    ]
+    col_w = [
+        max(2 * o.shape.footprint_radius for o in (grid[r][c] for r in range(rows)) if o is not None) + 0.04
+        for c in range(cols)
+    ]
+    row_d = [
+        max(
+            2 * o.shape.footprint_radius + (1.2 * o.shape.height if rows > 1 else 0.0)
+            for o in grid[r]
+            if o is not None
+        )
+        + 0.04
+        for r in range(rows)
+    ]
     need_w, need_d = sum(col_w), sum(row_d)
     max_w, max_d = 1.9, 1.2
     if need_w > max_w or need_d > max_d:
@@ -326,7 +356,9 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     odd_kinds = ["category", "size"] + (["color"] if len(main.colors) > 1 else [])
     odd_kind = request.option("odd", str(rng.choice(odd_kinds)), ("category", "size", "color"))
     if odd_kind == "color" and len(main.colors) < 2:
-        raise InputError(f"{main.name} comes in one colour only, so it cannot have an odd colour", "use odd=size")
+        raise InputError(
+            f"{main.name} comes in one colour only, so it cannot have an odd colour", "use odd=size"
+        )
     variation = float(request.option("size_variation", 0.08))
     if not 0 <= variation <= 0.3:
         raise InputError(f"size_variation={variation} is out of range", "give a fraction between 0 and 0.3")
@@ -341,8 +373,11 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             size = common * (1.6 if rng.uniform() < 0.5 else 0.6)
         cat, col = main, color
         if i == odd_index and odd_kind == "category":
-            others = [c for c in (pool[1:] if request.categories and len(pool) > 1 else _pool(SceneRequest(), _small))
-                      if c.name != main.name]
+            others = [
+                c
+                for c in (pool[1:] if request.categories and len(pool) > 1 else _pool(SceneRequest(), _small))
+                if c.name != main.name
+            ]
             cat = others[int(rng.integers(len(others)))]
             size = float(np.clip(common, *cat.size_range_m))
             col = str(cat.colors[int(rng.integers(len(cat.colors)))])
@@ -366,10 +401,15 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     if request.categories:
         chosen = sorted(request.categories, key=lambda c: c.typical_mass_kg)
         if len(chosen) != 3:
-            raise InputError(f"a triplet takes exactly 3 categories, got {len(chosen)}", "name three categories")
+            raise InputError(
+                f"a triplet takes exactly 3 categories, got {len(chosen)}", "name three categories"
+            )
         for a, b in zip(chosen, chosen[1:], strict=False):
             if not a.mass_range_kg[1] < b.mass_range_kg[0]:
-                raise InputError(f"{a.name} and {b.name} overlap in weight", "choose categories of clearly different weight")
+                raise InputError(
+                    f"{a.name} and {b.name} overlap in weight",
+                    "choose categories of clearly different weight",
+                )
     else:
         pool = sorted(_pool(SceneRequest(), _triplet_ok), key=lambda c: c.typical_mass_kg)
         for _ in range(1000):
@@ -377,8 +417,12 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             chosen = [first]
             while len(chosen) < 3:
                 prev = chosen[-1]
-                nxt = [c for c in pool if c.mass_range_kg[0] > prev.mass_range_kg[1] and
-                       c.typical_mass_kg >= 3 * prev.typical_mass_kg]
+                nxt = [
+                    c
+                    for c in pool
+                    if c.mass_range_kg[0] > prev.mass_range_kg[1]
+                    and c.typical_mass_kg >= 3 * prev.typical_mass_kg
+                ]
                 if not nxt:
                     break
                 chosen.append(nxt[int(rng.integers(len(nxt)))])
@@ -395,33 +439,55 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
 
 # --- household: furniture around the room, candidates at different distances ---------------------------
 
+
 @LAYOUTS.register("household", aliases=("room",))
 def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     """A room with 2-3 pieces of furniture and 2-6 candidate objects (up to 12 on request) at distances
     from the robot that differ by at least `min_gap` metres (option, default 0.15)."""
     n = _count(request, int(rng.integers(2, 7)), 1, 12, "a household scene")
     min_gap = float(request.option("min_gap", 0.15))
-    robot = (-2.0 + float(rng.uniform(-0.2, 0.2)), float(rng.uniform(-0.3, 0.3)), float(rng.uniform(-0.12, 0.12)))
+    robot = (
+        -2.0 + float(rng.uniform(-0.2, 0.2)),
+        float(rng.uniform(-0.3, 0.3)),
+        float(rng.uniform(-0.12, 0.12)),
+    )
     cam = camera_position(robot)
     rx = robot[0]
     ry = robot[1]
     for _ in range(200):  # furniture with room for the robot to drive between the pieces
         slots = [
             ("coffee_table", (rx + rng.uniform(0.85, 1.0), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
-            ("table", (rx + rng.uniform(1.55, 1.9), ry + rng.choice([-1, 1]) * rng.uniform(0.85, 1.1)), (0.7, 0.9, 0.75)),
-            (str(rng.choice(["counter", "shelf"])), (rx + rng.uniform(2.3, 2.6), ry + rng.uniform(-0.5, 0.5)),
-             (0.45, 1.2, 0.9)),
+            (
+                "table",
+                (rx + rng.uniform(1.55, 1.9), ry + rng.choice([-1, 1]) * rng.uniform(0.85, 1.1)),
+                (0.7, 0.9, 0.75),
+            ),
+            (
+                str(rng.choice(["counter", "shelf"])),
+                (rx + rng.uniform(2.3, 2.6), ry + rng.uniform(-0.5, 0.5)),
+                (0.45, 1.2, 0.9),
+            ),
         ]
         keep = sorted(rng.choice(3, size=int(rng.integers(2, 4)), replace=False).tolist())
-        furniture = [_table(f"{kind}_{i}", float(x), float(y), size, kind)
-                     for i, (kind, (x, y), size) in enumerate(slots) if i in keep]
-        if all(_gap(a, b) >= 0.6 for i, a in enumerate(furniture) for b in furniture[i + 1:]) and all(
+        furniture = [
+            _table(f"{kind}_{i}", float(x), float(y), size, kind)
+            for i, (kind, (x, y), size) in enumerate(slots)
+            if i in keep
+        ]
+        if all(_gap(a, b) >= 0.6 for i, a in enumerate(furniture) for b in furniture[i + 1 :]) and all(
             max(abs(v) for v in f.footprint()) < ROOM_HALF - 0.6 for f in furniture
         ):
             break
     surfaces = [s for f in furniture for s in f.surfaces()]
-    floor = Surface("floor", rx + 0.75, -ROOM_HALF + 0.3, ROOM_HALF - 0.3, ROOM_HALF - 0.3, 0.0,
-                    tuple(f.footprint(0.55) for f in furniture))  # standing room at furniture
+    floor = Surface(
+        "floor",
+        rx + 0.75,
+        -ROOM_HALF + 0.3,
+        ROOM_HALF - 0.3,
+        ROOM_HALF - 0.3,
+        0.0,
+        tuple(f.footprint(0.55) for f in furniture),
+    )  # standing room at furniture
     pool = _pool(request, lambda c: c.pickable)
     picks: list[Category] = []
     order = rng.permutation(len(pool)).tolist()
@@ -506,20 +572,39 @@ def resolve_categories(names: Sequence[str] | None) -> tuple[Category, ...] | No
 
 # --- building the MuJoCo model -----------------------------------------------------------------------
 
+
 def _rgba(rgb: tuple[float, float, float], a: float = 1.0) -> list[float]:
     return [*rgb, a]
 
 
 def _add_room(spec: mujoco.MjSpec) -> None:
-    spec.add_texture(name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                     rgb1=[0.72, 0.66, 0.58], rgb2=[0.64, 0.58, 0.50], width=256, height=256)
+    spec.add_texture(
+        name="floor_tex",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.72, 0.66, 0.58],
+        rgb2=[0.64, 0.58, 0.50],
+        width=256,
+        height=256,
+    )
     mat = spec.add_material(name="floor_mat", texrepeat=[8, 8], reflectance=0.15)
     mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = "floor_tex"
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                     rgb1=[0.6, 0.7, 0.85], rgb2=[0.2, 0.25, 0.35], width=64, height=64)
+    spec.add_texture(
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.6, 0.7, 0.85],
+        rgb2=[0.2, 0.25, 0.35],
+        width=64,
+        height=64,
+    )
     wb = spec.worldbody
-    floor = wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[ROOM_HALF, ROOM_HALF, 0.05],
-                        material="floor_mat")
+    floor = wb.add_geom(
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[ROOM_HALF, ROOM_HALF, 0.05],
+        material="floor_mat",
+    )
     floor.contype = floor.conaffinity = 1
     wall_rgb = [0.86, 0.84, 0.78, 1.0]
     t = 0.05
@@ -529,7 +614,9 @@ def _add_room(spec: mujoco.MjSpec) -> None:
         ("wall_left", (0, ROOM_HALF + t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
         ("wall_right", (0, -ROOM_HALF - t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
     ):
-        g = wb.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=wall_rgb)
+        g = wb.add_geom(
+            name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=wall_rgb
+        )
         g.contype = g.conaffinity = 1
     skirting = [0.45, 0.40, 0.35, 1.0]
     for name, pos, size in (
@@ -537,12 +624,29 @@ def _add_room(spec: mujoco.MjSpec) -> None:
         ("skirt_left", (0, ROOM_HALF - 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
         ("skirt_right", (0, -ROOM_HALF + 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
     ):
-        g = wb.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=skirting)
+        g = wb.add_geom(
+            name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=skirting
+        )
         g.contype = g.conaffinity = 0
-    wb.add_light(name="ceiling", pos=[0, 0, WALL_HEIGHT - 0.05], dir=[0.1, 0.05, -1], diffuse=[0.55, 0.55, 0.55],
-                 specular=[0.1, 0.1, 0.1], castshadow=True, cutoff=80, attenuation=[1, 0, 0])
-    wb.add_light(name="fill", pos=[-2.5, -1.0, 2.0], dir=[1, 0.3, -0.6], diffuse=[0.3, 0.3, 0.3],
-                 specular=[0, 0, 0], castshadow=False, cutoff=90)
+    wb.add_light(
+        name="ceiling",
+        pos=[0, 0, WALL_HEIGHT - 0.05],
+        dir=[0.1, 0.05, -1],
+        diffuse=[0.55, 0.55, 0.55],
+        specular=[0.1, 0.1, 0.1],
+        castshadow=True,
+        cutoff=80,
+        attenuation=[1, 0, 0],
+    )
+    wb.add_light(
+        name="fill",
+        pos=[-2.5, -1.0, 2.0],
+        dir=[1, 0.3, -0.6],
+        diffuse=[0.3, 0.3, 0.3],
+        specular=[0, 0, 0],
+        castshadow=False,
+        cutoff=90,
+    )
 
 
 def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
@@ -562,8 +666,11 @@ def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
         leg = 0.03
         for sx in (-1, 1):
             for sy in (-1, 1):
-                box((leg, leg, (h - 2 * top) / 2), (sx * (dx - leg - 0.02), sy * (dy - leg - 0.02), (h - 2 * top) / 2),
-                    dark)
+                box(
+                    (leg, leg, (h - 2 * top) / 2),
+                    (sx * (dx - leg - 0.02), sy * (dy - leg - 0.02), (h - 2 * top) / 2),
+                    dark,
+                )
     elif f.kind == "counter":
         box((dx, dy, (h - 2 * top) / 2), (0, 0, (h - 2 * top) / 2), dark)
         box((dx + 0.01, dy + 0.01, top), (0, 0, h - top), rgba)
@@ -585,15 +692,22 @@ def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
     rangefinder and by rendering, so both see the visible shape.
     """
     main = COLORS[o.color]
-    body = spec.worldbody.add_body(name=f"obj:{o.id}", pos=[o.x, o.y, o.z - o.shape.lo[2] + 0.0005],
-                                   quat=[math.cos(o.yaw / 2), 0, 0, math.sin(o.yaw / 2)])
+    body = spec.worldbody.add_body(
+        name=f"obj:{o.id}",
+        pos=[o.x, o.y, o.z - o.shape.lo[2] + 0.0005],
+        quat=[math.cos(o.yaw / 2), 0, 0, math.sin(o.yaw / 2)],
+    )
     body.add_freejoint(name=f"obj:{o.id}")
     parts = [p for p in o.shape.parts if not p.hidden]
     vol = sum(p.volume() for p in parts)
     hull_mass = 1e-4 * o.mass_kg
-    types = {"box": mujoco.mjtGeom.mjGEOM_BOX, "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
-             "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
-             "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID}
+    types = {
+        "box": mujoco.mjtGeom.mjGEOM_BOX,
+        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+        "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+        "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+    }
     for p in parts:
         rgb = main if p.role == "main" else MATERIALS[p.role]
         size = list(p.size) + [0.0] * (3 - len(p.size))
@@ -602,8 +716,13 @@ def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
         g.group = 0
         g.contype = g.conaffinity = 0
     lo, hi = np.asarray(o.shape.lo), np.asarray(o.shape.hi)
-    hull = body.add_geom(name=f"hull:{o.id}", type=mujoco.mjtGeom.mjGEOM_BOX, size=list((hi - lo) / 2),
-                         pos=list((hi + lo) / 2), rgba=[0.5, 0.5, 0.5, 0.0])
+    hull = body.add_geom(
+        name=f"hull:{o.id}",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=list((hi - lo) / 2),
+        pos=list((hi + lo) / 2),
+        rgba=[0.5, 0.5, 0.5, 0.0],
+    )
     hull.mass = hull_mass
     hull.group = 3
     hull.contype = hull.conaffinity = 1
@@ -612,7 +731,7 @@ def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
 
 
 def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
-    """Compile the plan into a model: room, furniture, objects, robot, sensors, one weld per pickable object."""
+    """Compile the plan into a model: room, furniture, objects, robot, sensors, a weld per pickable object."""
     spec = mujoco.MjSpec()
     spec.modelname = f"attribot_{plan.layout}_{plan.seed}"
     spec.compiler.degree = False  # every angle here is in radians (joint ranges included)
@@ -639,8 +758,13 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
     add_robot(spec)
     for o in plan.objects:
         if o.category.pickable:
-            eq = spec.add_equality(name=f"grasp:{o.id}", type=mujoco.mjtEq.mjEQ_WELD,
-                                   objtype=mujoco.mjtObj.mjOBJ_BODY, name1="wrist", name2=f"obj:{o.id}")
+            eq = spec.add_equality(
+                name=f"grasp:{o.id}",
+                type=mujoco.mjtEq.mjEQ_WELD,
+                objtype=mujoco.mjtObj.mjOBJ_BODY,
+                name1="wrist",
+                name2=f"obj:{o.id}",
+            )
             eq.active = False
             eq.solref = [0.01, 1.0]
     return spec.compile()

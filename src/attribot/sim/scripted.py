@@ -55,7 +55,7 @@ _CELL = 0.05  # grid resolution of the path planner, metres
 
 
 def _blocked_grid(sim: SimWorld, goal: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, float]:
-    """Occupancy grid of the room: furniture inflated by the robot's radius (the start and goal cells free)."""
+    """Occupancy grid of the room: furniture inflated by the robot's radius (start and goal cells free)."""
     half = 3.0
     n = int(round(2 * half / _CELL))
     occ = np.zeros((n, n), bool)
@@ -68,7 +68,7 @@ def _blocked_grid(sim: SimWorld, goal: np.ndarray, start: np.ndarray) -> tuple[n
     occ[:wall, :] = occ[-wall:, :] = occ[:, :wall] = occ[:, -wall:] = True
     for p in (start, goal):  # standing close to furniture is allowed where the motion starts and ends
         i, j = _cell(p, half)
-        occ[max(i - 1, 0):i + 2, max(j - 1, 0):j + 2] = False
+        occ[max(i - 1, 0) : i + 2, max(j - 1, 0) : j + 2] = False
     return occ, half
 
 
@@ -115,7 +115,9 @@ def _path(sim: SimWorld, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray
                 dist[nb], prev[nb] = nd, c
                 heapq.heappush(heap, (nd + math.hypot(g[0] - nb[0], g[1] - nb[1]), nb))
     if g not in dist:
-        raise ManipulationError("no path for the base between the furniture to the target", "choose another target")
+        raise ManipulationError(
+            "no path for the base between the furniture to the target", "choose another target"
+        )
     cells = [g]
     while cells[-1] != s:
         cells.append(prev[cells[-1]])
@@ -133,8 +135,16 @@ def _path(sim: SimWorld, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray
     return pts + [goal]
 
 
-def drive_to(world: Any, x: float, y: float, yaw: float, *, tol: float = 0.01, yaw_tol: float = 0.01,
-             timeout_s: float = 40.0) -> None:
+def drive_to(
+    world: Any,
+    x: float,
+    y: float,
+    yaw: float,
+    *,
+    tol: float = 0.01,
+    yaw_tol: float = 0.01,
+    timeout_s: float = 40.0,
+) -> None:
     """Drive the base to the world pose `(x, y, yaw)` with velocity commands, around furniture."""
     sim = _sim(world)
     start = np.array(sim.base_pose()[:2])
@@ -162,7 +172,8 @@ def drive_to(world: Any, x: float, y: float, yaw: float, *, tol: float = 0.01, y
             if t > timeout_s:
                 world.command_base(0.0, 0.0, 0.0)
                 raise ManipulationError(
-                    f"the base did not reach ({x:.2f}, {y:.2f}) within {timeout_s:.0f} s (stopped at {bx:.2f}, {by:.2f})",
+                    f"the base did not reach ({x:.2f}, {y:.2f}) within {timeout_s:.0f} s "
+                    f"(stopped at {bx:.2f}, {by:.2f})",
                     "something blocks the way; choose another target",
                 )
     world.command_base(0.0, 0.0, 0.0)
@@ -170,6 +181,7 @@ def drive_to(world: Any, x: float, y: float, yaw: float, *, tol: float = 0.01, y
 
 
 # --- approaching and picking -------------------------------------------------------------------------
+
 
 def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]:
     """Base pose `(x, y, yaw)` from which the arm reaches object `key`, and the arm extension it needs."""
@@ -215,15 +227,18 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
         for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.6, -1.6, 2.2, -2.2, math.pi):
             n = np.array([math.cos(towards + turn), math.sin(towards + turn)])
             c = pos[:2] + n * along
-            if abs(c[0]) < 2.7 and abs(c[1]) < 2.7 and not any(
-                r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in blocked
+            if (
+                abs(c[0]) < 2.7
+                and abs(c[1]) < 2.7
+                and not any(r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in blocked)
             ):
                 break
         else:
             raise ManipulationError(f"no free spot to stand at next to {obj.id}", "choose another object")
     if ext > g.arm_range[1]:
         raise ManipulationError(
-            f"{obj.id} is {ext - g.arm_range[1]:.2f} m beyond the arm's reach from any side of its {name or 'place'}",
+            f"{obj.id} is {ext - g.arm_range[1]:.2f} m beyond the arm's reach "
+            f"from any side of its {name or 'place'}",
             "choose an object nearer the edge",
         )
     ext = max(ext, 0.02)
@@ -254,7 +269,9 @@ def _look_at(world: Any, sim: SimWorld, target: np.ndarray) -> None:
     cam, _ = sim.camera_pose()
     d = target - cam
     _, _, yaw = sim.base_pose()
-    world.set_head(math.remainder(math.atan2(d[1], d[0]) - yaw, math.tau), math.atan2(d[2], math.hypot(d[0], d[1])))
+    world.set_head(
+        math.remainder(math.atan2(d[1], d[0]) - yaw, math.tau), math.atan2(d[2], math.hypot(d[0], d[1]))
+    )
 
 
 def approach_object(world: Any, object_id: str | int) -> None:
@@ -285,7 +302,9 @@ def _headroom(sim: SimWorld, key: int) -> float:
         for fy in (0.1, 0.5, 0.9):
             p = np.array([lo[0] + fx * (hi[0] - lo[0]), lo[1] + fy * (hi[1] - lo[1]), hi[2]])
             geom = np.array([-1], np.int32)
-            d = mujoco.mj_ray(sim.model, sim.data, p, np.array([0.0, 0.0, 1.0]), _SCENERY, 1, sim.body_of[key], geom)
+            d = mujoco.mj_ray(
+                sim.model, sim.data, p, np.array([0.0, 0.0, 1.0]), _SCENERY, 1, sim.body_of[key], geom
+            )
             if geom[0] >= 0:
                 free = min(free, d)
     return float(np.clip(free - 0.02, 0.005, _LIFT_CLEAR))
@@ -300,15 +319,18 @@ def pick_object(world: Any, object_id: str | int) -> bool:
     if sim.held is not None:
         raise ManipulationError(f"the gripper already holds {sim.objects[sim.held].id}", "put it down first")
     if not sim.objects[key].category.pickable:
-        raise ManipulationError(f"{sim.objects[key].id} is not something the robot can pick up",
-                                "choose a smaller object")
+        raise ManipulationError(
+            f"{sim.objects[key].id} is not something the robot can pick up", "choose a smaller object"
+        )
     ext = in_reach(world, key)
     if ext is None:
         approach_object(world, key)
         ext = in_reach(world, key)
         if ext is None:
-            raise ManipulationError(f"{sim.objects[key].id} is still out of reach after approaching it",
-                                    "the object may have moved; try again")
+            raise ManipulationError(
+                f"{sim.objects[key].id} is still out of reach after approaching it",
+                "the object may have moved; try again",
+            )
     z = _grip_height(sim, key)
     sim.set_gripper(GEOMETRY.finger_range[1])
     world.set_arm(z, 0.0)

@@ -152,7 +152,9 @@ def _sphere_fruit(s: float, stem: bool, leaf: bool, squash: float = 1.0) -> list
     if stem:
         parts.append(Part("cylinder", (r * 0.07, r * 0.2), (0, 0, 2 * rz + r * 0.1), role="stem"))
     if leaf:
-        parts.append(Part("ellipsoid", (r * 0.35, r * 0.15, r * 0.04), (r * 0.25, 0, 2 * rz + r * 0.05), role="leaf"))
+        parts.append(
+            Part("ellipsoid", (r * 0.35, r * 0.15, r * 0.04), (r * 0.25, 0, 2 * rz + r * 0.05), role="leaf")
+        )
     return parts
 
 
@@ -204,9 +206,18 @@ def _banana(s: float) -> list[Part]:
     for i, ang in enumerate((-0.45, 0.0, 0.45)):
         x = (i - 1) * seg * 1.7
         y = 0.15 * s * abs(i - 1)
-        parts.append(Part("capsule", (r, seg), (x, -y + 0.05 * s, r), _compose(quat_axis_angle((0, 0, 1), ang), _ALONG_X)))
+        parts.append(
+            Part(
+                "capsule",
+                (r, seg),
+                (x, -y + 0.05 * s, r),
+                _compose(quat_axis_angle((0, 0, 1), ang), _ALONG_X),
+            )
+        )
     parts.append(Part("box", (s * 0.35, r * 0.5, 0.002), (0, 0, 0.002), role="dark", hidden=True))
-    parts.append(Part("cylinder", (r * 0.4, r * 0.4), (seg * 1.7 + seg * 0.9, -0.1 * s, r), _ALONG_X, role="stem"))
+    parts.append(
+        Part("cylinder", (r * 0.4, r * 0.4), (seg * 1.7 + seg * 0.9, -0.1 * s, r), _ALONG_X, role="stem")
+    )
     return parts
 
 
@@ -407,8 +418,13 @@ def _laptop(s: float) -> list[Part]:
         Part("box", (d / 2, w / 2, t), (0, 0, t)),
         Part("box", (d * 0.3, w * 0.42, 0.0008), (-d * 0.1, 0, 2 * t + 0.0008), role="dark"),
         Part("box", (t * 0.6, w / 2, d / 2), (cx, 0, cz), tilt),
-        Part("box", (0.001, w * 0.44, d * 0.42), (cx - off * math.cos(ang), 0, cz + off * math.sin(ang)), tilt,
-             role="screen"),
+        Part(
+            "box",
+            (0.001, w * 0.44, d * 0.42),
+            (cx - off * math.cos(ang), 0, cz + off * math.sin(ang)),
+            tilt,
+            role="screen",
+        ),
     ]
 
 
@@ -446,8 +462,14 @@ def _remote(s: float) -> list[Part]:
     parts.append(Part("cylinder", (s * 0.035, 0.002), (s * 0.35, 0, s * 0.12), role="flame"))
     for i in range(3):
         for j in (-1, 1):
-            parts.append(Part("box", (s * 0.02, s * 0.025, 0.002), (s * (0.15 - 0.12 * i), j * s * 0.05, s * 0.12),
-                              role="gray"))
+            parts.append(
+                Part(
+                    "box",
+                    (s * 0.02, s * 0.025, 0.002),
+                    (s * (0.15 - 0.12 * i), j * s * 0.05, s * 0.12),
+                    role="gray",
+                )
+            )
     return parts
 
 
@@ -484,8 +506,12 @@ def _cactus(s: float) -> list[Part]:
         Part("capsule", (trunk, s * 0.22), (0, 0, ph + s * 0.28), role="main"),
         Part("capsule", (trunk * 0.6, s * 0.06), (0, trunk + s * 0.07, ph + s * 0.38), role="main"),
         Part("capsule", (trunk * 0.6, s * 0.05), (0, -trunk - s * 0.07, ph + s * 0.3), role="main"),
-        Part("capsule", (trunk * 0.55, s * 0.045), (0, trunk + s * 0.02, ph + s * 0.32), _ALONG_Y, role="main"),
-        Part("capsule", (trunk * 0.55, s * 0.04), (0, -trunk - s * 0.02, ph + s * 0.24), _ALONG_Y, role="main"),
+        Part(
+            "capsule", (trunk * 0.55, s * 0.045), (0, trunk + s * 0.02, ph + s * 0.32), _ALONG_Y, role="main"
+        ),
+        Part(
+            "capsule", (trunk * 0.55, s * 0.04), (0, -trunk - s * 0.02, ph + s * 0.24), _ALONG_Y, role="main"
+        ),
     ]
 
 
@@ -535,10 +561,20 @@ def _stapler(s: float) -> list[Part]:
 @SHAPES.register("scissors")
 def _scissors(s: float) -> list[Part]:
     return [
-        Part("box", (s * 0.28, s * 0.03, 0.002), (s * 0.22, s * 0.015, 0.004), quat_axis_angle((0, 0, 1), 0.08),
-             role="metal"),
-        Part("box", (s * 0.28, s * 0.03, 0.002), (s * 0.22, -s * 0.015, 0.004), quat_axis_angle((0, 0, 1), -0.08),
-             role="metal"),
+        Part(
+            "box",
+            (s * 0.28, s * 0.03, 0.002),
+            (s * 0.22, s * 0.015, 0.004),
+            quat_axis_angle((0, 0, 1), 0.08),
+            role="metal",
+        ),
+        Part(
+            "box",
+            (s * 0.28, s * 0.03, 0.002),
+            (s * 0.22, -s * 0.015, 0.004),
+            quat_axis_angle((0, 0, 1), -0.08),
+            role="metal",
+        ),
         Part("ellipsoid", (s * 0.12, s * 0.09, s * 0.02), (-s * 0.2, s * 0.1, s * 0.02)),
         Part("ellipsoid", (s * 0.12, s * 0.09, s * 0.02), (-s * 0.2, -s * 0.1, s * 0.02)),
     ]

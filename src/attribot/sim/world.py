@@ -114,11 +114,15 @@ class SimWorld:
     ) -> None:
         seed = check_seed(seed)
         if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
-            raise InputError(f"image size {width}x{height} is out of range", "give a width and height from 16 to 4096")
+            raise InputError(
+                f"image size {width}x{height} is out of range", "give a width and height from 16 to 4096"
+            )
         if profile not in PROFILES:
             raise InputError(f"unknown render profile {profile!r}", f"choose one of: {', '.join(PROFILES)}")
         if not force_noise_std >= 0:
-            raise InputError(f"force_noise_std={force_noise_std} is negative", "give a standard deviation >= 0 N")
+            raise InputError(
+                f"force_noise_std={force_noise_std} is negative", "give a standard deviation >= 0 N"
+            )
         if n_objects is not None and not 1 <= n_objects <= MAX_OBJECTS:
             raise InputError(f"{n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
         request = SceneRequest(n_objects, resolve_categories(categories), dict(options or {}))
@@ -175,7 +179,10 @@ class SimWorld:
             return False
         u = info.cx + info.fx * p[0] / -p[2]
         v = info.cy - info.fy * p[1] / -p[2]
-        if not (margin * info.width <= u <= (1 - margin) * info.width and margin * info.height <= v <= (1 - margin) * info.height):
+        if not (
+            margin * info.width <= u <= (1 - margin) * info.width
+            and margin * info.height <= v <= (1 - margin) * info.height
+        ):
             return False
         groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
         head = _name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "head_tilt")
@@ -191,11 +198,35 @@ class SimWorld:
         m = self.model
         J = mujoco.mjtObj.mjOBJ_JOINT
         A = mujoco.mjtObj.mjOBJ_ACTUATOR
-        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in
-                      ("base_x", "base_y", "base_yaw", "head_pan", "head_tilt", "lift", "arm", "finger_l", "finger_r")}
+        self._qadr = {
+            n: int(m.jnt_qposadr[_name2id(m, J, n)])
+            for n in (
+                "base_x",
+                "base_y",
+                "base_yaw",
+                "head_pan",
+                "head_tilt",
+                "lift",
+                "arm",
+                "finger_l",
+                "finger_r",
+            )
+        }
         self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
-        self._act = {n: _name2id(m, A, n) for n in
-                     ("base_x", "base_y", "base_yaw", "head_pan", "head_tilt", "lift", "arm", "finger_l", "finger_r")}
+        self._act = {
+            n: _name2id(m, A, n)
+            for n in (
+                "base_x",
+                "base_y",
+                "base_yaw",
+                "head_pan",
+                "head_tilt",
+                "lift",
+                "arm",
+                "finger_l",
+                "finger_r",
+            )
+        }
         self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "head_camera")
         self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
         self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
@@ -229,13 +260,28 @@ class SimWorld:
         pan, tilt = self.plan.head
         lift, ext = self.plan.arm
         open_ = GEOMETRY.finger_range[1]
-        for name, value in (("base_x", x), ("base_y", y), ("base_yaw", yaw), ("head_pan", pan), ("head_tilt", tilt),
-                            ("lift", lift), ("arm", ext), ("finger_l", open_), ("finger_r", open_)):
+        for name, value in (
+            ("base_x", x),
+            ("base_y", y),
+            ("base_yaw", yaw),
+            ("head_pan", pan),
+            ("head_tilt", tilt),
+            ("lift", lift),
+            ("arm", ext),
+            ("finger_l", open_),
+            ("finger_r", open_),
+        ):
             d.qpos[q[name]] = value
         for name in ("base_x", "base_y", "base_yaw"):
             d.ctrl[self._act[name]] = 0.0
-        self._targets = {"head_pan": pan, "head_tilt": tilt, "lift": lift, "arm": ext,
-                         "finger_l": open_, "finger_r": open_}
+        self._targets = {
+            "head_pan": pan,
+            "head_tilt": tilt,
+            "lift": lift,
+            "arm": ext,
+            "finger_l": open_,
+            "finger_r": open_,
+        }
         for name, v in self._targets.items():
             d.ctrl[self._act[name]] = v
         self._base_cmd = (0.0, 0.0, 0.0)
@@ -270,11 +316,15 @@ class SimWorld:
         self.data.ctrl[self._act["base_yaw"]] = wz
 
     def command_base(self, vx: float, vy: float, wz: float) -> None:
-        """Base velocity in the robot frame (forward m/s, left m/s, counter-clockwise rad/s), held until changed."""
+        """Base velocity in the robot frame (forward m/s, left m/s, ccw rad/s), held until changed."""
         vals = (float(vx), float(vy), float(wz))
         if not all(math.isfinite(v) for v in vals):
             raise InputError(f"base velocity {vals} is not finite", "give finite velocities")
-        self._base_cmd = (float(np.clip(vx, -1.0, 1.0)), float(np.clip(vy, -1.0, 1.0)), float(np.clip(wz, -2.0, 2.0)))
+        self._base_cmd = (
+            float(np.clip(vx, -1.0, 1.0)),
+            float(np.clip(vy, -1.0, 1.0)),
+            float(np.clip(wz, -2.0, 2.0)),
+        )
         self._set_base_ctrl()
 
     def _target(self, name: str, value: float) -> None:
@@ -384,7 +434,7 @@ class SimWorld:
 
     # --- sensors ------------------------------------------------------------------------------------
     def read_distance(self) -> float:
-        """Rangefinder along the optical axis, metres from the optical centre; inf when nothing is in range."""
+        """Rangefinder along the optical axis, metres from the optical centre; inf when nothing in range."""
         mujoco.mj_forward(self.model, self.data)
         r = float(self.data.sensordata[self._range_adr])
         return math.inf if r < 0 or r > GEOMETRY.range_max else r
@@ -392,7 +442,7 @@ class SimWorld:
     def _raw_force(self) -> np.ndarray:
         mujoco.mj_rnePostConstraint(self.model, self.data)
         mujoco.mj_sensorAcc(self.model, self.data)
-        f_site = self.data.sensordata[self._force_adr:self._force_adr + 3].copy()
+        f_site = self.data.sensordata[self._force_adr : self._force_adr + 3].copy()
         # MuJoCo reports, in the site frame, the force with which the arm holds the wrist's subtree up;
         # its opposite is the load on the wrist, so that a held mass m adds (0, 0, -m*g) in the world frame
         return -(self.data.site_xmat[self._ft_site].reshape(3, 3) @ f_site)
@@ -416,8 +466,11 @@ class SimWorld:
 
     def base_pose(self) -> tuple[float, float, float]:
         q = self.data.qpos
-        return (float(q[self._qadr["base_x"]]), float(q[self._qadr["base_y"]]),
-                float(math.remainder(q[self._qadr["base_yaw"]], math.tau)))
+        return (
+            float(q[self._qadr["base_x"]]),
+            float(q[self._qadr["base_y"]]),
+            float(math.remainder(q[self._qadr["base_yaw"]], math.tau)),
+        )
 
     def head(self) -> tuple[float, float]:
         q = self.data.qpos
@@ -427,12 +480,16 @@ class SimWorld:
         """World position of the optical centre and the camera's rotation (columns: right, up, backward)."""
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
-        return self.data.cam_xpos[self.camera_id].copy(), self.data.cam_xmat[self.camera_id].reshape(3, 3).copy()
+        return self.data.cam_xpos[self.camera_id].copy(), self.data.cam_xmat[self.camera_id].reshape(
+            3, 3
+        ).copy()
 
     # --- camera ---------------------------------------------------------------------------------------
     def camera_info(self) -> CameraInfo:
         fy = (self.height / 2) / math.tan(math.radians(self.model.cam_fovy[self.camera_id]) / 2)
-        return CameraInfo(width=self.width, height=self.height, fx=fy, fy=fy, cx=self.width / 2, cy=self.height / 2)
+        return CameraInfo(
+            width=self.width, height=self.height, fx=fy, fy=fy, cx=self.width / 2, cy=self.height / 2
+        )
 
     @property
     def renderer(self) -> SceneRenderer:
@@ -443,14 +500,21 @@ class SimWorld:
     def observe(self, *, depth: bool = True, segmentation: bool = True) -> Frame:
         """The head camera's frame: RGB, and depth and segmentation (object keys, -1 elsewhere) with truth."""
         mujoco.mj_forward(self.model, self.data)
-        out = self.renderer.render(self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation)
+        out = self.renderer.render(
+            self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation
+        )
         seg = None
         if out.geom_ids is not None:
             ids = out.geom_ids
             seg = np.where(ids >= 0, self.geom_key[np.clip(ids, 0, None)], -1).astype(np.int32)
         assert out.rgb is not None
-        return Frame(rgb=out.rgb, depth=out.depth, segmentation=seg, objects=dict(self.truth),
-                     camera=self.camera_info())
+        return Frame(
+            rgb=out.rgb,
+            depth=out.depth,
+            segmentation=seg,
+            objects=dict(self.truth),
+            camera=self.camera_info(),
+        )
 
     # --- ground truth ---------------------------------------------------------------------------------
     def object_position(self, key: int) -> np.ndarray:
@@ -489,19 +553,36 @@ class SimWorld:
             box = box_from_mask(mask) if n_px >= MIN_VISIBLE_PIXELS else None
             pos = self.object_position(o.key)
             extras = {k: v for k, v in o.extras.items() if k in ObjectInfo.model_fields}
-            objects.append(ObjectInfo(
-                id=o.id, key=o.key, category=o.category.name, color=o.color,
-                mass_kg=round(float(self.model.body_mass[self.body_of[o.key]]), 4),
-                position=[round(float(v), 4) for v in pos], box=list(box) if box else None, visible_pixels=n_px,
-                pickable=o.category.pickable, size_m=o.size_m, variant=o.variant, deceptive=o.category.deceptive,
-                distance_m=round(float(np.linalg.norm(pos - cam)), 4), surface=o.surface, **extras,
-            ))
+            objects.append(
+                ObjectInfo(
+                    id=o.id,
+                    key=o.key,
+                    category=o.category.name,
+                    color=o.color,
+                    mass_kg=round(float(self.model.body_mass[self.body_of[o.key]]), 4),
+                    position=[round(float(v), 4) for v in pos],
+                    box=list(box) if box else None,
+                    visible_pixels=n_px,
+                    pickable=o.category.pickable,
+                    size_m=o.size_m,
+                    variant=o.variant,
+                    deceptive=o.category.deceptive,
+                    distance_m=round(float(np.linalg.norm(pos - cam)), 4),
+                    surface=o.surface,
+                    **extras,
+                )
+            )
         x, y, yaw = self.base_pose()
         return SceneInfo(
-            layout=self.plan.layout, seed=self.plan.seed, image_size=[self.width, self.height], objects=objects,
-            robot=RobotInfo(base=[round(x, 4), round(y, 4), round(yaw, 4)],
-                            camera_position=[round(float(v), 4) for v in cam],
-                            head=[round(v, 4) for v in self.head()]),
+            layout=self.plan.layout,
+            seed=self.plan.seed,
+            image_size=[self.width, self.height],
+            objects=objects,
+            robot=RobotInfo(
+                base=[round(x, 4), round(y, 4), round(yaw, 4)],
+                camera_position=[round(float(v), 4) for v in cam],
+                head=[round(v, 4) for v in self.head()],
+            ),
             furniture=[f.name for f in self.plan.furniture],
         )
 
