@@ -131,6 +131,24 @@ def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     assert backend in ("egl", "osmesa") and out.stdout.strip().endswith("1")
 
 
+def test_no_working_backend_names_the_system_packages(monkeypatch):
+    from attribot.errors import ConfigError
+    from attribot.sim import render
+
+    monkeypatch.setattr(render, "_chosen", None)
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.setattr(render, "_probe", lambda backend: f"lib{backend} not found")
+    with pytest.raises(ConfigError) as exc:
+        render.gl_backend()
+    assert "libegl1" in exc.value.fix and "libosmesa6" in exc.value.fix
+    assert "libegl not found" in exc.value.message
+    monkeypatch.setenv("MUJOCO_GL", "glfw")
+    with pytest.raises(ConfigError, match="MUJOCO_GL='glfw' cannot render headless"):
+        render.gl_backend()
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    assert render.gl_backend() == "osmesa"  # an explicit choice is honoured without probing
+
+
 @pytest.mark.parametrize("layout", ["arrangement", "triplet", "household"])
 def test_same_seed_same_scene_and_pixels(layout):
     a = MujocoWorld(layout, 11, width=96, height=72)
