@@ -275,7 +275,7 @@ def test_base_head_and_arm_follow_commands(household):
     household.step(1.5)
     js = household.joint_states()
     assert {"head_pan", "head_tilt", "lift", "arm", "gripper", "base_x", "base_y", "base_yaw"} <= set(js)
-    assert js["head_pan"] == pytest.approx(0.3, abs=0.01) and js["head_tilt"] == pytest.approx(-0.4, abs=0.01)
+    assert js["head_pan"] == pytest.approx(0.3, abs=1e-3) and js["head_tilt"] == pytest.approx(-0.4, abs=1e-3)
     assert js["lift"] == pytest.approx(0.6, abs=0.01) and js["arm"] == pytest.approx(0.2, abs=0.01)
     assert sim.held is None and not household.grasp()  # nothing between the fingers
     household.set_arm(0.2, 0.0)

@@ -128,6 +128,9 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     )
     _box(pan, (0.03, 0.03, 0.02), (-0.06, 0, -0.06), _DARK).mass = 0.3  # behind and below: out of view
     tilt = pan.add_body(name="head_tilt", pos=[0, 0, 0])
+    # the head's servos hold their weight (as a servo with an integrator would): no steady-state sag
+    pan.gravcomp = 1.0
+    tilt.gravcomp = 1.0
     tilt.add_joint(
         name="head_tilt",
         type=mujoco.mjtJoint.mjJNT_HINGE,
