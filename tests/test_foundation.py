@@ -112,7 +112,7 @@ def test_draw_boxes_marks_pixels_and_keeps_input():
     from attribot.draw import draw_boxes
 
     rgb = np.zeros((40, 60, 3), np.uint8)
-    out = np.asarray(draw_boxes(rgb, [((10, 15, 30, 35), "mug")]))
+    out = draw_boxes(rgb, [((10, 15, 30, 35), "mug")])
     assert out.shape == rgb.shape and rgb.max() == 0  # input untouched
-    assert out[35, 20].any() and out[25, 10].any()  # bottom and left edges drawn
+    assert out[34, 20].any() and out[25, 10].any()  # bottom and left edges drawn
     assert not out[25, 20].any()  # inside stays clear

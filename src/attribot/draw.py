@@ -1,43 +1,44 @@
-"""Drawing boxes and labels on images: the one place that does it (scene renders, answers, reports)."""
+"""Drawing boxes and labels on images: the one place that does it (scene renders, saved answers, figures)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
 
 from attribot.frame import check_rgb
 
-__all__ = ["draw_boxes", "PALETTE"]
+__all__ = ["draw_boxes"]
 
-PALETTE: tuple[tuple[int, int, int], ...] = (
-    (255, 196, 0), (0, 200, 83), (41, 121, 255), (255, 61, 0), (213, 0, 249),
-    (0, 229, 255), (255, 234, 0), (118, 255, 3), (255, 145, 0), (240, 98, 146),
-)
+_PALETTE = [
+    (230, 25, 75),
+    (60, 180, 75),
+    (0, 130, 200),
+    (245, 130, 48),
+    (145, 30, 180),
+    (70, 240, 240),
+    (240, 50, 230),
+    (210, 245, 60),
+    (0, 128, 128),
+    (170, 110, 40),
+]
 
 
-def draw_boxes(
-    rgb: np.ndarray,
-    boxes: Sequence[tuple[Sequence[float], str]],
-    *,
-    width: int = 2,
-    colors: Sequence[tuple[int, int, int]] = PALETTE,
-) -> Image.Image:
-    """A copy of `rgb` with each `(xyxy box, label)` drawn as an outline and a filled label tag."""
-    image = Image.fromarray(check_rgb(rgb).copy())
-    pen = ImageDraw.Draw(image)
-    font = ImageFont.load_default()
-    for i, (box, label) in enumerate(boxes):
-        color = tuple(colors[i % len(colors)])
-        x0, y0, x1, y1 = (float(v) for v in box)
-        pen.rectangle((x0, y0, x1, y1), outline=color, width=width)
-        if label:
-            tx0, ty0, tx1, ty1 = pen.textbbox((0, 0), label, font=font)
-            tw, th = tx1 - tx0 + 4, ty1 - ty0 + 4
-            ty = y0 - th if y0 - th >= 0 else y0
-            pen.rectangle((x0, ty, x0 + tw, ty + th), fill=color)
-            luminance = 0.299 * color[0] + 0.587 * color[1] + 0.114 * color[2]
-            pen.text((x0 + 2, ty + 2 - ty0), label, fill=(0, 0, 0) if luminance > 128 else (255, 255, 255),
-                     font=font)
-    return image
+def draw_boxes(rgb: np.ndarray, items: Sequence[tuple[Sequence[float], str]]) -> np.ndarray:
+    """A copy of `rgb` with each xyxy box (pixels, origin top-left) outlined and labelled."""
+    import cv2
+
+    img = np.ascontiguousarray(check_rgb(rgb).copy())
+    scale = max(img.shape[0] / 480.0, 0.35) * 0.45
+    thick = max(1, round(img.shape[0] / 320))
+    for i, (box, label) in enumerate(items):
+        color = _PALETTE[i % len(_PALETTE)]
+        x0, y0, x1, y1 = (int(round(v)) for v in box)
+        cv2.rectangle(img, (x0, y0), (x1 - 1, y1 - 1), color, thick)
+        (tw, th), base = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+        ty = y0 - 3 if y0 - th - base - 3 >= 0 else min(y1 + th + 3, img.shape[0] - base)
+        cv2.rectangle(img, (x0, ty - th - 2), (x0 + tw + 2, ty + base - 1), color, -1)
+        cv2.putText(
+            img, label, (x0 + 1, ty - 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA
+        )
+    return img
