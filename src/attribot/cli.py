@@ -113,7 +113,7 @@ def scene_render(
             frame = world.observe()
             rgb = frame.rgb
             if boxes:
-                from attribot.sim.draw import draw_boxes
+                from attribot.draw import draw_boxes
 
                 info = world.sim.scene_info(frame)
                 rgb = draw_boxes(rgb, [(o.box, f"{o.category} ({o.color})") for o in info.objects if o.box])
@@ -143,6 +143,101 @@ def scene_info(
 
 
 # ---- ask / exec (planner, runner, API) ---------------------------------------------------------------
+
+_LAYOUT = typer.Option("household", "--layout", help="Simulated scene layout (see `attribot scene`).")
+_SEED = typer.Option(0, "--seed", help="Scene seed: the same seed gives the same scene and answer.")
+_IMAGE = typer.Option(None, "--image", help="Answer about this image file instead of a simulated scene.")
+_SENSORS = typer.Option(
+    None, "--sensors", help="Comma-separated robot sensors: camera,distance,force (default: all the world has)."
+)
+_JSON = typer.Option(False, "--json", help="Print the whole answer as JSON.")
+_SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
+_DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
+_VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
+_LANGUAGE = typer.Option(None, "--language", help="Language backend spec (catalog, openai:MODEL, remote:URL).")
+
+
+def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
+    from attribot.planning.ask import Scene
+
+    if seed < 0:
+        raise fail(f"--seed must be a non-negative integer, got {seed}", "use e.g. --seed 7")
+    names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
+    return Scene(layout=None if image else layout, seed=seed, image=image, sensors=names)
+
+
+def _show(answer: Any, as_json: bool) -> None:
+    if as_json:
+        typer.echo(answer.model_dump_json(indent=2))
+    else:
+        out = Console()
+        if answer.error is None:
+            out.print(f"[bold green]answer:[/] {answer.answer}", highlight=False)
+        else:
+            where = f" (line {answer.error.line})" if answer.error.line else ""
+            out.print(f"[bold red]no answer[/] [{answer.error.category}]{where}: {answer.error.message}",
+                      highlight=False)
+        backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
+        out.print(f"[dim]planner={answer.planner} attempts={answer.attempts} {backends}; "
+                  f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]", highlight=False)
+    if answer.error is not None:
+        raise typer.Exit(1)
+
+
+@app.command()
+def ask(
+    query: str = typer.Argument(..., help="The question, e.g. \"Which object is the heaviest?\""),
+    layout: str = _LAYOUT,
+    seed: int = _SEED,
+    image: Path | None = _IMAGE,
+    sensors: str | None = _SENSORS,
+    planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
+    llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
+    llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
+    detector: str | None = _DETECTOR,
+    vqa: str | None = _VQA,
+    language: str | None = _LANGUAGE,
+    as_json: bool = _JSON,
+    save: Path | None = _SAVE,
+) -> None:
+    """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
+    from attribot.config import load_settings
+    from attribot.planning.ask import ask as run_ask
+
+    settings = load_settings(planner=planner, llm_base_url=llm_base_url, llm_model=llm_model,
+                             detector=detector, vqa=vqa, language=language)
+    answer = run_ask(query, _scene(layout, seed, image, sensors), settings, save_dir=save)
+    _show(answer, as_json)
+
+
+@app.command("exec")
+def exec_program(
+    program: Path = typer.Argument(..., help="A .py file defining execute_command(image, robot)."),
+    layout: str = _LAYOUT,
+    seed: int = _SEED,
+    image: Path | None = _IMAGE,
+    sensors: str | None = _SENSORS,
+    query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
+    detector: str | None = _DETECTOR,
+    vqa: str | None = _VQA,
+    language: str | None = _LANGUAGE,
+    as_json: bool = _JSON,
+    save: Path | None = _SAVE,
+) -> None:
+    """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
+    from attribot.config import load_settings
+    from attribot.planning.ask import execute
+
+    if not program.is_file():
+        raise fail(f"program file {str(program)!r} does not exist", "give the path of a .py file")
+    try:
+        source = program.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise fail(f"program file {str(program)!r} cannot be read as text ({exc.__class__.__name__})") from exc
+    settings = load_settings(detector=detector, vqa=vqa, language=language)
+    answer = execute(source, _scene(layout, seed, image, sensors), settings, query=query, save_dir=save)
+    _show(answer, as_json)
+
 
 # ---- backends (model configuration) ------------------------------------------------------------------
 

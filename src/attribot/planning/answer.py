@@ -1,0 +1,48 @@
+"""The answer to one query: what `attribot ask --json` prints and `--save` writes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict
+
+__all__ = ["AnswerObject", "AnswerError", "Answer"]
+
+
+class AnswerObject(BaseModel):
+    """The chosen object: the world's id where there is one, its category, its box in pixels (y down)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    id: str | None
+    category: str | None
+    box: tuple[float, float, float, float]
+
+
+class AnswerError(BaseModel):
+    model_config = ConfigDict(frozen=True)
+
+    category: str
+    message: str
+    line: int | None = None
+
+
+class Answer(BaseModel):
+    """One answered (or failed) query, with everything needed to check it: program, backends, trace."""
+
+    query: str
+    answer: str
+    object: AnswerObject | None = None
+    value: float | None = None
+    unit: str | None = None
+    program: str | None = None
+    planner: str
+    backends: dict[str, str]
+    attempts: int
+    trace: list[dict[str, Any]] = []
+    error: AnswerError | None = None
+    world: dict[str, Any] | None = None  # layout and seed, or the image file
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None

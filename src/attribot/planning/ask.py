@@ -1,0 +1,253 @@
+"""One query, end to end: world or image -> API objects -> planner -> sandboxed run -> `Answer`.
+
+`ask` plans the program (rules or an LLM), `execute` runs a given one; both share the same world set-up,
+runner, answer assembly and saving, so that `attribot exec` replays exactly what `attribot ask` ran.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from attribot.config import Settings
+from attribot.errors import ConfigError, InputError
+from attribot.planning.answer import Answer, AnswerError, AnswerObject
+
+__all__ = ["Scene", "ask", "execute", "build_answer", "save_answer"]
+
+
+@dataclass
+class Scene:
+    """Where a query runs: a simulated world (`layout`, `seed`) or a still image file."""
+
+    layout: str | None = "household"
+    seed: int = 0
+    image: Path | None = None
+    world: str = "mujoco"
+    sensors: Sequence[str] | None = None  # None: every sensor the world has (camera alone for an image)
+    world_options: dict[str, Any] = field(default_factory=dict)
+
+    def describe(self) -> dict[str, Any]:
+        if self.image is not None:
+            return {"image": str(self.image)}
+        return {"world": self.world, "layout": self.layout, "seed": self.seed}
+
+
+def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = None) -> Answer:
+    """Answer `query` in `scene` with the planner named in `settings.planner`; `save_dir` keeps the
+    answer JSON, the program, the resolved settings and the camera frame with the chosen box drawn."""
+    from attribot.planning import PlanRequest, build_planner, check_query, solve
+
+    text = check_query(query)
+    planner = build_planner(settings.planner, settings)
+    with _Session(scene, settings) as session:
+        request = PlanRequest(query=text, sensors=session.sensors, embodied=session.world is not None)
+        max_tries = settings.llm_max_tries if planner.name != "rules" else 1
+        solved = solve(planner, request, session.run, max_tries=max_tries)
+        return session.finish(
+            text, planner.name, solved.program, solved.result, len(solved.attempts), save_dir, settings
+        )
+
+
+def execute(
+    program: str, scene: Scene, settings: Settings, query: str = "", save_dir: Path | None = None
+) -> Answer:
+    """Run a program written the way the prompt asks (`def execute_command(image, robot)`) in `scene`."""
+    if not program.strip():
+        raise InputError("the program is empty", "give a file that defines execute_command(image, robot)")
+    with _Session(scene, settings) as session:
+        return session.finish(query, "file", program, session.run(program), 1, save_dir, settings)
+
+
+class _Session:
+    """The world (or image), the API objects and the runner for one query; closes all of them."""
+
+    def __init__(self, scene: Scene, settings: Settings) -> None:
+        from attribot.api.patch import ImagePatch
+        from attribot.api.perception import Perception
+        from attribot.api.robot import Robot
+        from attribot.runner import ProgramRunner
+
+        self.scene = scene
+        self.world: Any = None
+        self.runner: Any = None
+        try:
+            if scene.image is not None:
+                if settings.detector == "oracle":
+                    raise ConfigError(
+                        "--image needs a real detector: the default 'oracle' detector reads simulator "
+                        "ground truth, which a still image does not have",
+                        "set --detector hf:google/owlv2-base-patch16-ensemble (pip install "
+                        "'attribot[models]') or ATTRIBOT_DETECTOR=remote:URL; `attribot backends` lists "
+                        "the configuration",
+                    )
+                self.perception = Perception.from_settings(settings)
+                self.sensors = list(scene.sensors or ["camera"])
+                self.robot = Robot(sensors=self.sensors)
+                self.image = ImagePatch.from_image(scene.image, self.perception)
+            else:
+                from attribot.embodiments.base import EMBODIMENTS
+
+                self.perception = Perception.from_settings(settings)
+                self.world = EMBODIMENTS.get(scene.world)(
+                    layout=scene.layout, seed=scene.seed, **scene.world_options
+                )
+                have = {str(c) for c in self.world.capabilities()}
+                self.sensors = list(scene.sensors or [s for s in ("camera", "distance", "force") if s in have])
+                self.robot = Robot(sensors=self.sensors, world=self.world)
+                self.image = self.robot.look(self.perception)
+            self.runner = ProgramRunner(classes=[ImagePatch, Robot])
+        except BaseException:
+            self.close()
+            raise
+
+    def run(self, program: str) -> Any:
+        return self.runner.run(program, args=[self.image, self.robot])
+
+    def backends(self) -> dict[str, str]:
+        names = self.perception.names()
+        names["robot"] = self.robot.backend_name()
+        return names
+
+    def finish(
+        self,
+        query: str,
+        planner: str,
+        program: str | None,
+        result: Any,
+        attempts: int,
+        save_dir: Path | None,
+        settings: Settings,
+    ) -> Answer:
+        answer = build_answer(
+            query=query,
+            planner=planner,
+            program=program,
+            result=result,
+            attempts=attempts,
+            backends=self.backends(),
+            measurements=list(getattr(self.robot, "measurements", [])),
+            world=self.scene.describe(),
+            frame=self.image.frame,
+        )
+        if save_dir is not None:
+            save_answer(answer, save_dir, rgb=self.image.frame.rgb, settings=settings)
+        return answer
+
+    def close(self) -> None:
+        if self.runner is not None:
+            self.runner.close()
+        if self.world is not None:
+            self.world.close()
+
+    def __enter__(self) -> _Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def build_answer(
+    *,
+    query: str,
+    planner: str,
+    program: str | None,
+    result: Any,
+    attempts: int,
+    backends: dict[str, str],
+    measurements: Sequence[Any],
+    world: dict[str, Any],
+    frame: Any,
+) -> Answer:
+    """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person."""
+    trace = [t.model_dump(mode="json") for t in (result.trace if result is not None else [])]
+    common = dict(query=query, program=program, planner=planner, backends=backends, attempts=attempts,
+                  trace=trace, world=world)
+    if result is None or result.error is not None:
+        err = result.error if result is not None else None
+        category = err.category if err is not None else "planner"
+        message = err.message if err is not None else "no program was produced"
+        return Answer(answer=f"no answer: {message}", error=AnswerError(category=category, message=message,
+                      line=getattr(err, "line", None)), **common)
+    chosen = _chosen_patch(result.value_object)
+    if chosen is not None:
+        category = _category(chosen, frame)
+        obj = AnswerObject(id=chosen.object_id, category=category, box=tuple(round(v, 1) for v in chosen.box))
+        value, unit = _measured(chosen, measurements)
+        where = ", ".join(f"{v:.0f}" for v in obj.box)
+        name = category or "object"
+        text = f"the {name}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+        if value is not None:
+            text += f", measured {_format_value(value, unit, measurements, chosen)}"
+        return Answer(answer=text, object=obj, value=value, unit=unit, **common)
+    value = result.value
+    number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+    if value is None:
+        return Answer(
+            answer="no answer: the program returned nothing",
+            error=AnswerError(category="runtime", message="execute_command returned None; return the "
+                              "chosen ImagePatch or a value"),
+            **common,
+        )
+    text = value if isinstance(value, str) else json.dumps(value, default=str)
+    return Answer(answer=str(text), value=number, **common)
+
+
+def _chosen_patch(value_object: Any) -> Any:
+    from attribot.api.patch import ImagePatch
+
+    if isinstance(value_object, ImagePatch):
+        return value_object
+    if isinstance(value_object, list) and len(value_object) == 1 and isinstance(value_object[0], ImagePatch):
+        return value_object[0]
+    return None
+
+
+def _category(patch: Any, frame: Any) -> str | None:
+    if patch.object_id is not None:
+        for truth in frame.objects.values():
+            if truth.id == patch.object_id:
+                return truth.category
+    return patch.label or None
+
+
+def _measured(patch: Any, measurements: Sequence[Any]) -> tuple[float | None, str | None]:
+    """The last measurement the program took of the chosen object, if any."""
+    for m in reversed(measurements):
+        if patch.object_id is not None and m.object_id == patch.object_id:
+            return float(m.value), m.unit
+    return None, None
+
+
+def _format_value(value: float, unit: str | None, measurements: Sequence[Any], patch: Any) -> str:
+    if unit == "kg":
+        newtons = next((m.newtons for m in reversed(measurements)
+                        if m.object_id == patch.object_id and m.newtons is not None), None)
+        return f"{value:.3f} kg" + (f" ({newtons:.2f} N)" if newtons is not None else "")
+    return f"{value:.3f} {unit or ''}".strip()
+
+
+def save_answer(answer: Answer, directory: Path, rgb: Any = None, settings: Settings | None = None) -> list[Path]:
+    """Write answer.json, program.py, settings.json and (with `rgb`) answer.png with the chosen box drawn."""
+    directory.mkdir(parents=True, exist_ok=True)
+    written = [directory / "answer.json"]
+    written[0].write_text(answer.model_dump_json(indent=2))
+    if answer.program:
+        (directory / "program.py").write_text(answer.program)
+        written.append(directory / "program.py")
+    if settings is not None:
+        (directory / "settings.json").write_text(json.dumps(settings.public_dict(), indent=2, default=str))
+        written.append(directory / "settings.json")
+    if rgb is not None:
+        from PIL import Image
+
+        from attribot.draw import draw_boxes
+
+        boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
+        path = directory / "answer.png"
+        Image.fromarray(draw_boxes(rgb, boxes)).save(path)
+        written.append(path)
+    return written
