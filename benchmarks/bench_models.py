@@ -22,7 +22,12 @@ Three modes:
       The GPU mode's code path with tiny models on the CPU (a check that it runs, not a measurement).
 
 Needs torch and transformers (>= 4.50); the `backend` rows also need attribot's core dependencies
-(numpy, pydantic, pillow); when those are missing the rows are skipped with the reason.
+(numpy, pydantic, pillow); when those are missing the rows are skipped with the reason. A GPU machine
+without pydantic and without network can get it from a folder made elsewhere and put on PYTHONPATH:
+  pip install --target out/gpu-deps --python-version 3.12 --platform manylinux2014_x86_64 \
+      --only-binary=:all: pydantic && rm -rf out/gpu-deps/typing_extensions*
+  PYTHONPATH=src:out/gpu-deps python3 benchmarks/bench_models.py --device cuda --real-size
+`--compile` runs the models through torch.compile (minutes of warm-up per model and batch size).
 """
 
 from __future__ import annotations
@@ -181,6 +186,9 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
             except Exception as exc:  # noqa: BLE001 - one model that cannot be built must not stop the rest
                 print(f"{name} {dtype_name}: skipped, cannot build: {exc.__class__.__name__}: {exc}")
                 continue
+            if args.compile:
+                # the same module, compiled: graphs per batch shape are built during the warm-up calls
+                model = torch.compile(model, dynamic=False)
             if not args.no_backend:
                 print(
                     f"{name}: image processor {type(processor.image_processor).__name__}, "
@@ -197,6 +205,7 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
                         "dtype": dtype_name,
                         "part": part,
                         "batch": batch,
+                        "compiled": bool(args.compile),
                     }
                     try:
                         sec = _measure(torch, timer, part, model, processor, batch, device, dtype)
@@ -231,6 +240,8 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
 
 
 def _gpu_preprocessing(processor: Any, device: str) -> str:
+    if "Blip" in type(processor).__name__:
+        return "no (CPU: the VQA backend calls the processor as a whole)"
     try:
         from attribot.models.hf import _device_preprocessing
     except ImportError as exc:
@@ -263,7 +274,8 @@ def _measure(
 
 def _line(row: dict, tiny: bool) -> str:
     text = (
-        f"{row['model']} {row['dtype']} {row['part']:8s} batch {row['batch']:3d}: "
+        f"{row['model']}{' compiled' if row['compiled'] else ''} {row['dtype']} "
+        f"{row['part']:8s} batch {row['batch']:3d}: "
         f"{row['ms_per_batch']:9.1f} ms/batch "
         f"{row['ms_per_image']:8.2f} ms/image {row['images_per_s']:8.1f} img/s"
     )
@@ -350,6 +362,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--iters", type=int, default=None)
     parser.add_argument("--cpu-batch", type=int, default=16, help="frames per batch in the CPU mode")
     parser.add_argument("--no-backend", action="store_true", help="only the model forward rows")
+    parser.add_argument("--compile", action="store_true", help="torch.compile the models (slow warm-up)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this file")
     parser.add_argument("--verbose", action="store_true", help="print tracebacks of skipped rows")
     args = parser.parse_args(argv)
