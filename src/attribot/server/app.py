@@ -1,0 +1,362 @@
+"""The model server's FastAPI application: detector, VQA and language backends behind HTTP.
+
+Endpoints (records in `attribot.models.wire`):
+
+  POST /v1/detect    DetectRequest   -> DetectResponse     batched (detect_many)
+  POST /v1/answer    AnswerRequest   -> AnswerResponse     batched (answer_many)
+  POST /v1/complete  CompleteRequest -> CompleteResponse   passed through, a few at a time
+  GET  /health       HealthResponse  (no token needed: a liveness probe)
+  GET  /metrics      MetricsResponse (counts, batch-size histogram, latency percentiles, errors)
+
+Every error is an `ErrorBody` (category, message, fix) with a status that says whose fault it is:
+401 no token, 403 wrong token, 400 unreadable request or image, 413 too large, 404 role not served,
+429 queue full, 500 the backend raised (the server keeps serving), 503 shutting down.
+The token is compared in constant time. Request bodies are read with a size cap before any parsing.
+"""
+
+# no `from __future__ import annotations`: FastAPI reads the endpoints' annotations at run time, and
+# `Request` is imported inside create_app (the server extra is optional)
+import asyncio
+import concurrent.futures
+import contextlib
+import hmac
+import logging
+import time
+from collections import Counter
+from collections.abc import AsyncIterator
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from attribot import __version__
+from attribot.deps import require
+from attribot.errors import AttribotError, InputError
+from attribot.frame import Frame
+from attribot.models.base import Detection, answer_many, detect_many
+from attribot.models.wire import (
+    PATHS,
+    AnswerRequest,
+    AnswerResponse,
+    CompleteRequest,
+    CompleteResponse,
+    DetectRequest,
+    DetectResponse,
+    ErrorBody,
+    ErrorCategory,
+    ErrorInfo,
+    HealthResponse,
+    ImageTooLarge,
+    MetricsResponse,
+    decode_image,
+)
+from attribot.server.batching import Batcher, Overloaded, RoleStats, ShuttingDown
+
+__all__ = ["ServerConfig", "create_app"]
+
+log = logging.getLogger("attribot.server")
+
+
+class ServerConfig(BaseModel):
+    """How the server batches, what it accepts, and the token clients must send (None: no check)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    token: str | None = Field(default=None, repr=False)
+    max_batch: int = Field(default=32, ge=1, le=1024)
+    batch_window_ms: float = Field(default=2.0, ge=0.0, le=10_000.0)
+    max_queue: int = Field(default=1024, ge=1)
+    max_image_mb: float = Field(default=10.0, gt=0.0)
+    max_pixels: int = Field(default=25_000_000, ge=1)
+    language_threads: int = Field(default=8, ge=1, le=256)
+
+    @property
+    def max_image_bytes(self) -> int:
+        return int(self.max_image_mb * 2**20)
+
+    @property
+    def max_body_bytes(self) -> int:
+        # base64 grows the image by 4/3; the rest of the JSON is a few kilobytes of text
+        return self.max_image_bytes * 4 // 3 + 4 + 64 * 1024
+
+
+class _Refused(Exception):
+    """An error answered before any backend is involved (auth, body size, parsing)."""
+
+    def __init__(self, status: int, category: ErrorCategory, message: str, fix: str | None = None) -> None:
+        super().__init__(message)
+        self.status, self.category, self.message, self.fix = status, category, message, fix
+
+
+def _error_response(status: int, category: ErrorCategory, message: str, fix: str | None = None) -> Any:
+    from starlette.responses import Response
+
+    body = ErrorBody(error=ErrorInfo(category=category, message=message, fix=fix)).model_dump_json()
+    headers = {}
+    if status == 401:
+        headers["WWW-Authenticate"] = "Bearer"
+    if status in (429, 503):
+        headers["Retry-After"] = "1"
+    return Response(body, status_code=status, media_type="application/json", headers=headers)
+
+
+def _classify(exc: BaseException, role: str, backend: str) -> tuple[int, ErrorCategory, str, str | None]:
+    """HTTP status, category, message and fix for an exception raised while serving `role`."""
+    if isinstance(exc, _Refused):
+        return exc.status, exc.category, exc.message, exc.fix
+    if isinstance(exc, ImageTooLarge):
+        return 413, "too_large", exc.message, exc.fix
+    if isinstance(exc, InputError):
+        return 400, "input", exc.message, exc.fix
+    if isinstance(exc, Overloaded):
+        return 429, "overloaded", exc.message, exc.fix
+    if isinstance(exc, ShuttingDown):
+        return 503, "internal", exc.message, exc.fix
+    if isinstance(exc, AttribotError):
+        return 500, "backend", f"the {role} backend {backend} failed: {exc.message}", exc.fix
+    return (
+        500,
+        "backend",
+        f"the {role} backend {backend} failed: {exc.__class__.__name__}: {exc}",
+        "see the server's log for the traceback; the server goes on serving other requests",
+    )
+
+
+def _parse(model: type[BaseModel], body: bytes) -> Any:
+    try:
+        return model.model_validate_json(body)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first.get("loc", ())) or "body"
+        raise _Refused(
+            400,
+            "input",
+            f"the request is not a valid {model.__name__}: {where}: {first.get('msg', 'invalid')}",
+            "send JSON with the fields of attribot.models.wire." + model.__name__,
+        ) from None
+
+
+def create_app(
+    *,
+    detector: Any | None = None,
+    vqa: Any | None = None,
+    language: Any | None = None,
+    config: ServerConfig | None = None,
+) -> Any:
+    """A FastAPI app serving the given backends (any of them None: that role answers 404).
+
+    Backends follow the protocols of `attribot.models.base`; a detector or VQA with `detect_batch` /
+    `answer_batch` gets whole batches, others are called once per item inside the batch.
+    """
+    fastapi = require("fastapi", "the model server")
+    from starlette.exceptions import HTTPException as StarletteHTTPException
+    from starlette.requests import Request
+    from starlette.responses import Response
+
+    cfg = config or ServerConfig()
+    window_s = cfg.batch_window_ms / 1000.0
+    names = {
+        "detector": None if detector is None else str(getattr(detector, "name", type(detector).__name__)),
+        "vqa": None if vqa is None else str(getattr(vqa, "name", type(vqa).__name__)),
+        "language": None if language is None else str(getattr(language, "name", type(language).__name__)),
+    }
+    stats = {role: RoleStats(backend=name) for role, name in names.items() if name is not None}
+    rejected: Counter[str] = Counter()
+    started = time.monotonic()
+    batchers: dict[str, Batcher[Any, Any]] = {}
+
+    def _detect(items: list[tuple[Frame, list[str]]]) -> list[list[Detection]]:
+        return detect_many(detector, [f for f, _ in items], [q for _, q in items])
+
+    def _answer(items: list[tuple[Frame, str]]) -> list[str]:
+        return answer_many(vqa, [f for f, _ in items], [q for _, q in items])
+
+    if detector is not None:
+        batchers["detector"] = Batcher(
+            "detector", _detect, max_batch=cfg.max_batch, window_s=window_s, max_queue=cfg.max_queue,
+            stats=stats["detector"],
+        )
+    if vqa is not None:
+        batchers["vqa"] = Batcher(
+            "vqa", _answer, max_batch=cfg.max_batch, window_s=window_s, max_queue=cfg.max_queue,
+            stats=stats["vqa"],
+        )
+    language_pool: list[concurrent.futures.ThreadPoolExecutor] = []
+
+    @contextlib.asynccontextmanager
+    async def lifespan(_app: Any) -> AsyncIterator[None]:
+        for b in batchers.values():
+            b.start()
+        if language is not None:
+            language_pool.append(
+                concurrent.futures.ThreadPoolExecutor(cfg.language_threads, thread_name_prefix="attribot-lang")
+            )
+        try:
+            yield
+        finally:
+            for b in batchers.values():
+                await b.stop()
+            for pool in language_pool:
+                pool.shutdown(wait=False, cancel_futures=True)
+
+    app = fastapi.FastAPI(
+        title="attribot model server",
+        version=__version__,
+        lifespan=lifespan,
+        docs_url=None,
+        redoc_url=None,
+        openapi_url=None,
+    )
+    token = None if cfg.token is None else cfg.token.encode()
+
+    def check_token(request: Request) -> None:
+        if token is None:
+            return
+        header = request.headers.get("authorization", "")
+        scheme, _, given = header.partition(" ")
+        if not header or scheme.lower() != "bearer" or not given.strip():
+            raise _Refused(
+                401, "auth", "this server needs a bearer token and the request has none",
+                "send `Authorization: Bearer TOKEN` (the client reads ATTRIBOT_REMOTE_TOKEN)",
+            )
+        if not hmac.compare_digest(given.strip().encode(), token):
+            raise _Refused(
+                403, "auth", "the bearer token is wrong",
+                "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with",
+            )
+
+    async def read_body(request: Request) -> bytes:
+        limit = cfg.max_body_bytes
+        declared = request.headers.get("content-length")
+        too_large = _Refused(
+            413, "too_large",
+            f"the request is over the server's limit of {limit / 2**20:.1f} MB "
+            f"(images up to {cfg.max_image_mb:g} MB)",
+            "send a smaller image (JPEG is ~10x smaller than PNG), or start the server with a larger "
+            "--max-image-mb",
+        )
+        if declared is not None and declared.isdigit() and int(declared) > limit:
+            # read and drop what the client is sending (up to a bound), so that it sees the 413 and not a
+            # reset connection half-way through its upload
+            seen = 0
+            async for chunk in request.stream():
+                seen += len(chunk)
+                if seen > 8 * limit:
+                    break
+            raise too_large
+        chunks: list[bytes] = []
+        size = 0
+        async for chunk in request.stream():
+            size += len(chunk)
+            if size > limit:
+                raise too_large
+            chunks.append(chunk)
+        return b"".join(chunks)
+
+    def decode(data: str) -> Frame:
+        return Frame(rgb=decode_image(data, max_bytes=cfg.max_image_bytes, max_pixels=cfg.max_pixels))
+
+    async def serve(role: str, request: Request, handle: Any) -> Any:
+        """Common path: count, check the token, run `handle(body)`, turn any failure into an ErrorBody."""
+        t0 = time.perf_counter()
+        name = names.get(role)
+        role_stats = stats.get(role)
+        try:
+            check_token(request)
+            if name is None:
+                raise _Refused(
+                    404, "not_served", f"this server serves no {role}",
+                    f"start it with a {role} backend: attribot serve models --{role} SPEC",
+                )
+            body = await read_body(request)
+            assert role_stats is not None
+            role_stats.requests += 1
+            record: BaseModel = await handle(body)
+            role_stats.ok += 1
+            return Response(record.model_dump_json(), media_type="application/json")
+        except Exception as exc:  # noqa: BLE001 - every failure becomes a structured answer
+            status, category, message, fix = _classify(exc, role, name or "-")
+            if status == 500:
+                log.error("%s request failed: %s", role, message, exc_info=exc)
+            (role_stats.errors if role_stats is not None and status not in (401, 403, 404) else rejected)[
+                category
+            ] += 1
+            return _error_response(status, category, message, fix)
+        finally:
+            if role_stats is not None:
+                role_stats.latency_ms.append((time.perf_counter() - t0) * 1000.0)
+
+    @app.post(PATHS["detector"])
+    async def detect(request: Request) -> Any:
+        async def handle(body: bytes) -> BaseModel:
+            req: DetectRequest = _parse(DetectRequest, body)
+            frame = await asyncio.to_thread(decode, req.image)
+            served = await batchers["detector"].submit((frame, req.queries))
+            return DetectResponse(
+                detections=served.result, backend=names["detector"] or "", batch_size=served.batch_size,
+                queue_ms=served.queue_ms, backend_ms=served.backend_ms,
+            )
+
+        return await serve("detector", request, handle)
+
+    @app.post(PATHS["vqa"])
+    async def answer(request: Request) -> Any:
+        async def handle(body: bytes) -> BaseModel:
+            req: AnswerRequest = _parse(AnswerRequest, body)
+            frame = await asyncio.to_thread(decode, req.image)
+            served = await batchers["vqa"].submit((frame, req.question))
+            return AnswerResponse(
+                answer=str(served.result), backend=names["vqa"] or "", batch_size=served.batch_size,
+                queue_ms=served.queue_ms, backend_ms=served.backend_ms,
+            )
+
+        return await serve("vqa", request, handle)
+
+    @app.post(PATHS["language"])
+    async def complete(request: Request) -> Any:
+        async def handle(body: bytes) -> BaseModel:
+            req: CompleteRequest = _parse(CompleteRequest, body)
+            t0 = time.perf_counter()
+            loop = asyncio.get_running_loop()
+            text = await loop.run_in_executor(language_pool[0], language.complete, req.question)
+            ms = (time.perf_counter() - t0) * 1000.0
+            stats["language"].batch_sizes[1] += 1
+            stats["language"].backend_ms.append(ms)
+            return CompleteResponse(answer=str(text), backend=names["language"] or "", backend_ms=ms)
+
+        return await serve("language", request, handle)
+
+    @app.get(PATHS["health"])
+    async def health() -> Any:
+        record = HealthResponse(version=__version__, roles=names, uptime_s=time.monotonic() - started)
+        return Response(record.model_dump_json(), media_type="application/json")
+
+    @app.get(PATHS["metrics"])
+    async def metrics(request: Request) -> Any:
+        try:
+            check_token(request)
+        except _Refused as exc:
+            rejected[exc.category] += 1
+            return _error_response(exc.status, exc.category, exc.message, exc.fix)
+        record = MetricsResponse(
+            uptime_s=time.monotonic() - started,
+            max_batch=cfg.max_batch,
+            batch_window_ms=cfg.batch_window_ms,
+            requests=sum(s.requests for s in stats.values()),
+            rejected=dict(rejected),
+            roles={
+                role: s.summary(batchers[role].queued if role in batchers else 0)  # type: ignore[misc]
+                for role, s in stats.items()
+            },
+        )
+        return Response(record.model_dump_json(), media_type="application/json")
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(_request: Request, exc: StarletteHTTPException) -> Any:
+        # unknown paths and wrong methods: the same structured body as every other error
+        known = ", ".join(f"{p}" for p in PATHS.values())
+        return _error_response(
+            exc.status_code, "input", f"{exc.detail} (HTTP {exc.status_code})", f"the endpoints are: {known}"
+        )
+
+    return app
+

@@ -1,0 +1,144 @@
+"""Running the model server: in the foreground (`attribot serve models`) or in a thread (tests, benchmarks)."""
+
+from __future__ import annotations
+
+import ipaddress
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from attribot.deps import require
+from attribot.errors import ConfigError
+from attribot.models.base import build_backend, parse_spec
+from attribot.server.app import ServerConfig, create_app
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = ["ServerThread", "served_specs", "build_served_backends", "check_bind", "serve_models", "NONE"]
+
+NONE = "none"
+"""The spec that leaves a role unserved."""
+
+# kinds that make no sense behind the server: the oracle needs simulator truth, which never crosses the
+# wire (only RGB does), and a remote backend would make the server a proxy of another server
+_NOT_SERVABLE = {
+    "oracle": "the oracle needs simulator ground truth, and only the image crosses the wire",
+    "remote": "the server would forward every request to another server",
+}
+
+
+def served_specs(settings: Settings, specs: dict[str, str | None]) -> tuple[dict[str, str | None], list[str]]:
+    """role -> the spec to serve (None: not served), and notes on the roles left out.
+
+    A spec given here (a command-line flag) must be servable: `oracle` and `remote` raise ConfigError.
+    A role left at None takes the settings' spec, and is quietly not served when that spec is one of those
+    (the offline defaults are `oracle`), so that `attribot serve models --detector hf:MODEL` just works.
+    """
+    out: dict[str, str | None] = {}
+    notes: list[str] = []
+    for role, given in specs.items():
+        spec = given if given is not None else getattr(settings, role)
+        if spec.strip().lower() == NONE:
+            out[role] = None
+            continue
+        kind, _ = parse_spec(spec)
+        if kind in _NOT_SERVABLE:
+            if given is not None:
+                raise ConfigError(
+                    f"the server cannot serve the {role} backend {spec!r}: {_NOT_SERVABLE[kind]}",
+                    f"serve a model: --{role} hf:MODEL (or openai:MODEL), or --{role} none",
+                )
+            notes.append(f"{role} not served: the configured {spec!r} cannot be ({_NOT_SERVABLE[kind]}); "
+                         f"give --{role} SPEC to serve one")
+            out[role] = None
+            continue
+        out[role] = spec
+    if all(s is None for s in out.values()):
+        raise ConfigError(
+            "no role left to serve" + (f" ({'; '.join(notes)})" if notes else ""),
+            "give at least one of --detector, --vqa, --language, e.g. --detector hf:google/owlv2-base-patch16-ensemble",
+        )
+    return out, notes
+
+
+def build_served_backends(settings: Settings, specs: dict[str, str | None]) -> dict[str, Any]:
+    """role -> backend built from the spec (None: not served); see `served_specs` for which."""
+    chosen, _ = served_specs(settings, specs)
+    return {role: None if spec is None else build_backend(role, spec, settings) for role, spec in chosen.items()}
+
+
+def check_bind(host: str, token: str | None) -> None:
+    """Refuse to listen beyond this machine without a token: anyone who can reach the port could use
+    the GPU. Loopback needs none (reach it through an SSH tunnel)."""
+    if token:
+        return
+    try:
+        loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = False
+    if not loopback:
+        raise ConfigError(
+            f"the server would listen on {host} without a token",
+            "set --token (or ATTRIBOT_REMOTE_TOKEN), or listen on 127.0.0.1 and use an SSH tunnel",
+        )
+
+
+def _uvicorn_config(app: Any, host: str, port: int, log_level: str) -> Any:
+    uvicorn = require("uvicorn", "the model server")
+    return uvicorn.Config(
+        app, host=host, port=port, log_level=log_level, access_log=False, lifespan="on", timeout_keep_alive=30
+    )
+
+
+def serve_models(
+    backends: dict[str, Any], config: ServerConfig, *, host: str = "127.0.0.1", port: int = 8500,
+    log_level: str = "info",
+) -> None:
+    """Serve `backends` until interrupted (Ctrl-C)."""
+    check_bind(host, config.token)
+    uvicorn = require("uvicorn", "the model server")
+    app = create_app(config=config, **backends)
+    uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
+
+
+class ServerThread:
+    """A server in a background thread: `with ServerThread(app) as srv: httpx.get(srv.url + "/health")`.
+
+    `port=0` takes a free port (read it from `.port` / `.url` once started); leaving the block stops it.
+    """
+
+    def __init__(self, app: Any, host: str = "127.0.0.1", port: int = 0, log_level: str = "warning") -> None:
+        uvicorn = require("uvicorn", "the model server")
+        self.host = host
+        self.port = port
+        self._server = uvicorn.Server(_uvicorn_config(app, host, port, log_level))
+        self._thread = threading.Thread(target=self._server.run, name="attribot-server", daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"http://{self.host}:{self.port}"
+
+    def start(self, timeout_s: float = 20.0) -> ServerThread:
+        self._thread.start()
+        deadline = time.monotonic() + timeout_s
+        while not self._server.started:
+            if not self._thread.is_alive() or time.monotonic() > deadline:
+                self.stop()
+                raise RuntimeError(f"the model server did not start on {self.host}:{self.port}")
+            time.sleep(0.01)
+        sockets = [s for server in self._server.servers for s in server.sockets]
+        if sockets:
+            self.port = int(sockets[0].getsockname()[1])
+        return self
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        self._server.should_exit = True
+        if self._thread.is_alive():
+            self._thread.join(timeout_s)
+
+    def __enter__(self) -> ServerThread:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

@@ -1,0 +1,367 @@
+"""The model server on 127.0.0.1: batching, concurrency without mix-ups, auth, limits, structured errors.
+
+The backends below compute their answers from the image itself (the box of the bright pixels, the mean
+colour), so an answer delivered to the wrong request is caught.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import io
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import httpx
+import numpy as np
+import pytest
+from PIL import Image
+
+from attribot.errors import BackendError, ConfigError, InputError
+from attribot.frame import Frame, ObjectTruth
+from attribot.models.base import Detection
+from attribot.models.remote import RemoteClient, RemoteDetector, RemoteLanguageModel, RemoteVisualQA
+from attribot.models.wire import ErrorBody, decode_image, encode_image
+from attribot.server import Batcher, ServerConfig, ServerThread, check_bind, create_app, served_specs
+from attribot.server.batching import Overloaded
+
+TOKEN = "test-token-0123"
+
+
+def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
+    ys, xs = np.nonzero(rgb.max(axis=2) > 40)
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
+
+
+def mean_colour(rgb: np.ndarray) -> str:
+    return ",".join(str(int(round(v))) for v in rgb.reshape(-1, 3).mean(axis=0))
+
+
+class BoxDetector:
+    """Box of the bright pixels, labelled with the first query. Batched, with a fixed cost per call so
+    that concurrent requests pile up; records the batch sizes it saw. Query "explode" raises."""
+
+    name = "test:bright-box"
+
+    def __init__(self, call_s: float = 0.01) -> None:
+        self.call_s = call_s
+        self.sizes: list[int] = []
+        self.truth_seen: list[bool] = []
+        self.lock = threading.Lock()
+
+    def detect(self, frame: Frame, queries):
+        return self.detect_batch([frame], [queries])[0]
+
+    def detect_batch(self, frames, queries):
+        with self.lock:
+            self.sizes.append(len(frames))
+        time.sleep(self.call_s)
+        out = []
+        for f, q in zip(frames, queries, strict=True):
+            self.truth_seen.append(f.has_truth or bool(f.objects))
+            if "explode" in q:
+                raise RuntimeError("the detector exploded on purpose")
+            out.append([Detection(box=bright_box(f.rgb), score=0.9, label=q[0])])
+        return out
+
+
+class MeanVQA:
+    """Answers with the mean colour of the image; question "fail" raises a model error."""
+
+    name = "test:mean-colour"
+
+    def answer(self, frame: Frame, question: str) -> str:
+        if question == "fail":
+            raise ValueError("CUDA out of memory (simulated)")
+        return mean_colour(frame.rgb)
+
+
+class EchoLanguage:
+    name = "test:echo"
+
+    def complete(self, question: str) -> str:
+        return question.upper()
+
+
+def unique_image(i: int, h: int = 48, w: int = 64) -> np.ndarray:
+    """A black image with one bright rectangle whose place and colour encode `i`."""
+    rgb = np.zeros((h, w, 3), np.uint8)
+    x0, y0 = i % 40, (i // 40) % 20
+    rgb[y0 : y0 + 8 + i % 7, x0 : x0 + 10 + i % 5] = (100 + i % 150, 50 + (7 * i) % 200, 60 + (13 * i) % 190)
+    return rgb
+
+
+@pytest.fixture(scope="module")
+def detector():
+    return BoxDetector()
+
+
+@pytest.fixture(scope="module")
+def server(detector):
+    config = ServerConfig(token=TOKEN, max_batch=16, batch_window_ms=5, max_image_mb=0.25, max_pixels=1_000_000)
+    app = create_app(detector=detector, vqa=MeanVQA(), language=EchoLanguage(), config=config)
+    with ServerThread(app) as srv:
+        yield srv
+
+
+@pytest.fixture(scope="module")
+def client(server):
+    with RemoteClient(server.url, token=TOKEN, image_format="png", backoff_s=0.01) as c:
+        yield c
+
+
+def post(server, path: str, json=None, content=None, token: str | None = TOKEN) -> httpx.Response:
+    headers = {"Authorization": f"Bearer {token}"} if token is not None else {}
+    return httpx.post(server.url + path, json=json, content=content, headers=headers, timeout=10)
+
+
+def error_of(response: httpx.Response):
+    return ErrorBody.model_validate_json(response.content).error
+
+
+# ---- concurrency, batching, no mix-ups ----------------------------------------------------------------
+
+
+def test_64_concurrent_clients_each_get_their_own_answer(server, client, detector, capsys):
+    det, vqa = RemoteDetector(client), RemoteVisualQA(client)
+    n_clients, per_client = 64, 3
+    before = client.metrics().roles["detector"]
+
+    def one_client(c: int) -> list[float]:
+        latencies = []
+        for k in range(per_client):
+            i = c * per_client + k
+            rgb = unique_image(i)
+            t0 = time.perf_counter()
+            (found,) = det.detect(Frame(rgb), [f"thing {i}"])
+            colour = vqa.answer(Frame(rgb), f"colour of {i}?")
+            latencies.append((time.perf_counter() - t0) * 1000 / 2)
+            assert found.box == bright_box(rgb), f"request {i} got another image's box"
+            assert found.label == f"thing {i}"
+            assert colour == mean_colour(rgb), f"request {i} got another image's colour"
+        return latencies
+
+    with ThreadPoolExecutor(n_clients) as pool:
+        latencies = [ms for result in pool.map(one_client, range(n_clients)) for ms in result]
+    assert len(latencies) == n_clients * per_client  # nothing lost: every call returned (or raised above)
+    after = client.metrics().roles["detector"]
+    served = after.ok - before.ok
+    assert served == n_clients * per_client
+    calls = after.batches - before.batches
+    assert calls < served / 2, f"{served} requests took {calls} backend calls: batching did not batch"
+    assert after.max_batch_size > 1 and max(detector.sizes) <= 16
+    p50, p99 = np.percentile(latencies, [50, 99])
+    with capsys.disabled():
+        print(
+            f"\n64 clients x {per_client} (detect + answer): p50 {p50:.1f} ms, p99 {p99:.1f} ms per request; "
+            f"{served} detections in {calls} backend calls (mean batch {served / calls:.1f}, "
+            f"max {after.max_batch_size})"
+        )
+
+
+def test_only_rgb_crosses_the_wire(client, detector):
+    rgb = unique_image(5)
+    seg = np.full(rgb.shape[:2], -1, np.int32)
+    frame = Frame(rgb=rgb, depth=np.ones(rgb.shape[:2], np.float32), segmentation=seg,
+                  objects={0: ObjectTruth("mug_0", "mug")})
+    detector.truth_seen.clear()
+    (found,) = RemoteDetector(client).detect(frame, ["mug"])
+    assert found.box == bright_box(rgb) and detector.truth_seen == [False]
+
+
+def test_batch_failure_fails_only_the_bad_request(server, client):
+    det = RemoteDetector(client)
+    queries = [["ok"]] * 7 + [["explode"]] + [["ok"]] * 7
+    barrier = threading.Barrier(len(queries))
+
+    def go(i: int):
+        barrier.wait()
+        try:
+            return det.detect(Frame(unique_image(i)), queries[i])
+        except BackendError as exc:
+            return exc
+
+    with ThreadPoolExecutor(len(queries)) as pool:
+        results = list(pool.map(go, range(len(queries))))
+    for i, r in enumerate(results):
+        if i == 7:
+            assert isinstance(r, BackendError) and "exploded on purpose" in str(r)
+        else:
+            assert not isinstance(r, Exception), r
+            assert r[0].box == bright_box(unique_image(i))
+
+
+# ---- errors -------------------------------------------------------------------------------------------
+
+
+def test_model_error_is_500_with_message_and_server_keeps_serving(server, client):
+    image = encode_image(unique_image(1), "png")
+    r = post(server, "/v1/answer", json={"image": image, "question": "fail"})
+    assert r.status_code == 500
+    err = error_of(r)
+    assert err.category == "backend" and "CUDA out of memory (simulated)" in err.message
+    assert "test:mean-colour" in err.message
+    ok = post(server, "/v1/answer", json={"image": image, "question": "colour?"})
+    assert ok.status_code == 200 and ok.json()["answer"] == mean_colour(unique_image(1))
+    # the client retries 5xx, then says what the server said
+    with pytest.raises(BackendError, match=r"failed after 3 tries: .*CUDA out of memory"):
+        RemoteVisualQA(client).answer(Frame(unique_image(1)), "fail")
+    assert client.metrics().roles["vqa"].errors["backend"] >= 4
+
+
+NOISE = np.random.default_rng(1).integers(0, 256, (40, 40, 3), dtype=np.uint8)
+
+
+def _png_bytes(rgb: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, "PNG")
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("image", "expected"),
+    [
+        (base64.b64encode(b"\x00\x01 this is not an image" * 10).decode(), "not a PNG or JPEG file"),
+        (base64.b64encode(_png_bytes(NOISE)[:2000]).decode(), "truncated or corrupt"),
+        ("not base64 at all!!", "not valid base64"),
+        (base64.b64encode(b"GIF89a" + b"\x00" * 64).decode(), "not a PNG or JPEG"),
+    ],
+    ids=["garbage", "truncated-png", "bad-base64", "gif-header"],
+)
+def test_corrupt_image_is_400_with_clear_message(server, image, expected):
+    r = post(server, "/v1/detect", json={"image": image, "queries": ["cup"]})
+    assert r.status_code == 400
+    err = error_of(r)
+    assert err.category == "input" and expected in err.message and "PNG or JPEG" in err.fix
+
+
+def test_gif_is_refused_by_format():
+    buf = io.BytesIO()
+    Image.fromarray(unique_image(2)).save(buf, "GIF")
+    with pytest.raises(InputError, match="GIF file; the server reads PNG and JPEG only"):
+        decode_image(base64.b64encode(buf.getvalue()).decode())
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        (b"{not json", "not a valid DetectRequest"),
+        (b'{"image": "aGVsbG8=", "queries": []}', "queries"),
+        (b'{"image": "aGVsbG8=", "queries": ["a"], "extra": 1}', "extra"),
+    ],
+)
+def test_malformed_request_is_400(server, body, expected):
+    r = post(server, "/v1/detect", content=body)
+    assert r.status_code == 400 and expected in error_of(r).message
+
+
+def test_oversized_image_is_413(server, client):
+    noise = np.random.default_rng(0).integers(0, 256, (400, 400, 3), dtype=np.uint8)  # ~480 kB as PNG
+    r = post(server, "/v1/detect", json={"image": encode_image(noise, "png"), "queries": ["x"]})
+    assert r.status_code == 413
+    err = error_of(r)
+    assert err.category == "too_large" and "--max-image-mb" in err.fix
+    # small file, too many pixels: refused before decoding
+    r = post(server, "/v1/detect", json={"image": encode_image(np.zeros((1100, 1000, 3), np.uint8), "png"),
+                                          "queries": ["x"]})
+    assert r.status_code == 413 and "megapixels" in error_of(r).message
+    with pytest.raises(InputError, match="too large"):
+        RemoteDetector(client).detect(Frame(noise), ["x"])
+    ok = post(server, "/v1/detect", json={"image": encode_image(unique_image(4), "png"), "queries": ["x"]})
+    assert ok.status_code == 200
+
+
+def test_missing_or_wrong_token_is_refused(server):
+    image = encode_image(unique_image(1), "png")
+    r = post(server, "/v1/detect", json={"image": image, "queries": ["x"]}, token=None)
+    assert r.status_code == 401 and r.headers["www-authenticate"] == "Bearer"
+    assert error_of(r).category == "auth" and "ATTRIBOT_REMOTE_TOKEN" in error_of(r).fix
+    r = post(server, "/v1/detect", json={"image": image, "queries": ["x"]}, token="test-token-0124")
+    assert r.status_code == 403 and "token is wrong" in error_of(r).message
+    r = httpx.post(server.url + "/v1/detect", json={"image": image, "queries": ["x"]},
+                   headers={"Authorization": f"Basic {TOKEN}"})
+    assert r.status_code == 401
+    assert httpx.get(server.url + "/metrics").status_code == 401
+    assert httpx.get(server.url + "/health").status_code == 200  # liveness needs no token
+
+
+def test_health_metrics_language_and_unknown_paths(server, client):
+    health = client.health()
+    assert health.roles == {"detector": "test:bright-box", "vqa": "test:mean-colour", "language": "test:echo"}
+    assert RemoteLanguageModel(client).complete("which is heavier?") == "WHICH IS HEAVIER?"
+    metrics = client.metrics()
+    assert metrics.roles["language"].ok >= 1 and metrics.roles["detector"].latency_ms["p99"] > 0
+    r = httpx.get(server.url + "/v1/nothing")
+    assert r.status_code == 404 and "/v1/detect" in error_of(r).fix
+    assert httpx.get(server.url + "/v1/detect").status_code == 405
+
+
+def test_role_not_served_is_404_and_a_config_error():
+    app = create_app(language=EchoLanguage())
+    with ServerThread(app) as srv, RemoteClient(srv.url) as c:
+        r = httpx.post(srv.url + "/v1/answer", json={"image": "aGk=", "question": "q"})
+        assert r.status_code == 404 and error_of(r).category == "not_served"
+        with pytest.raises(ConfigError, match="serves no detector"):
+            RemoteDetector(c).detect(Frame(unique_image(0)), ["x"])
+
+
+# ---- the batcher on its own ---------------------------------------------------------------------------
+
+
+def test_batcher_window_max_batch_and_queue_limit():
+    calls: list[list[int]] = []
+
+    def double(items: list[int]) -> list[int]:
+        calls.append(list(items))
+        return [2 * i for i in items]
+
+    async def scenario():
+        b = Batcher("t", double, max_batch=4, window_s=0.05, max_queue=6)
+        b.start()
+        results = await asyncio.gather(*(b.submit(i) for i in range(6)))
+        with pytest.raises(Overloaded):
+            await asyncio.gather(*(b.submit(i) for i in range(8)))
+        await b.stop()
+        return results
+
+    results = asyncio.run(scenario())
+    assert [r.result for r in results] == [0, 2, 4, 6, 8, 10]
+    assert calls[:2] == [[0, 1, 2, 3], [4, 5]]  # full batch at once, the rest after the window
+    assert [r.batch_size for r in results] == [4, 4, 4, 4, 2, 2]
+
+
+def test_batcher_wrong_result_count_is_an_error():
+    async def scenario():
+        b = Batcher("t", lambda items: items[:-1], max_batch=2, window_s=0.0, max_queue=4)
+        b.start()
+        try:
+            with pytest.raises(RuntimeError, match="returned 0 results for 1 inputs"):
+                await b.submit(1)
+        finally:
+            await b.stop()
+
+    asyncio.run(scenario())
+
+
+# ---- configuration ------------------------------------------------------------------------------------
+
+
+def test_bind_beyond_loopback_needs_a_token():
+    check_bind("127.0.0.1", None)
+    check_bind("::1", None)
+    check_bind("0.0.0.0", "t")
+    with pytest.raises(ConfigError, match="without a token"):
+        check_bind("0.0.0.0", None)
+
+
+def test_served_specs_skip_unservable_defaults_and_refuse_them_when_asked():
+    from attribot.config import Settings
+
+    settings = Settings(detector="oracle", vqa="oracle", language="catalog")
+    specs, notes = served_specs(settings, {"detector": None, "vqa": None, "language": None})
+    assert specs == {"detector": None, "vqa": None, "language": "catalog"} and len(notes) == 2
+    with pytest.raises(ConfigError, match="cannot serve the detector backend 'oracle'"):
+        served_specs(settings, {"detector": "oracle", "vqa": None, "language": None})
+    with pytest.raises(ConfigError, match="no role left"):
+        served_specs(settings, {"detector": None, "vqa": None, "language": "none"})
