@@ -302,6 +302,65 @@ def _planner_status(settings, record):  # type: ignore[no-untyped-def]
 
 # ---- serve (remote model server) ---------------------------------------------------------------------
 
+serve_app = typer.Typer(help="Run servers: `attribot serve models` (the model server).", no_args_is_help=True)
+app.add_typer(serve_app, name="serve")
+
+
+@serve_app.command("models")
+def serve_models(
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on (127.0.0.1: reach it by SSH tunnel)."),
+    port: int = typer.Option(8500, "--port", help="TCP port."),
+    token: str | None = typer.Option(
+        None, "--token", help="Bearer token clients must send (default: ATTRIBOT_REMOTE_TOKEN; none: no check)."
+    ),
+    detector: str | None = typer.Option(None, "--detector", help="Detector spec to serve, e.g. hf:MODEL, or none."),
+    vqa: str | None = typer.Option(None, "--vqa", help="VQA spec to serve, e.g. hf:MODEL or openai:MODEL, or none."),
+    language: str | None = typer.Option(None, "--language", help="Language spec to serve (catalog, openai:MODEL, none)."),
+    max_batch: int = typer.Option(32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."),
+    batch_window_ms: float = typer.Option(
+        2.0, "--batch-window-ms", help="Longest wait for a batch to fill, from its oldest request's arrival."
+    ),
+    max_image_mb: float = typer.Option(10.0, "--max-image-mb", help="Largest image file accepted (413 beyond)."),
+    max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
+    log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
+) -> None:
+    """Serve the configured detector, VQA and language backends over HTTP with dynamic batching."""
+    from pydantic import ValidationError
+
+    from attribot.config import load_settings
+    from attribot.models.base import build_backend
+    from attribot.server import ServerConfig, check_bind, served_specs
+    from attribot.server import serve_models as run_server
+
+    if not 0 < port < 65536:
+        raise fail(f"--port must lie in 1..65535, got {port}", "use e.g. --port 8500")
+    settings = load_settings()
+    try:
+        config = ServerConfig(
+            token=token or settings.remote_token, max_batch=max_batch, batch_window_ms=batch_window_ms,
+            max_image_mb=max_image_mb, max_queue=max_queue,
+        )
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        option = "--" + str(first["loc"][0]).replace("_", "-") if first.get("loc") else "an option"
+        raise fail(f"{option}: {first.get('msg')}", "see `attribot serve models --help`") from None
+    try:
+        check_bind(host, config.token)
+        specs, notes = served_specs(settings, {"detector": detector, "vqa": vqa, "language": language})
+        for note in notes:
+            err_console.print(f"[yellow]note:[/] {note}", highlight=False)
+        backends = {r: None if s is None else build_backend(r, s, settings) for r, s in specs.items()}
+    except AttribotError as exc:
+        raise fail(exc.message, exc.fix) from None
+    for role, backend in backends.items():
+        err_console.print(f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}", highlight=False)
+    err_console.print(
+        f"listening on http://{host}:{port} (token {'required' if config.token else 'not required'}); "
+        f"clients give remote:http://{host}:{port} as the backend spec of each served role",
+        highlight=False,
+    )
+    run_server(backends, config, host=host, port=port, log_level=log_level)
+
 
 def main() -> None:
     """Console-script entry point."""
