@@ -129,7 +129,10 @@ def static_check(source: str) -> None:
     try:  # the runner's own policy check, when the runner is installed
         from attribot.runner import check_program
     except ImportError:
-        return
+        try:
+            from attribot.runner.policy import check_program
+        except ImportError:
+            return
     error = check_program(source)
     assert error is None, error
 
