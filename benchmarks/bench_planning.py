@@ -71,8 +71,11 @@ def main() -> None:
     try:
         from attribot.runner import check_program
     except ImportError:
-        print("runner check_program: not installed, skipped")
-        return
+        try:
+            from attribot.runner.policy import check_program
+        except ImportError:
+            print("runner check_program: not installed, skipped")
+            return
     check_us = per_item_us(check_program, programs, args.rounds)
     print(f"reference runner check_program(): {check_us:.1f} us/program")
     print(f"ratio rules planner / check_program(): {plan_us / check_us:.2f}")
