@@ -8,6 +8,7 @@ structured error, asks the planner again with every earlier attempt and its erro
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
@@ -51,25 +52,25 @@ def _run_error_type() -> type[BaseModel]:
     The runner is built alongside the planners; importing it here (a higher layer may import a lower one)
     keeps one error type across the project, and the fallback keeps planning usable on its own.
     """
-    try:
-        from attribot.runner import RunError as runner_error  # noqa: N813
+    for module in ("attribot.runner", "attribot.runner.records"):
+        try:
+            return importlib.import_module(module).RunError
+        except (ImportError, AttributeError):
+            continue
+    # neither is there: a record with the contract's fields
 
-        return runner_error
-    except ImportError:
+    class RunError(BaseModel):
+        """A structured program error (the runner's contract): category, message, line, snippet, output."""
 
-        class RunError(BaseModel):
-            """A structured program error (the runner's contract): category, message, line, snippet,
-            output."""
+        model_config = ConfigDict(frozen=True)
 
-            model_config = ConfigDict(frozen=True)
+        category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api"]
+        message: str
+        line: int | None = None
+        snippet: str | None = None
+        output: str = ""
 
-            category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api"]
-            message: str
-            line: int | None = None
-            snippet: str | None = None
-            output: str = ""
-
-        return RunError
+    return RunError
 
 
 RunError = _run_error_type()
