@@ -1,0 +1,518 @@
+"""The host side of the sandbox: `ProgramRunner` keeps a worker process started ahead of need, sends it a
+checked and compiled program, serves its API calls against the real objects, and turns whatever happens
+into a `RunResult`. A worker runs one program and is then discarded, so no state passes between programs.
+"""
+
+from __future__ import annotations
+
+import binascii
+import inspect
+import json
+import marshal
+import math
+import os
+import re
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+import weakref
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from attribot.errors import AttribotError, ConfigError, InputError
+from attribot.runner import worker as proto
+from attribot.runner.policy import prepare_program, snippet_of
+from attribot.runner.records import Limits, RunError, RunResult, TraceRecord
+
+__all__ = ["ProgramRunner"]
+
+WORKER_PATH = Path(proto.__file__).resolve()
+_CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
+_PATHS = re.compile(r"(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
+
+
+def _scrub(text: str, limit: int = 300) -> str:
+    """A host exception's text without file paths, short."""
+    text = _PATHS.sub("<path>", text)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+class _Gone(Exception):
+    """The worker closed its end of the pipe (it exited or was killed)."""
+
+
+class _Overflow(Exception):
+    """The worker sent a message longer than the limit, or one that is not valid."""
+
+
+class _Worker:
+    """One child process and the two pipes to it."""
+
+    def __init__(self) -> None:
+        to_child_r, to_child_w = os.pipe()
+        from_child_r, from_child_w = os.pipe()
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-I", "-S", "-B", str(WORKER_PATH), str(to_child_r), str(from_child_w)],
+                pass_fds=(to_child_r, from_child_w),
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                cwd="/",
+                env={},
+                start_new_session=True,  # a Ctrl-C at the terminal is the host's to handle
+            )
+        except BaseException:
+            for fd in (to_child_r, to_child_w, from_child_r, from_child_w):
+                os.close(fd)
+            raise
+        os.close(to_child_r)
+        os.close(from_child_w)
+        self.wfd = to_child_w
+        self.rfd = from_child_r
+        self.buf = bytearray()
+        self.closed = False
+
+    def alive(self) -> bool:
+        return not self.closed and self.proc.poll() is None
+
+    def send(self, msg: dict[str, Any]) -> None:
+        data = (json.dumps(msg, separators=(",", ":")) + "\n").encode("ascii")
+        view = memoryview(data)
+        try:
+            while view:
+                n = os.write(self.wfd, view)
+                view = view[n:]
+        except (BrokenPipeError, OSError) as e:
+            raise _Gone() from e
+
+    def recv(self, deadline: float, max_bytes: int) -> dict[str, Any] | None:
+        """The next message, or None when `deadline` (time.monotonic) passes first."""
+        while True:
+            nl = self.buf.find(b"\n")
+            if nl >= 0:
+                line = bytes(self.buf[:nl])
+                del self.buf[: nl + 1]
+                try:
+                    msg = json.loads(line)
+                except (ValueError, RecursionError) as e:
+                    raise _Overflow("the program sent a message that is not valid") from e
+                if not isinstance(msg, dict):
+                    raise _Overflow("the program sent a message that is not valid")
+                return msg
+            if len(self.buf) > max_bytes:
+                raise _Overflow(f"the program sent more than {max_bytes} bytes in one message")
+            wait = deadline - time.monotonic()
+            if wait <= 0:
+                return None
+            ready, _, _ = select.select([self.rfd], [], [], wait)
+            if not ready:
+                return None
+            chunk = os.read(self.rfd, 1 << 16)
+            if not chunk:
+                raise _Gone()
+            self.buf += chunk
+
+    def kill(self) -> int | None:
+        """Stop the process (if it still runs) and close the pipes; returns its exit status."""
+        if not self.closed:
+            self.closed = True
+            try:
+                self.proc.kill()
+            except OSError:
+                pass
+            for fd in (self.rfd, self.wfd):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        try:
+            return self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            return None
+
+
+def _kill_worker(box: list[_Worker | None]) -> None:
+    worker = box[0]
+    if worker is not None:
+        worker.kill()
+        box[0] = None
+
+
+class _Run:
+    """The state of one run on the host: handles, trace, output, the first stop the host decided."""
+
+    def __init__(self, runner: ProgramRunner, source: str) -> None:
+        self.runner = runner
+        self.source = source
+        self.objects: dict[int, Any] = {}
+        self.ids: dict[int, int] = {}
+        self.trace: list[TraceRecord] = []
+        self.output: list[str] = []
+        self.out_len = 0
+        self.calls = 0
+        self.last_line: int | None = None
+        self.stop: tuple[str, str, int | None] | None = None
+
+    # ---- host objects <-> handles -------------------------------------------------------------------
+    def handle(self, obj: Any) -> dict[str, Any]:
+        key = id(obj)
+        h = self.ids.get(key)
+        if h is not None:
+            return {proto.TAG_HANDLE: h}  # the child already holds its stub
+        cls = self.runner._class_of(obj)
+        h = len(self.objects) + 1
+        self.objects[h] = obj
+        self.ids[key] = h
+        attrs = {name: self.encode(getattr(obj, name), depth=1) for name in cls.API_ATTRIBUTES}
+        return {proto.TAG_HANDLE: h, "c": cls.__name__, "a": attrs}
+
+    def encode(self, value: Any, depth: int = 0) -> Any:
+        """Host values to the wire: plain data as is, API objects as handles, numpy scalars as numbers."""
+        if depth > 50:
+            raise TypeError("a value nested more than 50 deep")
+        if value is None or isinstance(value, bool | int | str):
+            return value
+        if isinstance(value, float):
+            return float(value)
+        if isinstance(value, list):
+            return [self.encode(v, depth + 1) for v in value]
+        if isinstance(value, tuple):
+            return {proto.TAG_TUPLE: [self.encode(v, depth + 1) for v in value]}
+        if isinstance(value, dict):
+            return {proto.TAG_DICT: [[self.encode(k, depth + 1), self.encode(v, depth + 1)]
+                                     for k, v in value.items()]}
+        if isinstance(value, set | frozenset):
+            return {proto.TAG_SET: [self.encode(v, depth + 1) for v in value]}
+        if self.runner._class_of(value) is not None:
+            return self.handle(value)
+        item = getattr(value, "item", None)  # numpy scalars
+        if callable(item) and getattr(value, "shape", None) == ():
+            return self.encode(item(), depth)
+        raise TypeError(f"a {type(value).__name__}")
+
+    def decode(self, data: Any) -> Any:
+        """Wire values from the child (untrusted) to host values; handles must be ones this run made."""
+        if isinstance(data, list):
+            return [self.decode(v) for v in data]
+        if isinstance(data, dict):
+            if len(data) == 1:
+                (tag, inner), = data.items()
+                if tag == proto.TAG_HANDLE:
+                    if type(inner) is not int or inner not in self.objects:
+                        raise ValueError("an object the program does not hold")
+                    return self.objects[inner]
+                if isinstance(inner, list):
+                    if tag == proto.TAG_TUPLE:
+                        return tuple(self.decode(v) for v in inner)
+                    if tag == proto.TAG_SET:
+                        return {self.decode(v) for v in inner}
+                    if tag == proto.TAG_DICT:
+                        out = {}
+                        for pair in inner:
+                            if not isinstance(pair, list) or len(pair) != 2:
+                                raise ValueError("a malformed dict")
+                            out[self.decode(pair[0])] = self.decode(pair[1])
+                        return out
+            raise ValueError("a malformed value")
+        if data is None or isinstance(data, bool | int | float | str):
+            return data
+        raise ValueError("a malformed value")
+
+    def summary(self, value: Any, depth: int = 0) -> Any:
+        """JSON-ready form for traces and `RunResult.value`: host objects as summary dicts."""
+        if value is None or isinstance(value, bool | int | str):
+            return value
+        if isinstance(value, float):
+            return value if math.isfinite(value) else str(value)
+        if depth > 50:
+            return "..."
+        if isinstance(value, list | tuple):
+            return [self.summary(v, depth + 1) for v in value]
+        if isinstance(value, set | frozenset):
+            items = [self.summary(v, depth + 1) for v in value]
+            try:
+                return sorted(items)
+            except TypeError:
+                return items
+        if isinstance(value, dict):
+            return {str(k): self.summary(v, depth + 1) for k, v in value.items()}
+        cls = self.runner._class_of(value)
+        if cls is not None:
+            return self.runner.summarise(value)
+        return repr(value)[:200]
+
+    # ---- one API call -------------------------------------------------------------------------------
+    def call(self, msg: dict[str, Any]) -> dict[str, Any]:
+        line = msg.get("l") if type(msg.get("l")) is int else None
+        self.last_line = line
+        self.calls += 1
+        method = msg.get("m")
+        limit = self.runner.limits.max_api_calls
+        if self.calls > limit:
+            message = f"more than {limit} API calls: the program may make at most {limit}"
+            self.stop = self.stop or ("limit", message, line)
+            return {"t": "stop", "c": "limit", "m": message}
+        try:
+            obj = self.decode({proto.TAG_HANDLE: msg.get("h")})
+            raw_args, raw_kwargs = msg.get("a"), msg.get("k")
+            if not isinstance(raw_args, list) or not isinstance(raw_kwargs, dict):
+                raise ValueError("a malformed call")
+            args = [self.decode(a) for a in raw_args]
+            kwargs = {str(k): self.decode(v) for k, v in raw_kwargs.items()}
+        except (ValueError, TypeError, RecursionError) as e:
+            return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
+        cls = self.runner._class_of(obj)
+        name = f"{cls.__name__}.{method}"
+        shown = [self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else [])
+        if not isinstance(method, str) or method not in cls.API_METHODS:
+            return self._refuse(name, f"{cls.__name__} has no method {method!r}; its methods are: "
+                                      f"{', '.join(cls.API_METHODS)}", line, shown)
+        fn = getattr(obj, method)
+        signature = self.runner._signature(cls, method, fn)
+        if signature is not None:
+            try:
+                signature.bind(*args, **kwargs)
+            except TypeError as e:
+                return self._refuse(name, f"{name}{signature}: {e}", line, shown)
+        t0 = time.perf_counter()
+        try:
+            result = fn(*args, **kwargs)
+        except AttribotError as e:
+            ms = (time.perf_counter() - t0) * 1000
+            return self._refuse(name, str(e), line, shown, ms)
+        except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
+            ms = (time.perf_counter() - t0) * 1000
+            text = _scrub(str(e))
+            return self._refuse(name, f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""),
+                                line, shown, ms)
+        ms = (time.perf_counter() - t0) * 1000
+        try:
+            wire = self.encode(result)
+        except (TypeError, RecursionError) as e:
+            return self._refuse(name, f"{name} returned {e}, which cannot be passed to a program", line,
+                                shown, ms)
+        self.trace.append(TraceRecord(call=name, args=shown, result=self.summary(result), ms=ms, line=line))
+        return {"t": "ret", "v": wire}
+
+    def _refuse(self, name: str, message: str, line: int | None, shown: list[Any],
+                ms: float = 0.0) -> dict[str, Any]:
+        self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
+        return {"t": "err", "c": "api", "m": message}
+
+    def add_output(self, text: Any) -> None:
+        if not isinstance(text, str):
+            return
+        room = self.runner.limits.max_output_chars - self.out_len
+        if room <= 0:
+            return
+        text = text[:room]
+        self.output.append(text)
+        self.out_len += len(text)
+
+    def error(self, category: str, message: str, line: int | None) -> RunError:
+        if category not in _CATEGORIES:
+            category = "runtime"
+        if self.stop is not None:  # the host's own decision wins over what the child says
+            category, message, line = self.stop[0], self.stop[1], self.stop[2] if self.stop[2] else line
+        n_lines = self.source.count("\n") + 1
+        if type(line) is not int or not 1 <= line <= n_lines:
+            line = None
+        message = message if isinstance(message, str) else "the program failed"
+        return RunError(category=category, message=message[:1000], line=line,  # type: ignore[arg-type]
+                        snippet=snippet_of(self.source, line), output="".join(self.output))
+
+
+class ProgramRunner:
+    """Runs untrusted programs in a separate, killable process, against host objects of `classes`.
+
+    Each class declares `API_METHODS` (the only methods a program may call) and `API_ATTRIBUTES` (plain
+    values copied to the program when an object is handed to it). `run(source, args)` calls the entry
+    function (`execute_command`) with `args`, which may be such objects or plain data.
+    """
+
+    def __init__(self, classes: Sequence[type], limits: Limits | None = None,
+                 entry: str = "execute_command") -> None:
+        self.classes: tuple[type, ...] = tuple(classes)
+        self.limits = limits or Limits()
+        self.entry = entry
+        if not entry.isidentifier() or entry.startswith("_"):
+            raise ConfigError(f"entry point {entry!r} is not a public Python name",
+                              "use e.g. execute_command")
+        names: set[str] = set()
+        for cls in self.classes:
+            if not isinstance(cls, type):
+                raise ConfigError(f"ProgramRunner classes must be classes, got {cls!r}")
+            for attr in ("API_METHODS", "API_ATTRIBUTES"):
+                value = getattr(cls, attr, None)
+                if not isinstance(value, tuple) or not all(isinstance(v, str) for v in value):
+                    raise ConfigError(f"{cls.__name__} has no {attr} tuple of names",
+                                      f"declare {attr}: ClassVar[tuple[str, ...]] on the class")
+                bad = [v for v in value if not v.isidentifier() or v.startswith("_")]
+                if bad:
+                    raise ConfigError(f"{cls.__name__}.{attr} holds names a program cannot use: {bad}")
+            if cls.__name__ in names:
+                raise ConfigError(f"two API classes are named {cls.__name__}")
+            names.add(cls.__name__)
+        self._wire_classes = {cls.__name__: list(cls.API_METHODS) for cls in self.classes}
+        self._class_cache: dict[type, type | None] = {}
+        self._signatures: dict[tuple[type, str], inspect.Signature | None] = {}
+        self._lock = threading.Lock()
+        self._box: list[_Worker | None] = [None]
+        self._closed = False
+        self._finalizer = weakref.finalize(self, _kill_worker, self._box)
+        self._box[0] = _Worker()
+
+    # ---- host-side helpers --------------------------------------------------------------------------
+    def _class_of(self, obj: Any) -> Any:
+        kind = type(obj)
+        if kind not in self._class_cache:
+            self._class_cache[kind] = next((c for c in self.classes if issubclass(kind, c)), None)
+        return self._class_cache[kind]
+
+    def _signature(self, cls: type, method: str, fn: Any) -> inspect.Signature | None:
+        key = (cls, method)
+        if key not in self._signatures:
+            try:
+                self._signatures[key] = inspect.signature(fn)
+            except (TypeError, ValueError):
+                self._signatures[key] = None
+        return self._signatures[key]
+
+    def summarise(self, obj: Any) -> dict[str, Any]:
+        """The JSON-ready summary of a host object in traces and results: its class name, and its
+        `summary()` when it has one, else its API attributes."""
+        cls = self._class_of(obj)
+        out: dict[str, Any] = {"type": cls.__name__}
+        summary = getattr(obj, "summary", None)
+        if callable(summary):
+            out.update(summary())
+        else:
+            for name in cls.API_ATTRIBUTES:
+                out[name] = getattr(obj, name)
+        return out
+
+    # ---- running ------------------------------------------------------------------------------------
+    def run(self, source: str, args: Sequence[Any] = (), *, entry: str | None = None) -> RunResult:
+        """Check, then run `source` in a fresh worker: calls `entry(*args)` and returns what it gave."""
+        if self._closed:
+            raise InputError("this ProgramRunner is closed", "make a new one")
+        entry = entry or self.entry
+        t0 = time.perf_counter()
+        code, error = prepare_program(source, entry, self.limits)
+        if error is not None:
+            return RunResult(ok=False, error=error, wall_ms=(time.perf_counter() - t0) * 1000)
+        with self._lock:
+            state = _Run(self, source)
+            try:
+                wire_args = [state.encode(a) for a in args]
+            except TypeError as e:
+                raise InputError(f"ProgramRunner.run: cannot pass {e} to a program",
+                                 "pass API objects of the runner's classes or plain data") from None
+            request = {
+                "t": "run",
+                "code": binascii.b2a_base64(marshal.dumps(code), newline=False).decode("ascii"),
+                "entry": entry,
+                "args": wire_args,
+                "limits": self.limits.model_dump(),
+                "classes": self._wire_classes,
+            }
+            try:
+                result = self._serve(state, request, t0)
+            finally:
+                self._respawn()
+        return result
+
+    def _serve(self, state: _Run, request: dict[str, Any], t0: float) -> RunResult:
+        worker = self._box[0]
+        if worker is None or not worker.alive():
+            if worker is not None:
+                worker.kill()
+            worker = self._box[0] = _Worker()
+        limits = self.limits
+        # the child times itself out at wall_s and reports the line; this is the backstop for a child
+        # stuck inside one long C call
+        deadline = time.monotonic() + limits.wall_s + min(1.0, 0.2 + 0.1 * limits.wall_s)
+        max_bytes = limits.max_message_bytes + 4096
+
+        def finish(ok: bool, value: Any = None, value_object: Any = None,
+                   error: RunError | None = None) -> RunResult:
+            return RunResult(ok=ok, value=value, value_object=value_object, output="".join(state.output),
+                             error=error, trace=state.trace, wall_ms=(time.perf_counter() - t0) * 1000)
+
+        try:
+            worker.send(request)
+            while True:
+                msg = worker.recv(deadline, max_bytes)
+                if msg is None:
+                    worker.kill()
+                    err = state.error("timeout", f"the program ran longer than {limits.wall_s} s",
+                                      state.last_line)
+                    return finish(False, error=err)
+                kind = msg.get("t")
+                if kind == "call":
+                    reply = state.call(msg)
+                    if time.monotonic() > deadline:
+                        worker.kill()
+                        err = state.error("timeout", f"the program ran longer than {limits.wall_s} s",
+                                          state.last_line)
+                        return finish(False, error=err)
+                    worker.send(reply)
+                elif kind == "out":
+                    state.add_output(msg.get("s"))
+                elif kind == "done":
+                    if state.stop is not None:
+                        return finish(False, error=state.error(*state.stop))
+                    try:
+                        obj = state.decode(msg.get("v"))
+                    except (ValueError, TypeError, RecursionError):
+                        return finish(False, error=state.error(
+                            "runtime", f"{request['entry']} returned a value that cannot be read", None))
+                    return finish(True, value=state.summary(obj), value_object=obj)
+                elif kind == "error":
+                    line = msg.get("l")
+                    return finish(False, error=state.error(str(msg.get("c")), str(msg.get("m")),
+                                                           line if type(line) is int else None))
+                elif kind != "ready":
+                    raise _Overflow("the program sent a message that is not valid")
+        except _Overflow as e:
+            worker.kill()
+            return finish(False, error=state.error("limit", str(e), state.last_line))
+        except _Gone:
+            status = worker.kill()
+            return finish(False, error=state.error(*self._death(status), state.last_line))
+
+    @staticmethod
+    def _death(status: int | None) -> tuple[str, str]:
+        if status is not None and status < 0:
+            sig = -status
+            if sig in (signal.SIGXCPU, signal.SIGKILL):
+                return "timeout", "the program used too much CPU time and was stopped"
+            try:
+                name = signal.Signals(sig).name
+            except ValueError:
+                name = str(sig)
+            return "runtime", f"the program's process crashed ({name})"
+        return "runtime", f"the program's process exited unexpectedly (status {status})"
+
+    def _respawn(self) -> None:
+        old = self._box[0]
+        if old is not None:
+            old.kill()
+        self._box[0] = None if self._closed else _Worker()
+
+    def close(self) -> None:
+        """Stop the waiting worker. The runner cannot run programs afterwards."""
+        self._closed = True
+        with self._lock:
+            _kill_worker(self._box)
+
+    def __enter__(self) -> ProgramRunner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

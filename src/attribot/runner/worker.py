@@ -1,0 +1,575 @@
+"""The child side of the sandbox: runs one program, then exits.
+
+Started by the host as `python -I -S -B worker.py RFD WFD`, so it imports only the standard library (no
+site-packages, no attribot, no numpy) and starts fast; the host keeps one started ahead of need. It holds
+only stubs and plain data: every API call is a JSON line to the host on the WFD pipe, answered on RFD.
+
+Inside: the program's code (checked and compiled by the host, sent marshalled), a builtins dict of
+harmless functions, the bomb guards the compiler inserted calls to, and resource limits (address space,
+CPU, no new file descriptors, no file writes). A stop (limit, time-out, API error) is a `SandboxStop`, a
+`BaseException` that no program can catch; the first one is also recorded, so it is reported even if
+something swallowed it.
+"""
+
+from __future__ import annotations
+
+import binascii
+import builtins
+import fcntl
+import json
+import marshal
+import math
+import os
+import resource
+import signal
+import sys
+
+# every module the worker needs is imported above: once the channel is set up the process can open no
+# file, so nothing may be imported later
+
+__all__ = ["TAG_HANDLE", "TAG_TUPLE", "TAG_DICT", "TAG_SET", "PROGRAM_FILENAME", "SAFE_BUILTIN_NAMES", "main"]
+
+TAG_HANDLE = "$h"
+TAG_TUPLE = "$t"
+TAG_DICT = "$d"
+TAG_SET = "$s"
+PROGRAM_FILENAME = "<program>"
+CHANNEL_FDS = (3, 4)
+
+SAFE_BUILTIN_NAMES = (
+    "abs", "all", "any", "ascii", "bin", "bool", "callable", "chr", "dict", "divmod", "enumerate",
+    "filter", "float", "frozenset", "hash", "hex", "int", "isinstance", "iter", "len", "list", "map",
+    "max", "min", "next", "oct", "ord", "range", "repr", "reversed", "round", "set", "slice", "sorted",
+    "str", "sum", "tuple", "zip",
+    "ArithmeticError", "AssertionError", "Exception", "IndexError", "KeyError", "LookupError",
+    "NotImplementedError", "RuntimeError", "TypeError", "ValueError", "ZeroDivisionError",
+)
+
+
+class SandboxStop(BaseException):
+    """A stop the program cannot catch: a limit, a time-out, a refused or failed API call."""
+
+    def __init__(self, category, message):
+        super().__init__(message)
+        self.category = category
+        self.message = message
+
+
+class _State:
+    def __init__(self):
+        self.chan = None
+        self.stopped = None  # the first SandboxStop raised, reported even if swallowed
+        self.critical = False  # inside pipe I/O: timers must not raise here
+        self.pending = None  # a timer that fired during pipe I/O
+        self.out_len = 0
+        self.max_out = 0
+        self.max_bits = 0
+        self.max_seq = 0
+        self.max_msg = 0
+        self.timed_out = False  # timers raise once at most, so the clean-up cannot be hit twice
+        self.stubs = {}
+        self.classes = {}
+        self.stub_types = {}
+        self.math = None
+
+
+STATE = _State()
+
+
+def stop(category, message):
+    err = SandboxStop(category, message)
+    if STATE.stopped is None:
+        STATE.stopped = err
+    raise err
+
+
+# ---- the pipe --------------------------------------------------------------------------------------
+
+
+class Channel:
+    def __init__(self, rfd, wfd):
+        self.rfile = open(rfd, "rb", buffering=1 << 16)  # noqa: SIM115 (lives as long as the process)
+        self.wfd = wfd
+
+    def send(self, msg):
+        self.send_raw(dumps(msg))
+
+    def send_raw(self, data):
+        view = memoryview(data)
+        while view:
+            n = os.write(self.wfd, view)
+            view = view[n:]
+
+    def recv(self):
+        line = self.rfile.readline()
+        if not line:
+            os._exit(0)  # the host is gone
+        return json.loads(line)
+
+
+def dumps(msg):
+    return (json.dumps(msg, separators=(",", ":")) + "\n").encode("ascii")
+
+
+def exchange(data, reply=True):
+    """Send a message (and wait for the answer) with timers held off, so no time-out lands mid-write."""
+    STATE.critical = True
+    try:
+        STATE.chan.send_raw(data)
+        answer = STATE.chan.recv() if reply else None
+    finally:
+        STATE.critical = False
+    if STATE.pending is not None:
+        category, message = STATE.pending
+        STATE.pending = None
+        stop(category, message)
+    return answer
+
+
+def on_timer(category, message):
+    def handler(signum, frame):
+        if STATE.timed_out:
+            return
+        STATE.timed_out = True
+        if STATE.critical:
+            STATE.pending = (category, message)
+            return
+        stop(category, message)
+
+    return handler
+
+
+# ---- values across the pipe ------------------------------------------------------------------------
+
+
+class Unsupported(Exception):
+    pass
+
+
+def encode(value):
+    """Plain data and stubs to JSON; anything else is refused (a function, a generator, a module)."""
+    t = type(value)
+    if value is None or t is bool or t is int or t is float or t is str:
+        return value
+    if t is list:
+        return [encode(v) for v in value]
+    if t is tuple:
+        return {TAG_TUPLE: [encode(v) for v in value]}
+    if t is dict:
+        return {TAG_DICT: [[encode(k), encode(v)] for k, v in value.items()]}
+    if t is set or t is frozenset:
+        return {TAG_SET: [encode(v) for v in value]}
+    if isinstance(value, Stub):
+        return {TAG_HANDLE: object.__getattribute__(value, "_sb_handle")}
+    raise Unsupported(t.__name__)
+
+
+def decode(data):
+    t = type(data)
+    if t is list:
+        return [decode(v) for v in data]
+    if t is dict:
+        if TAG_HANDLE in data:
+            return make_stub(data)
+        if TAG_TUPLE in data:
+            return tuple(decode(v) for v in data[TAG_TUPLE])
+        if TAG_DICT in data:
+            return {decode(k): decode(v) for k, v in data[TAG_DICT]}
+        if TAG_SET in data:
+            return {decode(v) for v in data[TAG_SET]}
+        raise ValueError("bad message from host")
+    return data
+
+
+# ---- stubs -----------------------------------------------------------------------------------------
+
+
+def program_line(frame):
+    """The line of the program being executed at `frame` or below it on the stack."""
+    while frame is not None:
+        if frame.f_code.co_filename == PROGRAM_FILENAME:
+            return frame.f_lineno
+        frame = frame.f_back
+    return None
+
+
+class Stub:
+    """A host object as the program sees it: read-only plain attributes and methods that call the host."""
+
+    __slots__ = ("_sb_handle", "_sb_attrs")
+    _sb_class = "Stub"
+
+    def __getattr__(self, name):
+        attrs = object.__getattribute__(self, "_sb_attrs")
+        if name in attrs:
+            value = attrs[name]
+            return list(value) if type(value) is list else value
+        cls = type(self)
+        names = sorted(list(attrs) + list(STATE.classes.get(cls._sb_class, ())))
+        raise AttributeError(f"{cls._sb_class} has no attribute {name!r}; it has: {', '.join(names)}")
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"{type(self)._sb_class} objects are read-only")
+
+    def __delattr__(self, name):
+        raise AttributeError(f"{type(self)._sb_class} objects are read-only")
+
+    def __repr__(self):
+        attrs = object.__getattribute__(self, "_sb_attrs")
+        inner = ", ".join(f"{k}={v!r}" for k, v in attrs.items())
+        return f"{type(self)._sb_class}({inner})"
+
+
+def rpc(stub, method, args, kwargs):
+    line = program_line(sys._getframe(2))
+    cls = type(stub)._sb_class
+    try:
+        msg = {
+            "t": "call",
+            "h": object.__getattribute__(stub, "_sb_handle"),
+            "m": method,
+            "a": [encode(a) for a in args],
+            "k": {k: encode(v) for k, v in kwargs.items()},
+            "l": line,
+        }
+    except Unsupported as e:
+        stop("api", f"{cls}.{method}: cannot pass a {e} to the API; pass numbers, strings, bools, "
+                    "lists, dicts or API objects")
+    except RecursionError:
+        stop("limit", f"{cls}.{method}: an argument is nested too deeply")
+    data = dumps(msg)
+    if len(data) > STATE.max_msg:
+        stop("limit", f"{cls}.{method}: the arguments are too large ({len(data)} bytes, at most "
+                      f"{STATE.max_msg})")
+    answer = exchange(data)
+    kind = answer.get("t")
+    if kind == "ret":
+        return decode(answer["v"])
+    stop(answer.get("c", "api"), answer.get("m", "the API call failed"))
+
+
+def make_method(cls_name, method):
+    def call(self, *args, **kwargs):
+        return rpc(self, method, args, kwargs)
+
+    call.__name__ = method
+    call.__qualname__ = f"{cls_name}.{method}"
+    return call
+
+
+def stub_class(cls_name, methods):
+    namespace = {"__slots__": (), "_sb_class": cls_name}
+    for m in methods:
+        namespace[m] = make_method(cls_name, m)
+    return type(cls_name, (Stub,), namespace)
+
+
+def make_stub(data):
+    handle = data[TAG_HANDLE]
+    stub = STATE.stubs.get(handle)
+    if stub is None:
+        cls = STATE.stub_types[data["c"]]
+        stub = object.__new__(cls)
+        object.__setattr__(stub, "_sb_handle", handle)
+        object.__setattr__(stub, "_sb_attrs", {k: decode(v) for k, v in data["a"].items()})
+        STATE.stubs[handle] = stub
+    return stub
+
+
+# ---- guards the compiler inserted calls to ---------------------------------------------------------
+
+_INTS = (int, bool)
+_SEQS = (str, list, tuple, bytes)
+
+
+def _check_bits(bits, what):
+    if bits > STATE.max_bits:
+        stop("limit", f"{what} would make an integer of about {int(bits)} bits (at most {STATE.max_bits})")
+
+
+def _check_items(n, what):
+    if n > STATE.max_seq:
+        stop("limit", f"{what} would make a sequence of {n} items (at most {STATE.max_seq})")
+
+
+def _pow_check(a, b):
+    if type(a) in _INTS and type(b) in _INTS and b > 0 and abs(a) > 1:
+        _check_bits(math.log2(abs(a)) * b, "**")
+
+
+def _mul_check(a, b):
+    ta, tb = type(a), type(b)
+    if ta in _INTS:
+        if tb in _INTS:
+            _check_bits(a.bit_length() + b.bit_length(), "*")
+        elif tb in _SEQS:
+            _check_items(len(b) * a, "*")
+    elif ta in _SEQS and tb in _INTS:
+        _check_items(len(a) * b, "*")
+
+
+def _lshift_check(a, b):
+    if type(a) in _INTS and type(b) in _INTS and a and b > 0:
+        _check_bits(a.bit_length() + b, "<<")
+
+
+def g_pow(a, b):
+    _pow_check(a, b)
+    return a**b
+
+
+def g_mul(a, b):
+    _mul_check(a, b)
+    return a * b
+
+
+def g_lshift(a, b):
+    _lshift_check(a, b)
+    return a << b
+
+
+def g_ipow(a, b):
+    _pow_check(a, b)
+    a **= b
+    return a
+
+
+def g_imul(a, b):
+    _mul_check(a, b)
+    a *= b
+    return a
+
+
+def g_ilshift(a, b):
+    _lshift_check(a, b)
+    a <<= b
+    return a
+
+
+def safe_pow(base, exp, mod=None):
+    if mod is None:
+        return g_pow(base, exp)
+    return pow(base, exp, mod)
+
+
+def safe_print(*args, sep=" ", end="\n", file=None, flush=False):
+    if file is not None:
+        raise TypeError("print() writes to the program's output only: drop file=")
+    if sep is None:
+        sep = " "
+    if end is None:
+        end = "\n"
+    if type(sep) is not str or type(end) is not str:
+        raise TypeError("print(): sep and end must be strings")
+    text = sep.join(str(a) for a in args) + end
+    if not text:
+        return
+    room = STATE.max_out - STATE.out_len
+    if len(text) > room:
+        if room > 0:
+            STATE.out_len += room
+            exchange(dumps({"t": "out", "s": text[:room]}), reply=False)
+        stop("limit", f"output limit reached: programs may print at most {STATE.max_out} characters")
+    STATE.out_len += len(text)
+    exchange(dumps({"t": "out", "s": text}), reply=False)
+
+
+def _log2_factorial(n):
+    return math.lgamma(n + 1) / math.log(2) if n > 1 else 0.0
+
+
+def make_math():
+    """A fresh `math` module for the program, with the big-integer functions size-checked."""
+    mod = type(math)("math")
+    for name in dir(math):
+        if not name.startswith("_"):
+            setattr(mod, name, getattr(math, name))
+
+    def factorial(n):
+        if type(n) in _INTS and n > 1:
+            _check_bits(_log2_factorial(n), "math.factorial")
+        return math.factorial(n)
+
+    def comb(n, k):
+        if type(n) in _INTS and type(k) in _INTS and 0 <= k <= n:
+            _check_bits(_log2_factorial(n) - _log2_factorial(k) - _log2_factorial(n - k), "math.comb")
+        return math.comb(n, k)
+
+    def perm(n, k=None):
+        if type(n) in _INTS and type(k) in _INTS and 0 <= k <= n:
+            _check_bits(_log2_factorial(n) - _log2_factorial(n - k), "math.perm")
+        return math.perm(n, k)
+
+    def prod(iterable, *, start=1):
+        items = list(iterable)
+        bits = sum(abs(v).bit_length() for v in items if type(v) in _INTS)
+        _check_bits(bits, "math.prod")
+        return math.prod(items, start=start)
+
+    for f in (factorial, comb, perm, prod):
+        setattr(mod, f.__name__, f)
+    return mod
+
+
+def safe_import(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (import protocol)
+    if name != "math" or level:
+        stop("policy", f"import {name}: only `import math` is allowed")
+    return STATE.math
+
+
+def build_globals():
+    safe = {name: getattr(builtins, name) for name in SAFE_BUILTIN_NAMES}
+    safe["print"] = safe_print
+    safe["pow"] = safe_pow
+    safe["__import__"] = safe_import
+    STATE.math = make_math()
+    return {
+        "__builtins__": safe,
+        "__name__": "program",
+        "_sb_pow": g_pow,
+        "_sb_mul": g_mul,
+        "_sb_lshift": g_lshift,
+        "_sb_ipow": g_ipow,
+        "_sb_imul": g_imul,
+        "_sb_ilshift": g_ilshift,
+        "_sb_slice": slice,
+    }
+
+
+# ---- one run ---------------------------------------------------------------------------------------
+
+
+def error_line(exc):
+    line = None
+    tb = exc.__traceback__
+    while tb is not None:
+        if tb.tb_frame.f_code.co_filename == PROGRAM_FILENAME:
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    return line
+
+
+def describe(exc, limits):
+    if isinstance(exc, SandboxStop):
+        return exc.category, exc.message
+    if isinstance(exc, MemoryError):
+        return "limit", f"memory limit reached: the program may use about {limits['memory_mb']} MB"
+    if isinstance(exc, RecursionError):
+        return "limit", f"recursion too deep: at most {limits['max_recursion']} nested calls"
+    try:
+        text = str(exc)
+    except BaseException:  # noqa: BLE001 (a message that cannot be made is no reason to fail)
+        text = ""
+    text = text if len(text) <= 500 else text[:497] + "..."
+    return "runtime", f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def apply_limits(limits):
+    signal.signal(signal.SIGALRM, on_timer("timeout", f"the program ran longer than {limits['wall_s']} s"))
+    signal.signal(signal.SIGPROF, on_timer("timeout",
+                                          f"the program used more than {limits['cpu_s']} s of CPU time"))
+    mem = int(limits["memory_mb"]) * 1024 * 1024
+    resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
+    used = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = int(used.ru_utime + used.ru_stime + limits["cpu_s"]) + 2
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))  # backstop: the kernel kills past it
+    signal.setitimer(signal.ITIMER_PROF, float(limits["cpu_s"]))
+    signal.setitimer(signal.ITIMER_REAL, float(limits["wall_s"]))
+
+
+def stop_timers():
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    signal.setitimer(signal.ITIMER_PROF, 0)
+
+
+def run(request):
+    """Run the program; return the final message for the host (raises only if a timer lands late)."""
+    limits = request["limits"]
+    STATE.max_out = int(limits["max_output_chars"])
+    STATE.max_bits = int(limits["max_int_bits"])
+    STATE.max_seq = int(limits["max_sequence"])
+    STATE.max_msg = int(limits["max_message_bytes"])
+    STATE.classes = {name: tuple(methods) for name, methods in request["classes"].items()}
+    STATE.stub_types = {name: stub_class(name, methods) for name, methods in STATE.classes.items()}
+    code = marshal.loads(binascii.a2b_base64(request["code"]))
+    g = build_globals()
+    args = [decode(a) for a in request["args"]]
+    entry = request["entry"]
+    sys.setrecursionlimit(len_stack() + int(limits["max_recursion"]) + 10)
+    apply_limits(limits)
+    try:
+        exec(code, g)  # noqa: S102 (the code was checked and compiled by the host)
+        fn = g.get(entry)
+        if not callable(fn):
+            raise TypeError(f"{entry} is not a function")
+        value = fn(*args)
+        try:
+            msg = dumps({"t": "done", "v": encode(value)})
+        except Unsupported as e:
+            msg = error_message("runtime", f"{entry} returned a {e}; return an API object, a number, a "
+                                           "string, a bool or a list of those", None)
+        except (ValueError, RecursionError) as e:
+            msg = error_message("limit", f"{entry} returned a value that cannot be passed back "
+                                         f"({type(e).__name__}: {str(e)[:200]})", None)
+    except BaseException as exc:  # noqa: BLE001 (every failure becomes a structured error)
+        category, message = describe(exc, limits)
+        msg = error_message(category, message, error_line(exc))
+        del exc
+    STATE.critical = True
+    stop_timers()
+    g.clear()
+    return msg
+
+
+def error_message(category, message, line):
+    first = STATE.stopped
+    if first is not None and category != first.category:
+        category, message = first.category, first.message  # a stop that something swallowed
+    return dumps({"t": "error", "c": category, "m": message, "l": line})
+
+
+def len_stack():
+    depth, frame = 0, sys._getframe()
+    while frame is not None:
+        depth += 1
+        frame = frame.f_back
+    return depth
+
+
+def setup_channel(rfd, wfd):
+    """Move the pipe ends to fds 3 and 4, close everything else, and allow no new descriptors."""
+    hi_r = fcntl.fcntl(rfd, fcntl.F_DUPFD, 64)
+    hi_w = fcntl.fcntl(wfd, fcntl.F_DUPFD, 64)
+    os.close(rfd)
+    os.close(wfd)
+    os.dup2(hi_r, CHANNEL_FDS[0])
+    os.dup2(hi_w, CHANNEL_FDS[1])
+    os.closerange(CHANNEL_FDS[1] + 1, 4096)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (CHANNEL_FDS[1] + 1, CHANNEL_FDS[1] + 1))
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    return Channel(CHANNEL_FDS[0], CHANNEL_FDS[1])
+
+
+def main(argv):
+    STATE.chan = setup_channel(int(argv[1]), int(argv[2]))
+    STATE.chan.send({"t": "ready"})
+    request = STATE.chan.recv()
+    if request.get("t") != "run":
+        os._exit(2)
+    limits = request.get("limits", {})
+    try:
+        try:
+            msg = run(request)
+        except BaseException as exc:  # noqa: BLE001 (a timer that fired during the clean-up)
+            STATE.critical = True
+            stop_timers()
+            category, message = describe(STATE.stopped or exc, limits)
+            msg = error_message(category, message, error_line(exc))
+        STATE.chan.send_raw(msg)
+    finally:
+        os._exit(0)  # no clean-up code of any kind runs after the program
+
+
+if __name__ == "__main__":
+    main(sys.argv)
