@@ -31,6 +31,7 @@ from attribot.runner.records import Limits, RunError, RunResult, TraceRecord
 __all__ = ["ProgramRunner"]
 
 WORKER_PATH = Path(proto.__file__).resolve()
+_STARTUP_S = 30.0  # a worker that is not ready by then is broken, not slow
 _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 _PATHS = re.compile(r"(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 
@@ -39,6 +40,19 @@ def _scrub(text: str, limit: int = 300) -> str:
     """A host exception's text without file paths, short."""
     text = _PATHS.sub("<path>", text)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _params(signature: inspect.Signature) -> str:
+    """A method's parameters as a program would write them (names and defaults, no annotations)."""
+    out = []
+    for p in signature.parameters.values():
+        text = p.name if p.default is inspect.Parameter.empty else f"{p.name}={p.default!r}"
+        if p.kind is inspect.Parameter.VAR_POSITIONAL:
+            text = "*" + p.name
+        elif p.kind is inspect.Parameter.VAR_KEYWORD:
+            text = "**" + p.name
+        out.append(text)
+    return ", ".join(out)
 
 
 class _Gone(Exception):
@@ -184,8 +198,11 @@ class _Run:
         if isinstance(value, tuple):
             return {proto.TAG_TUPLE: [self.encode(v, depth + 1) for v in value]}
         if isinstance(value, dict):
-            return {proto.TAG_DICT: [[self.encode(k, depth + 1), self.encode(v, depth + 1)]
-                                     for k, v in value.items()]}
+            return {
+                proto.TAG_DICT: [
+                    [self.encode(k, depth + 1), self.encode(v, depth + 1)] for k, v in value.items()
+                ]
+            }
         if isinstance(value, set | frozenset):
             return {proto.TAG_SET: [self.encode(v, depth + 1) for v in value]}
         if self.runner._class_of(value) is not None:
@@ -201,7 +218,7 @@ class _Run:
             return [self.decode(v) for v in data]
         if isinstance(data, dict):
             if len(data) == 1:
-                (tag, inner), = data.items()
+                ((tag, inner),) = data.items()
                 if tag == proto.TAG_HANDLE:
                     if type(inner) is not int or inner not in self.objects:
                         raise ValueError("an object the program does not hold")
@@ -270,15 +287,19 @@ class _Run:
         name = f"{cls.__name__}.{method}"
         shown = [self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else [])
         if not isinstance(method, str) or method not in cls.API_METHODS:
-            return self._refuse(name, f"{cls.__name__} has no method {method!r}; its methods are: "
-                                      f"{', '.join(cls.API_METHODS)}", line, shown)
+            return self._refuse(
+                name,
+                f"{cls.__name__} has no method {method!r}; its methods are: {', '.join(cls.API_METHODS)}",
+                line,
+                shown,
+            )
         fn = getattr(obj, method)
         signature = self.runner._signature(cls, method, fn)
         if signature is not None:
             try:
                 signature.bind(*args, **kwargs)
             except TypeError as e:
-                return self._refuse(name, f"{name}{signature}: {e}", line, shown)
+                return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown)
         t0 = time.perf_counter()
         try:
             result = fn(*args, **kwargs)
@@ -288,19 +309,22 @@ class _Run:
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
             text = _scrub(str(e))
-            return self._refuse(name, f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""),
-                                line, shown, ms)
+            return self._refuse(
+                name, f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""), line, shown, ms
+            )
         ms = (time.perf_counter() - t0) * 1000
         try:
             wire = self.encode(result)
         except (TypeError, RecursionError) as e:
-            return self._refuse(name, f"{name} returned {e}, which cannot be passed to a program", line,
-                                shown, ms)
+            return self._refuse(
+                name, f"{name} returned {e}, which cannot be passed to a program", line, shown, ms
+            )
         self.trace.append(TraceRecord(call=name, args=shown, result=self.summary(result), ms=ms, line=line))
         return {"t": "ret", "v": wire}
 
-    def _refuse(self, name: str, message: str, line: int | None, shown: list[Any],
-                ms: float = 0.0) -> dict[str, Any]:
+    def _refuse(
+        self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
+    ) -> dict[str, Any]:
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
         return {"t": "err", "c": "api", "m": message}
 
@@ -323,8 +347,13 @@ class _Run:
         if type(line) is not int or not 1 <= line <= n_lines:
             line = None
         message = message if isinstance(message, str) else "the program failed"
-        return RunError(category=category, message=message[:1000], line=line,  # type: ignore[arg-type]
-                        snippet=snippet_of(self.source, line), output="".join(self.output))
+        return RunError(
+            category=category,
+            message=message[:1000],
+            line=line,  # type: ignore[arg-type]
+            snippet=snippet_of(self.source, line),
+            output="".join(self.output),
+        )
 
 
 class ProgramRunner:
@@ -335,14 +364,16 @@ class ProgramRunner:
     function (`execute_command`) with `args`, which may be such objects or plain data.
     """
 
-    def __init__(self, classes: Sequence[type], limits: Limits | None = None,
-                 entry: str = "execute_command") -> None:
+    def __init__(
+        self, classes: Sequence[type], limits: Limits | None = None, entry: str = "execute_command"
+    ) -> None:
         self.classes: tuple[type, ...] = tuple(classes)
         self.limits = limits or Limits()
         self.entry = entry
         if not entry.isidentifier() or entry.startswith("_"):
-            raise ConfigError(f"entry point {entry!r} is not a public Python name",
-                              "use e.g. execute_command")
+            raise ConfigError(
+                f"entry point {entry!r} is not a public Python name", "use e.g. execute_command"
+            )
         names: set[str] = set()
         for cls in self.classes:
             if not isinstance(cls, type):
@@ -350,8 +381,10 @@ class ProgramRunner:
             for attr in ("API_METHODS", "API_ATTRIBUTES"):
                 value = getattr(cls, attr, None)
                 if not isinstance(value, tuple) or not all(isinstance(v, str) for v in value):
-                    raise ConfigError(f"{cls.__name__} has no {attr} tuple of names",
-                                      f"declare {attr}: ClassVar[tuple[str, ...]] on the class")
+                    raise ConfigError(
+                        f"{cls.__name__} has no {attr} tuple of names",
+                        f"declare {attr}: ClassVar[tuple[str, ...]] on the class",
+                    )
                 bad = [v for v in value if not v.isidentifier() or v.startswith("_")]
                 if bad:
                     raise ConfigError(f"{cls.__name__}.{attr} holds names a program cannot use: {bad}")
@@ -411,8 +444,10 @@ class ProgramRunner:
             try:
                 wire_args = [state.encode(a) for a in args]
             except TypeError as e:
-                raise InputError(f"ProgramRunner.run: cannot pass {e} to a program",
-                                 "pass API objects of the runner's classes or plain data") from None
+                raise InputError(
+                    f"ProgramRunner.run: cannot pass {e} to a program",
+                    "pass API objects of the runner's classes or plain data",
+                ) from None
             request = {
                 "t": "run",
                 "code": binascii.b2a_base64(marshal.dumps(code), newline=False).decode("ascii"),
@@ -434,15 +469,26 @@ class ProgramRunner:
                 worker.kill()
             worker = self._box[0] = _Worker()
         limits = self.limits
-        # the child times itself out at wall_s and reports the line; this is the backstop for a child
-        # stuck inside one long C call
-        deadline = time.monotonic() + limits.wall_s + min(1.0, 0.2 + 0.1 * limits.wall_s)
+        # the child times itself out at wall_s and reports the line; this deadline is the backstop for a
+        # child stuck inside one long C call. It counts from the moment the worker is ready, so that a
+        # slow start on a loaded machine is not charged to the program.
+        grace = min(1.0, 0.2 + 0.1 * limits.wall_s)
+        deadline = time.monotonic() + _STARTUP_S
+        ready = False
         max_bytes = limits.max_message_bytes + 4096
 
-        def finish(ok: bool, value: Any = None, value_object: Any = None,
-                   error: RunError | None = None) -> RunResult:
-            return RunResult(ok=ok, value=value, value_object=value_object, output="".join(state.output),
-                             error=error, trace=state.trace, wall_ms=(time.perf_counter() - t0) * 1000)
+        def finish(
+            ok: bool, value: Any = None, value_object: Any = None, error: RunError | None = None
+        ) -> RunResult:
+            return RunResult(
+                ok=ok,
+                value=value,
+                value_object=value_object,
+                output="".join(state.output),
+                error=error,
+                trace=state.trace,
+                wall_ms=(time.perf_counter() - t0) * 1000,
+            )
 
         try:
             worker.send(request)
@@ -450,16 +496,20 @@ class ProgramRunner:
                 msg = worker.recv(deadline, max_bytes)
                 if msg is None:
                     worker.kill()
-                    err = state.error("timeout", f"the program ran longer than {limits.wall_s} s",
-                                      state.last_line)
+                    if not ready:
+                        raise RuntimeError(f"the sandbox worker did not start within {_STARTUP_S} s")
+                    err = state.error(
+                        "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
+                    )
                     return finish(False, error=err)
                 kind = msg.get("t")
                 if kind == "call":
                     reply = state.call(msg)
                     if time.monotonic() > deadline:
                         worker.kill()
-                        err = state.error("timeout", f"the program ran longer than {limits.wall_s} s",
-                                          state.last_line)
+                        err = state.error(
+                            "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
+                        )
                         return finish(False, error=err)
                     worker.send(reply)
                 elif kind == "out":
@@ -470,14 +520,25 @@ class ProgramRunner:
                     try:
                         obj = state.decode(msg.get("v"))
                     except (ValueError, TypeError, RecursionError):
-                        return finish(False, error=state.error(
-                            "runtime", f"{request['entry']} returned a value that cannot be read", None))
+                        return finish(
+                            False,
+                            error=state.error(
+                                "runtime", f"{request['entry']} returned a value that cannot be read", None
+                            ),
+                        )
                     return finish(True, value=state.summary(obj), value_object=obj)
                 elif kind == "error":
                     line = msg.get("l")
-                    return finish(False, error=state.error(str(msg.get("c")), str(msg.get("m")),
-                                                           line if type(line) is int else None))
-                elif kind != "ready":
+                    return finish(
+                        False,
+                        error=state.error(
+                            str(msg.get("c")), str(msg.get("m")), line if type(line) is int else None
+                        ),
+                    )
+                elif kind == "ready" and not ready:
+                    ready = True
+                    deadline = time.monotonic() + limits.wall_s + grace
+                else:
                     raise _Overflow("the program sent a message that is not valid")
         except _Overflow as e:
             worker.kill()

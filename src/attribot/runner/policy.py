@@ -27,10 +27,39 @@ PROGRAM_FILENAME = "<program>"
 
 DENIED_BUILTINS: frozenset[str] = frozenset(
     {
-        "getattr", "setattr", "delattr", "hasattr", "type", "vars", "dir", "eval", "exec", "compile",
-        "open", "globals", "locals", "input", "breakpoint", "memoryview", "object", "super", "id", "help",
-        "exit", "quit", "classmethod", "staticmethod", "property", "format", "bytearray", "issubclass",
-        "aiter", "anext", "copyright", "credits", "license",
+        "getattr",
+        "setattr",
+        "delattr",
+        "hasattr",
+        "type",
+        "vars",
+        "dir",
+        "eval",
+        "exec",
+        "compile",
+        "open",
+        "globals",
+        "locals",
+        "input",
+        "breakpoint",
+        "memoryview",
+        "object",
+        "super",
+        "id",
+        "help",
+        "exit",
+        "quit",
+        "classmethod",
+        "staticmethod",
+        "property",
+        "format",
+        "bytearray",
+        "issubclass",
+        "aiter",
+        "anext",
+        "copyright",
+        "credits",
+        "license",
     }
 )
 """Builtins a program may not use (unless it binds the name itself, as `type = "cup"`): they reach
@@ -56,15 +85,58 @@ _BINOP_GUARD = {ast.Pow: "pow", ast.Mult: "mul", ast.LShift: "lshift"}
 _AUG_GUARD = {ast.Pow: "ipow", ast.Mult: "imul", ast.LShift: "ilshift"}
 
 _ALLOWED: tuple[type[ast.AST], ...] = (
-    ast.Module, ast.FunctionDef, ast.Return, ast.Delete, ast.Assign, ast.AugAssign, ast.AnnAssign,
-    ast.For, ast.While, ast.If, ast.Raise, ast.Assert, ast.Import, ast.ImportFrom, ast.Expr, ast.Pass,
-    ast.Break, ast.Continue,
-    ast.BoolOp, ast.NamedExpr, ast.BinOp, ast.UnaryOp, ast.Lambda, ast.IfExp, ast.Dict, ast.Set,
-    ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp, ast.Compare, ast.Call, ast.FormattedValue,
-    ast.JoinedStr, ast.Constant, ast.Attribute, ast.Subscript, ast.Starred, ast.Name, ast.List, ast.Tuple,
+    ast.Module,
+    ast.FunctionDef,
+    ast.Return,
+    ast.Delete,
+    ast.Assign,
+    ast.AugAssign,
+    ast.AnnAssign,
+    ast.For,
+    ast.While,
+    ast.If,
+    ast.Raise,
+    ast.Assert,
+    ast.Import,
+    ast.ImportFrom,
+    ast.Expr,
+    ast.Pass,
+    ast.Break,
+    ast.Continue,
+    ast.BoolOp,
+    ast.NamedExpr,
+    ast.BinOp,
+    ast.UnaryOp,
+    ast.Lambda,
+    ast.IfExp,
+    ast.Dict,
+    ast.Set,
+    ast.ListComp,
+    ast.SetComp,
+    ast.DictComp,
+    ast.GeneratorExp,
+    ast.Compare,
+    ast.Call,
+    ast.FormattedValue,
+    ast.JoinedStr,
+    ast.Constant,
+    ast.Attribute,
+    ast.Subscript,
+    ast.Starred,
+    ast.Name,
+    ast.List,
+    ast.Tuple,
     ast.Slice,
-    ast.expr_context, ast.boolop, ast.operator, ast.unaryop, ast.cmpop,
-    ast.comprehension, ast.arguments, ast.arg, ast.keyword, ast.alias,
+    ast.expr_context,
+    ast.boolop,
+    ast.operator,
+    ast.unaryop,
+    ast.cmpop,
+    ast.comprehension,
+    ast.arguments,
+    ast.arg,
+    ast.keyword,
+    ast.alias,
 )
 
 _REFUSED: dict[type[ast.AST], str] = {
@@ -160,8 +232,11 @@ def _check_tree(tree: ast.Module) -> None:
                     _check_name(node, alias.asname, "name")
         elif isinstance(node, ast.ImportFrom):
             if node.module != "math" or node.level:
-                raise _Refusal(node, f"from {'.' * node.level}{node.module or ''} import ...: only the math "
-                               "module may be imported")
+                raise _Refusal(
+                    node,
+                    f"from {'.' * node.level}{node.module or ''} import ...: only the math "
+                    "module may be imported",
+                )
             for alias in node.names:
                 if alias.name == "*":
                     raise _Refusal(node, "from math import *: name the functions you need")
@@ -204,22 +279,39 @@ class _Guards(ast.NodeTransformer):
             # evaluate the container and the key once, as `a[k] op= v` does
             key: ast.expr = target.slice
             if isinstance(key, ast.Slice):
-                key = ast.Call(func=_guard("slice", node),
-                               args=[key.lower or ast.Constant(None), key.upper or ast.Constant(None),
-                                     key.step or ast.Constant(None)], keywords=[])
+                key = ast.Call(
+                    func=_guard("slice", node),
+                    args=[
+                        key.lower or ast.Constant(None),
+                        key.upper or ast.Constant(None),
+                        key.step or ast.Constant(None),
+                    ],
+                    keywords=[],
+                )
             obj_name, key_name = "_sb_obj", "_sb_key"
             stmts: list[ast.stmt] = [
                 ast.Assign(targets=[ast.Name(id=obj_name, ctx=ast.Store())], value=target.value),
                 ast.Assign(targets=[ast.Name(id=key_name, ctx=ast.Store())], value=key),
                 ast.Assign(
-                    targets=[ast.Subscript(value=ast.Name(id=obj_name, ctx=ast.Load()),
-                                           slice=ast.Name(id=key_name, ctx=ast.Load()), ctx=ast.Store())],
+                    targets=[
+                        ast.Subscript(
+                            value=ast.Name(id=obj_name, ctx=ast.Load()),
+                            slice=ast.Name(id=key_name, ctx=ast.Load()),
+                            ctx=ast.Store(),
+                        )
+                    ],
                     value=ast.Call(
                         func=_guard(guard, node),
-                        args=[ast.Subscript(value=ast.Name(id=obj_name, ctx=ast.Load()),
-                                            slice=ast.Name(id=key_name, ctx=ast.Load()), ctx=ast.Load()),
-                              node.value],
-                        keywords=[]),
+                        args=[
+                            ast.Subscript(
+                                value=ast.Name(id=obj_name, ctx=ast.Load()),
+                                slice=ast.Name(id=key_name, ctx=ast.Load()),
+                                ctx=ast.Load(),
+                            ),
+                            node.value,
+                        ],
+                        keywords=[],
+                    ),
                 ),
             ]
             return [ast.fix_missing_locations(ast.copy_location(s, node)) for s in stmts]
@@ -245,8 +337,11 @@ def _parse(source: str, entry: str, limits: Limits) -> ast.Module:
     if not isinstance(source, str):
         raise _Refusal(None, f"the program must be a str, got {type(source).__name__}", "syntax")
     if len(source) > limits.max_source_chars:
-        raise _Refusal(None, f"the program is {len(source)} characters long; at most "
-                       f"{limits.max_source_chars} are allowed", "limit")
+        raise _Refusal(
+            None,
+            f"the program is {len(source)} characters long; at most {limits.max_source_chars} are allowed",
+            "limit",
+        )
     try:
         tree = ast.parse(source, filename=PROGRAM_FILENAME)
     except SyntaxError as e:

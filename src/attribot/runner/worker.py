@@ -37,12 +37,55 @@ PROGRAM_FILENAME = "<program>"
 CHANNEL_FDS = (3, 4)
 
 SAFE_BUILTIN_NAMES = (
-    "abs", "all", "any", "ascii", "bin", "bool", "callable", "chr", "dict", "divmod", "enumerate",
-    "filter", "float", "frozenset", "hash", "hex", "int", "isinstance", "iter", "len", "list", "map",
-    "max", "min", "next", "oct", "ord", "range", "repr", "reversed", "round", "set", "slice", "sorted",
-    "str", "sum", "tuple", "zip",
-    "ArithmeticError", "AssertionError", "Exception", "IndexError", "KeyError", "LookupError",
-    "NotImplementedError", "RuntimeError", "TypeError", "ValueError", "ZeroDivisionError",
+    "abs",
+    "all",
+    "any",
+    "ascii",
+    "bin",
+    "bool",
+    "callable",
+    "chr",
+    "dict",
+    "divmod",
+    "enumerate",
+    "filter",
+    "float",
+    "frozenset",
+    "hash",
+    "hex",
+    "int",
+    "isinstance",
+    "iter",
+    "len",
+    "list",
+    "map",
+    "max",
+    "min",
+    "next",
+    "oct",
+    "ord",
+    "range",
+    "repr",
+    "reversed",
+    "round",
+    "set",
+    "slice",
+    "sorted",
+    "str",
+    "sum",
+    "tuple",
+    "zip",
+    "ArithmeticError",
+    "AssertionError",
+    "Exception",
+    "IndexError",
+    "KeyError",
+    "LookupError",
+    "NotImplementedError",
+    "RuntimeError",
+    "TypeError",
+    "ValueError",
+    "ZeroDivisionError",
 )
 
 
@@ -233,14 +276,19 @@ def rpc(stub, method, args, kwargs):
             "l": line,
         }
     except Unsupported as e:
-        stop("api", f"{cls}.{method}: cannot pass a {e} to the API; pass numbers, strings, bools, "
-                    "lists, dicts or API objects")
+        stop(
+            "api",
+            f"{cls}.{method}: cannot pass a {e} to the API; pass numbers, strings, bools, "
+            "lists, dicts or API objects",
+        )
     except RecursionError:
         stop("limit", f"{cls}.{method}: an argument is nested too deeply")
     data = dumps(msg)
     if len(data) > STATE.max_msg:
-        stop("limit", f"{cls}.{method}: the arguments are too large ({len(data)} bytes, at most "
-                      f"{STATE.max_msg})")
+        stop(
+            "limit",
+            f"{cls}.{method}: the arguments are too large ({len(data)} bytes, at most {STATE.max_msg})",
+        )
     answer = exchange(data)
     kind = answer.get("t")
     if kind == "ret":
@@ -466,8 +514,9 @@ def describe(exc, limits):
 
 def apply_limits(limits):
     signal.signal(signal.SIGALRM, on_timer("timeout", f"the program ran longer than {limits['wall_s']} s"))
-    signal.signal(signal.SIGPROF, on_timer("timeout",
-                                          f"the program used more than {limits['cpu_s']} s of CPU time"))
+    signal.signal(
+        signal.SIGPROF, on_timer("timeout", f"the program used more than {limits['cpu_s']} s of CPU time")
+    )
     mem = int(limits["memory_mb"]) * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
     used = resource.getrusage(resource.RUSAGE_SELF)
@@ -506,11 +555,18 @@ def run(request):
         try:
             msg = dumps({"t": "done", "v": encode(value)})
         except Unsupported as e:
-            msg = error_message("runtime", f"{entry} returned a {e}; return an API object, a number, a "
-                                           "string, a bool or a list of those", None)
+            msg = error_message(
+                "runtime",
+                f"{entry} returned a {e}; return an API object, a number, a "
+                "string, a bool or a list of those",
+                None,
+            )
         except (ValueError, RecursionError) as e:
-            msg = error_message("limit", f"{entry} returned a value that cannot be passed back "
-                                         f"({type(e).__name__}: {str(e)[:200]})", None)
+            msg = error_message(
+                "limit",
+                f"{entry} returned a value that cannot be passed back ({type(e).__name__}: {str(e)[:200]})",
+                None,
+            )
     except BaseException as exc:  # noqa: BLE001 (every failure becomes a structured error)
         category, message = describe(exc, limits)
         msg = error_message(category, message, error_line(exc))
