@@ -42,12 +42,17 @@ class CornerDetector:
     name = "test:corner"
 
     def detect(self, frame: Frame, queries):
-        return [Detection(box=(0.0, 0.0, float(frame.width), float(frame.height)), score=0.5, label=q) for q in queries]
+        return [
+            Detection(box=(0.0, 0.0, float(frame.width), float(frame.height)), score=0.5, label=q)
+            for q in queries
+        ]
 
 
 @pytest.fixture(scope="module")
 def server():
-    app = create_app(detector=CornerDetector(), vqa=MeanVQA(), config=ServerConfig(token=TOKEN, batch_window_ms=0))
+    app = create_app(
+        detector=CornerDetector(), vqa=MeanVQA(), config=ServerConfig(token=TOKEN, batch_window_ms=0)
+    )
     with ServerThread(app) as srv:
         yield srv
 
@@ -116,8 +121,10 @@ def test_parse_remote_url_errors(arg, message):
         parse_remote_url(arg)
 
 
-@pytest.mark.parametrize(("query", "message"), [("image=gif", "format 'gif'"), ("tries=0", "at least 1"),
-                                                ("tries=x", "not a number")])
+@pytest.mark.parametrize(
+    ("query", "message"),
+    [("image=gif", "format 'gif'"), ("tries=0", "at least 1"), ("tries=x", "not a number")],
+)
 def test_bad_client_options(query, message):
     with pytest.raises(ConfigError, match=message):
         RemoteClient(f"http://127.0.0.1:1?{query}")
@@ -233,8 +240,9 @@ def test_retries_5xx_and_429_with_backoff_then_succeeds(http):
 
 
 def test_persistent_5xx_gives_the_servers_message(http):
-    handler, calls = _sequence(_json(500, {"error": {"category": "backend", "message": "model exploded",
-                                                     "fix": "see the log"}}))
+    handler, calls = _sequence(
+        _json(500, {"error": {"category": "backend", "message": "model exploded", "fix": "see the log"}})
+    )
     http.expect_request("/v1/answer", method="POST").respond_with_handler(handler)
     with pytest.raises(BackendError, match="failed after 2 tries: model exploded"):
         RemoteVisualQA(RemoteClient(http.url_for("/") + "?tries=2", backoff_s=0.01)).answer(frame(), "q")
@@ -242,7 +250,9 @@ def test_persistent_5xx_gives_the_servers_message(http):
 
 
 def test_4xx_is_not_retried(http):
-    handler, calls = _sequence(_json(400, {"error": {"category": "input", "message": "the image is corrupt"}}))
+    handler, calls = _sequence(
+        _json(400, {"error": {"category": "input", "message": "the image is corrupt"}})
+    )
     http.expect_request("/v1/answer", method="POST").respond_with_handler(handler)
     with pytest.raises(InputError, match="refused the request: the image is corrupt"):
         RemoteVisualQA(RemoteClient(http.url_for("/"), backoff_s=0.01)).answer(frame(), "q")

@@ -99,7 +99,9 @@ def detector():
 
 @pytest.fixture(scope="module")
 def server(detector):
-    config = ServerConfig(token=TOKEN, max_batch=16, batch_window_ms=5, max_image_mb=0.25, max_pixels=1_000_000)
+    config = ServerConfig(
+        token=TOKEN, max_batch=16, batch_window_ms=5, max_image_mb=0.25, max_pixels=1_000_000
+    )
     app = create_app(detector=detector, vqa=MeanVQA(), language=EchoLanguage(), config=config)
     with ServerThread(app) as srv:
         yield srv
@@ -163,8 +165,12 @@ def test_64_concurrent_clients_each_get_their_own_answer(server, client, detecto
 def test_only_rgb_crosses_the_wire(client, detector):
     rgb = unique_image(5)
     seg = np.full(rgb.shape[:2], -1, np.int32)
-    frame = Frame(rgb=rgb, depth=np.ones(rgb.shape[:2], np.float32), segmentation=seg,
-                  objects={0: ObjectTruth("mug_0", "mug")})
+    frame = Frame(
+        rgb=rgb,
+        depth=np.ones(rgb.shape[:2], np.float32),
+        segmentation=seg,
+        objects={0: ObjectTruth("mug_0", "mug")},
+    )
     detector.truth_seen.clear()
     (found,) = RemoteDetector(client).detect(frame, ["mug"])
     assert found.box == bright_box(rgb) and detector.truth_seen == [False]
@@ -263,8 +269,11 @@ def test_oversized_image_is_413(server, client):
     err = error_of(r)
     assert err.category == "too_large" and "--max-image-mb" in err.fix
     # small file, too many pixels: refused before decoding
-    r = post(server, "/v1/detect", json={"image": encode_image(np.zeros((1100, 1000, 3), np.uint8), "png"),
-                                          "queries": ["x"]})
+    r = post(
+        server,
+        "/v1/detect",
+        json={"image": encode_image(np.zeros((1100, 1000, 3), np.uint8), "png"), "queries": ["x"]},
+    )
     assert r.status_code == 413 and "megapixels" in error_of(r).message
     with pytest.raises(InputError, match="too large"):
         RemoteDetector(client).detect(Frame(noise), ["x"])
@@ -279,8 +288,11 @@ def test_missing_or_wrong_token_is_refused(server):
     assert error_of(r).category == "auth" and "ATTRIBOT_REMOTE_TOKEN" in error_of(r).fix
     r = post(server, "/v1/detect", json={"image": image, "queries": ["x"]}, token="test-token-0124")
     assert r.status_code == 403 and "token is wrong" in error_of(r).message
-    r = httpx.post(server.url + "/v1/detect", json={"image": image, "queries": ["x"]},
-                   headers={"Authorization": f"Basic {TOKEN}"})
+    r = httpx.post(
+        server.url + "/v1/detect",
+        json={"image": image, "queries": ["x"]},
+        headers={"Authorization": f"Basic {TOKEN}"},
+    )
     assert r.status_code == 401
     assert httpx.get(server.url + "/metrics").status_code == 401
     assert httpx.get(server.url + "/health").status_code == 200  # liveness needs no token
@@ -329,6 +341,22 @@ def test_batcher_window_max_batch_and_queue_limit():
     assert [r.result for r in results] == [0, 2, 4, 6, 8, 10]
     assert calls[:2] == [[0, 1, 2, 3], [4, 5]]  # full batch at once, the rest after the window
     assert [r.batch_size for r in results] == [4, 4, 4, 4, 2, 2]
+
+
+def test_batcher_lone_request_does_not_wait_for_the_window():
+    async def scenario():
+        b = Batcher("t", lambda items: [i + 1 for i in items], max_batch=8, window_s=30.0, max_queue=8)
+        b.start()
+        try:
+            # a 30 s window would time these out if a lone request waited for it
+            first = await asyncio.wait_for(b.submit(1), 5)
+            second = await asyncio.wait_for(b.submit(2), 5)
+        finally:
+            await b.stop()
+        return first, second
+
+    first, second = asyncio.run(scenario())
+    assert (first.result, first.batch_size, second.result) == (2, 1, 3)
 
 
 def test_batcher_wrong_result_count_is_an_error():

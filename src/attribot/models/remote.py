@@ -69,7 +69,9 @@ _RETRY_STATUS = {429, 500, 502, 503, 504}
 def parse_remote_url(arg: str | None) -> tuple[str, dict[str, str]]:
     """`"http://h:8500?image=png"` -> `("http://h:8500", {"image": "png"})`; a bad URL is a ConfigError."""
     if not arg:
-        raise ConfigError("the remote backend needs the server's URL", "write e.g. remote:http://127.0.0.1:8500")
+        raise ConfigError(
+            "the remote backend needs the server's URL", "write e.g. remote:http://127.0.0.1:8500"
+        )
     text = arg.strip()
     if "://" not in text:
         text = "http://" + text
@@ -123,9 +125,13 @@ class RemoteClient:
         try:
             self.max_tries = int(options.get("tries", max_tries))
         except ValueError:
-            raise ConfigError(f"remote backend tries={options['tries']!r} is not a number", "use e.g. tries=3") from None
+            raise ConfigError(
+                f"remote backend tries={options['tries']!r} is not a number", "use e.g. tries=3"
+            ) from None
         if self.max_tries < 1:
-            raise ConfigError(f"remote backend tries must be at least 1, got {self.max_tries}", "use e.g. tries=3")
+            raise ConfigError(
+                f"remote backend tries must be at least 1, got {self.max_tries}", "use e.g. tries=3"
+            )
         if timeout_s <= 0:
             raise ConfigError(f"the remote time-out must be positive, got {timeout_s}", "use e.g. 30 seconds")
         self.timeout_s = float(timeout_s)
@@ -268,7 +274,9 @@ def _final_error(status: int, error: Any, where: str, path: str, tries: int = 1)
 
 def _rgb(frame: Frame) -> Any:
     if not isinstance(frame, Frame):
-        raise InputError(f"a remote backend takes an attribot Frame; got {type(frame).__name__}", "pass a Frame")
+        raise InputError(
+            f"a remote backend takes an attribot Frame; got {type(frame).__name__}", "pass a Frame"
+        )
     return frame.rgb
 
 
@@ -292,14 +300,20 @@ class RemoteDetector:
         """Detections of `queries` in `frame` (boxes in its pixels), best first, as the server ranks them."""
         qs = [queries] if isinstance(queries, str) else list(queries)
         if not qs:
-            raise InputError("no query given to the detector", "pass one or more noun phrases, e.g. ['apple']")
+            raise InputError(
+                "no query given to the detector", "pass one or more noun phrases, e.g. ['apple']"
+            )
         response = self.client.detect(_rgb(frame), qs)
         self.served_by = response.backend
         return response.detections
 
-    def detect_batch(self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]) -> list[list[Detection]]:
+    def detect_batch(
+        self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
+    ) -> list[list[Detection]]:
         if len(frames) != len(queries):
-            raise InputError(f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame")
+            raise InputError(
+                f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame"
+            )
         return _concurrently(self.detect, list(zip(frames, queries, strict=True)))
 
 
@@ -320,7 +334,9 @@ class RemoteVisualQA:
 
     def answer_batch(self, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:
         if len(frames) != len(questions):
-            raise InputError(f"{len(frames)} frames but {len(questions)} questions", "give one question per frame")
+            raise InputError(
+                f"{len(frames)} frames but {len(questions)} questions", "give one question per frame"
+            )
         return _concurrently(self.answer, list(zip(frames, questions, strict=True)))
 
 
@@ -359,7 +375,9 @@ def build_remote_language(arg: str | None, settings: Settings) -> RemoteLanguage
     return RemoteLanguageModel(_client(arg, settings))
 
 
-def probe_remote(role: str, arg: str | None, settings: Settings, timeout_s: float = 3.0) -> tuple[bool | None, str]:
+def probe_remote(
+    role: str, arg: str | None, settings: Settings, timeout_s: float = 3.0
+) -> tuple[bool | None, str]:
     """Whether the server at `arg` answers, serves `role`, and accepts our token; never raises."""
     try:
         url, _ = parse_remote_url(arg)

@@ -205,7 +205,9 @@ def decode_image(data: str, *, max_bytes: int | None = None, max_pixels: int | N
     except UnidentifiedImageError as exc:
         raise InputError(f"the image bytes ({len(raw)} bytes) are not a PNG or JPEG file", fix) from exc
     except Image.DecompressionBombError as exc:
-        raise ImageTooLarge(f"the image is too many pixels to decode ({exc})", "send a smaller image") from exc
+        raise ImageTooLarge(
+            f"the image is too many pixels to decode ({exc})", "send a smaller image"
+        ) from exc
     with im:
         if im.format not in ("PNG", "JPEG"):
             raise InputError(f"the image is a {im.format} file; the server reads PNG and JPEG only", fix)

@@ -172,12 +172,20 @@ def create_app(
 
     if detector is not None:
         batchers["detector"] = Batcher(
-            "detector", _detect, max_batch=cfg.max_batch, window_s=window_s, max_queue=cfg.max_queue,
+            "detector",
+            _detect,
+            max_batch=cfg.max_batch,
+            window_s=window_s,
+            max_queue=cfg.max_queue,
             stats=stats["detector"],
         )
     if vqa is not None:
         batchers["vqa"] = Batcher(
-            "vqa", _answer, max_batch=cfg.max_batch, window_s=window_s, max_queue=cfg.max_queue,
+            "vqa",
+            _answer,
+            max_batch=cfg.max_batch,
+            window_s=window_s,
+            max_queue=cfg.max_queue,
             stats=stats["vqa"],
         )
     language_pool: list[concurrent.futures.ThreadPoolExecutor] = []
@@ -188,7 +196,9 @@ def create_app(
             b.start()
         if language is not None:
             language_pool.append(
-                concurrent.futures.ThreadPoolExecutor(cfg.language_threads, thread_name_prefix="attribot-lang")
+                concurrent.futures.ThreadPoolExecutor(
+                    cfg.language_threads, thread_name_prefix="attribot-lang"
+                )
             )
         try:
             yield
@@ -215,12 +225,16 @@ def create_app(
         scheme, _, given = header.partition(" ")
         if not header or scheme.lower() != "bearer" or not given.strip():
             raise _Refused(
-                401, "auth", "this server needs a bearer token and the request has none",
+                401,
+                "auth",
+                "this server needs a bearer token and the request has none",
                 "send `Authorization: Bearer TOKEN` (the client reads ATTRIBOT_REMOTE_TOKEN)",
             )
         if not hmac.compare_digest(given.strip().encode(), token):
             raise _Refused(
-                403, "auth", "the bearer token is wrong",
+                403,
+                "auth",
+                "the bearer token is wrong",
                 "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with",
             )
 
@@ -228,7 +242,8 @@ def create_app(
         limit = cfg.max_body_bytes
         declared = request.headers.get("content-length")
         too_large = _Refused(
-            413, "too_large",
+            413,
+            "too_large",
             f"the request is over the server's limit of {limit / 2**20:.1f} MB "
             f"(images up to {cfg.max_image_mb:g} MB)",
             "send a smaller image (JPEG is ~10x smaller than PNG), or start the server with a larger "
@@ -264,7 +279,9 @@ def create_app(
             check_token(request)
             if name is None:
                 raise _Refused(
-                    404, "not_served", f"this server serves no {role}",
+                    404,
+                    "not_served",
+                    f"this server serves no {role}",
                     f"start it with a {role} backend: attribot serve models --{role} SPEC",
                 )
             body = await read_body(request)
@@ -292,8 +309,11 @@ def create_app(
             frame = await asyncio.to_thread(decode, req.image)
             served = await batchers["detector"].submit((frame, req.queries))
             return DetectResponse(
-                detections=served.result, backend=names["detector"] or "", batch_size=served.batch_size,
-                queue_ms=served.queue_ms, backend_ms=served.backend_ms,
+                detections=served.result,
+                backend=names["detector"] or "",
+                batch_size=served.batch_size,
+                queue_ms=served.queue_ms,
+                backend_ms=served.backend_ms,
             )
 
         return await serve("detector", request, handle)
@@ -305,8 +325,11 @@ def create_app(
             frame = await asyncio.to_thread(decode, req.image)
             served = await batchers["vqa"].submit((frame, req.question))
             return AnswerResponse(
-                answer=str(served.result), backend=names["vqa"] or "", batch_size=served.batch_size,
-                queue_ms=served.queue_ms, backend_ms=served.backend_ms,
+                answer=str(served.result),
+                backend=names["vqa"] or "",
+                batch_size=served.batch_size,
+                queue_ms=served.queue_ms,
+                backend_ms=served.backend_ms,
             )
 
         return await serve("vqa", request, handle)
@@ -359,4 +382,3 @@ def create_app(
         )
 
     return app
-

@@ -4,8 +4,10 @@ A `Batcher` holds a queue of pending items. Its worker takes the oldest item and
 `max_batch` items are queued or `window_s` has passed since that oldest item *arrived* (so time spent
 queued behind a running batch counts towards the window), then calls the backend once on the batch in
 its own thread and hands each result back to the request that sent it. While a batch runs, new requests
-queue up and form the next batch, so under load batches grow without any window at all; the window only
-helps when requests trickle in. `max_batch=1` turns batching off.
+queue up and form the next batch, so under load batches grow without any window at all; the window lets
+stragglers join (clients answered together send their next requests a little apart). A request that finds
+the queue otherwise empty right after a batch of one is sent at once: a lone client never waits for the
+window. `max_batch=1` turns batching off.
 
 One thread per role calls the backend: a model is never entered twice at once (GPU models are not
 thread-safe), and the event loop stays free to parse and decode the next requests meanwhile.
@@ -132,6 +134,7 @@ class Batcher(Generic[I, R]):
         self.max_queue = int(max_queue)
         self.stats = stats or RoleStats(backend=name)
         self._pending: collections.deque[_Pending[I]] = collections.deque()
+        self._last_size = 1
         self._wake: asyncio.Event | None = None
         self._task: asyncio.Task[None] | None = None
         self._executor: concurrent.futures.ThreadPoolExecutor | None = None
@@ -186,7 +189,10 @@ class Batcher(Generic[I, R]):
                 self._wake.clear()
                 await self._wake.wait()
             deadline = self._pending[0].arrived + self.window_s
-            while len(self._pending) < self.max_batch:
+            # a lone request, after a lone request, goes at once: a single client (the usual robot) pays
+            # no window; once requests overlap, the window lets stragglers join
+            alone = len(self._pending) == 1 and self._last_size == 1
+            while not alone and len(self._pending) < self.max_batch:
                 remaining = deadline - loop.time()
                 if remaining <= 0:
                     break
@@ -200,9 +206,12 @@ class Batcher(Generic[I, R]):
             batch = [p for p in batch if not p.future.done()]
             if not batch:
                 continue
+            self._last_size = len(batch)
             started = loop.time()
             try:
-                outcomes, calls = await loop.run_in_executor(self._executor, self._run, [p.item for p in batch])
+                outcomes, calls = await loop.run_in_executor(
+                    self._executor, self._run, [p.item for p in batch]
+                )
             except RuntimeError as exc:  # the executor was shut down under us: stop() is running
                 for p in batch:
                     if not p.future.done():
@@ -252,5 +261,7 @@ class Batcher(Generic[I, R]):
     def _checked(self, items: list[I]) -> list[R]:
         results = list(self._call(items))
         if len(results) != len(items):
-            raise RuntimeError(f"the {self.name} backend returned {len(results)} results for {len(items)} inputs")
+            raise RuntimeError(
+                f"the {self.name} backend returned {len(results)} results for {len(items)} inputs"
+            )
         return results

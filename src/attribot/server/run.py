@@ -1,4 +1,4 @@
-"""Running the model server: in the foreground (`attribot serve models`) or in a thread (tests, benchmarks)."""
+"""Running the model server: in the foreground (`attribot serve models`), or in a thread (tests, benches)."""
 
 from __future__ import annotations
 
@@ -49,15 +49,18 @@ def served_specs(settings: Settings, specs: dict[str, str | None]) -> tuple[dict
                     f"the server cannot serve the {role} backend {spec!r}: {_NOT_SERVABLE[kind]}",
                     f"serve a model: --{role} hf:MODEL (or openai:MODEL), or --{role} none",
                 )
-            notes.append(f"{role} not served: the configured {spec!r} cannot be ({_NOT_SERVABLE[kind]}); "
-                         f"give --{role} SPEC to serve one")
+            notes.append(
+                f"{role} not served: the configured {spec!r} cannot be ({_NOT_SERVABLE[kind]}); "
+                f"give --{role} SPEC to serve one"
+            )
             out[role] = None
             continue
         out[role] = spec
     if all(s is None for s in out.values()):
         raise ConfigError(
             "no role left to serve" + (f" ({'; '.join(notes)})" if notes else ""),
-            "give at least one of --detector, --vqa, --language, e.g. --detector hf:google/owlv2-base-patch16-ensemble",
+            "give at least one of --detector, --vqa, --language, "
+            "e.g. --detector hf:google/owlv2-base-patch16-ensemble",
         )
     return out, notes
 
@@ -65,7 +68,9 @@ def served_specs(settings: Settings, specs: dict[str, str | None]) -> tuple[dict
 def build_served_backends(settings: Settings, specs: dict[str, str | None]) -> dict[str, Any]:
     """role -> backend built from the spec (None: not served); see `served_specs` for which."""
     chosen, _ = served_specs(settings, specs)
-    return {role: None if spec is None else build_backend(role, spec, settings) for role, spec in chosen.items()}
+    return {
+        role: None if spec is None else build_backend(role, spec, settings) for role, spec in chosen.items()
+    }
 
 
 def check_bind(host: str, token: str | None) -> None:
@@ -92,7 +97,11 @@ def _uvicorn_config(app: Any, host: str, port: int, log_level: str) -> Any:
 
 
 def serve_models(
-    backends: dict[str, Any], config: ServerConfig, *, host: str = "127.0.0.1", port: int = 8500,
+    backends: dict[str, Any],
+    config: ServerConfig,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8500,
     log_level: str = "info",
 ) -> None:
     """Serve `backends` until interrupted (Ctrl-C)."""
