@@ -7,6 +7,8 @@ misbehaving server (5xx, 429, slow, garbage) is needed.
 from __future__ import annotations
 
 import socket
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -190,7 +192,19 @@ def test_probe_reports_token_role_and_down_server(server):
     not_served = probe_backend("language", f"remote:{server.url}", Settings(remote_token=TOKEN))
     assert not_served.available is False and "serves no language" in not_served.detail
     down = probe_backend("detector", f"remote:http://127.0.0.1:{free_port()}", Settings())
-    assert down.available is False and "cannot reach" in down.detail
+    assert down.available is False and "cannot reach" in down.detail and "after 1 try " in down.detail
+    bad = probe_backend("detector", f"remote:{server.url}?tries=x", Settings(remote_token=TOKEN))
+    assert bad.available is False and "not a number" in bad.detail
+
+
+def test_importing_the_client_and_server_loads_no_extra():
+    code = (
+        "import sys, attribot.server, attribot.models.remote, attribot.models.wire;"
+        "from attribot.models.base import DETECTORS; DETECTORS.names();"
+        "loaded = {'fastapi', 'uvicorn', 'httpx', 'starlette', 'torch'} & set(sys.modules);"
+        "assert not loaded, loaded"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
 
 
 def test_server_down_is_a_clear_error_after_retries():

@@ -393,3 +393,72 @@ def test_served_specs_skip_unservable_defaults_and_refuse_them_when_asked():
         served_specs(settings, {"detector": "oracle", "vqa": None, "language": None})
     with pytest.raises(ConfigError, match="no role left"):
         served_specs(settings, {"detector": None, "vqa": None, "language": "none"})
+
+
+# ---- the command --------------------------------------------------------------------------------------
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_cli_serve_models_serves_and_stops(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    port = _free_port()
+    env = dict(os.environ, ATTRIBOT_CONFIG=str(tmp_path / "none.toml"), ATTRIBOT_REMOTE_TOKEN="cli-token")
+    argv = [
+        sys.executable,
+        "-m",
+        "attribot.cli",
+        "serve",
+        "models",
+        "--port",
+        str(port),
+        "--log-level",
+        "warning",
+    ]
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                health = httpx.get(f"http://127.0.0.1:{port}/health", timeout=1).json()
+                break
+            except httpx.TransportError:
+                assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+                time.sleep(0.2)
+        # the offline defaults: oracle cannot be served (noted), the catalog language model can
+        assert health["roles"] == {"detector": None, "vqa": None, "language": "catalog"}
+        with RemoteClient(f"http://127.0.0.1:{port}", token="cli-token") as c:
+            assert isinstance(RemoteLanguageModel(c).complete("Which is heavier, an apple or a chair?"), str)
+    finally:
+        proc.terminate()
+        _, err = proc.communicate(timeout=20)
+    assert "detector not served" in err and "token required" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--host", "0.0.0.0"], "without a token"),
+        (["--detector", "oracle"], "cannot serve the detector backend 'oracle'"),
+        (["--max-batch", "0"], "--max-batch"),
+        (["--port", "0"], "--port"),
+    ],
+)
+def test_cli_serve_models_refuses_bad_options(args, message, tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from attribot.cli import app
+
+    monkeypatch.setenv("ATTRIBOT_CONFIG", str(tmp_path / "none.toml"))
+    monkeypatch.delenv("ATTRIBOT_REMOTE_TOKEN", raising=False)
+    result = CliRunner().invoke(app, ["serve", "models", *args])
+    assert result.exit_code == 2 and message in " ".join(result.output.split())

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from attribot.deps import require
-from attribot.errors import BackendError, ConfigError, InputError
+from attribot.errors import AttribotError, BackendError, ConfigError, InputError
 from attribot.frame import Frame
 from attribot.models.base import DETECTORS, LANGUAGE_MODELS, VQAS, Detection
 from attribot.models.wire import (
@@ -221,7 +221,9 @@ class RemoteClient:
                     raise _final_error(response.status_code, error, where, path, tries)
             if attempt < tries - 1:
                 time.sleep(wait)
-        raise BackendError(f"cannot reach {where} after {tries} tries ({last})", _TUNNEL_FIX)
+        raise BackendError(
+            f"cannot reach {where} after {tries} tr{'ies' if tries > 1 else 'y'} ({last})", _TUNNEL_FIX
+        )
 
     @staticmethod
     def _decode(response: Any, model: type[M], where: str, path: str) -> M:
@@ -379,23 +381,17 @@ def probe_remote(
     role: str, arg: str | None, settings: Settings, timeout_s: float = 3.0
 ) -> tuple[bool | None, str]:
     """Whether the server at `arg` answers, serves `role`, and accepts our token; never raises."""
+    token_note = "token accepted" if settings.remote_token else "no token set"
     try:
-        url, _ = parse_remote_url(arg)
-    except ConfigError as exc:
-        return False, str(exc)
-    if not settings.remote_token:
-        token_note = "no token set"
-    else:
-        token_note = "token accepted"
-    try:
-        with RemoteClient(url, token=settings.remote_token, timeout_s=timeout_s) as client:
+        with RemoteClient(arg or "", token=settings.remote_token, timeout_s=timeout_s) as client:
+            url = client.url
             health = client.health(timeout_s=timeout_s)
             backend = health.roles.get(role)
             if backend is None:
                 served = ", ".join(f"{r}={b}" for r, b in health.roles.items() if b) or "nothing"
                 return False, f"the server at {url} serves no {role} (it serves {served})"
             client.metrics(timeout_s=timeout_s)  # the one cheap request that checks the token
-    except (BackendError, ConfigError, InputError) as exc:
+    except AttribotError as exc:  # down, refused, not attribot, missing extra: all say why
         return False, str(exc)
     return True, f"server at {url} serves {role}={backend}; {token_note}"
 
