@@ -44,7 +44,7 @@ class BoxDetector:
 
     name = "test:bright-box"
 
-    def __init__(self, call_s: float = 0.01) -> None:
+    def __init__(self, call_s: float = 0.02) -> None:
         self.call_s = call_s
         self.sizes: list[int] = []
         self.truth_seen: list[bool] = []
