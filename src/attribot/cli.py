@@ -12,6 +12,7 @@ from typing import Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from attribot.errors import AttribotError
 
@@ -24,14 +25,14 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
-err_console = Console(stderr=True)
+err_console = Console(stderr=True, soft_wrap=True)  # no hard breaks inside paths and messages
 
 
 def fail(message: str, fix: str | None = None, code: int = 2) -> typer.Exit:
     """Print an error (and its fix) to stderr; return the Exit to raise."""
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False)
     if fix:
-        err_console.print(f"[yellow]fix:[/] {fix}", highlight=False)
+        err_console.print(f"[yellow]fix:[/] {escape(fix)}", highlight=False)
     return typer.Exit(code)
 
 
@@ -170,15 +171,15 @@ def _show(answer: Any, as_json: bool) -> None:
     if as_json:
         typer.echo(answer.model_dump_json(indent=2))
     else:
-        out = Console()
+        out = Console(soft_wrap=True)
         if answer.error is None:
-            out.print(f"[bold green]answer:[/] {answer.answer}", highlight=False)
+            out.print(f"[bold green]answer:[/] {escape(answer.answer)}", highlight=False)
         else:
-            where = f" (line {answer.error.line})" if answer.error.line else ""
-            out.print(f"[bold red]no answer[/] [{answer.error.category}]{where}: {answer.error.message}",
-                      highlight=False)
+            where = f" at line {answer.error.line}" if answer.error.line else ""
+            out.print(f"[bold red]no answer[/] ({answer.error.category} error{where}): "
+                      f"{escape(answer.error.message)}", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
-        out.print(f"[dim]planner={answer.planner} attempts={answer.attempts} {backends}; "
+        out.print(f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
                   f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]", highlight=False)
     if answer.error is not None:
         raise typer.Exit(1)

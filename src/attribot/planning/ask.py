@@ -14,6 +14,7 @@ from typing import Any
 
 from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
+from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
 
 __all__ = ["Scene", "ask", "execute", "build_answer", "save_answer"]
@@ -84,10 +85,11 @@ class _Session:
                         "'attribot[models]') or ATTRIBOT_DETECTOR=remote:URL; `attribot backends` lists "
                         "the configuration",
                     )
+                rgb = load_image(scene.image)  # a bad file fails before any model is loaded
                 self.perception = Perception.from_settings(settings)
                 self.sensors = list(scene.sensors or ["camera"])
                 self.robot = Robot(sensors=self.sensors)
-                self.image = ImagePatch.from_image(scene.image, self.perception)
+                self.image = ImagePatch.from_image(rgb, self.perception)
             else:
                 from attribot.embodiments.base import EMBODIMENTS
 
