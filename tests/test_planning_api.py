@@ -79,3 +79,76 @@ def test_long_follows_orientation_with_real_patches():
     ]  # lying, 120 long but only 18 tall
     assert run("the longest carrot", frame_with(objects)).object_id == "carrot-1"
     assert run("the tallest carrot", frame_with(objects)).object_id == "carrot-0"
+
+
+# ---- through the sandboxed runner ---------------------------------------------------------------------
+
+runner_module = pytest.importorskip("attribot.runner")
+
+
+@pytest.fixture
+def sandbox():
+    from attribot.api.robot import Robot
+
+    with runner_module.ProgramRunner(classes=[api.ImagePatch, Robot]) as runner:
+        yield runner
+
+
+def test_rules_plan_solved_through_the_runner(sandbox):
+    from attribot.planning import PlanRequest, build_planner, solve
+
+    objects = [
+        ("mug", "white", (60 + c * 120, 40 + r * 140, 120 + c * 120, 110 + r * 140))
+        for r in range(3)
+        for c in range(4)
+    ]
+    image = api.ImagePatch(frame_with(objects), perception_module.Perception.from_settings(Settings()))
+    request = PlanRequest(query="the second mug from the right in the second to last row", sensors=["camera"])
+    outcome = solve(
+        build_planner("rules", Settings()), request, lambda p: sandbox.run(p, args=[image, None]), 3
+    )
+    assert outcome.ok, outcome.error
+    assert outcome.result.value_object.object_id == "mug-6"
+    assert [t.call for t in outcome.result.trace] == ["ImagePatch.find"]
+
+
+def test_a_rules_program_error_comes_back_structured(sandbox):
+    from attribot.planning import PlanRequest, build_planner, solve
+
+    image = api.ImagePatch(
+        frame_with([("mug", "white", (10, 10, 50, 50))]),
+        perception_module.Perception.from_settings(Settings()),
+    )
+    request = PlanRequest(query="the third mug from the left", sensors=["camera"])
+    outcome = solve(
+        build_planner("rules", Settings()), request, lambda p: sandbox.run(p, args=[image, None]), 3
+    )
+    assert not outcome.ok and len(outcome.attempts) == 1  # deterministic: not run again
+    assert outcome.error.category == "runtime"
+    assert "asked for the 3rd mug from the left, but only 1 were found" in outcome.error.message
+
+
+def test_llm_plan_with_the_runners_real_error_fed_back(sandbox, httpserver, tmp_path):
+    from attribot.planning import PlanRequest, solve
+    from attribot.planning.llm import LLMPlanner
+
+    wrong = "def execute_command(image, robot):\n    mugs = image.find('mug')\n    return mugs[5]\n"
+    right = "def execute_command(image, robot):\n    mugs = image.find('mug')\n    return mugs[0]\n"
+    for program in (wrong, right):
+        reply = {
+            "choices": [{"index": 0, "message": {"role": "assistant", "content": f"```python\n{program}```"}}]
+        }
+        httpserver.expect_ordered_request("/v1/chat/completions").respond_with_json(reply)
+    settings = Settings(llm_base_url=httpserver.url_for("/v1"), cache_dir=tmp_path)
+    planner = LLMPlanner(settings, prompt_builder=lambda query, sensors: f"write a program for {query}")
+    image = api.ImagePatch(
+        frame_with([("mug", "white", (10, 10, 50, 50))]),
+        perception_module.Perception.from_settings(Settings()),
+    )
+    request = PlanRequest(query="a mug", sensors=["camera"])
+    outcome = solve(planner, request, lambda p: sandbox.run(p, args=[image, None]), max_tries=3)
+    assert outcome.ok and len(outcome.attempts) == 2
+    first_error = outcome.attempts[0].error
+    assert first_error.category == "runtime" and first_error.line == 3
+    feedback = httpserver.log[1][0].get_json()["messages"][-1]["content"]
+    assert first_error.message in feedback and "line 3" in feedback and "mugs[5]" in feedback
