@@ -302,8 +302,13 @@ def test_health_metrics_language_and_unknown_paths(server, client):
     health = client.health()
     assert health.roles == {"detector": "test:bright-box", "vqa": "test:mean-colour", "language": "test:echo"}
     assert RemoteLanguageModel(client).complete("which is heavier?") == "WHICH IS HEAVIER?"
+    post(server, "/v1/complete", json={"question": "q"}, token="wrong")
+    post(server, "/v1/complete", json={"question": ""})
     metrics = client.metrics()
-    assert metrics.roles["language"].ok >= 1 and metrics.roles["detector"].latency_ms["p99"] > 0
+    assert metrics.rejected["auth"] >= 1  # refused before reaching a role
+    lang = metrics.roles["language"]
+    assert lang.ok >= 1 and lang.errors["input"] >= 1 and lang.requests == lang.ok + sum(lang.errors.values())
+    assert metrics.roles["detector"].latency_ms["p99"] > 0
     r = httpx.get(server.url + "/v1/nothing")
     assert r.status_code == 404 and "/v1/detect" in error_of(r).fix
     assert httpx.get(server.url + "/v1/detect").status_code == 405

@@ -271,22 +271,25 @@ def create_app(
         return Frame(rgb=decode_image(data, max_bytes=cfg.max_image_bytes, max_pixels=cfg.max_pixels))
 
     async def serve(role: str, request: Request, handle: Any) -> Any:
-        """Common path: count, check the token, run `handle(body)`, turn any failure into an ErrorBody."""
+        """Common path: check the token, count, run `handle(body)`, turn any failure into an ErrorBody.
+        Requests refused before they reach a role (token, role not served) count under `rejected`;
+        the others count under their role (requests = ok + errors) with their latency."""
         t0 = time.perf_counter()
         name = names.get(role)
         role_stats = stats.get(role)
+        admitted = False
         try:
             check_token(request)
-            if name is None:
+            if name is None or role_stats is None:
                 raise _Refused(
                     404,
                     "not_served",
                     f"this server serves no {role}",
                     f"start it with a {role} backend: attribot serve models --{role} SPEC",
                 )
-            body = await read_body(request)
-            assert role_stats is not None
             role_stats.requests += 1
+            admitted = True
+            body = await read_body(request)
             record: BaseModel = await handle(body)
             role_stats.ok += 1
             return Response(record.model_dump_json(), media_type="application/json")
@@ -294,12 +297,10 @@ def create_app(
             status, category, message, fix = _classify(exc, role, name or "-")
             if status == 500:
                 log.error("%s request failed: %s", role, message, exc_info=exc)
-            (role_stats.errors if role_stats is not None and status not in (401, 403, 404) else rejected)[
-                category
-            ] += 1
+            (role_stats.errors if admitted and role_stats is not None else rejected)[category] += 1
             return _error_response(status, category, message, fix)
         finally:
-            if role_stats is not None:
+            if admitted and role_stats is not None:
                 role_stats.latency_ms.append((time.perf_counter() - t0) * 1000.0)
 
     @app.post(PATHS["detector"])
