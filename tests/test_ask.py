@@ -197,3 +197,15 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
     assert answer.object.category == target
     assert len(handler.requests) == 2
     assert "no code" in json.dumps(handler.requests[1]["messages"][-1]).lower()
+
+
+def test_llm_that_never_writes_code_gives_a_structured_no_code_answer(httpserver, tmp_path):
+    reply = {"id": "x", "object": "chat.completion", "created": 0, "model": "fake",
+             "choices": [{"index": 0, "finish_reason": "stop",
+                          "message": {"role": "assistant", "content": "Sorry, I cannot help with that."}}]}
+    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_json(reply)
+    settings = load_settings(planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake",
+                             llm_max_tries=2, cache_dir=tmp_path / "cache")
+    answer = ask("Which object is the heaviest?", Scene(LAYOUT, SEED), settings)
+    assert answer.attempts == 2 and answer.object is None
+    assert answer.error is not None and "no code" in answer.error.message

@@ -49,7 +49,8 @@ def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = No
         max_tries = settings.llm_max_tries if planner.name != "rules" else 1
         solved = solve(planner, request, session.run, max_tries=max_tries)
         return session.finish(
-            text, planner.name, solved.program, solved.result, len(solved.attempts), save_dir, settings
+            text, planner.name, solved.program, solved.result, len(solved.attempts), save_dir, settings,
+            error=solved.error,
         )
 
 
@@ -123,8 +124,10 @@ class _Session:
         attempts: int,
         save_dir: Path | None,
         settings: Settings,
+        error: Any = None,
     ) -> Answer:
         answer = build_answer(
+            error=error,
             query=query,
             planner=planner,
             program=program,
@@ -163,13 +166,15 @@ def build_answer(
     measurements: Sequence[Any],
     world: dict[str, Any],
     frame: Any,
+    error: Any = None,
 ) -> Answer:
-    """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person."""
+    """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
+    `error` is the planner's own error when no program ever ran (a reply with no code)."""
     trace = [t.model_dump(mode="json") for t in (result.trace if result is not None else [])]
     common = dict(query=query, program=program, planner=planner, backends=backends, attempts=attempts,
                   trace=trace, world=world)
     if result is None or result.error is not None:
-        err = result.error if result is not None else None
+        err = result.error if result is not None else error
         category = err.category if err is not None else "planner"
         message = err.message if err is not None else "no program was produced"
         return Answer(answer=f"no answer: {message}", error=AnswerError(category=category, message=message,
