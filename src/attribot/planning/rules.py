@@ -622,8 +622,11 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
         + r")"
         + _ME
         + r",?\s+(?:(?:out\s+)?of\s+|among\s+|between\s+)?(?P<list>.+)",
-        # "Which one is the heaviest?"
-        r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
+        # "Which one is the heaviest?", "Which mug is the closest to me?"
+        r"which(?:\s+one|\s+(?P<noun>[a-z]+(?:\s+[a-z]+)?))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>"
+        + words
+        + r")"
+        + _ME,
         # "the X or the Y: which is closer?"
         r"(?P<list>.+?\s+or\s+.+?),?\s+which(?:\s+one)?\s+is\s+(?P<adj>" + words + r")" + _ME,
     )
@@ -635,11 +638,15 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
         listed = match.groupdict().get("list")
         if listed is not None:
             objects = _split_names(_strip_article(listed))
-            if objects is None:
-                return None
+            if objects is None:  # e.g. "to me" read as a list by an earlier form: try the next form
+                continue
             named = True
         else:
-            objects, named = (ObjectSpec("object"),), False
+            noun = match.groupdict().get("noun")
+            spec = _object(noun) if noun else ObjectSpec("object")
+            if spec is None:
+                continue
+            objects, named = (spec,), False
         if adjective in _NEAR or adjective in _FAR:
             return DistanceQuery(objects=objects, nearest=adjective in _NEAR, named=named)
         return WeightQuery(objects=objects, heaviest=adjective in _WEIGHT_HEAVY, named=named)
