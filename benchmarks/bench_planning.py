@@ -18,15 +18,18 @@ from pathlib import Path
 
 from attribot.planning.rules import UnsupportedQuery, rules_program
 
-DEFAULT_CORPUS = Path("/work/shared/data/paper_queries/queries.jsonl")
+DEFAULT_CORPUS = None  # the corpus shipped in attribot.eval
 
 
-def load_queries(path: Path) -> list[str]:
+def load_queries(path: Path | None) -> list[str]:
+    from attribot.eval.corpus import paper_queries
+
+    if path is None:
+        rows = [q.model_dump(exclude_none=True) for q in paper_queries()]
+    else:
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     queries = []
-    for line in path.read_text().splitlines():
-        if not line.strip():
-            continue
-        row = json.loads(line)
+    for row in rows:
         if row["task"] == "ai2thor_weight_scene_items":
             queries.append(f"Out of the {row['items']}, which one is the most lightweight?")
         elif "query" in row:

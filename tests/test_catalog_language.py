@@ -3,20 +3,18 @@
 from __future__ import annotations
 
 import itertools
-import json
-from pathlib import Path
 
 import pytest
 
 from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
+from attribot.eval.corpus import paper_queries
 from attribot.models.base import UNKNOWN, LanguageModel, build_backend
 from attribot.models.catalog import CatalogLanguageModel, parse_comparison, resolve_item, split_items
 from attribot.sim.catalog import categories
 
 LM = CatalogLanguageModel()
 
-QUERIES = Path("/work/shared/data/paper_queries/queries.jsonl")
 
 
 @pytest.mark.parametrize(
@@ -114,9 +112,7 @@ def test_deceptive_objects_are_left_to_measurement(question, expected):
 
 
 def _paper_rows(task: str) -> list[str]:
-    if not QUERIES.is_file():
-        pytest.skip(f"{QUERIES} is not on this machine")
-    rows = [json.loads(line) for line in QUERIES.read_text().splitlines() if line.strip()]
+    rows = [q.model_dump(exclude_none=True) for q in paper_queries()]
     return [r["items"] for r in rows if r["task"] == task]
 
 
