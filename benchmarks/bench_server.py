@@ -26,6 +26,8 @@ batching off (max batch 1). Frames are 640x480 and cross as JPEG (the client's d
                latency. Target on a GPU: >= 4x at concurrency 32.
 
 Every figure is one line: name, ratio to its reference, the absolute numbers.
+On the GPU, install torchvision: without it the hf backends pre-process images with PIL on the CPU, one
+image after another in the backend's thread, and that CPU time (not the GPU) bounds the batching gain.
 Needs numpy, pillow, pydantic, fastapi, uvicorn, httpx (+ torch and transformers for --backend).
 """
 
