@@ -35,7 +35,11 @@ class Probe:
 
 TRIVIAL = "def execute_command(probe):\n    return probe.width\n"
 CALLS = (
-    "def execute_command(probe, n):\n    s = 0\n    for i in range(n):\n        s = probe.ping(s)\n    return s\n"
+    "def execute_command(probe, n):\n"
+    "    s = 0\n"
+    "    for i in range(n):\n"
+    "        s = probe.ping(s)\n"
+    "    return s\n"
 )
 
 
