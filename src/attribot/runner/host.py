@@ -346,10 +346,10 @@ class _Run:
         n_lines = self.source.count("\n") + 1
         if type(line) is not int or not 1 <= line <= n_lines:
             line = None
-        message = message if isinstance(message, str) else "the program failed"
+        message = _scrub(message, 1000) if isinstance(message, str) else "the program failed"
         return RunError(
             category=category,
-            message=message[:1000],
+            message=message,
             line=line,  # type: ignore[arg-type]
             snippet=snippet_of(self.source, line),
             output="".join(self.output),

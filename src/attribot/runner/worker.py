@@ -504,6 +504,8 @@ def describe(exc, limits):
         return "limit", f"memory limit reached: the program may use about {limits['memory_mb']} MB"
     if isinstance(exc, RecursionError):
         return "limit", f"recursion too deep: at most {limits['max_recursion']} nested calls"
+    if isinstance(exc, OSError):  # e.g. a codec that would load a module from disk
+        return "runtime", f"{type(exc).__name__}: programs cannot open files or load modules"
     try:
         text = str(exc)
     except BaseException:  # noqa: BLE001 (a message that cannot be made is no reason to fail)
