@@ -165,6 +165,9 @@ ATTEMPTS: list[tuple[str, str, str]] = [
     ("huge API argument", program("return image.find('x' * 1000000)"), "limit"),
     ("huge return value", program("return 'x' * 5000000"), "limit"),
     ("function as API argument", program("return image.find(print)"), "api"),
+    ("deeply nested expression", program("return " + "1*" * 2000 + "1"), "syntax"),
+    ("fullwidth getattr", program("return ｇｅｔａｔｔｒ(image, 'x')"), "policy"),
+    ("fullwidth dunder", program("return image.＿＿class＿＿"), "syntax"),
     ("int too long for text", program("return str(10 ** 5000)"), "runtime"),
     ("codec that loads a module from disk", program("return b'x'.decode('utf_7')"), "runtime"),
 ]

@@ -386,8 +386,8 @@ def prepare_program(
         tree = _parse(source, entry, limits or Limits())
     except _Refusal as r:
         return None, _as_error(r, source)
-    tree = ast.fix_missing_locations(_Guards().visit(tree))
     try:
+        tree = ast.fix_missing_locations(_Guards().visit(tree))
         code = compile(tree, PROGRAM_FILENAME, "exec", dont_inherit=True)
     except (SyntaxError, ValueError, RecursionError, MemoryError) as e:
         line = getattr(e, "lineno", None)
