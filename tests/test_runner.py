@@ -467,6 +467,15 @@ def test_serves_on_after_its_worker_is_killed(runner):
     assert res.ok and res.value == "scene"
 
 
+def test_a_worker_that_dies_before_taking_the_program_is_replaced(runner, monkeypatch):
+    worker = runner._box[0]
+    os.kill(worker.proc.pid, signal.SIGKILL)
+    worker.proc.wait()
+    monkeypatch.setattr(worker, "alive", lambda: True)  # the runner learns it only from the pipe
+    res = run(runner, "def execute_command(image, meter):\n    return image.name\n")
+    assert res.ok and res.value == "scene"
+
+
 def test_a_worker_waits_ready_and_each_run_gets_a_fresh_one(runner):
     before = runner._box[0].proc.pid
     assert run(runner, "def execute_command(image, meter):\n    return 0\n").ok

@@ -462,7 +462,7 @@ class ProgramRunner:
                 self._respawn()
         return result
 
-    def _serve(self, state: _Run, request: dict[str, Any], t0: float) -> RunResult:
+    def _serve(self, state: _Run, request: dict[str, Any], t0: float, retry: bool = True) -> RunResult:
         worker = self._box[0]
         if worker is None or not worker.alive():
             if worker is not None:
@@ -470,8 +470,8 @@ class ProgramRunner:
             worker = self._box[0] = _Worker()
         limits = self.limits
         # the child times itself out at wall_s and reports the line; this deadline is the backstop for a
-        # child stuck inside one long C call. It counts from the moment the worker is ready, so that a
-        # slow start on a loaded machine is not charged to the program.
+        # child stuck inside one long C call. It counts from the moment the worker has the program, so
+        # that a slow start on a loaded machine is not charged to the program.
         grace = min(1.0, 0.2 + 0.1 * limits.wall_s)
         deadline = time.monotonic() + _STARTUP_S
         ready = False
@@ -497,7 +497,10 @@ class ProgramRunner:
                 if msg is None:
                     worker.kill()
                     if not ready:
-                        raise RuntimeError(f"the sandbox worker did not start within {_STARTUP_S} s")
+                        raise ConfigError(
+                            f"the sandbox worker did not start within {_STARTUP_S} s",
+                            f"check that `{sys.executable} -I -S` runs on this machine",
+                        )
                     err = state.error(
                         "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
                     )
@@ -535,9 +538,11 @@ class ProgramRunner:
                             str(msg.get("c")), str(msg.get("m")), line if type(line) is int else None
                         ),
                     )
-                elif kind == "ready" and not ready:
+                elif kind == "go" and not ready:  # the worker has the program and starts its clocks
                     ready = True
                     deadline = time.monotonic() + limits.wall_s + grace
+                elif kind == "ready":
+                    pass
                 else:
                     raise _Overflow("the program sent a message that is not valid")
         except _Overflow as e:
@@ -545,6 +550,14 @@ class ProgramRunner:
             return finish(False, error=state.error("limit", str(e), state.last_line))
         except _Gone:
             status = worker.kill()
+            if not ready:  # the worker died before the program reached it: not the program's doing
+                if retry:
+                    self._box[0] = _Worker()
+                    return self._serve(state, request, t0, retry=False)
+                raise ConfigError(
+                    f"the sandbox worker could not start (exit status {status})",
+                    f"check that `{sys.executable} -I -S` runs on this machine",
+                ) from None
             return finish(False, error=state.error(*self._death(status), state.last_line))
 
     @staticmethod

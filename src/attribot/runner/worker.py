@@ -615,6 +615,7 @@ def main(argv):
     request = STATE.chan.recv()
     if request.get("t") != "run":
         os._exit(2)
+    STATE.chan.send({"t": "go"})
     limits = request.get("limits", {})
     try:
         try:
