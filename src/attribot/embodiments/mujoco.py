@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from attribot.embodiments import mujoco_control  # noqa: F401  (registers this world's controller)
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
 from attribot.sim.world import SceneInfo, SimWorld

@@ -6,6 +6,9 @@ robot with its ordinary commands. That is privileged information a real robot do
 the AI2-THOR actions of the paper were; the backend name says so ("sim-privileged") and it shows up in
 every answer that names its backends. Navigating to image coordinates, placing on another object and
 pushing are not implemented and raise `UnsupportedAction`.
+
+It lives beside the MuJoCo embodiment (not in `control/`, which knows no simulator) and registers itself in
+`CONTROLLERS` under the world's name when `attribot.embodiments.mujoco` is imported.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ __all__ = ["SimController"]
 
 
 def _scripted() -> ModuleType:
-    # imported on use: the scripted helpers live in the sim layer and pull in mujoco
+    # imported on use, so that building the controller stays cheap
     from attribot.sim import scripted
 
     return scripted
