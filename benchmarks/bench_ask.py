@@ -19,8 +19,15 @@ import time
 QUERIES = {
     "location (arrangement)": ["the second item from the left", "--layout", "arrangement", "--seed", "3"],
     "size (arrangement)": ["the tallest item", "--layout", "arrangement", "--seed", "3"],
-    "weight by VQA + language (triplet)": ["the heaviest item", "--layout", "triplet", "--seed", "3",
-                                           "--sensors", "camera"],
+    "weight by VQA + language (triplet)": [
+        "the heaviest item",
+        "--layout",
+        "triplet",
+        "--seed",
+        "3",
+        "--sensors",
+        "camera",
+    ],
 }
 TARGET_S = 2.0
 
@@ -45,8 +52,10 @@ def main() -> None:
     for name, argv in QUERIES.items():
         cold = wall([sys.executable, "-m", "attribot.cli", "ask", *argv], args.runs)
         verdict = "met" if cold < TARGET_S else "NOT met"
-        print(f"cold ask, {name}: {cold * 1000:.0f} ms = {cold / bare:.1f}x bare python "
-              f"(target < {TARGET_S:.0f} s: {verdict})")
+        print(
+            f"cold ask, {name}: {cold * 1000:.0f} ms = {cold / bare:.1f}x bare python "
+            f"(target < {TARGET_S:.0f} s: {verdict})"
+        )
 
 
 if __name__ == "__main__":

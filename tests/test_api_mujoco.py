@@ -10,8 +10,8 @@ pytest.importorskip("attribot.sim.scripted")
 from attribot.api import ImagePatch, Perception, PreconditionError, Robot  # noqa: E402
 from attribot.config import Settings  # noqa: E402
 from attribot.control.base import ControlError  # noqa: E402
-from attribot.embodiments.mujoco_control import SimController  # noqa: E402
 from attribot.embodiments.mujoco import MujocoWorld  # noqa: E402
+from attribot.embodiments.mujoco_control import SimController  # noqa: E402
 from attribot.errors import UnsupportedAction  # noqa: E402
 
 ALL = ["camera", "distance", "force"]

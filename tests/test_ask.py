@@ -35,7 +35,11 @@ def by_category(truth: dict) -> dict[str, dict]:
 def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "ATTRIBOT_CONFIG": "/nonexistent.toml"}
     return subprocess.run(
-        [sys.executable, "-m", "attribot.cli", *args], capture_output=True, text=True, env=env, cwd=cwd,
+        [sys.executable, "-m", "attribot.cli", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=cwd,
         timeout=120,
     )
 
@@ -53,8 +57,12 @@ def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
     assert abs(answer.value - objs[expected]["distance_m"]) < objs[expected]["size_m"] / 2 + 0.05
     calls = [t["call"] for t in answer.trace]
     assert calls.count("Robot.measure_distance") == 2
-    assert answer.backends == {"detector": "oracle", "vqa": "oracle", "language": "catalog",
-                               "robot": "sim-privileged"}
+    assert answer.backends == {
+        "detector": "oracle",
+        "vqa": "oracle",
+        "language": "catalog",
+        "robot": "sim-privileged",
+    }
 
 
 def test_weight_query_weighs_each_candidate_with_the_force_sensor(truth):
@@ -138,8 +146,18 @@ def test_cli_json_output_and_exit_codes(tmp_path):
     ok = cli("ask", "Which object is the heaviest?", "--layout", LAYOUT, "--seed", str(SEED), "--json")
     assert ok.returncode == 0, ok.stderr
     data = json.loads(ok.stdout)
-    assert set(data) >= {"query", "answer", "object", "value", "program", "planner", "backends", "attempts",
-                         "trace", "error"}
+    assert set(data) >= {
+        "query",
+        "answer",
+        "object",
+        "value",
+        "program",
+        "planner",
+        "backends",
+        "attempts",
+        "trace",
+        "error",
+    }
     assert data["error"] is None and data["object"]["box"][2] > data["object"]["box"][0]
     assert {"call", "args", "result", "ms"} <= set(data["trace"][0])
 
@@ -152,7 +170,9 @@ def test_cli_json_output_and_exit_codes(tmp_path):
     corrupt = tmp_path / "corrupt.png"
     corrupt.write_bytes(b"\x89PNG\r\n\x1a\n broken")
     err = cli("ask", "the red cup", "--image", str(corrupt), "--detector", "hf:/nowhere")
-    assert err.returncode == 2 and "cannot be read as an image" in err.stderr and "Traceback" not in err.stderr
+    assert (
+        err.returncode == 2 and "cannot be read as an image" in err.stderr and "Traceback" not in err.stderr
+    )
 
     for args, needle in [
         (("ask", ""), "query is empty"),
@@ -181,16 +201,30 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
         body = json.loads(request.data)
         handler.requests.append(body)
         content = next(replies)
-        return Response(json.dumps({
-            "id": "x", "object": "chat.completion", "created": 0, "model": body["model"],
-            "choices": [{"index": 0, "finish_reason": "stop",
-                         "message": {"role": "assistant", "content": content}}],
-        }), content_type="application/json")
+        return Response(
+            json.dumps(
+                {
+                    "id": "x",
+                    "object": "chat.completion",
+                    "created": 0,
+                    "model": body["model"],
+                    "choices": [
+                        {
+                            "index": 0,
+                            "finish_reason": "stop",
+                            "message": {"role": "assistant", "content": content},
+                        }
+                    ],
+                }
+            ),
+            content_type="application/json",
+        )
 
     handler.requests = []
     httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
-    settings = load_settings(planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake",
-                             cache_dir=tmp_path / "cache")
+    settings = load_settings(
+        planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "cache"
+    )
     answer = ask(f"Where is the {target}?", Scene(LAYOUT, SEED), settings)
     assert answer.error is None, answer.error
     assert answer.planner == "llm" and answer.attempts == 2
@@ -200,12 +234,27 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
 
 
 def test_llm_that_never_writes_code_gives_a_structured_no_code_answer(httpserver, tmp_path):
-    reply = {"id": "x", "object": "chat.completion", "created": 0, "model": "fake",
-             "choices": [{"index": 0, "finish_reason": "stop",
-                          "message": {"role": "assistant", "content": "Sorry, I cannot help with that."}}]}
+    reply = {
+        "id": "x",
+        "object": "chat.completion",
+        "created": 0,
+        "model": "fake",
+        "choices": [
+            {
+                "index": 0,
+                "finish_reason": "stop",
+                "message": {"role": "assistant", "content": "Sorry, I cannot help with that."},
+            }
+        ],
+    }
     httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_json(reply)
-    settings = load_settings(planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake",
-                             llm_max_tries=2, cache_dir=tmp_path / "cache")
+    settings = load_settings(
+        planner="llm",
+        llm_base_url=httpserver.url_for("/v1"),
+        llm_model="fake",
+        llm_max_tries=2,
+        cache_dir=tmp_path / "cache",
+    )
     answer = ask("Which object is the heaviest?", Scene(LAYOUT, SEED), settings)
     assert answer.attempts == 2 and answer.object is None
     assert answer.error is not None and "no code" in answer.error.message

@@ -65,7 +65,11 @@ def test_registry_unknown_lists_known_and_rejects_duplicates():
 
 @pytest.mark.parametrize(
     ("spec", "expected"),
-    [("oracle", ("oracle", None)), ("hf:a/b", ("hf", "a/b")), ("remote:http://h:1", ("remote", "http://h:1"))],
+    [
+        ("oracle", ("oracle", None)),
+        ("hf:a/b", ("hf", "a/b")),
+        ("remote:http://h:1", ("remote", "http://h:1")),
+    ],
 )
 def test_parse_spec(spec, expected):
     assert parse_spec(spec) == expected

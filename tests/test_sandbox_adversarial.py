@@ -146,6 +146,7 @@ ATTEMPTS: list[tuple[str, str, str]] = [
     ("ljust memory bomb", program("return 'a'.ljust(10 ** 10)"), "limit"),
     ("range to list memory bomb", program("return list(range(10 ** 9))"), "limit"),
     ("doubling memory", program("s = 'a'\nwhile True:\n    s = s + s"), "limit"),
+    ("doubling a list in place", program("x = [0]\nwhile True:\n    x += x"), "limit"),
     # ---- time
     ("endless loop", program("while True:\n    pass"), "timeout"),
     ("long C call", program("return sum(range(10 ** 13))"), "timeout"),

@@ -53,17 +53,31 @@ scene_app = typer.Typer(
 app.add_typer(scene_app, name="scene")
 
 _S_LAYOUT = typer.Option("household", "--layout", help="Scene layout: household, arrangement or triplet.")
-_S_SEED = typer.Option(0, "--seed", help="Scene seed (0 to 4294967295): the same seed gives the same scene and pixels.")
+_S_SEED = typer.Option(
+    0, "--seed", help="Scene seed (0 to 4294967295): the same seed gives the same scene and pixels."
+)
 _S_OBJECTS = typer.Option(None, "--objects", help="Number of objects (default: the layout chooses).")
-_S_CATEGORIES = typer.Option(None, "--categories", help="Comma-separated object categories to draw from, e.g. mug,apple.")
-_S_OPTION = typer.Option(None, "--option", help="Layout option KEY=VALUE, repeatable (e.g. pattern=grid, odd=size).")
+_S_CATEGORIES = typer.Option(
+    None, "--categories", help="Comma-separated object categories to draw from, e.g. mug,apple."
+)
+_S_OPTION = typer.Option(
+    None, "--option", help="Layout option KEY=VALUE, repeatable (e.g. pattern=grid, odd=size)."
+)
 _S_WIDTH = typer.Option(640, "--width", help="Image width in pixels.")
 _S_HEIGHT = typer.Option(480, "--height", help="Image height in pixels.")
 _S_PROFILE = typer.Option("fast", "--profile", help="Render profile: fast (no shadows) or pretty.")
 
 
-def _scene_world(layout: str, seed: int, objects: int | None, categories: str | None, option: list[str] | None,
-                 width: int, height: int, profile: str) -> Any:
+def _scene_world(
+    layout: str,
+    seed: int,
+    objects: int | None,
+    categories: str | None,
+    option: list[str] | None,
+    width: int,
+    height: int,
+    profile: str,
+) -> Any:
     from attribot.embodiments.mujoco import MujocoWorld
 
     if seed < 0:
@@ -83,8 +97,16 @@ def _scene_world(layout: str, seed: int, objects: int | None, categories: str | 
         options[key.strip()] = value
     names = None if categories is None else [c.strip() for c in categories.split(",") if c.strip()]
     try:
-        return MujocoWorld(layout, seed, n_objects=objects, categories=names, width=width, height=height,
-                           profile=profile, options=options)
+        return MujocoWorld(
+            layout,
+            seed,
+            n_objects=objects,
+            categories=names,
+            width=width,
+            height=height,
+            profile=profile,
+            options=options,
+        )
     except AttribotError as exc:
         raise fail(exc.message, exc.fix) from None
 
@@ -106,7 +128,9 @@ def scene_render(
     from PIL import Image
 
     if out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
-        raise fail(f"cannot write {str(out)!r}: the file name must end in .png or .jpg", "use e.g. --out scene.png")
+        raise fail(
+            f"cannot write {str(out)!r}: the file name must end in .png or .jpg", "use e.g. --out scene.png"
+        )
     if not out.parent.exists():
         raise fail(f"the folder {str(out.parent)!r} does not exist", "create it first or write elsewhere")
     with _scene_world(layout, seed, objects, categories, option, width, height, profile) as world:
@@ -149,13 +173,17 @@ _LAYOUT = typer.Option("household", "--layout", help="Simulated scene layout (se
 _SEED = typer.Option(0, "--seed", help="Scene seed: the same seed gives the same scene and answer.")
 _IMAGE = typer.Option(None, "--image", help="Answer about this image file instead of a simulated scene.")
 _SENSORS = typer.Option(
-    None, "--sensors", help="Comma-separated robot sensors: camera,distance,force (default: all the world has)."
+    None,
+    "--sensors",
+    help="Comma-separated robot sensors: camera,distance,force (default: all the world has).",
 )
 _JSON = typer.Option(False, "--json", help="Print the whole answer as JSON.")
 _SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
 _DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
 _VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
-_LANGUAGE = typer.Option(None, "--language", help="Language backend spec (catalog, openai:MODEL, remote:URL).")
+_LANGUAGE = typer.Option(
+    None, "--language", help="Language backend spec (catalog, openai:MODEL, remote:URL)."
+)
 
 
 def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
@@ -176,18 +204,24 @@ def _show(answer: Any, as_json: bool) -> None:
             out.print(f"[bold green]answer:[/] {escape(answer.answer)}", highlight=False)
         else:
             where = f" at line {answer.error.line}" if answer.error.line else ""
-            out.print(f"[bold red]no answer[/] ({answer.error.category} error{where}): "
-                      f"{escape(answer.error.message)}", highlight=False)
+            out.print(
+                f"[bold red]no answer[/] ({answer.error.category} error{where}): "
+                f"{escape(answer.error.message)}",
+                highlight=False,
+            )
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
-        out.print(f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
-                  f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]", highlight=False)
+        out.print(
+            f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
+            f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]",
+            highlight=False,
+        )
     if answer.error is not None:
         raise typer.Exit(1)
 
 
 @app.command()
 def ask(
-    query: str = typer.Argument(..., help="The question, e.g. \"Which object is the heaviest?\""),
+    query: str = typer.Argument(..., help='The question, e.g. "Which object is the heaviest?"'),
     layout: str = _LAYOUT,
     seed: int = _SEED,
     image: Path | None = _IMAGE,
@@ -205,8 +239,14 @@ def ask(
     from attribot.config import load_settings
     from attribot.planning.ask import ask as run_ask
 
-    settings = load_settings(planner=planner, llm_base_url=llm_base_url, llm_model=llm_model,
-                             detector=detector, vqa=vqa, language=language)
+    settings = load_settings(
+        planner=planner,
+        llm_base_url=llm_base_url,
+        llm_model=llm_model,
+        detector=detector,
+        vqa=vqa,
+        language=language,
+    )
     answer = run_ask(query, _scene(layout, seed, image, sensors), settings, save_dir=save)
     _show(answer, as_json)
 
@@ -234,7 +274,9 @@ def exec_program(
     try:
         source = program.read_text()
     except (OSError, UnicodeDecodeError) as exc:
-        raise fail(f"program file {str(program)!r} cannot be read as text ({exc.__class__.__name__})") from exc
+        raise fail(
+            f"program file {str(program)!r} cannot be read as text ({exc.__class__.__name__})"
+        ) from exc
     settings = load_settings(detector=detector, vqa=vqa, language=language)
     answer = execute(source, _scene(layout, seed, image, sensors), settings, query=query, save_dir=save)
     _show(answer, as_json)
@@ -289,15 +331,25 @@ def _planner_status(settings, record):  # type: ignore[no-untyped-def]
     """The planner row: the `llm` planner needs the OpenAI-compatible endpoint, the others run in-process."""
     if settings.planner != "llm":
         return record(
-            role="planner", spec=settings.planner, kind=settings.planner, arg=None, registered=True,
-            available=None, detail="runs in-process",
+            role="planner",
+            spec=settings.planner,
+            kind=settings.planner,
+            arg=None,
+            registered=True,
+            available=None,
+            detail="runs in-process",
         )
     from attribot.models.openai_chat import probe_endpoint
 
     available, detail = probe_endpoint(None, settings)
     return record(
-        role="planner", spec="llm", kind="llm", arg=settings.llm_model, registered=True,
-        available=available, detail=detail,
+        role="planner",
+        spec="llm",
+        kind="llm",
+        arg=settings.llm_model,
+        registered=True,
+        available=available,
+        detail=detail,
     )
 
 
@@ -309,19 +361,33 @@ app.add_typer(serve_app, name="serve")
 
 @serve_app.command("models")
 def serve_models(
-    host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on (127.0.0.1: reach it by SSH tunnel)."),
+    host: str = typer.Option(
+        "127.0.0.1", "--host", help="Address to listen on (127.0.0.1: reach it by SSH tunnel)."
+    ),
     port: int = typer.Option(8500, "--port", help="TCP port."),
     token: str | None = typer.Option(
-        None, "--token", help="Bearer token clients must send (default: ATTRIBOT_REMOTE_TOKEN; none: no check)."
+        None,
+        "--token",
+        help="Bearer token clients must send (default: ATTRIBOT_REMOTE_TOKEN; none: no check).",
     ),
-    detector: str | None = typer.Option(None, "--detector", help="Detector spec to serve, e.g. hf:MODEL, or none."),
-    vqa: str | None = typer.Option(None, "--vqa", help="VQA spec to serve, e.g. hf:MODEL or openai:MODEL, or none."),
-    language: str | None = typer.Option(None, "--language", help="Language spec to serve (catalog, openai:MODEL, none)."),
-    max_batch: int = typer.Option(32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."),
+    detector: str | None = typer.Option(
+        None, "--detector", help="Detector spec to serve, e.g. hf:MODEL, or none."
+    ),
+    vqa: str | None = typer.Option(
+        None, "--vqa", help="VQA spec to serve, e.g. hf:MODEL or openai:MODEL, or none."
+    ),
+    language: str | None = typer.Option(
+        None, "--language", help="Language spec to serve (catalog, openai:MODEL, none)."
+    ),
+    max_batch: int = typer.Option(
+        32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."
+    ),
     batch_window_ms: float = typer.Option(
         2.0, "--batch-window-ms", help="Longest wait for a batch to fill, from its oldest request's arrival."
     ),
-    max_image_mb: float = typer.Option(10.0, "--max-image-mb", help="Largest image file accepted (413 beyond)."),
+    max_image_mb: float = typer.Option(
+        10.0, "--max-image-mb", help="Largest image file accepted (413 beyond)."
+    ),
     max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
     log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
 ) -> None:
@@ -338,8 +404,11 @@ def serve_models(
     settings = load_settings()
     try:
         config = ServerConfig(
-            token=token or settings.remote_token, max_batch=max_batch, batch_window_ms=batch_window_ms,
-            max_image_mb=max_image_mb, max_queue=max_queue,
+            token=token or settings.remote_token,
+            max_batch=max_batch,
+            batch_window_ms=batch_window_ms,
+            max_image_mb=max_image_mb,
+            max_queue=max_queue,
         )
     except ValidationError as exc:
         first = exc.errors()[0]
@@ -354,7 +423,9 @@ def serve_models(
     except AttribotError as exc:
         raise fail(exc.message, exc.fix) from None
     for role, backend in backends.items():
-        err_console.print(f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}", highlight=False)
+        err_console.print(
+            f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}", highlight=False
+        )
     err_console.print(
         f"listening on http://{host}:{port} (token {'required' if config.token else 'not required'}); "
         f"clients give remote:http://{host}:{port} as the backend spec of each served role",

@@ -30,4 +30,6 @@ def require(module: str, purpose: str) -> ModuleType:
         top = module.split(".")[0]
         extra = _EXTRA_OF.get(top)
         fix = f"pip install 'attribot[{extra}]'" if extra else f"pip install {top}"
-        raise MissingDependency(f"{purpose} needs the Python package {top!r}, which is not installed", fix) from exc
+        raise MissingDependency(
+            f"{purpose} needs the Python package {top!r}, which is not installed", fix
+        ) from exc

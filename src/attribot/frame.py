@@ -90,7 +90,10 @@ class Frame:
 
     def crop(self, box: tuple[float, float, float, float]) -> Frame:
         """The part of this frame inside the xyxy box (pixels of this frame), all layers aligned."""
-        x0, y0 = int(np.clip(np.floor(box[0]), 0, self.width - 1)), int(np.clip(np.floor(box[1]), 0, self.height - 1))
+        x0, y0 = (
+            int(np.clip(np.floor(box[0]), 0, self.width - 1)),
+            int(np.clip(np.floor(box[1]), 0, self.height - 1)),
+        )
         return Frame(
             rgb=np.ascontiguousarray(crop_array(self.rgb, box)),
             depth=None if self.depth is None else crop_array(self.depth, box),

@@ -33,13 +33,21 @@ def chat_text(client: Any, model: str, messages: list[dict[str, Any]], **params:
     try:
         reply = client.chat.completions.create(model=model, messages=messages, **params)
     except openai.AuthenticationError as exc:
-        raise BackendError(f"{where} refused the API key (401)", "set ATTRIBOT_LLM_API_KEY or --llm-api-key") from exc
+        raise BackendError(
+            f"{where} refused the API key (401)", "set ATTRIBOT_LLM_API_KEY or --llm-api-key"
+        ) from exc
     except openai.RateLimitError as exc:
-        raise BackendError(f"{where} is rate limiting (429) after retries", "wait, or lower the request rate") from exc
+        raise BackendError(
+            f"{where} is rate limiting (429) after retries", "wait, or lower the request rate"
+        ) from exc
     except openai.APITimeoutError as exc:
-        raise BackendError(f"{where} did not answer in time", "raise ATTRIBOT_LLM_TIMEOUT_S or check the server") from exc
+        raise BackendError(
+            f"{where} did not answer in time", "raise ATTRIBOT_LLM_TIMEOUT_S or check the server"
+        ) from exc
     except openai.APIConnectionError as exc:
-        raise BackendError(f"cannot reach {where}", "check the base URL and that the server is running") from exc
+        raise BackendError(
+            f"cannot reach {where}", "check the base URL and that the server is running"
+        ) from exc
     except openai.APIStatusError as exc:
         raise BackendError(f"{where} answered HTTP {exc.status_code}: {_short(exc.message)}") from exc
     except openai.APIError as exc:  # malformed bodies and other protocol errors

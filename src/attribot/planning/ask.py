@@ -49,7 +49,13 @@ def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = No
         max_tries = settings.llm_max_tries if planner.name != "rules" else 1
         solved = solve(planner, request, session.run, max_tries=max_tries)
         return session.finish(
-            text, planner.name, solved.program, solved.result, len(solved.attempts), save_dir, settings,
+            text,
+            planner.name,
+            solved.program,
+            solved.result,
+            len(solved.attempts),
+            save_dir,
+            settings,
             error=solved.error,
         )
 
@@ -99,7 +105,9 @@ class _Session:
                     layout=scene.layout, seed=scene.seed, **scene.world_options
                 )
                 have = {str(c) for c in self.world.capabilities()}
-                self.sensors = list(scene.sensors or [s for s in ("camera", "distance", "force") if s in have])
+                self.sensors = list(
+                    scene.sensors or [s for s in ("camera", "distance", "force") if s in have]
+                )
                 self.robot = Robot(sensors=self.sensors, world=self.world)
                 self.image = self.robot.look(self.perception)
             self.runner = ProgramRunner(classes=[ImagePatch, Robot])
@@ -171,14 +179,24 @@ def build_answer(
     """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
     `error` is the planner's own error when no program ever ran (a reply with no code)."""
     trace = [t.model_dump(mode="json") for t in (result.trace if result is not None else [])]
-    common = dict(query=query, program=program, planner=planner, backends=backends, attempts=attempts,
-                  trace=trace, world=world)
+    common = dict(
+        query=query,
+        program=program,
+        planner=planner,
+        backends=backends,
+        attempts=attempts,
+        trace=trace,
+        world=world,
+    )
     if result is None or result.error is not None:
         err = result.error if result is not None else error
         category = err.category if err is not None else "planner"
         message = err.message if err is not None else "no program was produced"
-        return Answer(answer=f"no answer: {message}", error=AnswerError(category=category, message=message,
-                      line=getattr(err, "line", None)), **common)
+        return Answer(
+            answer=f"no answer: {message}",
+            error=AnswerError(category=category, message=message, line=getattr(err, "line", None)),
+            **common,
+        )
     chosen = _chosen_patch(result.value_object)
     if chosen is not None:
         category = _category(chosen, frame)
@@ -195,8 +213,10 @@ def build_answer(
     if value is None:
         return Answer(
             answer="no answer: the program returned nothing",
-            error=AnswerError(category="runtime", message="execute_command returned None; return the "
-                              "chosen ImagePatch or a value"),
+            error=AnswerError(
+                category="runtime",
+                message="execute_command returned None; return the chosen ImagePatch or a value",
+            ),
             **common,
         )
     text = value if isinstance(value, str) else json.dumps(value, default=str)
@@ -231,13 +251,21 @@ def _measured(patch: Any, measurements: Sequence[Any]) -> tuple[float | None, st
 
 def _format_value(value: float, unit: str | None, measurements: Sequence[Any], patch: Any) -> str:
     if unit == "kg":
-        newtons = next((m.newtons for m in reversed(measurements)
-                        if m.object_id == patch.object_id and m.newtons is not None), None)
+        newtons = next(
+            (
+                m.newtons
+                for m in reversed(measurements)
+                if m.object_id == patch.object_id and m.newtons is not None
+            ),
+            None,
+        )
         return f"{value:.3f} kg" + (f" ({newtons:.2f} N)" if newtons is not None else "")
     return f"{value:.3f} {unit or ''}".strip()
 
 
-def save_answer(answer: Answer, directory: Path, rgb: Any = None, settings: Settings | None = None) -> list[Path]:
+def save_answer(
+    answer: Answer, directory: Path, rgb: Any = None, settings: Settings | None = None
+) -> list[Path]:
     """Write answer.json, program.py, settings.json and (with `rgb`) answer.png with the chosen box drawn."""
     directory.mkdir(parents=True, exist_ok=True)
     written = [directory / "answer.json"]

@@ -79,10 +79,13 @@ GUARD_NAMES: dict[str, str] = {
     "ipow": "_sb_ipow",
     "imul": "_sb_imul",
     "ilshift": "_sb_ilshift",
+    "add": "_sb_add",
+    "iadd": "_sb_iadd",
     "slice": "_sb_slice",
 }
-_BINOP_GUARD = {ast.Pow: "pow", ast.Mult: "mul", ast.LShift: "lshift"}
-_AUG_GUARD = {ast.Pow: "ipow", ast.Mult: "imul", ast.LShift: "ilshift"}
+# `+` is guarded too: repeated concatenation (`s = s + s`) grows a sequence as fast as `*` does
+_BINOP_GUARD = {ast.Pow: "pow", ast.Mult: "mul", ast.LShift: "lshift", ast.Add: "add"}
+_AUG_GUARD = {ast.Pow: "ipow", ast.Mult: "imul", ast.LShift: "ilshift", ast.Add: "iadd"}
 
 _ALLOWED: tuple[type[ast.AST], ...] = (
     ast.Module,
@@ -254,7 +257,7 @@ def _guard(name: str, node: ast.AST) -> ast.Name:
 
 
 class _Guards(ast.NodeTransformer):
-    """`a ** b`, `a * b`, `a << b` (and their augmented forms) become calls of guard functions that check
+    """`a ** b`, `a * b`, `a << b`, `a + b` (and their augmented forms) become calls of guard functions that check
     the size of the result before computing it; annotations are dropped (never evaluated)."""
 
     def visit_BinOp(self, node: ast.BinOp) -> ast.AST:  # noqa: N802 (ast visitor API)

@@ -356,6 +356,11 @@ def _mul_check(a, b):
         _check_items(len(a) * b, "*")
 
 
+def _add_check(a, b):
+    if type(a) in _SEQS and type(b) in _SEQS:
+        _check_items(len(a) + len(b), "+")
+
+
 def _lshift_check(a, b):
     if type(a) in _INTS and type(b) in _INTS and a and b > 0:
         _check_bits(a.bit_length() + b, "<<")
@@ -369,6 +374,17 @@ def g_pow(a, b):
 def g_mul(a, b):
     _mul_check(a, b)
     return a * b
+
+
+def g_add(a, b):
+    _add_check(a, b)
+    return a + b
+
+
+def g_iadd(a, b):
+    _add_check(a, b)
+    a += b
+    return a
 
 
 def g_lshift(a, b):
@@ -480,6 +496,8 @@ def build_globals():
         "_sb_ipow": g_ipow,
         "_sb_imul": g_imul,
         "_sb_ilshift": g_ilshift,
+        "_sb_add": g_add,
+        "_sb_iadd": g_iadd,
         "_sb_slice": slice,
     }
 
