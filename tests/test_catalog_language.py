@@ -16,7 +16,6 @@ from attribot.sim.catalog import categories
 LM = CatalogLanguageModel()
 
 
-
 @pytest.mark.parametrize(
     ("question", "expected"),
     [

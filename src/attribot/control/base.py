@@ -164,9 +164,7 @@ class UnsupportedController:
 
 ControllerFactory = Callable[[Any], Controller]
 
-CONTROLLERS: Registry[ControllerFactory] = Registry(
-    "controller", ("attribot.control.pointing",)
-)
+CONTROLLERS: Registry[ControllerFactory] = Registry("controller", ("attribot.control.pointing",))
 """Controller factories keyed by embodiment name (`Embodiment.name`); "default" serves the others.
 A world's own controller registers from the world's package (e.g. `attribot.embodiments.mujoco_control`),
 since this layer knows no world."""

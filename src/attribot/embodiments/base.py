@@ -121,6 +121,4 @@ class Embodiment:
         self.close()
 
 
-EMBODIMENTS: Registry[type[Embodiment]] = Registry(
-    "world", ("attribot.embodiments.mujoco",)
-)
+EMBODIMENTS: Registry[type[Embodiment]] = Registry("world", ("attribot.embodiments.mujoco",))
