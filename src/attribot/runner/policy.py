@@ -257,9 +257,8 @@ def _guard(name: str, node: ast.AST) -> ast.Name:
 
 
 class _Guards(ast.NodeTransformer):
-    """`a ** b`, `a * b`, `a << b`, `a + b` (and their augmented forms) become calls of guard functions that
-    check
-    the size of the result before computing it; annotations are dropped (never evaluated)."""
+    """`a ** b`, `a * b`, `a << b`, `a + b` (and their augmented forms) become calls of guard functions
+    that check the size of the result before computing it; annotations are dropped (never evaluated)."""
 
     def visit_BinOp(self, node: ast.BinOp) -> ast.AST:  # noqa: N802 (ast visitor API)
         self.generic_visit(node)
