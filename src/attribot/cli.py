@@ -330,14 +330,19 @@ def backends(
 def _planner_status(settings, record):  # type: ignore[no-untyped-def]
     """The planner row: the `llm` planner needs the OpenAI-compatible endpoint, the others run in-process."""
     if settings.planner != "llm":
+        from attribot.planning import PLANNERS
+
+        known = settings.planner in PLANNERS
         return record(
             role="planner",
             spec=settings.planner,
             kind=settings.planner,
             arg=None,
-            registered=True,
-            available=None,
-            detail="runs in-process",
+            registered=known,
+            available=known,
+            detail="offline, runs in-process"
+            if known
+            else f"unknown planner; choose: {', '.join(PLANNERS.names())}",
         )
     from attribot.models.openai_chat import probe_endpoint
 
