@@ -29,7 +29,7 @@ fi
 
 PY=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
-pip=(.venv/bin/python -m pip install -q --disable-pip-version-check)
+pip=(.venv/bin/python -m pip install -q --disable-pip-version-check --no-warn-script-location)
 if [ $want_test = 1 ]; then
   # The CPU build of torch keeps the test install small; any torch>=2.4 works for the package.
   "${pip[@]}" "torch==2.13.0" 2>/dev/null || true
