@@ -258,3 +258,51 @@ def test_llm_that_never_writes_code_gives_a_structured_no_code_answer(httpserver
     answer = ask("Which object is the heaviest?", Scene(LAYOUT, SEED), settings)
     assert answer.attempts == 2 and answer.object is None
     assert answer.error is not None and "no code" in answer.error.message
+
+
+def test_a_retry_starts_with_empty_hands_and_a_fresh_view(httpserver, tmp_path, truth):
+    """The first program picks an object up and fails; the second must still be able to weigh."""
+    target = next(o for o in truth["objects"] if o["pickable"])["category"]
+    first = (
+        "```python\ndef execute_command(image, robot):\n"
+        f"    p = image.find('{target}')[0]\n    robot.go_to_object(p)\n    robot.pick_up(p)\n"
+        "    return 1 / 0\n```"
+    )
+    second = (
+        "```python\ndef execute_command(image, robot):\n"
+        f"    p = image.find('{target}')[0]\n    robot.go_to_object(p)\n    robot.pick_up(p)\n"
+        "    w = robot.measure_weight(p)\n    robot.put_down()\n    return w\n```"
+    )
+    replies = iter([first, second])
+
+    def handler(request):
+        from werkzeug import Response
+
+        return Response(
+            json.dumps(
+                {
+                    "id": "x",
+                    "object": "chat.completion",
+                    "created": 0,
+                    "model": "fake",
+                    "choices": [
+                        {
+                            "index": 0,
+                            "finish_reason": "stop",
+                            "message": {"role": "assistant", "content": next(replies)},
+                        }
+                    ],
+                }
+            ),
+            content_type="application/json",
+        )
+
+    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
+    settings = load_settings(
+        planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "c"
+    )
+    answer = ask(f"How heavy is the {target}?", Scene(LAYOUT, SEED), settings)
+    assert answer.error is None, answer.error
+    assert answer.attempts == 2
+    mass = next(o["mass_kg"] for o in truth["objects"] if o["category"] == target)
+    assert answer.value == pytest.approx(mass, rel=0.03)

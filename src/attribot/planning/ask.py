@@ -46,8 +46,8 @@ def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = No
     planner = build_planner(settings.planner, settings)
     with _Session(scene, settings) as session:
         request = PlanRequest(query=text, sensors=session.sensors, embodied=session.world is not None)
-        max_tries = settings.llm_max_tries if planner.name != "rules" else 1
-        solved = solve(planner, request, session.run, max_tries=max_tries)
+        # solve() stops by itself when a planner repeats a program (the rules planner always does)
+        solved = solve(planner, request, session.run, max_tries=settings.llm_max_tries)
         return session.finish(
             text,
             planner.name,
@@ -80,6 +80,7 @@ class _Session:
         from attribot.runner import ProgramRunner
 
         self.scene = scene
+        self.runs = 0
         self.world: Any = None
         self.runner: Any = None
         try:
@@ -116,6 +117,13 @@ class _Session:
             raise
 
     def run(self, program: str) -> Any:
+        if self.runs and self.world is not None:
+            # a failed try may have moved the robot or left an object in its gripper: the next one starts
+            # with empty hands from what the camera sees now
+            if getattr(self.robot, "held", None) is not None:
+                self.robot.put_down()
+            self.image = self.robot.look(self.perception)
+        self.runs += 1
         return self.runner.run(program, args=[self.image, self.robot])
 
     def backends(self) -> dict[str, str]:
