@@ -6,7 +6,6 @@ command with its message and fix on stderr and exit code 2; nothing prints a tra
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -327,7 +326,7 @@ def backends(
         raise typer.Exit(1)
 
 
-def _planner_status(settings, record):  # type: ignore[no-untyped-def]
+def _planner_status(settings: Any, record: Any) -> Any:
     """The planner row: the `llm` planner needs the OpenAI-compatible endpoint, the others run in-process."""
     if settings.planner != "llm":
         from attribot.planning import PLANNERS
@@ -453,4 +452,4 @@ def _report(exc: AttribotError) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import inspect
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import cache
 from importlib import resources
+from typing import Any
 
 import jinja2
 
@@ -47,7 +48,7 @@ def offered_robot_methods(sensors: Sequence[str], embodied: bool = True) -> tupl
     return offered, missing
 
 
-def signature_text(func: object) -> str:
+def signature_text(func: Callable[..., Any]) -> str:
     """`(self, object_name: str) -> list[ImagePatch]`: parameters and annotations as written in the source."""
     sig = inspect.signature(func)  # annotations stay strings (postponed evaluation in the API modules)
     params = []
@@ -83,6 +84,8 @@ def render_class(cls: type, attributes: Sequence[str], methods: Sequence[str]) -
         prop = inspect.getattr_static(cls, name)
         if not isinstance(prop, property):
             raise RuntimeError(f"{cls.__name__}.{name} is listed in API_ATTRIBUTES and is not a property")
+        if prop.fget is None:
+            raise RuntimeError(f"{cls.__name__}.{name} is a property without a getter")
         ret = inspect.signature(prop.fget).return_annotation
         lines.append(f"    {name}: {_ann(ret)}  # {_doc(prop)}")
     for name in methods:

@@ -177,6 +177,8 @@ class Robot:
             if seen is None:
                 return  # the detector cannot find it again (or it has no name): keep the geometric aim
             cam = seen.capture.camera
+            if cam is None:
+                return  # no intrinsics to check the aim against: keep the geometric aim
             u, v = seen.center
             if math.hypot(u - cam.cx, v - cam.cy) <= self.FOCUS_TOL_PX:
                 return

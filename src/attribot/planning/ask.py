@@ -102,9 +102,8 @@ class _Session:
                 from attribot.embodiments.base import EMBODIMENTS
 
                 self.perception = Perception.from_settings(settings)
-                self.world = EMBODIMENTS.get(scene.world)(
-                    layout=scene.layout, seed=scene.seed, **scene.world_options
-                )
+                world_cls: Any = EMBODIMENTS.get(scene.world)  # worlds take layout and seed
+                self.world = world_cls(layout=scene.layout, seed=scene.seed, **scene.world_options)
                 have = {str(c) for c in self.world.capabilities()}
                 self.sensors = list(
                     scene.sensors or [s for s in ("camera", "distance", "force") if s in have]

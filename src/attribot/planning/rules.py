@@ -173,7 +173,7 @@ _ORD = (
     + "|".join(_ORDINAL_WORDS)
     + r"|\d+(?:st|nd|rd|th))"
 )
-_SIDES = {
+_SIDES: dict[str, Side] = {
     "left": "left",
     "right": "right",
     "top": "top",
@@ -460,7 +460,7 @@ def _parse_location(text: str) -> LocationQuery | None:
             r"\b(leftmost|rightmost|topmost|uppermost|bottommost|lowermost|highest|lowest)\b", text
         )
         if match:
-            extreme = {
+            extremes: dict[str, Side] = {
                 "leftmost": "left",
                 "rightmost": "right",
                 "topmost": "top",
@@ -469,7 +469,8 @@ def _parse_location(text: str) -> LocationQuery | None:
                 "bottommost": "bottom",
                 "lowermost": "bottom",
                 "lowest": "bottom",
-            }[match[1]]
+            }
+            extreme = extremes[match[1]]
     # ordinal with a direction: "second dog from the right", "second from the left dog head"
     direction: Side | None = None
     ordinal: tuple[int, bool] | None = None
@@ -477,7 +478,7 @@ def _parse_location(text: str) -> LocationQuery | None:
         r"\b(?:starting\s+|counting\s+)?from\s+(?:the\s+)?(left|right|top|bottom)(?:\s+side)?\b", text
     )
     if match:
-        direction = _SIDES[match[1]]  # type: ignore[assignment]
+        direction = _SIDES[match[1]]
     match, text = _take(r"^(?:the\s+)?(" + _ORD + r")\b", text)
     if match:
         ordinal = _ordinal(match[1])
@@ -500,13 +501,13 @@ def _parse_location(text: str) -> LocationQuery | None:
     else:
         match, text = _take(r"^(?:the\s+)?(left|right|top|bottom|upper|lower)\s+(?=\S)", text)
         if match:
-            side_adj = _SIDES[match[1]]  # type: ignore[assignment]
+            side_adj = _SIDES[match[1]]
 
     # what is chosen within the group
     if ordinal is not None:
         k, from_end = ordinal
-        side: Side = direction or ("top" if line is not None and line.kind == "column" else "left")
-        pick = Pick("ordinal", _OPPOSITE[side] if from_end else side, k)
+        start: Side = direction or ("top" if line is not None and line.kind == "column" else "left")
+        pick = Pick("ordinal", _OPPOSITE[start] if from_end else start, k)
     elif extreme is not None:
         pick = Pick("ordinal", extreme, 1)
     elif middle_of or middle_adj:
@@ -518,7 +519,7 @@ def _parse_location(text: str) -> LocationQuery | None:
         if line is not None or (pick is not None and pick.kind != "middle"):
             return None  # "second top right X": more than one way to read it
         line = LineSpec("row", 1, from_end=vertical == "bottom")
-        pick = Pick("ordinal", horizontal, 1)  # type: ignore[arg-type]
+        pick = Pick("ordinal", horizontal, 1)
     if position is not None:
         if pick is None:
             pick = Pick("central") if position == "middle" else Pick("ordinal", position, 1)  # type: ignore[arg-type]
@@ -684,9 +685,9 @@ def parse_query(query: str) -> ParsedQuery:
     # "which is the second dog from the right" asks for the same as "the second dog from the right"
     text = _strip_article(re.sub(r"^(?:which|what)\s+(?:one\s+)?(?:is|are)\s+", "", text))
     for parser in (_parse_location, _parse_size, _parse_superlative):
-        parsed = parser(text)
-        if parsed is not None:
-            return parsed
+        reading = parser(text)
+        if reading is not None:
+            return reading
     raise UnsupportedQuery(original)
 
 

@@ -350,7 +350,7 @@ class _Run:
         return RunError(
             category=category,
             message=message,
-            line=line,  # type: ignore[arg-type]
+            line=line,
             snippet=snippet_of(self.source, line),
             output="".join(self.output),
         )
@@ -367,7 +367,7 @@ class ProgramRunner:
     def __init__(
         self, classes: Sequence[type], limits: Limits | None = None, entry: str = "execute_command"
     ) -> None:
-        self.classes: tuple[type, ...] = tuple(classes)
+        self.classes: tuple[Any, ...] = tuple(classes)  # classes that declare API_METHODS/API_ATTRIBUTES
         self.limits = limits or Limits()
         self.entry = entry
         if not entry.isidentifier() or entry.startswith("_"):

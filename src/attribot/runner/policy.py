@@ -362,7 +362,7 @@ def _parse(source: str, entry: str, limits: Limits) -> ast.Module:
 
 def _as_error(refusal: _Refusal, source: str) -> RunError:
     return RunError(
-        category=refusal.category,  # type: ignore[arg-type]
+        category=refusal.category,
         message=refusal.message,
         line=refusal.line,
         snippet=snippet_of(source, refusal.line) if isinstance(source, str) else None,

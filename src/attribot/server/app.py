@@ -137,9 +137,9 @@ def _parse(model: type[BaseModel], body: bytes) -> Any:
 
 def create_app(
     *,
-    detector: Any | None = None,
-    vqa: Any | None = None,
-    language: Any | None = None,
+    detector: Any = None,
+    vqa: Any = None,
+    language: Any = None,
     config: ServerConfig | None = None,
 ) -> Any:
     """A FastAPI app serving the given backends (any of them None: that role answers 404).
@@ -368,8 +368,7 @@ def create_app(
             requests=sum(s.requests for s in stats.values()),
             rejected=dict(rejected),
             roles={
-                role: s.summary(batchers[role].queued if role in batchers else 0)  # type: ignore[misc]
-                for role, s in stats.items()
+                role: s.summary(batchers[role].queued if role in batchers else 0) for role, s in stats.items()
             },
         )
         return Response(record.model_dump_json(), media_type="application/json")

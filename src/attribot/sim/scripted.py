@@ -216,11 +216,11 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
         if not feasible:
             raise ManipulationError(f"no side of the {name} leaves room for the robot", "move the furniture")
         depth, _, n, along = min(feasible, key=lambda f: (f[0] > 0.5, f[0] + 0.5 * f[1]))
-        ext = along - reach0
+        ext = float(along - reach0)
     else:  # on the floor: come at it from the robot's side, or turned as little as needed to stand clear
         radius = float(np.max(np.abs(sim.object_bounds(key)[:, :2] - pos[:2])))
         along = max(reach0 + 0.1, g.base_half[0] + 0.06 + radius)
-        ext = along - reach0
+        ext = float(along - reach0)
         towards = math.atan2(by - pos[1], bx - pos[0])
         clearance = math.hypot(*g.base_half) + 0.03
         blocked = [f.footprint(clearance) for f in sim.plan.furniture]
@@ -244,9 +244,14 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
     ext = max(ext, 0.02)
     yaw = math.atan2(-n[1], -n[0])
     # the arm runs at lateral offset mast_y in the base frame: shift the base so the arm lines up
-    c, s = math.cos(yaw), math.sin(yaw)
+    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
     lx, ly = reach0 + ext, g.mast_xy[1]
-    return float(pos[0] - (c * lx - s * ly)), float(pos[1] - (s * lx + c * ly)), yaw, ext
+    return (
+        float(pos[0] - (cos_yaw * lx - sin_yaw * ly)),
+        float(pos[1] - (sin_yaw * lx + cos_yaw * ly)),
+        yaw,
+        ext,
+    )
 
 
 def in_reach(world: Any, object_id: str | int, tol: float = 0.03) -> float | None:

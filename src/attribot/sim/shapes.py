@@ -45,7 +45,7 @@ def quat_axis_angle(axis: tuple[float, float, float], angle: float) -> tuple[flo
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
     s = math.sin(angle / 2)
-    return (math.cos(angle / 2), *(float(v) * s for v in a))
+    return (math.cos(angle / 2), float(a[0]) * s, float(a[1]) * s, float(a[2]) * s)
 
 
 _ALONG_X = quat_axis_angle((0, 1, 0), math.pi / 2)  # a cylinder's axis (z) laid along x
