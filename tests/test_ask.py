@@ -306,3 +306,28 @@ def test_a_retry_starts_with_empty_hands_and_a_fresh_view(httpserver, tmp_path, 
     assert answer.attempts == 2
     mass = next(o["mass_kg"] for o in truth["objects"] if o["category"] == target)
     assert answer.value == pytest.approx(mass, rel=0.03)
+
+
+def test_image_mode_runs_through_a_real_detector_and_vqa(tmp_path):
+    """`--image` with transformers backends (tiny random OWLv2 and BLIP-2 saved to disk, loaded by path):
+    the whole flow runs; what random weights find is arbitrary, so the answer is an object or a structured
+    runtime error raised by the program, never a crash."""
+    pytest.importorskip("transformers", reason="needs the models extra")
+    from attribot.models.hf_random import save_random
+
+    owl, blip = tmp_path / "owl", tmp_path / "blip"
+    save_random("owlv2-tiny", owl)
+    save_random("blip2-tiny", blip)
+    with MujocoWorld(layout="triplet", seed=3, width=320, height=240) as world:
+        photo = tmp_path / "photo.png"
+        Image.fromarray(world.observe().rgb).save(photo)
+    settings = load_settings(detector=f"hf:{owl}", vqa=f"hf:{blip}")
+    for query in ("the leftmost item", "the heaviest item"):
+        answer = ask(query, Scene(image=photo), settings, save_dir=tmp_path / "run")
+        assert answer.backends["detector"].startswith("hf:") and answer.backends["vqa"].startswith("hf:")
+        assert answer.world == {"image": str(photo)}
+        assert answer.trace and answer.trace[0]["call"] in ("ImagePatch.find", "ImagePatch.visual_query")
+        if answer.error is not None:
+            assert answer.error.category == "runtime", answer.error
+        else:
+            assert answer.object is not None or answer.answer

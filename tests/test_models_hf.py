@@ -413,7 +413,8 @@ def test_gpu_benchmark_code_path_runs_with_tiny_models(capsys, tmp_path):
 
 
 def test_max_detections_is_the_best_prefix(models):
-    frame = _frame(64, 64, 20)
+    # a large frame, so that the random model's tiny boxes are at least a pixel (smaller ones are dropped)
+    frame = _frame(512, 512, 20)
     every = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=10_000).detect(
         frame, ["cat", "dog"]
     )
@@ -433,3 +434,11 @@ def test_nms_early_stop_keeps_the_same_first_boxes():
     assert nms(boxes, scores, 0.4, max_keep=7).tolist() == full[:7].tolist()
     keep_all = nms(boxes, scores, 1.0)
     assert sorted(keep_all.tolist()) == list(range(200))
+
+
+def test_boxes_under_a_pixel_are_not_detections(models):
+    # at 64 px the tiny random model proposes many slivers; none may come back as a detection
+    dets = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=10_000).detect(
+        _frame(64, 64, 20), ["cat", "dog"]
+    )
+    assert dets and all(d.box[2] - d.box[0] >= 1 and d.box[3] - d.box[1] >= 1 for d in dets)

@@ -297,6 +297,14 @@ def test_weight_without_a_force_sensor_asks_vqa_then_the_language_model():
     assert run(query, scene(*items)) is items[0]
 
 
+def test_a_language_model_that_cannot_tell_makes_the_program_fail_clearly():
+    items = [FakePatch("gizmo", (0, 0, 50, 50)), FakePatch("widget", (100, 0, 150, 50))]
+    image = scene(*items)
+    image.language_query = lambda question: "unknown"  # e.g. the catalog does not know these words
+    with pytest.raises(ValueError, match="could not tell which item is the heaviest"):
+        run("the heaviest item", image)
+
+
 def test_distance_is_measured_with_a_distance_sensor_and_estimated_without():
     laptop = FakePatch("laptop", (100, 300, 200, 360), metres=2.5)  # lower in the picture
     tv = FakePatch("tv", (400, 500, 600, 650), metres=1.2)

@@ -424,12 +424,13 @@ class HFDetector:
     def _finish(
         self, bx: np.ndarray, sc: np.ndarray, li: np.ndarray, labels: list[str], *, width: int, height: int
     ) -> list[Detection]:
-        """Clip to the image, drop boxes left empty, NMS per label, best first, at most `max_detections`."""
+        """Clip to the image, drop boxes left under a pixel wide or high, NMS per label, best first, at most `max_detections`."""
         if len(bx) == 0:
             return []
         bx = boxmath.clip(bx.astype(np.float64), width, height)
         sc = np.clip(sc.astype(np.float64), 0.0, 1.0)
-        solid = (bx[:, 2] > bx[:, 0]) & (bx[:, 3] > bx[:, 1])  # wholly outside the image before clipping
+        # at least a pixel each way: boxes wholly (or all but a sliver) outside the image before clipping
+        solid = (bx[:, 2] - bx[:, 0] >= 1.0) & (bx[:, 3] - bx[:, 1] >= 1.0)
         bx, sc, li = bx[solid], sc[solid], li[solid]
         # per-label NMS in one pass: shifting each label's boxes apart by more than the image keeps
         # labels from suppressing each other, and the pass can stop at `max_detections` (thousands of

@@ -970,6 +970,8 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line('name = answer.strip().strip(".").lower()')
         w.line('if name.startswith("the "):')
         w.line("    name = name[4:]")
+        w.line('if name == "" or name == "unknown":')
+        w.line(f'    raise ValueError("the language model could not tell which item is the {word} one")')
         w.line("matches = image.find(name)")
         w.line("if len(matches) > 0:")
         w.line("    return matches[0]")
