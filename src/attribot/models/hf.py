@@ -424,7 +424,8 @@ class HFDetector:
     def _finish(
         self, bx: np.ndarray, sc: np.ndarray, li: np.ndarray, labels: list[str], *, width: int, height: int
     ) -> list[Detection]:
-        """Clip to the image, drop boxes left under a pixel wide or high, NMS per label, best first, at most `max_detections`."""
+        """Clip to the image, drop boxes left under a pixel wide or high, NMS per label, best first, at
+        most `max_detections`."""
         if len(bx) == 0:
             return []
         bx = boxmath.clip(bx.astype(np.float64), width, height)
