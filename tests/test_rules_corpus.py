@@ -11,6 +11,8 @@ from collections import Counter
 
 import pytest
 
+from attribot.api.patch import ImagePatch
+from attribot.api.robot import Robot
 from attribot.eval.corpus import paper_queries
 from attribot.planning.rules import UnsupportedQuery, parse_query, rules_program
 
@@ -18,43 +20,8 @@ SENSOR_SETS = [(("camera",), False), (("camera", "distance", "force"), True)]
 
 # the public surface that programs may use: the API classes' own lists (the contract), plus the
 # methods of the plain values programs handle (lists and strings)
-try:
-    from attribot.api.patch import ImagePatch
-    from attribot.api.robot import Robot
-
-    API_METHODS = set(ImagePatch.API_METHODS) | set(Robot.API_METHODS)
-    API_ATTRIBUTES = set(ImagePatch.API_ATTRIBUTES) | set(Robot.API_ATTRIBUTES)
-except ImportError:  # the API is built alongside; the contract's names stand in
-    API_METHODS = {
-        "find",
-        "exists",
-        "visual_query",
-        "language_query",
-        "crop",
-        "overlaps",
-        "distance_to",
-        "focus_on_patch",
-        "measure_distance",
-        "measure_weight",
-        "go_to_coords",
-        "go_to_object",
-        "pick_up",
-        "put_down",
-        "put_on",
-        "push",
-    }
-    API_ATTRIBUTES = {
-        "left",
-        "lower",
-        "right",
-        "upper",
-        "width",
-        "height",
-        "horizontal_center",
-        "vertical_center",
-        "area",
-        "sensors",
-    }
+API_METHODS = set(ImagePatch.API_METHODS) | set(Robot.API_METHODS)
+API_ATTRIBUTES = set(ImagePatch.API_ATTRIBUTES) | set(Robot.API_ATTRIBUTES)
 VALUE_METHODS = {"append", "sort", "lower", "strip", "startswith", "replace", "split", "join"}
 SAFE_BUILTINS = {"len", "sorted", "min", "max", "str", "range", "abs", "ValueError", "math"}
 

@@ -35,6 +35,18 @@ from attribot.sim.scene import (
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
 
 _ATTEMPTS = 30
+# the robot's joints, each with an actuator of the same name
+_ROBOT_JOINTS = (
+    "base_x",
+    "base_y",
+    "base_yaw",
+    "head_pan",
+    "head_tilt",
+    "lift",
+    "arm",
+    "finger_l",
+    "finger_r",
+)
 MIN_VISIBLE_PIXELS = 20  # fewer visible pixels than this and an object counts as not in view
 GRAVITY = 9.81
 
@@ -198,35 +210,9 @@ class SimWorld:
         m = self.model
         J = mujoco.mjtObj.mjOBJ_JOINT
         A = mujoco.mjtObj.mjOBJ_ACTUATOR
-        self._qadr = {
-            n: int(m.jnt_qposadr[_name2id(m, J, n)])
-            for n in (
-                "base_x",
-                "base_y",
-                "base_yaw",
-                "head_pan",
-                "head_tilt",
-                "lift",
-                "arm",
-                "finger_l",
-                "finger_r",
-            )
-        }
+        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in _ROBOT_JOINTS}
         self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
-        self._act = {
-            n: _name2id(m, A, n)
-            for n in (
-                "base_x",
-                "base_y",
-                "base_yaw",
-                "head_pan",
-                "head_tilt",
-                "lift",
-                "arm",
-                "finger_l",
-                "finger_r",
-            )
-        }
+        self._act = {n: _name2id(m, A, n) for n in _ROBOT_JOINTS}
         self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "head_camera")
         self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
         self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
