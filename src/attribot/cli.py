@@ -67,6 +67,11 @@ _S_HEIGHT = typer.Option(480, "--height", help="Image height in pixels.")
 _S_PROFILE = typer.Option("fast", "--profile", help="Render profile: fast (no shadows) or pretty.")
 
 
+def _check_seed(seed: int) -> None:
+    if not 0 <= seed <= 4294967295:
+        raise fail(f"--seed must be a whole number from 0 to 4294967295, got {seed}", "use e.g. --seed 7")
+
+
 def _scene_world(
     layout: str,
     seed: int,
@@ -79,8 +84,7 @@ def _scene_world(
 ) -> Any:
     from attribot.embodiments.mujoco import MujocoWorld
 
-    if seed < 0:
-        raise fail(f"--seed must be a whole number from 0 to 4294967295, got {seed}", "use e.g. --seed 7")
+    _check_seed(seed)
     options: dict[str, Any] = {}
     for item in option or []:
         key, sep, raw = item.partition("=")
@@ -168,8 +172,6 @@ def scene_info(
 
 # ---- ask / exec (planner, runner, API) ---------------------------------------------------------------
 
-_LAYOUT = typer.Option("household", "--layout", help="Simulated scene layout (see `attribot scene`).")
-_SEED = typer.Option(0, "--seed", help="Scene seed: the same seed gives the same scene and answer.")
 _IMAGE = typer.Option(None, "--image", help="Answer about this image file instead of a simulated scene.")
 _SENSORS = typer.Option(
     None,
@@ -188,8 +190,7 @@ _LANGUAGE = typer.Option(
 def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
     from attribot.planning.ask import Scene
 
-    if seed < 0:
-        raise fail(f"--seed must be a non-negative integer, got {seed}", "use e.g. --seed 7")
+    _check_seed(seed)
     names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
     return Scene(layout=None if image else layout, seed=seed, image=image, sensors=names)
 
@@ -221,8 +222,8 @@ def _show(answer: Any, as_json: bool) -> None:
 @app.command()
 def ask(
     query: str = typer.Argument(..., help='The question, e.g. "Which object is the heaviest?"'),
-    layout: str = _LAYOUT,
-    seed: int = _SEED,
+    layout: str = _S_LAYOUT,
+    seed: int = _S_SEED,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
@@ -253,8 +254,8 @@ def ask(
 @app.command("exec")
 def exec_program(
     program: Path = typer.Argument(..., help="A .py file defining execute_command(image, robot)."),
-    layout: str = _LAYOUT,
-    seed: int = _SEED,
+    layout: str = _S_LAYOUT,
+    seed: int = _S_SEED,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
