@@ -44,6 +44,32 @@ def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]
     )
 
 
+def serve_chat_replies(httpserver, contents: list[str]) -> list[dict]:
+    """A loopback OpenAI-compatible endpoint answering `contents` in turn (the last one repeats);
+    returns the list that collects the request bodies."""
+    from werkzeug import Response
+
+    requests: list[dict] = []
+
+    def handler(request):
+        body = json.loads(request.data)
+        requests.append(body)
+        content = contents[min(len(requests), len(contents)) - 1]
+        reply = {
+            "id": "x",
+            "object": "chat.completion",
+            "created": 0,
+            "model": body["model"],
+            "choices": [
+                {"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}
+            ],
+        }
+        return Response(json.dumps(reply), content_type="application/json")
+
+    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
+    return requests
+
+
 def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
     objs = by_category(truth)
     names = sorted(objs)[:2]
@@ -193,35 +219,7 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
         "```python\ndef execute_command(image, robot):\n"
         f"    patches = image.find('{target}')\n    return patches[0]\n```"
     )
-    replies = iter(["I think it is the one on the left.", program])
-
-    def handler(request):
-        from werkzeug import Response
-
-        body = json.loads(request.data)
-        handler.requests.append(body)
-        content = next(replies)
-        return Response(
-            json.dumps(
-                {
-                    "id": "x",
-                    "object": "chat.completion",
-                    "created": 0,
-                    "model": body["model"],
-                    "choices": [
-                        {
-                            "index": 0,
-                            "finish_reason": "stop",
-                            "message": {"role": "assistant", "content": content},
-                        }
-                    ],
-                }
-            ),
-            content_type="application/json",
-        )
-
-    handler.requests = []
-    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
+    requests = serve_chat_replies(httpserver, ["I think it is the one on the left.", program])
     settings = load_settings(
         planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "cache"
     )
@@ -229,25 +227,12 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
     assert answer.error is None, answer.error
     assert answer.planner == "llm" and answer.attempts == 2
     assert answer.object.category == target
-    assert len(handler.requests) == 2
-    assert "no code" in json.dumps(handler.requests[1]["messages"][-1]).lower()
+    assert len(requests) == 2
+    assert "no code" in json.dumps(requests[1]["messages"][-1]).lower()
 
 
 def test_llm_that_never_writes_code_gives_a_structured_no_code_answer(httpserver, tmp_path):
-    reply = {
-        "id": "x",
-        "object": "chat.completion",
-        "created": 0,
-        "model": "fake",
-        "choices": [
-            {
-                "index": 0,
-                "finish_reason": "stop",
-                "message": {"role": "assistant", "content": "Sorry, I cannot help with that."},
-            }
-        ],
-    }
-    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_json(reply)
+    serve_chat_replies(httpserver, ["Sorry, I cannot help with that."])
     settings = load_settings(
         planner="llm",
         llm_base_url=httpserver.url_for("/v1"),
@@ -273,37 +258,13 @@ def test_a_retry_starts_with_empty_hands_and_a_fresh_view(httpserver, tmp_path, 
         f"    p = image.find('{target}')[0]\n    robot.go_to_object(p)\n    robot.pick_up(p)\n"
         "    w = robot.measure_weight(p)\n    robot.put_down()\n    return w\n```"
     )
-    replies = iter([first, second])
-
-    def handler(request):
-        from werkzeug import Response
-
-        return Response(
-            json.dumps(
-                {
-                    "id": "x",
-                    "object": "chat.completion",
-                    "created": 0,
-                    "model": "fake",
-                    "choices": [
-                        {
-                            "index": 0,
-                            "finish_reason": "stop",
-                            "message": {"role": "assistant", "content": next(replies)},
-                        }
-                    ],
-                }
-            ),
-            content_type="application/json",
-        )
-
-    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
+    requests = serve_chat_replies(httpserver, [first, second])
     settings = load_settings(
         planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "c"
     )
     answer = ask(f"How heavy is the {target}?", Scene(LAYOUT, SEED), settings)
     assert answer.error is None, answer.error
-    assert answer.attempts == 2
+    assert answer.attempts == 2 and len(requests) == 2
     mass = next(o["mass_kg"] for o in truth["objects"] if o["category"] == target)
     assert answer.value == pytest.approx(mass, rel=0.03)
 

@@ -119,7 +119,7 @@ class _Session:
         if self.runs and self.world is not None:
             # a failed try may have moved the robot or left an object in its gripper: the next one starts
             # with empty hands from what the camera sees now
-            if getattr(self.robot, "held", None) is not None:
+            if self.robot.held is not None:
                 self.robot.put_down()
             self.image = self.robot.look(self.perception)
         self.runs += 1
@@ -149,7 +149,7 @@ class _Session:
             result=result,
             attempts=attempts,
             backends=self.backends(),
-            measurements=list(getattr(self.robot, "measurements", [])),
+            measurements=list(self.robot.measurements),
             world=self.scene.describe(),
             frame=self.image.frame,
         )
@@ -208,13 +208,14 @@ def build_answer(
     if chosen is not None:
         category = _category(chosen, frame)
         obj = AnswerObject(id=chosen.object_id, category=category, box=tuple(round(v, 1) for v in chosen.box))
-        value, unit = _measured(chosen, measurements)
+        measured = _last_measurement(chosen, measurements)
         where = ", ".join(f"{v:.0f}" for v in obj.box)
         name = category or "object"
         text = f"the {name}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
-        if value is not None:
-            text += f", measured {_format_value(value, unit, measurements, chosen)}"
-        return Answer(answer=text, object=obj, value=value, unit=unit, **common)
+        if measured is None:
+            return Answer(answer=text, object=obj, **common)
+        text += f", measured {_format_measurement(measured)}"
+        return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
     value = result.value
     number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
     if value is None:
@@ -248,26 +249,17 @@ def _category(patch: Any, frame: Any) -> str | None:
     return patch.label or None
 
 
-def _measured(patch: Any, measurements: Sequence[Any]) -> tuple[float | None, str | None]:
-    """The last measurement the program took of the chosen object, if any."""
-    for m in reversed(measurements):
-        if patch.object_id is not None and m.object_id == patch.object_id:
-            return float(m.value), m.unit
-    return None, None
+def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
+    """The last measurement the program took of the chosen object, or None."""
+    if patch.object_id is None:
+        return None
+    return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
 
 
-def _format_value(value: float, unit: str | None, measurements: Sequence[Any], patch: Any) -> str:
-    if unit == "kg":
-        newtons = next(
-            (
-                m.newtons
-                for m in reversed(measurements)
-                if m.object_id == patch.object_id and m.newtons is not None
-            ),
-            None,
-        )
-        return f"{value:.3f} kg" + (f" ({newtons:.2f} N)" if newtons is not None else "")
-    return f"{value:.3f} {unit or ''}".strip()
+def _format_measurement(m: Any) -> str:
+    if m.unit == "kg" and m.newtons is not None:
+        return f"{m.value:.3f} kg ({m.newtons:.2f} N)"
+    return f"{m.value:.3f} {m.unit}"
 
 
 def save_answer(
