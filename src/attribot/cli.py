@@ -395,13 +395,18 @@ def serve_models(
     ),
     max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
     log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
+    model_process: bool = typer.Option(
+        True,
+        "--model-process/--in-process",
+        help="Run the detector and the VQA each in a process of its own, so that the server's HTTP work "
+        "does not hold up the model (the default), or in the server's process.",
+    ),
 ) -> None:
     """Serve the configured detector, VQA and language backends over HTTP with dynamic batching."""
     from pydantic import ValidationError
 
     from attribot.config import load_settings
-    from attribot.models.base import build_backend
-    from attribot.server import ServerConfig, check_bind, served_specs
+    from attribot.server import ServerConfig, build_served_backends, check_bind, served_specs
     from attribot.server import serve_models as run_server
 
     if not 0 < port < 65536:
@@ -421,15 +426,18 @@ def serve_models(
         raise fail(f"{option}: {first.get('msg')}", "see `attribot serve models --help`") from None
     try:
         check_bind(host, config.token)
-        specs, notes = served_specs(settings, {"detector": detector, "vqa": vqa, "language": language})
+        given = {"detector": detector, "vqa": vqa, "language": language}
+        _, notes = served_specs(settings, given)
         for note in notes:
             err_console.print(f"[yellow]note:[/] {note}", highlight=False)
-        backends = {r: None if s is None else build_backend(r, s, settings) for r, s in specs.items()}
+        backends = build_served_backends(settings, given, model_process=model_process)
     except AttribotError as exc:
         raise fail(exc.message, exc.fix) from None
     for role, backend in backends.items():
+        pid = getattr(backend, "pid", None)
+        where = f" (model process {pid})" if pid is not None else ""
         err_console.print(
-            f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}", highlight=False
+            f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}{where}", highlight=False
         )
     err_console.print(
         f"listening on http://{host}:{port} (token {'required' if config.token else 'not required'}); "

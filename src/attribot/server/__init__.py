@@ -6,7 +6,15 @@ FastAPI and uvicorn are imported only when an app is created or run (extra `attr
 
 from attribot.server.app import ServerConfig, create_app
 from attribot.server.batching import Batcher, Served
-from attribot.server.run import ServerThread, build_served_backends, check_bind, serve_models, served_specs
+from attribot.server.model_process import ProcessDetector, ProcessVisualQA, start_model_process
+from attribot.server.run import (
+    ServerThread,
+    build_served_backends,
+    check_bind,
+    close_backends,
+    serve_models,
+    served_specs,
+)
 
 __all__ = [
     "ServerConfig",
@@ -15,6 +23,10 @@ __all__ = [
     "Served",
     "ServerThread",
     "build_served_backends",
+    "close_backends",
+    "start_model_process",
+    "ProcessDetector",
+    "ProcessVisualQA",
     "served_specs",
     "check_bind",
     "serve_models",

@@ -11,11 +11,20 @@ from attribot.deps import require
 from attribot.errors import ConfigError
 from attribot.models.base import build_backend, parse_spec
 from attribot.server.app import ServerConfig, create_app
+from attribot.server.model_process import backend_factory, start_model_process
 
 if TYPE_CHECKING:
     from attribot.config import Settings
 
-__all__ = ["ServerThread", "served_specs", "build_served_backends", "check_bind", "serve_models", "NONE"]
+__all__ = [
+    "ServerThread",
+    "served_specs",
+    "build_served_backends",
+    "close_backends",
+    "check_bind",
+    "serve_models",
+    "NONE",
+]
 
 NONE = "none"
 """The spec that leaves a role unserved."""
@@ -65,12 +74,37 @@ def served_specs(settings: Settings, specs: dict[str, str | None]) -> tuple[dict
     return out, notes
 
 
-def build_served_backends(settings: Settings, specs: dict[str, str | None]) -> dict[str, Any]:
-    """role -> backend built from the spec (None: not served); see `served_specs` for which."""
+def build_served_backends(
+    settings: Settings, specs: dict[str, str | None], *, model_process: bool = True
+) -> dict[str, Any]:
+    """role -> backend built from the spec (None: not served); see `served_specs` for which.
+
+    With `model_process` (the default), the detector and the VQA each run in a child process of their own
+    (`attribot.server.model_process`: the HTTP work no longer slows the model down); the language role, a
+    passthrough to a chat endpoint, stays in the server's process.
+    """
     chosen, _ = served_specs(settings, specs)
-    return {
-        role: None if spec is None else build_backend(role, spec, settings) for role, spec in chosen.items()
-    }
+    out: dict[str, Any] = {}
+    try:
+        for role, spec in chosen.items():
+            if spec is None:
+                out[role] = None
+            elif model_process and role in ("detector", "vqa"):
+                out[role] = start_model_process(role, backend_factory(role, spec, settings))
+            else:
+                out[role] = build_backend(role, spec, settings)
+    except BaseException:
+        close_backends(out)  # the model processes started before the failure
+        raise
+    return out
+
+
+def close_backends(backends: dict[str, Any]) -> None:
+    """Close the backends that hold resources (model processes, HTTP clients)."""
+    for backend in backends.values():
+        close = getattr(backend, "close", None)
+        if callable(close):
+            close()
 
 
 def check_bind(host: str, token: str | None) -> None:
@@ -104,11 +138,14 @@ def serve_models(
     port: int = 8500,
     log_level: str = "info",
 ) -> None:
-    """Serve `backends` until interrupted (Ctrl-C)."""
+    """Serve `backends` until interrupted (Ctrl-C), then close them."""
     check_bind(host, config.token)
     uvicorn = require("uvicorn", "the model server")
     app = create_app(config=config, **backends)
-    uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
+    try:
+        uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
+    finally:
+        close_backends(backends)
 
 
 class ServerThread:

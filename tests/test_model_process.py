@@ -1,0 +1,214 @@
+"""Backends in a child process of the server: same answers as in-process, errors that keep their kind,
+a child that dies is replaced, shared memory is freed, and the server serves through it without mix-ups.
+
+The stand-in backends compute their answers from the image (the box of its bright pixels, its mean
+colour), so a frame read from the wrong place in shared memory, or an answer given to the wrong request,
+is caught. They are built in the child from a factory, as the server does with a backend spec.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from attribot.config import Settings
+from attribot.errors import BackendError, ConfigError, InputError
+from attribot.frame import Frame
+from attribot.models.base import Detection
+from attribot.server import (
+    ProcessDetector,
+    ProcessVisualQA,
+    ServerConfig,
+    ServerThread,
+    build_served_backends,
+    create_app,
+    start_model_process,
+)
+from attribot.server.model_process import backend_factory
+
+
+def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
+    ys, xs = np.nonzero(rgb.max(axis=2) > 40)
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
+
+
+class BrightBoxDetector:
+    """Box of the bright pixels, labelled with the first query and the child's process id. The first
+    query can ask for trouble: "bad-input" raises an InputError, "crash" a RuntimeError, "exit" ends the
+    process, as a CUDA fault or the out-of-memory killer would."""
+
+    name = "test:bright-box"
+
+    def detect(self, frame: Frame, queries):
+        return self.detect_batch([frame], [queries])[0]
+
+    def detect_batch(self, frames, queries):
+        out = []
+        for f, q in zip(frames, queries, strict=True):
+            if q[0] == "bad-input":
+                raise InputError("this image is not acceptable", "send another one")
+            if q[0] == "crash":
+                raise RuntimeError("the model crashed on purpose")
+            if q[0] == "exit":
+                os._exit(3)
+            out.append([Detection(box=bright_box(f.rgb), score=0.9, label=f"{q[0]}@{os.getpid()}")])
+        return out
+
+
+class MeanColourVQA:
+    name = "test:mean-colour"
+
+    def answer(self, frame: Frame, question: str) -> str:
+        return f"{question}:{int(frame.rgb.mean())}"
+
+
+def failing_factory() -> None:
+    raise ConfigError("no model at /nowhere", "give a folder that holds a model")
+
+
+def frame_with_box(h: int, w: int, box: tuple[int, int, int, int]) -> Frame:
+    rgb = np.zeros((h, w, 3), np.uint8)
+    x0, y0, x1, y1 = box
+    rgb[y0:y1, x0:x1] = 200
+    return Frame(rgb=rgb)
+
+
+@pytest.fixture(scope="module")
+def detector():
+    proc = start_model_process("detector", BrightBoxDetector)
+    yield proc
+    proc.close()
+
+
+def test_a_batch_of_mixed_sizes_is_read_back_frame_by_frame(detector):
+    boxes = [(3, 4, 20, 30), (50, 10, 90, 70), (0, 0, 5, 5), (100, 200, 300, 230)]
+    sizes = [(40, 60), (120, 160), (8, 8), (240, 320)]
+    frames = [frame_with_box(h, w, b) for (h, w), b in zip(sizes, boxes, strict=True)]
+    out = detector.detect_batch(frames, [[f"q{i}"] for i in range(4)])
+    assert [d[0].box for d in out] == [tuple(map(float, b)) for b in boxes]
+    assert [d[0].label for d in out] == [f"q{i}@{detector.pid}" for i in range(4)]
+    assert detector.pid != os.getpid() and detector.name == "test:bright-box"
+
+
+def test_a_larger_batch_gets_a_larger_block(detector):
+    small = detector.detect_batch([frame_with_box(16, 16, (1, 1, 4, 4))], [["a"]])
+    big_frames = [frame_with_box(480, 640, (i, i, 100 + i, 50 + i)) for i in range(8)]
+    big = detector.detect_batch(big_frames, [["b"]] * 8)
+    assert small[0][0].box == (1.0, 1.0, 4.0, 4.0)
+    assert [d[0].box for d in big] == [(float(i), float(i), 100.0 + i, 50.0 + i) for i in range(8)]
+
+
+def test_errors_keep_their_kind_and_the_child_keeps_serving(detector):
+    pid = detector.pid
+    with pytest.raises(InputError, match="not acceptable") as info:
+        detector.detect(frame_with_box(10, 10, (0, 0, 5, 5)), ["bad-input"])
+    assert info.value.fix == "send another one"
+    with pytest.raises(BackendError, match="RuntimeError: the model crashed on purpose"):
+        detector.detect(frame_with_box(10, 10, (0, 0, 5, 5)), ["crash"])
+    assert detector.detect(frame_with_box(10, 10, (2, 2, 5, 5)), ["ok"])[0].box == (2.0, 2.0, 5.0, 5.0)
+    assert detector.pid == pid and detector.restarts == 0
+
+
+def test_a_child_that_dies_fails_its_batch_and_is_started_again():
+    proc = start_model_process("detector", BrightBoxDetector)
+    try:
+        first = proc.pid
+        with pytest.raises(BackendError, match=r"exited \(code 3\) while serving a batch of 1") as info:
+            proc.detect(frame_with_box(10, 10, (0, 0, 5, 5)), ["exit"])
+        assert "started again" in (info.value.fix or "")
+        assert proc.pid is None
+        dets = proc.detect(frame_with_box(10, 10, (1, 2, 3, 4)), ["again"])
+        assert dets[0].box == (1.0, 2.0, 3.0, 4.0)
+        assert proc.pid not in (None, first) and proc.restarts == 1
+    finally:
+        proc.close()
+
+
+def test_close_ends_the_child_and_frees_the_shared_memory():
+    proc = start_model_process("vqa", MeanColourVQA)
+    assert isinstance(proc, ProcessVisualQA)
+    rgb = np.full((20, 30, 3), 77, np.uint8)
+    assert proc.answer_batch([Frame(rgb=rgb), Frame(rgb=rgb // 7)], ["x", "y"]) == ["x:77", "y:11"]
+    child, block = proc._process, proc._block
+    assert block is not None and Path("/dev/shm", block.name).exists()
+    proc.close()
+    assert not child.is_alive() and not Path("/dev/shm", block.name).exists()
+    with pytest.raises(BackendError, match="was closed"):
+        proc.answer(Frame(rgb=rgb), "x")
+
+
+def test_a_backend_that_cannot_load_raises_its_own_error_in_the_parent():
+    started = time.monotonic()
+    with pytest.raises(ConfigError, match="no model at /nowhere") as info:
+        start_model_process("detector", failing_factory)
+    assert info.value.fix == "give a folder that holds a model"
+    assert time.monotonic() - started < 60
+
+
+def test_only_image_roles_run_in_a_model_process():
+    with pytest.raises(ConfigError, match="only the detector and VQA"):
+        start_model_process("language", MeanColourVQA)
+    with pytest.raises(TypeError):
+        from attribot.server.model_process import ModelProcess
+
+        ModelProcess(MeanColourVQA)
+
+
+def test_the_server_serves_through_the_child_without_mixing_answers(detector):
+    from attribot.models.remote import RemoteClient, RemoteDetector
+
+    boxes = [(i, 2 * i, 40 + i, 30 + 2 * i) for i in range(24)]
+    app = create_app(detector=detector, config=ServerConfig(max_batch=8, batch_window_ms=5))
+    with ServerThread(app) as srv, RemoteClient(srv.url, max_connections=32) as client:
+        remote = RemoteDetector(client)
+
+        def ask(i: int):
+            return remote.detect(frame_with_box(120, 160, boxes[i]), [f"r{i}"])
+
+        with ThreadPoolExecutor(12) as pool:
+            answers = list(pool.map(ask, range(24)))
+        # JPEG blurs the edges by a pixel or so; the box must be this request's, not a neighbour's
+        for i, dets in enumerate(answers):
+            assert dets[0].label == f"r{i}@{detector.pid}"
+            assert np.allclose(dets[0].box, boxes[i], atol=2)
+        assert max(client.metrics().roles["detector"].batch_sizes) > 1
+
+
+def test_build_served_backends_puts_the_hf_detector_in_a_child_and_matches_in_process(tmp_path):
+    pytest.importorskip("torch")
+    pytest.importorskip("transformers")
+    from attribot.models.hf import HFDetector
+    from attribot.models.hf_random import save_random
+
+    folder = save_random("owlv2-tiny", tmp_path / "owl")
+    settings = Settings(detector=f"hf:{folder}", detector_threshold=0.0)
+    backends = build_served_backends(settings, {"detector": None, "vqa": "none", "language": "none"})
+    try:
+        assert isinstance(backends["detector"], ProcessDetector) and backends["vqa"] is None
+        rng = np.random.default_rng(0)
+        frames = [Frame(rgb=rng.integers(0, 256, (h, w, 3), dtype=np.uint8)) for h, w in ((48, 64), (64, 40))]
+        queries = [["a cup", "a book"], ["an apple"]]
+        remote = backends["detector"].detect_batch(frames, queries)
+        local = HFDetector(str(folder), threshold=0.0).detect_batch(frames, queries)
+        assert sum(map(len, remote)) > 0 and [len(d) for d in remote] == [len(d) for d in local]
+        for a, b in zip(remote, local, strict=True):
+            assert [d.label for d in a] == [d.label for d in b]
+            assert np.allclose([d.box for d in a], [d.box for d in b], atol=1e-3)
+    finally:
+        for backend in backends.values():
+            if backend is not None:
+                backend.close()
+
+
+def test_factory_of_a_spec_is_picklable():
+    import pickle
+
+    factory = backend_factory("detector", "hf:/models/owl", Settings())
+    again = pickle.loads(pickle.dumps(factory))
+    assert isinstance(again, functools.partial) and again.args[:2] == ("detector", "hf:/models/owl")
