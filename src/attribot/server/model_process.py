@@ -1,14 +1,15 @@
 """A detector or VQA backend run in a child process of the server.
 
 Why: in one process, the server's HTTP work (parsing, base64, JPEG decoding, JSON) and an eager PyTorch
-model share one GIL. Every op of a GPU forward releases the GIL and must take it back, and it waits
-behind whatever the event loop is doing at that moment; under load the model's batch-32 throughput falls
-well below what it reaches alone (measured on an H100: 130 requests/s through the server against 200
-images/s for the backend by itself). In its own process, the model's Python has a GIL of its own.
+model share one GIL: every op of a GPU forward releases the GIL and must take it back, waiting behind
+whatever the event loop is doing at that moment. In a process of its own, the model's Python has a GIL
+of its own, and a model that brings its process down (a CUDA fault, the out-of-memory killer) no longer
+takes the server with it.
 
-The images of a batch cross through one shared-memory block (the parent writes each frame once, the child
-reads them in place), not through the pipe: pickling a batch of 32 frames of 640x480 through a pipe costs
-about 45 ms here, the copy into shared memory about 3 ms. Queries, answers and errors cross the pipe.
+Only the RGB image of a frame crosses, as over HTTP. The images of a batch cross through one shared-memory
+block (the parent writes each frame once, the child reads them in place), not through the pipe: pickling
+a batch of 32 frames of 640x480 through a pipe costs about 45 ms here, the copy into shared memory about
+3 ms. Queries, answers and errors cross the pipe.
 
 The child builds the backend itself from a picklable factory (`functools.partial(build_backend, role,
 spec, settings)`), so a CUDA model is created where it runs. It exits when the parent closes the pipe,
@@ -23,6 +24,7 @@ import functools
 import logging
 import multiprocessing
 import multiprocessing.connection
+import signal
 import threading
 import traceback
 import weakref
@@ -78,6 +80,9 @@ def _rebuild(kind: str, message: str, fix: str | None) -> AttribotError:
 
 def _child_main(conn: multiprocessing.connection.Connection, role: str, factory: Callable[[], Any]) -> None:
     """Build the backend, then serve batches until told to stop or the parent goes away."""
+    # Ctrl-C in a terminal reaches the whole process group: the parent alone stops the server, and then
+    # this process, in order (a KeyboardInterrupt here would only print a second traceback)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         backend = factory()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
