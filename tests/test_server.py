@@ -225,21 +225,48 @@ def _png_bytes(rgb: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
+def _jpeg_bytes(rgb: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, "JPEG", quality=90)
+    return buf.getvalue()
+
+
 @pytest.mark.parametrize(
     ("image", "expected"),
     [
         (base64.b64encode(b"\x00\x01 this is not an image" * 10).decode(), "not a PNG or JPEG file"),
         (base64.b64encode(_png_bytes(NOISE)[:2000]).decode(), "truncated or corrupt"),
+        (base64.b64encode(_jpeg_bytes(NOISE)[:1500]).decode(), "truncated or corrupt"),
+        (base64.b64encode(_jpeg_bytes(NOISE)[:-2]).decode(), "truncated or corrupt"),
         ("not base64 at all!!", "not valid base64"),
         (base64.b64encode(b"GIF89a" + b"\x00" * 64).decode(), "not a PNG or JPEG"),
     ],
-    ids=["garbage", "truncated-png", "bad-base64", "gif-header"],
+    ids=["garbage", "truncated-png", "truncated-jpeg", "jpeg-without-end", "bad-base64", "gif-header"],
 )
 def test_corrupt_image_is_400_with_clear_message(server, image, expected):
     r = post(server, "/v1/detect", json={"image": image, "queries": ["cup"]})
     assert r.status_code == 400
     err = error_of(r)
     assert err.category == "input" and expected in err.message and "PNG or JPEG" in err.fix
+
+
+@pytest.mark.parametrize("mode", ["L", "RGBA", "P"])
+def test_png_of_other_modes_decodes_to_the_same_rgb_as_pil(mode):
+    buf = io.BytesIO()
+    Image.fromarray(NOISE).convert(mode).save(buf, "PNG")
+    expected = np.asarray(Image.open(io.BytesIO(buf.getvalue())).convert("RGB"))
+    got = decode_image(base64.b64encode(buf.getvalue()).decode())
+    assert got.shape == (40, 40, 3) and got.dtype == np.uint8 and np.array_equal(got, expected)
+
+
+def test_round_trips_png_exactly_and_jpeg_closely():
+    png = decode_image(encode_image(NOISE, "png"))
+    smooth = np.repeat(np.repeat(NOISE[:8, :8], 5, axis=0), 5, axis=1)
+    jpeg = decode_image(encode_image(smooth, "jpeg", quality=90))
+    pil = np.asarray(Image.open(io.BytesIO(_jpeg_bytes(smooth))).convert("RGB"))
+    assert np.array_equal(png, NOISE)
+    # as faithful as PIL's own JPEG at the same quality (both are libjpeg-turbo)
+    assert np.abs(jpeg.astype(int) - smooth).mean() <= np.abs(pil.astype(int) - smooth).mean() + 1.0
 
 
 def test_gif_is_refused_by_format():

@@ -8,7 +8,7 @@ record per request validates everything at once (queries, question, image) with 
 it needs no extra package on either side (FastAPI's multipart parsing needs `python-multipart`), and the
 base64 cost (a third more bytes, well under a millisecond to decode for a 640x480 frame) is small against
 encoding the image at all. Only the RGB pixels cross: depth, segmentation and ground truth stay home.
-JPEG (quality 90) is the client's default: a 640x480 frame encodes in about a millisecond to ~40 kB,
+JPEG (quality 90) is the client's default: a 640x480 frame encodes in half a millisecond to ~40 kB,
 where PNG takes ~25 ms and ~500 kB, which matters over an SSH tunnel; PNG is there for bit-exact pixels.
 """
 
@@ -166,18 +166,20 @@ class ImageTooLarge(InputError):
 
 def encode_image(rgb: np.ndarray, fmt: str = "jpeg", quality: int = 90) -> str:
     """uint8 (H, W, 3) RGB -> base64 text of a JPEG or PNG file (PNG is lossless, JPEG ~20x smaller)."""
-    from PIL import Image
+    import cv2
 
     check_rgb(rgb)
     if fmt not in IMAGE_FORMATS:
         raise InputError(f"unknown image format {fmt!r}", f"choose one of: {', '.join(IMAGE_FORMATS)}")
-    buf = io.BytesIO()
+    bgr = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
     if fmt == "png":
         # level 1: most of the size gain at a fraction of the default level's time
-        Image.fromarray(rgb).save(buf, "PNG", compress_level=1)
+        ok, buf = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, 1])
     else:
-        Image.fromarray(rgb).save(buf, "JPEG", quality=quality)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+        ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise InputError(f"the image could not be encoded as {fmt}", "pass a uint8 (H, W, 3) RGB array")
+    return base64.b64encode(buf.tobytes()).decode("ascii")
 
 
 def decode_image(data: str, *, max_bytes: int | None = None, max_pixels: int | None = None) -> np.ndarray:
@@ -186,7 +188,10 @@ def decode_image(data: str, *, max_bytes: int | None = None, max_pixels: int | N
     Not base64, not an image, another format, truncated or corrupt: `InputError` saying which.
     Over `max_bytes` (file size) or `max_pixels` (width x height, checked before decoding, so a small
     file that inflates to a huge image is refused cheaply): `ImageTooLarge`.
+    PIL reads the header (format, size); OpenCV decodes the pixels, a third faster than PIL for a
+    640x480 JPEG and with the GIL released, so that the server decodes several requests at once.
     """
+    import cv2
     from PIL import Image, UnidentifiedImageError
 
     fix = "send the bytes of a PNG or JPEG file, base64-encoded (attribot.models.wire.encode_image)"
@@ -201,28 +206,29 @@ def decode_image(data: str, *, max_bytes: int | None = None, max_pixels: int | N
     except (binascii.Error, ValueError) as exc:
         raise InputError(f"the image is not valid base64 ({exc})", fix) from exc
     try:
-        im = Image.open(io.BytesIO(raw))
+        with Image.open(io.BytesIO(raw)) as im:  # the header only: no pixels are decoded here
+            fmt, (w, h) = im.format, im.size
     except UnidentifiedImageError as exc:
         raise InputError(f"the image bytes ({len(raw)} bytes) are not a PNG or JPEG file", fix) from exc
     except Image.DecompressionBombError as exc:
         raise ImageTooLarge(
             f"the image is too many pixels to decode ({exc})", "send a smaller image"
         ) from exc
-    with im:
-        if im.format not in ("PNG", "JPEG"):
-            raise InputError(f"the image is a {im.format} file; the server reads PNG and JPEG only", fix)
-        w, h = im.size
-        if max_pixels is not None and w * h > max_pixels:
-            raise ImageTooLarge(
-                f"the image is {w}x{h} = {w * h / 1e6:.1f} megapixels, over the server's limit of "
-                f"{max_pixels / 1e6:.1f}",
-                "send a smaller image",
-            )
-        try:
-            im.load()
-            rgb = np.asarray(im.convert("RGB"), dtype=np.uint8)
-        except (OSError, ValueError, SyntaxError) as exc:  # PIL reports truncated data as OSError
-            raise InputError(f"the {im.format} image is truncated or corrupt ({exc})", fix) from exc
+    if fmt not in ("PNG", "JPEG"):
+        raise InputError(f"the image is a {fmt} file; the server reads PNG and JPEG only", fix)
+    if max_pixels is not None and w * h > max_pixels:
+        raise ImageTooLarge(
+            f"the image is {w}x{h} = {w * h / 1e6:.1f} megapixels, over the server's limit of "
+            f"{max_pixels / 1e6:.1f}",
+            "send a smaller image",
+        )
+    corrupt = InputError(f"the {fmt} image ({w}x{h}, {len(raw)} bytes) is truncated or corrupt", fix)
+    # a JPEG cut short has no end-of-image marker; the decoder would fill the missing rows with grey
+    if fmt == "JPEG" and b"\xff\xd9" not in raw[-4096:]:
+        raise corrupt
+    rgb = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_COLOR_RGB)
+    if rgb is None or rgb.shape[:2] != (h, w):
+        raise corrupt
     if rgb.size == 0:
         raise InputError("the image has no pixels", fix)
     return np.ascontiguousarray(rgb)
