@@ -13,7 +13,8 @@ Three modes:
       - `forward`: the model alone on tensors of the processor's shapes (5 labels; BLIP-2: one prefill
         pass over 32 query tokens + a 10-token prompt), the figure the anchors below were measured on;
       - `backend`: `detect_batch` / `answer_batch` end to end on 640x480 frames (pre-processing on the
-        CPU unless torchvision is installed, post-processing, NMS; BLIP-2 generates 5 tokens).
+        CPU unless torchvision is installed, post-processing, NMS; BLIP-2 generates 5 tokens), with
+        where its time goes: before the model runs, in the model, after (a separate, synchronised pass).
       Prints ms per batch, ms per image, images per second, the per-image cost against the H100
       anchor (fp16, batch 1) and against our own batch 1, and whether batch 32 meets the target
       (per-image cost at most a third of the anchor).
@@ -92,6 +93,62 @@ class Timer:
             self._sync()
             times.append(time.perf_counter() - t0)
         return statistics.median(times)
+
+
+class PhaseSplit:
+    """Where one backend call's time goes: before the model first runs (tokenising, image pre-processing,
+    copies to the GPU), inside the model (the outermost forwards of the model and of its direct children,
+    so that BLIP-2's `generate`, which calls the parts and not the whole, is covered too), and the rest
+    (post-processing, NMS, decoding, the glue between generation steps). The GPU is synchronised at every
+    boundary, so this is a separate pass from the timed calls."""
+
+    def __init__(self, torch: Any, model: Any, device: str) -> None:
+        self.torch, self.model, self.device = torch, model, device
+
+    def _sync(self) -> None:
+        if self.device.startswith("cuda"):
+            self.torch.cuda.synchronize()
+
+    def __call__(self, fn: Any, iters: int = 3) -> dict[str, float]:
+        depth = [0]
+        marks: list[tuple[str, float]] = []
+
+        def enter(*_: Any, **__: Any) -> None:
+            if depth[0] == 0:
+                self._sync()
+                marks.append(("in", time.perf_counter()))
+            depth[0] += 1
+
+        def leave(*_: Any, **__: Any) -> None:
+            depth[0] -= 1
+            if depth[0] == 0:
+                self._sync()
+                marks.append(("out", time.perf_counter()))
+
+        modules = [self.model, *self.model.children()]
+        handles = [m.register_forward_pre_hook(enter) for m in modules]
+        handles += [m.register_forward_hook(leave) for m in modules]
+        splits = []
+        try:
+            for _ in range(iters):
+                marks.clear()
+                self._sync()
+                t0 = time.perf_counter()
+                fn()
+                self._sync()
+                total = time.perf_counter() - t0
+                ins = [t for kind, t in marks if kind == "in"]
+                outs = [t for kind, t in marks if kind == "out"]
+                inside = sum(b - a for a, b in zip(ins, outs, strict=True))
+                before = (ins[0] - t0) if ins else total
+                splits.append((before, inside, total - before - inside))
+        finally:
+            for h in handles:
+                h.remove()
+        return {
+            name: statistics.median(s[i] for s in splits) * 1000
+            for i, name in enumerate(("before_ms", "model_ms", "after_ms"))
+        }
 
 
 # ---- inputs of the processors' shapes -------------------------------------------------------------------
@@ -208,7 +265,7 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
                         "compiled": bool(args.compile),
                     }
                     try:
-                        sec = _measure(torch, timer, part, model, processor, batch, device, dtype)
+                        sec, split = _measure(torch, timer, part, model, processor, batch, device, dtype)
                     except Exception as exc:  # noqa: BLE001 - report and go on (OOM, missing processor deps)
                         if device.startswith("cuda"):
                             torch.cuda.empty_cache()
@@ -230,6 +287,7 @@ def run_sizes(args: argparse.Namespace) -> list[dict]:
                         "vs_anchor": per_image / ANCHORS_MS[name],
                         "vs_own_batch1": per_image / base[part] if part in base else None,
                         "ref_batch": min(args.batches),
+                        **split,
                     }
                     rows.append(row)
                     print(_line(row, args.tiny))
@@ -251,7 +309,8 @@ def _gpu_preprocessing(processor: Any, device: str) -> str:
 
 def _measure(
     torch: Any, timer: Timer, part: str, model: Any, processor: Any, batch: int, device: str, dtype: Any
-) -> float:
+) -> tuple[float, dict[str, float]]:
+    """Median seconds of one call, and for the backend its split (PhaseSplit: ms per batch)."""
     if part == "forward":
         inputs = forward_inputs(torch, model, processor, batch, device, dtype)
 
@@ -259,17 +318,24 @@ def _measure(
             with torch.inference_mode():
                 model(**inputs)
 
-        return timer(forward)
+        return timer(forward), {}
     from attribot.models.hf import HFDetector, HFVisualQA  # needs attribot's core dependencies
 
     frames = _frames(batch)
     if model.config.model_type == "blip-2":
         vqa = HFVisualQA.from_loaded(model, processor, max_new_tokens=5, max_batch=batch)
         questions = ["what is this object?"] * batch
-        return timer(lambda: vqa.answer_batch(frames, questions))
-    det = HFDetector.from_loaded(model, processor, threshold=0.1, max_batch=batch)
-    queries = [LABELS] * batch
-    return timer(lambda: det.detect_batch(frames, queries))
+
+        def call() -> Any:
+            return vqa.answer_batch(frames, questions)
+    else:
+        det = HFDetector.from_loaded(model, processor, threshold=0.1, max_batch=batch)
+        queries = [LABELS] * batch
+
+        def call() -> Any:
+            return det.detect_batch(frames, queries)
+
+    return timer(call), PhaseSplit(torch, model, device)(call)
 
 
 def _line(row: dict, tiny: bool) -> str:
@@ -281,6 +347,11 @@ def _line(row: dict, tiny: bool) -> str:
     )
     if row["vs_own_batch1"] is not None:
         text += f"  vs own batch {row['ref_batch']} {row['vs_own_batch1']:.2f}"
+    if "model_ms" in row:
+        text += (
+            f"  [before the model {row['before_ms']:.1f} + model {row['model_ms']:.1f} + after "
+            f"{row['after_ms']:.1f} ms/batch]"
+        )
     if not tiny:
         text += f"  vs anchor {ANCHORS_MS[row['model']]:.0f} ms {row['vs_anchor']:.2f}"
         if row["part"] == "forward" and row["batch"] >= 32:

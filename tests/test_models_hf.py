@@ -409,6 +409,9 @@ def test_gpu_benchmark_code_path_runs_with_tiny_models(capsys, tmp_path):
         for b in (1, 2)
     }
     assert all("skipped" not in r and r["ms_per_image"] > 0 for r in rows), rows
+    # the backend rows say where the time went; the model ran in every call (BLIP-2: through generate)
+    for r in (r for r in rows if r["part"] == "backend"):
+        assert r["model_ms"] > 0 and r["before_ms"] > 0 and r["after_ms"] >= 0, r
     assert "vs own batch 1" in capsys.readouterr().out
 
 
