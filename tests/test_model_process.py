@@ -27,10 +27,11 @@ from attribot.server import (
     ServerConfig,
     ServerThread,
     build_served_backends,
+    close_backends,
     create_app,
     start_model_process,
 )
-from attribot.server.model_process import backend_factory
+from attribot.server.model_process import ModelProcess, backend_factory
 
 
 def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
@@ -155,8 +156,6 @@ def test_only_image_roles_run_in_a_model_process():
     with pytest.raises(ConfigError, match="only the detector and VQA"):
         start_model_process("language", MeanColourVQA)
     with pytest.raises(TypeError):
-        from attribot.server.model_process import ModelProcess
-
         ModelProcess(MeanColourVQA)
 
 
@@ -188,9 +187,10 @@ def test_build_served_backends_puts_the_hf_detector_in_a_child_and_matches_in_pr
 
     folder = save_random("owlv2-tiny", tmp_path / "owl")
     settings = Settings(detector=f"hf:{folder}", detector_threshold=0.0)
-    backends = build_served_backends(settings, {"detector": None, "vqa": "none", "language": "none"})
+    backends = build_served_backends(settings, {"detector": None, "vqa": "none", "language": "catalog"})
     try:
         assert isinstance(backends["detector"], ProcessDetector) and backends["vqa"] is None
+        assert not isinstance(backends["language"], ModelProcess)  # a table lookup: no model to protect
         rng = np.random.default_rng(0)
         frames = [Frame(rgb=rng.integers(0, 256, (h, w, 3), dtype=np.uint8)) for h, w in ((48, 64), (64, 40))]
         queries = [["a cup", "a book"], ["an apple"]]
@@ -201,9 +201,8 @@ def test_build_served_backends_puts_the_hf_detector_in_a_child_and_matches_in_pr
             assert [d.label for d in a] == [d.label for d in b]
             assert np.allclose([d.box for d in a], [d.box for d in b], atol=1e-3)
     finally:
-        for backend in backends.values():
-            if backend is not None:
-                backend.close()
+        close_backends(backends)
+    assert not backends["detector"]._finalizer.alive  # closed: the child is gone
 
 
 def test_factory_of_a_spec_is_picklable():

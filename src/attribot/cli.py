@@ -398,7 +398,7 @@ def serve_models(
     model_process: bool = typer.Option(
         True,
         "--model-process/--in-process",
-        help="Run the detector and the VQA each in a process of its own, so that the server's HTTP work "
+        help="Run each hf: model (detector, VQA) in a process of its own, so that the server's HTTP work "
         "does not hold up the model (the default), or in the server's process.",
     ),
 ) -> None:

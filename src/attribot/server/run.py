@@ -79,9 +79,10 @@ def build_served_backends(
 ) -> dict[str, Any]:
     """role -> backend built from the spec (None: not served); see `served_specs` for which.
 
-    With `model_process` (the default), the detector and the VQA each run in a child process of their own
-    (`attribot.server.model_process`: the HTTP work no longer slows the model down); the language role, a
-    passthrough to a chat endpoint, stays in the server's process.
+    With `model_process` (the default), each transformers model (an `hf:` detector or VQA) runs in a child
+    process of its own (`attribot.server.model_process`: the HTTP work no longer slows the model down).
+    Backends that only call an endpoint (`openai:`) or look up a table (`catalog`) stay in the server's
+    process: they hold no model to protect.
     """
     chosen, _ = served_specs(settings, specs)
     out: dict[str, Any] = {}
@@ -89,7 +90,7 @@ def build_served_backends(
         for role, spec in chosen.items():
             if spec is None:
                 out[role] = None
-            elif model_process and role in ("detector", "vqa"):
+            elif model_process and role in ("detector", "vqa") and parse_spec(spec)[0] == "hf":
                 out[role] = start_model_process(role, backend_factory(role, spec, settings))
             else:
                 out[role] = build_backend(role, spec, settings)
