@@ -131,13 +131,44 @@ def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     assert backend in ("egl", "osmesa") and out.stdout.strip().endswith("1")
 
 
+def test_a_prefetched_probe_is_the_one_the_choice_uses():
+    """prefetch_gl_backend starts the EGL probe early; gl_backend collects it instead of probing again,
+    and the choice is the one an unprefetched process makes."""
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    code = (
+        "import attribot.sim.render as r\n"
+        "r.prefetch_gl_backend(); first = r._prefetched['egl']\n"
+        "r.prefetch_gl_backend(); assert r._prefetched['egl'] is first  # started once\n"
+        "started = []\n"
+        "real = r._start_probe\n"
+        "r._start_probe = lambda b: started.append(b) or real(b)\n"
+        "print(r.gl_backend(), started, first.returncode, r._prefetched)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    backend, rest = out.stdout.split(" ", 1)
+    assert backend == gl_backend()
+    # EGL works: no probe started after the prefetched one, which ran to success and was collected
+    expected = "[] 0 {}" if backend == "egl" else "['osmesa'] 1 {}"
+    assert rest.strip() == expected
+
+
+def test_prefetch_starts_nothing_when_mujoco_gl_decides(monkeypatch):
+    import attribot.sim.render as render
+
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.setattr(render, "_chosen", None)
+    render.prefetch_gl_backend()
+    assert render._prefetched == {} and render.gl_backend() == "osmesa"
+
+
 def test_no_working_backend_names_the_system_packages(monkeypatch):
     from attribot.errors import ConfigError
     from attribot.sim import render
 
     monkeypatch.setattr(render, "_chosen", None)
     monkeypatch.delenv("MUJOCO_GL", raising=False)
-    monkeypatch.setattr(render, "_probe", lambda backend: f"lib{backend} not found")
+    monkeypatch.setattr(render, "_probe", lambda backend, started=None: f"lib{backend} not found")
     with pytest.raises(ConfigError) as exc:
         render.gl_backend()
     assert "libegl1" in exc.value.fix and "libosmesa6" in exc.value.fix

@@ -82,6 +82,7 @@ def _scene_world(
     height: int,
     profile: str,
 ) -> Any:
+    _prefetch_rendering()
     from attribot.embodiments.mujoco import MujocoWorld
 
     _check_seed(seed)
@@ -187,6 +188,13 @@ _LANGUAGE = typer.Option(
 )
 
 
+def _prefetch_rendering() -> None:
+    """Start the OpenGL probe (a child process) before the slow imports, so that they overlap."""
+    from attribot.sim.render import prefetch_gl_backend
+
+    prefetch_gl_backend()
+
+
 def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
     from attribot.planning.ask import Scene
 
@@ -236,6 +244,8 @@ def ask(
     save: Path | None = _SAVE,
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
+    if image is None:
+        _prefetch_rendering()
     from attribot.config import load_settings
     from attribot.planning.ask import ask as run_ask
 
@@ -266,6 +276,8 @@ def exec_program(
     save: Path | None = _SAVE,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
+    if image is None:
+        _prefetch_rendering()
     from attribot.config import load_settings
     from attribot.planning.ask import execute
 

@@ -3,8 +3,8 @@
 The backend is chosen at the first render, never at import: `MUJOCO_GL` when it is set (egl or osmesa),
 otherwise EGL when a probe can open an EGL context (Mesa's llvmpipe works without a GPU), otherwise
 OSMesa. The probe runs in a short child process because PyOpenGL fixes its platform on first import and
-cannot switch in the same process after a failed attempt. When neither works the error names the Debian
-packages that provide them.
+cannot switch in the same process after a failed attempt; a command line that knows it will render starts
+it early (`prefetch_gl_backend`). When neither works the error names the Debian packages that provide them.
 
 `SceneRenderer` owns one GL context and one MuJoCo render context; close it (or use it as a context
 manager) to free them.
@@ -12,6 +12,7 @@ manager) to free them.
 
 from __future__ import annotations
 
+import atexit
 import os
 import subprocess
 import sys
@@ -24,7 +25,7 @@ import numpy as np
 
 from attribot.errors import ConfigError
 
-__all__ = ["RenderProfile", "PROFILES", "gl_backend", "SceneRenderer", "RenderOutput"]
+__all__ = ["RenderProfile", "PROFILES", "gl_backend", "prefetch_gl_backend", "SceneRenderer", "RenderOutput"]
 
 _EGL_PACKAGES = "libegl1 libegl-mesa0 libgl1-mesa-dri"
 _OSMESA_PACKAGES = "libosmesa6"
@@ -54,19 +55,56 @@ ctx.free()
 """
 
 
-def _probe(backend: str) -> str | None:
-    """None when `backend` can render in a fresh process, else the last line of its error."""
+def _start_probe(backend: str) -> subprocess.Popen[str]:
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    return subprocess.Popen(
+        [sys.executable, "-c", _PROBE, backend],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _probe(backend: str, started: subprocess.Popen[str] | None = None) -> str | None:
+    """None when `backend` can render in a fresh process, else the last line of its error. `started`: that
+    probe, already running (see `prefetch_gl_backend`)."""
     try:
-        proc = subprocess.run(
-            [sys.executable, "-c", _PROBE, backend], env=env, capture_output=True, text=True, timeout=60
-        )
-    except (OSError, subprocess.TimeoutExpired) as exc:
+        proc = started or _start_probe(backend)
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired as exc:
+        proc.kill()
+        proc.communicate()
+        return str(exc)
+    except OSError as exc:
         return str(exc)
     if proc.returncode == 0:
         return None
-    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
     return lines[-1] if lines else f"exit code {proc.returncode}"
+
+
+_prefetched: dict[str, subprocess.Popen[str]] = {}
+
+
+def prefetch_gl_backend() -> None:
+    """Start choosing the OpenGL backend now, in the background: the probe is a child process (~0.25 s),
+    which then overlaps the caller's own start-up (imports, settings) instead of following it.
+    `gl_backend()` collects its answer. Nothing to do when MUJOCO_GL is set or the choice is made."""
+    with _lock:
+        if _chosen is not None or os.environ.get("MUJOCO_GL", "").strip() or _prefetched:
+            return
+        try:
+            _prefetched["egl"] = _start_probe("egl")
+        except OSError:
+            return  # gl_backend() probes again and reports the error
+
+
+@atexit.register
+def _end_prefetched_probes() -> None:
+    for proc in _prefetched.values():
+        proc.kill()
+        proc.communicate()
 
 
 def gl_backend() -> str:
@@ -86,7 +124,7 @@ def gl_backend() -> str:
             return wanted
         errors = {}
         for backend in ("egl", "osmesa"):
-            err = _probe(backend)
+            err = _probe(backend, _prefetched.pop(backend, None))
             if err is None:
                 _chosen = backend
                 # keep child processes and PyOpenGL on the same choice
