@@ -91,6 +91,18 @@ def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
     }
 
 
+def test_where_is_and_than_queries_answer_with_the_right_object(truth):
+    objs = by_category(truth)
+    target = sorted(objs)[0]
+    answer = ask(f"Where is the {target}?", Scene(LAYOUT, SEED), load_settings())
+    assert answer.error is None, answer.error
+    assert answer.object is not None and answer.object.id == objs[target]["id"]
+    near, far = sorted(sorted(objs)[:2], key=lambda n: objs[n]["distance_m"])
+    answer = ask(f"Is the {far} closer to me than the {near}?", Scene(LAYOUT, SEED), load_settings())
+    assert answer.error is None, answer.error
+    assert answer.object.id == objs[near]["id"] and answer.unit == "m"  # no: measured, the other one is
+
+
 def test_weight_query_weighs_each_candidate_with_the_force_sensor(truth):
     objs = by_category(truth)
     pickable = sorted(n for n, o in objs.items() if o["pickable"])

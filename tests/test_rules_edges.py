@@ -106,3 +106,27 @@ def test_rules_planner_is_registered_deterministic_and_ignores_feedback():
     assert first.reply is None and not first.cached
     with pytest.raises(UnsupportedQuery):
         planner.plan(PlanRequest(query="sing me a song", sensors=["camera"], embodied=False))
+
+
+def test_every_listed_example_reads_as_its_family():
+    """The examples the refusal message shows must themselves be read, as the family they illustrate."""
+    from attribot.planning.rules import (
+        FAMILIES,
+        DistanceQuery,
+        GroundingQuery,
+        LocationQuery,
+        SizeQuery,
+        WeightQuery,
+    )
+
+    kinds = {
+        "location": LocationQuery,
+        "size": SizeQuery,
+        "weight": WeightQuery,
+        "distance": DistanceQuery,
+        "grounding": GroundingQuery,
+    }
+    assert set(FAMILIES) == set(kinds)
+    for family, examples in FAMILIES.items():
+        for example in examples:
+            assert isinstance(parse_query(example), kinds[family]), (family, example)

@@ -338,3 +338,34 @@ def test_several_objects_of_one_kind_without_a_force_sensor_use_a_stated_size_pr
     apples = [FakePatch("apple", (0, 0, 50, 50)), FakePatch("apple", (100, 0, 180, 80))]
     assert run("the heaviest apple", scene(*apples)) is apples[1]
     assert "proxy" in rules_program("the heaviest apple")
+
+
+# ---- "than" comparisons and grounding ------------------------------------------------------------------
+
+
+def test_than_comparisons_pick_the_one_that_is():
+    apple = FakePatch("apple", (0, 0, 50, 50), kg=0.2)
+    book = FakePatch("book", (100, 0, 150, 50), kg=0.9)
+    robot = FakeRobot(["camera", "force"])
+    query = "Is the apple heavier than the book?"
+    assert run(query, scene(apple, book), ("camera", "force"), True, robot) is book  # no: the book is
+    assert [n for n, _ in robot.calls].count("measure_weight") == 2
+    assert run("Is the book heavier than the apple?", scene(apple, book)) is book  # yes, by reasoning
+    assert run("Is the apple lighter than the book?", scene(apple, book)) is apple
+    lamp = FakePatch("lamp", (0, 0, 50, 50), metres=3.0)
+    chair = FakePatch("chair", (100, 0, 150, 50), metres=1.0)
+    query = "Is the lamp closer to me than the chair?"
+    assert run(query, scene(lamp, chair), ("camera", "distance"), True) is chair
+    assert (
+        run("Is the lamp farther from me than the chair?", scene(lamp, chair), ("camera", "distance"), True)
+        is lamp
+    )
+
+
+def test_grounding_returns_the_best_match_and_filters_by_colour():
+    mugs = [FakePatch("mug", (0, 0, 50, 50), color="blue"), FakePatch("mug", (100, 0, 150, 50), color="red")]
+    for query in ("Where is the mug?", "find the mug", "point at the mug", "Can you find the mug?"):
+        assert run(query, scene(*mugs)) is mugs[0]  # find lists the best match first
+    assert run("find the red mug", scene(*mugs)) is mugs[1]
+    with pytest.raises(ValueError, match="no cup found"):
+        run("Where is the cup?", scene(*mugs))

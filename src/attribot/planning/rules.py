@@ -35,6 +35,7 @@ __all__ = [
     "SizeQuery",
     "WeightQuery",
     "DistanceQuery",
+    "GroundingQuery",
     "ParsedQuery",
     "parse_query",
     "write_program",
@@ -53,12 +54,15 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "weight": (
         "the heaviest item",
         "Out of the laptop, the chair and the credit card, which one is the most lightweight?",
+        "Is the apple heavier than the book?",
     ),
     "distance": (
         "Is the laptop or the tv closer to me?",
         "the closest chair",
         "Out of the mugs, which one is closer to me?",
+        "Is the lamp closer to me than the chair?",
     ),
+    "grounding": ("Where is the mug?", "find the red apple", "point at the remote control"),
 }
 """The families the rules planner reads, each with example phrasings."""
 
@@ -156,7 +160,14 @@ class DistanceQuery:
     named: bool = False
 
 
-ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery
+@dataclass(frozen=True)
+class GroundingQuery:
+    """A named object and nothing more: "Where is the mug?", "find the red apple"."""
+
+    obj: ObjectSpec
+
+
+ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery
 
 
 # ---- the parser ----------------------------------------------------------------------------------------
@@ -327,22 +338,25 @@ _STOP = {
 }
 
 
-def _normalize(query: str) -> str | None:
-    """Lower case, accents folded, punctuation to spaces, polite openings and articles dropped; None when
-    the text holds letters outside a-z (another script), which the planner cannot read."""
+_LEAD = (
+    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|"
+    r"give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for))\s+"
+)
+
+
+def _normalize(query: str) -> tuple[str, bool] | None:
+    """Lower case, accents folded, punctuation to spaces, polite or imperative openings ("find", "where
+    is") and articles dropped, and whether there was such an opening; None when the text holds letters
+    outside a-z (another script), which the planner cannot read."""
     text = unicodedata.normalize("NFKD", query.lower().replace("\u2019", "'").replace("-", " "))
     text = "".join(ch for ch in text if not unicodedata.combining(ch))
     if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
         return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
-    # polite or imperative openings carry no meaning for the plan
-    lead = (
-        r"^(?:please\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|give\s+me|locate|"
-        r"detect|identify|where\s+is|grab)\s+"
-    )
-    text = re.sub(lead, "", text)
-    return _strip_article(text)
+    # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
+    stripped = re.sub(_LEAD, "", text)
+    return _strip_article(stripped), stripped != text
 
 
 def _strip_article(text: str) -> str:
@@ -630,6 +644,9 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
         + _ME,
         # "the X or the Y: which is closer?"
         r"(?P<list>.+?\s+or\s+.+?),?\s+which(?:\s+one)?\s+is\s+(?P<adj>" + words + r")" + _ME,
+        # "Is the apple heavier than the book?", "Is the lamp closer to me than the chair?": the program
+        # answers with the one that is (the apple, or else the book)
+        r"(?:is|are)\s+(?P<first>.+?)\s+(?P<adj>" + words + r")" + _ME + r"\s+than\s+(?P<second>.+?)" + _ME,
     )
     for form in forms:
         match = re.fullmatch(form, text)
@@ -637,6 +654,8 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
             continue
         adjective = match["adj"]
         listed = match.groupdict().get("list")
+        if match.groupdict().get("first") is not None:
+            listed = f"{match['first']} or {match['second']}"
         if listed is not None:
             objects = _split_names(_strip_article(listed))
             if objects is None:  # e.g. "to me" read as a list by an earlier form: try the next form
@@ -671,12 +690,23 @@ def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
     return WeightQuery(objects=(obj,), heaviest=adjective in _WEIGHT_HEAVY)
 
 
+def _parse_grounding(text: str) -> GroundingQuery | None:
+    """What is left of "Where is the mug?", "find the red apple" once the opening is dropped: a name. A bare
+    name with no opening ("the dog") is not read: with several dogs in view it asks for an attribute it
+    does not name."""
+    obj = _object(text)
+    if obj is None or obj.generic:
+        return None
+    return GroundingQuery(obj)
+
+
 def parse_query(query: str) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text)."""
     original = check_query(query)
-    text = _normalize(original)
-    if text is None:
+    normalized = _normalize(original)
+    if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")
+    text, opened = normalized
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
     parsed = _parse_compare(text)
@@ -688,6 +718,9 @@ def parse_query(query: str) -> ParsedQuery:
         reading = parser(text)
         if reading is not None:
             return reading
+    grounding = _parse_grounding(text) if opened else None
+    if grounding is not None:
+        return grounding
     raise UnsupportedQuery(original)
 
 
@@ -1019,6 +1052,12 @@ def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodi
     w.line("return ordered[0]")
 
 
+def _write_grounding(w: _Writer, q: GroundingQuery) -> None:
+    _find(w, q.obj)
+    w.line("# find lists the best match first")
+    w.line("return candidates[0]")
+
+
 def write_program(
     parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
 ) -> str:
@@ -1030,8 +1069,10 @@ def write_program(
         _write_size(w, parsed)
     elif isinstance(parsed, WeightQuery):
         _write_weight(w, parsed, sensors, embodied)
-    else:
+    elif isinstance(parsed, DistanceQuery):
         _write_distance(w, parsed, sensors, embodied)
+    else:
+        _write_grounding(w, parsed)
     return w.source()
 
 
