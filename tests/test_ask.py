@@ -103,6 +103,18 @@ def test_where_is_and_than_queries_answer_with_the_right_object(truth):
     assert answer.object.id == objs[near]["id"] and answer.unit == "m"  # no: measured, the other one is
 
 
+def test_how_far_and_how_heavy_measure_the_named_object(truth):
+    objs = by_category(truth)
+    target = next(n for n in sorted(objs) if objs[n]["pickable"])
+    answer = ask(f"How far away is the {target}?", Scene(LAYOUT, SEED), load_settings())
+    assert answer.error is None, answer.error
+    assert answer.object.id == objs[target]["id"] and answer.unit == "m"
+    assert abs(answer.value - objs[target]["distance_m"]) < objs[target]["size_m"] / 2 + 0.05
+    answer = ask(f"How much does the {target} weigh?", Scene(LAYOUT, SEED), load_settings())
+    assert answer.error is None, answer.error
+    assert answer.unit == "kg" and answer.value == pytest.approx(objs[target]["mass_kg"], rel=0.03)
+
+
 def test_weight_query_weighs_each_candidate_with_the_force_sensor(truth):
     objs = by_category(truth)
     pickable = sorted(n for n, o in objs.items() if o["pickable"])

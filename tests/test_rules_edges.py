@@ -29,6 +29,8 @@ from attribot.planning.rules import (
         ("asdf qwer zxcv", UnsupportedQuery, "cannot read"),
         ("what is the meaning of life", UnsupportedQuery, "cannot read"),
         ("the dog", UnsupportedQuery, "cannot read"),  # no attribute: which dog?
+        ("how heavy is it", UnsupportedQuery, "cannot read"),  # a pronoun with nothing to refer to
+        ("find the thing", UnsupportedQuery, "cannot read"),  # generic: which thing?
         ("the dog from the left", UnsupportedQuery, "cannot read"),  # a direction with nothing to count
         ("the 0th dog from the left", UnsupportedQuery, "cannot read"),
         ("the cup on the table next to the lamp", UnsupportedQuery, "cannot read"),  # relations
@@ -115,6 +117,7 @@ def test_every_listed_example_reads_as_its_family():
         DistanceQuery,
         GroundingQuery,
         LocationQuery,
+        MeasureQuery,
         SizeQuery,
         WeightQuery,
     )
@@ -125,6 +128,7 @@ def test_every_listed_example_reads_as_its_family():
         "weight": WeightQuery,
         "distance": DistanceQuery,
         "grounding": GroundingQuery,
+        "measurement": MeasureQuery,
     }
     assert set(FAMILIES) == set(kinds)
     for family, examples in FAMILIES.items():

@@ -369,3 +369,31 @@ def test_grounding_returns_the_best_match_and_filters_by_colour():
     assert run("find the red mug", scene(*mugs)) is mugs[1]
     with pytest.raises(ValueError, match="no cup found"):
         run("Where is the cup?", scene(*mugs))
+
+
+def test_measurements_measure_the_best_match_and_return_it():
+    lamp = FakePatch("lamp", (0, 0, 50, 50), metres=3.0, kg=2.0)
+    other = FakePatch("lamp", (100, 0, 150, 50), metres=1.0, kg=1.0)
+    robot = FakeRobot(["camera", "distance"])
+    assert run("How far away is the lamp?", scene(lamp, other), ("camera", "distance"), True, robot) is lamp
+    assert robot.calls == [("focus_on_patch", lamp), ("measure_distance", lamp)]
+    robot = FakeRobot(["camera", "force"])
+    assert run("How much does the lamp weigh?", scene(lamp, other), ("camera", "force"), True, robot) is lamp
+    assert [n for n, _ in robot.calls] == ["go_to_object", "pick_up", "measure_weight", "put_down"]
+    assert robot.held is None
+
+
+@pytest.mark.parametrize(
+    ("query", "sensors", "embodied", "match"),
+    [
+        ("How heavy is the apple?", ("camera",), True, "no force sensor"),
+        ("How far away is the apple?", ("camera", "force"), True, "no distance sensor"),
+        ("How far away is the apple?", ("camera", "distance"), False, "still image has no robot"),
+    ],
+)
+def test_a_measurement_without_its_sensor_is_refused_before_running(query, sensors, embodied, match):
+    from attribot.errors import InputError
+
+    with pytest.raises(InputError, match=match) as info:
+        rules_program(query, sensors, embodied)
+    assert "--sensors camera," in info.value.fix and "comparison" in info.value.fix

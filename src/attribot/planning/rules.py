@@ -36,6 +36,7 @@ __all__ = [
     "WeightQuery",
     "DistanceQuery",
     "GroundingQuery",
+    "MeasureQuery",
     "ParsedQuery",
     "parse_query",
     "write_program",
@@ -63,6 +64,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "Is the lamp closer to me than the chair?",
     ),
     "grounding": ("Where is the mug?", "find the red apple", "point at the remote control"),
+    "measurement": ("How far away is the lamp?", "How heavy is the apple?", "How much does the book weigh?"),
 }
 """The families the rules planner reads, each with example phrasings."""
 
@@ -167,7 +169,15 @@ class GroundingQuery:
     obj: ObjectSpec
 
 
-ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery
+@dataclass(frozen=True)
+class MeasureQuery:
+    """One named object's distance or weight: "How far away is the lamp?", "How heavy is the apple?"."""
+
+    obj: ObjectSpec
+    quantity: Literal["distance", "weight"]
+
+
+ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | MeasureQuery
 
 
 # ---- the parser ----------------------------------------------------------------------------------------
@@ -690,14 +700,44 @@ def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
     return WeightQuery(objects=(obj,), heaviest=adjective in _WEIGHT_HEAVY)
 
 
+_MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight"]], ...] = (
+    (r"how\s+(?:far(?:\s+away)?|close|near)\s+(?:is|are)\s+(?P<obj>.+?)" + _ME, "distance"),
+    (r"(?:what\s+is\s+)?(?:the\s+)?distance\s+(?:to|of)\s+(?P<obj>.+?)" + _ME, "distance"),
+    (r"how\s+heavy\s+(?:is|are)\s+(?P<obj>.+)", "weight"),
+    (r"how\s+much\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
+    (r"what\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
+    (r"(?:what\s+is\s+)?(?:the\s+)?(?:weight|mass)\s+of\s+(?P<obj>.+)", "weight"),
+)
+
+
+_PRONOUNS = {"it", "this", "that", "they", "them", "these", "those", "he", "she"}
+
+
+def _named(text: str) -> ObjectSpec | None:
+    """A specific object's name: not generic ("the item"), not a pronoun ("it": nothing to refer to)."""
+    obj = _object(text)
+    if obj is None or obj.generic or obj.noun in _PRONOUNS:
+        return None
+    return obj
+
+
+def _parse_measure(text: str) -> MeasureQuery | None:
+    """ "How far away is the lamp?", "How much does the apple weigh?": one named object's measurement."""
+    for form, quantity in _MEASURE_FORMS:
+        match = re.fullmatch(form, text)
+        if match is None:
+            continue
+        obj = _named(match["obj"])
+        return None if obj is None else MeasureQuery(obj, quantity)
+    return None
+
+
 def _parse_grounding(text: str) -> GroundingQuery | None:
     """What is left of "Where is the mug?", "find the red apple" once the opening is dropped: a name. A bare
     name with no opening ("the dog") is not read: with several dogs in view it asks for an attribute it
     does not name."""
-    obj = _object(text)
-    if obj is None or obj.generic:
-        return None
-    return GroundingQuery(obj)
+    obj = _named(text)
+    return None if obj is None else GroundingQuery(obj)
 
 
 def parse_query(query: str) -> ParsedQuery:
@@ -709,7 +749,7 @@ def parse_query(query: str) -> ParsedQuery:
     text, opened = normalized
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
-    parsed = _parse_compare(text)
+    parsed = _parse_compare(text) or _parse_measure(text)
     if parsed is not None:
         return parsed
     # "which is the second dog from the right" asks for the same as "the second dog from the right"
@@ -1058,6 +1098,38 @@ def _write_grounding(w: _Writer, q: GroundingQuery) -> None:
     w.line("return candidates[0]")
 
 
+_MEASURING = {
+    "distance": ("distance", "camera,distance", "Is the lamp or the chair closer to me?"),
+    "weight": ("force", "camera,force", "Is the apple or the book heavier?"),
+}
+
+
+def _write_measure(w: _Writer, q: MeasureQuery, query: str, sensors: Sequence[str], embodied: bool) -> None:
+    sensor, flag, comparison = _MEASURING[q.quantity]
+    if sensor not in sensors or not embodied:
+        # no proxy gives a number: a comparison can be estimated from the picture, a measurement cannot
+        where = "the robot has no " + sensor + " sensor" if embodied else "a still image has no robot"
+        raise InputError(
+            f"{query!r} asks for a measured {q.quantity}, and {where}",
+            f"give the robot the sensor (--sensors {flag}) on the simulator or a robot, or ask a comparison "
+            f"such as {comparison!r}, which the camera alone can estimate",
+        )
+    _find(w, q.obj)
+    w.line("patch = candidates[0]  # find lists the best match first")
+    if q.quantity == "distance":
+        w.line("# turn the camera (and the distance sensor with it) onto the object, then measure")
+        w.line("robot.focus_on_patch(patch)")
+        w.line("robot.measure_distance(patch)")
+    else:
+        w.line("# the force sensor reads only what the gripper holds: pick it up, weigh it, put it back")
+        w.line("robot.go_to_object(patch)")
+        w.line("robot.pick_up(patch)")
+        w.line("robot.measure_weight(patch)")
+        w.line("robot.put_down()")
+    w.line("# the answer reports the object with the value measured on it")
+    w.line("return patch")
+
+
 def write_program(
     parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
 ) -> str:
@@ -1071,6 +1143,8 @@ def write_program(
         _write_weight(w, parsed, sensors, embodied)
     elif isinstance(parsed, DistanceQuery):
         _write_distance(w, parsed, sensors, embodied)
+    elif isinstance(parsed, MeasureQuery):
+        _write_measure(w, parsed, query, sensors, embodied)
     else:
         _write_grounding(w, parsed)
     return w.source()
