@@ -196,6 +196,9 @@ def _prefetch_rendering() -> None:
 
 
 def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
+    """The world to ask in; called first, so that the OpenGL probe overlaps the slow imports."""
+    if image is None:
+        _prefetch_rendering()
     from attribot.planning.ask import Scene
 
     _check_seed(seed)
@@ -244,8 +247,7 @@ def ask(
     save: Path | None = _SAVE,
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
-    if image is None:
-        _prefetch_rendering()
+    scene = _scene(layout, seed, image, sensors)
     from attribot.config import load_settings
     from attribot.planning.ask import ask as run_ask
 
@@ -257,7 +259,7 @@ def ask(
         vqa=vqa,
         language=language,
     )
-    answer = run_ask(query, _scene(layout, seed, image, sensors), settings, save_dir=save)
+    answer = run_ask(query, scene, settings, save_dir=save)
     _show(answer, as_json)
 
 
@@ -276,8 +278,7 @@ def exec_program(
     save: Path | None = _SAVE,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
-    if image is None:
-        _prefetch_rendering()
+    scene = _scene(layout, seed, image, sensors)
     from attribot.config import load_settings
     from attribot.planning.ask import execute
 
@@ -290,7 +291,7 @@ def exec_program(
             f"program file {str(program)!r} cannot be read as text ({exc.__class__.__name__})"
         ) from exc
     settings = load_settings(detector=detector, vqa=vqa, language=language)
-    answer = execute(source, _scene(layout, seed, image, sensors), settings, query=query, save_dir=save)
+    answer = execute(source, scene, settings, query=query, save_dir=save)
     _show(answer, as_json)
 
 
