@@ -162,16 +162,16 @@ def test_only_image_roles_run_in_a_model_process():
 def test_the_server_serves_through_the_child_without_mixing_answers(detector):
     from attribot.models.remote import RemoteClient, RemoteDetector
 
-    boxes = [(i, 2 * i, 40 + i, 30 + 2 * i) for i in range(24)]
-    app = create_app(detector=detector, config=ServerConfig(max_batch=8, batch_window_ms=5))
-    with ServerThread(app) as srv, RemoteClient(srv.url, max_connections=32) as client:
+    boxes = [(i, 2 * i, 40 + i, 30 + 2 * i) for i in range(64)]
+    app = create_app(detector=detector, config=ServerConfig(max_batch=16, batch_window_ms=5))
+    with ServerThread(app) as srv, RemoteClient(srv.url, max_connections=64) as client:
         remote = RemoteDetector(client)
 
         def ask(i: int):
-            return remote.detect(frame_with_box(120, 160, boxes[i]), [f"r{i}"])
+            return remote.detect(frame_with_box(240, 320, boxes[i]), [f"r{i}"])
 
-        with ThreadPoolExecutor(12) as pool:
-            answers = list(pool.map(ask, range(24)))
+        with ThreadPoolExecutor(64) as pool:  # 64 clients at once
+            answers = list(pool.map(ask, range(64)))
         # JPEG blurs the edges by a pixel or so; the box must be this request's, not a neighbour's
         for i, dets in enumerate(answers):
             assert dets[0].label == f"r{i}@{detector.pid}"
