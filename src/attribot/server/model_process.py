@@ -9,7 +9,7 @@ takes the server with it.
 Only the RGB image of a frame crosses, as over HTTP. The images of a batch cross through one shared-memory
 block (the parent writes each frame once, the child reads them in place), not through the pipe: pickling
 a batch of 32 frames of 640x480 through a pipe costs about 45 ms here, the copy into shared memory about
-3 ms. Queries, answers and errors cross the pipe.
+1 ms. Queries, answers and errors cross the pipe.
 
 The child builds the backend itself from a picklable factory (`functools.partial(build_backend, role,
 spec, settings)`), so a CUDA model is created where it runs. It exits when the parent closes the pipe,
