@@ -146,17 +146,15 @@ class ModelProcess:
         self._block: shared_memory.SharedMemory | None = None
         self.name = ""
         self.restarts = 0
+        # what the finalizer needs, one dict refreshed by _sync_state (restarts and new blocks are seen)
+        self._shared_state: dict[str, Any] = {}
         self._start()
-        self._finalizer = weakref.finalize(self, ModelProcess._shutdown, self._state())
+        self._finalizer = weakref.finalize(self, ModelProcess._shutdown, self._shared_state)
 
     # -- life cycle
 
-    def _state(self) -> dict[str, Any]:
-        # what the finalizer needs, kept in one mutable dict so that restarts and new blocks are seen
-        if not hasattr(self, "_shared_state"):
-            self._shared_state: dict[str, Any] = {}
+    def _sync_state(self) -> None:
         self._shared_state.update(process=self._process, conn=self._conn, block=self._block)
-        return self._shared_state
 
     def _start(self) -> None:
         parent_end, child_end = self._context.Pipe(duplex=True)
@@ -176,7 +174,7 @@ class ModelProcess:
                 process.kill()
             raise
         self._process, self._conn, self.name = process, parent_end, reply
-        self._state()
+        self._sync_state()
 
     def _wait_for_start(self, conn: multiprocessing.connection.Connection, process: Any) -> str:
         waited = 0.0
@@ -248,7 +246,7 @@ class ModelProcess:
                 self._block.unlink()  # the child's mapping stays valid until it moves to the new block
             # some headroom, so that a slowly growing batch does not replace the block every time
             self._block = shared_memory.SharedMemory(create=True, size=max(size * 5 // 4, 1 << 20))
-            self._state()
+            self._sync_state()
         return self._block
 
     def _run(self, frames: Sequence[Frame], payloads: Sequence[Any]) -> list[Any]:
@@ -297,7 +295,7 @@ class ModelProcess:
         """Forget a child that died; the next batch starts a new one. Its exit code."""
         process, conn = self._process, self._conn
         self._process = self._conn = None
-        self._state()
+        self._sync_state()
         if conn is not None:
             conn.close()
         if process is None:
