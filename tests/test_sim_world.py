@@ -117,24 +117,29 @@ def test_headless_backend_is_chosen_and_named():
     assert gl_backend() in ("egl", "osmesa")
 
 
-def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
+def _python_choosing_its_own_backend(code: str) -> str:
+    """stdout of `code` in a fresh Python with MUJOCO_GL unset, so that it probes; fails on its errors."""
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     code = (
         "import sys; from attribot.sim.render import gl_backend; import attribot.sim.render as r;"
         "assert 'OpenGL' not in sys.modules or True; from attribot.sim.world import SimWorld;"
         "w = SimWorld('triplet', 1, width=64, height=48); f = w.observe(); w.close();"
         "print(gl_backend(), f.rgb.shape, int(f.rgb.std() > 5))"
     )
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    backend, *_ = out.stdout.split()
-    assert backend in ("egl", "osmesa") and out.stdout.strip().endswith("1")
+    stdout = _python_choosing_its_own_backend(code)
+    backend, *_ = stdout.split()
+    assert backend in ("egl", "osmesa") and stdout.strip().endswith("1")
 
 
 def test_a_prefetched_probe_is_the_one_the_choice_uses():
     """prefetch_gl_backend starts the EGL probe early; gl_backend collects it instead of probing again,
     and the choice is the one an unprefetched process makes."""
-    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
     code = (
         "import attribot.sim.render as r\n"
         "r.prefetch_gl_backend(); first = r._prefetched['egl']\n"
@@ -144,9 +149,7 @@ def test_a_prefetched_probe_is_the_one_the_choice_uses():
         "r._start_probe = lambda b: started.append(b) or real(b)\n"
         "print(r.gl_backend(), started, first.returncode, r._prefetched)\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    backend, rest = out.stdout.split(" ", 1)
+    backend, rest = _python_choosing_its_own_backend(code).split(" ", 1)
     assert backend == gl_backend()
     # EGL works: no probe started after the prefetched one, which ran to success and was collected
     expected = "[] 0 {}" if backend == "egl" else "['osmesa'] 1 {}"
