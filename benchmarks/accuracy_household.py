@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from attribot.config import load_settings
+from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.planning.ask import Scene, ask
 
@@ -63,7 +63,9 @@ def main() -> None:
         for task, query, truth, sensor in cases(seed):
             for measured in (True, False):
                 sensors = ["camera", sensor] if measured else ["camera"]
-                answer = ask(query, Scene("household", seed, sensors=sensors), settings)
+                answer = ask(
+                    query, Scene(SceneConfig(layout="household", seed=seed), sensors=sensors), settings
+                )
                 right = answer.object is not None and answer.object.id == truth
                 counts = tally.setdefault((task, measured), [0, 0])
                 counts[0] += int(right)

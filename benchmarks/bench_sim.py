@@ -77,7 +77,7 @@ def main() -> None:
 
     # rendering the household scene
     for w, h in ((320, 240), (640, 480)):
-        world = SimWorld("household", 0, width=w, height=h)
+        world = SimWorld(layout="household", seed=0, width=w, height=h)
         try:
             mujoco.mj_forward(world.model, world.data)
             for profile in ("fast", "pretty"):
@@ -92,7 +92,13 @@ def main() -> None:
 
     # physics with the robot and 20 objects
     world = SimWorld(
-        "arrangement", 0, n_objects=20, categories=["apple"], options={"pattern": "grid"}, width=64, height=48
+        layout="arrangement",
+        seed=0,
+        objects=20,
+        categories=["apple"],
+        options={"pattern": "grid"},
+        width=64,
+        height=48,
     )
     assert len(world.objects) == 20
     rtf = _rtf(world.model, world.data, 2.0 if args.quick else 10.0)
@@ -113,7 +119,7 @@ def main() -> None:
     # scene build: plan + MjSpec + compile + 0.6 s of settling, and the model alone
     for layout in ("household", "arrangement", "triplet"):
         t = time.perf_counter()
-        world = SimWorld(layout, 0, width=320, height=240)
+        world = SimWorld(layout=layout, seed=0, width=320, height=240)
         built = time.perf_counter() - t
         world.close()
         _line(f"build {layout} scene (incl. settling)", built * 1000, "ms", build_ref * 1000)

@@ -23,7 +23,7 @@ def perception() -> Perception:
 
 
 def open_world(seed: int = 0, **kw) -> MujocoWorld:
-    return MujocoWorld("household", seed=seed, width=320, height=240, **kw)
+    return MujocoWorld(layout="household", seed=seed, width=320, height=240, **kw)
 
 
 def patches_by_id(image: ImagePatch, infos) -> dict[str, ImagePatch]:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from attribot.config import load_settings
+from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
 from attribot.planning.ask import Scene, ask, execute
@@ -73,7 +73,11 @@ def serve_chat_replies(httpserver, contents: list[str]) -> list[dict]:
 def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
     objs = by_category(truth)
     names = sorted(objs)[:2]
-    answer = ask(f"Is the {names[0]} or the {names[1]} closer to me?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(
+        f"Is the {names[0]} or the {names[1]} closer to me?",
+        Scene(SceneConfig(layout=LAYOUT, seed=SEED)),
+        load_settings(),
+    )
     assert answer.error is None, answer.error
     expected = min(names, key=lambda n: objs[n]["distance_m"])
     assert answer.object is not None and answer.object.category == expected
@@ -94,11 +98,15 @@ def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
 def test_where_is_and_than_queries_answer_with_the_right_object(truth):
     objs = by_category(truth)
     target = sorted(objs)[0]
-    answer = ask(f"Where is the {target}?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(f"Where is the {target}?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
     assert answer.error is None, answer.error
     assert answer.object is not None and answer.object.id == objs[target]["id"]
     near, far = sorted(sorted(objs)[:2], key=lambda n: objs[n]["distance_m"])
-    answer = ask(f"Is the {far} closer to me than the {near}?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(
+        f"Is the {far} closer to me than the {near}?",
+        Scene(SceneConfig(layout=LAYOUT, seed=SEED)),
+        load_settings(),
+    )
     assert answer.error is None, answer.error
     assert answer.object.id == objs[near]["id"] and answer.unit == "m"  # no: measured, the other one is
 
@@ -106,11 +114,15 @@ def test_where_is_and_than_queries_answer_with_the_right_object(truth):
 def test_how_far_and_how_heavy_measure_the_named_object(truth):
     objs = by_category(truth)
     target = next(n for n in sorted(objs) if objs[n]["pickable"])
-    answer = ask(f"How far away is the {target}?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(
+        f"How far away is the {target}?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings()
+    )
     assert answer.error is None, answer.error
     assert answer.object.id == objs[target]["id"] and answer.unit == "m"
     assert abs(answer.value - objs[target]["distance_m"]) < objs[target]["size_m"] / 2 + 0.05
-    answer = ask(f"How much does the {target} weigh?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(
+        f"How much does the {target} weigh?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings()
+    )
     assert answer.error is None, answer.error
     assert answer.unit == "kg" and answer.value == pytest.approx(objs[target]["mass_kg"], rel=0.03)
 
@@ -119,7 +131,11 @@ def test_weight_query_weighs_each_candidate_with_the_force_sensor(truth):
     objs = by_category(truth)
     pickable = sorted(n for n, o in objs.items() if o["pickable"])
     listed = ", the ".join(pickable[:-1]) + f" and the {pickable[-1]}"
-    answer = ask(f"Out of the {listed}, which one is the heaviest?", Scene(LAYOUT, SEED), load_settings())
+    answer = ask(
+        f"Out of the {listed}, which one is the heaviest?",
+        Scene(SceneConfig(layout=LAYOUT, seed=SEED)),
+        load_settings(),
+    )
     assert answer.error is None, answer.error
     expected = max(pickable, key=lambda n: objs[n]["mass_kg"])
     assert answer.object.category == expected
@@ -130,7 +146,11 @@ def test_weight_query_weighs_each_candidate_with_the_force_sensor(truth):
 
 
 def test_without_a_force_sensor_the_program_reasons_instead_of_weighing(truth):
-    answer = ask("Which object is the heaviest?", Scene(LAYOUT, SEED, sensors=["camera"]), load_settings())
+    answer = ask(
+        "Which object is the heaviest?",
+        Scene(SceneConfig(layout=LAYOUT, seed=SEED), sensors=["camera"]),
+        load_settings(),
+    )
     calls = {t["call"] for t in answer.trace}
     assert "Robot.measure_weight" not in calls
     assert "ImagePatch.language_query" in calls
@@ -138,7 +158,7 @@ def test_without_a_force_sensor_the_program_reasons_instead_of_weighing(truth):
 
 def test_ask_saves_and_exec_replays_the_same_answer(tmp_path, truth):
     query = "Out of the " + " and the ".join(sorted(by_category(truth))[:2]) + ", which one is closer to me?"
-    first = ask(query, Scene(LAYOUT, SEED), load_settings(), save_dir=tmp_path)
+    first = ask(query, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings(), save_dir=tmp_path)
     assert first.error is None
     saved = json.loads((tmp_path / "answer.json").read_text())
     assert saved["object"]["id"] == first.object.id
@@ -149,14 +169,19 @@ def test_ask_saves_and_exec_replays_the_same_answer(tmp_path, truth):
         plain = world.observe().rgb
     x0, y0, x1, y1 = (int(v) for v in first.object.box)
     assert not np.array_equal(drawn[y0:y1, x0:x1], plain[y0:y1, x0:x1])  # the box is drawn there
-    replay = execute((tmp_path / "program.py").read_text(), Scene(LAYOUT, SEED), load_settings(), query=query)
+    replay = execute(
+        (tmp_path / "program.py").read_text(),
+        Scene(SceneConfig(layout=LAYOUT, seed=SEED)),
+        load_settings(),
+        query=query,
+    )
     assert replay.planner == "file"
     assert replay.object == first.object and replay.value == pytest.approx(first.value)
 
 
 def test_a_program_may_return_a_plain_value():
     program = 'def execute_command(image, robot):\n    return len(image.find("item"))\n'
-    answer = execute(program, Scene(LAYOUT, SEED), load_settings())
+    answer = execute(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
     assert answer.error is None and answer.object is None
     with MujocoWorld(layout=LAYOUT, seed=SEED) as world:
         visible = [o for o in world.scene_info().objects if o.box is not None]
@@ -174,7 +199,7 @@ def test_a_program_may_return_a_plain_value():
     ],
 )
 def test_program_errors_become_structured_answers(program, category):
-    answer = execute(program, Scene(LAYOUT, SEED), load_settings())
+    answer = execute(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
     assert answer.error is not None and answer.error.category == category
     assert answer.object is None and answer.answer.startswith("no answer")
 
@@ -189,7 +214,7 @@ def test_image_mode_needs_a_real_detector(tmp_path):
 @pytest.mark.parametrize("query", ["", "   ", "x" * 600])
 def test_empty_or_overlong_queries_are_refused(query):
     with pytest.raises(InputError):
-        ask(query, Scene(LAYOUT, SEED), load_settings())
+        ask(query, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
 
 
 def test_cli_json_output_and_exit_codes(tmp_path):
@@ -247,7 +272,7 @@ def test_llm_planner_end_to_end_with_feedback(httpserver, tmp_path, truth):
     settings = load_settings(
         planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "cache"
     )
-    answer = ask(f"Where is the {target}?", Scene(LAYOUT, SEED), settings)
+    answer = ask(f"Where is the {target}?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), settings)
     assert answer.error is None, answer.error
     assert answer.planner == "llm" and answer.attempts == 2
     assert answer.object.category == target
@@ -264,7 +289,7 @@ def test_llm_that_never_writes_code_gives_a_structured_no_code_answer(httpserver
         llm_max_tries=2,
         cache_dir=tmp_path / "cache",
     )
-    answer = ask("Which object is the heaviest?", Scene(LAYOUT, SEED), settings)
+    answer = ask("Which object is the heaviest?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), settings)
     assert answer.attempts == 2 and answer.object is None
     assert answer.error is not None and "no code" in answer.error.message
 
@@ -286,7 +311,7 @@ def test_a_retry_starts_with_empty_hands_and_a_fresh_view(httpserver, tmp_path, 
     settings = load_settings(
         planner="llm", llm_base_url=httpserver.url_for("/v1"), llm_model="fake", cache_dir=tmp_path / "c"
     )
-    answer = ask(f"How heavy is the {target}?", Scene(LAYOUT, SEED), settings)
+    answer = ask(f"How heavy is the {target}?", Scene(SceneConfig(layout=LAYOUT, seed=SEED)), settings)
     assert answer.error is None, answer.error
     assert answer.attempts == 2 and len(requests) == 2
     mass = next(o["mass_kg"] for o in truth["objects"] if o["category"] == target)

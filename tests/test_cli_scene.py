@@ -80,7 +80,7 @@ def test_info_options_and_categories_reach_the_layout():
     [
         (["--layout", "castle"], "unknown layout 'castle'"),
         (["--categories", "unicorn"], "unknown object category 'unicorn'"),
-        (["--seed", "-4"], "--seed must be"),
+        (["--seed", "-4"], "seed (--seed) = -4 is not valid"),
         (["--objects", "40"], "objects"),
         (["--layout", "arrangement", "--objects", "20", "--categories", "pot"], "do not fit"),
         (["--layout", "triplet", "--objects", "5"], "triplet takes 3"),

@@ -30,13 +30,13 @@ G = 9.81
 
 @pytest.fixture(scope="module")
 def triplet():
-    with MujocoWorld("triplet", 3, width=W, height=H) as world:
+    with MujocoWorld(layout="triplet", seed=3, width=W, height=H) as world:
         yield world
 
 
 @pytest.fixture(scope="module")
 def household():
-    with MujocoWorld("household", 4, width=W, height=H) as world:
+    with MujocoWorld(layout="household", seed=4, width=W, height=H) as world:
         yield world
 
 
@@ -129,7 +129,7 @@ def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     code = (
         "import sys; from attribot.sim.render import gl_backend; import attribot.sim.render as r;"
         "assert 'OpenGL' not in sys.modules or True; from attribot.sim.world import SimWorld;"
-        "w = SimWorld('triplet', 1, width=64, height=48); f = w.observe(); w.close();"
+        "w = SimWorld(layout='triplet', seed=1, width=64, height=48); f = w.observe(); w.close();"
         "print(gl_backend(), f.rgb.shape, int(f.rgb.std() > 5))"
     )
     stdout = _python_choosing_its_own_backend(code)
@@ -185,9 +185,9 @@ def test_no_working_backend_names_the_system_packages(monkeypatch):
 
 @pytest.mark.parametrize("layout", ["arrangement", "triplet", "household"])
 def test_same_seed_same_scene_and_pixels(layout):
-    a = MujocoWorld(layout, 11, width=96, height=72)
-    b = MujocoWorld(layout, 11, width=96, height=72)
-    c = MujocoWorld(layout, 12, width=96, height=72)
+    a = MujocoWorld(layout=layout, seed=11, width=96, height=72)
+    b = MujocoWorld(layout=layout, seed=11, width=96, height=72)
+    c = MujocoWorld(layout=layout, seed=12, width=96, height=72)
     try:
         fa, fb, fc = a.observe(), b.observe(), c.observe()
         assert np.array_equal(fa.rgb, fb.rgb)
@@ -202,7 +202,7 @@ def test_same_seed_same_scene_and_pixels(layout):
 @pytest.mark.parametrize("layout", ["arrangement", "triplet", "household"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_every_object_in_the_first_view(layout, seed):
-    with MujocoWorld(layout, seed, width=320, height=240) as world:
+    with MujocoWorld(layout=layout, seed=seed, width=320, height=240) as world:
         info = world.scene_info()
         assert info.objects
         hidden = [o.id for o in info.objects if o.box is None]
@@ -211,7 +211,7 @@ def test_every_object_in_the_first_view(layout, seed):
 
 def test_arrangement_truth_rows_columns_and_one_odd_one_out():
     with MujocoWorld(
-        "arrangement", 5, width=W, height=H, options={"pattern": "grid", "odd": "size"}, n_objects=8
+        layout="arrangement", seed=5, width=W, height=H, options={"pattern": "grid", "odd": "size"}, objects=8
     ) as world:
         objs = world.scene_info().objects
     assert sum(o.odd_one_out for o in objs) == 1
@@ -250,9 +250,9 @@ def test_household_candidates_at_different_distances(household):
         ({"layout": "castle"}, UnknownName),
         ({"categories": ["unicorn"]}, UnknownName),
         ({"seed": -1}, InputError),
-        ({"n_objects": 99}, InputError),
-        ({"layout": "triplet", "n_objects": 4}, InputError),
-        ({"layout": "arrangement", "n_objects": 20, "categories": ["pot"]}, InputError),
+        ({"objects": 99}, InputError),
+        ({"layout": "triplet", "objects": 4}, InputError),
+        ({"layout": "arrangement", "objects": 20, "categories": ["pot"]}, InputError),
         ({"layout": "arrangement", "options": {"pattern": "spiral"}}, InputError),
         ({"profile": "ugly"}, InputError),
     ],
@@ -260,7 +260,7 @@ def test_household_candidates_at_different_distances(household):
 def test_bad_requests_are_clear_errors(kwargs, error):
     args = {"layout": "household", "seed": 0, **kwargs}
     with pytest.raises(error):
-        MujocoWorld(args.pop("layout"), args.pop("seed"), width=64, height=48, **args)
+        MujocoWorld(layout=args.pop("layout"), seed=args.pop("seed"), width=64, height=48, **args)
 
 
 # --- physics ----------------------------------------------------------------------------------------------
@@ -269,7 +269,7 @@ def test_bad_requests_are_clear_errors(kwargs, error):
 @pytest.mark.parametrize("layout", ["household", "arrangement", "triplet"])
 def test_objects_rest_stably_without_interpenetration(layout):
     """From the planned placement, with sleeping off (a sleeping body would pass trivially)."""
-    with MujocoWorld(layout, 4, width=64, height=48) as world:
+    with MujocoWorld(layout=layout, seed=4, width=64, height=48) as world:
         sim = world.sim
         sim.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         mujoco.mj_resetData(sim.model, sim.data)
@@ -372,12 +372,12 @@ def test_rangefinder_reads_the_geometric_distance(triplet):
 
 def test_box_geometry_reading_with_a_cube():
     with MujocoWorld(
-        "arrangement",
-        2,
+        layout="arrangement",
+        seed=2,
         width=96,
         height=72,
         categories=["toy block"],
-        n_objects=3,
+        objects=3,
         options={"pattern": "row", "odd": "color"},
     ) as world:
         sim = world.sim
@@ -443,7 +443,7 @@ def test_force_sensor_reads_the_held_weight_from_physics(triplet):
 
 
 def test_force_noise_is_gaussian_with_the_given_spread():
-    with MujocoWorld("triplet", 3, width=64, height=48, force_noise_std=0.5) as world:
+    with MujocoWorld(layout="triplet", seed=3, width=64, height=48, force_noise_std=0.5) as world:
         world.tare_force()
         reads = np.array([world.read_force() for _ in range(400)])
     assert abs(reads.mean()) < 0.1
@@ -452,7 +452,7 @@ def test_force_noise_is_gaussian_with_the_given_spread():
 
 def test_pick_refuses_what_it_cannot_hold():
     with MujocoWorld(
-        "household", 0, width=64, height=48, categories=["suitcase", "mug"], n_objects=2
+        layout="household", seed=0, width=64, height=48, categories=["suitcase", "mug"], objects=2
     ) as world:
         suitcase = next(o.id for o in world.sim.plan.objects if o.category.name == "suitcase")
         with pytest.raises(scripted.ManipulationError, match="not something the robot can pick up"):

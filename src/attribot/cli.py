@@ -1,7 +1,8 @@
 """The `attribot` command.
 
 Commands import their layers lazily so that `attribot --help` stays fast. Every `AttribotError` ends the
-command with its message and fix on stderr and exit code 2; nothing prints a traceback at a user.
+command with its message and fix on stderr and exit code 2 (in `_Commands.invoke`, the one place that
+converts them); nothing prints a traceback at a user.
 """
 
 from __future__ import annotations
@@ -12,13 +13,26 @@ from typing import Any
 import typer
 from rich.console import Console
 from rich.markup import escape
+from typer.core import TyperGroup
 
 from attribot.errors import AttribotError
 
 __all__ = ["app", "main"]
 
+
+class _Commands(TyperGroup):
+    """The root command group: turns an `AttribotError` from any command into its message and exit code 2."""
+
+    def invoke(self, ctx: Any) -> Any:  # typer.Context; typer vendors click, whose private Context mypy wants
+        try:
+            return super().invoke(ctx)
+        except AttribotError as exc:
+            raise fail(exc.message, exc.fix) from None
+
+
 app = typer.Typer(
     name="attribot",
+    cls=_Commands,
     help="Find objects by attributes a camera alone cannot settle: LLM-written perception-action programs.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -51,9 +65,11 @@ scene_app = typer.Typer(
 )
 app.add_typer(scene_app, name="scene")
 
-_S_LAYOUT = typer.Option("household", "--layout", help="Scene layout: household, arrangement or triplet.")
+_S_LAYOUT = typer.Option(None, "--layout", help="Scene layout: household (default), arrangement or triplet.")
 _S_SEED = typer.Option(
-    0, "--seed", help="Scene seed (0 to 4294967295): the same seed gives the same scene and pixels."
+    None,
+    "--seed",
+    help="Scene seed (0 to 4294967295, default 0): the same seed gives the same scene and pixels.",
 )
 _S_OBJECTS = typer.Option(None, "--objects", help="Number of objects (default: the layout chooses).")
 _S_CATEGORIES = typer.Option(
@@ -62,30 +78,24 @@ _S_CATEGORIES = typer.Option(
 _S_OPTION = typer.Option(
     None, "--option", help="Layout option KEY=VALUE, repeatable (e.g. pattern=grid, odd=size)."
 )
-_S_WIDTH = typer.Option(640, "--width", help="Image width in pixels.")
-_S_HEIGHT = typer.Option(480, "--height", help="Image height in pixels.")
-_S_PROFILE = typer.Option("fast", "--profile", help="Render profile: fast (no shadows) or pretty.")
+_S_WIDTH = typer.Option(None, "--width", help="Image width in pixels (default 640).")
+_S_HEIGHT = typer.Option(None, "--height", help="Image height in pixels (default 480).")
+_S_PROFILE = typer.Option(None, "--profile", help="Render profile: fast (no shadows, default) or pretty.")
 
 
-def _check_seed(seed: int) -> None:
-    if not 0 <= seed <= 4294967295:
-        raise fail(f"--seed must be a whole number from 0 to 4294967295, got {seed}", "use e.g. --seed 7")
-
-
-def _scene_world(
-    layout: str,
-    seed: int,
+def _scene_config(
+    layout: str | None,
+    seed: int | None,
     objects: int | None,
     categories: str | None,
     option: list[str] | None,
-    width: int,
-    height: int,
-    profile: str,
+    width: int | None,
+    height: int | None,
+    profile: str | None,
 ) -> Any:
-    _prefetch_rendering()
-    from attribot.embodiments.mujoco import MujocoWorld
+    """The `SceneConfig` of the scene flags, or None when no flag was given."""
+    from attribot.config import SceneConfig
 
-    _check_seed(seed)
     options: dict[str, Any] = {}
     for item in option or []:
         key, sep, raw = item.partition("=")
@@ -99,34 +109,41 @@ def _scene_world(
             except ValueError:
                 pass
         options[key.strip()] = value
-    names = None if categories is None else [c.strip() for c in categories.split(",") if c.strip()]
-    try:
-        return MujocoWorld(
-            layout,
-            seed,
-            n_objects=objects,
-            categories=names,
-            width=width,
-            height=height,
-            profile=profile,
-            options=options,
-        )
-    except AttribotError as exc:
-        raise fail(exc.message, exc.fix) from None
+    names = None if categories is None else tuple(c.strip() for c in categories.split(",") if c.strip())
+    given = {
+        "layout": layout,
+        "seed": seed,
+        "objects": objects,
+        "categories": names,
+        "options": options or None,
+        "width": width,
+        "height": height,
+        "profile": profile,
+    }
+    fields = {k: v for k, v in given.items() if v is not None}
+    return SceneConfig.create(**fields) if fields else None
+
+
+def _scene_world(config: Any) -> Any:
+    _prefetch_rendering()
+    from attribot.config import SceneConfig
+    from attribot.embodiments.mujoco import MujocoWorld
+
+    return MujocoWorld(config or SceneConfig())
 
 
 @scene_app.command("render")
 def scene_render(
     out: Path = typer.Option(..., "--out", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
-    layout: str = _S_LAYOUT,
-    seed: int = _S_SEED,
+    layout: str | None = _S_LAYOUT,
+    seed: int | None = _S_SEED,
     objects: int | None = _S_OBJECTS,
     categories: str | None = _S_CATEGORIES,
     option: list[str] | None = _S_OPTION,
-    width: int = _S_WIDTH,
-    height: int = _S_HEIGHT,
-    profile: str = _S_PROFILE,
+    width: int | None = _S_WIDTH,
+    height: int | None = _S_HEIGHT,
+    profile: str | None = _S_PROFILE,
 ) -> None:
     """Write the robot camera's view of a scene to an image file."""
     from PIL import Image
@@ -137,37 +154,33 @@ def scene_render(
         )
     if not out.parent.exists():
         raise fail(f"the folder {str(out.parent)!r} does not exist", "create it first or write elsewhere")
-    with _scene_world(layout, seed, objects, categories, option, width, height, profile) as world:
-        try:
-            frame = world.observe()
-            rgb = frame.rgb
-            if boxes:
-                from attribot.draw import draw_boxes
+    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+    with _scene_world(config) as world:
+        frame = world.observe()
+        rgb = frame.rgb
+        if boxes:
+            from attribot.draw import draw_boxes
 
-                info = world.sim.scene_info(frame)
-                rgb = draw_boxes(rgb, [(o.box, f"{o.category} ({o.color})") for o in info.objects if o.box])
-        except AttribotError as exc:
-            raise fail(exc.message, exc.fix) from None
+            info = world.sim.scene_info(frame)
+            rgb = draw_boxes(rgb, [(o.box, f"{o.category} ({o.color})") for o in info.objects if o.box])
     Image.fromarray(rgb).save(out)
     typer.echo(str(out))
 
 
 @scene_app.command("info")
 def scene_info(
-    layout: str = _S_LAYOUT,
-    seed: int = _S_SEED,
+    layout: str | None = _S_LAYOUT,
+    seed: int | None = _S_SEED,
     objects: int | None = _S_OBJECTS,
     categories: str | None = _S_CATEGORIES,
     option: list[str] | None = _S_OPTION,
-    width: int = _S_WIDTH,
-    height: int = _S_HEIGHT,
+    width: int | None = _S_WIDTH,
+    height: int | None = _S_HEIGHT,
 ) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
-    with _scene_world(layout, seed, objects, categories, option, width, height, "fast") as world:
-        try:
-            info = world.scene_info()
-        except AttribotError as exc:
-            raise fail(exc.message, exc.fix) from None
+    config = _scene_config(layout, seed, objects, categories, option, width, height, None)
+    with _scene_world(config) as world:
+        info = world.scene_info()
     typer.echo(info.model_dump_json(indent=2))
 
 
@@ -195,15 +208,14 @@ def _prefetch_rendering() -> None:
     prefetch_gl_backend()
 
 
-def _scene(layout: str, seed: int, image: Path | None, sensors: str | None) -> Any:
+def _scene(config: Any, image: Path | None, sensors: str | None) -> Any:
     """The world to ask in; called first, so that the OpenGL probe overlaps the slow imports."""
     if image is None:
         _prefetch_rendering()
     from attribot.planning.ask import Scene
 
-    _check_seed(seed)
     names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
-    return Scene(layout=None if image else layout, seed=seed, image=image, sensors=names)
+    return Scene(config=config, image=image, sensors=names)
 
 
 def _show(answer: Any, as_json: bool) -> None:
@@ -233,8 +245,14 @@ def _show(answer: Any, as_json: bool) -> None:
 @app.command()
 def ask(
     query: str = typer.Argument(..., help='The question, e.g. "Which object is the heaviest?"'),
-    layout: str = _S_LAYOUT,
-    seed: int = _S_SEED,
+    layout: str | None = _S_LAYOUT,
+    seed: int | None = _S_SEED,
+    objects: int | None = _S_OBJECTS,
+    categories: str | None = _S_CATEGORIES,
+    option: list[str] | None = _S_OPTION,
+    width: int | None = _S_WIDTH,
+    height: int | None = _S_HEIGHT,
+    profile: str | None = _S_PROFILE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
@@ -247,7 +265,8 @@ def ask(
     save: Path | None = _SAVE,
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
-    scene = _scene(layout, seed, image, sensors)
+    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+    scene = _scene(config, image, sensors)
     from attribot.config import load_settings
     from attribot.planning.ask import ask as run_ask
 
@@ -266,8 +285,14 @@ def ask(
 @app.command("exec")
 def exec_program(
     program: Path = typer.Argument(..., help="A .py file defining execute_command(image, robot)."),
-    layout: str = _S_LAYOUT,
-    seed: int = _S_SEED,
+    layout: str | None = _S_LAYOUT,
+    seed: int | None = _S_SEED,
+    objects: int | None = _S_OBJECTS,
+    categories: str | None = _S_CATEGORIES,
+    option: list[str] | None = _S_OPTION,
+    width: int | None = _S_WIDTH,
+    height: int | None = _S_HEIGHT,
+    profile: str | None = _S_PROFILE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
@@ -278,7 +303,8 @@ def exec_program(
     save: Path | None = _SAVE,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
-    scene = _scene(layout, seed, image, sensors)
+    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+    scene = _scene(config, image, sensors)
     from attribot.config import load_settings
     from attribot.planning.ask import execute
 
@@ -437,15 +463,12 @@ def serve_models(
         first = exc.errors()[0]
         option = "--" + str(first["loc"][0]).replace("_", "-") if first.get("loc") else "an option"
         raise fail(f"{option}: {first.get('msg')}", "see `attribot serve models --help`") from None
-    try:
-        check_bind(host, config.token)
-        given = {"detector": detector, "vqa": vqa, "language": language}
-        _, notes = served_specs(settings, given)
-        for note in notes:
-            err_console.print(f"[yellow]note:[/] {note}", highlight=False)
-        backends = build_served_backends(settings, given, model_process=model_process)
-    except AttribotError as exc:
-        raise fail(exc.message, exc.fix) from None
+    check_bind(host, config.token)
+    given = {"detector": detector, "vqa": vqa, "language": language}
+    _, notes = served_specs(settings, given)
+    for note in notes:
+        err_console.print(f"[yellow]note:[/] {note}", highlight=False)
+    backends = build_served_backends(settings, given, model_process=model_process)
     for role, backend in backends.items():
         pid = getattr(backend, "pid", None)
         where = f" (model process {pid})" if pid is not None else ""
@@ -462,15 +485,7 @@ def serve_models(
 
 def main() -> None:
     """Console-script entry point."""
-    try:
-        app()
-    except AttribotError as exc:
-        raise SystemExit(_report(exc)) from None
-
-
-def _report(exc: AttribotError) -> int:
-    fail(exc.message, exc.fix)
-    return 2
+    app()
 
 
 if __name__ == "__main__":

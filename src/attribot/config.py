@@ -1,7 +1,11 @@
-"""Configuration: defaults, overridden by a TOML file, overridden by `ATTRIBOT_*` environment variables.
+"""Configuration: the backend settings of a run, and the scene a query runs in.
 
+`Settings` come from defaults, overridden by a TOML file, overridden by `ATTRIBOT_*` environment variables.
 The file is `./attribot.toml`, or the path in `ATTRIBOT_CONFIG`. Nothing is read at import time; call
 `load_settings()` when a command starts. Every run saves the resolved settings beside its results.
+
+`SceneConfig` is the one description of a simulated scene (layout, seed, objects, options, camera size,
+render profile): the CLI builds it from its flags, datasets store it, and the worlds are built from it.
 """
 
 from __future__ import annotations
@@ -10,7 +14,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from pydantic_settings import (
     BaseSettings,
     PydanticBaseSettingsSource,
@@ -18,7 +22,15 @@ from pydantic_settings import (
     TomlConfigSettingsSource,
 )
 
-__all__ = ["Settings", "load_settings"]
+from attribot.errors import InputError
+
+__all__ = ["Settings", "load_settings", "SceneConfig", "MAX_OBJECTS", "MAX_SEED", "RENDER_PROFILES"]
+
+MAX_OBJECTS = 30
+"""The most objects a generated scene holds."""
+MAX_SEED = 2**32 - 1
+RENDER_PROFILES = ("fast", "pretty")
+"""fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 
 
 class Settings(BaseSettings):
@@ -78,3 +90,79 @@ class Settings(BaseSettings):
 def load_settings(**overrides: Any) -> Settings:
     """Settings from file and environment; keyword arguments (CLI flags) win over both."""
     return Settings(**{k: v for k, v in overrides.items() if v is not None})
+
+
+OptionValue = str | int | float | bool
+
+
+class SceneConfig(BaseModel):
+    """Where a query runs in the embedded world: the layout and seed, and what overrides the layout's choice.
+
+    layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: the same seed gives
+    the same scene and pixels; objects / categories: override the layout's choice; options: layout
+    options (e.g. {"pattern": "grid", "odd": "size"}); width, height: camera pixels; profile: "fast" or
+    "pretty"; force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis.
+    Build it with `SceneConfig.create(...)` to get an `InputError` that names the bad field.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    layout: str = "household"
+    seed: int = Field(0, ge=0, le=MAX_SEED, strict=True)
+    objects: int | None = Field(None, ge=1, le=MAX_OBJECTS, strict=True)
+    categories: tuple[str, ...] | None = None
+    options: dict[str, OptionValue] = Field(default_factory=dict)
+    width: int = Field(640, ge=16, le=4096, strict=True)
+    height: int = Field(480, ge=16, le=4096, strict=True)
+    profile: str = "fast"
+    force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+
+    @field_validator("profile")
+    @classmethod
+    def _known_profile(cls, value: str) -> str:
+        if value not in RENDER_PROFILES:
+            raise ValueError(f"unknown render profile; choose one of: {', '.join(RENDER_PROFILES)}")
+        return value
+
+    @classmethod
+    def create(cls, **fields: Any) -> SceneConfig:
+        """A validated config; a bad field raises `InputError` naming it, its limits and the fix."""
+        try:
+            return cls(**fields)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            name = ".".join(str(p) for p in first.get("loc", ())) or "scene"
+            value = first.get("input")
+            flag = _SCENE_FLAGS.get(name.split(".")[0])
+            raise InputError(
+                f"scene setting {name}{f' ({flag})' if flag else ''} = {value!r} is not valid: "
+                f"{first.get('msg', 'invalid')}",
+                _SCENE_FIXES.get(name.split(".")[0], "see `attribot scene render --help`"),
+            ) from None
+
+    def describe(self) -> dict[str, Any]:
+        """The fields that differ from the defaults, always with layout and seed: what answers record."""
+        data = self.model_dump(mode="json", exclude_defaults=True)
+        return {"layout": self.layout, "seed": self.seed, **data}
+
+
+_SCENE_FLAGS = {
+    "layout": "--layout",
+    "seed": "--seed",
+    "objects": "--objects",
+    "categories": "--categories",
+    "options": "--option",
+    "width": "--width",
+    "height": "--height",
+    "profile": "--profile",
+}
+_SCENE_FIXES = {
+    "seed": f"give a whole number from 0 to {MAX_SEED}, e.g. --seed 7",
+    "objects": f"ask for 1 to {MAX_OBJECTS} objects (each layout has its own range), e.g. --objects 4",
+    "width": "give a width and height from 16 to 4096 pixels",
+    "height": "give a width and height from 16 to 4096 pixels",
+    "profile": f"choose one of: {', '.join(RENDER_PROFILES)}",
+    "force_noise_std": "give a finite standard deviation >= 0 N",
+    "options": "write layout options as KEY=VALUE, e.g. --option pattern=grid",
+    "categories": "name categories from `attribot scene info` or the catalog, e.g. mug,apple",
+}

@@ -8,11 +8,11 @@ manipulation of `attribot.sim.scripted` takes a `MujocoWorld` too.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from attribot.config import SceneConfig
 from attribot.embodiments import mujoco_control  # noqa: F401  (registers this world's controller)
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
@@ -23,40 +23,14 @@ __all__ = ["MujocoWorld"]
 
 @EMBODIMENTS.register("mujoco", aliases=("sim",))
 class MujocoWorld(Embodiment):
-    """A seeded MuJoCo scene with the mobile manipulator in it.
-
-    layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: same seed, same
-    scene and pixels; n_objects / categories: override the layout's choice; width, height: camera pixels;
-    profile: "fast" (no shadows or reflections) or "pretty"; force_noise_std: Gaussian noise of the wrist
-    force sensor, newtons per axis; options: layout options (e.g. {"pattern": "grid", "odd": "size"}).
-    """
+    """A seeded MuJoCo scene with the mobile manipulator in it, built from a `attribot.config.SceneConfig`
+    (or from its fields: `MujocoWorld(layout="triplet", seed=3, width=320, height=240)`)."""
 
     name = "mujoco"
 
-    def __init__(
-        self,
-        layout: str = "household",
-        seed: int = 0,
-        *,
-        n_objects: int | None = None,
-        categories: Sequence[str] | None = None,
-        width: int = 640,
-        height: int = 480,
-        profile: str = "fast",
-        force_noise_std: float = 0.0,
-        options: dict[str, Any] | None = None,
-    ) -> None:
-        self.sim = SimWorld(
-            layout,
-            seed,
-            n_objects=n_objects,
-            categories=categories,
-            width=width,
-            height=height,
-            profile=profile,
-            force_noise_std=force_noise_std,
-            options=options,
-        )
+    def __init__(self, config: SceneConfig | None = None, **fields: Any) -> None:
+        self.sim = SimWorld(config, **fields)
+        self.config = self.sim.config
         self.layout = self.sim.plan.layout
         self.seed = self.sim.plan.seed
 

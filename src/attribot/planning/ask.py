@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from attribot.config import Settings
+from attribot.config import SceneConfig, Settings
 from attribot.errors import ConfigError, InputError
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
@@ -22,19 +22,30 @@ __all__ = ["Scene", "ask", "execute", "build_answer", "save_answer"]
 
 @dataclass
 class Scene:
-    """Where a query runs: a simulated world (`layout`, `seed`) or a still image file."""
+    """Where a query runs: the world `world` built from `config`, or a still image file (`image`).
 
-    layout: str | None = "household"
-    seed: int = 0
+    Neither given: the default scene (`SceneConfig()`). `sensors` None: every sensor the world has (the
+    camera alone for an image)."""
+
+    config: SceneConfig | None = None
     image: Path | None = None
     world: str = "mujoco"
-    sensors: Sequence[str] | None = None  # None: every sensor the world has (camera alone for an image)
-    world_options: dict[str, Any] = field(default_factory=dict)
+    sensors: Sequence[str] | None = None
+
+    def __post_init__(self) -> None:
+        if self.image is not None and self.config is not None:
+            raise InputError(
+                "a query runs either on an image or in a generated scene, not both",
+                "drop --image, or drop the scene options (--layout, --seed, --objects, ...)",
+            )
+        if self.image is None and self.config is None:
+            self.config = SceneConfig()
 
     def describe(self) -> dict[str, Any]:
         if self.image is not None:
             return {"image": str(self.image)}
-        return {"world": self.world, "layout": self.layout, "seed": self.seed}
+        assert self.config is not None
+        return {"world": self.world, **self.config.describe()}
 
 
 def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = None) -> Answer:
@@ -102,8 +113,8 @@ class _Session:
                 from attribot.embodiments.base import EMBODIMENTS
 
                 self.perception = Perception.from_settings(settings)
-                world_cls: Any = EMBODIMENTS.get(scene.world)  # worlds take layout and seed
-                self.world = world_cls(layout=scene.layout, seed=scene.seed, **scene.world_options)
+                world_cls: Any = EMBODIMENTS.get(scene.world)  # worlds are built from a SceneConfig
+                self.world = world_cls(scene.config)
                 have = {str(c) for c in self.world.capabilities()}
                 self.sensors = list(
                     scene.sensors or [s for s in ("camera", "distance", "force") if s in have]

@@ -28,6 +28,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from attribot.config import MAX_OBJECTS, MAX_SEED
 from attribot.errors import InputError
 from attribot.registry import Registry
 from attribot.sim.catalog import COLORS, Category, categories, get_category
@@ -50,7 +51,6 @@ __all__ = [
     "object_center",
 ]
 
-MAX_OBJECTS = 30
 ROOM_HALF = 3.0  # the room is 6 m x 6 m, centred on the origin
 WALL_HEIGHT = 2.4
 
@@ -543,7 +543,7 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
 
 def check_seed(seed: object) -> int:
     """`seed` as an int when it is a whole number from 0 to 2**32 - 1; otherwise an InputError."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
         raise InputError(f"seed {seed!r} is not valid", "give a whole number between 0 and 4294967295")
     return int(seed)
 

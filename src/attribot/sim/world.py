@@ -11,23 +11,21 @@ separately for perception oracles, scoring and scene info.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import Any
 
 import mujoco
 import numpy as np
 from pydantic import BaseModel
 
+from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
-from attribot.sim.render import PROFILES, SceneRenderer
+from attribot.sim.render import SceneRenderer
 from attribot.sim.robot import GEOMETRY
 from attribot.sim.scene import (
-    MAX_OBJECTS,
     ScenePlan,
     SceneRequest,
     build_model,
-    check_seed,
     plan_scene,
     resolve_categories,
 )
@@ -110,36 +108,17 @@ def _name2id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
 class SimWorld:
     """One seeded scene with the robot in it. See the module docstring; close it to free the renderer."""
 
-    def __init__(
-        self,
-        layout: str = "household",
-        seed: int = 0,
-        *,
-        n_objects: int | None = None,
-        categories: Sequence[str] | None = None,
-        width: int = 640,
-        height: int = 480,
-        profile: str = "fast",
-        force_noise_std: float = 0.0,
-        options: dict[str, Any] | None = None,
-        settle_s: float = 0.6,
-    ) -> None:
-        seed = check_seed(seed)
-        if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
-            raise InputError(
-                f"image size {width}x{height} is out of range", "give a width and height from 16 to 4096"
-            )
-        if profile not in PROFILES:
-            raise InputError(f"unknown render profile {profile!r}", f"choose one of: {', '.join(PROFILES)}")
-        if not force_noise_std >= 0:
-            raise InputError(
-                f"force_noise_std={force_noise_std} is negative", "give a standard deviation >= 0 N"
-            )
-        if n_objects is not None and not 1 <= n_objects <= MAX_OBJECTS:
-            raise InputError(f"{n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
-        request = SceneRequest(n_objects, resolve_categories(categories), dict(options or {}))
-        self.width, self.height, self.profile = int(width), int(height), profile
-        self.force_noise_std = float(force_noise_std)
+    def __init__(self, config: SceneConfig | None = None, *, settle_s: float = 0.6, **fields: Any) -> None:
+        """The scene of `config`, or of a `SceneConfig` built from `fields` (layout=..., seed=..., ...)."""
+        if config is None:
+            config = SceneConfig.create(**fields)
+        elif fields:
+            raise TypeError("give a SceneConfig or its fields, not both")
+        self.config = config
+        layout, seed, width, height = config.layout, config.seed, config.width, config.height
+        request = SceneRequest(config.objects, resolve_categories(config.categories), dict(config.options))
+        self.width, self.height, self.profile = width, height, config.profile
+        self.force_noise_std = config.force_noise_std
         self._rng = np.random.default_rng([int(seed), 1])
         self._renderer: SceneRenderer | None = None
         # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
