@@ -445,3 +445,82 @@ def test_boxes_under_a_pixel_are_not_detections(models):
         _frame(64, 64, 20), ["cat", "dog"]
     )
     assert dets and all(d.box[2] - d.box[0] >= 1 and d.box[3] - d.box[1] >= 1 for d in dets)
+
+
+# ---- every image is brought to the model's working size before any processor sees it -------------------
+
+
+class _ShapeSpy:
+    """Wraps an image processor and records the (height, width) of every image handed to it."""
+
+    def __init__(self, inner) -> None:
+        self.inner, self.shapes = inner, []
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def __call__(self, images, *args, **kwargs):
+        self.shapes.extend(tuple(np.asarray(im).shape[:2]) for im in images)
+        return self.inner(images, *args, **kwargs)
+
+
+@pytest.mark.parametrize("name", ["owl", "gdino"])
+@pytest.mark.parametrize("shape", [(1, 10000), (10000, 1), (3000, 4000), (2, 3)])
+def test_detector_processors_see_images_at_working_size(models, name, shape):
+    """A 1x10000 or a 4000x3000 image reached OWLv2's processor at full size (which pads it to a square
+    and blurs it on the CPU: minutes and 11 GB for the real model); now at most the working side, and
+    at most MAX_ASPECT to 1, with boxes inside the caller's image."""
+    det = hf.HFDetector(str(models[name]), threshold=0.0)
+    spy = _ShapeSpy(det.processor.image_processor)
+    det.processor.image_processor = spy
+    side = hf.working_side(spy.inner)
+    frame = Frame(rgb=np.full(shape + (3,), 90, dtype=np.uint8))
+    dets = det.detect(frame, ["cat"])
+    ((h, w),) = spy.shapes
+    assert max(h, w) <= max(side, max(shape)) and max(h, w) <= max(side, 8)
+    assert max(h, w) <= hf.MAX_ASPECT * min(h, w)
+    for d in dets:
+        x0, y0, x1, y1 = d.box
+        assert 0 <= x0 < x1 <= shape[1] and 0 <= y0 < y1 <= shape[0]
+
+
+def test_vqa_processor_sees_images_at_working_size(models):
+    vqa = hf.HFVisualQA(str(models["blip2"]), max_new_tokens=2)
+    seen = []
+    inner = vqa.processor
+
+    def spying(*, images, **kwargs):
+        seen.extend(np.asarray(im).shape[:2] for im in images)
+        return inner(images=images, **kwargs)
+
+    vqa.processor = type(
+        "P", (), {"__call__": staticmethod(spying), "__getattr__": lambda s, n: getattr(inner, n)}
+    )()
+    assert isinstance(vqa.answer(Frame(rgb=np.zeros((1, 10000, 3), np.uint8)), "what?"), str)
+    side = hf.working_side(inner.image_processor)
+    assert seen and max(seen[0]) <= side
+
+
+def test_working_size_maps_boxes_back_to_the_callers_pixels(models):
+    """An image twice the size (each pixel doubled) shrinks back to the original exactly: the same
+    detections, with boxes twice as large."""
+    det = hf.HFDetector(str(models["owl"]), threshold=0.0)
+    side = hf.working_side(det.processor.image_processor)
+    small = _frame(side, side // 2, 23)
+    big = Frame(rgb=np.repeat(np.repeat(small.rgb, 2, axis=0), 2, axis=1))
+    a, b = det.detect(small, ["cat", "dog"]), det.detect(big, ["cat", "dog"])
+    assert a and len(a) == len(b)
+    for x, y in zip(a, b, strict=True):
+        assert x.label == y.label and abs(x.score - y.score) < 1e-4
+        assert np.allclose(np.array(x.box) * 2, y.box, atol=1e-2)
+
+
+@pytest.mark.parametrize(
+    ("shape", "want"),
+    [((480, 640), (480, 640)), ((1, 10000), (120, 960)), ((3000, 4000), (720, 960)), ((100, 2), (100, 13))],
+)
+def test_to_working_size_shapes(shape, want):
+    rgb = np.zeros(shape + (3,), np.uint8)
+    out, scale = hf.to_working_size(rgb, 960)
+    assert out.shape[:2] == want and out.flags.c_contiguous
+    assert scale == min(1.0, 960 / max(shape))

@@ -15,6 +15,11 @@ What the raw models leave to us, and this module does:
   each token back to the candidate label whose characters it covers (tokenizer offsets) and score a box
   for a label by its best token, so every label is one of the candidates.
 - Batches: many images at once, each with its own list of text queries (padded and masked).
+- Size: every image is brought to the model's working size (longest side, aspect ratio kept) before any
+  processor sees it, and an extremely thin one is padded (cheaply, after the shrink) to at most
+  `MAX_ASPECT` to 1. OWLv2's processor pads a 1x10000 image to a 10000x10000 square and blurs it on the
+  CPU (minutes, 11 GB) before shrinking it to 960: shrinking first costs milliseconds. Boxes are mapped
+  back to the caller's pixels.
 """
 
 from __future__ import annotations
@@ -46,12 +51,18 @@ __all__ = [
     "probe_hf",
     "build_hf_detector",
     "build_hf_vqa",
+    "MAX_ASPECT",
+    "working_side",
+    "to_working_size",
 ]
 
 DETECTOR_FAMILIES = ("owlv2", "grounding-dino")
 """`model_type` values of the detectors this backend runs."""
 VQA_FAMILIES = ("blip-2",)
 """`model_type` values of the VQA models this backend runs."""
+
+MAX_ASPECT = 8
+"""Longest side over shortest side of what a model is shown; thinner images are padded with grey."""
 
 _PURPOSE = "the hf: (transformers) backends"
 _EXAMPLES = {
@@ -191,6 +202,41 @@ def _clean_queries(queries: Sequence[str]) -> list[str]:
     return out
 
 
+def working_side(image_processor: Any) -> int:
+    """The longest image side `image_processor` works at: the largest number in its `size` (OWLv2
+    {"height": 960, "width": 960}, Grounding DINO {"shortest_edge": 800, "longest_edge": 1333})."""
+    size = getattr(image_processor, "size", None)
+    # a dict in transformers 4, a `SizeDict` (unset fields None) in 5
+    values = [size] if size is None or isinstance(size, int | float) else dict(size).values()
+    sides = [int(v) for v in values if isinstance(v, int | float) and not isinstance(v, bool) and v > 0]
+    if not sides:
+        raise ConfigError(
+            f"the image processor {type(image_processor).__name__} states no working size",
+            "save the model with a processor whose config has a size",
+        )
+    return max(sides)
+
+
+def to_working_size(rgb: np.ndarray, side: int) -> tuple[np.ndarray, float]:
+    """`rgb` shrunk (never enlarged) so that its longest side is at most `side`, aspect ratio kept, then
+    padded bottom and right with grey to at most `MAX_ASPECT` to 1; and the scale (new / old pixels).
+    A box in the result's pixels divided by the scale is a box in `rgb`'s pixels."""
+    import cv2
+
+    h, w = rgb.shape[:2]
+    scale = min(1.0, side / max(h, w))
+    if scale < 1.0:
+        size = (max(1, round(w * scale)), max(1, round(h * scale)))
+        rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA)
+    h, w = rgb.shape[:2]
+    short = -(-max(h, w) // MAX_ASPECT)  # ceiling
+    if min(h, w) < short:
+        out = np.full((max(h, short), max(w, short), 3), 128, dtype=np.uint8)
+        out[:h, :w] = rgb
+        rgb = out
+    return np.ascontiguousarray(rgb), scale
+
+
 def _corners(cxcywh: Any) -> Any:
     cx, cy, w, h = cxcywh.unbind(-1)
     return _torch().stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], dim=-1)
@@ -310,21 +356,25 @@ class HFDetector:
         cleaned = [_clean_queries(q) for q in queries]
         results: list[list[Detection]] = [[] for _ in frames]
         todo = [i for i, q in enumerate(cleaned) if q]  # a frame with no query has no detection
+        side = working_side(self.processor.image_processor)
         for chunk in self._chunks(frames, todo):
-            rgbs = [frames[i].rgb for i in chunk]
+            fitted = [to_working_size(frames[i].rgb, side) for i in chunk]
+            rgbs = [rgb for rgb, _ in fitted]
             labels = [cleaned[i] for i in chunk]
             raw = self._run_owl(rgbs, labels) if self.family == "owlv2" else self._run_gdino(rgbs, labels)
-            for i, rgb, lab, (bx, sc, li) in zip(chunk, rgbs, labels, raw, strict=True):
-                results[i] = self._finish(bx, sc, li, lab, width=rgb.shape[1], height=rgb.shape[0])
+            for i, (_, scale), lab, (bx, sc, li) in zip(chunk, fitted, labels, raw, strict=True):
+                h, w = frames[i].rgb.shape[:2]
+                results[i] = self._finish(bx / scale, sc, li, lab, width=w, height=h)
         return results
 
     def _chunks(self, frames: Sequence[Frame], todo: list[int]) -> list[list[int]]:
         """Batches of at most `max_batch` frame indices. Grounding DINO pads a batch to its largest image
-        and its backbone sees the padding, so it batches only frames of one size: then a batched answer
-        equals the one-by-one answer (camera frames share a size, so real batches stay full)."""
+        and its backbone sees the padding, so it batches only frames of one working size: then a batched
+        answer equals the one-by-one answer (camera frames share a size, so real batches stay full)."""
+        side = working_side(self.processor.image_processor)
         groups: dict[tuple[int, ...], list[int]] = {}
         for i in todo:
-            key = frames[i].rgb.shape[:2] if self.family == "grounding-dino" else ()
+            key = _fitted_shape(frames[i].rgb.shape[:2], side) if self.family == "grounding-dino" else ()
             groups.setdefault(key, []).append(i)
         return [g[s : s + self.max_batch] for g in groups.values() for s in range(0, len(g), self.max_batch)]
 
@@ -444,6 +494,16 @@ class HFDetector:
         ]
 
 
+def _fitted_shape(shape: tuple[int, ...], side: int) -> tuple[int, ...]:
+    """The (height, width) `to_working_size` gives an image of `shape`, without touching pixels."""
+    h, w = shape[:2]
+    scale = min(1.0, side / max(h, w))
+    if scale < 1.0:
+        h, w = max(1, round(h * scale)), max(1, round(w * scale))
+    short = -(-max(h, w) // MAX_ASPECT)
+    return max(h, short), max(w, short)
+
+
 def _tokens_of_labels(spans: list[tuple[int, int]], offsets: list[list[int]], width: int) -> list[list[int]]:
     """For each label's character span, the token positions (< width) whose characters lie inside it."""
     out: list[list[int]] = [[] for _ in spans]
@@ -528,10 +588,12 @@ class HFVisualQA:
             if not isinstance(q, str) or not q.strip():
                 raise InputError(f"question {q!r} is empty or not a string", "ask a question in words")
             prompts.append(f"Question: {' '.join(q.split())} Answer:")
+        side = working_side(self.processor.image_processor)
         answers: list[str] = []
         for start in range(0, len(prompts), self.max_batch):
             chunk = slice(start, start + self.max_batch)
-            answers.extend(self._generate([f.rgb for f in frames[chunk]], prompts[chunk]))
+            rgbs = [to_working_size(f.rgb, side)[0] for f in frames[chunk]]
+            answers.extend(self._generate(rgbs, prompts[chunk]))
         return answers
 
     def _generate(self, rgbs: list[np.ndarray], prompts: list[str]) -> list[str]:
