@@ -6,6 +6,7 @@ into a `RunResult`. A worker runs one program and is then discarded, so no state
 from __future__ import annotations
 
 import binascii
+import contextlib
 import inspect
 import json
 import marshal
@@ -19,7 +20,7 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +54,60 @@ def _params(signature: inspect.Signature) -> str:
             text = "**" + p.name
         out.append(text)
     return ", ".join(out)
+
+
+class _CallTimeout(BaseException):
+    """Raised inside a host-side API call when the run's wall-clock deadline passes (a BaseException, so
+    that a backend's `except Exception` cannot swallow it)."""
+
+
+_CUT_SIGNAL = signal.SIGRTMIN + 5 if hasattr(signal, "SIGRTMIN") else signal.SIGUSR2
+"""The signal that cuts a host call: a real-time one that applications (and pytest-timeout's SIGALRM)
+leave alone."""
+
+
+@contextlib.contextmanager
+def _deadline_alarm(seconds: float) -> Iterator[None]:
+    """Raise `_CallTimeout` in this thread after `seconds`, when it is the main thread (where Python runs
+    signal handlers) and the cutting signal is free.
+
+    A timer thread sends the signal to this thread at the deadline: it interrupts Python code and
+    blocking system calls (a socket read from a stuck endpoint, a wait); a C call that never returns to
+    Python (one model forward pass) ends first. Elsewhere (another thread, the signal owned by the
+    application) the deadline is checked when the call returns, as before.
+    """
+    usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
+        signal.SIG_DFL,
+        signal.SIG_IGN,
+        None,
+    )
+    if not usable or not math.isfinite(seconds):
+        yield
+        return
+    armed = threading.Event()
+    armed.set()
+    target = threading.get_ident()
+
+    def expire(signum: int, frame: Any) -> None:
+        if armed.is_set():
+            armed.clear()
+            raise _CallTimeout()
+
+    def send() -> None:
+        if armed.is_set():
+            signal.pthread_kill(target, _CUT_SIGNAL)
+
+    previous = signal.signal(_CUT_SIGNAL, expire)
+    timer = threading.Timer(max(seconds, 1e-3), send)
+    timer.daemon = True
+    try:
+        timer.start()
+        yield
+    finally:
+        armed.clear()  # a signal still on its way is ignored by `expire`
+        timer.cancel()
+        timer.join()
+        signal.signal(_CUT_SIGNAL, previous)
 
 
 class _Gone(Exception):
@@ -264,7 +319,8 @@ class _Run:
         return repr(value)[:200]
 
     # ---- one API call -------------------------------------------------------------------------------
-    def call(self, msg: dict[str, Any]) -> dict[str, Any]:
+    def call(self, msg: dict[str, Any], deadline: float = math.inf) -> dict[str, Any]:
+        """Serve one API call; past `deadline` (time.monotonic) the call is cut and `_CallTimeout` raised."""
         line = msg.get("l") if type(msg.get("l")) is int else None
         self.last_line = line
         self.calls += 1
@@ -302,7 +358,16 @@ class _Run:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown)
         t0 = time.perf_counter()
         try:
-            result = fn(*args, **kwargs)
+            with _deadline_alarm(deadline - time.monotonic()):
+                result = fn(*args, **kwargs)
+        except _CallTimeout:
+            ms = (time.perf_counter() - t0) * 1000
+            self.trace.append(
+                TraceRecord(
+                    call=name, args=shown, result=None, ms=ms, line=line, error="cut at the run's time limit"
+                )
+            )
+            raise
         except AttribotError as e:
             ms = (time.perf_counter() - t0) * 1000
             return self._refuse(name, str(e), line, shown, ms)
@@ -507,8 +572,11 @@ class ProgramRunner:
                     return finish(False, error=err)
                 kind = msg.get("t")
                 if kind == "call":
-                    reply = state.call(msg)
-                    if time.monotonic() > deadline:
+                    try:
+                        reply = state.call(msg, deadline if ready else math.inf)
+                    except _CallTimeout:
+                        reply = None
+                    if reply is None or time.monotonic() > deadline:
                         worker.kill()
                         err = state.error(
                             "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
