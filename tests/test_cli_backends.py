@@ -91,8 +91,9 @@ def test_env_overrides_file_and_failures_are_reported(tmp_path):
     assert _run(["--json", "--strict"], env).exit_code == 1
 
 
-def test_table_shows_every_role(tmp_path):
-    result = _run([], {"ATTRIBOT_CONFIG": str(tmp_path / "none.toml"), "ATTRIBOT_DETECTOR": "hf:/nope"})
+def test_table_shows_every_role(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no ./attribot.toml: the defaults
+    result = _run([], {"ATTRIBOT_DETECTOR": "hf:/nope"})
     assert result.exit_code == 0, result.output
     for word in ("detector", "vqa", "language", "planner", "hf:/nope", "no", "defaults"):
         assert word in result.output
@@ -103,4 +104,4 @@ def test_invalid_configuration_is_a_clear_error(tmp_path):
     cfg.write_text('detector_threshold = "high"\n')
     result = _run([], {"ATTRIBOT_CONFIG": str(cfg)})
     assert result.exit_code == 2
-    assert "configuration is invalid" in result.output
+    assert "setting detector_threshold = 'high'" in result.output and str(cfg) in result.output

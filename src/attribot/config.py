@@ -22,9 +22,17 @@ from pydantic_settings import (
     TomlConfigSettingsSource,
 )
 
-from attribot.errors import InputError
+from attribot.errors import ConfigError, InputError
 
-__all__ = ["Settings", "load_settings", "SceneConfig", "MAX_OBJECTS", "MAX_SEED", "RENDER_PROFILES"]
+__all__ = [
+    "Settings",
+    "load_settings",
+    "config_path",
+    "SceneConfig",
+    "MAX_OBJECTS",
+    "MAX_SEED",
+    "RENDER_PROFILES",
+]
 
 MAX_OBJECTS = 30
 """The most objects a generated scene holds."""
@@ -49,18 +57,18 @@ class Settings(BaseSettings):
     llm_base_url: str | None = None
     llm_model: str = "gpt-4o"
     llm_api_key: str | None = Field(default=None, repr=False)
-    llm_timeout_s: float = 60.0
-    llm_max_tries: int = 3
-    llm_temperature: float = 0.0
+    llm_timeout_s: float = Field(60.0, gt=0, allow_inf_nan=False)
+    llm_max_tries: int = Field(3, ge=1, le=100)
+    llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
 
     # transformers backends
     hf_device: str = "auto"
     hf_dtype: str = "auto"
-    detector_threshold: float = 0.1
+    detector_threshold: float = Field(0.1, ge=0, le=1, allow_inf_nan=False)
 
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
-    remote_timeout_s: float = 30.0
+    remote_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
 
     cache_dir: Path = Path(".attribot-cache")
 
@@ -73,9 +81,9 @@ class Settings(BaseSettings):
         dotenv_settings: PydanticBaseSettingsSource,
         file_secret_settings: PydanticBaseSettingsSource,
     ) -> tuple[PydanticBaseSettingsSource, ...]:
-        path = Path(os.environ.get("ATTRIBOT_CONFIG", "attribot.toml"))
+        path = config_path()
         sources: list[PydanticBaseSettingsSource] = [init_settings, env_settings]
-        if path.is_file():
+        if path is not None:
             sources.append(TomlConfigSettingsSource(settings_cls, toml_file=path))
         return tuple(sources)
 
@@ -87,9 +95,74 @@ class Settings(BaseSettings):
         return data
 
 
+def config_path() -> Path | None:
+    """The settings file: `$ATTRIBOT_CONFIG` (which must name a file), else `./attribot.toml` if present."""
+    named = os.environ.get("ATTRIBOT_CONFIG")
+    if named is None:
+        path = Path("attribot.toml")
+        return path if path.is_file() else None
+    path = Path(named).expanduser()
+    if not path.is_file():
+        what = "a folder" if path.is_dir() else "missing"
+        raise ConfigError(
+            f"ATTRIBOT_CONFIG names {named!r}, which is {what}, not a settings file",
+            "point ATTRIBOT_CONFIG at a TOML file, or unset it to use ./attribot.toml",
+        )
+    return path
+
+
 def load_settings(**overrides: Any) -> Settings:
-    """Settings from file and environment; keyword arguments (CLI flags) win over both."""
-    return Settings(**{k: v for k, v in overrides.items() if v is not None})
+    """Settings from file and environment; keyword arguments (CLI flags) win over both.
+
+    A file that is not UTF-8 TOML, an unknown key or a bad value is a `ConfigError` that names the
+    setting and where it came from (the flag, the ATTRIBOT_* variable or the file)."""
+    given = {k: v for k, v in overrides.items() if v is not None}
+    path = config_path()
+    if path is not None:
+        _check_toml(path)
+    try:
+        return Settings(**given)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        name = ".".join(str(p) for p in first.get("loc", ())) or "settings"
+        env = f"ATTRIBOT_{name.upper()}"
+        if name in given:
+            source = f"--{name.replace('_', '-')}"
+        elif any(k.upper() == env for k in os.environ):
+            source = f"the environment variable {env}"
+        else:
+            source = f"the settings file {str(path)!r}" if path is not None else "the defaults"
+        value = first.get("input")
+        if first.get("type") == "extra_forbidden":
+            known = ", ".join(Settings.model_fields)
+            raise ConfigError(
+                f"{source} has an unknown setting {name!r}", f"remove it; the settings are: {known}"
+            ) from None
+        raise ConfigError(
+            f"setting {name} = {value!r} (from {source}) is not valid: {first.get('msg', 'invalid')}",
+            f"fix {name} in {source}; `attribot backends` shows the resolved configuration",
+        ) from None
+
+
+def _check_toml(path: Path) -> None:
+    """A settings file that cannot be read as UTF-8 TOML is a `ConfigError` naming the file and the line."""
+    import tomllib
+
+    try:
+        tomllib.loads(path.read_bytes().decode("utf-8"))
+    except OSError as exc:
+        raise ConfigError(
+            f"the settings file {str(path)!r} cannot be read ({exc.strerror or exc})", "check its permissions"
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"the settings file {str(path)!r} is not UTF-8 text (byte {exc.start})", "save it as UTF-8"
+        ) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(
+            f"the settings file {str(path)!r} is not valid TOML: {exc}",
+            'write one `key = value` per line, strings in quotes, e.g. planner = "rules"',
+        ) from None
 
 
 OptionValue = str | int | float | bool
