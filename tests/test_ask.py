@@ -33,7 +33,7 @@ def by_category(truth: dict) -> dict[str, dict]:
 
 
 def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "ATTRIBOT_CONFIG": "/nonexistent.toml"}
+    env = {**os.environ, "ATTRIBOT_CONFIG": str(Path(__file__).parent / "artifacts" / "empty-settings.toml")}
     return subprocess.run(
         [sys.executable, "-m", "attribot.cli", *args],
         capture_output=True,
@@ -333,7 +333,7 @@ def test_image_mode_runs_through_a_real_detector_and_vqa(tmp_path):
         Image.fromarray(world.observe().rgb).save(photo)
     settings = load_settings(detector=f"hf:{owl}", vqa=f"hf:{blip}")
     for query in ("the leftmost item", "the heaviest item"):
-        answer = ask(query, Scene(image=photo), settings, save_dir=tmp_path / "run")
+        answer = ask(query, Scene(image=photo), settings, save_dir=tmp_path / query.replace(" ", "-"))
         assert answer.backends["detector"].startswith("hf:") and answer.backends["vqa"].startswith("hf:")
         assert answer.world == {"image": str(photo)}
         assert answer.trace and answer.trace[0]["call"] in ("ImagePatch.find", "ImagePatch.visual_query")

@@ -61,3 +61,151 @@ def test_bad_settings_environment(env, words):
         assert result.exit_code == 2
         for word in words:
             assert word in result.output
+
+
+# ---- --save: checked before any work, never overwriting an earlier answer ---------------------------------
+
+
+@pytest.fixture
+def empty_settings(monkeypatch):
+    from pathlib import Path
+
+    monkeypatch.setenv("ATTRIBOT_CONFIG", str(Path(__file__).parent / "artifacts" / "empty-settings.toml"))
+
+
+def test_save_paths_that_cannot_take_an_answer(tmp_path, monkeypatch):
+    import attribot.planning.ask as ask_module
+
+    def no_work(*args, **kwargs):  # the check comes before the planner, the world and the runner
+        raise AssertionError("work started before --save was checked")
+
+    monkeypatch.setattr(ask_module, "_Session", no_work)
+    a_file = tmp_path / "a-file"
+    a_file.write_text("keep me")
+    earlier = tmp_path / "earlier"
+    earlier.mkdir()
+    (earlier / "answer.json").write_text('{"keep": "me"}')
+    cases = [
+        (a_file, "is a file"),
+        (a_file / "sub", "which is a file"),
+        ("/dev/null", "is a file"),
+        ("/proc/self", "cannot be written"),
+        (earlier, "already holds answer.json"),
+    ]
+    for path, words in cases:
+        for command in (["ask", "Where is the mug?"], ["exec", str(a_file)]):
+            result = _invoke([*command, "--save", str(path)])
+            assert result.exit_code == 2, (path, result.output)
+            assert words in " ".join(result.output.split()), (path, result.output)
+    assert a_file.read_text() == "keep me" and (earlier / "answer.json").read_text() == '{"keep": "me"}'
+
+
+def test_saved_files_are_whole(tmp_path):
+    from attribot.planning.answer import Answer
+    from attribot.planning.ask import save_answer
+
+    answer = Answer(query="q", answer="a", planner="rules", backends={}, attempts=1, program="x = 1\n")
+    written = save_answer(answer, tmp_path / "run")
+    assert [p.name for p in written] == ["answer.json", "program.py"]
+    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == ["answer.json", "program.py"]
+
+
+# ---- text that is not UTF-8, program results that are no answer -------------------------------------------
+
+
+def test_query_with_undecodable_bytes_is_refused_in_the_answers_json_shape(tmp_path, empty_settings):
+    import json
+
+    query = b"Where is the \xff mug?".decode("utf-8", "surrogateescape")  # what Python makes of argv
+    result = _invoke(["ask", query, "--json", "--save", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    data = json.loads(result.stdout)
+    assert data["error"]["category"] == "input" and "UTF-8" in data["error"]["message"]
+    assert data["query"] == "Where is the \ufffd mug?" and data["answer"].startswith("no answer")
+    assert not (tmp_path / "out").exists()
+
+
+def test_json_errors_have_the_answers_shape(empty_settings):
+    import json
+
+    result = _invoke(["ask", "Where is the mug?", "--seed", "-1", "--json"])
+    assert result.exit_code == 2
+    data = json.loads(result.stdout)
+    assert data["error"]["category"] == "input" and "--seed" in data["error"]["message"]
+
+
+@pytest.mark.parametrize(
+    ("body", "code", "words"),
+    [
+        ('return float("nan")', 1, "returned nan"),
+        ('return float("-inf")', 1, "returned -inf"),
+        ('return "a\\ud800b"', 0, "a\ufffdb"),
+        ('print("\\udcff")\n    return 1', 0, ""),
+    ],
+)
+def test_program_results_that_json_cannot_hold(tmp_path, body, code, words, empty_settings):
+    import json
+
+    program = tmp_path / "p.py"
+    program.write_text(f"def execute_command(image, robot):\n    {body}\n")
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json", "--save", str(tmp_path / "run")])
+    assert result.exit_code == code, result.output
+    data = json.loads(result.stdout)
+    assert words in (data["error"]["message"] if code else data["answer"])
+    assert json.loads((tmp_path / "run" / "answer.json").read_text()) == data
+
+
+def test_long_values_are_cut_in_the_trace(tmp_path, empty_settings):
+    import json
+
+    program = tmp_path / "p.py"
+    program.write_text('def execute_command(image, robot):\n    return image.exists("x" * 300000)\n')
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json"])
+    assert len(result.stdout) < 20000
+    (call,) = json.loads(result.stdout)["trace"]
+    assert call["args"][0].endswith("... (300000 characters)")
+
+
+# ---- sensors and still images ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--sensors", ""], "--sensors is empty"),
+        (["--sensors", " , "], "--sensors is empty"),
+        (["--image", "{photo}", "--sensors", "camera,distance"], "camera only, not distance"),
+        (["--image", "{photo}", "--seed", "3"], "not both"),
+        (["--image", "{bomb}"], "megapixels"),
+    ],
+)
+def test_sensors_and_images(tmp_path, args, words, empty_settings):
+    import numpy as np
+    from PIL import Image
+
+    photo, bomb = tmp_path / "photo.png", tmp_path / "bomb.png"
+    Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(photo)
+    Image.new("L", (11000, 10000)).save(bomb)  # 110 MP, a few kB
+    args = [a.format(photo=photo, bomb=bomb) for a in args]
+    result = _invoke(["ask", "Where is the mug?", *args, "--detector", "hf:/no/such/model"])
+    assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output
+
+
+def test_loaded_images_are_writable(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    from attribot.frame import load_image
+
+    Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(tmp_path / "a.png")
+    assert load_image(tmp_path / "a.png").flags.writeable  # torch warned on every hf: run
+
+
+def test_urls_survive_the_path_scrubber():
+    from attribot.runner.host import _scrub
+
+    assert (
+        _scrub("cannot reach https://api.example.com/v1/chat")
+        == "cannot reach https://api.example.com/v1/chat"
+    )
+    assert _scrub("failed in /home/someone/attribot/x.py") == "failed in <path>"

@@ -444,6 +444,7 @@ def test_cli_serve_models_serves_and_stops(tmp_path):
     import sys
 
     port = _free_port()
+    (tmp_path / "none.toml").write_text("")
     env = dict(os.environ, ATTRIBOT_CONFIG=str(tmp_path / "none.toml"), ATTRIBOT_REMOTE_TOKEN="cli-token")
     argv = [
         sys.executable,
@@ -490,6 +491,7 @@ def test_cli_serve_models_refuses_bad_options(args, message, tmp_path, monkeypat
 
     from attribot.cli import app
 
+    (tmp_path / "none.toml").write_text("")
     monkeypatch.setenv("ATTRIBOT_CONFIG", str(tmp_path / "none.toml"))
     monkeypatch.delenv("ATTRIBOT_REMOTE_TOKEN", raising=False)
     result = CliRunner().invoke(app, ["serve", "models", *args])

@@ -7,7 +7,9 @@ converts them); nothing prints a traceback at a user.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import re
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -125,12 +127,13 @@ def _scene_config(
 ) -> Any:
     """The `SceneConfig` of the scene flags, or None when no flag was given."""
     from attribot.config import SceneConfig
+    from attribot.errors import InputError
 
     options: dict[str, Any] = {}
     for item in option or []:
         key, sep, raw = item.partition("=")
         if not sep or not key.strip():
-            raise fail(f"--option {item!r} is not KEY=VALUE", "write e.g. --option pattern=grid")
+            raise InputError(f"--option {item!r} is not KEY=VALUE", "write e.g. --option pattern=grid")
         value: Any = raw.strip()
         for cast in (int, float):
             try:
@@ -248,6 +251,35 @@ def _scene(config: Any, image: Path | None, sensors: str | None) -> Any:
     return Scene(config=config, image=image, sensors=names)
 
 
+@contextlib.contextmanager
+def _errors_as_json(as_json: bool, query: str, planner: str) -> Iterator[None]:
+    """With --json, an `AttribotError` before the answer is printed as an answer with `error` set (the
+    shape a script already reads), then exit code 2; without, it goes on to the one plain-text handler."""
+    try:
+        yield
+    except AttribotError as exc:
+        if not as_json:
+            raise
+        from attribot.errors import ConfigError, InputError
+        from attribot.planning.answer import Answer, AnswerError
+
+        category = (
+            "input" if isinstance(exc, InputError) else "config" if isinstance(exc, ConfigError) else "error"
+        )
+        message = exc.message if exc.fix is None else f"{exc.message} (fix: {exc.fix})"
+        shown = re.sub("[\ud800-\udfff]", "\ufffd", query)  # undecodable command-line bytes
+        answer = Answer(
+            query=shown,
+            answer=f"no answer: {exc.message}",
+            planner=planner,
+            backends={},
+            attempts=0,
+            error=AnswerError(category=category, message=message),
+        )
+        typer.echo(answer.model_dump_json(indent=2))
+        raise typer.Exit(2) from None
+
+
 def _show(answer: Any, as_json: bool) -> None:
     if as_json:
         typer.echo(answer.model_dump_json(indent=2))
@@ -295,20 +327,21 @@ def ask(
     save: Path | None = _SAVE,
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
-    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-    scene = _scene(config, image, sensors)
-    from attribot.config import load_settings
-    from attribot.planning.ask import ask as run_ask
+    with _errors_as_json(as_json, query, planner or "rules"):
+        config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+        scene = _scene(config, image, sensors)
+        from attribot.config import load_settings
+        from attribot.planning.ask import ask as run_ask
 
-    settings = load_settings(
-        planner=planner,
-        llm_base_url=llm_base_url,
-        llm_model=llm_model,
-        detector=detector,
-        vqa=vqa,
-        language=language,
-    )
-    answer = run_ask(query, scene, settings, save_dir=save)
+        settings = load_settings(
+            planner=planner,
+            llm_base_url=llm_base_url,
+            llm_model=llm_model,
+            detector=detector,
+            vqa=vqa,
+            language=language,
+        )
+        answer = run_ask(query, scene, settings, save_dir=save)
     _show(answer, as_json)
 
 
@@ -333,21 +366,25 @@ def exec_program(
     save: Path | None = _SAVE,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
-    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-    scene = _scene(config, image, sensors)
-    from attribot.config import load_settings
-    from attribot.planning.ask import execute
+    from attribot.errors import InputError
 
-    if not program.is_file():
-        raise fail(f"program file {str(program)!r} does not exist", "give the path of a .py file")
-    try:
-        source = program.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise fail(
-            f"program file {str(program)!r} cannot be read as text ({exc.__class__.__name__})"
-        ) from exc
-    settings = load_settings(detector=detector, vqa=vqa, language=language)
-    answer = execute(source, scene, settings, query=query, save_dir=save)
+    with _errors_as_json(as_json, query, "file"):
+        config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+        scene = _scene(config, image, sensors)
+        from attribot.config import load_settings
+        from attribot.planning.ask import execute
+
+        if not program.is_file():
+            raise InputError(f"program file {str(program)!r} does not exist", "give the path of a .py file")
+        try:
+            source = program.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(
+                f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
+                "save it as UTF-8",
+            ) from None
+        settings = load_settings(detector=detector, vqa=vqa, language=language)
+        answer = execute(source, scene, settings, query=query, save_dir=save)
     _show(answer, as_json)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 from attribot.boxes import crop_array
 from attribot.errors import InputError
 
-__all__ = ["ObjectTruth", "CameraInfo", "Frame", "load_image", "check_rgb"]
+__all__ = ["ObjectTruth", "CameraInfo", "Frame", "load_image", "check_rgb", "MAX_IMAGE_PIXELS"]
 
 
 @dataclass(frozen=True)
@@ -104,21 +104,44 @@ class Frame:
         )
 
 
-def load_image(path: str | Path) -> np.ndarray:
-    """Read an image file as uint8 RGB; a missing, unreadable or corrupt file is an `InputError`."""
+MAX_IMAGE_PIXELS = 100_000_000
+"""The most pixels `load_image` decodes (a 10000x10000 photo); PIL's own bomb limit is 89 to 179 MP."""
+
+
+def load_image(path: str | Path, max_pixels: int = MAX_IMAGE_PIXELS) -> np.ndarray:
+    """Read an image file as writable uint8 RGB; a missing, unreadable, corrupt or too large file (over
+    `max_pixels`, checked from the header before any pixel is decoded) is an `InputError`."""
+    import warnings
+
     from PIL import Image, UnidentifiedImageError
 
     p = Path(path)
     if not p.is_file():
         raise InputError(f"image file {str(p)!r} does not exist", "check the path")
+    fix = "give a PNG or JPEG file that opens in an image viewer"
     try:
-        with Image.open(p) as im:
-            im.load()
-            rgb = np.asarray(im.convert("RGB"), dtype=np.uint8)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # our own limit applies
+            with Image.open(p) as im:
+                w, h = im.size
+                if w * h > max_pixels:
+                    raise InputError(
+                        f"image file {str(p)!r} is {w}x{h} = {w * h / 1e6:.0f} megapixels, more than the "
+                        f"{max_pixels / 1e6:.0f} allowed",
+                        "shrink it first, e.g. to 4000 pixels on its longer side (no detector works at a "
+                        "larger size)",
+                    )
+                im.load()
+                # a copy: torch warns about (and may not write to) the read-only view PIL hands out
+                rgb = np.array(im.convert("RGB"), dtype=np.uint8)
+    except Image.DecompressionBombError:
+        raise InputError(
+            f"image file {str(p)!r} has more pixels than PIL decodes (over {max_pixels / 1e6:.0f} MP)",
+            "shrink it first, e.g. to 4000 pixels on its longer side",
+        ) from None
     except (UnidentifiedImageError, OSError, ValueError) as exc:
         raise InputError(
-            f"image file {str(p)!r} cannot be read as an image ({exc.__class__.__name__})",
-            "give a PNG or JPEG file that opens in an image viewer",
+            f"image file {str(p)!r} cannot be read as an image ({exc.__class__.__name__})", fix
         ) from exc
     if rgb.size == 0:
         raise InputError(f"image file {str(p)!r} has no pixels", "give a non-empty image")

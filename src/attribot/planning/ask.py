@@ -7,6 +7,9 @@ runner, answer assembly and saving, so that `attribot exec` replays exactly what
 from __future__ import annotations
 
 import json
+import math
+import os
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,8 +19,12 @@ from attribot.config import SceneConfig, Settings
 from attribot.errors import ConfigError, InputError
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
+from attribot.planning.base import is_utf8_text
 
-__all__ = ["Scene", "ask", "execute", "build_answer", "save_answer"]
+__all__ = ["Scene", "ask", "execute", "build_answer", "save_answer", "check_save_dir", "SAVED_FILES"]
+
+SAVED_FILES = ("answer.json", "program.py", "settings.json", "answer.png")
+"""What `save_answer` writes into its folder."""
 
 
 @dataclass
@@ -38,6 +45,17 @@ class Scene:
                 "a query runs either on an image or in a generated scene, not both",
                 "drop --image, or drop the scene options (--layout, --seed, --objects, ...)",
             )
+        if self.sensors is not None:
+            if not list(self.sensors):
+                raise InputError(
+                    "no sensor named: --sensors is empty", "name at least one, e.g. --sensors camera"
+                )
+            if self.image is not None and set(self.sensors) - {"camera"}:
+                others = ", ".join(sorted(set(self.sensors) - {"camera"}))
+                raise InputError(
+                    f"a still image has a camera only, not {others}",
+                    "drop --sensors (or give --sensors camera), or drop --image to ask in a simulated scene",
+                )
         if self.image is None and self.config is None:
             self.config = SceneConfig()
 
@@ -54,6 +72,7 @@ def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = No
     from attribot.planning import PlanRequest, build_planner, check_query, solve
 
     text = check_query(query)
+    check_save_dir(save_dir)
     planner = build_planner(settings.planner, settings)
     with _Session(scene, settings) as session:
         request = PlanRequest(query=text, sensors=session.sensors, embodied=session.world is not None)
@@ -77,6 +96,9 @@ def execute(
     """Run a program written the way the prompt asks (`def execute_command(image, robot)`) in `scene`."""
     if not program.strip():
         raise InputError("the program is empty", "give a file that defines execute_command(image, robot)")
+    if not is_utf8_text(program) or not is_utf8_text(query):
+        raise InputError("the program or the query is not valid UTF-8 text", "save it as UTF-8")
+    check_save_dir(save_dir)
     with _Session(scene, settings) as session:
         return session.finish(query, "file", program, session.run(program), 1, save_dir, settings)
 
@@ -228,6 +250,14 @@ def build_answer(
         text += f", measured {_format_measurement(measured)}"
         return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
     value = result.value
+    raw = result.value_object
+    if isinstance(raw, float) and not math.isfinite(raw):
+        message = f"execute_command returned {raw}, which is no answer; return a finite number or an object"
+        return Answer(
+            answer=f"no answer: {message}",
+            error=AnswerError(category="runtime", message=message),
+            **common,
+        )
     number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
     if value is None:
         return Answer(
@@ -273,26 +303,74 @@ def _format_measurement(m: Any) -> str:
     return f"{m.value:.3f} {m.unit}"
 
 
+def check_save_dir(directory: Path | None) -> None:
+    """Refuse, before any work, a `--save` folder that cannot take the answer: a file (or something under
+    one), a place that cannot be written (/dev/null, /proc/self), or a folder that already holds an
+    earlier answer (never overwritten silently)."""
+    if directory is None:
+        return
+    fix = "give --save a new folder (it is created), e.g. --save runs/mug-1"
+    path = Path(directory)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"--save {str(path)!r} is a file, not a folder", fix)
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"--save {str(path)!r} lies under {str(existing)!r}, which is a file", fix)
+    earlier = [name for name in SAVED_FILES if (path / name).exists()]
+    if earlier:
+        raise InputError(
+            f"--save {str(path)!r} already holds {', '.join(earlier)} of an earlier answer",
+            "give a new folder, or remove the old answer first",
+        )
+    try:  # the only sure test of writability (/proc/self looks writable to root)
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".attribot-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError(
+            f"--save {str(path)!r} cannot be written: {exc.strerror or exc.__class__.__name__} in "
+            f"{str(existing)!r}",
+            fix,
+        ) from None
+
+
 def save_answer(
     answer: Answer, directory: Path, rgb: Any = None, settings: Settings | None = None
 ) -> list[Path]:
-    """Write answer.json, program.py, settings.json and (with `rgb`) answer.png with the chosen box drawn."""
+    """Write answer.json, program.py, settings.json and (with `rgb`) answer.png with the chosen box drawn.
+
+    Each file is written beside its place and renamed into it, so that a file is whole or absent."""
     directory.mkdir(parents=True, exist_ok=True)
-    written = [directory / "answer.json"]
-    written[0].write_text(answer.model_dump_json(indent=2))
+    written = []
+
+    def put(name: str, data: bytes) -> None:
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, directory / name)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        written.append(directory / name)
+
+    put("answer.json", answer.model_dump_json(indent=2).encode("utf-8"))
     if answer.program:
-        (directory / "program.py").write_text(answer.program)
-        written.append(directory / "program.py")
+        put("program.py", answer.program.encode("utf-8"))
     if settings is not None:
-        (directory / "settings.json").write_text(json.dumps(settings.public_dict(), indent=2, default=str))
-        written.append(directory / "settings.json")
+        put("settings.json", json.dumps(settings.public_dict(), indent=2, default=str).encode("utf-8"))
     if rgb is not None:
+        import io
+
         from PIL import Image
 
         from attribot.draw import draw_boxes
 
         boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
-        path = directory / "answer.png"
-        Image.fromarray(draw_boxes(rgb, boxes)).save(path)
-        written.append(path)
+        buf = io.BytesIO()
+        Image.fromarray(draw_boxes(rgb, boxes)).save(buf, format="PNG")
+        put("answer.png", buf.getvalue())
     return written

@@ -137,11 +137,26 @@ class NoProgram(AttribotError):
         self.error = RunError(category="syntax", message=message, line=None, snippet=None, output="")
 
 
+def is_utf8_text(text: str) -> bool:
+    """False when `text` holds lone surrogates: undecodable bytes of a command line or a file, which no
+    JSON file or terminal can take."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def check_query(query: str) -> str:
     """The query with surrounding white space removed; empty or overlong queries raise `InputError`."""
     if not isinstance(query, str):
         raise InputError(f"the query must be text, not {type(query).__name__}")
     text = " ".join(query.split())
+    if not is_utf8_text(text):
+        raise InputError(
+            "the query is not valid UTF-8 text (it holds bytes that are no character)",
+            "type the question again, or check the terminal's encoding (e.g. LANG=C.UTF-8)",
+        )
     if not text:
         raise InputError("the query is empty", 'ask about an object, e.g. "the second dog from the right"')
     if len(text) > MAX_QUERY_CHARS:

@@ -34,7 +34,33 @@ __all__ = ["ProgramRunner"]
 WORKER_PATH = Path(proto.__file__).resolve()
 _STARTUP_S = 30.0  # a worker that is not ready by then is broken, not slow
 _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
-_PATHS = re.compile(r"(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
+# a file path; not the path part of a URL ("https://host/a/b" stays whole)
+_PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
+TRACE_TEXT_CHARS = 1000
+"""Longest text kept whole in a trace record; longer ones are cut and say how long they were."""
+
+
+_SURROGATES = re.compile("[\ud800-\udfff]")
+
+
+def _text(value: str) -> str:
+    """`value` as text any JSON file can hold: lone surrogates (which a program can make) become U+FFFD."""
+    try:
+        value.encode("utf-8")
+        return value
+    except UnicodeEncodeError:
+        return _SURROGATES.sub("\ufffd", value)
+
+
+def _cut(value: Any) -> Any:
+    """A trace value with long texts cut (a program can pass a 300 KB string to every call)."""
+    if isinstance(value, str) and len(value) > TRACE_TEXT_CHARS:
+        return value[:TRACE_TEXT_CHARS] + f"... ({len(value)} characters)"
+    if isinstance(value, list):
+        return [_cut(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _cut(v) for k, v in value.items()}
+    return value
 
 
 def _scrub(text: str, limit: int = 300) -> str:
@@ -297,7 +323,9 @@ class _Run:
 
     def summary(self, value: Any, depth: int = 0) -> Any:
         """JSON-ready form for traces and `RunResult.value`: host objects as summary dicts."""
-        if value is None or isinstance(value, bool | int | str):
+        if isinstance(value, str):
+            return _text(value)
+        if value is None or isinstance(value, bool | int):
             return value
         if isinstance(value, float):
             return value if math.isfinite(value) else str(value)
@@ -312,7 +340,7 @@ class _Run:
             except TypeError:
                 return items
         if isinstance(value, dict):
-            return {str(k): self.summary(v, depth + 1) for k, v in value.items()}
+            return {_text(str(k)): self.summary(v, depth + 1) for k, v in value.items()}
         cls = self.runner._class_of(value)
         if cls is not None:
             return self.runner.summarise(value)
@@ -341,7 +369,7 @@ class _Run:
             return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
         cls = self.runner._class_of(obj)
         name = f"{cls.__name__}.{method}"
-        shown = [self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else [])
+        shown = _cut([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
         if not isinstance(method, str) or method not in cls.API_METHODS:
             return self._refuse(
                 name,
@@ -384,7 +412,9 @@ class _Run:
             return self._refuse(
                 name, f"{name} returned {e}, which cannot be passed to a program", line, shown, ms
             )
-        self.trace.append(TraceRecord(call=name, args=shown, result=self.summary(result), ms=ms, line=line))
+        self.trace.append(
+            TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line)
+        )
         return {"t": "ret", "v": wire}
 
     def _refuse(
@@ -399,7 +429,7 @@ class _Run:
         room = self.runner.limits.max_output_chars - self.out_len
         if room <= 0:
             return
-        text = text[:room]
+        text = _text(text[:room])
         self.output.append(text)
         self.out_len += len(text)
 
@@ -411,7 +441,7 @@ class _Run:
         n_lines = self.source.count("\n") + 1
         if type(line) is not int or not 1 <= line <= n_lines:
             line = None
-        message = _scrub(message, 1000) if isinstance(message, str) else "the program failed"
+        message = _scrub(_text(message), 1000) if isinstance(message, str) else "the program failed"
         return RunError(
             category=category,
             message=message,
