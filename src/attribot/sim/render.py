@@ -135,8 +135,46 @@ def gl_backend() -> str:
         raise ConfigError(f"no headless OpenGL backend works on this machine ({detail})", _FIX)
 
 
+_LLVM_LIBRARIES = (("triton", ("_C", "libtriton.so")),)
+"""Python packages whose native library carries its own LLVM: (package, path of the library inside it)."""
+_llvm_loaded = False
+
+
+def _load_llvm_libraries_first() -> None:
+    """Load the native libraries that carry their own LLVM before the first GL context loads Mesa's.
+
+    Mesa's llvmpipe (EGL and OSMesa without a GPU) loads libLLVM; loading triton's libtriton.so (which
+    CUDA builds of torch import) after it crashes the process in LLVM's static initialisers (segfault on
+    `import triton` after any render), while the other order works. Loading the library file now (about
+    30 ms, without importing the Python package) makes rendering and a later `import torch`/`triton` safe
+    in either order; the later import finds the library already loaded."""
+    global _llvm_loaded
+    if _llvm_loaded:
+        return
+    _llvm_loaded = True
+    import ctypes
+    import importlib.util
+
+    for package, parts in _LLVM_LIBRARIES:
+        if package in sys.modules:
+            continue  # already imported, so already loaded first
+        try:
+            spec = importlib.util.find_spec(package)
+        except (ImportError, ValueError):
+            continue
+        for folder in (spec.submodule_search_locations or []) if spec is not None else []:
+            path = os.path.join(folder, *parts)
+            if os.path.isfile(path):
+                try:
+                    ctypes.CDLL(path)
+                except OSError:  # a broken install fails at its own import, with its own message
+                    pass
+                break
+
+
 def _gl_context(width: int, height: int) -> Any:
     backend = gl_backend()
+    _load_llvm_libraries_first()
     try:
         if backend == "egl":
             from mujoco.egl import GLContext
