@@ -42,7 +42,7 @@ def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
 class BrightBoxDetector:
     """Box of the bright pixels, labelled with the first query and the child's process id. The first
     query can ask for trouble: "bad-input" raises an InputError, "crash" a RuntimeError, "exit" ends the
-    process, as a CUDA fault or the out-of-memory killer would."""
+    process, as a CUDA fault or the out-of-memory killer would, "hang" never returns."""
 
     name = "test:bright-box"
 
@@ -58,6 +58,8 @@ class BrightBoxDetector:
                 raise RuntimeError("the model crashed on purpose")
             if q[0] == "exit":
                 os._exit(3)
+            if q[0] == "hang":  # a model call that never ends
+                time.sleep(3600)
             out.append([Detection(box=bright_box(f.rgb), score=0.9, label=f"{q[0]}@{os.getpid()}")])
         return out
 
@@ -211,3 +213,69 @@ def test_factory_of_a_spec_is_picklable():
     factory = backend_factory("detector", "hf:/models/owl", Settings())
     again = pickle.loads(pickle.dumps(factory))
     assert isinstance(again, functools.partial) and again.args[:2] == ("detector", "hf:/models/owl")
+
+
+# ---- deadlines and shutdown: a stuck model never holds the server, nothing is left behind --------------
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def test_a_batch_past_its_deadline_restarts_the_child():
+    proc = start_model_process("detector", BrightBoxDetector, batch_timeout_s=1.0)
+    try:
+        first = proc.pid
+        with pytest.raises(BackendError, match="longer than 1 s"):
+            proc.detect(frame_with_box(8, 8, (1, 1, 4, 4)), ["hang"])
+        assert not _alive(first)
+        (det,) = proc.detect(frame_with_box(8, 8, (1, 1, 4, 4)), ["ok"])
+        assert det.box == (1.0, 1.0, 4.0, 4.0) and proc.pid != first and proc.restarts == 1
+    finally:
+        proc.close()
+
+
+def test_close_does_not_wait_for_a_stuck_batch():
+    proc = start_model_process("detector", BrightBoxDetector)
+    pid = proc.pid
+    with ThreadPoolExecutor(1) as pool:
+        stuck = pool.submit(proc.detect, frame_with_box(8, 8, (1, 1, 4, 4)), ["hang"])
+        time.sleep(0.5)  # the child is inside the call
+        proc.close()
+        with pytest.raises(BackendError):
+            stuck.result(timeout=10)
+    assert pid is not None and not _alive(pid)
+
+
+def test_the_child_dies_with_its_parent(tmp_path):
+    """A parent killed outright (no clean-up at all) takes its model process with it."""
+    import signal
+    import subprocess
+    import sys
+
+    script = (
+        "import sys, time\n"
+        "from attribot.server import start_model_process\n"
+        "from test_model_process import BrightBoxDetector\n"
+        "proc = start_model_process('detector', BrightBoxDetector)\n"
+        "print(proc.pid, flush=True)\n"
+        "time.sleep(600)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent)}
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        child = int(parent.stdout.readline())
+        assert _alive(child)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(10)
+        end = time.monotonic() + 5
+        while _alive(child) and time.monotonic() < end:
+            time.sleep(0.05)
+        assert not _alive(child)
+    finally:
+        parent.kill()
+        parent.wait()

@@ -77,3 +77,89 @@ def _cpu_ticks(pid: int) -> int:
     except OSError:
         return 0
     return int(fields[11]) + int(fields[12])  # utime + stime
+
+
+SERVER = """
+import sys
+from attribot.server import ServerConfig, serve_models, start_model_process
+from test_model_process import BrightBoxDetector
+proc = start_model_process("detector", BrightBoxDetector)
+print(proc.pid, flush=True)
+serve_models({"detector": proc, "vqa": None, "language": None}, ServerConfig(), port=int(sys.argv[1]),
+             log_level="warning")
+"""
+
+
+def test_sigterm_to_the_server_with_a_stuck_model_call_leaves_nothing(tmp_path):
+    """A model call that never ends, and SIGTERM: the server stops within seconds, the model process is
+    gone and its shared memory unlinked."""
+    import socket
+    import threading
+
+    import httpx
+    import numpy as np
+
+    from attribot.models.wire import encode_image
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parent)}
+    server = subprocess.Popen(
+        [sys.executable, "-c", SERVER, str(port)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    child = int(server.stdout.readline())
+    url = f"http://127.0.0.1:{port}"
+    try:
+        assert _wait_for(lambda: _reachable(url), 30)
+        image = encode_image(np.full((8, 8, 3), 200, np.uint8), "png")
+        answers: list[int] = []
+
+        def stuck() -> None:
+            try:
+                answers.append(
+                    httpx.post(
+                        url + "/v1/detect", json={"image": image, "queries": ["hang"]}, timeout=60
+                    ).status_code
+                )
+            except httpx.HTTPError:
+                answers.append(-1)
+
+        caller = threading.Thread(target=stuck)
+        caller.start()
+        blocks: list[str] = []
+
+        def mapped() -> bool:
+            try:
+                maps = Path(f"/proc/{child}/maps").read_text()
+            except OSError:
+                return False
+            blocks.extend({line.split()[-1] for line in maps.splitlines() if "/dev/shm/" in line})
+            return bool(blocks)
+
+        assert _wait_for(mapped, 20), "the model process never read the shared memory"
+        server.send_signal(signal.SIGTERM)
+        server.wait(timeout=20)
+        caller.join(30)
+        assert _wait_for(lambda: not _alive(child), 3), "the model process outlived the server"
+        assert [b for b in blocks if Path(b).exists()] == [], "shared memory left in /dev/shm"
+        err = server.stderr.read()
+        assert "leaked shared_memory" not in err, err
+    finally:
+        server.kill()
+        server.wait()
+        if _alive(child):
+            os.kill(child, signal.SIGKILL)
+
+
+def _reachable(url: str) -> bool:
+    import httpx
+
+    try:
+        return httpx.get(url + "/health", timeout=1).status_code == 200
+    except httpx.HTTPError:
+        return False

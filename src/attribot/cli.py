@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -27,39 +27,14 @@ class _Commands(TyperGroup):
     """The root command group: turns an `AttribotError` from any command into its message and exit code 2."""
 
     def invoke(self, ctx: Any) -> Any:  # typer.Context; typer vendors click, whose private Context mypy wants
-        restore = _exit_on_termination()
-        try:
-            return super().invoke(ctx)
-        except AttribotError as exc:
-            raise fail(exc.message, exc.fix) from None
-        finally:
-            restore()
+        from attribot.shutdown import termination_as_exit
 
-
-def _exit_on_termination() -> Callable[[], None]:
-    """SIGTERM and SIGHUP end a command the way Ctrl-C does: by an exception that unwinds every `with`
-    block, so that the sandbox worker, the renderer and the model processes are stopped and nothing is
-    half-written (the default action would kill this process alone and leave its children running).
-    `serve models` replaces these with uvicorn's own handlers, which stop the server in order."""
-    import signal
-    import threading
-
-    def terminate(signum: int, frame: Any) -> None:
-        signal.signal(signum, signal.SIG_IGN)  # a second signal does not interrupt the clean-up
-        raise SystemExit(128 + signum)
-
-    if threading.current_thread() is not threading.main_thread():  # a test's or an embedding's thread
-        return lambda: None
-    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGHUP)}
-    for sig, handler in previous.items():
-        if handler in (signal.SIG_DFL, None):
-            signal.signal(sig, terminate)
-
-    def restore() -> None:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
-
-    return restore
+        # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
+        with termination_as_exit():
+            try:
+                return super().invoke(ctx)
+            except AttribotError as exc:
+                raise fail(exc.message, exc.fix) from None
 
 
 app = typer.Typer(

@@ -149,7 +149,7 @@ def create_app(
     """
     fastapi = require("fastapi", "the model server")
     from starlette.exceptions import HTTPException as StarletteHTTPException
-    from starlette.requests import Request
+    from starlette.requests import ClientDisconnect, Request
     from starlette.responses import Response
 
     cfg = config or ServerConfig()
@@ -270,6 +270,26 @@ def create_app(
     def decode(data: str) -> Frame:
         return Frame(rgb=decode_image(data, max_bytes=cfg.max_image_bytes, max_pixels=cfg.max_pixels))
 
+    async def until_disconnected(request: Request, work: Any) -> Any:
+        """The result of `work` (a coroutine), or None when the client disconnects first: then the work is
+        cancelled, and a request still queued for a batch is left out of it."""
+        task = asyncio.ensure_future(work)
+
+        async def gone() -> None:
+            while (await request.receive())["type"] != "http.disconnect":
+                pass
+
+        watcher = asyncio.ensure_future(gone())
+        try:
+            await asyncio.wait({task, watcher}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            if not task.done():
+                task.cancel()
+            watcher.cancel()
+        if task.cancelled() or not task.done():
+            return None
+        return task.result()
+
     async def serve(role: str, request: Request, handle: Any) -> Any:
         """Common path: check the token, count, run `handle(body)`, turn any failure into an ErrorBody.
         Requests refused before they reach a role (token, role not served) count under `rejected`;
@@ -290,9 +310,19 @@ def create_app(
             role_stats.requests += 1
             admitted = True
             body = await read_body(request)
-            record: BaseModel = await handle(body)
+            record = await until_disconnected(request, handle(body))
+            if record is None:  # the client went away: its work was dropped, nobody reads an answer
+                role_stats.errors["disconnected"] += 1
+                return Response(status_code=499)
             role_stats.ok += 1
             return Response(record.model_dump_json(), media_type="application/json")
+        except ClientDisconnect:  # gone half-way through its body: not the backend's failure
+            (role_stats.errors if admitted and role_stats is not None else rejected)["disconnected"] += 1
+            return Response(status_code=499)
+        except asyncio.CancelledError:  # the server stopped before this request was served
+            if admitted and role_stats is not None:
+                role_stats.errors["internal"] += 1
+            return _error_response(503, "internal", "the server is shutting down", "send the request again")
         except Exception as exc:  # noqa: BLE001 - every failure becomes a structured answer
             status, category, message, fix = _classify(exc, role, name or "-")
             if status == 500:

@@ -47,6 +47,10 @@ __all__ = ["ModelProcess", "ProcessDetector", "ProcessVisualQA", "start_model_pr
 log = logging.getLogger("attribot.server")
 
 _ROLES = ("detector", "vqa")
+DEFAULT_BATCH_TIMEOUT_S = 300.0
+"""Longest a model may take over one batch before its process is killed and started again."""
+STOP_TIMEOUT_S = 3.0
+"""How long a child is given to stop when asked, before it is killed."""
 
 
 def backend_factory(role: str, spec: str, settings: Settings) -> Callable[[], Any]:
@@ -78,18 +82,60 @@ def _rebuild(kind: str, message: str, fix: str | None) -> AttribotError:
 # ---- the child --------------------------------------------------------------------------------------
 
 
+def _die_with_parent() -> None:
+    """Ask Linux to kill this process when its parent dies, however it dies (SIGKILL, a crash): a child
+    stuck inside a model call never reads the pipe, and would otherwise live on, re-parented, holding its
+    memory and the GPU. Elsewhere the pipe's end-of-file is what stops it."""
+    import ctypes
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+class _Attached:
+    """The parent's shared-memory block, opened by name in the child without the resource tracker.
+
+    `SharedMemory(name=...)` registers every attach with a tracker (before Python 3.13): the child's own
+    tracker then "cleans up" the parent's block when the child exits and warns of a leak that is not one,
+    and a tracker shared with the parent is cleared twice. The parent creates, owns and unlinks the block;
+    the child only maps it."""
+
+    def __init__(self, name: str) -> None:
+        import _posixshmem  # the module SharedMemory itself uses
+        import mmap
+        import os
+
+        fd = _posixshmem.shm_open("/" + name.lstrip("/"), os.O_RDWR, mode=0o600)
+        try:
+            self.buf: Any = mmap.mmap(fd, os.fstat(fd).st_size)
+        finally:
+            os.close(fd)
+        self.name = name
+
+    def close(self) -> None:
+        self.buf.close()
+
+
 def _child_main(conn: multiprocessing.connection.Connection, role: str, factory: Callable[[], Any]) -> None:
     """Build the backend, then serve batches until told to stop or the parent goes away."""
-    # Ctrl-C in a terminal reaches the whole process group: the parent alone stops the server, and then
-    # this process, in order (a KeyboardInterrupt here would only print a second traceback)
+    # Ctrl-C in a terminal (or a service manager's SIGTERM) reaches the whole process group: the parent
+    # alone stops the server, and then this process, in order (here it would only print a traceback)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the same for a SIGTERM sent to the whole group
+    _die_with_parent()
     try:
         backend = factory()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
         conn.send(("failed", *_describe(exc)))
         return
     conn.send(("ready", str(getattr(backend, "name", type(backend).__name__))))
-    block: shared_memory.SharedMemory | None = None
+    block: _Attached | None = None
     try:
         while True:
             try:
@@ -103,7 +149,7 @@ def _child_main(conn: multiprocessing.connection.Connection, role: str, factory:
                 if block is None or block.name != block_name:
                     if block is not None:
                         block.close()
-                    block = shared_memory.SharedMemory(name=block_name)
+                    block = _Attached(block_name)
                 frames = [
                     Frame(rgb=np.ndarray(shape, np.uint8, buffer=block.buf, offset=offset))
                     for offset, shape in layout
@@ -134,11 +180,18 @@ class ModelProcess:
 
     role: str = ""
 
-    def __init__(self, factory: Callable[[], Any], *, start_timeout_s: float = 900.0) -> None:
+    def __init__(
+        self,
+        factory: Callable[[], Any],
+        *,
+        start_timeout_s: float = 900.0,
+        batch_timeout_s: float = DEFAULT_BATCH_TIMEOUT_S,
+    ) -> None:
         if self.role not in _ROLES:
             raise TypeError("use ProcessDetector or ProcessVisualQA")
         self._factory = factory
         self._start_timeout_s = float(start_timeout_s)
+        self.batch_timeout_s = float(batch_timeout_s)
         self._context = multiprocessing.get_context("spawn")  # CUDA cannot be used in a forked child
         self._lock = threading.Lock()
         self._process: Any = None
@@ -162,6 +215,7 @@ class ModelProcess:
             target=_child_main,
             args=(child_end, self.role, self._factory),
             name=f"attribot-{self.role}-model",
+            daemon=True,  # multiprocessing stops it at the parent's exit, if nothing did before
         )
         process.start()
         child_end.close()
@@ -213,7 +267,7 @@ class ModelProcess:
                 pass
             conn.close()
         if process is not None:
-            process.join(10)
+            process.join(STOP_TIMEOUT_S)  # a child inside a model call reads "stop" only after it
             if process.is_alive():
                 process.kill()
                 process.join(5)
@@ -226,10 +280,17 @@ class ModelProcess:
         state.clear()
 
     def close(self) -> None:
-        """Stop the child and free the shared memory (also done when this object is collected)."""
-        with self._lock:
+        """Stop the child and free the shared memory (also done when this object is collected).
+
+        Does not wait for a batch in flight beyond a moment: a child stuck in a model call is killed, and
+        the thread waiting for its answer gets a BackendError."""
+        acquired = self._lock.acquire(timeout=1.0)
+        try:
             self._finalizer()
             self._process = self._conn = self._block = None
+        finally:
+            if acquired:
+                self._lock.release()
 
     @property
     def pid(self) -> int | None:
@@ -274,8 +335,15 @@ class ModelProcess:
             del view
             try:
                 self._conn.send(("run", block.name, layout, list(payloads)))
+                if not self._conn.poll(self.batch_timeout_s):
+                    self._lost(kill=True)
+                    raise BackendError(
+                        f"the {self.role} model took longer than {self.batch_timeout_s:g} s over a batch of "
+                        f"{len(frames)}; its process was stopped",
+                        "it is started again for the next request; send smaller images or fewer at once",
+                    )
                 reply = self._conn.recv()
-            except (EOFError, OSError, BrokenPipeError):
+            except (EOFError, OSError, TypeError, AttributeError):  # the last two: closed meanwhile
                 code = self._lost()
                 raise BackendError(
                     f"the {self.role} model process exited (code {code}) while serving a batch of "
@@ -291,8 +359,9 @@ class ModelProcess:
             )
         return result
 
-    def _lost(self) -> int | None:
-        """Forget a child that died; the next batch starts a new one. Its exit code."""
+    def _lost(self, kill: bool = False) -> int | None:
+        """Forget a child that died (or, with `kill`, one past its deadline); the next batch starts a new
+        one. Its exit code."""
         process, conn = self._process, self._conn
         self._process = self._conn = None
         self._sync_state()
@@ -300,6 +369,8 @@ class ModelProcess:
             conn.close()
         if process is None:
             return None
+        if kill:
+            process.kill()
         process.join(5)
         if process.is_alive():
             process.kill()
@@ -334,14 +405,19 @@ class ProcessVisualQA(ModelProcess):
 
 
 def start_model_process(
-    role: str, factory: Callable[[], Any], *, start_timeout_s: float = 900.0
+    role: str,
+    factory: Callable[[], Any],
+    *,
+    start_timeout_s: float = 900.0,
+    batch_timeout_s: float = DEFAULT_BATCH_TIMEOUT_S,
 ) -> ProcessDetector | ProcessVisualQA:
     """Start the backend `factory()` builds in a child process, as `role` (detector or vqa); returns
-    once it is loaded (a failure to load raises here, with the child's message)."""
+    once it is loaded (a failure to load raises here, with the child's message). A batch that takes
+    longer than `batch_timeout_s` fails and the process is started again, as after a crash."""
     if role == "detector":
-        return ProcessDetector(factory, start_timeout_s=start_timeout_s)
+        return ProcessDetector(factory, start_timeout_s=start_timeout_s, batch_timeout_s=batch_timeout_s)
     if role == "vqa":
-        return ProcessVisualQA(factory, start_timeout_s=start_timeout_s)
+        return ProcessVisualQA(factory, start_timeout_s=start_timeout_s, batch_timeout_s=batch_timeout_s)
     raise errors.ConfigError(
         f"only the detector and VQA run in a model process, not the {role!r}",
         "serve the language role in the server's own process (it is a passthrough)",

@@ -12,6 +12,7 @@ from attribot.errors import ConfigError
 from attribot.models.base import build_backend, parse_spec
 from attribot.server.app import ServerConfig, create_app
 from attribot.server.model_process import backend_factory, start_model_process
+from attribot.shutdown import termination_as_exit
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -25,6 +26,9 @@ __all__ = [
     "serve_models",
     "NONE",
 ]
+
+SHUTDOWN_GRACE_S = 5.0
+"""How long a stopping server waits for the requests in flight."""
 
 NONE = "none"
 """The spec that leaves a role unserved."""
@@ -127,7 +131,16 @@ def check_bind(host: str, token: str | None) -> None:
 def _uvicorn_config(app: Any, host: str, port: int, log_level: str) -> Any:
     uvicorn = require("uvicorn", "the model server")
     return uvicorn.Config(
-        app, host=host, port=port, log_level=log_level, access_log=False, lifespan="on", timeout_keep_alive=30
+        app,
+        host=host,
+        port=port,
+        log_level=log_level,
+        access_log=False,
+        lifespan="on",
+        timeout_keep_alive=30,
+        # on SIGTERM / Ctrl-C, requests in flight get this long; then they are cancelled and the backends
+        # closed (a model call stuck for minutes no longer holds the server up)
+        timeout_graceful_shutdown=SHUTDOWN_GRACE_S,
     )
 
 
@@ -143,10 +156,12 @@ def serve_models(
     check_bind(host, config.token)
     uvicorn = require("uvicorn", "the model server")
     app = create_app(config=config, **backends)
-    try:
-        uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
-    finally:
-        close_backends(backends)
+    # uvicorn raises SIGTERM again once it has stopped: as SystemExit, so that the backends are closed
+    with termination_as_exit():
+        try:
+            uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
+        finally:
+            close_backends(backends)
 
 
 class ServerThread:
