@@ -209,3 +209,26 @@ def test_urls_survive_the_path_scrubber():
         == "cannot reach https://api.example.com/v1/chat"
     )
     assert _scrub("failed in /home/someone/attribot/x.py") == "failed in <path>"
+
+
+# ---- scene options a layout would ignore, and each layout's own object range ---------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--objects", "1000"], "a household scene takes 1 to 12 objects, not 1000"),
+        (["--layout", "triplet", "--objects", "20"], "a triplet takes exactly 3 objects"),
+        (["--layout", "arrangement", "--option", "pattern=row", "--objects", "25"], "takes 3 to 20 objects"),
+        (["--option", "foo=1"], "household layout has no option foo"),
+        (["--layout", "triplet", "--option", "pattern=row"], "triplet layout has no option pattern"),
+        (
+            ["--layout", "arrangement", "--categories", "mug,apple", "--option", "odd=size"],
+            "would be ignored",
+        ),
+    ],
+)
+def test_scene_options_a_layout_would_ignore(args, words, empty_settings):
+    for command in (["ask", "Where is the mug?"], ["scene", "info"]):
+        result = _invoke([*command, *args])
+        assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output

@@ -83,7 +83,7 @@ def test_info_options_and_categories_reach_the_layout():
         (["--seed", "-4"], "seed (--seed) = -4 is not valid"),
         (["--objects", "40"], "objects"),
         (["--layout", "arrangement", "--objects", "20", "--categories", "pot"], "do not fit"),
-        (["--layout", "triplet", "--objects", "5"], "triplet takes 3"),
+        (["--layout", "triplet", "--objects", "5"], "triplet takes exactly 3"),
         (["--option", "pattern"], "KEY=VALUE"),
         (["--layout", "arrangement", "--option", "pattern=spiral"], "pattern='spiral'"),
     ],

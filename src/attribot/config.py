@@ -35,7 +35,7 @@ __all__ = [
 ]
 
 MAX_OBJECTS = 30
-"""The most objects a generated scene holds."""
+"""The most objects any layout places (each layout states its own, smaller range)."""
 MAX_SEED = 2**32 - 1
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
@@ -182,7 +182,7 @@ class SceneConfig(BaseModel):
 
     layout: str = "household"
     seed: int = Field(0, ge=0, le=MAX_SEED, strict=True)
-    objects: int | None = Field(None, ge=1, le=MAX_OBJECTS, strict=True)
+    objects: int | None = Field(None, ge=1, strict=True)  # the upper bound is each layout's own
     categories: tuple[str, ...] | None = None
     options: dict[str, OptionValue] = Field(default_factory=dict)
     width: int = Field(640, ge=16, le=4096, strict=True)
@@ -231,7 +231,7 @@ _SCENE_FLAGS = {
 }
 _SCENE_FIXES = {
     "seed": f"give a whole number from 0 to {MAX_SEED}, e.g. --seed 7",
-    "objects": f"ask for 1 to {MAX_OBJECTS} objects (each layout has its own range), e.g. --objects 4",
+    "objects": "ask for at least 1 object (each layout has its own range), e.g. --objects 4",
     "width": "give a width and height from 16 to 4096 pixels",
     "height": "give a width and height from 16 to 4096 pixels",
     "profile": f"choose one of: {', '.join(RENDER_PROFILES)}",

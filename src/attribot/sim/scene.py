@@ -45,6 +45,7 @@ __all__ = [
     "plan_scene",
     "build_model",
     "MAX_OBJECTS",
+    "LAYOUT_OPTIONS",
     "check_seed",
     "resolve_categories",
     "camera_position",
@@ -264,6 +265,8 @@ def _gap(a: Furniture, b: Furniture) -> float:
 def _count(request: SceneRequest, default: int, lo: int, hi: int, what: str) -> int:
     n = default if request.n_objects is None else request.n_objects
     if not lo <= n <= hi:
+        if lo == hi:
+            raise InputError(f"{what} takes exactly {lo} objects, not {n}", "leave out --objects")
         raise InputError(
             f"{what} takes {lo} to {hi} objects, not {n}", f"ask for between {lo} and {hi} objects"
         )
@@ -355,6 +358,12 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     main = pool[int(rng.integers(len(pool)))] if not request.categories else pool[0]
     odd_kinds = ["category", "size"] + (["color"] if len(main.colors) > 1 else [])
     odd_kind = request.option("odd", str(rng.choice(odd_kinds)), ("category", "size", "color"))
+    if request.categories and len(request.categories) > 1 and odd_kind != "category":
+        raise InputError(
+            f"an arrangement with odd={odd_kind} shows one category; the other "
+            f"{len(request.categories) - 1} given would be ignored",
+            "name one category, or add --option odd=category (the others become the odd one out)",
+        )
     if odd_kind == "color" and len(main.colors) < 2:
         raise InputError(
             f"{main.name} comes in one colour only, so it cannot have an odd colour", "use odd=size"
@@ -428,6 +437,11 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
                 chosen.append(nxt[int(rng.integers(len(nxt)))])
             if len(chosen) == 3:
                 break
+        else:
+            raise InputError(
+                "no three catalog categories of clearly increasing weight were drawn in 1000 tries",
+                "name three categories with --categories",
+            )
     order = rng.permutation(3)
     objs = []
     for slot, idx in enumerate(order):
@@ -478,6 +492,8 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             max(abs(v) for v in f.footprint()) < ROOM_HALF - 0.6 for f in furniture
         ):
             break
+    else:  # never seen: each draw fits about half the time
+        raise InputError("no furniture layout with room to drive fits in 200 draws", "try another seed")
     surfaces = [s for f in furniture for s in f.surfaces()]
     floor = Surface(
         "floor",
@@ -541,6 +557,14 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     return ScenePlan("household", 0, furniture, objs, robot, (pan, tilt))
 
 
+LAYOUT_OPTIONS: dict[str, tuple[str, ...]] = {
+    "arrangement": ("pattern", "odd", "size_variation"),
+    "triplet": (),
+    "household": ("min_gap",),
+}
+"""The `--option` names each layout reads (by its function's name); any other is refused."""
+
+
 def check_seed(seed: object) -> int:
     """`seed` as an int when it is a whole number from 0 to 2**32 - 1; otherwise an InputError."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
@@ -554,8 +578,15 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
     check_seed(seed)
     fn = LAYOUTS.get(layout)
     req = request or SceneRequest()
-    if req.n_objects is not None and (req.n_objects < 1 or req.n_objects > MAX_OBJECTS):
-        raise InputError(f"{req.n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
+    if req.n_objects is not None and req.n_objects < 1:  # the upper bound is each layout's own
+        raise InputError(f"{req.n_objects} objects requested", "ask for at least 1 object")
+    known = LAYOUT_OPTIONS.get(fn.__name__, ())
+    unknown = sorted(set(req.options) - set(known))
+    if unknown:
+        raise InputError(
+            f"the {fn.__name__} layout has no option {', '.join(unknown)} (it would be ignored)",
+            f"its options are: {', '.join(known)}" if known else "it takes no --option",
+        )
     rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
     plan = fn(rng, req)
     plan.seed = int(seed)
