@@ -524,3 +524,31 @@ def test_to_working_size_shapes(shape, want):
     out, scale = hf.to_working_size(rgb, 960)
     assert out.shape[:2] == want and out.flags.c_contiguous
     assert scale == min(1.0, 960 / max(shape))
+
+
+# ---- the real OWLv2 size (random weights): a thin and a large photo stay cheap --------------------------
+
+
+def _real_size_owl_on_awkward_images(device: str, dtype: str) -> None:
+    model, processor = build_random("owlv2-b16", device=device, dtype=dtype, seed=0)
+    det = hf.HFDetector.from_loaded(model, processor, threshold=0.0)
+    spy = _ShapeSpy(det.processor.image_processor)
+    det.processor.image_processor = spy
+    assert hf.working_side(spy.inner) == 960
+    for shape in [(1, 10000), (3000, 4000)]:
+        frame = Frame(rgb=np.full(shape + (3,), 90, dtype=np.uint8))
+        for d in det.detect(frame, ["cup"]):
+            assert 0 <= d.box[0] < d.box[2] <= shape[1] and 0 <= d.box[1] < d.box[3] <= shape[0]
+    assert spy.shapes == [(120, 960), (720, 960)]
+
+
+@pytest.mark.slow
+def test_real_size_owlv2_on_a_thin_and_a_large_image_cpu():
+    """The size whose processor took minutes and 11 GB on a 1x10000 PNG (a ViT-B/16 forward on the CPU)."""
+    _real_size_owl_on_awkward_images("cpu", "float32")
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs an NVIDIA GPU")
+def test_real_size_owlv2_on_a_thin_and_a_large_image_gpu():
+    _real_size_owl_on_awkward_images("cuda", "float16")

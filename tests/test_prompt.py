@@ -175,7 +175,7 @@ def test_prompt_has_query_sensors_guidelines_and_format():
         ("", ALL, "empty"),
         ("   ", ALL, "empty"),
         (None, ALL, "empty"),
-        ("x" * 1001, ALL, "more than 1000"),
+        ("x" * 1001, ALL, "more than 500"),
         ("cup", ["lidar"], "unknown sensor"),
     ],
 )

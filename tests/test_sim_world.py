@@ -128,7 +128,7 @@ def _python_choosing_its_own_backend(code: str) -> str:
 def test_backend_is_chosen_automatically_when_mujoco_gl_is_unset():
     code = (
         "import sys; from attribot.sim.render import gl_backend; import attribot.sim.render as r;"
-        "assert 'OpenGL' not in sys.modules or True; from attribot.sim.world import SimWorld;"
+        "assert 'OpenGL' not in sys.modules; from attribot.sim.world import SimWorld;"
         "w = SimWorld(layout='triplet', seed=1, width=64, height=48); f = w.observe(); w.close();"
         "print(gl_backend(), f.rgb.shape, int(f.rgb.std() > 5))"
     )

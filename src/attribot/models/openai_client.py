@@ -34,7 +34,7 @@ def chat_text(client: Any, model: str, messages: list[dict[str, Any]], **params:
         reply = client.chat.completions.create(model=model, messages=messages, **params)
     except openai.AuthenticationError as exc:
         raise BackendError(
-            f"{where} refused the API key (401)", "set ATTRIBOT_LLM_API_KEY or --llm-api-key"
+            f"{where} refused the API key (401)", "set ATTRIBOT_LLM_API_KEY (or llm_api_key in attribot.toml)"
         ) from exc
     except openai.RateLimitError as exc:
         raise BackendError(

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 
 from pydantic import BaseModel, ConfigDict
 
+from attribot.api.prompt import ENTRY_POINT, MAX_QUERY_CHARS  # one definition of each, in the API layer
 from attribot.errors import AttribotError, InputError
 from attribot.registry import Registry
 
@@ -37,13 +38,6 @@ __all__ = [
     "solve",
     "check_query",
 ]
-
-ENTRY_POINT = "execute_command"
-"""The function every program defines: `execute_command(image, robot)`."""
-
-MAX_QUERY_CHARS = 500
-"""Longer queries are refused: the paper's queries are under 80 characters, and a prompt is no place for
-a pasted document."""
 
 
 def _run_error_type() -> type[BaseModel]:
