@@ -25,13 +25,15 @@ from pathlib import Path
 from typing import Any
 
 from attribot.errors import AttribotError, ConfigError, InputError
-from attribot.runner import worker as proto
+from attribot.runner import protocol as proto
+from attribot.runner import worker
 from attribot.runner.policy import prepare_program, snippet_of
+from attribot.runner.protocol import KIND, Key, Kind
 from attribot.runner.records import Limits, RunError, RunResult, TraceRecord
 
 __all__ = ["ProgramRunner"]
 
-WORKER_PATH = Path(proto.__file__).resolve()
+WORKER_PATH = Path(worker.__file__).resolve()
 _STARTUP_S = 30.0  # a worker that is not ready by then is broken, not slow
 _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 # a file path; not the path part of a URL ("https://host/a/b" stays whole)
@@ -264,7 +266,7 @@ class _Run:
         self.objects[h] = obj
         self.ids[key] = h
         attrs = {name: self.encode(getattr(obj, name), depth=1) for name in cls.API_ATTRIBUTES}
-        return {proto.TAG_HANDLE: h, "c": cls.__name__, "a": attrs}
+        return {proto.TAG_HANDLE: h, Key.STUB_CLASS: cls.__name__, Key.STUB_ATTRS: attrs}
 
     def encode(self, value: Any, depth: int = 0) -> Any:
         """Host values to the wire: plain data as is, API objects as handles, numpy scalars as numbers."""
@@ -349,18 +351,18 @@ class _Run:
     # ---- one API call -------------------------------------------------------------------------------
     def call(self, msg: dict[str, Any], deadline: float = math.inf) -> dict[str, Any]:
         """Serve one API call; past `deadline` (time.monotonic) the call is cut and `_CallTimeout` raised."""
-        line = msg.get("l") if type(msg.get("l")) is int else None
+        line = msg.get(Key.LINE) if type(msg.get(Key.LINE)) is int else None
         self.last_line = line
         self.calls += 1
-        method = msg.get("m")
+        method = msg.get(Key.METHOD)
         limit = self.runner.limits.max_api_calls
         if self.calls > limit:
             message = f"more than {limit} API calls: the program may make at most {limit}"
             self.stop = self.stop or ("limit", message, line)
-            return {"t": "stop", "c": "limit", "m": message}
+            return {KIND: Kind.STOP, Key.CATEGORY: "limit", Key.MESSAGE: message}
         try:
-            obj = self.decode({proto.TAG_HANDLE: msg.get("h")})
-            raw_args, raw_kwargs = msg.get("a"), msg.get("k")
+            obj = self.decode({proto.TAG_HANDLE: msg.get(Key.HANDLE)})
+            raw_args, raw_kwargs = msg.get(Key.ARGS), msg.get(Key.KWARGS)
             if not isinstance(raw_args, list) or not isinstance(raw_kwargs, dict):
                 raise ValueError("a malformed call")
             args = [self.decode(a) for a in raw_args]
@@ -415,13 +417,13 @@ class _Run:
         self.trace.append(
             TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line)
         )
-        return {"t": "ret", "v": wire}
+        return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def _refuse(
         self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
     ) -> dict[str, Any]:
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
-        return {"t": "err", "c": "api", "m": message}
+        return {KIND: Kind.API_ERROR, Key.CATEGORY: "api", Key.MESSAGE: message}
 
     def add_output(self, text: Any) -> None:
         if not isinstance(text, str):
@@ -544,12 +546,12 @@ class ProgramRunner:
                     "pass API objects of the runner's classes or plain data",
                 ) from None
             request = {
-                "t": "run",
-                "code": binascii.b2a_base64(marshal.dumps(code), newline=False).decode("ascii"),
-                "entry": entry,
-                "args": wire_args,
-                "limits": self.limits.model_dump(),
-                "classes": self._wire_classes,
+                KIND: Kind.RUN,
+                Key.CODE: binascii.b2a_base64(marshal.dumps(code), newline=False).decode("ascii"),
+                Key.ENTRY: entry,
+                Key.ARGS: wire_args,
+                Key.LIMITS: proto.WireLimits(**self.limits.model_dump()).to_wire(),
+                Key.CLASSES: self._wire_classes,
             }
             try:
                 result = self._serve(state, request, t0)
@@ -600,8 +602,8 @@ class ProgramRunner:
                         "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
                     )
                     return finish(False, error=err)
-                kind = msg.get("t")
-                if kind == "call":
+                kind = msg.get(KIND)
+                if kind == Kind.CALL:
                     try:
                         reply = state.call(msg, deadline if ready else math.inf)
                     except _CallTimeout:
@@ -613,33 +615,35 @@ class ProgramRunner:
                         )
                         return finish(False, error=err)
                     worker.send(reply)
-                elif kind == "out":
-                    state.add_output(msg.get("s"))
-                elif kind == "done":
+                elif kind == Kind.OUT:
+                    state.add_output(msg.get(Key.TEXT))
+                elif kind == Kind.DONE:
                     if state.stop is not None:
                         return finish(False, error=state.error(*state.stop))
                     try:
-                        obj = state.decode(msg.get("v"))
+                        obj = state.decode(msg.get(Key.VALUE))
                     except (ValueError, TypeError, RecursionError):
                         return finish(
                             False,
                             error=state.error(
-                                "runtime", f"{request['entry']} returned a value that cannot be read", None
+                                "runtime", f"{request[Key.ENTRY]} returned a value that cannot be read", None
                             ),
                         )
                     return finish(True, value=state.summary(obj), value_object=obj)
-                elif kind == "error":
-                    line = msg.get("l")
+                elif kind == Kind.FAILED:
+                    line = msg.get(Key.LINE)
                     return finish(
                         False,
                         error=state.error(
-                            str(msg.get("c")), str(msg.get("m")), line if type(line) is int else None
+                            str(msg.get(Key.CATEGORY)),
+                            str(msg.get(Key.MESSAGE)),
+                            line if type(line) is int else None,
                         ),
                     )
-                elif kind == "go" and not ready:  # the worker has the program and starts its clocks
+                elif kind == Kind.GO and not ready:  # the worker has the program and starts its clocks
                     ready = True
                     deadline = time.monotonic() + limits.wall_s + grace
-                elif kind == "ready":
+                elif kind == Kind.READY:
                     pass
                 else:
                     raise _Overflow("the program sent a message that is not valid")

@@ -24,15 +24,28 @@ import resource
 import signal
 import sys
 
+try:  # imported by the host as part of the package
+    from attribot.runner.protocol import KIND, TAG_DICT, TAG_HANDLE, TAG_SET, TAG_TUPLE, Key, Kind, WireLimits
+except ImportError:  # run as a script with -I -S (no site-packages, no script folder on the path)
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from protocol import (  # type: ignore[no-redef]
+        KIND,
+        TAG_DICT,
+        TAG_HANDLE,
+        TAG_SET,
+        TAG_TUPLE,
+        Key,
+        Kind,
+        WireLimits,
+    )
+
+    del sys.path[0]
+
 # every module the worker needs is imported above: once the channel is set up the process can open no
 # file, so nothing may be imported later
 
-__all__ = ["TAG_HANDLE", "TAG_TUPLE", "TAG_DICT", "TAG_SET", "PROGRAM_FILENAME", "SAFE_BUILTIN_NAMES", "main"]
+__all__ = ["PROGRAM_FILENAME", "SAFE_BUILTIN_NAMES", "main"]
 
-TAG_HANDLE = "$h"
-TAG_TUPLE = "$t"
-TAG_DICT = "$d"
-TAG_SET = "$s"
 PROGRAM_FILENAME = "<program>"
 CHANNEL_FDS = (3, 4)
 
@@ -268,12 +281,12 @@ def rpc(stub, method, args, kwargs):
     cls = type(stub)._sb_class
     try:
         msg = {
-            "t": "call",
-            "h": object.__getattribute__(stub, "_sb_handle"),
-            "m": method,
-            "a": [encode(a) for a in args],
-            "k": {k: encode(v) for k, v in kwargs.items()},
-            "l": line,
+            KIND: Kind.CALL,
+            Key.HANDLE: object.__getattribute__(stub, "_sb_handle"),
+            Key.METHOD: method,
+            Key.ARGS: [encode(a) for a in args],
+            Key.KWARGS: {k: encode(v) for k, v in kwargs.items()},
+            Key.LINE: line,
         }
     except Unsupported as e:
         stop(
@@ -290,10 +303,10 @@ def rpc(stub, method, args, kwargs):
             f"{cls}.{method}: the arguments are too large ({len(data)} bytes, at most {STATE.max_msg})",
         )
     answer = exchange(data)
-    kind = answer.get("t")
-    if kind == "ret":
-        return decode(answer["v"])
-    stop(answer.get("c", "api"), answer.get("m", "the API call failed"))
+    kind = answer.get(KIND)
+    if kind == Kind.RETURN:
+        return decode(answer[Key.VALUE])
+    stop(answer.get(Key.CATEGORY, "api"), answer.get(Key.MESSAGE, "the API call failed"))
 
 
 def make_method(cls_name, method):
@@ -316,10 +329,10 @@ def make_stub(data):
     handle = data[TAG_HANDLE]
     stub = STATE.stubs.get(handle)
     if stub is None:
-        cls = STATE.stub_types[data["c"]]
+        cls = STATE.stub_types[data[Key.STUB_CLASS]]
         stub = object.__new__(cls)
         object.__setattr__(stub, "_sb_handle", handle)
-        object.__setattr__(stub, "_sb_attrs", {k: decode(v) for k, v in data["a"].items()})
+        object.__setattr__(stub, "_sb_attrs", {k: decode(v) for k, v in data[Key.STUB_ATTRS].items()})
         STATE.stubs[handle] = stub
     return stub
 
@@ -432,10 +445,10 @@ def safe_print(*args, sep=" ", end="\n", file=None, flush=False):
     if len(text) > room:
         if room > 0:
             STATE.out_len += room
-            exchange(dumps({"t": "out", "s": text[:room]}), reply=False)
+            exchange(dumps({KIND: Kind.OUT, Key.TEXT: text[:room]}), reply=False)
         stop("limit", f"output limit reached: programs may print at most {STATE.max_out} characters")
     STATE.out_len += len(text)
-    exchange(dumps({"t": "out", "s": text}), reply=False)
+    exchange(dumps({KIND: Kind.OUT, Key.TEXT: text}), reply=False)
 
 
 def _log2_factorial(n):
@@ -519,9 +532,9 @@ def describe(exc, limits):
     if isinstance(exc, SandboxStop):
         return exc.category, exc.message
     if isinstance(exc, MemoryError):
-        return "limit", f"memory limit reached: the program may use about {limits['memory_mb']} MB"
+        return "limit", f"memory limit reached: the program may use about {limits.memory_mb} MB"
     if isinstance(exc, RecursionError):
-        return "limit", f"recursion too deep: at most {limits['max_recursion']} nested calls"
+        return "limit", f"recursion too deep: at most {limits.max_recursion} nested calls"
     if isinstance(exc, OSError):  # e.g. a codec that would load a module from disk
         return "runtime", f"{type(exc).__name__}: programs cannot open files or load modules"
     try:
@@ -533,17 +546,17 @@ def describe(exc, limits):
 
 
 def apply_limits(limits):
-    signal.signal(signal.SIGALRM, on_timer("timeout", f"the program ran longer than {limits['wall_s']} s"))
+    signal.signal(signal.SIGALRM, on_timer("timeout", f"the program ran longer than {limits.wall_s} s"))
     signal.signal(
-        signal.SIGPROF, on_timer("timeout", f"the program used more than {limits['cpu_s']} s of CPU time")
+        signal.SIGPROF, on_timer("timeout", f"the program used more than {limits.cpu_s} s of CPU time")
     )
-    mem = int(limits["memory_mb"]) * 1024 * 1024
+    mem = limits.memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
     used = resource.getrusage(resource.RUSAGE_SELF)
-    cpu = int(used.ru_utime + used.ru_stime + limits["cpu_s"]) + 2
+    cpu = int(used.ru_utime + used.ru_stime + limits.cpu_s) + 2
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))  # backstop: the kernel kills past it
-    signal.setitimer(signal.ITIMER_PROF, float(limits["cpu_s"]))
-    signal.setitimer(signal.ITIMER_REAL, float(limits["wall_s"]))
+    signal.setitimer(signal.ITIMER_PROF, limits.cpu_s)
+    signal.setitimer(signal.ITIMER_REAL, limits.wall_s)
 
 
 def stop_timers():
@@ -553,18 +566,18 @@ def stop_timers():
 
 def run(request):
     """Run the program; return the final message for the host (raises only if a timer lands late)."""
-    limits = request["limits"]
-    STATE.max_out = int(limits["max_output_chars"])
-    STATE.max_bits = int(limits["max_int_bits"])
-    STATE.max_seq = int(limits["max_sequence"])
-    STATE.max_msg = int(limits["max_message_bytes"])
-    STATE.classes = {name: tuple(methods) for name, methods in request["classes"].items()}
+    limits = WireLimits.from_wire(request[Key.LIMITS])
+    STATE.max_out = limits.max_output_chars
+    STATE.max_bits = limits.max_int_bits
+    STATE.max_seq = limits.max_sequence
+    STATE.max_msg = limits.max_message_bytes
+    STATE.classes = {name: tuple(methods) for name, methods in request[Key.CLASSES].items()}
     STATE.stub_types = {name: stub_class(name, methods) for name, methods in STATE.classes.items()}
-    code = marshal.loads(binascii.a2b_base64(request["code"]))
+    code = marshal.loads(binascii.a2b_base64(request[Key.CODE]))
     g = build_globals()
-    args = [decode(a) for a in request["args"]]
-    entry = request["entry"]
-    sys.setrecursionlimit(len_stack() + int(limits["max_recursion"]) + 10)
+    args = [decode(a) for a in request[Key.ARGS]]
+    entry = request[Key.ENTRY]
+    sys.setrecursionlimit(len_stack() + limits.max_recursion + 10)
     apply_limits(limits)
     try:
         exec(code, g)  # noqa: S102 (the code was checked and compiled by the host)
@@ -573,7 +586,7 @@ def run(request):
             raise TypeError(f"{entry} is not a function")
         value = fn(*args)
         try:
-            msg = dumps({"t": "done", "v": encode(value)})
+            msg = dumps({KIND: Kind.DONE, Key.VALUE: encode(value)})
         except Unsupported as e:
             msg = error_message(
                 "runtime",
@@ -601,7 +614,7 @@ def error_message(category, message, line):
     first = STATE.stopped
     if first is not None and category != first.category:
         category, message = first.category, first.message  # a stop that something swallowed
-    return dumps({"t": "error", "c": category, "m": message, "l": line})
+    return dumps({KIND: Kind.FAILED, Key.CATEGORY: category, Key.MESSAGE: message, Key.LINE: line})
 
 
 def len_stack():
@@ -629,12 +642,12 @@ def setup_channel(rfd, wfd):
 
 def main(argv):
     STATE.chan = setup_channel(int(argv[1]), int(argv[2]))
-    STATE.chan.send({"t": "ready"})
+    STATE.chan.send({KIND: Kind.READY})
     request = STATE.chan.recv()
-    if request.get("t") != "run":
+    if request.get(KIND) != Kind.RUN:
         os._exit(2)
-    STATE.chan.send({"t": "go"})
-    limits = request.get("limits", {})
+    STATE.chan.send({KIND: Kind.GO})
+    limits = WireLimits.from_wire(request[Key.LIMITS])
     try:
         try:
             msg = run(request)
