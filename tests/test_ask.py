@@ -18,6 +18,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
 from attribot.planning.ask import Scene, ask, execute
+from conftest import EMPTY_SETTINGS
 
 LAYOUT, SEED = "household", 7
 
@@ -33,7 +34,7 @@ def by_category(truth: dict) -> dict[str, dict]:
 
 
 def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "ATTRIBOT_CONFIG": str(Path(__file__).parent / "artifacts" / "empty-settings.toml")}
+    env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS)}
     return subprocess.run(
         [sys.executable, "-m", "attribot.cli", *args],
         capture_output=True,

@@ -66,13 +66,6 @@ def test_bad_settings_environment(env, words):
 # ---- --save: checked before any work, never overwriting an earlier answer ---------------------------------
 
 
-@pytest.fixture
-def empty_settings(monkeypatch):
-    from pathlib import Path
-
-    monkeypatch.setenv("ATTRIBOT_CONFIG", str(Path(__file__).parent / "artifacts" / "empty-settings.toml"))
-
-
 def test_save_paths_that_cannot_take_an_answer(tmp_path, monkeypatch):
     import attribot.planning.ask as ask_module
 

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import json
-import socket
 
 import pytest
 from pytest_httpserver import HTTPServer
 from typer.testing import CliRunner
 
 from attribot.cli import app
+from conftest import free_port
 
 
 @pytest.fixture
@@ -18,12 +18,6 @@ def server():
     srv.start()
     yield srv
     srv.stop()
-
-
-def _closed_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _run(args, env):
@@ -80,7 +74,7 @@ def test_env_overrides_file_and_failures_are_reported(tmp_path):
         "ATTRIBOT_CONFIG": str(cfg),
         "ATTRIBOT_VQA": "openai:m",
         "ATTRIBOT_LANGUAGE": "nonsense:x",
-        "ATTRIBOT_LLM_BASE_URL": f"http://127.0.0.1:{_closed_port()}/v1",
+        "ATTRIBOT_LLM_BASE_URL": f"http://127.0.0.1:{free_port()}/v1",
     }
     result = _run(["--json"], env)
     assert result.exit_code == 0, result.output

@@ -32,11 +32,7 @@ from attribot.server import (
     start_model_process,
 )
 from attribot.server.model_process import ModelProcess, backend_factory
-
-
-def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
-    ys, xs = np.nonzero(rgb.max(axis=2) > 40)
-    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
+from conftest import alive, bright_box, frame_with_box
 
 
 class BrightBoxDetector:
@@ -73,13 +69,6 @@ class MeanColourVQA:
 
 def failing_factory() -> None:
     raise ConfigError("no model at /nowhere", "give a folder that holds a model")
-
-
-def frame_with_box(h: int, w: int, box: tuple[int, int, int, int]) -> Frame:
-    rgb = np.zeros((h, w, 3), np.uint8)
-    x0, y0, x1, y1 = box
-    rgb[y0:y1, x0:x1] = 200
-    return Frame(rgb=rgb)
 
 
 @pytest.fixture(scope="module")
@@ -218,21 +207,13 @@ def test_factory_of_a_spec_is_picklable():
 # ---- deadlines and shutdown: a stuck model never holds the server, nothing is left behind --------------
 
 
-def _alive(pid: int) -> bool:
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return stat.rsplit(")", 1)[1].split()[0] != "Z"
-
-
 def test_a_batch_past_its_deadline_restarts_the_child():
     proc = start_model_process("detector", BrightBoxDetector, batch_timeout_s=1.0)
     try:
         first = proc.pid
         with pytest.raises(BackendError, match="longer than 1 s"):
             proc.detect(frame_with_box(8, 8, (1, 1, 4, 4)), ["hang"])
-        assert not _alive(first)
+        assert not alive(first)
         (det,) = proc.detect(frame_with_box(8, 8, (1, 1, 4, 4)), ["ok"])
         assert det.box == (1.0, 1.0, 4.0, 4.0) and proc.pid != first and proc.restarts == 1
     finally:
@@ -248,7 +229,7 @@ def test_close_does_not_wait_for_a_stuck_batch():
         proc.close()
         with pytest.raises(BackendError):
             stuck.result(timeout=10)
-    assert pid is not None and not _alive(pid)
+    assert pid is not None and not alive(pid)
 
 
 def test_the_child_dies_with_its_parent(tmp_path):
@@ -269,13 +250,13 @@ def test_the_child_dies_with_its_parent(tmp_path):
     parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, env=env)
     try:
         child = int(parent.stdout.readline())
-        assert _alive(child)
+        assert alive(child)
         parent.send_signal(signal.SIGKILL)
         parent.wait(10)
         end = time.monotonic() + 5
-        while _alive(child) and time.monotonic() < end:
+        while alive(child) and time.monotonic() < end:
             time.sleep(0.05)
-        assert not _alive(child)
+        assert not alive(child)
     finally:
         parent.kill()
         parent.wait()

@@ -12,6 +12,8 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import random_frame
+
 pytest.importorskip("torch")
 pytest.importorskip("transformers")
 
@@ -57,10 +59,6 @@ def models(tmp_path_factory):
     }
 
 
-def _frame(h: int, w: int, seed: int) -> Frame:
-    return Frame(rgb=np.random.default_rng(seed).integers(0, 256, (h, w, 3), dtype=np.uint8))
-
-
 def _key(dets):
     return [(d.label, tuple(round(v, 3) for v in d.box), round(d.score, 5)) for d in dets]
 
@@ -92,7 +90,7 @@ def test_owl_grid_boxes_are_pixels_clipped_to_the_image(models):
     below the image and are dropped, those crossing the right or lower edge are clipped."""
     det = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=0.0))
     assert isinstance(det, hf.HFDetector) and det.family == "owlv2" and det.name == f"hf:{models['owl_grid']}"
-    frame = _frame(40, 80, 0)
+    frame = random_frame(40, 80, 0)
     dets = det.detect(frame, ["cat"])
     _check_detections(dets, frame, {"cat"}, 0.0)
     got = sorted(tuple(round(v, 1) for v in d.box) for d in dets)
@@ -111,7 +109,7 @@ def test_owl_grid_boxes_are_pixels_clipped_to_the_image(models):
 
 
 def test_owl_threshold_keeps_only_scores_above(models):
-    frame = _frame(48, 48, 1)
+    frame = random_frame(48, 48, 1)
     low = build_backend("detector", f"hf:{models['owl_grid']}", Settings(detector_threshold=0.0)).detect(
         frame, ["cup"]
     )
@@ -129,7 +127,7 @@ def test_owl_nms_per_label(models):
     """Whole-square boxes centred on the patch grid overlap heavily: NMS leaves no same-label pair above
     the IoU limit, while without it (limit 1.0) many overlapping boxes come back."""
     path = str(models["owl_wide"])
-    frame = _frame(64, 64, 2)
+    frame = random_frame(64, 64, 2)
     loose = hf.HFDetector(path, threshold=0.0, nms_iou=1.0).detect(frame, ["cat", "dog"])
     strict = hf.HFDetector(path, threshold=0.0, nms_iou=0.5).detect(frame, ["cat", "dog"])
     assert len(strict) < len(loose)
@@ -146,7 +144,12 @@ def test_owl_nms_per_label(models):
 
 def test_owl_batch_equals_one_by_one(models):
     det = hf.HFDetector(str(models["owl"]), threshold=0.0, max_batch=2)
-    frames = [_frame(40, 80, 3), _frame(60, 50, 4), _frame(33, 33, 5), _frame(20, 90, 6)]
+    frames = [
+        random_frame(40, 80, 3),
+        random_frame(60, 50, 4),
+        random_frame(33, 33, 5),
+        random_frame(20, 90, 6),
+    ]
     queries = [["cat", "red cup"], ["dog"], [], ["mug", "apple", "book"]]
     batched = det.detect_batch(frames, queries)
     assert batched[2] == []
@@ -160,7 +163,7 @@ def test_owl_batch_equals_one_by_one(models):
 
 def test_owl_duplicate_and_spaced_queries_are_merged(models):
     det = hf.HFDetector(str(models["owl_grid"]), threshold=0.0)
-    frame = _frame(32, 32, 7)
+    frame = random_frame(32, 32, 7)
     assert _key(det.detect(frame, ["red  cup", " red cup", "red cup"])) == _key(
         det.detect(frame, ["red cup"])
     )
@@ -169,7 +172,7 @@ def test_owl_duplicate_and_spaced_queries_are_merged(models):
 def test_bfloat16_dtype_is_used(models):
     det = hf.HFDetector(str(models["owl"]), dtype="bfloat16", threshold=0.0)
     assert next(det.model.parameters()).dtype == torch.bfloat16
-    _check_detections(det.detect(_frame(30, 40, 8), ["cat"]), _frame(30, 40, 8), {"cat"}, 0.0)
+    _check_detections(det.detect(random_frame(30, 40, 8), ["cat"]), random_frame(30, 40, 8), {"cat"}, 0.0)
 
 
 # ---- Grounding DINO --------------------------------------------------------------------------------------
@@ -178,7 +181,7 @@ def test_bfloat16_dtype_is_used(models):
 def test_gdino_labels_are_candidates_and_boxes_pixels(models):
     det = build_backend("detector", f"hf:{models['gdino']}", Settings(detector_threshold=0.0))
     assert det.family == "grounding-dino"
-    frame = _frame(50, 70, 9)
+    frame = random_frame(50, 70, 9)
     labels = ["red cup", "cup", "dog"]  # shared words: decoded phrases could merge them
     dets = det.detect(frame, labels)
     _check_detections(dets, frame, set(labels), 0.0)
@@ -199,7 +202,7 @@ def test_gdino_token_to_label_mapping_uses_character_spans(models):
 
 def test_gdino_batch_equals_one_by_one_and_groups_sizes(models):
     det = hf.HFDetector(str(models["gdino"]), threshold=0.0)
-    frames = [_frame(40, 80, 10), _frame(40, 80, 11), _frame(60, 50, 12)]
+    frames = [random_frame(40, 80, 10), random_frame(40, 80, 11), random_frame(60, 50, 12)]
     queries = [["cat", "red cup"], ["dog"], ["cup"]]
     assert [len(c) for c in det._chunks(frames, [0, 1, 2])] == [2, 1]
     batched = det.detect_batch(frames, queries)
@@ -208,7 +211,7 @@ def test_gdino_batch_equals_one_by_one_and_groups_sizes(models):
 
 
 def test_gdino_threshold_and_nms(models):
-    frame = _frame(64, 64, 13)
+    frame = random_frame(64, 64, 13)
     dets = hf.HFDetector(str(models["gdino"]), threshold=0.0, nms_iou=0.3).detect(frame, ["cat"])
     boxes = np.array([d.box for d in dets])
     m = iou_matrix(boxes, boxes)
@@ -224,7 +227,7 @@ def test_gdino_threshold_and_nms(models):
 def test_blip2_answers_batched_like_one_by_one(models):
     vqa = build_backend("vqa", f"hf:{models['blip2']}", Settings())
     assert isinstance(vqa, hf.HFVisualQA) and vqa.processor.tokenizer.padding_side == "left"
-    frames = [_frame(40, 60, 14), _frame(50, 30, 15), _frame(16, 16, 16)]
+    frames = [random_frame(40, 60, 14), random_frame(50, 30, 15), random_frame(16, 16, 16)]
     questions = ["what is it?", "what colour is the big thing on the left?", "is it heavy?"]
     vqa.max_batch = 2
     batched = vqa.answer_batch(frames, questions)
@@ -236,7 +239,7 @@ def test_blip2_answers_batched_like_one_by_one(models):
 def test_blip2_prompt_is_cut_off_the_generated_tokens(models):
     vqa = hf.HFVisualQA(str(models["blip2"]), max_new_tokens=3)
     inputs = vqa.processor(
-        images=[_frame(20, 20, 17).rgb], text=["Question: what? Answer:"], return_tensors="pt"
+        images=[random_frame(20, 20, 17).rgb], text=["Question: what? Answer:"], return_tensors="pt"
     )
     with torch.no_grad():
         out = vqa.model.generate(**inputs, max_new_tokens=3, do_sample=False)
@@ -289,7 +292,7 @@ def test_device_and_dtype_choice():
 
 def test_bad_inputs_are_input_errors(models):
     det = hf.HFDetector(str(models["owl"]))
-    frame = _frame(20, 20, 18)
+    frame = random_frame(20, 20, 18)
     with pytest.raises(InputError, match="empty"):
         det.detect(frame, ["cat", "  "])
     with pytest.raises(InputError, match="one string"):
@@ -342,7 +345,7 @@ def test_import_attribot_does_not_import_torch():
 
 def test_from_loaded_matches_the_saved_and_loaded_model(models):
     """The in-memory path (benchmarks, servers) gives what the folder path gives: same seed, same weights."""
-    frame = _frame(40, 60, 19)
+    frame = random_frame(40, 60, 19)
     model, processor = build_random("owlv2-tiny", seed=0)
     mem = hf.HFDetector.from_loaded(model, processor, threshold=0.0)
     disk = hf.HFDetector(str(models["owl"]), threshold=0.0)
@@ -417,7 +420,7 @@ def test_gpu_benchmark_code_path_runs_with_tiny_models(capsys, tmp_path):
 
 def test_max_detections_is_the_best_prefix(models):
     # a large frame, so that the random model's tiny boxes are at least a pixel (smaller ones are dropped)
-    frame = _frame(512, 512, 20)
+    frame = random_frame(512, 512, 20)
     every = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=10_000).detect(
         frame, ["cat", "dog"]
     )
@@ -442,7 +445,7 @@ def test_nms_early_stop_keeps_the_same_first_boxes():
 def test_boxes_under_a_pixel_are_not_detections(models):
     # at 64 px the tiny random model proposes many slivers; none may come back as a detection
     dets = hf.HFDetector(str(models["owl"]), threshold=0.0, max_detections=10_000).detect(
-        _frame(64, 64, 20), ["cat", "dog"]
+        random_frame(64, 64, 20), ["cat", "dog"]
     )
     assert dets and all(d.box[2] - d.box[0] >= 1 and d.box[3] - d.box[1] >= 1 for d in dets)
 
@@ -506,7 +509,7 @@ def test_working_size_maps_boxes_back_to_the_callers_pixels(models):
     detections, with boxes twice as large."""
     det = hf.HFDetector(str(models["owl"]), threshold=0.0)
     side = hf.working_side(det.processor.image_processor)
-    small = _frame(side, side // 2, 23)
+    small = random_frame(side, side // 2, 23)
     big = Frame(rgb=np.repeat(np.repeat(small.rgb, 2, axis=0), 2, axis=1))
     a, b = det.detect(small, ["cat", "dog"]), det.detect(big, ["cat", "dog"])
     assert a and len(a) == len(b)

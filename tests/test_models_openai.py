@@ -5,7 +5,6 @@ from __future__ import annotations
 import base64
 import io
 import json
-import socket
 import time
 
 import numpy as np
@@ -24,6 +23,7 @@ from attribot.models.openai_chat import (
     clean_answer,
     image_data_url,
 )
+from conftest import free_port
 
 
 @pytest.fixture(scope="module")
@@ -148,16 +148,8 @@ def test_timeout_is_a_backend_error(server):
     assert time.monotonic() - start < 0.9
 
 
-def _closed_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_unreachable_endpoint_is_a_backend_error():
-    lm = OpenAILanguageModel(
-        "m", base_url=f"http://127.0.0.1:{_closed_port()}/v1", max_retries=0, timeout_s=2
-    )
+    lm = OpenAILanguageModel("m", base_url=f"http://127.0.0.1:{free_port()}/v1", max_retries=0, timeout_s=2)
     with pytest.raises(BackendError, match="cannot reach"):
         lm.complete("hello?")
 
@@ -185,7 +177,7 @@ def test_probe_lists_models_or_says_why_not(server):
     assert ok.available is True and "serves vision-model" in ok.detail
     other = probe_backend("language", "openai:gpt-x", s)
     assert other.available is True and "does not list gpt-x" in other.detail
-    down = Settings(llm_base_url=f"http://127.0.0.1:{_closed_port()}/v1")
+    down = Settings(llm_base_url=f"http://127.0.0.1:{free_port()}/v1")
     bad = probe_backend("language", "openai:m", down)
     assert bad.available is False and "cannot reach" in bad.detail
 

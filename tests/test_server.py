@@ -25,13 +25,9 @@ from attribot.models.remote import RemoteClient, RemoteDetector, RemoteLanguageM
 from attribot.models.wire import ErrorBody, decode_image, encode_image
 from attribot.server import Batcher, ServerConfig, ServerThread, check_bind, create_app, served_specs
 from attribot.server.batching import Overloaded
+from conftest import bright_box, free_port
 
 TOKEN = "test-token-0123"
-
-
-def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
-    ys, xs = np.nonzero(rgb.max(axis=2) > 40)
-    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
 
 
 def mean_colour(rgb: np.ndarray) -> str:
@@ -430,20 +426,12 @@ def test_served_specs_skip_unservable_defaults_and_refuse_them_when_asked():
 # ---- the command --------------------------------------------------------------------------------------
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_cli_serve_models_serves_and_stops(tmp_path):
     import os
     import subprocess
     import sys
 
-    port = _free_port()
+    port = free_port()
     (tmp_path / "none.toml").write_text("")
     env = dict(os.environ, ATTRIBOT_CONFIG=str(tmp_path / "none.toml"), ATTRIBOT_REMOTE_TOKEN="cli-token")
     argv = [

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import socket
 import threading
-import time
 
 import httpx
 import numpy as np
@@ -12,6 +11,7 @@ import numpy as np
 from attribot.models.base import Detection
 from attribot.models.wire import encode_image
 from attribot.server import ServerConfig, ServerThread, create_app
+from conftest import wait_for
 
 
 class GatedDetector:
@@ -33,15 +33,6 @@ def _metrics(url: str) -> dict:
     return httpx.get(url + "/metrics").json()["roles"]["detector"]
 
 
-def _wait_for(predicate, timeout: float = 10.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return predicate()
-
-
 def test_disconnect_mid_body_is_counted_as_gone():
     detector = GatedDetector()
     detector.gate.set()
@@ -51,7 +42,7 @@ def test_disconnect_mid_body_is_counted_as_gone():
                 b"POST /v1/detect HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
                 b"Content-Length: 100000\r\n\r\n" + b'{"image": "' + b"A" * 1000
             )
-        assert _wait_for(lambda: _metrics(srv.url)["errors"].get("disconnected") == 1)
+        assert wait_for(lambda: _metrics(srv.url)["errors"].get("disconnected") == 1)
         assert "backend" not in _metrics(srv.url)["errors"]
 
 
@@ -69,11 +60,11 @@ def test_work_of_a_client_that_left_is_dropped():
 
         first = threading.Thread(target=post, args=("first", 30))
         first.start()
-        assert _wait_for(lambda: _metrics(srv.url)["requests"] == 1)
+        assert wait_for(lambda: _metrics(srv.url)["requests"] == 1)
         post("leaves", 0.5)  # queued behind "first", then its client times out and closes
         stays = threading.Thread(target=post, args=("stays", 30))
         stays.start()
-        assert _wait_for(lambda: _metrics(srv.url)["errors"].get("disconnected") == 1)
+        assert wait_for(lambda: _metrics(srv.url)["errors"].get("disconnected") == 1)
         detector.gate.set()
         first.join(30)
         stays.join(30)

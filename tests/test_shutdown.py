@@ -7,10 +7,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+
+from conftest import alive, wait_for
 
 LOOP = "def execute_command(image, robot):\n    n = 0\n    while True:\n        n += 1\n"
 
@@ -21,23 +22,6 @@ def _children(pid: int) -> set[int]:
     except OSError:
         return set()
     return {int(p) for p in text.split()}
-
-
-def _alive(pid: int) -> bool:
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return stat.rsplit(")", 1)[1].split()[0] != "Z"
-
-
-def _wait_for(predicate, timeout: float) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return predicate()
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
@@ -57,17 +41,17 @@ def test_signal_to_exec_stops_the_sandbox_worker(tmp_path, sig):
             seen.update(_children(proc.pid))
             return any(_cpu_ticks(p) > 20 for p in seen)
 
-        assert _wait_for(running, 120), "the program never started"
+        assert wait_for(running, 120), "the program never started"
         proc.send_signal(sig)
         proc.wait(timeout=30)
         assert proc.returncode == 128 + sig
-        assert _wait_for(lambda: not any(_alive(p) for p in seen), 3), "a worker outlived the command"
+        assert wait_for(lambda: not any(alive(p) for p in seen), 3), "a worker outlived the command"
         assert b"Traceback" not in proc.stderr.read()
     finally:
         proc.kill()
         proc.wait()
         for p in seen:
-            if _alive(p):
+            if alive(p):
                 os.kill(p, signal.SIGKILL)
 
 
@@ -115,7 +99,7 @@ def test_sigterm_to_the_server_with_a_stuck_model_call_leaves_nothing(tmp_path):
     child = int(server.stdout.readline())
     url = f"http://127.0.0.1:{port}"
     try:
-        assert _wait_for(lambda: _reachable(url), 30)
+        assert wait_for(lambda: _reachable(url), 30)
         image = encode_image(np.full((8, 8, 3), 200, np.uint8), "png")
         answers: list[int] = []
 
@@ -141,18 +125,18 @@ def test_sigterm_to_the_server_with_a_stuck_model_call_leaves_nothing(tmp_path):
             blocks.extend({line.split()[-1] for line in maps.splitlines() if "/dev/shm/" in line})
             return bool(blocks)
 
-        assert _wait_for(mapped, 20), "the model process never read the shared memory"
+        assert wait_for(mapped, 20), "the model process never read the shared memory"
         server.send_signal(signal.SIGTERM)
         server.wait(timeout=20)
         caller.join(30)
-        assert _wait_for(lambda: not _alive(child), 3), "the model process outlived the server"
+        assert wait_for(lambda: not alive(child), 3), "the model process outlived the server"
         assert [b for b in blocks if Path(b).exists()] == [], "shared memory left in /dev/shm"
         err = server.stderr.read()
         assert "leaked shared_memory" not in err, err
     finally:
         server.kill()
         server.wait()
-        if _alive(child):
+        if alive(child):
             os.kill(child, signal.SIGKILL)
 
 
