@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import importlib.util
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -45,6 +46,7 @@ __all__ = [
     "VQA_FAMILIES",
     "HFDetector",
     "HFVisualQA",
+    "LoadedModel",
     "resolve_device",
     "resolve_dtype",
     "model_family",
@@ -139,8 +141,28 @@ def model_family(model: str) -> str:
     return str(config.model_type)
 
 
-def _load(model: str, family: str, model_class: str, device: str, dtype: str) -> tuple[Any, Any, str, Any]:
-    """(processor, model on device in dtype, device, dtype) for `model`."""
+@dataclass(frozen=True)
+class LoadedModel:
+    """A transformers model and its processor in memory, with where it runs and what the answers call it."""
+
+    processor: Any
+    model: Any
+    device: str
+    dtype: Any
+    family: str  # the config's model_type
+    name: str  # "hf:MODEL" as the answers name the backend
+
+    @classmethod
+    def of(cls, model: Any, processor: Any, name: str) -> LoadedModel:
+        """A model already in memory, on its own device and dtype, in eval mode."""
+        param = next(model.parameters())
+        return cls(
+            processor, model.eval(), str(param.device), param.dtype, str(model.config.model_type), name
+        )
+
+
+def _load(model: str, family: str, model_class: str, device: str, dtype: str) -> LoadedModel:
+    """`model` (hub id or folder) with its processor, on `device` in `dtype`."""
     transformers = require("transformers", _PURPOSE)
     cls = getattr(transformers, model_class, None)
     if cls is None:
@@ -160,7 +182,20 @@ def _load(model: str, family: str, model_class: str, device: str, dtype: str) ->
             "the folder needs the model and its processor (save_pretrained of both)",
         ) from exc
     net = net.to(device=dev, dtype=dt).eval()
-    return processor, net, dev, dt
+    return LoadedModel(processor, net, dev, dt, family, f"hf:{model}")
+
+
+def _load_detector(model: str, device: str, dtype: str) -> LoadedModel:
+    family = model_family(model)
+    _check_family(
+        family,
+        DETECTOR_FAMILIES,
+        model,
+        "a detector",
+        f"an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
+    )
+    model_class = "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
+    return _load(model, family, model_class, device, dtype)
 
 
 def _check_options(threshold: float, nms_iou: float) -> None:
@@ -254,7 +289,7 @@ class HFDetector:
 
     def __init__(
         self,
-        model: str,
+        model: str | LoadedModel,
         *,
         device: str = "auto",
         dtype: str = "auto",
@@ -263,21 +298,26 @@ class HFDetector:
         max_detections: int = 100,
         max_batch: int = 32,
     ) -> None:
+        """`model`: a hub id or folder, loaded here on `device` in `dtype`; or a `LoadedModel` (see
+        `from_loaded`), used as it is."""
         _check_options(threshold, nms_iou)
-        family = model_family(model)
+        loaded = model if isinstance(model, LoadedModel) else _load_detector(model, device, dtype)
         _check_family(
-            family,
-            DETECTOR_FAMILIES,
-            model,
-            "a detector",
-            f"an OWLv2 or Grounding DINO model, e.g. {_EXAMPLES['detector']}",
+            loaded.family, DETECTOR_FAMILIES, loaded.name, "a detector", "an OWLv2 or Grounding DINO model"
         )
-        model_class = (
-            "Owlv2ForObjectDetection" if family == "owlv2" else "AutoModelForZeroShotObjectDetection"
-        )
-        processor, net, dev, dt = _load(model, family, model_class, device, dtype)
-        self._setup(
-            processor, net, dev, dt, family, f"hf:{model}", threshold, nms_iou, max_detections, max_batch
+        self.processor, self.model = loaded.processor, loaded.model
+        self.device, self.dtype = loaded.device, loaded.dtype
+        self.family = loaded.family
+        self.name = loaded.name
+        self.threshold = float(threshold)
+        self.nms_iou = float(nms_iou)
+        self.max_detections = int(max_detections)
+        self.max_batch = max(1, int(max_batch))
+        # torchvision-backed image processors can resize and normalise on the GPU
+        self._image_kwargs = (
+            {"device": self.device}
+            if _device_preprocessing(self.processor.image_processor, self.device)
+            else {}
         )
 
     @classmethod
@@ -294,48 +334,12 @@ class HFDetector:
     ) -> HFDetector:
         """A detector over a model and processor already in memory, on the model's device and dtype
         (benchmarks of real-size random models; a server sharing one model)."""
-        _check_options(threshold, nms_iou)
-        family = str(model.config.model_type)
-        _check_family(family, DETECTOR_FAMILIES, name, "a detector", "an OWLv2 or Grounding DINO model")
-        param = next(model.parameters())
-        self = cls.__new__(cls)
-        self._setup(
-            processor,
-            model.eval(),
-            str(param.device),
-            param.dtype,
-            family,
-            name,
-            threshold,
-            nms_iou,
-            max_detections,
-            max_batch,
-        )
-        return self
-
-    def _setup(
-        self,
-        processor: Any,
-        model: Any,
-        device: str,
-        dtype: Any,
-        family: str,
-        name: str,
-        threshold: float,
-        nms_iou: float,
-        max_detections: int,
-        max_batch: int,
-    ) -> None:
-        self.processor, self.model, self.device, self.dtype = processor, model, device, dtype
-        self.family = family
-        self.name = name
-        self.threshold = float(threshold)
-        self.nms_iou = float(nms_iou)
-        self.max_detections = int(max_detections)
-        self.max_batch = max(1, int(max_batch))
-        # torchvision-backed image processors can resize and normalise on the GPU
-        self._image_kwargs = (
-            {"device": device} if _device_preprocessing(processor.image_processor, device) else {}
+        return cls(
+            LoadedModel.of(model, processor, name),
+            threshold=threshold,
+            nms_iou=nms_iou,
+            max_detections=max_detections,
+            max_batch=max_batch,
         )
 
     # ---- public -----------------------------------------------------------------------------------
@@ -526,17 +530,28 @@ class HFVisualQA:
 
     def __init__(
         self,
-        model: str,
+        model: str | LoadedModel,
         *,
         device: str = "auto",
         dtype: str = "auto",
         max_new_tokens: int = 10,
         max_batch: int = 32,
     ) -> None:
-        family = model_family(model)
-        _check_family(family, VQA_FAMILIES, model, "a VQA", f"a BLIP-2 model, e.g. {_EXAMPLES['vqa']}")
-        processor, net, dev, dt = _load(model, family, "Blip2ForConditionalGeneration", device, dtype)
-        self._setup(processor, net, dev, dt, f"hf:{model}", max_new_tokens, max_batch)
+        """`model`: a hub id or folder, loaded here on `device` in `dtype`; or a `LoadedModel`."""
+        if isinstance(model, LoadedModel):
+            loaded = model
+        else:
+            family = model_family(model)
+            _check_family(family, VQA_FAMILIES, model, "a VQA", f"a BLIP-2 model, e.g. {_EXAMPLES['vqa']}")
+            loaded = _load(model, family, "Blip2ForConditionalGeneration", device, dtype)
+        _check_family(loaded.family, VQA_FAMILIES, loaded.name, "a VQA", "a BLIP-2 model")
+        self.processor, self.model = loaded.processor, loaded.model
+        self.device, self.dtype = loaded.device, loaded.dtype
+        # decoder-only language models continue the last token: pad on the left
+        self.processor.tokenizer.padding_side = "left"
+        self.name = loaded.name
+        self.max_new_tokens = int(max_new_tokens)
+        self.max_batch = max(1, int(max_batch))
 
     @classmethod
     def from_loaded(
@@ -549,28 +564,7 @@ class HFVisualQA:
         max_batch: int = 32,
     ) -> HFVisualQA:
         """VQA over a BLIP-2 model and processor already in memory, on the model's device and dtype."""
-        _check_family(str(model.config.model_type), VQA_FAMILIES, name, "a VQA", "a BLIP-2 model")
-        param = next(model.parameters())
-        self = cls.__new__(cls)
-        self._setup(processor, model.eval(), str(param.device), param.dtype, name, max_new_tokens, max_batch)
-        return self
-
-    def _setup(
-        self,
-        processor: Any,
-        model: Any,
-        device: str,
-        dtype: Any,
-        name: str,
-        max_new_tokens: int,
-        max_batch: int,
-    ) -> None:
-        self.processor, self.model, self.device, self.dtype = processor, model, device, dtype
-        # decoder-only language models continue the last token: pad on the left
-        self.processor.tokenizer.padding_side = "left"
-        self.name = name
-        self.max_new_tokens = int(max_new_tokens)
-        self.max_batch = max(1, int(max_batch))
+        return cls(LoadedModel.of(model, processor, name), max_new_tokens=max_new_tokens, max_batch=max_batch)
 
     def answer(self, frame: Frame, question: str) -> str:
         """A short answer to `question` about `frame`, `UNKNOWN` when the model says nothing."""
