@@ -135,91 +135,68 @@ def _parse(model: type[BaseModel], body: bytes) -> Any:
         ) from None
 
 
-def create_app(
-    *,
-    detector: Any = None,
-    vqa: Any = None,
-    language: Any = None,
-    config: ServerConfig | None = None,
-) -> Any:
-    """A FastAPI app serving the given backends (any of them None: that role answers 404).
+class _ModelServer:
+    """The state of one server (backends, batchers, counters) and what each endpoint does with a request.
 
-    Backends follow the protocols of `attribot.models.base`; a detector or VQA with `detect_batch` /
-    `answer_batch` gets whole batches, others are called once per item inside the batch.
-    """
-    fastapi = require("fastapi", "the model server")
-    from starlette.exceptions import HTTPException as StarletteHTTPException
-    from starlette.requests import ClientDisconnect, Request
-    from starlette.responses import Response
+    `create_app` wires these methods to routes. Endpoint signatures live there: FastAPI reads their
+    annotations at run time, and `Request` exists only with the server extra installed."""
 
-    cfg = config or ServerConfig()
-    window_s = cfg.batch_window_ms / 1000.0
-    names = {
-        "detector": None if detector is None else str(getattr(detector, "name", type(detector).__name__)),
-        "vqa": None if vqa is None else str(getattr(vqa, "name", type(vqa).__name__)),
-        "language": None if language is None else str(getattr(language, "name", type(language).__name__)),
-    }
-    stats = {role: RoleStats(backend=name) for role, name in names.items() if name is not None}
-    rejected: Counter[str] = Counter()
-    started = time.monotonic()
-    batchers: dict[str, Batcher[Any, Any]] = {}
+    def __init__(self, detector: Any, vqa: Any, language: Any, cfg: ServerConfig) -> None:
+        self.detector, self.vqa, self.language, self.cfg = detector, vqa, language, cfg
+        self.names: dict[str, str | None] = {
+            role: None if backend is None else str(getattr(backend, "name", type(backend).__name__))
+            for role, backend in (("detector", detector), ("vqa", vqa), ("language", language))
+        }
+        self.stats = {role: RoleStats(backend=name) for role, name in self.names.items() if name is not None}
+        self.rejected: Counter[str] = Counter()
+        self.started = time.monotonic()
+        self.token = None if cfg.token is None else cfg.token.encode()
+        self.language_pool: list[concurrent.futures.ThreadPoolExecutor] = []
+        self.batchers: dict[str, Batcher[Any, Any]] = {}
+        batched = (("detector", detector, self._detect), ("vqa", vqa, self._answer))
+        for role, backend, call in batched:
+            if backend is not None:
+                self.batchers[role] = Batcher(
+                    role,
+                    call,
+                    max_batch=cfg.max_batch,
+                    window_s=cfg.batch_window_ms / 1000.0,
+                    max_queue=cfg.max_queue,
+                    stats=self.stats[role],
+                )
 
-    def _detect(items: list[tuple[Frame, list[str]]]) -> list[list[Detection]]:
-        return detect_many(detector, [f for f, _ in items], [q for _, q in items])
+    # ---- backend calls (in a batcher's thread) ------------------------------------------------------
 
-    def _answer(items: list[tuple[Frame, str]]) -> list[str]:
-        return answer_many(vqa, [f for f, _ in items], [q for _, q in items])
+    def _detect(self, items: list[tuple[Frame, list[str]]]) -> list[list[Detection]]:
+        return detect_many(self.detector, [f for f, _ in items], [q for _, q in items])
 
-    if detector is not None:
-        batchers["detector"] = Batcher(
-            "detector",
-            _detect,
-            max_batch=cfg.max_batch,
-            window_s=window_s,
-            max_queue=cfg.max_queue,
-            stats=stats["detector"],
-        )
-    if vqa is not None:
-        batchers["vqa"] = Batcher(
-            "vqa",
-            _answer,
-            max_batch=cfg.max_batch,
-            window_s=window_s,
-            max_queue=cfg.max_queue,
-            stats=stats["vqa"],
-        )
-    language_pool: list[concurrent.futures.ThreadPoolExecutor] = []
+    def _answer(self, items: list[tuple[Frame, str]]) -> list[str]:
+        return answer_many(self.vqa, [f for f, _ in items], [q for _, q in items])
+
+    # ---- life cycle ---------------------------------------------------------------------------------
 
     @contextlib.asynccontextmanager
-    async def lifespan(_app: Any) -> AsyncIterator[None]:
-        for b in batchers.values():
+    async def lifespan(self, _app: Any) -> AsyncIterator[None]:
+        for b in self.batchers.values():
             b.start()
-        if language is not None:
-            language_pool.append(
+        if self.language is not None:
+            self.language_pool.append(
                 concurrent.futures.ThreadPoolExecutor(
-                    cfg.language_threads, thread_name_prefix="attribot-lang"
+                    self.cfg.language_threads, thread_name_prefix="attribot-lang"
                 )
             )
         try:
             yield
         finally:
-            for b in batchers.values():
+            for b in self.batchers.values():
                 await b.stop()
-            for pool in language_pool:
+            for pool in self.language_pool:
                 pool.shutdown(wait=False, cancel_futures=True)
 
-    app = fastapi.FastAPI(
-        title="attribot model server",
-        version=__version__,
-        lifespan=lifespan,
-        docs_url=None,
-        redoc_url=None,
-        openapi_url=None,
-    )
-    token = None if cfg.token is None else cfg.token.encode()
+    # ---- what every request goes through ------------------------------------------------------------
 
-    def check_token(request: Request) -> None:
-        if token is None:
+    def check_token(self, request: Any) -> None:
+        if self.token is None:
             return
         header = request.headers.get("authorization", "")
         scheme, _, given = header.partition(" ")
@@ -230,7 +207,7 @@ def create_app(
                 "this server needs a bearer token and the request has none",
                 "send `Authorization: Bearer TOKEN` (the client reads ATTRIBOT_REMOTE_TOKEN)",
             )
-        if not hmac.compare_digest(given.strip().encode(), token):
+        if not hmac.compare_digest(given.strip().encode(), self.token):
             raise _Refused(
                 403,
                 "auth",
@@ -238,7 +215,8 @@ def create_app(
                 "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with",
             )
 
-    async def read_body(request: Request) -> bytes:
+    async def read_body(self, request: Any) -> bytes:
+        cfg = self.cfg
         limit = cfg.max_body_bytes
         declared = request.headers.get("content-length")
         too_large = _Refused(
@@ -267,10 +245,12 @@ def create_app(
             chunks.append(chunk)
         return b"".join(chunks)
 
-    def decode(data: str) -> Frame:
+    def decode(self, data: str) -> Frame:
+        cfg = self.cfg
         return Frame(rgb=decode_image(data, max_bytes=cfg.max_image_bytes, max_pixels=cfg.max_pixels))
 
-    async def until_disconnected(request: Request, work: Any) -> Any:
+    @staticmethod
+    async def until_disconnected(request: Any, work: Any) -> Any:
         """The result of `work` (a coroutine), or None when the client disconnects first: then the work is
         cancelled, and a request still queued for a batch is left out of it."""
         task = asyncio.ensure_future(work)
@@ -290,16 +270,19 @@ def create_app(
             return None
         return task.result()
 
-    async def serve(role: str, request: Request, handle: Any) -> Any:
+    async def serve(self, role: str, request: Any, handle: Any) -> Any:
         """Common path: check the token, count, run `handle(body)`, turn any failure into an ErrorBody.
         Requests refused before they reach a role (token, role not served) count under `rejected`;
         the others count under their role (requests = ok + errors) with their latency."""
+        from starlette.requests import ClientDisconnect
+        from starlette.responses import Response
+
         t0 = time.perf_counter()
-        name = names.get(role)
-        role_stats = stats.get(role)
+        name = self.names.get(role)
+        role_stats = self.stats.get(role)
         admitted = False
         try:
-            check_token(request)
+            self.check_token(request)
             if name is None or role_stats is None:
                 raise _Refused(
                     404,
@@ -309,15 +292,15 @@ def create_app(
                 )
             role_stats.requests += 1
             admitted = True
-            body = await read_body(request)
-            record = await until_disconnected(request, handle(body))
+            body = await self.read_body(request)
+            record = await self.until_disconnected(request, handle(body))
             if record is None:  # the client went away: its work was dropped, nobody reads an answer
                 role_stats.errors["disconnected"] += 1
                 return Response(status_code=499)
             role_stats.ok += 1
             return Response(record.model_dump_json(), media_type="application/json")
         except ClientDisconnect:  # gone half-way through its body: not the backend's failure
-            (role_stats.errors if admitted and role_stats is not None else rejected)["disconnected"] += 1
+            (role_stats.errors if admitted and role_stats is not None else self.rejected)["disconnected"] += 1
             return Response(status_code=499)
         except asyncio.CancelledError:  # the server stopped before this request was served
             if admitted and role_stats is not None:
@@ -327,80 +310,121 @@ def create_app(
             status, category, message, fix = _classify(exc, role, name or "-")
             if status == 500:
                 log.error("%s request failed: %s", role, message, exc_info=exc)
-            (role_stats.errors if admitted and role_stats is not None else rejected)[category] += 1
+            (role_stats.errors if admitted and role_stats is not None else self.rejected)[category] += 1
             return _error_response(status, category, message, fix)
         finally:
             if admitted and role_stats is not None:
                 role_stats.latency_ms.append((time.perf_counter() - t0) * 1000.0)
 
+    # ---- the roles ----------------------------------------------------------------------------------
+
+    async def detect(self, body: bytes) -> BaseModel:
+        req: DetectRequest = _parse(DetectRequest, body)
+        frame = await asyncio.to_thread(self.decode, req.image)
+        served = await self.batchers["detector"].submit((frame, req.queries))
+        return DetectResponse(
+            detections=served.result,
+            backend=self.names["detector"] or "",
+            batch_size=served.batch_size,
+            queue_ms=served.queue_ms,
+            backend_ms=served.backend_ms,
+        )
+
+    async def answer(self, body: bytes) -> BaseModel:
+        req: AnswerRequest = _parse(AnswerRequest, body)
+        frame = await asyncio.to_thread(self.decode, req.image)
+        served = await self.batchers["vqa"].submit((frame, req.question))
+        return AnswerResponse(
+            answer=str(served.result),
+            backend=self.names["vqa"] or "",
+            batch_size=served.batch_size,
+            queue_ms=served.queue_ms,
+            backend_ms=served.backend_ms,
+        )
+
+    async def complete(self, body: bytes) -> BaseModel:
+        req: CompleteRequest = _parse(CompleteRequest, body)
+        t0 = time.perf_counter()
+        loop = asyncio.get_running_loop()
+        text = await loop.run_in_executor(self.language_pool[0], self.language.complete, req.question)
+        ms = (time.perf_counter() - t0) * 1000.0
+        self.stats["language"].batch_sizes[1] += 1
+        self.stats["language"].backend_ms.append(ms)
+        return CompleteResponse(answer=str(text), backend=self.names["language"] or "", backend_ms=ms)
+
+    # ---- service endpoints --------------------------------------------------------------------------
+
+    def health(self) -> HealthResponse:
+        return HealthResponse(version=__version__, roles=self.names, uptime_s=time.monotonic() - self.started)
+
+    def metrics(self, request: Any) -> Any:
+        """The metrics record, or the error response of a refused token."""
+        try:
+            self.check_token(request)
+        except _Refused as exc:
+            self.rejected[exc.category] += 1
+            return _error_response(exc.status, exc.category, exc.message, exc.fix)
+        return MetricsResponse(
+            uptime_s=time.monotonic() - self.started,
+            max_batch=self.cfg.max_batch,
+            batch_window_ms=self.cfg.batch_window_ms,
+            requests=sum(s.requests for s in self.stats.values()),
+            rejected=dict(self.rejected),
+            roles={
+                role: s.summary(self.batchers[role].queued if role in self.batchers else 0)
+                for role, s in self.stats.items()
+            },
+        )
+
+
+def create_app(
+    *,
+    detector: Any = None,
+    vqa: Any = None,
+    language: Any = None,
+    config: ServerConfig | None = None,
+) -> Any:
+    """A FastAPI app serving the given backends (any of them None: that role answers 404).
+
+    Backends follow the protocols of `attribot.models.base`; a detector or VQA with `detect_batch` /
+    `answer_batch` gets whole batches, others are called once per item inside the batch.
+    """
+    fastapi = require("fastapi", "the model server")
+    from starlette.exceptions import HTTPException as StarletteHTTPException
+    from starlette.requests import Request
+    from starlette.responses import Response
+
+    server = _ModelServer(detector, vqa, language, config or ServerConfig())
+    app = fastapi.FastAPI(
+        title="attribot model server",
+        version=__version__,
+        lifespan=server.lifespan,
+        docs_url=None,
+        redoc_url=None,
+        openapi_url=None,
+    )
+
     @app.post(PATHS["detector"])
     async def detect(request: Request) -> Any:
-        async def handle(body: bytes) -> BaseModel:
-            req: DetectRequest = _parse(DetectRequest, body)
-            frame = await asyncio.to_thread(decode, req.image)
-            served = await batchers["detector"].submit((frame, req.queries))
-            return DetectResponse(
-                detections=served.result,
-                backend=names["detector"] or "",
-                batch_size=served.batch_size,
-                queue_ms=served.queue_ms,
-                backend_ms=served.backend_ms,
-            )
-
-        return await serve("detector", request, handle)
+        return await server.serve("detector", request, server.detect)
 
     @app.post(PATHS["vqa"])
     async def answer(request: Request) -> Any:
-        async def handle(body: bytes) -> BaseModel:
-            req: AnswerRequest = _parse(AnswerRequest, body)
-            frame = await asyncio.to_thread(decode, req.image)
-            served = await batchers["vqa"].submit((frame, req.question))
-            return AnswerResponse(
-                answer=str(served.result),
-                backend=names["vqa"] or "",
-                batch_size=served.batch_size,
-                queue_ms=served.queue_ms,
-                backend_ms=served.backend_ms,
-            )
-
-        return await serve("vqa", request, handle)
+        return await server.serve("vqa", request, server.answer)
 
     @app.post(PATHS["language"])
     async def complete(request: Request) -> Any:
-        async def handle(body: bytes) -> BaseModel:
-            req: CompleteRequest = _parse(CompleteRequest, body)
-            t0 = time.perf_counter()
-            loop = asyncio.get_running_loop()
-            text = await loop.run_in_executor(language_pool[0], language.complete, req.question)
-            ms = (time.perf_counter() - t0) * 1000.0
-            stats["language"].batch_sizes[1] += 1
-            stats["language"].backend_ms.append(ms)
-            return CompleteResponse(answer=str(text), backend=names["language"] or "", backend_ms=ms)
-
-        return await serve("language", request, handle)
+        return await server.serve("language", request, server.complete)
 
     @app.get(PATHS["health"])
     async def health() -> Any:
-        record = HealthResponse(version=__version__, roles=names, uptime_s=time.monotonic() - started)
-        return Response(record.model_dump_json(), media_type="application/json")
+        return Response(server.health().model_dump_json(), media_type="application/json")
 
     @app.get(PATHS["metrics"])
     async def metrics(request: Request) -> Any:
-        try:
-            check_token(request)
-        except _Refused as exc:
-            rejected[exc.category] += 1
-            return _error_response(exc.status, exc.category, exc.message, exc.fix)
-        record = MetricsResponse(
-            uptime_s=time.monotonic() - started,
-            max_batch=cfg.max_batch,
-            batch_window_ms=cfg.batch_window_ms,
-            requests=sum(s.requests for s in stats.values()),
-            rejected=dict(rejected),
-            roles={
-                role: s.summary(batchers[role].queued if role in batchers else 0) for role, s in stats.items()
-            },
-        )
+        record = server.metrics(request)
+        if not isinstance(record, MetricsResponse):
+            return record
         return Response(record.model_dump_json(), media_type="application/json")
 
     @app.exception_handler(StarletteHTTPException)
