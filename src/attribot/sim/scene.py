@@ -120,11 +120,11 @@ class ScenePlan:
     """Everything random about a scene, decided by a layout from the seed."""
 
     layout: str
-    seed: int
     furniture: list[Furniture]
     objects: list[PlacedObject]
     robot: tuple[float, float, float]  # base x, y, yaw
     head: tuple[float, float]  # pan, tilt
+    seed: int = 0  # set by plan_scene, the one place that knows it (a layout sees only its generator)
     arm: tuple[float, float] = (0.2, 0.0)  # lift, extension: low and retracted, out of the camera's way
     width: int = 640
     height: int = 480
@@ -279,7 +279,7 @@ _TABLE_FRONT = GEOMETRY.base_half[0] + 0.05  # gap between the robot and the tab
 
 
 def _row_plan(
-    rng: np.random.Generator, layout: str, seed: int, objs: list[PlacedObject], rows: int, cols: int
+    rng: np.random.Generator, layout: str, objs: list[PlacedObject], rows: int, cols: int
 ) -> ScenePlan:
     """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to fit, before the robot.
 
@@ -330,7 +330,7 @@ def _row_plan(
     centers = np.array([object_center(o) for o in objs])
     target = (centers.min(axis=0) + centers.max(axis=0)) / 2
     pan, tilt = _aim(cam, robot[2], target)
-    return ScenePlan(layout, seed, [table], objs, robot, (pan, tilt))
+    return ScenePlan(layout, [table], objs, robot, (pan, tilt))
 
 
 def _small(c: Category) -> bool:
@@ -395,7 +395,7 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         o = _make_object(rng, i, cat, size=size, color=col)
         o.extras.update(odd_one_out=(i == odd_index), odd_kind=odd_kind if i == odd_index else "")
         objs.append(o)
-    return _row_plan(rng, "arrangement", 0, objs, rows, cols)
+    return _row_plan(rng, "arrangement", objs, rows, cols)
 
 
 def _triplet_ok(c: Category) -> bool:
@@ -448,7 +448,7 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         o = _make_object(rng, slot, chosen[int(idx)])
         o.extras.update(weight_rank=int(idx))
         objs.append(o)
-    return _row_plan(rng, "triplet", 0, objs, 1, 3)
+    return _row_plan(rng, "triplet", objs, 1, 3)
 
 
 # --- household: furniture around the room, candidates at different distances ---------------------------
@@ -554,7 +554,7 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     # tilt so that the nearest and farthest candidates both fall in view
     tilts = [math.atan2(c[2] - cam[2], math.hypot(c[0] - cam[0], c[1] - cam[1])) for c in centers]
     tilt = float(np.clip((min(tilts) + max(tilts)) / 2, *GEOMETRY.tilt_range))
-    return ScenePlan("household", 0, furniture, objs, robot, (pan, tilt))
+    return ScenePlan("household", furniture, objs, robot, (pan, tilt))
 
 
 LAYOUT_OPTIONS: dict[str, tuple[str, ...]] = {
