@@ -260,6 +260,8 @@ class ModelProcess:
     @staticmethod
     def _shutdown(state: dict[str, Any]) -> None:
         conn, process, block = state.get("conn"), state.get("process"), state.get("block")
+        if process is not None and state.get("busy"):
+            process.kill()  # inside a batch: it would read "stop" only when the batch ends
         if conn is not None:
             try:
                 conn.send(("stop",))
@@ -284,8 +286,9 @@ class ModelProcess:
 
         Does not wait for a batch in flight beyond a moment: a child stuck in a model call is killed, and
         the thread waiting for its answer gets a BackendError."""
-        acquired = self._lock.acquire(timeout=1.0)
+        acquired = self._lock.acquire(timeout=0.5)
         try:
+            self._shared_state["busy"] = not acquired
             self._finalizer()
             self._process = self._conn = self._block = None
         finally:

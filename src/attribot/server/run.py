@@ -27,7 +27,7 @@ __all__ = [
     "NONE",
 ]
 
-SHUTDOWN_GRACE_S = 5.0
+SHUTDOWN_GRACE_S = 3.0
 """How long a stopping server waits for the requests in flight."""
 
 NONE = "none"
