@@ -9,7 +9,7 @@ from attribot.api import ApiArgumentError, ImagePatch, Perception
 from attribot.boxes import to_upward
 from attribot.errors import AttribotError, BackendError, ConfigError
 from attribot.frame import Frame
-from test_api_fakes import FakeDetector, Thing, perception_for
+from conftest import FakeDetector, Thing, perception_for
 
 W, H = 200, 100
 

@@ -20,7 +20,7 @@ from attribot.control.pointing import PointingController, pan_tilt_towards
 from attribot.embodiments.base import Pose2D
 from attribot.errors import InputError, UnsupportedAction
 from attribot.frame import Frame
-from test_api_fakes import (
+from conftest import (
     BALLS,
     CAM,
     CAM_HEIGHT,
@@ -215,7 +215,7 @@ def test_bad_action_arguments():
 
 def test_pan_tilt_geometry_matches_the_world_rotations():
     # a pixel seen with the head at (pan0, tilt0) maps to the direction the fake world would look along
-    from test_api_fakes import _rot_head_to_world
+    from conftest import _rot_head_to_world
 
     for head in [(0.0, 0.0), (0.5, -0.3), (-1.0, 0.4)]:
         for u, v in [(0, 0), (319, 239), (40, 200)]:

@@ -20,7 +20,6 @@ import pytest
 from attribot.config import Settings
 from attribot.errors import BackendError, ConfigError, InputError
 from attribot.frame import Frame
-from attribot.models.base import Detection
 from attribot.server import (
     ProcessDetector,
     ProcessVisualQA,
@@ -32,32 +31,7 @@ from attribot.server import (
     start_model_process,
 )
 from attribot.server.model_process import ModelProcess, backend_factory
-from conftest import alive, bright_box, frame_with_box
-
-
-class BrightBoxDetector:
-    """Box of the bright pixels, labelled with the first query and the child's process id. The first
-    query can ask for trouble: "bad-input" raises an InputError, "crash" a RuntimeError, "exit" ends the
-    process, as a CUDA fault or the out-of-memory killer would, "hang" never returns."""
-
-    name = "test:bright-box"
-
-    def detect(self, frame: Frame, queries):
-        return self.detect_batch([frame], [queries])[0]
-
-    def detect_batch(self, frames, queries):
-        out = []
-        for f, q in zip(frames, queries, strict=True):
-            if q[0] == "bad-input":
-                raise InputError("this image is not acceptable", "send another one")
-            if q[0] == "crash":
-                raise RuntimeError("the model crashed on purpose")
-            if q[0] == "exit":
-                os._exit(3)
-            if q[0] == "hang":  # a model call that never ends
-                time.sleep(3600)
-            out.append([Detection(box=bright_box(f.rgb), score=0.9, label=f"{q[0]}@{os.getpid()}")])
-        return out
+from conftest import BrightBoxDetector, alive, frame_with_box
 
 
 class MeanColourVQA:
@@ -241,7 +215,7 @@ def test_the_child_dies_with_its_parent(tmp_path):
     script = (
         "import sys, time\n"
         "from attribot.server import start_model_process\n"
-        "from test_model_process import BrightBoxDetector\n"
+        "from conftest import BrightBoxDetector\n"
         "proc = start_model_process('detector', BrightBoxDetector)\n"
         "print(proc.pid, flush=True)\n"
         "time.sleep(600)\n"

@@ -13,7 +13,7 @@ import pytest
 from attribot.api import ImagePatch, Robot
 from attribot.api.prompt import _environment, api_reference, build_prompt, offered_robot_methods
 from attribot.errors import InputError, UnsupportedAction
-from test_api_fakes import BALLS, BallController, BallWorld, perception_for, world_perception
+from conftest import BALLS, BallController, BallWorld, perception_for, world_perception
 
 ALL = ["camera", "distance", "force"]
 

@@ -6,7 +6,6 @@ misbehaving server (5xx, 429, slow, garbage) is needed.
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 import time
@@ -29,31 +28,17 @@ from attribot.models.remote import (
 )
 from attribot.models.wire import DetectResponse, decode_image
 from attribot.server import ServerConfig, ServerThread, create_app
+from conftest import MeanColourVQA, WholeImageDetector, free_port
 
 TOKEN = "remote-test-token"
-
-
-class MeanVQA:
-    name = "test:mean"
-
-    def answer(self, frame: Frame, question: str) -> str:
-        return ",".join(str(int(round(v))) for v in frame.rgb.reshape(-1, 3).mean(axis=0))
-
-
-class CornerDetector:
-    name = "test:corner"
-
-    def detect(self, frame: Frame, queries):
-        return [
-            Detection(box=(0.0, 0.0, float(frame.width), float(frame.height)), score=0.5, label=q)
-            for q in queries
-        ]
 
 
 @pytest.fixture(scope="module")
 def server():
     app = create_app(
-        detector=CornerDetector(), vqa=MeanVQA(), config=ServerConfig(token=TOKEN, batch_window_ms=0)
+        detector=WholeImageDetector(),
+        vqa=MeanColourVQA(),
+        config=ServerConfig(token=TOKEN, batch_window_ms=0),
     )
     with ServerThread(app) as srv:
         yield srv
@@ -72,12 +57,6 @@ def http(_http):
     _http.clear()
     yield _http
     _http.clear()
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def frame(h: int = 30, w: int = 40, colour=(200, 100, 50)) -> Frame:
@@ -144,7 +123,7 @@ def test_registry_builds_all_three_roles_and_they_work(server):
     assert isinstance(det, RemoteDetector) and isinstance(vqa, RemoteVisualQA)
     assert isinstance(lang, RemoteLanguageModel) and det.name == f"remote:{server.url}"
     (d,) = det.detect(frame(30, 40), "cup")  # a single string is one query
-    assert d.box == (0.0, 0.0, 40.0, 30.0) and d.label == "cup" and det.served_by == "test:corner"
+    assert d.box == (0.0, 0.0, 40.0, 30.0) and d.label == "cup" and det.served_by == "test:whole-image"
     assert vqa.answer(frame(colour=(201, 99, 7)), "colour?") == "201,99,7"  # png: exact pixels
     # jpeg (the default) is lossy but close
     jpeg_vqa = build_backend("vqa", spec, settings)
@@ -186,7 +165,7 @@ def test_wrong_or_missing_token_is_a_clear_backend_error(server):
 
 def test_probe_reports_token_role_and_down_server(server):
     good = probe_backend("detector", f"remote:{server.url}", Settings(remote_token=TOKEN))
-    assert good.available is True and "detector=test:corner" in good.detail
+    assert good.available is True and "detector=test:whole-image" in good.detail
     bad_token = probe_backend("vqa", f"remote:{server.url}", Settings(remote_token="nope"))
     assert bad_token.available is False and "refused the token" in bad_token.detail
     not_served = probe_backend("language", f"remote:{server.url}", Settings(remote_token=TOKEN))

@@ -25,13 +25,9 @@ from attribot.models.remote import RemoteClient, RemoteDetector, RemoteLanguageM
 from attribot.models.wire import ErrorBody, decode_image, encode_image
 from attribot.server import Batcher, ServerConfig, ServerThread, check_bind, create_app, served_specs
 from attribot.server.batching import Overloaded
-from conftest import bright_box, free_port
+from conftest import EchoLanguage, MeanColourVQA, bright_box, free_port, mean_colour
 
 TOKEN = "test-token-0123"
-
-
-def mean_colour(rgb: np.ndarray) -> str:
-    return ",".join(str(int(round(v))) for v in rgb.reshape(-1, 3).mean(axis=0))
 
 
 class BoxDetector:
@@ -62,24 +58,6 @@ class BoxDetector:
         return out
 
 
-class MeanVQA:
-    """Answers with the mean colour of the image; question "fail" raises a model error."""
-
-    name = "test:mean-colour"
-
-    def answer(self, frame: Frame, question: str) -> str:
-        if question == "fail":
-            raise ValueError("CUDA out of memory (simulated)")
-        return mean_colour(frame.rgb)
-
-
-class EchoLanguage:
-    name = "test:echo"
-
-    def complete(self, question: str) -> str:
-        return question.upper()
-
-
 def unique_image(i: int, h: int = 48, w: int = 64) -> np.ndarray:
     """A black image with one bright rectangle whose place and colour encode `i`."""
     rgb = np.zeros((h, w, 3), np.uint8)
@@ -98,7 +76,7 @@ def server(detector):
     config = ServerConfig(
         token=TOKEN, max_batch=16, batch_window_ms=5, max_image_mb=0.25, max_pixels=1_000_000
     )
-    app = create_app(detector=detector, vqa=MeanVQA(), language=EchoLanguage(), config=config)
+    app = create_app(detector=detector, vqa=MeanColourVQA(), language=EchoLanguage(), config=config)
     with ServerThread(app) as srv:
         yield srv
 

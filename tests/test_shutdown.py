@@ -66,7 +66,7 @@ def _cpu_ticks(pid: int) -> int:
 SERVER = """
 import sys
 from attribot.server import ServerConfig, serve_models, start_model_process
-from test_model_process import BrightBoxDetector
+from conftest import BrightBoxDetector
 proc = start_model_process("detector", BrightBoxDetector)
 print(proc.pid, flush=True)
 serve_models({"detector": proc, "vqa": None, "language": None}, ServerConfig(), port=int(sys.argv[1]),
