@@ -128,6 +128,29 @@ def test_json_errors_have_the_answers_shape(empty_settings):
 
 
 @pytest.mark.parametrize(
+    "args",
+    [
+        ["ask", "Where is the mug?", "--seed", "abc", "--json"],
+        ["ask", "Where is the mug?", "--json", "--objects", "many"],
+        ["exec", "program.py", "--json", "--width", "wide"],
+    ],
+)
+def test_flags_click_cannot_parse_still_give_the_answers_shape_under_json(args, empty_settings):
+    import json
+
+    result = _invoke(args)
+    assert result.exit_code == 2
+    data = json.loads(result.stdout)
+    assert data["error"]["category"] == "input" and "Invalid value" in data["error"]["message"]
+    assert data["answer"].startswith("no answer") and data["attempts"] == 0
+
+
+def test_flags_click_cannot_parse_without_json_print_no_json(empty_settings):
+    result = _invoke(["ask", "Where is the mug?", "--seed", "abc"])
+    assert result.exit_code == 2 and result.stdout.strip() == "" and "Invalid value" in result.stderr
+
+
+@pytest.mark.parametrize(
     ("body", "code", "words"),
     [
         ('return float("nan")', 1, "returned nan"),

@@ -29,12 +29,26 @@ class _Commands(TyperGroup):
     def invoke(self, ctx: Any) -> Any:  # typer.Context; typer vendors click, whose private Context mypy wants
         from attribot.shutdown import termination_as_exit
 
+        command = getattr(ctx, "_protected_args", None) or getattr(ctx, "protected_args", [])
+        args = [*command, *ctx.args]  # read now: the group consumes them
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
         with termination_as_exit():
             try:
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
+            except _USAGE_ERROR as exc:
+                # a flag click could not parse: a script that asked for --json still gets the answer's shape
+                # on stdout (click prints its usage message to stderr and exits 2 as usual)
+                if args and args[0] in ("ask", "exec") and "--json" in args:
+                    _print_error_answer(
+                        "input", exc.format_message(), "", "rules" if args[0] == "ask" else "file"
+                    )
+                raise
+
+
+_USAGE_ERROR: type[typer.BadParameter] = typer.BadParameter.__mro__[1]
+"""click's UsageError (typer vendors click and exports only its BadParameter subclass)."""
 
 
 app = typer.Typer(
@@ -236,23 +250,29 @@ def _errors_as_json(as_json: bool, query: str, planner: str) -> Iterator[None]:
         if not as_json:
             raise
         from attribot.errors import ConfigError, InputError
-        from attribot.planning.answer import Answer, AnswerError
 
         category = (
             "input" if isinstance(exc, InputError) else "config" if isinstance(exc, ConfigError) else "error"
         )
         message = exc.message if exc.fix is None else f"{exc.message} (fix: {exc.fix})"
-        shown = re.sub("[\ud800-\udfff]", "\ufffd", query)  # undecodable command-line bytes
-        answer = Answer(
-            query=shown,
-            answer=f"no answer: {exc.message}",
-            planner=planner,
-            backends={},
-            attempts=0,
-            error=AnswerError(category=category, message=message),
-        )
-        typer.echo(answer.model_dump_json(indent=2))
+        _print_error_answer(category, message, query, planner)
         raise typer.Exit(2) from None
+
+
+def _print_error_answer(category: str, message: str, query: str, planner: str) -> None:
+    """Print, as --json does, an answer that holds only an error (no program ran)."""
+    from attribot.planning.answer import Answer, AnswerError
+
+    shown = re.sub("[\ud800-\udfff]", "\ufffd", query)  # undecodable command-line bytes
+    answer = Answer(
+        query=shown,
+        answer=f"no answer: {message}",
+        planner=planner,
+        backends={},
+        attempts=0,
+        error=AnswerError(category=category, message=message),
+    )
+    typer.echo(answer.model_dump_json(indent=2))
 
 
 def _show(answer: Any, as_json: bool) -> None:
