@@ -248,3 +248,36 @@ def test_scene_options_a_layout_would_ignore(args, words, empty_settings):
     for command in (["ask", "Where is the mug?"], ["scene", "info"]):
         result = _invoke([*command, *args])
         assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output
+
+
+@pytest.mark.parametrize(
+    ("out", "words"),
+    [
+        ("/proc/self/scene.png", "cannot be written"),
+        ("/dev/null/scene.png", "does not exist"),
+        ("{tmp}", "must end in .png"),
+        ("{tmp}/sub.png/", "is a folder"),
+        ("{tmp}/missing/scene.png", "does not exist"),
+    ],
+)
+def test_scene_render_refuses_an_output_it_cannot_write_before_rendering(tmp_path, out, words):
+    (tmp_path / "sub.png").mkdir()
+    result = _invoke(
+        ["scene", "render", "--out", out.format(tmp=tmp_path), "--width", "32", "--height", "24"]
+    )
+    assert result.exit_code == 2 and words in " ".join(result.output.split())
+
+
+def test_scene_render_writes_a_whole_image(tmp_path):
+    from PIL import Image
+
+    out = tmp_path / "scene.jpg"
+    result = _invoke(["scene", "render", "--out", str(out), "--width", "32", "--height", "24"])
+    assert result.exit_code == 0
+    assert Image.open(out).size == (32, 24) and Image.open(out).format == "JPEG"
+    assert [p.name for p in tmp_path.iterdir()] == ["scene.jpg"]  # no temporary file left beside it
+
+
+def test_empty_categories_are_refused(empty_settings):
+    result = _invoke(["ask", "Where is the mug?", "--categories", " , "])
+    assert result.exit_code == 2 and "--categories names no category" in result.output

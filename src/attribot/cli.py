@@ -132,6 +132,8 @@ def _scene_config(
                 pass
         options[key.strip()] = value
     names = None if categories is None else tuple(c.strip() for c in categories.split(",") if c.strip())
+    if names == ():
+        raise fail("--categories names no category", "give comma-separated names, e.g. --categories mug,apple")
     given = {
         "layout": layout,
         "seed": seed,
@@ -168,14 +170,21 @@ def scene_render(
     profile: str | None = _S_PROFILE,
 ) -> None:
     """Write the robot camera's view of a scene to an image file."""
+    import io
+
     from PIL import Image
 
     if out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
         raise fail(
             f"cannot write {str(out)!r}: the file name must end in .png or .jpg", "use e.g. --out scene.png"
         )
-    if not out.parent.exists():
+    from attribot.files import check_writable, write_whole
+
+    if not out.parent.is_dir():
         raise fail(f"the folder {str(out.parent)!r} does not exist", "create it first or write elsewhere")
+    if out.is_dir():
+        raise fail(f"--out {str(out)!r} is a folder", "give a file name, e.g. --out scene.png")
+    check_writable(out.parent, f"--out {str(out)!r}", "write the image elsewhere, e.g. --out scene.png")
     config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
     with _scene_world(config) as world:
         frame = world.observe()
@@ -185,7 +194,9 @@ def scene_render(
 
             info = world.sim.scene_info(frame)
             rgb = draw_boxes(rgb, [(o.box, f"{o.category} ({o.color})") for o in info.objects if o.box])
-    Image.fromarray(rgb).save(out)
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, format="PNG" if out.suffix.lower() == ".png" else "JPEG")
+    write_whole(out, buf.getvalue())
     typer.echo(str(out))
 
 

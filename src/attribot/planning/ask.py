@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +15,7 @@ from typing import Any
 
 from attribot.config import SceneConfig, Settings
 from attribot.errors import ConfigError, InputError
+from attribot.files import check_writable, write_whole
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
 from attribot.planning.base import is_utf8_text
@@ -326,15 +325,7 @@ def check_save_dir(directory: Path | None) -> None:
             f"--save {str(path)!r} already holds {', '.join(earlier)} of an earlier answer",
             "give a new folder, or remove the old answer first",
         )
-    try:  # the only sure test of writability (/proc/self looks writable to root)
-        with tempfile.NamedTemporaryFile(dir=existing, prefix=".attribot-probe-"):
-            pass
-    except OSError as exc:
-        raise InputError(
-            f"--save {str(path)!r} cannot be written: {exc.strerror or exc.__class__.__name__} in "
-            f"{str(existing)!r}",
-            fix,
-        ) from None
+    check_writable(existing, f"--save {str(path)!r}", fix)
 
 
 def save_answer(
@@ -347,14 +338,7 @@ def save_answer(
     written = []
 
     def put(name: str, data: bytes) -> None:
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{name}.")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-            os.replace(tmp, directory / name)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_whole(directory / name, data)
         written.append(directory / name)
 
     put("answer.json", answer.model_dump_json(indent=2).encode("utf-8"))

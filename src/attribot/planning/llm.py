@@ -12,14 +12,13 @@ from __future__ import annotations
 import hashlib
 import inspect
 import json
-import os
-import tempfile
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from attribot.errors import ConfigError
+from attribot.files import write_whole
 from attribot.planning.base import ENTRY_POINT, PLANNERS, Attempt, Plan, PlanRequest, check_query
 from attribot.planning.extract import extract_program
 
@@ -83,14 +82,8 @@ class ReplyCache:
         path = self.path(key)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
-            try:
-                with os.fdopen(fd, "w", encoding="utf-8") as handle:
-                    json.dump({"key": key, "model": model, "reply": reply}, handle, ensure_ascii=False)
-                os.replace(tmp, path)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            record = {"key": key, "model": model, "reply": reply}
+            write_whole(path, json.dumps(record, ensure_ascii=False).encode("utf-8"))
         except OSError as exc:  # a read-only or full disk costs the cache, not the answer
             warnings.warn(
                 f"could not cache the LLM reply in {path.parent}: {exc}", RuntimeWarning, stacklevel=2

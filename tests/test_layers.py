@@ -1,0 +1,63 @@
+"""The layering of DESIGN.md holds: a folder is a layer, and no module imports from a layer above its own
+(imports inside functions count too: a lazy import is still a dependency)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "attribot"
+
+# lowest first; names on one line share a level
+LEVELS: list[set[str]] = [
+    {"__init__", "errors", "registry", "boxes", "frame", "config", "draw", "deps", "files", "shutdown"},
+    {"sim", "control"},
+    {"embodiments"},
+    {"models"},
+    {"api"},
+    {"runner"},
+    {"planning"},
+    {"eval", "server", "bridge"},
+    {"cli"},
+]
+LEVEL_OF = {name: i for i, names in enumerate(LEVELS) for name in names}
+
+
+def _unit(parts: tuple[str, ...]) -> str:
+    """The layer name of a module path inside attribot: its folder, or the module for top-level files."""
+    return parts[0].removesuffix(".py")
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        out += [(node.lineno, n.split(".")[1]) for n in names if n.startswith("attribot.")]
+    return out
+
+
+MODULES = sorted(p for p in SRC.rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def test_every_module_belongs_to_a_layer():
+    unknown = {_unit(p.relative_to(SRC).parts) for p in MODULES} - set(LEVEL_OF)
+    assert not unknown, f"add these to LEVELS (and to DESIGN.md's layout): {sorted(unknown)}"
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(SRC)))
+def test_no_module_imports_from_a_layer_above_its_own(path):
+    own = _unit(path.relative_to(SRC).parts)
+    upward = [
+        f"line {line}: attribot.{target}"
+        for line, target in _imports(path)
+        if LEVEL_OF.get(target, -1) > LEVEL_OF.get(own, -1)
+    ]
+    assert not upward, f"{own} imports from a layer above it: {upward}"
