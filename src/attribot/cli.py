@@ -133,7 +133,9 @@ def _scene_config(
         options[key.strip()] = value
     names = None if categories is None else tuple(c.strip() for c in categories.split(",") if c.strip())
     if names == ():
-        raise fail("--categories names no category", "give comma-separated names, e.g. --categories mug,apple")
+        raise fail(
+            "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
+        )
     given = {
         "layout": layout,
         "seed": seed,
