@@ -204,9 +204,14 @@ def test_a_sensor_the_world_lacks_is_refused_at_construction():
 def test_bad_action_arguments():
     _, robot, image = setup()
     with pytest.raises(
-        ApiArgumentError, match="measure_distance\\(\\) needs patch as an ImagePatch, got str"
+        ApiArgumentError, match="measure_distance\\(\\) needs patch as an ImagePatch, got int"
     ):
+        robot.measure_distance(3)
+    # a name stands for an object (the paper's dialect), refused when the image shows several
+    with pytest.raises(ApiArgumentError, match="measure_distance\\('ball'\\) is ambiguous: .* sees 3"):
         robot.measure_distance("ball")
+    with pytest.raises(ApiArgumentError, match="sees no 'unicorn'"):
+        robot.measure_distance("unicorn")
     with pytest.raises(ApiArgumentError, match="go_to_coords\\(\\) needs x as a number"):
         robot.go_to_coords("left", 3)
     with pytest.raises(ApiArgumentError, match="lies outside the 320x240 image"):

@@ -18,7 +18,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
 from attribot.planning.ask import Scene, ask, execute
-from conftest import EMPTY_SETTINGS
+from conftest import EMPTY_SETTINGS, serve_chat_replies
 
 LAYOUT, SEED = "household", 7
 
@@ -43,32 +43,6 @@ def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]
         cwd=cwd,
         timeout=120,
     )
-
-
-def serve_chat_replies(httpserver, contents: list[str]) -> list[dict]:
-    """A loopback OpenAI-compatible endpoint answering `contents` in turn (the last one repeats);
-    returns the list that collects the request bodies."""
-    from werkzeug import Response
-
-    requests: list[dict] = []
-
-    def handler(request):
-        body = json.loads(request.data)
-        requests.append(body)
-        content = contents[min(len(requests), len(contents)) - 1]
-        reply = {
-            "id": "x",
-            "object": "chat.completion",
-            "created": 0,
-            "model": body["model"],
-            "choices": [
-                {"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}
-            ],
-        }
-        return Response(json.dumps(reply), content_type="application/json")
-
-    httpserver.expect_request("/v1/chat/completions", method="POST").respond_with_handler(handler)
-    return requests
 
 
 def test_distance_query_measures_and_picks_the_truly_closer_object(truth):

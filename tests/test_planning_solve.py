@@ -195,11 +195,16 @@ def test_helpers_from_another_block_come_along():
             "no code in the reply.*I am sorry, I cannot see the image",
         ),
         ("```python\ndef solve(image):\n    return 1\n```", "does not define execute_command"),
-        ("```python\ndef execute_command(image):\n    return 1\n```", "takes 1 argument"),
+        ("```python\ndef execute_command():\n    return 1\n```", "takes 0 argument"),
+        (
+            "```python\ndef execute_command(image, robot, extra):\n    return 1\n```",
+            r"takes 3 argument\(s\) \(3 required",
+        ),
         ("```python\nif True:\n    def execute_command(image, robot):\n        return 1\n```", "top level"),
     ],
 )
 def test_extraction_refusals_are_messages_for_the_model(reply, match):
+    """(`execute_command(image)` alone is the paper's dialect and is accepted: tests/test_paper_dialect.py)"""
     with pytest.raises(NoProgram, match=match) as info:
         extract_program(reply)
     assert info.value.error.category == "syntax" and info.value.error.message == info.value.message

@@ -65,7 +65,15 @@ class ImagePatch:
         "object_id",
         "capture",
     )
-    HOST_METHODS: ClassVar[tuple[str, ...]] = ("from_image", "summary", "target", "same_object")
+    HOST_METHODS: ClassVar[tuple[str, ...]] = (
+        "from_image",
+        "summary",
+        "target",
+        "same_object",
+        "from_program",
+    )
+    PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
+    """What `ImagePatch(...)` in a program calls on the image it was given (the paper's dialect)."""
 
     def __init__(
         self,
@@ -101,6 +109,32 @@ class ImagePatch:
         """Host side: the whole-image patch of an image file or uint8 RGB array (no camera, no robot)."""
         rgb = image if isinstance(image, np.ndarray) else load_image(image)
         return cls(Frame(rgb=rgb), perception)
+
+    def from_program(
+        self,
+        image: object = None,
+        left: float | None = None,
+        lower: float | None = None,
+        right: float | None = None,
+        upper: float | None = None,
+    ) -> ImagePatch:
+        """Host side: `ImagePatch(image)` written in a program, as the paper's and ViperGPT's programs do.
+        The image given to execute_command is already a patch, so it is returned as it is; ViperGPT's
+        `ImagePatch(image, left, lower, right, upper)` is its crop."""
+        if not isinstance(image, ImagePatch):
+            raise ApiArgumentError(
+                f"ImagePatch(...) takes the image given to execute_command, not {_kind(image)}",
+                "write image_patch = ImagePatch(image), or use the image argument directly",
+            )
+        box = (left, lower, right, upper)
+        if all(v is None for v in box):
+            return image
+        if any(v is None for v in box):
+            raise ApiArgumentError(
+                "ImagePatch(image, left, lower, right, upper) needs all four coordinates",
+                "give all four (y growing upward), or call image.crop(left, lower, right, upper)",
+            )
+        return image.crop(left, lower, right, upper)  # type: ignore[arg-type]
 
     def summary(self) -> dict[str, Any]:
         """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""
@@ -390,3 +424,7 @@ def _answer(value: object, backend: str) -> str:
             "fix the backend: answer() and complete() must return str",
         )
     return value
+
+
+def _kind(value: object) -> str:
+    return "nothing" if value is None else f"a {type(value).__name__}"

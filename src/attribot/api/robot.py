@@ -8,6 +8,7 @@ Docstrings of the names in `API_METHODS` are written for the LLM (the prompt ren
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Sequence
 from typing import Any, ClassVar, Literal
@@ -23,10 +24,47 @@ from attribot.embodiments.base import Capability, Embodiment
 from attribot.errors import InputError, UnsupportedAction
 from attribot.frame import CameraInfo
 
-__all__ = ["Robot", "Measurement", "SENSORS", "GRAVITY", "check_sensors"]
+__all__ = ["Robot", "Measurement", "SENSORS", "SENSOR_ALIASES", "GRAVITY", "check_sensors"]
 
 SENSORS: tuple[str, ...] = ("camera", "distance", "force")
 """The sensor names a robot can be given, as `--sensors` takes them."""
+
+SENSOR_ALIASES: dict[str, tuple[str, ...]] = {
+    **dict.fromkeys(("rgb camera", "color camera", "colour camera", "rgb"), ("camera",)),
+    **dict.fromkeys(
+        (
+            "distance sensor",
+            "proximity sensor",
+            "range sensor",
+            "rangefinder",
+            "range finder",
+            "infrared sensor",
+            "infrared distance sensor",
+            "ir sensor",
+            "tof sensor",
+            "time of flight sensor",
+            "depth sensor",
+        ),
+        ("distance",),
+    ),
+    # a depth camera sees and measures how far what it sees is: both our camera and rangefinder
+    **dict.fromkeys(("depth camera", "rgb-d camera", "rgbd camera"), ("camera", "distance")),
+    **dict.fromkeys(
+        (
+            "force sensor",
+            "force/torque sensor",
+            "force torque sensor",
+            "force-torque sensor",
+            "f/t sensor",
+            "ft sensor",
+            "wrist force sensor",
+            "load cell",
+            "weight sensor",
+        ),
+        ("force",),
+    ),
+}
+"""Other names of the sensors, the paper's among them ("distance sensor", "force/torque sensor")."""
 
 GRAVITY = 9.81
 """m/s^2, as MuJoCo's default gravity; converts the measured weight (newtons) to mass (kilograms)."""
@@ -73,7 +111,9 @@ class Robot:
     """The sensor each method needs (methods not listed need none); the prompt offers a method only when
     the robot has its sensor."""
     HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("world", "controller", "held", "measurements", "capture")
-    HOST_METHODS: ClassVar[tuple[str, ...]] = ("for_world", "look", "backend_name")
+    HOST_METHODS: ClassVar[tuple[str, ...]] = ("for_world", "look", "backend_name", "from_program")
+    PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
+    """What `Robot(...)` in a program calls on the session's robot (the paper's dialect)."""
 
     FOCUS_CORRECTIONS: ClassVar[int] = 3
     FOCUS_TOL_PX: ClassVar[float] = 1.5
@@ -109,6 +149,8 @@ class Robot:
         self.capture: Capture | None = None
         self._near: ImagePatch | None = None
         self._captures = 0
+        self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
+        self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
 
     @property
     def sensors(self) -> list[str]:
@@ -140,7 +182,26 @@ class Robot:
         camera = frame.camera if frame.camera is not None else _camera_info(self.world)
         self.capture = Capture(index=self._captures, camera=camera, head=head, base=base)
         self._captures += 1
-        return ImagePatch(frame, perception, capture=self.capture)
+        self._image = ImagePatch(frame, perception, capture=self.capture)
+        self._acted_on = []
+        return self._image
+
+    def from_program(self, sensors: Sequence[str] | None = None) -> Robot:
+        """Host side: `Robot(sensors=[...])` written in a program, as the paper's programs do: this robot,
+        seen through only the named sensors (the paper's names are read too: "distance sensor",
+        "force/torque sensor", "depth camera"). A sensor it was not given is refused."""
+        if sensors is None:
+            return self
+        names = check_sensors(sensors)
+        missing = [n for n in names if n not in self._sensors]
+        if missing:
+            raise MissingSensor(
+                f"Robot(sensors={list(sensors)!r}) asks for the {', '.join(missing)} sensor, and this robot "
+                f"has only: {', '.join(self._sensors)}",
+                f"add it with --sensors {','.join([*self._sensors, *missing])}, "
+                "or leave it out of Robot(...)",
+            )
+        return _RobotWithSensors(self, names)
 
     def backend_name(self) -> str:
         """Host side: the controller's name, reported as the "robot" backend of an answer."""
@@ -156,8 +217,42 @@ class Robot:
                 f"or answer without robot.{method}",
             )
 
+    def _named(self, name: str, method: str) -> ImagePatch:
+        """The patch an object's name stands for, as the paper's Robot took names (`robot.pick_up("book")`):
+        the last patch the program acted on with that name, else the one such object in the camera image."""
+        key = _name_key(name)
+        if not key:
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}) names no object",
+                f'pass a patch or a name, e.g. robot.{method}("cup")',
+            )
+        for done in reversed(self._acted_on):
+            if _name_key(done.label) == key:
+                return done
+        if self._image is None:
+            raise UnsupportedAction(
+                f"robot.{method}({name!r}) is not available here: there is no camera image of a world",
+                "run the query in a world (--layout) to use robot actions",
+            )
+        found = self._image.find(name)
+        if not found:
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}): the robot's camera sees no {name!r}",
+                f'find it first: patches = image.find("{name}")',
+            )
+        if len(found) > 1:
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}) is ambiguous: the robot's camera sees {len(found)} of them",
+                f'pass the patch itself, e.g. robot.{method}(image.find("{name}")[0])',
+            )
+        return found[0]
+
     def _target(self, patch: object, method: str) -> tuple[ImagePatch, Target]:
+        if isinstance(patch, str):
+            patch = self._named(patch, method)
         p = check_patch(patch, ImagePatch, "patch", method)
+        if p.label and (not self._acted_on or self._acted_on[-1] is not p):
+            self._acted_on.append(p)
         target = p.target()
         if target is None or self.world is None:
             raise UnsupportedAction(
@@ -438,6 +533,40 @@ class Robot:
         self._near = None
 
 
+class _RobotWithSensors(Robot):
+    """The session's robot as a program's `Robot(sensors=[...])` sees it: every action and measurement is
+    the session robot's own (its state, its measurements), checked against the fewer sensors."""
+
+    def __init__(self, robot: Robot, sensors: list[str]) -> None:  # noqa: D107 (no Robot.__init__: a view)
+        self._robot = robot
+        self._sensors = sensors
+
+    def from_program(self, sensors: Sequence[str] | None = None) -> Robot:
+        return self._robot.from_program(sensors)
+
+
+def _through_view(name: str) -> Any:
+    robot_method = getattr(Robot, name)
+
+    def method(self: _RobotWithSensors, *args: Any, **kwargs: Any) -> Any:
+        robot = self._robot
+        given = robot._sensors
+        robot._sensors = self._sensors  # the session robot checks the view's sensors for this call
+        try:
+            return getattr(robot, name)(*args, **kwargs)
+        finally:
+            robot._sensors = given
+
+    method.__name__ = name
+    method.__doc__ = robot_method.__doc__
+    method.__signature__ = inspect.signature(robot_method)  # type: ignore[attr-defined]
+    return method
+
+
+for _name in Robot.API_METHODS:
+    setattr(_RobotWithSensors, _name, _through_view(_name))
+
+
 def check_sensors(sensors: Sequence[str]) -> list[str]:
     """Sensor names lower-cased, deduplicated, "camera" first (always present); unknown names raise."""
     if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
@@ -447,13 +576,16 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
         )
     out: list[str] = []
     for s in sensors:
-        name = s.strip().lower()
-        if name not in SENSORS:
+        name = " ".join(s.strip().lower().replace("_", " ").split())
+        if name not in SENSORS and name not in SENSOR_ALIASES:
             raise InputError(
-                f"unknown sensor {s!r}", f"choose from: {', '.join(SENSORS)} (e.g. --sensors camera,distance)"
+                f"unknown sensor {s!r}: this robot has no such sensor",
+                f"choose from: {', '.join(SENSORS)} (e.g. --sensors camera,distance); the paper's names "
+                "work too: 'distance sensor', 'force/torque sensor', 'depth camera'",
             )
-        if name not in out:
-            out.append(name)
+        for sensor in SENSOR_ALIASES.get(name, (name,)):
+            if sensor not in out:
+                out.append(sensor)
     if "camera" not in out:
         out.insert(0, "camera")  # every robot here sees through its camera: the image is the program's input
     return out
@@ -468,3 +600,12 @@ def _camera_info(world: Embodiment) -> Any:
         return world.camera_info()
     except UnsupportedAction:
         return None
+
+
+def _name_key(name: str) -> str:
+    """An object's name as compared: lower case, no article, singular ("the Books" -> "book")."""
+    words = name.lower().split()
+    while words and words[0] in ("the", "a", "an"):
+        words = words[1:]
+    text = " ".join(words)
+    return text[:-1] if text.endswith("s") and not text.endswith("ss") else text

@@ -156,7 +156,8 @@ def _drop_harmful_top_level(code: str) -> str:
 
 
 def _check_signature(program: str, reply: str) -> None:
-    """The entry point must take the two arguments the runner gives it (image, robot)."""
+    """The entry point must take the arguments the runner gives it: (image, robot), or (image) alone as the
+    paper's and ViperGPT's programs do (they build `Robot(...)` themselves)."""
     try:
         tree = ast.parse(program)
     except (SyntaxError, ValueError):
@@ -165,10 +166,11 @@ def _check_signature(program: str, reply: str) -> None:
         if isinstance(node, ast.FunctionDef) and node.name == ENTRY_POINT:
             args = node.args
             positional = len(args.posonlyargs) + len(args.args)
-            if positional >= 2 or args.vararg is not None:
+            required = positional - len(args.defaults)
+            if 1 <= positional and required <= 2 or args.vararg is not None:
                 return
             raise NoProgram(
-                f"{ENTRY_POINT} takes {positional} argument(s), "
+                f"{ENTRY_POINT} takes {positional} argument(s) ({required} required), "
                 f"but it is called as {ENTRY_POINT}(image, robot)",
                 _FIX,
                 reply=reply,

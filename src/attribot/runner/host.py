@@ -370,9 +370,10 @@ class _Run:
         except (ValueError, TypeError, RecursionError) as e:
             return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
         cls = self.runner._class_of(obj)
-        name = f"{cls.__name__}.{method}"
+        constructor = isinstance(method, str) and method == getattr(cls, "PROGRAM_CONSTRUCTOR", None)
+        name = cls.__name__ if constructor else f"{cls.__name__}.{method}"
         shown = _cut([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
-        if not isinstance(method, str) or method not in cls.API_METHODS:
+        if not isinstance(method, str) or not (constructor or method in cls.API_METHODS):
             return self._refuse(
                 name,
                 f"{cls.__name__} has no method {method!r}; its methods are: {', '.join(cls.API_METHODS)}",
@@ -513,6 +514,20 @@ class ProgramRunner:
                 self._signatures[key] = None
         return self._signatures[key]
 
+    def _constructor_objects(self, args: Sequence[Any]) -> dict[type, tuple[Any, str]]:
+        """For each class that declares `PROGRAM_CONSTRUCTOR` (a host method), the first argument of that
+        class: `ClassName(...)` in a program calls that method on it. This is how programs in the paper's
+        dialect (`ImagePatch(image)`, `Robot(sensors=[...])`) get the session's objects."""
+        out: dict[type, tuple[Any, str]] = {}
+        for cls in self.classes:
+            method = getattr(cls, "PROGRAM_CONSTRUCTOR", None)
+            if not isinstance(method, str) or not callable(getattr(cls, method, None)):
+                continue
+            found = next((a for a in args if self._class_of(a) is cls), None)
+            if found is not None:
+                out[cls] = (found, method)
+        return out
+
     def summarise(self, obj: Any) -> dict[str, Any]:
         """The JSON-ready summary of a host object in traces and results: its class name, and its
         `summary()` when it has one, else its API attributes."""
@@ -540,6 +555,10 @@ class ProgramRunner:
             state = _Run(self, source)
             try:
                 wire_args = [state.encode(a) for a in args]
+                constructors = {
+                    cls.__name__: [state.encode(obj), method]
+                    for cls, (obj, method) in self._constructor_objects(args).items()
+                }
             except TypeError as e:
                 raise InputError(
                     f"ProgramRunner.run: cannot pass {e} to a program",
@@ -552,6 +571,7 @@ class ProgramRunner:
                 Key.ARGS: wire_args,
                 Key.LIMITS: proto.WireLimits(**self.limits.model_dump()).to_wire(),
                 Key.CLASSES: self._wire_classes,
+                Key.CONSTRUCTORS: constructors,
             }
             try:
                 result = self._serve(state, request, t0)

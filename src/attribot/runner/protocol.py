@@ -36,7 +36,7 @@ class Kind:
     DONE = "done"  # the entry point returned VALUE
     FAILED = "error"  # the program failed: CATEGORY, MESSAGE, LINE
     # host -> worker
-    RUN = "run"  # CODE, ENTRY, ARGS, LIMITS, CLASSES
+    RUN = "run"  # CODE, ENTRY, ARGS, LIMITS, CLASSES, CONSTRUCTORS
     RETURN = "ret"  # the call's VALUE
     API_ERROR = "err"  # the call failed: CATEGORY, MESSAGE (raised in the program as a stop)
     STOP = "stop"  # the host ends the run: CATEGORY, MESSAGE
@@ -58,6 +58,9 @@ class Key:
     ENTRY = "entry"
     LIMITS = "limits"  # WireLimits.to_wire()
     CLASSES = "classes"  # class name -> its API method names
+    # class name -> [handle of the argument object that serves `ClassName(...)` in the program, the host
+    # method that does] (the paper's dialect: `ImagePatch(image)`, `Robot(sensors=[...])`)
+    CONSTRUCTORS = "ctors"
     # an API object handed to the program the first time: {TAG_HANDLE: h, STUB_CLASS: ..., STUB_ATTRS: ...}
     STUB_CLASS = "c"
     STUB_ATTRS = "a"

@@ -309,6 +309,31 @@ def rpc(stub, method, args, kwargs):
     stop(answer.get(Key.CATEGORY, "api"), answer.get(Key.MESSAGE, "the API call failed"))
 
 
+def make_constructor(stub, method):
+    """`ClassName(...)` in a program: the host's `method` on the session's object of that class."""
+
+    def construct(*args, **kwargs):
+        return rpc(stub, method, args, kwargs)
+
+    return construct
+
+
+def call_entry(fn, args, entry):
+    """Call the entry point with as many of `args` as it takes: `execute_command(image)` (the paper's and
+    ViperGPT's form) gets the image, `execute_command(image, robot)` both."""
+    code = getattr(fn, "__code__", None)
+    if code is not None and not code.co_flags & 0x04:  # no *args: pass what it names
+        takes = code.co_argcount
+        needs = takes - len(fn.__defaults__ or ())
+        if needs > len(args):
+            raise TypeError(
+                f"{entry}() needs {needs} arguments, and it is called with {len(args)}: "
+                f"define {entry}(image, robot) or {entry}(image)"
+            )
+        args = args[:takes]
+    return fn(*args)
+
+
 def make_method(cls_name, method):
     def call(self, *args, **kwargs):
         return rpc(self, method, args, kwargs)
@@ -576,6 +601,8 @@ def run(request):
     code = marshal.loads(binascii.a2b_base64(request[Key.CODE]))
     g = build_globals()
     args = [decode(a) for a in request[Key.ARGS]]
+    for cls_name, (wire, method) in (request.get(Key.CONSTRUCTORS) or {}).items():
+        g[cls_name] = make_constructor(decode(wire), method)
     entry = request[Key.ENTRY]
     sys.setrecursionlimit(len_stack() + limits.max_recursion + 10)
     apply_limits(limits)
@@ -584,7 +611,7 @@ def run(request):
         fn = g.get(entry)
         if not callable(fn):
             raise TypeError(f"{entry} is not a function")
-        value = fn(*args)
+        value = call_entry(fn, args, entry)
         try:
             msg = dumps({KIND: Kind.DONE, Key.VALUE: encode(value)})
         except Unsupported as e:
