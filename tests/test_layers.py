@@ -12,7 +12,19 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "attribot"
 
 # lowest first; names on one line share a level
 LEVELS: list[set[str]] = [
-    {"__init__", "errors", "registry", "boxes", "frame", "config", "draw", "deps", "files", "shutdown"},
+    {
+        "__init__",
+        "errors",
+        "registry",
+        "boxes",
+        "frame",
+        "config",
+        "draw",
+        "deps",
+        "files",
+        "shutdown",
+        "lexicon",
+    },
     {"sim", "control"},
     {"embodiments"},
     {"models"},

@@ -10,8 +10,9 @@ import pytest
 from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, ObjectTruth
+from attribot.lexicon import singular_forms
 from attribot.models.base import UNKNOWN, Detector, VisualQA, build_backend
-from attribot.models.oracle import OracleDetector, OracleVQA, singular_forms, visible_objects
+from attribot.models.oracle import OracleDetector, OracleVQA, visible_objects
 
 H, W = 80, 120
 

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from attribot.errors import ConfigError, InputError
+from attribot.lexicon import singular_forms, words
 from attribot.models.base import LANGUAGE_MODELS, UNKNOWN
-from attribot.models.oracle import singular_forms, words
 from attribot.sim.catalog import Category, categories, find_category
 
 if TYPE_CHECKING:

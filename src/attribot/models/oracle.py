@@ -23,42 +23,23 @@ import numpy as np
 
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, ObjectTruth
+from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, singular_forms, words
 from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
-from attribot.sim.catalog import COLORS as CATALOG_COLORS
 
 if TYPE_CHECKING:
     from attribot.config import Settings
 
 __all__ = [
     "DEFAULT_MIN_PIXELS",
-    "COLOR_WORDS",
-    "GENERIC_WORDS",
     "VisibleObject",
     "visible_objects",
     "match_phrase",
-    "words",
-    "singular_forms",
     "OracleDetector",
     "OracleVQA",
 ]
 
 DEFAULT_MIN_PIXELS = 30
 """Objects with fewer visible pixels than this are not detected (a real detector would miss them too)."""
-
-GENERIC_WORDS = frozenset({"item", "object", "thing", "one", "something", "stuff", "anything", "everything"})
-"""Head nouns that match every object."""
-
-COLOR_WORDS = frozenset(
-    {
-        "red", "green", "blue", "yellow", "orange", "purple", "violet", "pink", "brown", "black", "white",
-        "gray", "silver", "gold", "beige", "tan", "cyan", "magenta", "teal", "navy", "maroon", "cream",
-        "ivory", "turquoise", "olive", "lime", "copper", "bronze",
-    }
-    | set(CATALOG_COLORS)  # every colour the simulator paints with
-)  # fmt: skip
-"""Colour names the phrase matcher treats as a filter (after folding spellings, see `_COLOR_ALIASES`)."""
-
-_COLOR_ALIASES = {"grey": "gray", "golden": "gold", "colour": "color"}
 
 # Words dropped before matching: they carry no category or colour.
 _DETERMINERS = frozenset(
@@ -78,40 +59,6 @@ _CUT_WORDS = frozenset(
     {"on", "in", "at", "near", "next", "beside", "behind", "under", "with", "from", "of", "to", "inside",
      "above", "below", "by", "that", "which", "who", "for", "over", "between", "among"}
 )  # fmt: skip
-
-_IRREGULAR = {"knives": "knife", "mice": "mouse", "geese": "goose", "teeth": "tooth", "feet": "foot",
-              "people": "person", "men": "man", "women": "woman", "children": "child", "leaves": "leaf",
-              "shelves": "shelf", "loaves": "loaf", "dice": "die", "cacti": "cactus"}  # fmt: skip
-
-
-def words(text: str) -> list[str]:
-    """Lower-case word tokens of `text`: punctuation and hyphens become spaces, colour spellings folded.
-
-    >>> words("A Photo of two T-shirts!")
-    ['a', 'photo', 'of', 'two', 't', 'shirts']
-    """
-    tokens = re.sub(r"[^a-z0-9]+", " ", text.lower()).split()
-    return [_COLOR_ALIASES.get(t, t) for t in tokens]
-
-
-def singular_forms(word: str) -> list[str]:
-    """The word itself and the singulars it may be the plural of, most likely first.
-
-    >>> singular_forms("boxes")
-    ['boxes', 'boxe', 'box']
-    """
-    forms = [word]
-    if word in _IRREGULAR:
-        forms.append(_IRREGULAR[word])
-    if len(word) > 3 and word.endswith("s") and not word.endswith("ss"):
-        forms.append(word[:-1])
-        if word.endswith("es"):
-            forms.append(word[:-2])
-        if word.endswith("ies"):
-            forms.append(word[:-3] + "y")
-        if word.endswith("ves"):
-            forms.extend([word[:-3] + "f", word[:-3] + "fe"])
-    return list(dict.fromkeys(forms))
 
 
 @dataclass(frozen=True)
@@ -248,7 +195,7 @@ def _match(objects: Sequence[VisibleObject], phrase: str) -> list[_Match]:
     if found:
         return [m for m in found if color_ok(m.obj, modifiers)]
     # 3. generic words: every object, filtered by colour ("the blue ones", "red item", "red")
-    if last_forms & GENERIC_WORDS or all(t in COLOR_WORDS for t in tokens):
+    if last_forms & GENERIC_NOUNS or all(t in COLOR_WORDS for t in tokens):
         mods = tokens if all(t in COLOR_WORDS for t in tokens) else modifiers
         return [_Match(o, 0.9) for o in objects if color_ok(o, mods)]
     return []

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from attribot.errors import InputError
+from attribot.lexicon import COLOR_ALIASES, COLOR_WORDS, GENERIC_NOUNS
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
 
 if TYPE_CHECKING:
@@ -89,11 +90,6 @@ class UnsupportedQuery(InputError):
 # ---- the parsed form ---------------------------------------------------------------------------------
 
 Side = Literal["left", "right", "top", "bottom"]
-GENERIC_NOUNS = {"item", "items", "object", "objects", "thing", "things", "one", "ones"}
-COLORS = (
-    "red orange yellow green blue purple violet pink brown black white gray grey silver gold golden beige "
-    "cyan magenta turquoise"
-).split()
 
 
 @dataclass(frozen=True)
@@ -402,7 +398,7 @@ def _object(phrase: str) -> ObjectSpec | None:
         return None
     if all(w.isdigit() for w in words):
         return None
-    colors = tuple(w for w in words[:-1] if w in COLORS)
+    colors = tuple(w for w in words[:-1] if COLOR_ALIASES.get(w, w) in COLOR_WORDS)
     noun_words = [w for w in words if w not in colors] if colors else words
     if not noun_words:
         return None

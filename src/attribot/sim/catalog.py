@@ -18,10 +18,12 @@ from dataclasses import dataclass
 from functools import cache
 
 from attribot.errors import UnknownName
+from attribot.lexicon import singular_forms
 
 __all__ = ["COLORS", "Category", "categories", "get_category", "find_category", "category_names"]
 
-# Colour names and their linear RGB; the colour name of an object is what VQA answers and detectors filter on.
+# Colour names (each in attribot.lexicon.COLOR_WORDS) and their linear RGB; the colour name of an object is
+# what VQA answers and detectors filter on.
 COLORS: dict[str, tuple[float, float, float]] = {
     "red": (0.80, 0.10, 0.10),
     "green": (0.15, 0.60, 0.20),
@@ -326,22 +328,6 @@ def get_category(name: str) -> Category:
     return found
 
 
-_IRREGULAR = {"knives": "knife", "mice": "mouse", "cacti": "cactus", "loaves": "loaf"}
-
-
-def _singulars(word: str) -> list[str]:
-    out = [word]
-    if word in _IRREGULAR:
-        out.append(_IRREGULAR[word])
-    if word.endswith("ies"):
-        out.append(word[:-3] + "y")
-    if word.endswith("es"):
-        out.append(word[:-2])
-    if word.endswith("s") and not word.endswith("ss"):
-        out.append(word[:-1])
-    return out
-
-
 def find_category(word: str) -> Category | None:
     """The category a word or phrase names (name, synonym, or a plural of either), or None.
 
@@ -356,7 +342,7 @@ def find_category(word: str) -> Category | None:
     for n in range(len(text), 0, -1):
         for i in range(len(text) - n + 1):
             head, last = text[i : i + n - 1], text[i + n - 1]
-            for sing in _singulars(last):
+            for sing in singular_forms(last):
                 phrase = " ".join([*head, sing])
                 if phrase in table:
                     return table[phrase]

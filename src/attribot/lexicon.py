@@ -1,0 +1,77 @@
+"""The one vocabulary: colour names, generic nouns, plurals and word tokens, read by the rules planner, the
+oracle backends, the catalog language backend and the simulator's catalog alike. A word added here is known
+everywhere (DESIGN.md, "One vocabulary").
+
+It sits in the bottom layer and imports nothing of attribot: the simulator paints with names from
+`COLOR_WORDS` (a test checks that every painted colour is here), and the category names and synonyms stay
+with the catalog's data in `attribot.sim.catalog`, which folds plurals with `singular_forms` from here.
+"""
+
+from __future__ import annotations
+
+import re
+
+__all__ = [
+    "COLOR_WORDS",
+    "COLOR_ALIASES",
+    "GENERIC_NOUNS",
+    "IRREGULAR_PLURALS",
+    "words",
+    "singular_forms",
+]
+
+COLOR_ALIASES: dict[str, str] = {"grey": "gray", "golden": "gold", "colour": "color"}
+"""Spellings folded to one name before any matching."""
+
+COLOR_WORDS: frozenset[str] = frozenset(
+    {
+        "red", "green", "blue", "yellow", "orange", "purple", "violet", "pink", "brown", "black", "white",
+        "gray", "silver", "gold", "beige", "tan", "cyan", "magenta", "teal", "navy", "maroon", "cream",
+        "ivory", "turquoise", "olive", "lime", "copper", "bronze",
+    }
+)  # fmt: skip
+"""Colour names (after folding `COLOR_ALIASES`): a filter for detectors, a word the planner reads."""
+
+GENERIC_NOUNS: frozenset[str] = frozenset(
+    {
+        "item", "items", "object", "objects", "thing", "things", "one", "ones", "something", "stuff",
+        "anything", "everything",
+    }
+)  # fmt: skip
+"""Head nouns that stand for any object ("the heaviest item")."""
+
+IRREGULAR_PLURALS: dict[str, str] = {
+    "knives": "knife", "mice": "mouse", "geese": "goose", "teeth": "tooth", "feet": "foot",
+    "people": "person", "men": "man", "women": "woman", "children": "child", "leaves": "leaf",
+    "shelves": "shelf", "loaves": "loaf", "dice": "die", "cacti": "cactus",
+}  # fmt: skip
+
+
+def words(text: str) -> list[str]:
+    """Lower-case word tokens of `text`: punctuation and hyphens become spaces, colour spellings folded.
+
+    >>> words("A Photo of two T-shirts!")
+    ['a', 'photo', 'of', 'two', 't', 'shirts']
+    """
+    tokens = re.sub(r"[^a-z0-9]+", " ", text.lower()).split()
+    return [COLOR_ALIASES.get(t, t) for t in tokens]
+
+
+def singular_forms(word: str) -> list[str]:
+    """The word itself and the singulars it may be the plural of, most likely first.
+
+    >>> singular_forms("boxes")
+    ['boxes', 'boxe', 'box']
+    """
+    forms = [word]
+    if word in IRREGULAR_PLURALS:
+        forms.append(IRREGULAR_PLURALS[word])
+    if len(word) > 2 and word.endswith("s") and not word.endswith("ss"):  # "cds" -> "cd"
+        forms.append(word[:-1])
+        if word.endswith("es"):
+            forms.append(word[:-2])
+        if word.endswith("ies"):
+            forms.append(word[:-3] + "y")
+        if word.endswith("ves"):
+            forms.extend([word[:-3] + "f", word[:-3] + "fe"])
+    return list(dict.fromkeys(forms))

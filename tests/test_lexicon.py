@@ -1,0 +1,50 @@
+"""One vocabulary: what the simulator paints and names is known to the planner, the oracle and the catalog
+language backend, because all of them read `attribot.lexicon` (the drift this guards against: the simulator
+painted objects "teal", which the rules planner did not know as a colour)."""
+
+from __future__ import annotations
+
+import pytest
+
+from attribot import lexicon
+from attribot.planning.rules import GroundingQuery, parse_query
+from attribot.sim.catalog import COLORS, categories, find_category
+
+
+@pytest.mark.parametrize("color", sorted(COLORS))
+def test_every_painted_colour_is_a_colour_word_the_planner_reads(color):
+    assert color in lexicon.COLOR_WORDS
+    parsed = parse_query(f"Where is the {color} mug?")
+    assert isinstance(parsed, GroundingQuery)
+    assert parsed.obj.colors == (color,) and parsed.obj.noun == "mug"
+
+
+def test_colour_spellings_fold_to_one_name():
+    parsed = parse_query("Where is the grey mug?")
+    assert isinstance(parsed, GroundingQuery) and parsed.obj.noun == "mug"
+    assert [lexicon.COLOR_ALIASES.get(c, c) for c in parsed.obj.colors] == ["gray"]
+    assert lexicon.words("A Grey-Colour T-shirt") == ["a", "gray", "color", "t", "shirt"]
+
+
+OWNERS: dict[str, set[str]] = {}
+for _c in categories():
+    for _word in (_c.name, *_c.synonyms):
+        OWNERS.setdefault(_word, set()).add(_c.name)
+
+
+@pytest.mark.parametrize("category", categories(), ids=lambda c: c.name)
+def test_every_name_and_synonym_and_its_plural_finds_its_category(category):
+    for name in (category.name, *category.synonyms):
+        # a word two categories share ("ball": a ball, a basketball) finds one of them
+        owners = {category.name} if name == category.name else OWNERS[name]
+        plural = name + ("es" if name.endswith(("s", "x", "ch", "sh")) else "s")
+        for word in (name, plural):
+            found = find_category(word)
+            assert found is not None and found.name in owners, word
+
+
+def test_generic_nouns_stand_for_any_object():
+    for noun in ("item", "objects", "thing", "one"):
+        assert noun in lexicon.GENERIC_NOUNS
+    parsed = parse_query("the heaviest item")
+    assert all(o.generic for o in parsed.objects)
