@@ -16,6 +16,7 @@ __all__ = [
     "COLOR_ALIASES",
     "GENERIC_NOUNS",
     "IRREGULAR_PLURALS",
+    "DEICTIC_WORDS",
     "words",
     "singular_forms",
 ]
@@ -39,6 +40,11 @@ GENERIC_NOUNS: frozenset[str] = frozenset(
     }
 )  # fmt: skip
 """Head nouns that stand for any object ("the heaviest item")."""
+
+DEICTIC_WORDS: frozenset[str] = frozenset(
+    {"it", "its", "this", "that", "they", "them", "their", "these", "those", "he", "she", "here", "there"}
+)
+"""Pronouns and place words: they point at something and never name it, so a planner never searches them."""
 
 IRREGULAR_PLURALS: dict[str, str] = {
     "knives": "knife", "mice": "mouse", "geese": "goose", "teeth": "tooth", "feet": "foot",

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from attribot.errors import InputError
-from attribot.lexicon import COLOR_ALIASES, COLOR_WORDS, GENERIC_NOUNS
+from attribot.lexicon import COLOR_ALIASES, COLOR_WORDS, DEICTIC_WORDS, GENERIC_NOUNS
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
 
 if TYPE_CHECKING:
@@ -387,11 +387,29 @@ def _ordinal(text: str) -> tuple[int, bool]:
     raise ValueError(text)
 
 
+# "of these", "among the three", "out of them": the candidate set is what is in view, any object
+_CANDIDATE_SET = re.compile(
+    r"^(?:of|among|out\s+of|from)\s+(?:these|those|them|all|(?:all\s+)?the\s+(?:two|three|four|five|six|"
+    r"\w+\s+)?(?:ones|items|objects|things)|the\s+(?:two|three|four|five|six))$"
+)
+_HERE = re.compile(r"\s+(?:here|there|around|in\s+view|in\s+front\s+of\s+(?:me|you|us|the\s+robot))$")
+_HERE_ENDINGS = ("here", "there", "around", "view", "me", "you", "us", "robot")
+_SET_OPENINGS = ("of ", "among ", "out of ", "from ")
+# words that never name an object: left over from a phrase the parser did not place ("of these")
+_NOT_A_NAME = DEICTIC_WORDS | {"of"}
+
+
 def _object(phrase: str) -> ObjectSpec | None:
     """The object named by what is left of a phrase, or None when the rest is not a plain name."""
     phrase = _strip_article(phrase)
     phrase = re.sub(r"\s+(?:in|of|from)\s+(?:the\s+)?(?:image|picture|photo|frame|scene|view)$", "", phrase)
+    if phrase.endswith(_HERE_ENDINGS):  # the cheap test first: _object runs for every family tried
+        phrase = _HERE.sub("", phrase)
+    if phrase.startswith(_SET_OPENINGS) and _CANDIDATE_SET.match(phrase):
+        return ObjectSpec("object")
     words = phrase.split()
+    if any(w in _NOT_A_NAME for w in words):
+        return None
     if not words:
         return ObjectSpec("object")
     if len(words) > 6 or any(not re.fullmatch(r"[a-z0-9']+", w) or w in _STOP for w in words):
@@ -621,7 +639,7 @@ def _split_names(text: str) -> tuple[ObjectSpec, ...] | None:
     specs: list[ObjectSpec] = []
     for part in parts:
         spec = _object(part)
-        if spec is None:
+        if spec is None or spec.generic:  # a list names objects: "one" or "item" is no name
             return None
         if spec not in specs:
             specs.append(spec)
@@ -706,7 +724,7 @@ _MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight"]], ...] = (
 )
 
 
-_PRONOUNS = {"it", "this", "that", "they", "them", "these", "those", "he", "she"}
+_PRONOUNS = DEICTIC_WORDS
 
 
 def _named(text: str) -> ObjectSpec | None:
@@ -736,6 +754,10 @@ def _parse_grounding(text: str) -> GroundingQuery | None:
     return None if obj is None else GroundingQuery(obj)
 
 
+# "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
+_ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+ones?$")
+
+
 def parse_query(query: str) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text)."""
     original = check_query(query)
@@ -745,6 +767,8 @@ def parse_query(query: str) -> ParsedQuery:
     text, opened = normalized
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
+    if text.endswith((" one", " ones")):
+        text = _ADJECTIVE_ONE.sub(r"\1", text)
     parsed = _parse_compare(text) or _parse_measure(text)
     if parsed is not None:
         return parsed
