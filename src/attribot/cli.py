@@ -228,6 +228,12 @@ _SENSORS = typer.Option(
     help="Comma-separated robot sensors: camera,distance,force (default: all the world has).",
 )
 _JSON = typer.Option(False, "--json", help="Print the whole answer as JSON.")
+_CONTROLLER = typer.Option(
+    None,
+    "--controller",
+    help="Robot controller: the world's own (default; in MuJoCo 'privileged', which reads the simulator's "
+    "state to move and grasp) or 'servo' (focuses by what the camera sees; no driving or grasping yet).",
+)
 _SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
 _DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
 _VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
@@ -243,14 +249,16 @@ def _prefetch_rendering() -> None:
     prefetch_gl_backend()
 
 
-def _scene(config: Any, image: Path | None, sensors: str | None) -> Any:
+def _scene(config: Any, image: Path | None, sensors: str | None, controller: str | None = None) -> Any:
     """The world to ask in; called first, so that the OpenGL probe overlaps the slow imports."""
     if image is None:
         _prefetch_rendering()
     from attribot.planning.ask import Scene
 
     names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
-    return Scene(config=config, image=image, sensors=names)
+    if controller is not None and image is not None:
+        raise fail("--controller acts in a world, and --image is a still image", "drop one of the two")
+    return Scene(config=config, image=image, sensors=names, controller=controller)
 
 
 @contextlib.contextmanager
@@ -325,6 +333,7 @@ def ask(
     profile: str | None = _S_PROFILE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
+    controller: str | None = _CONTROLLER,
     planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
     llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
     llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
@@ -337,7 +346,7 @@ def ask(
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
     with _errors_as_json(as_json, query, planner or "rules"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-        scene = _scene(config, image, sensors)
+        scene = _scene(config, image, sensors, controller)
         from attribot.config import load_settings
         from attribot.planning.ask import ask as run_ask
 
@@ -366,6 +375,7 @@ def exec_program(
     profile: str | None = _S_PROFILE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
+    controller: str | None = _CONTROLLER,
     query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
     detector: str | None = _DETECTOR,
     vqa: str | None = _VQA,
@@ -378,7 +388,7 @@ def exec_program(
 
     with _errors_as_json(as_json, query, "file"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-        scene = _scene(config, image, sensors)
+        scene = _scene(config, image, sensors, controller)
         from attribot.config import load_settings
         from attribot.planning.ask import execute
 

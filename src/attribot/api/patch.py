@@ -149,7 +149,16 @@ class ImagePatch:
         """Host side: what a controller needs to act on this patch; None when it has no capture."""
         if self.capture is None:
             return None
-        return Target(box=self.box, capture=self.capture, object_id=self.object_id, label=self.label)
+        find = None
+        if self.label:
+            detector, label = self.perception.detector, self.label
+
+            def find(frame: Frame) -> list[tuple[float, float, float, float]]:
+                return [d.box for d in detector.detect(frame, [label])]
+
+        return Target(
+            box=self.box, capture=self.capture, object_id=self.object_id, label=self.label, find=find
+        )
 
     def same_object(self, other: ImagePatch) -> bool:
         """Host side: True when both patches show the same object (same world id, else same box and image)."""

@@ -59,13 +59,19 @@ class Capture:
 class Target:
     """A box to act on: xyxy pixels (origin top-left, y down) of the capture it was seen in.
 
-    object_id is the world's id of the detected object when the detector knew it (simulator oracle).
+    object_id is the world's id of the detected object when the detector knew it (simulator oracle); only
+    the privileged controller may use it.
     """
 
     box: tuple[float, float, float, float]
     capture: Capture
     object_id: str | None = None
     label: str = ""
+    find: Callable[[Any], list[tuple[float, float, float, float]]] | None = field(
+        default=None, compare=False, repr=False
+    )
+    """Finds the target's kind in a new frame with the configured detector (xyxy boxes): how a
+    perception-driven controller sees it again. None when the target has no name to look for."""
 
     @property
     def center(self) -> tuple[float, float]:
@@ -164,19 +170,23 @@ class UnsupportedController:
 
 ControllerFactory = Callable[[Any], Controller]
 
-CONTROLLERS: Registry[ControllerFactory] = Registry("controller", ("attribot.control.pointing",))
-"""Controller factories keyed by embodiment name (`Embodiment.name`); "default" serves the others.
-A world's own controller registers from the world's package (e.g. `attribot.embodiments.mujoco_control`),
-since this layer knows no world."""
+CONTROLLERS: Registry[ControllerFactory] = Registry(
+    "controller", ("attribot.control.pointing", "attribot.control.servo")
+)
+"""Controller factories: under an embodiment's name (`Embodiment.name`) its default controller, "default"
+for the others, and by their own names the controllers a user can choose (`--controller servo`). A world's
+own controller registers from the world's package (e.g. `attribot.embodiments.mujoco_control`), since this
+layer knows no world."""
 
 
-def build_controller(world: Any) -> Controller:
-    """The controller for `world`: the one registered under its name, else "default", else none.
-
-    `world` None (a still image) gets an `UnsupportedController`.
-    """
+def build_controller(world: Any, choice: str | None = None) -> Controller:
+    """The controller for `world`: `choice` when given (a registered name), else the one registered under
+    the world's name, else "default", else none. `world` None (a still image) gets an
+    `UnsupportedController`."""
     if world is None:
         return UnsupportedController(None, why="the query runs on a still image")
+    if choice is not None:
+        return CONTROLLERS.get(choice)(world)
     name = getattr(world, "name", "")
     key = name if name in CONTROLLERS else "default"
     if key not in CONTROLLERS:

@@ -71,6 +71,6 @@ class SimController(PointingController):
         )
 
 
-@CONTROLLERS.register("mujoco")
+@CONTROLLERS.register("mujoco", aliases=("privileged", "sim-privileged"))
 def _mujoco(world: object) -> SimController:
     return SimController(world)

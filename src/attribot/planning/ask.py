@@ -37,6 +37,7 @@ class Scene:
     image: Path | None = None
     world: str = "mujoco"
     sensors: Sequence[str] | None = None
+    controller: str | None = None  # None: the world's own (privileged in MuJoCo); "servo": by perception
 
     def __post_init__(self) -> None:
         if self.image is not None and self.config is not None:
@@ -140,7 +141,10 @@ class _Session:
                 self.sensors = list(
                     scene.sensors or [s for s in ("camera", "distance", "force") if s in have]
                 )
-                self.robot = Robot(sensors=self.sensors, world=self.world)
+                from attribot.control.base import build_controller
+
+                controller = build_controller(self.world, scene.controller)
+                self.robot = Robot(sensors=self.sensors, world=self.world, controller=controller)
                 self.image = self.robot.look(self.perception)
             self.runner = ProgramRunner(classes=[ImagePatch, Robot])
         except BaseException:

@@ -1,0 +1,206 @@
+"""The servo controller centres an object by what the camera sees (detect once, KLT, PID on the head), in
+the MuJoCo world, without reading the simulator's truth."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from attribot.api import Perception, Robot
+from attribot.config import SceneConfig, load_settings
+from attribot.control.base import Capture, Target, build_controller
+from attribot.control.servo import ServoController
+from attribot.control.tracker import BoxTracker, TrackResult
+from attribot.embodiments.base import Capability, Embodiment
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.errors import UnsupportedAction
+from attribot.frame import Frame
+from attribot.models.oracle import OracleDetector
+from attribot.planning.ask import Scene, ask
+
+W, H = 320, 240
+
+
+def _truth_centre_error(world: MujocoWorld, object_id: str) -> float:
+    info = world.scene_info()
+    box = next(o.box for o in info.objects if o.id == object_id)
+    assert box is not None, f"{object_id} left the view"
+    return math.hypot((box[0] + box[2]) / 2 - W / 2, (box[1] + box[3]) / 2 - H / 2)
+
+
+@pytest.mark.parametrize("seed", [2, 7])
+def test_focus_centres_every_object_within_the_tolerance(seed):
+    with MujocoWorld(SceneConfig(layout="household", seed=seed, width=W, height=H)) as world:
+        perception = Perception.from_settings(
+            load_settings(detector="oracle", vqa="oracle", language="catalog")
+        )
+        robot = Robot(
+            sensors=["camera", "distance"], world=world, controller=build_controller(world, "servo")
+        )
+        assert robot.backend_name() == "servo"
+        image = robot.look(perception)
+        for patch in image.find("object"):
+            robot.focus_on_patch(patch)
+            assert robot.controller.last is not None and robot.controller.last.error_px <= 1.5
+            assert _truth_centre_error(world, patch.object_id) <= 5.0
+            image = robot.look(perception)  # the next object is acted on from a fresh view
+            patch_ids = {p.object_id for p in image.find("object")}
+            assert patch.object_id in patch_ids
+
+
+class TruthBlindWorld(Embodiment):
+    """The MuJoCo world as a real robot would see it: frames with RGB and depth only (no segmentation, no
+    object truth), and no access to the simulator behind it."""
+
+    name = "truth-blind"
+
+    def __init__(self, inner: MujocoWorld) -> None:
+        self._inner = inner
+
+    def capabilities(self) -> frozenset[Capability]:
+        return self._inner.capabilities() - {Capability.SEGMENTATION}
+
+    def observe(self) -> Frame:
+        f = self._inner.observe()
+        return Frame(rgb=f.rgb, depth=f.depth, camera=f.camera)
+
+    def camera_info(self):
+        return self._inner.camera_info()
+
+    def step(self, seconds: float) -> None:
+        self._inner.step(seconds)
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        self._inner.set_head(pan, tilt)
+
+    def joint_states(self):
+        return self._inner.joint_states()
+
+    def base_pose(self):
+        return self._inner.base_pose()
+
+
+def test_servo_centres_an_object_seeing_only_pixels():
+    with MujocoWorld(SceneConfig(layout="household", seed=4, width=W, height=H)) as world:
+        detector = OracleDetector()
+        first = world.observe()
+        det = max(detector.detect(first, ["object"]), key=lambda d: d.score)
+        calls: list[Frame] = []
+
+        def find(frame: Frame) -> list[tuple[float, float, float, float]]:
+            # the test's detector sees the truth; the controller only hands it the frame it saw
+            calls.append(frame)
+            assert frame.segmentation is None and not frame.objects
+            return [
+                d.box for d in detector.detect(world.observe(), [det.label]) if d.object_id == det.object_id
+            ]
+
+        js, pose = world.joint_states(), world.base_pose()
+        capture = Capture(
+            0, world.camera_info(), (js["head_pan"], js["head_tilt"]), (pose.x, pose.y, pose.yaw)
+        )
+        servo = ServoController(TruthBlindWorld(world))
+        servo.focus_on(Target(box=det.box, capture=capture, label=det.label, find=find))
+        assert calls and servo.last is not None and servo.last.error_px <= 1.5
+        assert _truth_centre_error(world, det.object_id) <= 5.0
+
+
+def test_servo_refuses_what_it_cannot_do_yet_and_says_so():
+    with MujocoWorld(SceneConfig(layout="triplet", seed=3, width=W, height=H)) as world:
+        servo = build_controller(world, "servo")
+        target = Target(box=(10, 10, 20, 20), capture=Capture(0))
+        for action in (servo.approach, servo.pick_up, servo.push):
+            with pytest.raises(UnsupportedAction, match="not available"):
+                action(target)
+
+
+def test_ask_with_the_servo_controller_measures_distances_like_the_privileged_one():
+    query = "Which object is the closest to me?"
+    values = {}
+    for controller in ("servo", None):
+        answer = ask(
+            query,
+            Scene(
+                SceneConfig(layout="household", seed=7), sensors=["camera", "distance"], controller=controller
+            ),
+            load_settings(),
+        )
+        assert answer.error is None
+        values[controller] = (answer.object.id, answer.value, answer.backends["robot"])
+    assert values["servo"][0] == values[None][0]
+    assert values["servo"][1] == pytest.approx(values[None][1], abs=0.02)
+    assert values["servo"][2] == "servo" and values[None][2] == "sim-privileged"
+
+
+def test_unknown_controller_is_a_clear_error():
+    from attribot.errors import UnknownName
+
+    with MujocoWorld(SceneConfig(layout="triplet", seed=3, width=64, height=48)) as world:
+        with pytest.raises(UnknownName, match="unknown controller 'teleport'.*servo"):
+            build_controller(world, "teleport")
+
+
+@pytest.mark.parametrize("seed", [2, 7, 11])
+def test_the_closed_loop_alone_centres_objects_from_the_first_view(seed):
+    """No geometric pre-aim: track the box of the first view and servo the head on it (the paper's way)."""
+    config = SceneConfig(layout="household", seed=seed, width=W, height=H)
+    perception = Perception.from_settings(load_settings())
+    with MujocoWorld(config) as world:
+        count = len(Robot(world=world).look(perception).find("object"))
+    for k in range(count):  # each object from the scene's first view
+        with MujocoWorld(config) as world:
+            servo = ServoController(world, preaim=False)
+            patch = Robot(world=world, controller=servo).look(perception).find("object")[k]
+            servo.focus_on(patch.target())
+            assert servo.last is not None and servo.last.error_px <= 1.5
+            assert servo.last.seconds < 2.0  # the issue's target: centred within 2 s of sim time
+            assert _truth_centre_error(world, patch.object_id) <= 5.0
+
+
+class _LosesOnce(BoxTracker):
+    """A tracker that loses its target on the first update, as when an arm passes in front of the camera."""
+
+    lost_once = False
+
+    def update(self, image):
+        if not _LosesOnce.lost_once:
+            _LosesOnce.lost_once = True
+            return TrackResult(self.box, True, 0, False, "occluded")
+        return super().update(image)
+
+
+def test_a_lost_target_is_detected_again_once(monkeypatch):
+    import attribot.control.servo as servo_module
+
+    monkeypatch.setattr(servo_module, "BoxTracker", _LosesOnce)
+    _LosesOnce.lost_once = False
+    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
+        servo = ServoController(world, preaim=False)
+        patch = (
+            Robot(world=world, controller=servo)
+            .look(Perception.from_settings(load_settings()))
+            .find("object")[0]
+        )
+        servo.focus_on(patch.target())
+        assert servo.last is not None and servo.last.redetections == 1 and servo.last.error_px <= 1.5
+
+
+def test_a_target_lost_again_after_the_second_detection_fails_clearly(monkeypatch):
+    import attribot.control.servo as servo_module
+    from attribot.control.base import ControlError
+
+    class AlwaysLost(BoxTracker):
+        def update(self, image):
+            return TrackResult(self.box, True, 0, False, "occluded")
+
+    monkeypatch.setattr(servo_module, "BoxTracker", AlwaysLost)
+    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
+        servo = ServoController(world, preaim=False)
+        patch = (
+            Robot(world=world, controller=servo)
+            .look(Perception.from_settings(load_settings()))
+            .find("object")[0]
+        )
+        with pytest.raises(ControlError, match="lost sight of .* while centring it"):
+            servo.focus_on(patch.target())
