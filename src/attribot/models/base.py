@@ -139,9 +139,13 @@ ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "lang
 
 
 def parse_spec(spec: str) -> tuple[str, str | None]:
-    """`"hf:owlv2"` -> `("hf", "owlv2")`; `"oracle"` -> `("oracle", None)`. Empty parts are errors."""
+    """`"hf:owlv2"` -> `("hf", "owlv2")`; `"oracle"` -> `("oracle", None)`; `"oracle?miss=0.1"` ->
+    `("oracle", "?miss=0.1")` (the builder reads its options). Empty parts are errors."""
     text = spec.strip()
     kind, sep, arg = text.partition(":")
+    if not sep and "?" in kind:  # "oracle?miss=0.1": options with no argument go to the builder as "?..."
+        kind, _, query = kind.partition("?")
+        sep, arg = "?", "?" + query
     if not kind or (sep and not arg.strip()):
         raise ConfigError(f"backend spec {spec!r} is malformed", "write KIND or KIND:ARG, e.g. hf:MODEL_ID")
     return kind.strip(), (arg.strip() if sep else None)

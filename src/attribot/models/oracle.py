@@ -25,6 +25,14 @@ from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, ObjectTruth
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, singular_forms, words
 from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
+from attribot.models.noise import (
+    DetectorNoise,
+    NoisyDetector,
+    NoisyVQA,
+    VQANoise,
+    noise_options,
+    split_options,
+)
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -410,22 +418,37 @@ def _yes(flag: bool) -> str:
 def _probe(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
     """What `attribot backends` prints for the oracle: usable on simulator frames only."""
     try:
-        n = _min_pixels_from(arg)
+        head, options = split_options(arg)
+        n = _min_pixels_from(head)
+        kind: type[DetectorNoise] | type[VQANoise] = VQANoise if "wrong" in options else DetectorNoise
+        noise_options(options, kind, "vqa" if kind is VQANoise else "detector")
     except ConfigError as exc:
         return False, str(exc)
-    return True, f"ground truth, no model; simulator frames only (needs segmentation), objects >= {n} px"
+    noisy = f"; seeded noise: {', '.join(f'{k}={v}' for k, v in options.items())}" if options else ""
+    return (
+        True,
+        f"ground truth, no model; simulator frames only (needs segmentation), objects >= {n} px{noisy}",
+    )
 
 
 @DETECTORS.register("oracle")
-def _build_detector(arg: str | None, settings: Settings) -> OracleDetector:
-    """`oracle` or `oracle:N`: ground-truth detection, objects need N visible pixels (default 30)."""
-    return OracleDetector(_min_pixels_from(arg))
+def _build_detector(arg: str | None, settings: Settings) -> OracleDetector | NoisyDetector:
+    """`oracle`, `oracle:N` (objects need N visible pixels, default 30), and seeded noise options:
+    `oracle?miss=0.1&false_pos=0.05&jitter_px=4&confuse=0.05&seed=0` or `oracle?noise=realistic`."""
+    head, options = split_options(arg)
+    detector = OracleDetector(_min_pixels_from(head))
+    noise = DetectorNoise(**noise_options(options, DetectorNoise, "detector"))
+    return detector if noise.clean else NoisyDetector(detector, noise)
 
 
 @VQAS.register("oracle")
-def _build_vqa(arg: str | None, settings: Settings) -> OracleVQA:
-    """`oracle` or `oracle:N`: ground-truth templated VQA, objects need N visible pixels (default 30)."""
-    return OracleVQA(_min_pixels_from(arg))
+def _build_vqa(arg: str | None, settings: Settings) -> OracleVQA | NoisyVQA:
+    """`oracle`, `oracle:N` (objects need N visible pixels, default 30), and seeded wrong answers:
+    `oracle?wrong=0.1&seed=0` or `oracle?noise=realistic`."""
+    head, options = split_options(arg)
+    vqa = OracleVQA(_min_pixels_from(head))
+    noise = VQANoise(**noise_options(options, VQANoise, "vqa"))
+    return vqa if noise.clean else NoisyVQA(vqa, noise)
 
 
 _build_detector.probe = _probe  # type: ignore[attr-defined]

@@ -1,0 +1,204 @@
+"""Seeded perception noise for the oracle backends: the errors a real detector and VQA model make.
+
+The offline oracle sees perfectly, which hides the error propagation that the paper names as its main
+limitation. These wrappers add it, as spec options of the `oracle` backends:
+
+    oracle?miss=0.1&false_pos=0.05&jitter_px=4&confuse=0.05      (detector)
+    oracle?wrong=0.1                                             (VQA)
+    oracle?noise=realistic                                       (either: the named preset below)
+
+- miss: the chance that a true detection is dropped;
+- false_pos: the chance, per query, of one spurious box somewhere in the image with the query's label;
+- jitter_px: the standard deviation of Gaussian noise on each box edge, pixels;
+- confuse: the chance that a detection is another visible object's box (a category confusion);
+- wrong: the chance that a VQA answer is replaced by a plausible wrong one (another visible object's name,
+  another colour, the other of yes/no).
+
+Every draw comes from a generator seeded with the spec's `seed` (default 0) and a digest of the frame's
+pixels and the query: the same scene, query and seed give the same errors on every rerun, on any machine,
+and different scenes get independent errors. The backend's name carries its options, so answers and
+records say which noise produced them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import urllib.parse
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from attribot.errors import ConfigError
+from attribot.frame import Frame
+from attribot.lexicon import COLOR_WORDS
+from attribot.models.base import Detection
+
+__all__ = ["DetectorNoise", "VQANoise", "PRESETS", "NoisyDetector", "NoisyVQA", "split_options"]
+
+
+@dataclass(frozen=True)
+class DetectorNoise:
+    miss: float = 0.0
+    false_pos: float = 0.0
+    jitter_px: float = 0.0
+    confuse: float = 0.0
+    seed: int = 0
+
+    @property
+    def clean(self) -> bool:
+        return not (self.miss or self.false_pos or self.jitter_px or self.confuse)
+
+
+@dataclass(frozen=True)
+class VQANoise:
+    wrong: float = 0.0
+    seed: int = 0
+
+    @property
+    def clean(self) -> bool:
+        return not self.wrong
+
+
+PRESETS: dict[str, dict[str, float]] = {
+    "clean": {},
+    # about what an open-vocabulary detector and BLIP-2 get wrong on simulated household scenes
+    "realistic": {"miss": 0.1, "false_pos": 0.05, "jitter_px": 4.0, "confuse": 0.05, "wrong": 0.1},
+}
+"""Named noise levels (`oracle?noise=NAME`); each role takes the options that are its own."""
+
+
+def split_options(arg: str | None) -> tuple[str | None, dict[str, str]]:
+    """`"30?miss=0.1"` -> `("30", {"miss": "0.1"})`; `"?noise=realistic"` -> `(None, {...})`."""
+    if arg is None or "?" not in arg:
+        return arg, {}
+    head, _, query = arg.partition("?")
+    try:
+        pairs = urllib.parse.parse_qsl(query, keep_blank_values=True, strict_parsing=True)
+    except ValueError:
+        raise ConfigError(
+            f"backend options {query!r} are malformed", "write KEY=VALUE pairs joined by &, e.g. ?miss=0.1"
+        ) from None
+    return (head or None), dict(pairs)
+
+
+def noise_options(options: dict[str, str], kind: type[DetectorNoise] | type[VQANoise], role: str) -> dict:
+    """The noise fields of `kind` from spec options (a preset first, then the explicit values)."""
+    known = {f.name for f in fields(kind)}
+    values: dict[str, float] = {}
+    preset = options.get("noise")
+    if preset is not None:
+        if preset not in PRESETS:
+            raise ConfigError(f"unknown noise preset {preset!r}", f"choose one of: {', '.join(PRESETS)}")
+        values.update({k: v for k, v in PRESETS[preset].items() if k in known})
+    for key, raw in options.items():
+        if key == "noise":
+            continue
+        if key not in known:
+            raise ConfigError(
+                f"the oracle {role} has no option {key!r}",
+                f"its options are: noise, {', '.join(sorted(known))}",
+            )
+        try:
+            values[key] = int(raw) if key == "seed" else float(raw)
+        except ValueError:
+            raise ConfigError(f"oracle option {key}={raw!r} is not a number", f"e.g. {key}=0.1") from None
+    for key, value in values.items():
+        bad = value < 0 or (key not in ("jitter_px", "seed") and value > 1) or value != value
+        if bad:
+            raise ConfigError(
+                f"oracle option {key}={value} is out of range",
+                "give a probability from 0 to 1 (jitter_px: pixels >= 0; seed: a whole number >= 0)",
+            )
+    return values
+
+
+def _rng(noise_seed: int, frame: Frame, text: str) -> np.random.Generator:
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update(np.ascontiguousarray(frame.rgb).data)
+    digest.update(text.encode("utf-8", "surrogatepass"))
+    return np.random.default_rng([noise_seed, *np.frombuffer(digest.digest(), np.uint32).tolist()])
+
+
+def _spec_suffix(noise: DetectorNoise | VQANoise) -> str:
+    parts = [f"{f.name}={getattr(noise, f.name):g}" for f in fields(noise) if getattr(noise, f.name)]
+    return "?" + "&".join(parts) if parts else ""
+
+
+class NoisyDetector:
+    """A detector with seeded misses, false positives, jitter and confusions (see the module docstring)."""
+
+    def __init__(self, inner: object, noise: DetectorNoise) -> None:
+        self.inner = inner
+        self.noise = noise
+        self.name = f"{getattr(inner, 'name', 'detector')}{_spec_suffix(noise)}"
+
+    def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
+        clean: list[Detection] = self.inner.detect(frame, queries)  # type: ignore[attr-defined]
+        n = self.noise
+        rng = _rng(n.seed, frame, "\x1f".join(queries if not isinstance(queries, str) else [queries]))
+        everything: list[Detection] = []
+        if n.confuse:
+            everything = self.inner.detect(frame, ["object"])  # type: ignore[attr-defined]
+        out: list[Detection] = []
+        for det in clean:
+            if rng.random() < n.miss:
+                continue
+            if everything and rng.random() < n.confuse:
+                others = [d for d in everything if d.object_id != det.object_id]
+                if others:
+                    other = others[int(rng.integers(len(others)))]
+                    det = Detection(
+                        box=other.box, score=det.score, label=det.label, object_id=other.object_id
+                    )
+            out.append(self._jitter(det, frame, rng))
+        phrases = [queries] if isinstance(queries, str) else list(queries)
+        for query in phrases:
+            if rng.random() < n.false_pos:
+                out.append(self._spurious(query, frame, rng))
+        return sorted(out, key=lambda d: -d.score)
+
+    def _jitter(self, det: Detection, frame: Frame, rng: np.random.Generator) -> Detection:
+        if not self.noise.jitter_px:
+            return det
+        w, h = frame.width, frame.height
+        x0, y0, x1, y1 = (np.asarray(det.box) + rng.normal(0.0, self.noise.jitter_px, 4)).tolist()
+        x0, x1 = sorted((min(max(x0, 0.0), w - 1.0), min(max(x1, 0.0), w - 1.0)))
+        y0, y1 = sorted((min(max(y0, 0.0), h - 1.0), min(max(y1, 0.0), h - 1.0)))
+        box = (x0, y0, max(x1, x0 + 1.0), max(y1, y0 + 1.0))  # at least a pixel each way
+        return Detection(box=box, score=det.score, label=det.label, object_id=det.object_id)
+
+    @staticmethod
+    def _spurious(query: str, frame: Frame, rng: np.random.Generator) -> Detection:
+        w, h = frame.width, frame.height
+        bw, bh = rng.uniform(0.05, 0.25) * w, rng.uniform(0.05, 0.25) * h
+        x0, y0 = rng.uniform(0, w - bw), rng.uniform(0, h - bh)
+        score = float(rng.uniform(0.1, 0.5))  # a real detector is often less sure of what is not there
+        return Detection(box=(x0, y0, x0 + bw, y0 + bh), score=score, label=query.strip(), object_id=None)
+
+
+class NoisyVQA:
+    """A VQA model whose answers are wrong with a seeded chance (see the module docstring)."""
+
+    def __init__(self, inner: object, noise: VQANoise) -> None:
+        self.inner = inner
+        self.noise = noise
+        self.name = f"{getattr(inner, 'name', 'vqa')}{_spec_suffix(noise)}"
+
+    def answer(self, frame: Frame, question: str) -> str:
+        truth: str = self.inner.answer(frame, question)  # type: ignore[attr-defined]
+        rng = _rng(self.noise.seed, frame, question)
+        if rng.random() >= self.noise.wrong:
+            return truth
+        return self._wrong(truth, frame, rng)
+
+    def _wrong(self, truth: str, frame: Frame, rng: np.random.Generator) -> str:
+        text = truth.strip().lower()
+        if text in ("yes", "no"):
+            return "no" if text == "yes" else "yes"
+        if text in COLOR_WORDS:
+            return str(rng.choice(sorted(COLOR_WORDS - {text})))
+        names = sorted({o.category for o in frame.objects.values()} - {text})
+        if names:
+            return str(rng.choice(names))
+        return "unknown"
