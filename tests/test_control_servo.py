@@ -170,37 +170,33 @@ class _LosesOnce(BoxTracker):
         return super().update(image)
 
 
-def test_a_lost_target_is_detected_again_once(monkeypatch):
+def _focus_without_preaim(
+    tracker_class: type[BoxTracker], monkeypatch: pytest.MonkeyPatch
+) -> ServoController:
+    """Focus on the first object of household seed 7 from its first view, tracking with `tracker_class`."""
     import attribot.control.servo as servo_module
 
-    monkeypatch.setattr(servo_module, "BoxTracker", _LosesOnce)
-    _LosesOnce.lost_once = False
+    monkeypatch.setattr(servo_module, "BoxTracker", tracker_class)
     with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
         servo = ServoController(world, preaim=False)
-        patch = (
-            Robot(world=world, controller=servo)
-            .look(Perception.from_settings(load_settings()))
-            .find("object")[0]
-        )
+        perception = Perception.from_settings(load_settings())
+        patch = Robot(world=world, controller=servo).look(perception).find("object")[0]
         servo.focus_on(patch.target())
-        assert servo.last is not None and servo.last.redetections == 1 and servo.last.error_px <= 1.5
+        return servo
+
+
+def test_a_lost_target_is_detected_again_once(monkeypatch):
+    _LosesOnce.lost_once = False
+    servo = _focus_without_preaim(_LosesOnce, monkeypatch)
+    assert servo.last is not None and servo.last.redetections == 1 and servo.last.error_px <= 1.5
 
 
 def test_a_target_lost_again_after_the_second_detection_fails_clearly(monkeypatch):
-    import attribot.control.servo as servo_module
     from attribot.control.base import ControlError
 
     class AlwaysLost(BoxTracker):
         def update(self, image):
             return TrackResult(self.box, True, 0, False, "occluded")
 
-    monkeypatch.setattr(servo_module, "BoxTracker", AlwaysLost)
-    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
-        servo = ServoController(world, preaim=False)
-        patch = (
-            Robot(world=world, controller=servo)
-            .look(Perception.from_settings(load_settings()))
-            .find("object")[0]
-        )
-        with pytest.raises(ControlError, match="lost sight of .* while centring it"):
-            servo.focus_on(patch.target())
+    with pytest.raises(ControlError, match="lost sight of .* while centring it"):
+        _focus_without_preaim(AlwaysLost, monkeypatch)
