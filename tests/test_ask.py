@@ -311,6 +311,8 @@ def test_image_mode_runs_through_a_real_detector_and_vqa(tmp_path):
         answer = ask(query, Scene(image=photo), settings, save_dir=tmp_path / query.replace(" ", "-"))
         assert answer.backends["detector"].startswith("hf:") and answer.backends["vqa"].startswith("hf:")
         assert answer.world == {"image": str(photo)}
+        saved = {p.name for p in (tmp_path / query.replace(" ", "-")).iterdir()}
+        assert "answer.json" in saved and "episode.mp4" not in saved  # a still image has no episode
         assert answer.trace and answer.trace[0]["call"] in ("ImagePatch.find", "ImagePatch.visual_query")
         if answer.error is not None:
             assert answer.error.category == "runtime", answer.error

@@ -22,6 +22,7 @@ def write_whole(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it private; a saved answer is an ordinary file
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -37,3 +38,9 @@ def check_writable(folder: Path, what: str, fix: str) -> None:
         raise InputError(
             f"{what} cannot be written: {exc.strerror or exc.__class__.__name__} in {str(folder)!r}", fix
         ) from None
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

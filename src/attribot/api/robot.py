@@ -110,7 +110,14 @@ class Robot:
     }
     """The sensor each method needs (methods not listed need none); the prompt offers a method only when
     the robot has its sensor."""
-    HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("world", "controller", "held", "measurements", "capture")
+    HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
+        "world",
+        "controller",
+        "held",
+        "measurements",
+        "capture",
+        "activity",
+    )
     HOST_METHODS: ClassVar[tuple[str, ...]] = ("for_world", "look", "backend_name", "from_program")
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `Robot(...)` in a program calls on the session's robot (the paper's dialect)."""
@@ -150,6 +157,7 @@ class Robot:
         self._near: ImagePatch | None = None
         self._captures = 0
         self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
+        self.activity = ""  # the action under way, as a program wrote it (episode videos show it)
         self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
 
     @property
@@ -251,6 +259,7 @@ class Robot:
         if isinstance(patch, str):
             patch = self._named(patch, method)
         p = check_patch(patch, ImagePatch, "patch", method)
+        self.activity = f"robot.{method}({p.label or 'patch'})"
         if p.label and (not self._acted_on or self._acted_on[-1] is not p):
             self._acted_on.append(p)
         target = p.target()
@@ -490,6 +499,7 @@ class Robot:
         >>>     robot.put_down()
         >>>     return melon
         """
+        self.activity = "robot.put_down()"
         if self.held is None:
             raise PreconditionError(
                 "robot.put_down() needs an object in the gripper, and it is empty",

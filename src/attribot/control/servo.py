@@ -59,8 +59,15 @@ class ServoController(PointingController):
     max_step_rad: float = 0.15
     preaim: bool = True
     last: FocusReport | None = None
+    tracked: tuple[float, float, float, float] | None = None  # the box being centred, while it is
 
     def focus_on(self, target: Target) -> None:
+        try:
+            self._centre(target)
+        finally:
+            self.tracked = None
+
+    def _centre(self, target: Target) -> None:
         camera = self.world.camera_info()
         if self.preaim:
             super().focus_on(target)  # aim by geometry: the object is now near the image centre
@@ -105,6 +112,7 @@ class ServoController(PointingController):
                 tracking = not state.lost
             if tracking:
                 box = state.box
+            self.tracked = box
             u, v = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
             error = math.hypot(u - camera.cx, v - camera.cy)
             if error <= self.tol_px:

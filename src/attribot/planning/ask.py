@@ -22,7 +22,7 @@ from attribot.planning.base import is_utf8_text
 
 __all__ = ["Scene", "ask", "execute", "build_answer", "save_answer", "check_save_dir", "SAVED_FILES"]
 
-SAVED_FILES = ("answer.json", "program.py", "settings.json", "answer.png")
+SAVED_FILES = ("answer.json", "program.py", "settings.json", "answer.png", "episode.mp4")
 """What `save_answer` writes into its folder."""
 
 
@@ -74,7 +74,7 @@ def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = No
     text = check_query(query)
     check_save_dir(save_dir)
     planner = build_planner(settings.planner, settings)
-    with _Session(scene, settings) as session:
+    with _Session(scene, settings, record=save_dir is not None) as session:
         request = PlanRequest(query=text, sensors=session.sensors, embodied=session.world is not None)
         # solve() stops by itself when a planner repeats a program (the rules planner always does)
         solved = solve(planner, request, session.run, max_tries=settings.llm_max_tries)
@@ -99,14 +99,15 @@ def execute(
     if not is_utf8_text(program) or not is_utf8_text(query):
         raise InputError("the program or the query is not valid UTF-8 text", "save it as UTF-8")
     check_save_dir(save_dir)
-    with _Session(scene, settings) as session:
+    with _Session(scene, settings, record=save_dir is not None) as session:
         return session.finish(query, "file", program, session.run(program), 1, save_dir, settings)
 
 
 class _Session:
     """The world (or image), the API objects and the runner for one query; closes all of them."""
 
-    def __init__(self, scene: Scene, settings: Settings) -> None:
+    def __init__(self, scene: Scene, settings: Settings, record: bool = False) -> None:
+        """`record`: film an episode video of the world (robot camera, room camera, the API call)."""
         from attribot.api.patch import ImagePatch
         from attribot.api.perception import Perception
         from attribot.api.robot import Robot
@@ -116,6 +117,7 @@ class _Session:
         self.runs = 0
         self.world: Any = None
         self.runner: Any = None
+        self.recorder: Any = None
         try:
             if scene.image is not None:
                 if settings.detector == "oracle":
@@ -145,6 +147,15 @@ class _Session:
 
                 controller = build_controller(self.world, scene.controller)
                 self.robot = Robot(sensors=self.sensors, world=self.world, controller=controller)
+                if record and hasattr(self.world, "sim"):  # a simulated world can be filmed from outside
+                    from attribot.embodiments.episode import EpisodeRecorder
+
+                    robot = self.robot
+                    self.recorder = EpisodeRecorder(
+                        self.world,
+                        caption=lambda: robot.activity,
+                        tracked=lambda: getattr(robot.controller, "tracked", None),
+                    )
                 self.image = self.robot.look(self.perception)
             self.runner = ProgramRunner(classes=[ImagePatch, Robot])
         except BaseException:
@@ -190,7 +201,8 @@ class _Session:
             frame=self.image.frame,
         )
         if save_dir is not None:
-            save_answer(answer, save_dir, rgb=self.image.frame.rgb, settings=settings)
+            video = self.recorder.finish() if self.recorder is not None else None
+            save_answer(answer, save_dir, rgb=self.image.frame.rgb, settings=settings, video=video)
         return answer
 
     def close(self) -> None:
@@ -333,9 +345,14 @@ def check_save_dir(directory: Path | None) -> None:
 
 
 def save_answer(
-    answer: Answer, directory: Path, rgb: Any = None, settings: Settings | None = None
+    answer: Answer,
+    directory: Path,
+    rgb: Any = None,
+    settings: Settings | None = None,
+    video: bytes | None = None,
 ) -> list[Path]:
-    """Write answer.json, program.py, settings.json and (with `rgb`) answer.png with the chosen box drawn.
+    """Write answer.json, program.py, settings.json, (with `rgb`) answer.png with the chosen box drawn, and
+    (with `video`, MP4 bytes) episode.mp4.
 
     Each file is written beside its place and renamed into it, so that a file is whole or absent."""
     directory.mkdir(parents=True, exist_ok=True)
@@ -361,4 +378,6 @@ def save_answer(
         buf = io.BytesIO()
         Image.fromarray(draw_boxes(rgb, boxes)).save(buf, format="PNG")
         put("answer.png", buf.getvalue())
+    if video:
+        put("episode.mp4", video)
     return written

@@ -50,6 +50,7 @@ __all__ = [
     "resolve_categories",
     "camera_position",
     "object_center",
+    "ROOM_CAMERA",
 ]
 
 ROOM_HALF = 3.0  # the room is 6 m x 6 m, centred on the origin
@@ -761,6 +762,27 @@ def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
     hull.friction = [1.0, 0.005, 0.0001]
 
 
+ROOM_CAMERA = "room_camera"
+"""A fixed third-person camera behind the robot's start, for episode videos (never a robot sensor)."""
+
+
+def _add_room_camera(spec: mujoco.MjSpec, robot: tuple[float, float, float]) -> None:
+    x, y, yaw = robot
+    forward = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    left = np.array([-math.sin(yaw), math.cos(yaw), 0.0])
+    limit = ROOM_HALF - 0.2
+    pos = np.array([x, y, 0.0]) - 1.6 * forward + 0.9 * left
+    pos = np.array([np.clip(pos[0], -limit, limit), np.clip(pos[1], -limit, limit), 2.1])
+    look = np.array([x, y, 0.5]) + 1.3 * forward
+    f = (look - pos) / np.linalg.norm(look - pos)
+    right = np.cross(f, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    spec.worldbody.add_camera(
+        name=ROOM_CAMERA, pos=pos.tolist(), xyaxes=[*right.tolist(), *up.tolist()], fovy=70
+    )
+
+
 def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
     """Compile the plan into a model: room, furniture, objects, robot, sensors, a weld per pickable object."""
     spec = mujoco.MjSpec()
@@ -787,6 +809,7 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
     for o in plan.objects:
         _add_object(spec, o)
     add_robot(spec)
+    _add_room_camera(spec, plan.robot)
     for o in plan.objects:
         if o.category.pickable:
             eq = spec.add_equality(

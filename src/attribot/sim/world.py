@@ -11,6 +11,7 @@ separately for perception oracles, scoring and scene info.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -23,6 +24,7 @@ from attribot.frame import CameraInfo, Frame, ObjectTruth
 from attribot.sim.render import SceneRenderer
 from attribot.sim.robot import GEOMETRY
 from attribot.sim.scene import (
+    ROOM_CAMERA,
     ScenePlan,
     SceneRequest,
     build_model,
@@ -145,6 +147,7 @@ class SimWorld:
         else:
             assert error is not None
             raise error
+        self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
         self.step(settle_s)
         self._tare = np.zeros(3)
         self._held: int | None = None
@@ -263,14 +266,16 @@ class SimWorld:
             self._set_base_ctrl()
             if n:
                 mujoco.mj_step(m, d, nstep=n)
-            return
-        # the base command is in the robot frame: re-express it in the world frame as the base turns
-        chunk = 5
-        while n > 0:
-            self._set_base_ctrl()
-            k = min(chunk, n)
-            mujoco.mj_step(m, d, nstep=k)
-            n -= k
+        else:
+            # the base command is in the robot frame: re-express it in the world frame as the base turns
+            chunk = 5
+            while n > 0:
+                self._set_base_ctrl()
+                k = min(chunk, n)
+                mujoco.mj_step(m, d, nstep=k)
+                n -= k
+        for hook in getattr(self, "step_hooks", ()):
+            hook(float(d.time))
 
     def _set_base_ctrl(self) -> None:
         vx, vy, wz = self._base_cmd
@@ -461,6 +466,14 @@ class SimWorld:
         if self._renderer is None:
             self._renderer = SceneRenderer(self.model, self.width, self.height, self.profile)
         return self._renderer
+
+    def room_view(self) -> np.ndarray:
+        """RGB (H, W, 3) of the fixed third-person room camera: for episode videos, never for the robot."""
+        mujoco.mj_forward(self.model, self.data)
+        cam = _name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, ROOM_CAMERA)
+        out = self.renderer.render(self.data, cam, rgb=True)
+        assert out.rgb is not None
+        return out.rgb
 
     def observe(self, *, depth: bool = True, segmentation: bool = True) -> Frame:
         """The head camera's frame: RGB, and depth and segmentation (object keys, -1 elsewhere) with truth."""

@@ -1,0 +1,59 @@
+"""Writing MP4 video in process, with the H.264 encoder PyAV ships in its wheel (no system ffmpeg).
+
+`VideoWriter` encodes frames as they come (nothing is held but the encoded bytes) and `finish()` returns
+the file's bytes, so that the caller writes it whole with `attribot.files.write_whole`.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+
+from attribot.errors import InputError
+
+__all__ = ["VideoWriter"]
+
+
+class VideoWriter:
+    """H.264 MP4 of equally sized RGB uint8 frames at `fps` frames per second."""
+
+    def __init__(self, fps: float = 4.0) -> None:
+        import av
+
+        self._buffer = io.BytesIO()
+        self._container = av.open(self._buffer, mode="w", format="mp4")
+        self._stream: Any = None  # av's stream, made at the first frame (its size comes from it)
+        self._fps = fps
+        self.frames = 0
+
+    def add(self, rgb: np.ndarray) -> None:
+        import av
+
+        if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise InputError(f"a video frame must be RGB uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
+        h, w = rgb.shape[:2]
+        if self._stream is None:
+            from fractions import Fraction
+
+            self._stream = self._container.add_stream(
+                "libx264", rate=Fraction(self._fps).limit_denominator(1000)
+            )
+            self._stream.width, self._stream.height = w - w % 2, h - h % 2  # yuv420p wants even sides
+            self._stream.pix_fmt = "yuv420p"
+            self._stream.options = {"crf": "28", "preset": "veryfast"}
+        rgb = np.ascontiguousarray(rgb[: self._stream.height, : self._stream.width])
+        for packet in self._stream.encode(av.VideoFrame.from_ndarray(rgb, format="rgb24")):
+            self._container.mux(packet)
+        self.frames += 1
+
+    def finish(self) -> bytes:
+        """Flush the encoder and return the MP4 file's bytes (empty when no frame was added)."""
+        if self._stream is None:
+            self._container.close()
+            return b""
+        for packet in self._stream.encode():
+            self._container.mux(packet)
+        self._container.close()
+        return self._buffer.getvalue()
