@@ -24,6 +24,7 @@ LEVELS: list[set[str]] = [
         "files",
         "shutdown",
         "lexicon",
+        "video",
     },
     {"sim", "control"},
     {"embodiments"},
