@@ -48,3 +48,34 @@ def test_generic_nouns_stand_for_any_object():
         assert noun in lexicon.GENERIC_NOUNS
     parsed = parse_query("the heaviest item")
     assert all(o.generic for o in parsed.objects)
+
+
+PARAPHRASE_EXAMPLES = [
+    "which object weighs the most",
+    "which item weighing least",
+    "is the apple weighs more",
+    "which one weighs less",
+    "the thing with the greatest mass",
+    "which has the lowest weight",
+    "the most massive object",
+    "the least massive object",
+    "which one is farthest away",
+    "which is closest by",
+    "what's the distance to the book",
+    "which's heavier",
+]
+
+
+@pytest.mark.parametrize("text", PARAPHRASE_EXAMPLES)
+def test_every_paraphrase_the_lexicon_rewrites_holds_a_cue(text):
+    import re
+
+    assert any(re.search(p, text) for p, _ in lexicon.ATTRIBUTE_PARAPHRASES), text
+    assert any(cue in text for cue in lexicon.ATTRIBUTE_PARAPHRASE_CUES), text
+
+
+def test_each_paraphrase_pattern_has_an_example():
+    import re
+
+    for pattern, _ in lexicon.ATTRIBUTE_PARAPHRASES:
+        assert any(re.search(pattern, e) for e in PARAPHRASE_EXAMPLES), pattern

@@ -17,6 +17,8 @@ __all__ = [
     "GENERIC_NOUNS",
     "IRREGULAR_PLURALS",
     "DEICTIC_WORDS",
+    "ATTRIBUTE_PARAPHRASES",
+    "ATTRIBUTE_PARAPHRASE_CUES",
     "words",
     "singular_forms",
 ]
@@ -45,6 +47,32 @@ DEICTIC_WORDS: frozenset[str] = frozenset(
     {"it", "its", "this", "that", "they", "them", "their", "these", "those", "he", "she", "here", "there"}
 )
 """Pronouns and place words: they point at something and never name it, so a planner never searches them."""
+
+ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
+    # verb phrases of weight, to the adjective they mean
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest"),
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?least\b", "is the lightest"),
+    (r"\b(?:weighs?|weighing)\s+more\b", "is heavier"),
+    (r"\b(?:weighs?|weighing)\s+less\b", "is lighter"),
+    (
+        r"\b(?:has|have|with)\s+(?:the\s+)?(?:greatest|highest|largest|biggest|most)\s+(?:mass|weight)\b",
+        "is the heaviest",
+    ),
+    (r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b", "is the lightest"),
+    (r"\bmost\s+massive\b", "heaviest"),
+    (r"\bleast\s+massive\b", "lightest"),
+    # distance: "farthest away", "closest by" mean the adjective alone
+    (r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b", r"\1"),
+    # contractions
+    (r"\bwhat's\b", "what is"),
+    (r"\bwhich's\b", "which is"),
+)
+"""(pattern, replacement) pairs that turn paraphrases of an attribute into the words the planner reads
+("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text."""
+
+ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = ("weigh", "mass", "weight", "away", " by", "'s")
+"""Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
+without any can skip the patterns."""
 
 IRREGULAR_PLURALS: dict[str, str] = {
     "knives": "knife", "mice": "mouse", "geese": "goose", "teeth": "tooth", "feet": "foot",

@@ -20,7 +20,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from attribot.errors import InputError
-from attribot.lexicon import COLOR_ALIASES, COLOR_WORDS, DEICTIC_WORDS, GENERIC_NOUNS
+from attribot.lexicon import (
+    ATTRIBUTE_PARAPHRASE_CUES,
+    ATTRIBUTE_PARAPHRASES,
+    COLOR_ALIASES,
+    COLOR_WORDS,
+    DEICTIC_WORDS,
+    GENERIC_NOUNS,
+)
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
 
 if TYPE_CHECKING:
@@ -52,20 +59,33 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "the second umbrella from the left in the second to last row",
         "the pill in the middle of the right column",
     ),
-    "size": ("the third tallest item", "the smallest red apple", "the long carrot"),
+    "size": (
+        "the third tallest item",
+        "the smallest red apple",
+        "the long carrot",
+        "which cup is the tallest",
+    ),
     "weight": (
         "the heaviest item",
         "Out of the laptop, the chair and the credit card, which one is the most lightweight?",
         "Is the apple heavier than the book?",
+        "Which object weighs the most?",
+        "Give me the lightest of the apple, the phone and the kettle",
     ),
     "distance": (
         "Is the laptop or the tv closer to me?",
         "the closest chair",
         "Out of the mugs, which one is closer to me?",
         "Is the lamp closer to me than the chair?",
+        "Which object is farthest away from the robot?",
     ),
-    "grounding": ("Where is the mug?", "find the red apple", "point at the remote control"),
-    "measurement": ("How far away is the lamp?", "How heavy is the apple?", "How much does the book weigh?"),
+    "grounding": ("Where is the mug?", "find the red apple", "point at the remote control", "the red mug"),
+    "measurement": (
+        "How far away is the lamp?",
+        "How heavy is the apple?",
+        "How much does the book weigh?",
+        "What's the distance to the book?",
+    ),
 }
 """The families the rules planner reads, each with example phrasings."""
 
@@ -350,6 +370,9 @@ _LEAD = (
 )
 
 
+_PARAPHRASES = [(re.compile(p), meaning) for p, meaning in ATTRIBUTE_PARAPHRASES]
+
+
 def _normalize(query: str) -> tuple[str, bool] | None:
     """Lower case, accents folded, punctuation to spaces, polite or imperative openings ("find", "where
     is") and articles dropped, and whether there was such an opening; None when the text holds letters
@@ -360,6 +383,9 @@ def _normalize(query: str) -> tuple[str, bool] | None:
         return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
+    if any(word in text for word in ATTRIBUTE_PARAPHRASE_CUES):  # most queries have none: skip the patterns
+        for pattern, meaning in _PARAPHRASES:
+            text = pattern.sub(meaning, text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
     stripped = re.sub(_LEAD, "", text)
     return _strip_article(stripped), stripped != text
@@ -646,34 +672,48 @@ def _split_names(text: str) -> tuple[ObjectSpec, ...] | None:
     return tuple(specs) or None
 
 
-def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
-    """The comparative and "out of" forms of weight and distance queries."""
-    words = _WEIGHT_WORDS + "|" + _DIST_WORDS
-    forms = (
+_COMPARE_WORDS = _WEIGHT_WORDS + "|" + _DIST_WORDS
+_COMPARE_FORMS = [
+    re.compile(form)
+    for form in (
         # "Is the laptop or the tv closer to me?"
-        r"(?:is|are)\s+(?P<list>.+?\s+or\s+.+?)\s+(?P<adj>" + words + r")" + _ME,
+        r"(?:is|are)\s+(?P<list>.+?\s+or\s+.+?)\s+(?P<adj>" + _COMPARE_WORDS + r")" + _ME,
         # "Out of the laptop, chair and card, which one is the most lightweight?"
         r"(?:out\s+of|of|among|amongst|between|from)\s+(?P<list>.+?),?\s+which(?:\s+one|\s+item|\s+object)?"
-        r"(?:\s+of\s+(?:them|these|those))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")" + _ME,
+        r"(?:\s+of\s+(?:them|these|those))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + _COMPARE_WORDS + r")" + _ME,
         # "Which one is closer to me, the laptop or the tv?"
         r"which(?:\s+one|\s+item|\s+object)?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>"
-        + words
+        + _COMPARE_WORDS
         + r")"
         + _ME
         + r",?\s+(?:(?:out\s+)?of\s+|among\s+|between\s+)?(?P<list>.+)",
         # "Which one is the heaviest?", "Which mug is the closest to me?"
         r"which(?:\s+one|\s+(?P<noun>[a-z]+(?:\s+[a-z]+)?))?\s+(?:is|are)\s+(?:the\s+)?(?P<adj>"
-        + words
+        + _COMPARE_WORDS
         + r")"
         + _ME,
+        # "the lightest of the apple, the phone and the kettle" (a list: two names or more)
+        r"(?:the\s+)?(?P<adj>" + _COMPARE_WORDS + r")" + _ME + r"(?:\s+one)?\s+(?:of|among|out\s+of|from)\s+"
+        r"(?P<list>.+?(?:,|\s+and\s+|\s+or\s+).+?)" + _ME,
         # "the X or the Y: which is closer?"
-        r"(?P<list>.+?\s+or\s+.+?),?\s+which(?:\s+one)?\s+is\s+(?P<adj>" + words + r")" + _ME,
+        r"(?P<list>.+?\s+or\s+.+?),?\s+which(?:\s+one)?\s+is\s+(?P<adj>" + _COMPARE_WORDS + r")" + _ME,
         # "Is the apple heavier than the book?", "Is the lamp closer to me than the chair?": the program
         # answers with the one that is (the apple, or else the book)
-        r"(?:is|are)\s+(?P<first>.+?)\s+(?P<adj>" + words + r")" + _ME + r"\s+than\s+(?P<second>.+?)" + _ME,
+        r"(?:is|are)\s+(?P<first>.+?)\s+(?P<adj>"
+        + _COMPARE_WORDS
+        + r")"
+        + _ME
+        + r"\s+than\s+(?P<second>.+?)"
+        + _ME,
     )
-    for form in forms:
-        match = re.fullmatch(form, text)
+]
+"""The comparative and "out of" forms of weight and distance queries, compiled once."""
+
+
+def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
+    """The comparative and "out of" forms of weight and distance queries."""
+    for form in _COMPARE_FORMS:
+        match = form.fullmatch(text)
         if match is None:
             continue
         adjective = match["adj"]
@@ -746,14 +786,20 @@ def _parse_measure(text: str) -> MeasureQuery | None:
     return None
 
 
-def _parse_grounding(text: str) -> GroundingQuery | None:
+def _parse_grounding(text: str, opened: bool) -> GroundingQuery | None:
     """What is left of "Where is the mug?", "find the red apple" once the opening is dropped: a name. A bare
-    name with no opening ("the dog") is not read: with several dogs in view it asks for an attribute it
-    does not name."""
+    name with a colour ("the red mug") names one object too; a bare name alone ("the dog") is not read:
+    with several dogs in view it asks for an attribute it does not name."""
     obj = _named(text)
-    return None if obj is None else GroundingQuery(obj)
+    if obj is None or not (opened or obj.colors):
+        return None
+    return GroundingQuery(obj)
 
 
+_WHICH_X_IS = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2})\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
+)
 # "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
 _ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+ones?$")
 
@@ -774,11 +820,15 @@ def parse_query(query: str) -> ParsedQuery:
         return parsed
     # "which is the second dog from the right" asks for the same as "the second dog from the right"
     text = _strip_article(re.sub(r"^(?:which|what)\s+(?:one\s+)?(?:is|are)\s+", "", text))
+    # "which cup is the tallest" asks for "the tallest cup"
+    which = _WHICH_X_IS.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if which is not None and _object(which["noun"]) is not None:
+        text = f"{which['adj']} {which['noun']}"
     for parser in (_parse_location, _parse_size, _parse_superlative):
         reading = parser(text)
         if reading is not None:
             return reading
-    grounding = _parse_grounding(text) if opened else None
+    grounding = _parse_grounding(text, opened)
     if grounding is not None:
         return grounding
     raise UnsupportedQuery(original)
