@@ -118,11 +118,13 @@ def test_every_listed_example_reads_as_its_family():
         GroundingQuery,
         LocationQuery,
         MeasureQuery,
+        OddQuery,
         SizeQuery,
         WeightQuery,
     )
 
     kinds = {
+        "odd one out": OddQuery,
         "location": LocationQuery,
         "size": SizeQuery,
         "weight": WeightQuery,

@@ -45,6 +45,7 @@ __all__ = [
     "DistanceQuery",
     "GroundingQuery",
     "MeasureQuery",
+    "OddQuery",
     "ParsedQuery",
     "parse_query",
     "write_program",
@@ -79,6 +80,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "Is the lamp closer to me than the chair?",
         "Which object is farthest away from the robot?",
     ),
+    "odd one out": ("the odd one out", "Which object does not belong?", "the odd mug out"),
     "grounding": ("Where is the mug?", "find the red apple", "point at the remote control", "the red mug"),
     "measurement": (
         "How far away is the lamp?",
@@ -193,7 +195,16 @@ class MeasureQuery:
     quantity: Literal["distance", "weight"]
 
 
-ParsedQuery = LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | MeasureQuery
+@dataclass(frozen=True)
+class OddQuery:
+    """The one object unlike the others: "the odd one out", "which object does not belong?"."""
+
+    obj: ObjectSpec
+
+
+ParsedQuery = (
+    LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | MeasureQuery | OddQuery
+)
 
 
 # ---- the parser ----------------------------------------------------------------------------------------
@@ -775,14 +786,20 @@ def _named(text: str) -> ObjectSpec | None:
     return obj
 
 
-def _parse_measure(text: str) -> MeasureQuery | None:
-    """ "How far away is the lamp?", "How much does the apple weigh?": one named object's measurement."""
+def _parse_measure(text: str) -> MeasureQuery | WeightQuery | DistanceQuery | None:
+    """ "How far away is the lamp?", "How much does the apple weigh?": one named object's measurement; "How
+    far is the closest chair?": the chosen object, measured."""
     for form, quantity in _MEASURE_FORMS:
         match = re.fullmatch(form, text)
         if match is None:
             continue
         obj = _named(match["obj"])
-        return None if obj is None else MeasureQuery(obj, quantity)
+        if obj is not None:
+            return MeasureQuery(obj, quantity)
+        # "How far is the closest chair?": the closest chair, whose measured distance the answer gives
+        chosen = _parse_superlative(_strip_article(match["obj"]))
+        wanted = DistanceQuery if quantity == "distance" else WeightQuery
+        return chosen if isinstance(chosen, wanted) else None
     return None
 
 
@@ -800,6 +817,24 @@ _WHICH_X_IS = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2})\s+(?:is|are)\s+(?:the\s+)?"
     r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
 )
+_ODD = re.compile(
+    r"(?:(?:which|what)\s+(?:is\s+)?)?(?:the\s+)?odd\s+(?P<a>[a-z]+(?:\s+[a-z]+)?\s+)?out"
+    r"|(?:the\s+)?odd\s+one"
+    r"|(?:which|what|the)\s+(?P<b>[a-z]+)\s+(?:that\s+)?(?:does\s+not|doesn't|doesnt)\s+belong(?:\s+here)?"
+    r"|(?:which|what|the)\s+(?P<c>[a-z]+)\s+(?:that\s+)?is\s+(?:the\s+)?(?:different|odd)(?:\s+one)?"
+)
+
+
+def _parse_odd(text: str) -> OddQuery | None:
+    """ "the odd one out", "the odd mug out", "which object does not belong", "which one is different"."""
+    match = _ODD.fullmatch(text)
+    if match is None:
+        return None
+    noun = (match["a"] or match["b"] or match["c"] or "object").strip()
+    obj = ObjectSpec("object") if noun in ("one", "ones") else _object(noun)
+    return None if obj is None else OddQuery(obj)
+
+
 # "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
 _ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+ones?$")
 
@@ -815,7 +850,7 @@ def parse_query(query: str) -> ParsedQuery:
         raise UnsupportedQuery(original, "it has no words the planner reads")
     if text.endswith((" one", " ones")):
         text = _ADJECTIVE_ONE.sub(r"\1", text)
-    parsed = _parse_compare(text) or _parse_measure(text)
+    parsed = _parse_compare(text) or _parse_measure(text) or _parse_odd(text)
     if parsed is not None:
         return parsed
     # "which is the second dog from the right" asks for the same as "the second dog from the right"
@@ -1200,6 +1235,68 @@ def _write_measure(w: _Writer, q: MeasureQuery, query: str, sensors: Sequence[st
     w.line("return patch")
 
 
+_ODD_HELPER = '''
+def the_one_unlike_the_rest(values):
+    """The index of the only value that differs from all the others, which agree; None otherwise."""
+    for index in range(len(values)):
+        rest = values[:index] + values[index + 1 :]
+        if values[index] not in rest and len(set(rest)) == 1:
+            return index
+    return None
+
+
+def size_outlier(patches):
+    """The index of the patch whose size least fits the others. Apparent size shrinks with distance, which
+    on a table grows with height in the image, so each patch is compared with the line through the others'
+    sizes against their vertical centres (their median when they share one row)."""
+    worst, worst_index = -1.0, 0
+    for index in range(len(patches)):
+        others = patches[:index] + patches[index + 1 :]
+        ys = [p.lower for p in others]
+        sizes = [math.sqrt(p.area) for p in others]
+        mean_y, mean_size = sum(ys) / len(ys), sum(sizes) / len(sizes)
+        spread = sum((y - mean_y) ** 2 for y in ys)
+        if spread > 1.0:
+            slope = sum((y - mean_y) * (z - mean_size) for y, z in zip(ys, sizes)) / spread
+            expected = mean_size + slope * (patches[index].lower - mean_y)
+        else:
+            expected = sorted(sizes)[len(sizes) // 2]
+        misfit = abs(math.log(math.sqrt(patches[index].area) / max(expected, 1.0)))
+        if misfit > worst:
+            worst, worst_index = misfit, index
+    return worst_index
+'''.lstrip("\n")
+
+
+def _write_odd(w: _Writer, q: OddQuery, sensors: Sequence[str], embodied: bool) -> None:
+    w.helpers.append(_ODD_HELPER)
+    w.uses_math = True
+    _find(w, q.obj)
+    w.fail(
+        "len(candidates) < 3",
+        _count_message(
+            "the odd one out needs three objects or more, and the image shows ", "len(candidates)", ""
+        ),
+    )
+    w.line("# unlike the rest by kind first, then by colour, then by size (as an arrangement makes them)")
+    w.line('kinds = [c.visual_query("What is this?") for c in candidates]')
+    w.line("odd = the_one_unlike_the_rest(kinds)")
+    w.line("if odd is None:")
+    w.line('    colours = [c.visual_query("What color is this?") for c in candidates]')
+    w.line("    odd = the_one_unlike_the_rest(colours)")
+    w.line("if odd is None:")
+    if embodied and "distance" in sensors:
+        w.line("    # a size apart from perspective: the size in pixels times the measured distance")
+        w.line("    sizes = [math.sqrt(c.area) * robot.measure_distance(c) for c in candidates]")
+        w.line("    middle = sorted(sizes)[len(sizes) // 2]")
+        w.line("    misfits = [abs(math.log(size / middle)) for size in sizes]")
+        w.line("    odd = misfits.index(max(misfits))")
+    else:
+        w.line("    # no distance sensor: the size in pixels against the perspective of the others")
+        w.line("    odd = size_outlier(candidates)")
+    w.line("return candidates[odd]")
+
+
 def write_program(
     parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
 ) -> str:
@@ -1215,6 +1312,8 @@ def write_program(
         _write_distance(w, parsed, sensors, embodied)
     elif isinstance(parsed, MeasureQuery):
         _write_measure(w, parsed, query, sensors, embodied)
+    elif isinstance(parsed, OddQuery):
+        _write_odd(w, parsed, sensors, embodied)
     else:
         _write_grounding(w, parsed)
     return w.source()
