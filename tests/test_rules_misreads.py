@@ -19,6 +19,9 @@ from attribot.planning.rules import UnsupportedQuery, WeightQuery, parse_query
         ("the heaviest of these", True),
         ("Which one is the heaviest?", True),
         ("the lightest thing in front of me", False),
+        ("Out of these objects, which one is the most lightweight?", False),
+        ("Out of the three items, which one is the heaviest?", True),
+        ("Among these, which is the heaviest?", True),
     ],
 )
 def test_the_candidate_set_words_mean_any_object_in_view(query, heaviest):

@@ -425,9 +425,10 @@ def _ordinal(text: str) -> tuple[int, bool]:
 
 
 # "of these", "among the three", "out of them": the candidate set is what is in view, any object
+_COUNT_WORDS = r"(?:two|three|four|five|six)"
 _CANDIDATE_SET = re.compile(
-    r"^(?:of|among|out\s+of|from)\s+(?:these|those|them|all|(?:all\s+)?the\s+(?:two|three|four|five|six|"
-    r"\w+\s+)?(?:ones|items|objects|things)|the\s+(?:two|three|four|five|six))$"
+    r"^(?:of|among|out\s+of|from)\s+(?:them|all"
+    r"|(?:these|those|(?:all\s+)?the)(?:\s+" + _COUNT_WORDS + r")?(?:\s+(?:ones|items|objects|things))?)$"
 )
 _HERE = re.compile(r"\s+(?:here|there|around|in\s+view|in\s+front\s+of\s+(?:me|you|us|the\s+robot))$")
 _HERE_ENDINGS = ("here", "there", "around", "view", "me", "you", "us", "robot")
@@ -731,13 +732,18 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
         listed = match.groupdict().get("list")
         if match.groupdict().get("first") is not None:
             listed = f"{match['first']} or {match['second']}"
+        if listed is not None and _CANDIDATE_SET.match("of " + listed):
+            # "Out of these objects, which one...": the set is what is in view, not a list of names
+            listed, match_noun = None, "object"
+        else:
+            match_noun = None
         if listed is not None:
             objects = _split_names(_strip_article(listed))
             if objects is None:  # e.g. "to me" read as a list by an earlier form: try the next form
                 continue
             named = True
         else:
-            noun = match.groupdict().get("noun")
+            noun = match_noun or match.groupdict().get("noun")
             spec = _object(noun) if noun else ObjectSpec("object")
             if spec is None:
                 continue
