@@ -83,6 +83,7 @@ class PointingController(UnsupportedController):
     corrections: int = 3
     range_gap_rad: float = 0.05
     base_tol: float = 0.01
+    waited_s: float = 0.0  # time stepped while the head settled, since it was last zeroed
 
     def focus_on(self, target: Target) -> None:
         cap = target.capture
@@ -137,6 +138,7 @@ class PointingController(UnsupportedController):
         while elapsed < self.timeout_s:
             self.world.step(self.step_s)
             elapsed += self.step_s
+            self.waited_s += self.step_s
             now = _head(self.world)
             still = all(angle_close(a, b, self.still_rad) for a, b in zip(now, last, strict=True))
             if still and elapsed >= self.min_wait_s:

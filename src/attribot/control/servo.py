@@ -31,7 +31,8 @@ __all__ = ["ServoController", "FocusReport"]
 
 @dataclass(frozen=True)
 class FocusReport:
-    """How the last focus went: control steps, seconds of (sim or wall) time, final pixel error."""
+    """How the last focus went: control steps, seconds of (sim or wall) time in all (the geometric pre-aim's
+    settling included), final pixel error, re-detections."""
 
     steps: int
     seconds: float
@@ -69,6 +70,7 @@ class ServoController(PointingController):
 
     def _centre(self, target: Target) -> None:
         camera = self.world.camera_info()
+        self.waited_s, self.last = 0.0, None  # no report when the geometric aim is all there is
         if self.preaim:
             super().focus_on(target)  # aim by geometry: the object is now near the image centre
             if target.find is None:
@@ -139,7 +141,7 @@ class ServoController(PointingController):
                 f"({error:.1f} px off)",
                 "the object may be moving or beyond the head's range: go_to_object first",
             )
-        self.last = FocusReport(steps, steps * self.control_s, error, redetections)
+        self.last = FocusReport(steps, self.waited_s + steps * self.control_s, error, redetections)
 
 
 def _head(world: Any) -> tuple[float, float]:
