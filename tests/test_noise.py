@@ -149,3 +149,12 @@ def test_a_noisy_run_names_its_noise_and_reruns_identically():
     second = ask("Which object is the closest to me?", scene, settings)
     assert first.backends["detector"] == "oracle?miss=0.1&false_pos=0.05&jitter_px=4&confuse=0.05&seed=3"
     assert first.model_dump(exclude={"trace"}) == second.model_dump(exclude={"trace"})
+
+
+def test_a_noisy_oracle_on_a_still_image_is_refused_like_the_oracle(tmp_path):
+    from PIL import Image
+
+    photo = tmp_path / "photo.png"
+    Image.fromarray(np.zeros((48, 64, 3), np.uint8)).save(photo)
+    with pytest.raises(ConfigError, match="--image needs a real detector"):
+        ask("Where is the mug?", Scene(image=photo), load_settings(detector="oracle?noise=realistic"))

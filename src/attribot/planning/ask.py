@@ -120,7 +120,9 @@ class _Session:
         self.recorder: Any = None
         try:
             if scene.image is not None:
-                if settings.detector == "oracle":
+                from attribot.models.base import parse_spec
+
+                if parse_spec(settings.detector)[0] == "oracle":  # noisy or not, it reads simulator truth
                     raise ConfigError(
                         "--image needs a real detector: the default 'oracle' detector reads simulator "
                         "ground truth, which a still image does not have",
