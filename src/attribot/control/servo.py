@@ -99,7 +99,7 @@ class ServoController(PointingController):
         # frame instead (slower per step, as sure)
         tracking = not state.lost
         pids = [PID(self.kp, self.ki, out_min=-self.max_step_rad, out_max=self.max_step_rad) for _ in "pt"]
-        redetections, steps, error = 0, 0, math.inf
+        redetections, steps, error, checked = 0, 0, math.inf, False
         for step in range(1, self.max_steps + 1):
             steps = step
             if tracking and state.lost:
@@ -118,7 +118,16 @@ class ServoController(PointingController):
             u, v = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
             error = math.hypot(u - camera.cx, v - camera.cy)
             if error <= self.tol_px:
-                break
+                if not tracking or target.find is None or checked:
+                    break
+                # the tracked box may have drifted off the object (background features at its edges):
+                # one detection confirms the centring, or the loop goes on with detections every frame
+                checked = True
+                seen = see(frame)
+                if seen is None or _off_centre(seen, camera) <= self.tol_px:
+                    break
+                tracking, box = False, seen
+                continue
             # angular errors: left of the centre means pan left (positive), above means tilt up (positive)
             pan_err = math.atan2(camera.cx - u, camera.fx)
             tilt_err = math.atan2(camera.cy - v, camera.fy)
@@ -149,15 +158,15 @@ def _head(world: Any) -> tuple[float, float]:
     return float(js["head_pan"]), float(js["head_tilt"])
 
 
+def _off_centre(box: tuple[float, float, float, float], camera: Any) -> float:
+    return math.hypot((box[0] + box[2]) / 2 - camera.cx, (box[1] + box[3]) / 2 - camera.cy)
+
+
 def _nearest_to_centre(boxes: list[tuple[float, float, float, float]], camera: Any) -> Any:
     """The box whose centre is nearest the image centre, within a quarter of the image; None if none."""
     radius = min(camera.width, camera.height) / 4.0
-
-    def off(b: tuple[float, float, float, float]) -> float:
-        return math.hypot((b[0] + b[2]) / 2 - camera.cx, (b[1] + b[3]) / 2 - camera.cy)
-
-    near = [b for b in boxes if off(b) <= radius]
-    return min(near, key=off) if near else None
+    near = [b for b in boxes if _off_centre(b, camera) <= radius]
+    return min(near, key=lambda b: _off_centre(b, camera)) if near else None
 
 
 @CONTROLLERS.register("servo")
