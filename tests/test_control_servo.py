@@ -200,3 +200,28 @@ def test_a_target_lost_again_after_the_second_detection_fails_clearly(monkeypatc
 
     with pytest.raises(ControlError, match="lost sight of .* while centring it"):
         _focus_without_preaim(AlwaysLost, monkeypatch)
+
+
+class _Drifts(BoxTracker):
+    """A tracker whose box drifts 8 px off the object (as background features at its edges can make it)."""
+
+    def update(self, image):
+        r = super().update(image)
+        x0, y0, x1, y1 = r.box
+        return TrackResult((x0 + 8, y0, x1 + 8, y1), r.lost, r.features, r.reseeded, r.reason)
+
+
+def test_a_drifted_track_is_caught_by_the_confirming_detection(monkeypatch):
+    import attribot.control.servo as servo_module
+
+    monkeypatch.setattr(servo_module, "BoxTracker", _Drifts)
+    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
+        servo = ServoController(world, preaim=False)
+        patch = (
+            Robot(world=world, controller=servo)
+            .look(Perception.from_settings(load_settings()))
+            .find("object")[0]
+        )
+        servo.focus_on(patch.target())
+        assert servo.last is not None and servo.last.error_px <= 1.5
+        assert _truth_centre_error(world, patch.object_id) <= 5.0  # the object, not the drifted box
