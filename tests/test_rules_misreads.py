@@ -51,3 +51,57 @@ def test_named_lists_hold_names_not_generic_words():
     )
     assert isinstance(parsed, WeightQuery) and parsed.named
     assert [o.noun for o in parsed.objects] == ["kettle", "backpack", "tissue box"]
+
+
+REFUSALS = [
+    # attributes the planner has no measurement or reasoning for
+    "Which object is the softest?",
+    "Which cup is the hottest?",
+    "What is the most expensive item?",
+    "Which is older, the book or the mug?",
+    "the prettiest flower",
+    "which box is full",
+    "the cheapest item",
+    "which object is wet",
+    "the most fragile item",
+    "which bottle is empty",
+    "What's the temperature of the mug?",
+    "How old is the book?",
+    "Which object is the most colorful?",
+    "the fastest car",
+    "Which object is the strongest?",
+    "which item is the loudest",
+    "the brightest lamp",
+    "the darkest mug",
+    "Which is the best one?",
+    "Which object costs the most?",
+    "Which item has the most calories?",
+    "Which object is hot?",
+    "Which of those is the coldest?",
+    # pronouns and places with nothing to refer to
+    "Is it heavy?",
+    "How heavy is it?",
+    "What weighs more, this or that?",
+    "Which is closer, it or them?",
+    "How far away are they?",
+    "Where is it?",
+    "find them",
+    "the one over there",
+    # two questions, a negation, a relation the planner does not place, not a query at all
+    "the heaviest mug and the lightest book",
+    "the object that is not heavy",
+    "the mug that is heavier than the book",
+    "the thing next to the mug",
+    "Which one do you like?",
+    "sing me a song",
+    # questions for the VQA model, not for a program that chooses an object
+    "Is the mug red?",
+    "What color is the mug?",
+    "How many mugs are there?",
+]
+
+
+@pytest.mark.parametrize("query", REFUSALS)
+def test_what_it_cannot_read_it_refuses(query):
+    with pytest.raises(UnsupportedQuery):
+        parse_query(query)
