@@ -68,6 +68,8 @@ def test_viper_style_imagepatch_with_a_box_is_a_crop(runner):
         ("return ImagePatch(5)", "takes the image given to execute_command, not a int"),
         ("return ImagePatch(image, 0, 0)", "needs all four coordinates"),
         ('return Robot(sensors=["camera", "IMU"])', "unknown sensor 'IMU'"),
+        ("return Robot(sensors=123)", "sensors must be a list of names, got 123"),
+        ('return Robot("camera")', "sensors must be a list of names, got 'camera'"),
     ],
 )
 def test_dialect_constructors_refuse_clearly(runner, body, words):
@@ -89,6 +91,9 @@ def test_robot_with_the_papers_sensor_names_is_the_session_robot_restricted(runn
         """,
     )
     assert not result.ok and "needs the 'force' sensor" in result.error.message
+    assert (
+        "name it in the program's Robot(sensors=[...])" in result.error.message
+    )  # not --sensors: it has one
     assert [m.kind for m in robot.measurements] == ["distance"]  # recorded on the session's robot
     robot.look(world_perception())  # the next program starts with every sensor it was given
     assert robot.sensors == ["camera", "distance", "force"]

@@ -136,6 +136,7 @@ class Robot:
         """Host side: a robot with `sensors` in `world` (None: a still image, every action refused), acting
         through `controller` (default: the one registered for the world, see attribot.control.base)."""
         self._sensors: list[str] = check_sensors(sensors)
+        self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
         if world is not None and not isinstance(world, Embodiment):
             raise TypeError(
                 f"Robot needs an attribot.embodiments.base.Embodiment, got {type(world).__name__}"
@@ -218,11 +219,18 @@ class Robot:
     def _need(self, method: str) -> None:
         sensor = self.REQUIRES.get(method)
         if sensor is not None and sensor not in self.sensors:
+            if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
+                wanted = [*self.sensors, sensor]
+                fix = f"name it in the program's Robot(sensors=[...]), e.g. Robot(sensors={wanted})"
+            else:
+                fix = (
+                    f"add it with --sensors {','.join([*self.sensors, sensor])}, "
+                    f"or answer without robot.{method}"
+                )
             raise MissingSensor(
                 f"robot.{method}() needs the {sensor!r} sensor, and this robot has only: "
                 f"{', '.join(self.sensors)}",
-                f"add it with --sensors {','.join([*self.sensors, sensor])}, "
-                f"or answer without robot.{method}",
+                fix,
             )
 
     def _named(self, name: str, method: str) -> ImagePatch:
@@ -579,7 +587,7 @@ for _name in Robot.API_METHODS:
 
 def check_sensors(sensors: Sequence[str]) -> list[str]:
     """Sensor names lower-cased, deduplicated, "camera" first (always present); unknown names raise."""
-    if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
+    if not isinstance(sensors, list | tuple) or not all(isinstance(s, str) for s in sensors):
         raise InputError(
             f"sensors must be a list of names, got {sensors!r}",
             f"e.g. Robot(sensors=['camera', 'distance']); known: {', '.join(SENSORS)}",
