@@ -573,9 +573,14 @@ def bridge_serve(
 
         robot: Any = EmbodimentDriver(world)
     elif driver == "robomaster":
-        from attribot.bridge.robomaster import RoboMasterDriver
+        from attribot.bridge.robomaster import RoboMasterDriver, driver_options
 
-        robot = RoboMasterDriver.connect()
+        raw = {k: v for item in option or [] for k, _, v in [item.partition("=")]}
+        try:
+            kwargs = driver_options(raw)
+        except ValueError as exc:
+            raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
+        robot = RoboMasterDriver.connect(**kwargs)
     else:
         raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
     try:
