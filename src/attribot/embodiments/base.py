@@ -122,5 +122,5 @@ class Embodiment:
 
 
 EMBODIMENTS: Registry[type[Embodiment]] = Registry(
-    "world", ("attribot.embodiments.mujoco", "attribot.embodiments.bridge")
+    "world", ("attribot.embodiments.mujoco", "attribot.embodiments.bridge", "attribot.embodiments.ai2thor")
 )
