@@ -198,7 +198,7 @@ def test_base_velocity_is_clipped_and_ramped_at_the_acceleration_limit():
         assert driver.velocity == (0.0, 0.0, 0.0)
 
 
-def test_the_watchdog_stops_base_and_arm_when_commands_stop_arriving():
+def test_the_watchdog_stops_the_robot_when_commands_stop_arriving():
     limits = Limits(watchdog_s=0.3)
     with (
         serving(RecordingDriver, limits) as (server, driver),
@@ -212,7 +212,8 @@ def test_the_watchdog_stops_base_and_arm_when_commands_stop_arriving():
         while not driver.stopped_at and time.monotonic() < deadline:
             time.sleep(0.01)
         assert driver.stopped_at, "the watchdog never stopped the robot"
-        assert 0.3 <= driver.stopped_at[0] - sent + 0.1 < 0.3 + 0.2
+        since_command = driver.stopped_at[0] - sent + 0.1
+        assert 0.3 <= since_command < 0.3 + 0.4  # 50 Hz watchdog; slack for a loaded machine
         assert driver.velocity == (0.0, 0.0, 0.0)
         assert any("watchdog" in why for _, why in server.stops)
 
