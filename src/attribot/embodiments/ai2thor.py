@@ -52,9 +52,15 @@ class Ai2ThorWorld(Embodiment):
     name = "ai2thor"
 
     def __init__(
-        self, config: SceneConfig | None = None, *, controller: Any = None, fov_deg: float = 90.0
+        self,
+        config: SceneConfig | None = None,
+        *,
+        controller: Any = None,
+        fov_deg: float = 90.0,
+        **fields: Any,
     ) -> None:
-        self.config = config or SceneConfig()
+        """`fields`: SceneConfig fields instead of `config` (as every world takes them)."""
+        self.config = config or SceneConfig.create(**fields)
         self.fov_deg = fov_deg
         if controller is None:
             try:

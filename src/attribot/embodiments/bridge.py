@@ -67,8 +67,10 @@ class BridgeWorld(Embodiment):
         url: str | None = None,
         token: str | None = None,
         timeout_s: float = 10.0,
+        **fields: Any,
     ) -> None:
-        self.config = config or SceneConfig()
+        """`fields`: SceneConfig fields instead of `config` (as every world takes them)."""
+        self.config = config or SceneConfig.create(**fields)
         url = url or str(self.config.options.get(URL_OPTION) or os.environ.get("ATTRIBOT_BRIDGE_URL") or "")
         if not url:
             raise ConfigError(
