@@ -8,7 +8,7 @@ import pytest
 
 from attribot.config import load_settings
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment
-from attribot.errors import AttribotError, ConfigError
+from attribot.errors import AttribotError, ConfigError, MissingDependency
 from attribot.frame import Frame
 from attribot.models.base import ROLES, BackendStatus, LanguageModel, VisualQA, build_backend, probe_backend
 from attribot.models.base import Detector as DetectorProtocol
@@ -38,7 +38,14 @@ def test_every_layout_is_deterministic_and_finite(layout):
 
 @pytest.mark.parametrize("name", EMBODIMENTS.names())
 def test_every_world_observes_and_refuses_what_it_cannot_do(name):
-    with EMBODIMENTS.get(name)(**SMALL) as world:
+    try:
+        built = EMBODIMENTS.get(name)(**SMALL)
+    except (ConfigError, MissingDependency) as exc:
+        # a world that needs a robot's address or an extra (bridge, ai2thor) says what is missing; their own
+        # tests (test_bridge.py, test_ai2thor.py) run them against a loopback robot and a fake controller
+        assert name in ("bridge", "ai2thor") and exc.fix
+        return
+    with built as world:
         assert isinstance(world, Embodiment)
         caps = world.capabilities()
         assert Capability.CAMERA in caps

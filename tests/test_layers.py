@@ -25,6 +25,7 @@ LEVELS: list[set[str]] = [
         "shutdown",
         "lexicon",
         "video",
+        "bridge",  # the robot side: standard library, numpy and the SDK only, nothing of attribot
     },
     {"sim", "control"},
     {"embodiments"},
@@ -32,7 +33,7 @@ LEVELS: list[set[str]] = [
     {"api"},
     {"runner"},
     {"planning"},
-    {"eval", "server", "bridge"},
+    {"eval", "server"},
     {"cli"},
 ]
 LEVEL_OF = {name: i for i, names in enumerate(LEVELS) for name in names}

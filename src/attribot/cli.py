@@ -221,6 +221,16 @@ def scene_info(
 
 # ---- ask / exec (planner, runner, API) ---------------------------------------------------------------
 
+_WORLD = typer.Option(
+    None,
+    "--world",
+    help="World to ask in: mujoco (the embedded scene, default), ai2thor or bridge (a robot).",
+)
+_BRIDGE_URL = typer.Option(
+    None,
+    "--bridge-url",
+    help="With --world bridge: the robot's tcp://HOST:PORT; the token comes from ATTRIBOT_BRIDGE_TOKEN.",
+)
 _IMAGE = typer.Option(None, "--image", help="Answer about this image file instead of a simulated scene.")
 _SENSORS = typer.Option(
     None,
@@ -249,16 +259,24 @@ def _prefetch_rendering() -> None:
     prefetch_gl_backend()
 
 
-def _scene(config: Any, image: Path | None, sensors: str | None, controller: str | None = None) -> Any:
+def _scene(
+    config: Any,
+    image: Path | None,
+    sensors: str | None,
+    controller: str | None = None,
+    world: str | None = None,
+    bridge_url: str | None = None,
+) -> Any:
     """The world to ask in; called first, so that the OpenGL probe overlaps the slow imports."""
-    if image is None:
+    world, config = _world_choice(config, image, world, bridge_url)
+    if image is None and world == "mujoco":
         _prefetch_rendering()
     from attribot.planning.ask import Scene
 
     names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
     if controller is not None and image is not None:
         raise fail("--controller acts in a world, and --image is a still image", "drop one of the two")
-    return Scene(config=config, image=image, sensors=names, controller=controller)
+    return Scene(config=config, image=image, sensors=names, controller=controller, world=world)
 
 
 @contextlib.contextmanager
@@ -294,6 +312,31 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
         error=AnswerError(category=category, message=message),
     )
     typer.echo(answer.model_dump_json(indent=2))
+
+
+def _world_choice(
+    config: Any, image: Path | None, world: str | None, bridge_url: str | None
+) -> tuple[str, Any]:
+    """The world name and its config; `--bridge-url` rides in the config's options (`bridge_url`)."""
+    name = world or ("bridge" if bridge_url else "mujoco")
+    if name not in ("mujoco", "ai2thor", "bridge"):
+        raise fail(f"--world {name!r} is not a world here", "choose --world mujoco, ai2thor or bridge")
+    if image is not None and world is not None:
+        raise fail(
+            "--world and --image cannot be given together", "drop one: --image answers about a still image"
+        )
+    if bridge_url is not None and name != "bridge":
+        raise fail(
+            f"--bridge-url only applies to --world bridge, not {name}", "add --world bridge or drop it"
+        )
+    if name == "bridge":
+        if not bridge_url:
+            raise fail("--world bridge needs --bridge-url", "give --bridge-url tcp://HOST:PORT of the robot")
+        from attribot.config import SceneConfig
+
+        base = config or SceneConfig()
+        config = base.model_copy(update={"options": {**base.options, "bridge_url": bridge_url}})
+    return name, config
 
 
 def _show(answer: Any, as_json: bool) -> None:
@@ -334,6 +377,8 @@ def ask(
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     controller: str | None = _CONTROLLER,
+    world: str | None = _WORLD,
+    bridge_url: str | None = _BRIDGE_URL,
     planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
     llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
     llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
@@ -346,7 +391,7 @@ def ask(
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
     with _errors_as_json(as_json, query, planner or "rules"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-        scene = _scene(config, image, sensors, controller)
+        scene = _scene(config, image, sensors, controller, world, bridge_url)
         from attribot.config import load_settings
         from attribot.planning.ask import ask as run_ask
 
@@ -376,6 +421,8 @@ def exec_program(
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     controller: str | None = _CONTROLLER,
+    world: str | None = _WORLD,
+    bridge_url: str | None = _BRIDGE_URL,
     query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
     detector: str | None = _DETECTOR,
     vqa: str | None = _VQA,
@@ -388,7 +435,7 @@ def exec_program(
 
     with _errors_as_json(as_json, query, "file"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-        scene = _scene(config, image, sensors, controller)
+        scene = _scene(config, image, sensors, controller, world, bridge_url)
         from attribot.config import load_settings
         from attribot.planning.ask import execute
 
@@ -557,6 +604,75 @@ def serve_models(
         highlight=False,
     )
     run_server(backends, config, host=host, port=port, log_level=log_level)
+
+
+# ---- bridge (the robot side of the robot bridge) -----------------------------------------------------
+
+bridge_app = typer.Typer(
+    help="The robot bridge: `attribot bridge serve` on the robot (see docs/bridge-protocol.md).",
+    no_args_is_help=True,
+)
+app.add_typer(bridge_app, name="bridge")
+
+
+@bridge_app.command("serve")
+def bridge_serve(
+    driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
+    token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),
+    port: int = typer.Option(7777, "--port", help="TCP port to listen on."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface)."),
+    layout: str | None = _S_LAYOUT,
+    seed: int | None = _S_SEED,
+    option: list[str] | None = _S_OPTION,
+    width: int | None = _S_WIDTH,
+    height: int | None = _S_HEIGHT,
+    max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s."),
+    max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s."),
+    max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2."),
+    watchdog: float = typer.Option(
+        0.5, "--watchdog", help="Stop base and arm after this many s without a command."
+    ),
+) -> None:
+    """Serve a robot (or the embedded world) to `attribot ask --world bridge` until interrupted."""
+    import logging
+
+    from attribot.bridge.server import Limits, RobotServer
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    try:
+        limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
+    except ValueError as exc:
+        raise fail(str(exc), "give positive limits, e.g. --watchdog 0.5") from None
+    if driver == "mujoco":
+        config = _scene_config(layout, seed, None, None, option, width, height, None)
+        world = _scene_world(config)
+        from attribot.embodiments.bridge import EmbodimentDriver
+
+        robot: Any = EmbodimentDriver(world)
+    elif driver == "robomaster":
+        from attribot.bridge.robomaster import RoboMasterDriver, driver_options
+
+        raw = {k: v for item in option or [] for k, _, v in [item.partition("=")]}
+        try:
+            kwargs = driver_options(raw)
+        except ValueError as exc:
+            raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
+        robot = RoboMasterDriver.connect(**kwargs)
+    else:
+        raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
+    try:
+        server = RobotServer(robot, token, host=host, port=port, limits=limits)
+    except OSError as exc:
+        robot.close()
+        raise fail(f"cannot listen on {host}:{port} ({exc.strerror})", "choose another --port") from None
+    err_console.print(f"bridge: serving {robot.name} on tcp://{host}:{server.address[1]}", highlight=False)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+        robot.close()
 
 
 def main() -> None:

@@ -121,4 +121,6 @@ class Embodiment:
         self.close()
 
 
-EMBODIMENTS: Registry[type[Embodiment]] = Registry("world", ("attribot.embodiments.mujoco",))
+EMBODIMENTS: Registry[type[Embodiment]] = Registry(
+    "world", ("attribot.embodiments.mujoco", "attribot.embodiments.bridge", "attribot.embodiments.ai2thor")
+)

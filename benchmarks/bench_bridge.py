@@ -1,0 +1,164 @@
+#!/usr/bin/env python3
+"""The robot bridge over loopback against the in-process world, in one process (ratios, not absolutes).
+
+1. Frame round trip at 640x480: `BridgeWorld.observe()` (JPEG + depth + segmentation over TCP) against
+   `MujocoWorld.observe()` in-process.
+2. Control steps per second over the bridge: observe + command_base + step(1/30 s), as a servo loop does,
+   against the same loop in-process (target: at least 30 per second over the bridge).
+3. Time from the last command to the base stopping when the client process is killed (SIGKILL), with the
+   watchdog at 0.5 s (target under 0.5 s; a dropped connection stops it at once).
+4. The same embodied distance queries (held-out seeds) over the bridge and directly: answers compared.
+
+    .venv/bin/python benchmarks/bench_bridge.py [--frames 30] [--steps 60] [--seeds 10,11,12,13,14]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import queue
+import signal
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from typing import Any
+
+from attribot.bridge.server import Limits, RobotServer
+from attribot.config import SceneConfig, load_settings
+from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.planning.ask import Scene, ask
+
+TOKEN = "bench"
+
+
+class _TimedDriver(EmbodimentDriver):
+    def __init__(self, world: MujocoWorld) -> None:
+        super().__init__(world)
+        self.drives: list[tuple[float, tuple[float, float, float]]] = []
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        self.drives.append((time.monotonic(), (vx, vy, wz)))
+        super().drive(vx, vy, wz)
+
+
+def serve(config: SceneConfig, limits: Limits) -> tuple[RobotServer, _TimedDriver, threading.Thread]:
+    ready: queue.Queue[Any] = queue.Queue()
+
+    def run() -> None:  # the world is built, rendered and closed in the serving thread (EGL context)
+        driver = _TimedDriver(MujocoWorld(config))
+        server = RobotServer(driver, TOKEN, limits=limits)
+        ready.put((server, driver))
+        try:
+            server.serve_forever()
+        finally:
+            driver.close()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    server, driver = ready.get(timeout=120)
+    return server, driver, thread
+
+
+def timed(fn: Any, n: int) -> float:
+    fn()
+    start = time.perf_counter()
+    for _ in range(n):
+        fn()
+    return (time.perf_counter() - start) / n
+
+
+_CLIENT = textwrap.dedent(
+    """
+    import sys, time
+    from attribot.embodiments.bridge import BridgeWorld
+    world = BridgeWorld(url=sys.argv[1], token=sys.argv[2])
+    world.command_base(0.2, 0.0, 0.3)
+    world.step(0.05)  # a simulated robot moves in step
+    print("sent", flush=True)
+    time.sleep(60)
+    """
+)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=30)
+    parser.add_argument("--steps", type=int, default=60)
+    parser.add_argument("--seeds", default="10,11,12,13,14")
+    args = parser.parse_args()
+    config = SceneConfig(layout="household", seed=3, width=640, height=480)
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.5)
+    server, driver, thread = serve(config, limits)
+    url = f"tcp://127.0.0.1:{server.address[1]}"
+    try:
+        with BridgeWorld(url=url, token=TOKEN) as bridge, MujocoWorld(config) as direct:
+            t_bridge = timed(bridge.observe, args.frames)
+            t_direct = timed(direct.observe, args.frames)
+            print(f"frame 640x480: bridge {t_bridge * 1e3:.1f} ms, in-process {t_direct * 1e3:.1f} ms, "
+                  f"ratio {t_bridge / t_direct:.2f}")  # fmt: skip
+
+            def loop(world: Any) -> None:
+                world.observe()
+                world.command_base(0.05, 0.0, 0.1)
+                world.step(1 / 30)
+
+            s_bridge = 1 / timed(lambda: loop(bridge), args.steps)
+            s_direct = 1 / timed(lambda: loop(direct), args.steps)
+            print(f"control steps/s (observe+command+step): bridge {s_bridge:.1f}, "
+                  f"in-process {s_direct:.1f}, ratio {s_bridge / s_direct:.2f}")  # fmt: skip
+            bridge.stop()
+
+        for how in (signal.SIGKILL, signal.SIGSTOP):  # killed: the connection drops; frozen: the watchdog
+            client = subprocess.Popen(
+                [sys.executable, "-c", _CLIENT, url, TOKEN], stdout=subprocess.PIPE, text=True
+            )
+            assert client.stdout is not None and client.stdout.readline() == "sent\n"
+            time.sleep(0.1)
+            last_command = max(t for t, v in driver.drives if v != (0.0, 0.0, 0.0))
+            client.send_signal(how)
+            signalled = time.monotonic()
+            while driver.drives[-1][1] != (0.0, 0.0, 0.0):
+                time.sleep(0.001)
+            stop_at = driver.drives[-1][0]
+            print(
+                f"client {how.name}: base stopped {stop_at - last_command:.3f} s after the last command "
+                f"({stop_at - signalled:.3f} s after the signal; watchdog {limits.watchdog_s} s)"
+            )
+            client.kill()
+            client.wait()
+            time.sleep(0.1)
+    finally:
+        server.close()
+        thread.join(timeout=30)
+
+    queries = ["Which object is the closest to the robot?", "Which object is the farthest from the robot?"]
+    same = total = 0
+    settings = load_settings()
+    os.environ["ATTRIBOT_BRIDGE_TOKEN"] = TOKEN
+    for seed in [int(s) for s in args.seeds.split(",")]:
+        cfg = SceneConfig(layout="household", seed=seed)
+        for query in queries:  # a fresh robot per query, as the direct world is fresh per query
+            server, driver, thread = serve(cfg, Limits(watchdog_s=5.0))
+            bridged = cfg.model_copy(
+                update={"options": {"bridge_url": f"tcp://127.0.0.1:{server.address[1]}"}}
+            )
+            try:
+                over = ask(
+                    query, Scene(world="bridge", config=bridged, sensors=["camera", "distance"]), settings
+                )
+            finally:
+                server.close()
+                thread.join(timeout=30)
+            here = ask(query, Scene(world="mujoco", config=cfg, sensors=["camera", "distance"]), settings)
+            total += 1
+            same += over.answer == here.answer and over.error is None
+            if over.answer != here.answer:
+                print(f"  seed {seed} {query!r}: bridge {over.answer!r} / direct {here.answer!r}")
+    print(f"embodied distance queries, seeds {args.seeds}: {same}/{total} answers identical over the bridge")
+
+
+if __name__ == "__main__":
+    main()

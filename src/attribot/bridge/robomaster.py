@@ -1,0 +1,259 @@
+"""The DJI RoboMaster EP as a bridge driver, through the RoboMaster SDK's documented calls.
+
+Calls and units (SDK 0.1.1, `src/robomaster/*.py` of dji-sdk/RoboMaster-SDK):
+- `chassis.drive_speed(x, y, z, timeout)`: x forward and y rightward in m/s, z clockwise in degrees/s
+  (the EP's chassis frame points x forward, y right, z down); the bridge speaks forward / left /
+  counter-clockwise radians, so y and z change sign here. `timeout` makes the EP itself stop when no new
+  speed arrives: a second watchdog below the bridge's.
+- `camera.start_video_stream(display=False, resolution=...)` and `camera.read_cv2_image(strategy="newest")`:
+  BGR frames, encoded to JPEG here with OpenCV (the SDK's own dependency).
+- `sensor.sub_distance(freq, callback)`: the callback gets the four ToF readings in millimetres.
+- `robotic_arm.moveto(x, y)`: absolute end-effector position in millimetres, x forward, y up, relative to
+  the arm's recentred pose; `robotic_arm.sub_position(freq, callback)` reports (x, y) in millimetres.
+- `gripper.open(power)` / `gripper.close(power)` and `gripper.sub_status(freq, callback)` ("opened",
+  "closed", "normal"; "normal" after closing means the fingers stopped on something).
+- `sensor_adaptor.get_adc(id, port)`: 10-bit ADC value (0 to 1023) of a sensor adaptor port.
+
+The EP has no force sensor. Weight comes from an optional load cell on the gripper, read through the sensor
+adaptor's ADC; its wiring and calibration are in docs/bridge-protocol.md ("RoboMaster EP load cell"). With
+no `LoadCell` configured the driver leaves the force capability out and the planner never asks for weight.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Any
+
+from attribot.bridge.server import CameraFrame, Driver
+
+__all__ = ["LoadCell", "RoboMasterDriver"]
+
+_GRAVITY = 9.80665
+
+
+class LoadCell:
+    """A load cell (strain-gauge bridge and an instrumentation amplifier) on a sensor adaptor ADC port.
+
+    newtons = (adc - zero_adc) * newtons_per_count, with `zero_adc` the reading with nothing held and
+    `newtons_per_count` from one known mass: (m * 9.80665) / (adc_with_mass - zero_adc). `tare()` takes the
+    current reading as the new zero (what `tare_force` does before a grasp).
+    """
+
+    def __init__(
+        self, newtons_per_count: float, zero_adc: float = 0.0, board_id: int = 1, port: int = 1
+    ) -> None:
+        if not (newtons_per_count != 0 and math.isfinite(newtons_per_count)):
+            raise ValueError("newtons_per_count must be a non-zero number (calibrate with a known mass)")
+        self.newtons_per_count = float(newtons_per_count)
+        self.zero_adc = float(zero_adc)
+        self.board_id = int(board_id)
+        self.port = int(port)
+
+    @staticmethod
+    def calibrate(
+        zero_adc: float, loaded_adc: float, mass_kg: float, board_id: int = 1, port: int = 1
+    ) -> LoadCell:
+        """The load cell whose readings were `zero_adc` empty and `loaded_adc` holding `mass_kg`."""
+        if loaded_adc == zero_adc:
+            raise ValueError(
+                "the loaded reading equals the empty one: check the wiring and the amplifier gain"
+            )
+        return LoadCell(mass_kg * _GRAVITY / (loaded_adc - zero_adc), zero_adc, board_id, port)
+
+
+class RoboMasterDriver(Driver):
+    """A RoboMaster EP (engineering version: chassis, arm, gripper, camera, ToF) behind the bridge."""
+
+    name = "robomaster-ep"
+    realtime = True
+
+    def __init__(
+        self,
+        robot: Any,
+        *,
+        load_cell: LoadCell | None = None,
+        resolution: str = "360p",
+        hfov_deg: float = 96.0,
+        tof_index: int = 0,
+        gripper_power: int = 50,
+        speed_timeout_s: float = 1.0,
+        jpeg_quality: int = 85,
+        gripper_settle_s: float = 1.0,
+    ) -> None:
+        """`robot`: an initialised `robomaster.robot.Robot` (or anything with its modules and calls).
+        hfov_deg: the camera's horizontal field of view after calibration (the intrinsics sent in hello)."""
+        sizes = {"360p": (640, 360), "540p": (960, 540), "720p": (1280, 720)}
+        if resolution not in sizes:
+            raise ValueError(f"resolution must be one of {sorted(sizes)}, got {resolution!r}")
+        self.robot = robot
+        self.load_cell = load_cell
+        self.resolution = resolution
+        self.width, self.height = sizes[resolution]
+        self.fx = (self.width / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
+        self.tof_index = tof_index
+        self.gripper_power = gripper_power
+        self.speed_timeout_s = speed_timeout_s
+        self.jpeg_quality = jpeg_quality
+        self.gripper_settle_s = gripper_settle_s
+        self._lock = threading.Lock()
+        self._tof_mm: float | None = None
+        self._arm_mm = (0.0, 0.0)
+        self._gripper = "opened"
+        robot.camera.start_video_stream(display=False, resolution=resolution)
+        robot.sensor.sub_distance(freq=20, callback=self._on_distance)
+        robot.robotic_arm.sub_position(freq=20, callback=self._on_arm)
+        robot.gripper.sub_status(freq=20, callback=self._on_gripper)
+
+    @classmethod
+    def connect(cls, conn_type: str = "ap", **options: Any) -> RoboMasterDriver:
+        """Connect to the EP over wifi (`ap`: the robot's own access point; `sta`: the lab's network)."""
+        from robomaster import robot as rm_robot  # the SDK: only on the robot's computer
+
+        ep = rm_robot.Robot()
+        ep.initialize(conn_type=conn_type)
+        return cls(ep, **options)
+
+    # --- subscriptions ----------------------------------------------------------------------------
+    def _on_distance(self, distances: Any) -> None:
+        with self._lock:
+            self._tof_mm = float(distances[self.tof_index])
+
+    def _on_arm(self, position: Any) -> None:
+        with self._lock:
+            self._arm_mm = (float(position[0]), float(position[1]))
+
+    def _on_gripper(self, status: Any) -> None:
+        with self._lock:
+            self._gripper = str(status)
+
+    # --- Driver -----------------------------------------------------------------------------------
+    def capabilities(self) -> list[str]:
+        caps = ["camera", "base", "arm", "gripper", "distance"]
+        if self.load_cell is not None:
+            caps.append("force")
+        return caps
+
+    def camera(self) -> dict[str, float]:
+        return {
+            "width": self.width,
+            "height": self.height,
+            "fx": self.fx,
+            "fy": self.fx,
+            "cx": self.width / 2.0,
+            "cy": self.height / 2.0,
+        }
+
+    def frame(self) -> CameraFrame:
+        import cv2  # installed with the RoboMaster SDK
+
+        bgr = self.robot.camera.read_cv2_image(timeout=3, strategy="newest")
+        stamp = time.time()
+        if bgr is None:
+            raise RuntimeError("the EP's video stream gave no frame within 3 s")
+        ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
+        if not ok:
+            raise RuntimeError("the EP's frame could not be encoded as JPEG")
+        return CameraFrame(bytes(buf.tobytes()), timestamp=stamp)
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        self.robot.chassis.drive_speed(
+            x=float(vx), y=-float(vy), z=-math.degrees(float(wz)), timeout=self.speed_timeout_s
+        )
+
+    def stop(self) -> None:
+        self.robot.chassis.drive_speed(x=0.0, y=0.0, z=0.0)
+        with self._lock:
+            x, y = self._arm_mm
+        self.robot.robotic_arm.moveto(x=x, y=y)  # hold the arm where it is
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        """Lift and extension in metres -> the arm's y (up) and x (forward) in millimetres."""
+        self.robot.robotic_arm.moveto(x=float(extension) * 1000.0, y=float(lift) * 1000.0)
+
+    def grasp(self) -> bool:
+        self.robot.gripper.close(power=self.gripper_power)
+        time.sleep(self.gripper_settle_s)  # the fingers take about a second to close or stall on an object
+        with self._lock:
+            return self._gripper == "normal"  # stopped between open and closed: holding something
+
+    def release(self) -> None:
+        self.robot.gripper.open(power=self.gripper_power)
+        time.sleep(self.gripper_settle_s)
+
+    def distance(self) -> float:
+        with self._lock:
+            mm = self._tof_mm
+        return math.inf if mm is None or mm <= 0 else mm / 1000.0
+
+    def _adc(self) -> float:
+        cell = self.load_cell
+        if cell is None:
+            raise RuntimeError("no load cell is configured")
+        value = self.robot.sensor_adaptor.get_adc(id=cell.board_id, port=cell.port)
+        if value is None:
+            raise RuntimeError(f"sensor adaptor {cell.board_id} port {cell.port} gave no ADC reading")
+        return float(value)
+
+    def tare_force(self) -> None:
+        cell = self.load_cell
+        if cell is None:
+            raise RuntimeError("no load cell is configured")
+        cell.zero_adc = self._adc()
+
+    def force(self) -> list[float]:
+        cell = self.load_cell
+        if cell is None:
+            raise RuntimeError("no load cell is configured")
+        newtons = (self._adc() - cell.zero_adc) * cell.newtons_per_count
+        return [0.0, 0.0, -newtons]  # the held object's weight pulls down (world -z)
+
+    def close(self) -> None:
+        for call in (
+            lambda: self.robot.chassis.drive_speed(x=0.0, y=0.0, z=0.0),
+            self.robot.sensor.unsub_distance,
+            self.robot.robotic_arm.unsub_position,
+            self.robot.gripper.unsub_status,
+            self.robot.camera.stop_video_stream,
+            self.robot.close,
+        ):
+            try:
+                call()
+            except Exception:  # close everything that still can be closed
+                pass
+
+
+OPTIONS = {
+    "conn_type": "wifi mode: ap (the robot's access point, default) or sta (the lab's network)",
+    "resolution": "video stream: 360p (default), 540p or 720p",
+    "hfov_deg": "calibrated horizontal field of view of the camera, degrees (default 96)",
+    "load_cell_newtons_per_count": "N per ADC count from the calibration; no load cell: leave out",
+    "load_cell_zero": "load cell ADC reading with nothing held (default 0; tare_force re-zeroes it)",
+    "load_cell_board": "sensor adaptor id of the load cell, 1 to 8 (default 1)",
+    "load_cell_port": "sensor adaptor port of the load cell, 1 or 2 (default 1)",
+}
+
+
+def driver_options(options: dict[str, Any]) -> dict[str, Any]:
+    """`RoboMasterDriver.connect` keyword arguments from KEY=VALUE options (`--option` given on the CLI)."""
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise ValueError(f"unknown robomaster option(s) {', '.join(unknown)}; known: {', '.join(OPTIONS)}")
+    out: dict[str, Any] = {}
+    if "conn_type" in options:
+        out["conn_type"] = str(options["conn_type"])
+    if "resolution" in options:
+        out["resolution"] = str(options["resolution"])
+    if "hfov_deg" in options:
+        out["hfov_deg"] = float(options["hfov_deg"])
+    if "load_cell_newtons_per_count" in options:
+        out["load_cell"] = LoadCell(
+            float(options["load_cell_newtons_per_count"]),
+            float(options.get("load_cell_zero", 0.0)),
+            int(options.get("load_cell_board", 1)),
+            int(options.get("load_cell_port", 1)),
+        )
+    elif any(k.startswith("load_cell_") for k in options):
+        raise ValueError("a load cell needs load_cell_newtons_per_count (see docs/bridge-protocol.md)")
+    return out

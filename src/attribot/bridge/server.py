@@ -1,0 +1,441 @@
+"""The robot side of the bridge: one client at a time, authenticated, rate-limited, watched.
+
+`RobotServer` serves a `Driver` (the robot's own calls) over the protocol of `protocol.py`. Safety lives
+here, not in the drivers, so that every robot gets it: the shared-secret token is checked before anything
+moves (a wrong one is refused and logged), base velocities are clipped to the speed limits and ramped at
+most at the acceleration limits, and a watchdog stops the base and the arm when no command arrives within
+`Limits.watchdog_s` or the connection drops.
+"""
+
+from __future__ import annotations
+
+import hmac
+import logging
+import math
+import socket
+import threading
+import time
+import zlib
+from typing import Any
+
+import numpy as np
+
+from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
+
+__all__ = ["Driver", "Limits", "RobotServer", "CameraFrame"]
+
+log = logging.getLogger("attribot.bridge")
+
+
+class CameraFrame:
+    """What a driver's camera gives: JPEG bytes, capture time, optional depth / segmentation / objects."""
+
+    def __init__(
+        self,
+        jpeg: bytes,
+        timestamp: float,
+        depth: np.ndarray | None = None,
+        segmentation: np.ndarray | None = None,
+        objects: list[dict[str, Any]] | None = None,
+    ) -> None:
+        self.jpeg = jpeg
+        self.timestamp = timestamp
+        self.depth = depth
+        self.segmentation = segmentation
+        self.objects = objects
+
+
+class Driver:
+    """The robot's own calls, in the bridge's units (metres, radians, seconds, newtons).
+
+    `realtime` drivers run on the wall clock (`step` waits); simulated ones advance their clock in `step`.
+    A driver lists what it can do in `capabilities()` (the names of `attribot.embodiments.base.Capability`)
+    and overrides those calls; `stop()` must halt the base and hold the arm where it is.
+    """
+
+    name = "driver"
+    realtime = True
+
+    def capabilities(self) -> list[str]:
+        return []
+
+    def camera(self) -> dict[str, float]:
+        """Intrinsics: width, height, fx, fy, cx, cy (pixels)."""
+        raise NotImplementedError
+
+    def frame(self) -> CameraFrame:
+        raise NotImplementedError
+
+    def clock(self) -> float:
+        return time.monotonic()
+
+    def step(self, seconds: float) -> None:
+        time.sleep(seconds)
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        raise NotImplementedError
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        raise NotImplementedError
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        raise NotImplementedError
+
+    def grasp(self) -> bool:
+        raise NotImplementedError
+
+    def release(self) -> None:
+        raise NotImplementedError
+
+    def distance(self) -> float:
+        raise NotImplementedError
+
+    def tare_force(self) -> None:
+        raise NotImplementedError
+
+    def force(self) -> list[float]:
+        raise NotImplementedError
+
+    def pose(self) -> list[float]:
+        raise NotImplementedError
+
+    def joints(self) -> dict[str, float]:
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        """Halt the base and hold the arm: called by the watchdog, on disconnect and on `stop`."""
+        self.drive(0.0, 0.0, 0.0)
+
+    def close(self) -> None:
+        pass
+
+
+class Limits:
+    """Speed (m/s, rad/s) and acceleration (m/s^2, rad/s^2) limits of the base, and the watchdog time (s)."""
+
+    def __init__(
+        self,
+        max_speed: float = 0.5,
+        max_turn: float = 1.5,
+        max_accel: float = 2.0,
+        max_turn_accel: float = 6.0,
+        watchdog_s: float = 0.5,
+    ) -> None:
+        for label, value in (
+            ("max_speed", max_speed),
+            ("max_turn", max_turn),
+            ("max_accel", max_accel),
+            ("max_turn_accel", max_turn_accel),
+            ("watchdog_s", watchdog_s),
+        ):
+            if not (value > 0 and math.isfinite(value)):
+                raise ValueError(f"{label} must be a positive number, got {value!r}")
+        self.max_speed = max_speed
+        self.max_turn = max_turn
+        self.max_accel = max_accel
+        self.max_turn_accel = max_turn_accel
+        self.watchdog_s = watchdog_s
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(self.__dict__)
+
+
+def _clip(value: float, bound: float) -> float:
+    return max(-bound, min(bound, value))
+
+
+class _Refused(Exception):
+    def __init__(self, code: str, message: str, fix: str = "") -> None:
+        Exception.__init__(self, message)
+        self.code = code
+        self.message = message
+        self.fix = fix
+
+
+_RAMP_TICK = 0.02  # s: the ramp and the watchdog run at 50 Hz
+
+
+class RobotServer:
+    """Serve `driver` on `host:port` to clients that know `token`; one client at a time."""
+
+    def __init__(
+        self,
+        driver: Driver,
+        token: str,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        limits: Limits | None = None,
+    ) -> None:
+        if not token:
+            raise ValueError("the bridge needs a non-empty token (the shared secret clients must send)")
+        self.driver = driver
+        self.token = token
+        self.limits = limits or Limits()
+        self._lock = threading.RLock()  # one driver call at a time (client thread, watchdog thread)
+        self._target = (0.0, 0.0, 0.0)  # base velocity the client asked for (clipped)
+        self._applied = (0.0, 0.0, 0.0)  # base velocity the driver was last given (ramped)
+        self._last_command = time.monotonic()
+        self._armed = False  # something may be moving: the watchdog watches
+        self._closing = threading.Event()
+        self.stops: list[tuple[float, str]] = []  # (monotonic time, why) of each safety stop
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._sock.bind((host, port))
+        self._sock.listen(1)
+        self._sock.settimeout(0.2)  # accept wakes up to notice close()
+        self.address = self._sock.getsockname()[:2]
+        self._watchdog = threading.Thread(target=self._watch, name="bridge-watchdog", daemon=True)
+        self._watchdog.start()
+
+    # --- safety -----------------------------------------------------------------------------------
+    def _apply(self, velocity: tuple[float, float, float]) -> None:
+        self._applied = velocity
+        self.driver.drive(*velocity)
+
+    def _ramp(self, dt: float) -> None:
+        """Move the applied base velocity toward the target by at most the acceleration limits over dt."""
+        lim = self.limits
+        steps = (lim.max_accel * dt, lim.max_accel * dt, lim.max_turn_accel * dt)
+        new = tuple(
+            self._applied[i] + max(-steps[i], min(steps[i], self._target[i] - self._applied[i]))
+            for i in range(3)
+        )
+        if new != self._applied:
+            self._apply((new[0], new[1], new[2]))
+
+    def safety_stop(self, why: str) -> None:
+        """Zero the base at once (no ramp: stopping is what safety wants) and hold the arm."""
+        with self._lock:
+            self._target = (0.0, 0.0, 0.0)
+            self._applied = (0.0, 0.0, 0.0)
+            self._armed = False
+            try:
+                self.driver.stop()
+            except Exception:  # the robot must still be told to stop by the next path; log it
+                log.exception("driver.stop() failed (%s)", why)
+            self.stops.append((time.monotonic(), why))
+        log.warning("bridge: robot stopped: %s", why)
+
+    def _watch(self) -> None:
+        while not self._closing.wait(_RAMP_TICK):
+            with self._lock:
+                if not self._armed:
+                    continue
+                if time.monotonic() - self._last_command > self.limits.watchdog_s:
+                    late = True
+                else:
+                    late = False
+                    if self.driver.realtime and self._applied != self._target:
+                        self._ramp(_RAMP_TICK)
+            if late:
+                self.safety_stop(f"no command for {self.limits.watchdog_s:.2f} s (watchdog)")
+
+    # --- serving ----------------------------------------------------------------------------------
+    def serve_forever(self) -> None:
+        """Accept clients one after the other until `close()`."""
+        while not self._closing.is_set():
+            try:
+                conn, peer = self._sock.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                break  # closed
+            conn.settimeout(None)
+            try:
+                self.serve_client(conn, peer)
+            finally:
+                conn.close()
+
+    def serve_client(self, conn: socket.socket, peer: Any = None) -> None:
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        authenticated = False
+        try:
+            header, _ = recv_message(conn)
+            try:
+                reply = self._hello(header, peer)
+            except _Refused as exc:
+                send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
+                return
+            reply["ok"] = True
+            send_message(conn, reply)
+            authenticated = True
+            log.info("bridge: client %s connected", peer)
+            while not self._closing.is_set():
+                header, payload = recv_message(conn)
+                with self._lock:
+                    self._last_command = time.monotonic()
+                op = header.get("op")
+                if op == "bye":
+                    send_message(conn, {"ok": True})
+                    break
+                try:
+                    body, data = self._handle(str(op), header)
+                except _Refused as exc:
+                    send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
+                    continue
+                except Exception as exc:  # a driver failure is the client's answer, not the server's death
+                    log.exception("bridge: %s failed", op)
+                    send_message(
+                        conn,
+                        {
+                            "ok": False,
+                            "code": "driver",
+                            "error": f"{op} failed on the robot: {exc}",
+                            "fix": "see the robot's log",
+                        },
+                    )
+                    continue
+                body["ok"] = True
+                send_message(conn, body, data)
+        except (ProtocolError, OSError) as exc:
+            log.info("bridge: client %s gone (%s)", peer, exc)
+        finally:
+            if authenticated:  # a refused client never moved anything
+                self.safety_stop(f"client {peer} disconnected")
+
+    def _hello(self, header: dict[str, Any], peer: Any) -> dict[str, Any]:
+        if header.get("op") != "hello":
+            raise _Refused("hello", "the first message must be hello", "send hello with version and token")
+        version = header.get("version")
+        if version != PROTOCOL_VERSION:
+            log.warning("bridge: refused %s: protocol version %r", peer, version)
+            raise _Refused(
+                "version",
+                f"protocol version mismatch: the client speaks version {version}, "
+                f"this robot speaks version {PROTOCOL_VERSION}",
+                "install the same attribot release on the robot and the planner's computer",
+            )
+        token = header.get("token")
+        if not isinstance(token, str) or not hmac.compare_digest(token.encode(), self.token.encode()):
+            log.warning("bridge: refused %s: wrong token", peer)
+            raise _Refused(
+                "auth",
+                "the robot refused the bridge token (wrong shared secret)",
+                "set ATTRIBOT_BRIDGE_TOKEN to the --token the robot's `attribot bridge serve` was given",
+            )
+        caps = list(self.driver.capabilities())
+        reply = {
+            "version": PROTOCOL_VERSION,
+            "robot": self.driver.name,
+            "capabilities": caps,
+            "limits": self.limits.as_dict(),
+        }
+        if "camera" in caps:
+            reply["camera"] = dict(self.driver.camera())
+        return reply
+
+    def _need(self, capability: str, op: str) -> None:
+        if capability not in self.driver.capabilities():
+            raise _Refused(
+                "unsupported",
+                f"{self.driver.name} cannot {op}: it has no {capability} capability",
+                "available here: {}".format(", ".join(sorted(self.driver.capabilities()))),
+            )
+
+    def _handle(self, op: str, h: dict[str, Any]) -> tuple[dict[str, Any], bytes]:
+        d = self.driver
+        with self._lock:
+            if op == "observe":
+                self._need("camera", op)
+                return self._frame(d.frame())
+            if op == "base":
+                self._need("base", "drive its base")
+                lim = self.limits
+                self._target = (
+                    _clip(float(h["vx"]), lim.max_speed),
+                    _clip(float(h["vy"]), lim.max_speed),
+                    _clip(float(h["wz"]), lim.max_turn),
+                )
+                self._armed = True
+                if d.realtime:
+                    self._ramp(_RAMP_TICK)
+                return {"commanded": list(self._target)}, b""
+            if op == "step":
+                self._step(float(h["seconds"]))
+                return {"clock": d.clock()}, b""
+            if op == "stop":
+                self._target = (0.0, 0.0, 0.0)
+                self._applied = (0.0, 0.0, 0.0)
+                self._armed = False
+                d.stop()
+                return {}, b""
+            if op == "head":
+                self._need("head", "move a camera head")
+                d.set_head(float(h["pan"]), float(h["tilt"]))
+                return {}, b""
+            if op == "arm":
+                self._need("arm", "move an arm")
+                self._armed = True
+                d.set_arm(float(h["lift"]), float(h["extension"]))
+                return {}, b""
+            if op == "grasp":
+                self._need("gripper", op)
+                return {"held": bool(d.grasp())}, b""
+            if op == "release":
+                self._need("gripper", op)
+                d.release()
+                return {}, b""
+            if op == "distance":
+                self._need("distance", "measure distance")
+                value = float(d.distance())
+                return {"metres": value if math.isfinite(value) else None}, b""
+            if op == "tare":
+                self._need("force", "tare a force sensor")
+                d.tare_force()
+                return {}, b""
+            if op == "force":
+                self._need("force", "measure force")
+                return {"newtons": [float(v) for v in d.force()]}, b""
+            if op == "pose":
+                self._need("pose", "report its pose")
+                x, y, yaw = d.pose()
+                return {"x": float(x), "y": float(y), "yaw": float(yaw)}, b""
+            if op == "joints":
+                self._need("pose", "report joint states")
+                return {"joints": {k: float(v) for k, v in d.joints().items()}}, b""
+        raise _Refused("op", f"unknown bridge request {op!r}", "see docs/bridge-protocol.md")
+
+    def _step(self, seconds: float) -> None:
+        if not (seconds >= 0 and math.isfinite(seconds)):
+            raise _Refused("value", f"step needs a non-negative time, got {seconds!r}")
+        d = self.driver
+        if d.realtime:
+            # the ramp runs in the watchdog thread; waiting must not hold the lock
+            self._lock.release()
+            try:
+                d.step(seconds)
+            finally:
+                self._lock.acquire()
+            return
+        left = seconds
+        while left > 1e-12:
+            if self._applied == self._target:
+                d.step(left)  # nothing to ramp: one call, exactly as the direct world
+                return
+            dt = min(_RAMP_TICK, left)
+            self._ramp(dt)
+            d.step(dt)
+            left -= dt
+
+    def _frame(self, frame: CameraFrame) -> tuple[dict[str, Any], bytes]:
+        parts = [("jpeg", frame.jpeg)]
+        header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(self.driver.camera())}
+        if frame.depth is not None:
+            depth = np.ascontiguousarray(frame.depth, dtype="<f4")
+            parts.append(("depth", depth.tobytes()))
+            header["depth_shape"] = list(depth.shape)
+        if frame.segmentation is not None:
+            seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
+            parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
+            header["segmentation_shape"] = list(seg.shape)
+            header["objects"] = frame.objects or []
+        header["parts"] = [[name, len(data)] for name, data in parts]
+        return header, b"".join(data for _, data in parts)
+
+    def close(self) -> None:
+        self._closing.set()
+        try:
+            self._sock.close()
+        except OSError:
+            pass
+        self._watchdog.join(timeout=1.0)

@@ -1,0 +1,307 @@
+"""The host side of the robot bridge: a robot served by `attribot bridge serve`, as an `Embodiment`.
+
+`BridgeWorld` connects to `tcp://HOST:PORT`, says hello with the protocol version and the shared token
+(`ATTRIBOT_BRIDGE_TOKEN`), and takes its capabilities from the robot's hello: any controller that acts
+only through the `Embodiment` interface drives it unchanged. `EmbodimentDriver` is the other direction:
+it serves any local `Embodiment` (the embedded MuJoCo world for `--driver mujoco`) as a bridge driver.
+The protocol is in docs/bridge-protocol.md; the robot side in `attribot.bridge`.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+import zlib
+from typing import Any
+from urllib.parse import urlparse
+
+import numpy as np
+
+from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
+from attribot.bridge.server import CameraFrame, Driver
+from attribot.config import SceneConfig
+from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
+from attribot.errors import AttribotError, ConfigError, UnsupportedAction
+from attribot.frame import CameraInfo, Frame, ObjectTruth
+
+__all__ = ["BridgeError", "BridgeWorld", "EmbodimentDriver", "TOKEN_ENV", "URL_OPTION"]
+
+TOKEN_ENV = "ATTRIBOT_BRIDGE_TOKEN"
+URL_OPTION = "bridge_url"  # the SceneConfig option `--bridge-url` sets
+
+
+class BridgeError(AttribotError):
+    """The robot bridge refused a request, or the connection to it failed."""
+
+
+def _parse_url(url: str) -> tuple[str, int]:
+    parsed = urlparse(url)
+    if parsed.scheme != "tcp" or not parsed.hostname or parsed.port is None:
+        raise ConfigError(
+            f"bridge URL {url!r} is not tcp://HOST:PORT",
+            "give the robot's address, e.g. --bridge-url tcp://192.168.2.1:7777",
+        )
+    return parsed.hostname, parsed.port
+
+
+def _jpeg(rgb: np.ndarray, quality: int) -> bytes:
+    import cv2
+
+    ok, buf = cv2.imencode(".jpg", rgb[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise BridgeError("a camera frame could not be encoded as JPEG", "check the camera's image")
+    return bytes(buf.tobytes())
+
+
+@EMBODIMENTS.register("bridge")
+class BridgeWorld(Embodiment):
+    """A robot behind `attribot bridge serve`, reached at `url` (or the config's `bridge_url` option)."""
+
+    name = "bridge"
+
+    def __init__(
+        self,
+        config: SceneConfig | None = None,
+        *,
+        url: str | None = None,
+        token: str | None = None,
+        timeout_s: float = 10.0,
+        **fields: Any,
+    ) -> None:
+        """`fields`: SceneConfig fields instead of `config` (as every world takes them)."""
+        self.config = config or SceneConfig.create(**fields)
+        url = url or str(self.config.options.get(URL_OPTION) or os.environ.get("ATTRIBOT_BRIDGE_URL") or "")
+        if not url:
+            raise ConfigError(
+                "the bridge world needs the robot's address",
+                "give --bridge-url tcp://HOST:PORT (where `attribot bridge serve` listens)",
+            )
+        token = token if token is not None else os.environ.get(TOKEN_ENV, "")
+        if not token:
+            raise ConfigError(
+                f"the bridge world needs the robot's shared token and {TOKEN_ENV} is not set",
+                f"export {TOKEN_ENV}=<the --token given to `attribot bridge serve`>",
+            )
+        self.url = url
+        host, port = _parse_url(url)
+        try:
+            self._sock: socket.socket | None = socket.create_connection((host, port), timeout=timeout_s)
+        except OSError as exc:
+            raise BridgeError(
+                f"cannot reach the robot bridge at {url} ({exc.strerror or exc})",
+                "start `attribot bridge serve` on the robot and check the address and port",
+            ) from None
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        hello = self._call({"op": "hello", "version": PROTOCOL_VERSION, "token": token})[0]
+        self.robot = str(hello.get("robot", "robot"))
+        self.limits: dict[str, float] = dict(hello.get("limits", {}))
+        self._caps = frozenset(Capability(c) for c in hello.get("capabilities", []) if c in set(Capability))
+        cam = hello.get("camera")
+        self._camera = (
+            None if cam is None else CameraInfo(**{k: cam[k] for k in CameraInfo.__dataclass_fields__})
+        )
+        self.last_timestamp: float | None = None
+
+    # --- transport --------------------------------------------------------------------------------
+    def _call(self, request: dict[str, Any]) -> tuple[dict[str, Any], bytes]:
+        if self._sock is None:
+            raise BridgeError("the bridge connection is closed", "build a new BridgeWorld")
+        try:
+            send_message(self._sock, request)
+            reply, payload = recv_message(self._sock)
+        except (OSError, ProtocolError) as exc:
+            self._drop()
+            raise BridgeError(
+                f"the robot bridge at {self.url} stopped answering during {request.get('op')!r} ({exc})",
+                "check the robot's `attribot bridge serve` log; the robot's watchdog has stopped it",
+            ) from None
+        if not reply.get("ok"):
+            error_type = UnsupportedAction if reply.get("code") == "unsupported" else BridgeError
+            if reply.get("code") in ("auth", "version", "hello"):
+                self._drop()
+            raise error_type(str(reply.get("error")), str(reply.get("fix") or "") or None)
+        return reply, payload
+
+    def _drop(self) -> None:
+        if self._sock is not None:
+            self._sock.close()
+            self._sock = None
+
+    # --- Embodiment -------------------------------------------------------------------------------
+    def capabilities(self) -> frozenset[Capability]:
+        return self._caps
+
+    def camera_info(self) -> CameraInfo:
+        if self._camera is None:
+            raise self._unsupported(Capability.CAMERA, "describe its camera")
+        return self._camera
+
+    def observe(self) -> Frame:
+        import cv2
+
+        self.require(Capability.CAMERA, "take a camera frame")
+        head, payload = self._call({"op": "observe"})
+        parts: dict[str, bytes] = {}
+        at = 0
+        for name, size in head["parts"]:
+            parts[name] = payload[at : at + size]
+            at += size
+        bgr = cv2.imdecode(np.frombuffer(parts["jpeg"], np.uint8), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise BridgeError("the robot sent a frame that is not a JPEG image", "check the robot's camera")
+        rgb = np.ascontiguousarray(bgr[:, :, ::-1])
+        depth = None
+        if "depth" in parts:
+            depth = np.frombuffer(parts["depth"], "<f4").reshape(head["depth_shape"]).astype(np.float32)
+        seg = None
+        objects: dict[int, ObjectTruth] = {}
+        if "segmentation" in parts:
+            raw = zlib.decompress(parts["segmentation"])
+            seg = np.frombuffer(raw, "<i4").reshape(head["segmentation_shape"]).astype(np.int32)
+            for item in head.get("objects", []):
+                objects[int(item["key"])] = ObjectTruth(
+                    id=item["id"],
+                    category=item["category"],
+                    color=item.get("color", ""),
+                    synonyms=tuple(item.get("synonyms", ())),
+                )
+        cam = head.get("camera")
+        camera = (
+            self._camera
+            if cam is None
+            else CameraInfo(**{k: cam[k] for k in CameraInfo.__dataclass_fields__})
+        )
+        self.last_timestamp = float(head.get("timestamp", time.time()))
+        return Frame(rgb=rgb, depth=depth, segmentation=seg, objects=objects, camera=camera)
+
+    def step(self, seconds: float) -> None:
+        self._call({"op": "step", "seconds": float(seconds)})
+
+    def command_base(self, vx: float, vy: float, wz: float) -> None:
+        self._call({"op": "base", "vx": float(vx), "vy": float(vy), "wz": float(wz)})
+
+    def stop(self) -> None:
+        """Stop the base and hold the arm now."""
+        self._call({"op": "stop"})
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        self._call({"op": "head", "pan": float(pan), "tilt": float(tilt)})
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        self._call({"op": "arm", "lift": float(lift), "extension": float(extension)})
+
+    def grasp(self) -> bool:
+        return bool(self._call({"op": "grasp"})[0]["held"])
+
+    def release(self) -> None:
+        self._call({"op": "release"})
+
+    def read_distance(self) -> float:
+        value = self._call({"op": "distance"})[0]["metres"]
+        return float("inf") if value is None else float(value)
+
+    def tare_force(self) -> None:
+        self._call({"op": "tare"})
+
+    def read_force(self) -> np.ndarray:
+        return np.asarray(self._call({"op": "force"})[0]["newtons"], dtype=float)
+
+    def base_pose(self) -> Pose2D:
+        reply = self._call({"op": "pose"})[0]
+        return Pose2D(reply["x"], reply["y"], reply["yaw"])
+
+    def joint_states(self) -> dict[str, float]:
+        return {k: float(v) for k, v in self._call({"op": "joints"})[0]["joints"].items()}
+
+    def close(self) -> None:
+        if self._sock is not None:
+            try:
+                send_message(self._sock, {"op": "bye"})
+                recv_message(self._sock)
+            except (OSError, ProtocolError):
+                pass
+            self._drop()
+
+
+class EmbodimentDriver(Driver):
+    """Serve a local `Embodiment` over the bridge (`--driver mujoco` serves the embedded world)."""
+
+    realtime = False
+
+    def __init__(self, world: Embodiment, jpeg_quality: int = 90) -> None:
+        self.world = world
+        self.name = world.name
+        self.jpeg_quality = jpeg_quality
+        self._clock = 0.0
+        self.commanded = (0.0, 0.0, 0.0)  # the base velocity the world was last given
+
+    def capabilities(self) -> list[str]:
+        return [str(c) for c in self.world.capabilities()]
+
+    def camera(self) -> dict[str, float]:
+        info = self.world.camera_info()
+        return {k: getattr(info, k) for k in CameraInfo.__dataclass_fields__}
+
+    def frame(self) -> CameraFrame:
+        frame = self.world.observe()
+        objects = [
+            {"key": k, "id": o.id, "category": o.category, "color": o.color, "synonyms": list(o.synonyms)}
+            for k, o in frame.objects.items()
+        ]
+        return CameraFrame(
+            jpeg=_jpeg(frame.rgb, self.jpeg_quality),
+            timestamp=self._clock,
+            depth=frame.depth,
+            segmentation=frame.segmentation,
+            objects=objects if frame.segmentation is not None else None,
+        )
+
+    def clock(self) -> float:
+        return self._clock
+
+    def step(self, seconds: float) -> None:
+        self.world.step(seconds)
+        self._clock += seconds
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        self.commanded = (vx, vy, wz)
+        self.world.command_base(vx, vy, wz)
+
+    def stop(self) -> None:
+        self.drive(0.0, 0.0, 0.0)
+        if Capability.ARM in self.world.capabilities():
+            joints = self.world.joint_states()
+            if "lift" in joints and "arm" in joints:
+                self.world.set_arm(joints["lift"], joints["arm"])  # hold where it is
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        self.world.set_head(pan, tilt)
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        self.world.set_arm(lift, extension)
+
+    def grasp(self) -> bool:
+        return self.world.grasp()
+
+    def release(self) -> None:
+        self.world.release()
+
+    def distance(self) -> float:
+        return self.world.read_distance()
+
+    def tare_force(self) -> None:
+        self.world.tare_force()
+
+    def force(self) -> list[float]:
+        return [float(v) for v in self.world.read_force()]
+
+    def pose(self) -> list[float]:
+        p = self.world.base_pose()
+        return [p.x, p.y, p.yaw]
+
+    def joints(self) -> dict[str, float]:
+        return self.world.joint_states()
+
+    def close(self) -> None:
+        self.world.close()

@@ -1,0 +1,400 @@
+"""The robot bridge: protocol, safety (token, version, limits, watchdog), the mujoco driver end to end."""
+
+from __future__ import annotations
+
+import ast
+import json
+import logging
+import os
+import queue
+import signal
+import socket
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from attribot.bridge.protocol import PROTOCOL_VERSION, recv_message, send_message
+from attribot.bridge.server import CameraFrame, Driver, Limits, RobotServer
+from attribot.config import SceneConfig
+from attribot.embodiments.base import Capability
+from attribot.embodiments.bridge import BridgeError, BridgeWorld, EmbodimentDriver
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.errors import UnsupportedAction
+from conftest import EMPTY_SETTINGS
+
+BRIDGE_DIR = Path(__file__).resolve().parents[1] / "src" / "attribot" / "bridge"
+TOKEN = "correct horse"
+LAYOUT, SEED = "household", 7
+
+
+# --- Python 3.8 and the robot's imports ------------------------------------------------------------
+
+_ROBOT_IMPORTS = {"numpy", "robomaster", "cv2", "attribot"}  # cv2: installed by the RoboMaster SDK itself
+
+
+def test_every_bridge_module_parses_as_python_38_and_imports_only_stdlib_numpy_and_the_sdk():
+    files = sorted(BRIDGE_DIR.glob("*.py"))
+    assert {f.name for f in files} >= {"__init__.py", "protocol.py", "server.py"}
+    for path in files:
+        tree = ast.parse(path.read_text(), filename=str(path), feature_version=(3, 8))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                roots = [a.name.split(".")[0] for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                roots = [(node.module or "").split(".")[0]] if node.level == 0 else []
+                if roots == ["attribot"]:
+                    assert (node.module or "").startswith("attribot.bridge"), f"{path.name}: {node.module}"
+            else:
+                # keyword arguments that Python 3.8 does not know (zip(strict=) is 3.10)
+                if isinstance(node, ast.Call) and any(k.arg == "strict" for k in node.keywords):
+                    pytest.fail(f"{path.name}:{node.lineno}: zip(strict=...) needs Python 3.10")
+                continue
+            for root in roots:
+                if root == "__future__":
+                    continue
+                assert root in sys.stdlib_module_names or root in _ROBOT_IMPORTS, (
+                    f"{path.name} imports {root}"
+                )
+
+
+def test_a_walrus_free_38_grammar_check_really_rejects_newer_syntax():
+    # the check above must be able to fail: a match statement does not parse with 3.8's grammar
+    src = "match x:\n    case 1:\n        pass\n"
+    with pytest.raises(SyntaxError):
+        ast.parse(src, feature_version=(3, 8))
+
+
+# --- a recording driver for the safety tests ---------------------------------------------------------
+
+
+class RecordingDriver(Driver):
+    """A robot that records every base velocity it is given (wall clock, like a real one)."""
+
+    name = "recorder"
+    realtime = True
+
+    def __init__(self) -> None:
+        self.drives: list[tuple[float, tuple[float, float, float]]] = []
+        self.arm: list[tuple[float, float]] = []
+        self.stopped_at: list[float] = []
+
+    def capabilities(self) -> list[str]:
+        return ["base", "arm", "camera"]
+
+    def camera(self) -> dict[str, float]:
+        return {"width": 4, "height": 2, "fx": 3.0, "fy": 3.0, "cx": 2.0, "cy": 1.0}
+
+    def frame(self) -> CameraFrame:
+        import cv2
+
+        ok, buf = cv2.imencode(".jpg", np.full((2, 4, 3), 200, np.uint8))
+        return CameraFrame(bytes(buf.tobytes()), timestamp=123.5)
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        self.drives.append((time.monotonic(), (vx, vy, wz)))
+
+    def set_arm(self, lift: float, extension: float) -> None:
+        self.arm.append((lift, extension))
+
+    def stop(self) -> None:
+        self.stopped_at.append(time.monotonic())
+        self.drive(0.0, 0.0, 0.0)
+
+    @property
+    def velocity(self) -> tuple[float, float, float]:
+        return self.drives[-1][1] if self.drives else (0.0, 0.0, 0.0)
+
+
+@contextmanager
+def serving(
+    make_driver: Callable[[], Driver], limits: Limits | None = None
+) -> Iterator[tuple[RobotServer, Any]]:
+    """A server on a free loopback port, serving in a thread that also builds and closes the driver
+    (the MuJoCo renderer must be used and closed in the thread that made it current)."""
+    ready: queue.Queue[Any] = queue.Queue()
+
+    def run() -> None:
+        driver = make_driver()
+        server = RobotServer(driver, TOKEN, port=0, limits=limits)
+        ready.put((server, driver))
+        try:
+            server.serve_forever()
+        finally:
+            driver.close()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    server, driver = ready.get(timeout=120)
+    try:
+        yield server, driver
+    finally:
+        server.close()
+        thread.join(timeout=30)
+        assert not thread.is_alive()
+
+
+def url(server: RobotServer) -> str:
+    return f"tcp://127.0.0.1:{server.address[1]}"
+
+
+def test_hello_gives_capabilities_camera_and_limits_and_frames_carry_intrinsics_and_time():
+    with serving(RecordingDriver) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as world:
+        assert world.capabilities() == {Capability.BASE, Capability.ARM, Capability.CAMERA}
+        assert world.camera_info().fx == 3.0 and world.limits["watchdog_s"] == 0.5
+        frame = world.observe()
+        assert frame.rgb.shape == (2, 4, 3) and abs(int(frame.rgb[0, 0, 0]) - 200) <= 2
+        assert frame.camera == world.camera_info() and world.last_timestamp == 123.5
+        with pytest.raises(UnsupportedAction, match="recorder cannot measure distance.*no distance"):
+            world.read_distance()
+
+
+def test_a_wrong_token_is_refused_and_logged_and_nothing_moves(caplog):
+    with serving(RecordingDriver) as (server, driver):
+        with caplog.at_level(logging.WARNING, logger="attribot.bridge"):
+            with pytest.raises(BridgeError, match="refused the bridge token") as info:
+                BridgeWorld(url=url(server), token="wrong")
+        assert "ATTRIBOT_BRIDGE_TOKEN" in (info.value.fix or "")
+        assert any("wrong token" in r.getMessage() for r in caplog.records)
+        # a raw client that skips hello and commands the base is refused too
+        with socket.create_connection(server.address) as sock:
+            send_message(sock, {"op": "base", "vx": 0.3, "vy": 0.0, "wz": 0.0})
+            reply, _ = recv_message(sock)
+        assert reply["ok"] is False and reply["code"] == "hello"
+        assert all(v == (0.0, 0.0, 0.0) for _, v in driver.drives)
+
+
+def test_a_protocol_version_mismatch_names_both_versions():
+    with serving(RecordingDriver) as (server, _), socket.create_connection(server.address) as sock:
+        send_message(sock, {"op": "hello", "version": PROTOCOL_VERSION + 1, "token": TOKEN})
+        reply, _ = recv_message(sock)
+    assert reply["ok"] is False and reply["code"] == "version"
+    assert f"client speaks version {PROTOCOL_VERSION + 1}" in reply["error"]
+    assert f"robot speaks version {PROTOCOL_VERSION}" in reply["error"]
+
+
+def test_base_velocity_is_clipped_and_ramped_at_the_acceleration_limit():
+    limits = Limits(max_speed=0.4, max_turn=1.0, max_accel=1.0, max_turn_accel=4.0, watchdog_s=2.0)
+    with (
+        serving(RecordingDriver, limits) as (server, driver),
+        BridgeWorld(url=url(server), token=TOKEN) as world,
+    ):
+        world.command_base(5.0, -5.0, 9.0)
+        first = driver.velocity
+        assert first[0] <= 1.0 * 0.02 + 1e-9  # one ramp tick: a = 1 m/s^2 for 20 ms
+        world.step(0.8)
+        v = driver.velocity
+        assert v == pytest.approx((0.4, -0.4, 1.0))  # clipped to the speed limits, reached by ramping
+        times = [t for t, vel in driver.drives if 0 < vel[0] < 0.4]
+        assert times and times[-1] - driver.drives[0][0] >= 0.3  # 0.4 m/s at 1 m/s^2 takes 0.4 s
+        world.stop()
+        assert driver.velocity == (0.0, 0.0, 0.0)
+
+
+def test_the_watchdog_stops_the_robot_when_commands_stop_arriving():
+    limits = Limits(watchdog_s=0.3)
+    with (
+        serving(RecordingDriver, limits) as (server, driver),
+        BridgeWorld(url=url(server), token=TOKEN) as world,
+    ):
+        world.command_base(0.2, 0.0, 0.0)
+        time.sleep(0.1)
+        assert driver.velocity[0] > 0
+        sent = time.monotonic()
+        deadline = sent + 2.0
+        while not driver.stopped_at and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert driver.stopped_at, "the watchdog never stopped the robot"
+        since_command = driver.stopped_at[0] - sent + 0.1
+        assert 0.3 <= since_command < 0.3 + 0.4  # 50 Hz watchdog; slack for a loaded machine
+        assert driver.velocity == (0.0, 0.0, 0.0)
+        assert any("watchdog" in why for _, why in server.stops)
+
+
+_CLIENT = textwrap.dedent(
+    """
+    import sys, time
+    from attribot.embodiments.bridge import BridgeWorld
+    world = BridgeWorld(url=sys.argv[1], token=sys.argv[2])
+    while True:  # a planner servoing: a command every 50 ms
+        world.command_base(0.3, 0.0, 0.5)
+        print("sent", flush=True)
+        time.sleep(0.05)
+    """
+)
+
+
+def test_killing_the_client_mid_session_stops_the_base_within_the_watchdog_time():
+    limits = Limits(watchdog_s=0.5)
+    with serving(RecordingDriver, limits) as (server, driver):
+        client = subprocess.Popen(
+            [sys.executable, "-c", _CLIENT, url(server), TOKEN], stdout=subprocess.PIPE, text=True
+        )
+        try:
+            for _ in range(5):  # it is driving
+                assert client.stdout is not None and client.stdout.readline() == "sent\n"
+            assert driver.velocity[0] > 0
+            killed = time.monotonic()
+            client.send_signal(signal.SIGKILL)
+            client.wait(timeout=10)
+            while driver.velocity != (0.0, 0.0, 0.0) and time.monotonic() < killed + 3:
+                time.sleep(0.005)
+            stopped = next(t for t, v in driver.drives if t >= killed and v == (0.0, 0.0, 0.0))
+        finally:
+            if client.poll() is None:
+                client.kill()
+        assert stopped - killed < limits.watchdog_s
+        assert driver.velocity == (0.0, 0.0, 0.0)
+
+
+# --- the mujoco driver end to end ----------------------------------------------------------------
+
+
+def _mujoco_driver() -> Driver:
+    return EmbodimentDriver(MujocoWorld(SceneConfig(layout=LAYOUT, seed=SEED)))
+
+
+@pytest.fixture(scope="module")
+def mujoco_server() -> Iterator[RobotServer]:
+    with serving(_mujoco_driver, Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)) as (
+        server,
+        _,
+    ):
+        yield server
+
+
+def test_frames_and_sensors_over_the_bridge_match_the_direct_world(mujoco_server):
+    with (
+        BridgeWorld(url=url(mujoco_server), token=TOKEN) as bridge,
+        MujocoWorld(layout=LAYOUT, seed=SEED) as direct,
+    ):
+        assert bridge.capabilities() == direct.capabilities()
+        assert bridge.camera_info() == direct.camera_info()
+        got, want = bridge.observe(), direct.observe()
+        assert got.rgb.shape == want.rgb.shape
+        assert np.abs(got.rgb.astype(int) - want.rgb).mean() < 2.0  # JPEG at quality 90
+        assert np.array_equal(got.depth, want.depth)
+        assert np.array_equal(got.segmentation, want.segmentation) and got.objects == want.objects
+        assert bridge.read_distance() == direct.read_distance()
+        assert bridge.joint_states() == direct.joint_states()
+
+
+class _PrivilegedThroughBridge:
+    """The scripted pick-up's targets from the server's simulator, every command through the bridge:
+    what #9's servo controller will do with vision instead of the simulator's truth."""
+
+    def __init__(self, bridge: BridgeWorld, sim: Any) -> None:
+        self._bridge = bridge
+        self.sim = sim
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._bridge, name)
+
+
+def test_the_weight_path_over_the_bridge_reads_what_the_direct_world_reads():
+    from attribot.sim import scripted
+
+    def weigh(world: Any, object_id: str) -> float:
+        scripted.approach_object(world, object_id)
+        assert scripted.pick_object(world, object_id)
+        world.step(0.5)
+        force = world.read_force()
+        scripted.place_back(world)
+        return float(-force[2])
+
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0)
+    with serving(_mujoco_driver, limits) as (server, driver):
+        sim = driver.world.sim  # type: ignore[attr-defined]
+        pickable = [o.id for o in sim.objects.values() if o.category.pickable][:2]
+        assert len(pickable) == 2
+        with BridgeWorld(url=url(server), token=TOKEN) as bridge:
+            over = {oid: weigh(_PrivilegedThroughBridge(bridge, sim), oid) for oid in pickable}
+    with MujocoWorld(layout=LAYOUT, seed=SEED) as direct:
+        here = {oid: weigh(direct, oid) for oid in pickable}
+    for oid in pickable:
+        assert over[oid] > 0.05
+        assert over[oid] == pytest.approx(here[oid], rel=0.02, abs=0.01)
+
+
+def test_grasp_without_the_capability_is_refused_by_the_robot():
+    with serving(RecordingDriver) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as world:
+        with pytest.raises(UnsupportedAction, match="no gripper capability"):
+            world.grasp()
+
+
+# --- the commands ------------------------------------------------------------------------------
+
+
+def _env(**extra: str) -> dict[str, str]:
+    return {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS), **extra}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def served_cli() -> Iterator[int]:
+    port = _free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "attribot.cli", "bridge", "serve", "--driver", "mujoco", "--layout", LAYOUT,
+         "--seed", str(SEED), "--port", str(port), "--token", TOKEN],
+        stderr=subprocess.PIPE, text=True, env=_env(),
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                break
+            except OSError:
+                assert proc.poll() is None and time.monotonic() < deadline, "bridge serve did not start"
+                time.sleep(0.2)
+        yield port
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def _ask(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "attribot.cli", "ask", *args], capture_output=True, text=True, env=_env(**env),
+        timeout=300,
+    )  # fmt: skip
+
+
+def test_cli_ask_over_the_bridge_answers_as_the_direct_world(served_cli):
+    query = "Which object is the closest to the robot?"
+    over = _ask(query, "--world", "bridge", "--bridge-url", f"tcp://127.0.0.1:{served_cli}",
+                "--sensors", "camera,distance", "--json", ATTRIBOT_BRIDGE_TOKEN=TOKEN)  # fmt: skip
+    assert over.returncode == 0, over.stderr
+    here = _ask(query, "--layout", LAYOUT, "--seed", str(SEED), "--sensors", "camera,distance", "--json")
+    assert here.returncode == 0, here.stderr
+    a, b = json.loads(over.stdout), json.loads(here.stdout)
+    assert a["error"] is None and a["answer"] == b["answer"] and a["object"]["box"] == b["object"]["box"]
+    assert [t["call"] for t in a["trace"]] == [t["call"] for t in b["trace"]]
+
+
+def test_cli_wrong_token_exits_2_and_says_so(served_cli):
+    bad = _ask("Which object is the closest to the robot?", "--world", "bridge", "--bridge-url",
+               f"tcp://127.0.0.1:{served_cli}", ATTRIBOT_BRIDGE_TOKEN="nope")  # fmt: skip
+    assert bad.returncode == 2
+    assert "refused the bridge token" in bad.stderr and "ATTRIBOT_BRIDGE_TOKEN" in bad.stderr
+    none = _ask("the closest item", "--world", "bridge", "--bridge-url", f"tcp://127.0.0.1:{served_cli}",
+                ATTRIBOT_BRIDGE_TOKEN="")  # fmt: skip
+    assert none.returncode == 2 and "ATTRIBOT_BRIDGE_TOKEN is not set" in none.stderr
+    nourl = _ask("the closest item", "--world", "bridge")
+    assert nourl.returncode == 2 and "--bridge-url" in nourl.stderr
