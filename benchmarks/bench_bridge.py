@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import queue
 import signal
 import subprocess
 import sys
@@ -25,7 +24,7 @@ import threading
 import time
 from typing import Any
 
-from attribot.bridge.server import Limits, RobotServer
+from attribot.bridge.server import Limits, RobotServer, serve_in_thread
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
@@ -45,20 +44,9 @@ class _TimedDriver(EmbodimentDriver):
 
 
 def serve(config: SceneConfig, limits: Limits) -> tuple[RobotServer, _TimedDriver, threading.Thread]:
-    ready: queue.Queue[Any] = queue.Queue()
-
-    def run() -> None:  # the world is built, rendered and closed in the serving thread (EGL context)
-        driver = _TimedDriver(MujocoWorld(config))
-        server = RobotServer(driver, TOKEN, limits=limits)
-        ready.put((server, driver))
-        try:
-            server.serve_forever()
-        finally:
-            driver.close()
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    server, driver = ready.get(timeout=120)
+    # the world is built, rendered and closed in the serving thread (EGL context)
+    server, driver, thread = serve_in_thread(lambda: _TimedDriver(MujocoWorld(config)), TOKEN, limits=limits)
+    assert isinstance(driver, _TimedDriver)
     return server, driver, thread
 
 

@@ -6,13 +6,11 @@ import ast
 import json
 import logging
 import os
-import queue
 import signal
 import socket
 import subprocess
 import sys
 import textwrap
-import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -23,7 +21,7 @@ import numpy as np
 import pytest
 
 from attribot.bridge.protocol import PROTOCOL_VERSION, recv_message, send_message
-from attribot.bridge.server import CameraFrame, Driver, Limits, RobotServer
+from attribot.bridge.server import CameraFrame, Driver, Limits, RobotServer, serve_in_thread
 from attribot.config import SceneConfig
 from attribot.embodiments.base import Capability
 from attribot.embodiments.bridge import BridgeError, BridgeWorld, EmbodimentDriver
@@ -120,20 +118,7 @@ def serving(
 ) -> Iterator[tuple[RobotServer, Any]]:
     """A server on a free loopback port, serving in a thread that also builds and closes the driver
     (the MuJoCo renderer must be used and closed in the thread that made it current)."""
-    ready: queue.Queue[Any] = queue.Queue()
-
-    def run() -> None:
-        driver = make_driver()
-        server = RobotServer(driver, TOKEN, port=0, limits=limits)
-        ready.put((server, driver))
-        try:
-            server.serve_forever()
-        finally:
-            driver.close()
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    server, driver = ready.get(timeout=120)
+    server, driver, thread = serve_in_thread(make_driver, TOKEN, limits=limits)
     try:
         yield server, driver
     finally:

@@ -12,17 +12,19 @@ from __future__ import annotations
 import hmac
 import logging
 import math
+import queue
 import socket
 import threading
 import time
 import zlib
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
 
-__all__ = ["Driver", "Limits", "RobotServer", "CameraFrame"]
+__all__ = ["Driver", "Limits", "RobotServer", "CameraFrame", "serve_in_thread"]
 
 log = logging.getLogger("attribot.bridge")
 
@@ -439,3 +441,38 @@ class RobotServer:
         except OSError:
             pass
         self._watchdog.join(timeout=1.0)
+
+
+def serve_in_thread(
+    make_driver: Callable[[], Driver],
+    token: str,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    limits: Limits | None = None,
+    timeout_s: float = 120.0,
+) -> tuple[RobotServer, Driver, threading.Thread]:
+    """Start a server in a daemon thread that also builds and closes its driver: a driver's resources (a
+    simulator's GL context) belong to the thread that made them. `server.close()` stops it; join the
+    thread to wait for the driver to be closed."""
+    ready = queue.Queue()  # type: queue.Queue[Any]
+
+    def run() -> None:
+        try:
+            driver = make_driver()
+            server = RobotServer(driver, token, host=host, port=port, limits=limits)
+        except BaseException as exc:  # noqa: BLE001 (handed to the caller, who raises it)
+            ready.put(exc)
+            return
+        ready.put((server, driver))
+        try:
+            server.serve_forever()
+        finally:
+            driver.close()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    got = ready.get(timeout=timeout_s)
+    if isinstance(got, BaseException):
+        raise got
+    server, driver = got
+    return server, driver, thread
