@@ -189,7 +189,7 @@ class Robot:
             pose = self.world.base_pose()
             base = (float(pose.x), float(pose.y), float(pose.yaw))
         camera = frame.camera if frame.camera is not None else _camera_info(self.world)
-        self.capture = Capture(index=self._captures, camera=camera, head=head, base=base)
+        self.capture = Capture(index=self._captures, camera=camera, head=head, base=base, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
         self._acted_on = []
@@ -312,6 +312,7 @@ class Robot:
             camera=cam,
             head=(float(js["head_pan"]), float(js["head_tilt"])),
             base=(float(pose.x), float(pose.y), float(pose.yaw)),
+            depth=frame.depth,
         )
         self._captures += 1
         detections = patch.perception.detector.detect(frame, [patch.label])

@@ -53,6 +53,8 @@ class Capture:
     camera: CameraInfo | None = None
     head: tuple[float, float] | None = None
     base: tuple[float, float, float] | None = None
+    depth: Any = field(default=None, compare=False, repr=False)
+    """The frame's depth image (float32 metres along the optical axis), or None: where a box's object is."""
 
 
 @dataclass(frozen=True)

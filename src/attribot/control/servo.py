@@ -10,20 +10,37 @@ It steps the world one control period at a time (sim time in the simulator, wall
 sleeps) and uses only what a real robot has: frames (RGB), intrinsics, head joint angles and its base
 pose; never the simulator's object poses, ids or segmentation.
 
-Driving to an object and manipulating it through perception are not built yet: those actions are refused
-with `UnsupportedAction` ("not available"), so that a program and the planner's retry know it; the
-privileged simulator controller (`--controller privileged`) does them by reading the simulator's state.
+The other actions act on what depth and odometry say, never on the simulator's state: an object is
+located from the depth pixels in its box (or the rangefinder when there is no depth image); a floor map
+is built from the depth images (anything above the floor blocks the base); the base drives a path planned
+on that map with a PID per axis on the odometry pose, its head aimed at the object; at the goal the camera
+finds the object again (detector once, then the servo loop), the object is located again, and the base
+corrects its pose until the arm's line passes through the object. Grasps are checked by the gripper and
+the force sensor, placements and pushes by looking at the object afterwards.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
-from attribot.control.base import CONTROLLERS, ControlError, Target
+import numpy as np
+
+from attribot.control.base import CONTROLLERS, Capture, ControlError, Target, not_available
+from attribot.control.body import BodyGeometry
 from attribot.control.pid import PID
 from attribot.control.pointing import PointingController
+from attribot.control.spatial import (
+    FloorMap,
+    ObjectEstimate,
+    base_points,
+    estimate_object,
+    head_towards,
+    point_from_range,
+    to_base,
+    to_world,
+)
 from attribot.control.tracker import BoxTracker
 
 __all__ = ["ServoController", "FocusReport"]
@@ -42,7 +59,7 @@ class FocusReport:
 
 @dataclass
 class ServoController(PointingController):
-    """Focus by visual servoing (see the module docstring); the other actions are not available yet.
+    """Every Robot action by perception (see the module docstring).
 
     control_s: time per control step; tol_px: the centring tolerance; max_steps: the step budget of one
     focus; kp / ki: PID gains on the angular error (radians of head command per radian of error per step);
@@ -59,8 +76,15 @@ class ServoController(PointingController):
     ki: float = 0.4
     max_step_rad: float = 0.15
     preaim: bool = True
+    drive_speed: float = 0.5
+    arrive_tol: float = 0.012
+    align_tries: int = 4
+    lift_clear: float = 0.08
+    push_m: float = 0.15
     last: FocusReport | None = None
     tracked: tuple[float, float, float, float] | None = None  # the box being centred, while it is
+    approached: _Reach | None = field(default=None, repr=False)  # where go_to_object brought the arm
+    holding: _Hold | None = field(default=None, repr=False)
 
     def focus_on(self, target: Target) -> None:
         try:
@@ -152,6 +176,524 @@ class ServoController(PointingController):
             )
         self.last = FocusReport(steps, self.waited_s + steps * self.control_s, error, redetections)
 
+    # --- perception-driven actions ------------------------------------------------------------------
+    def approach(self, target: Target) -> None:
+        est = self._locate(target, "go_to_object")
+        self.approached = None
+        self.approached = self._go_reach(est, target, "go_to_object")
+
+    def pick_up(self, target: Target) -> None:
+        body = self._body("pick_up")
+        if self.holding is not None:
+            raise ControlError(f"the gripper already holds {self.holding.label}", "put it down first")
+        reach = self.approached  # the Robot checks that go_to_object came to this same object
+        if reach is None:
+            self.approach(target)
+            reach = self.approached
+        assert reach is not None
+        est = reach.estimate
+        ext, z = reach.extension, float(np.clip(est.grip_z, *body.lift_range))
+        headroom = self._headroom(est, body)
+        self.world.release()  # open the fingers
+        self.world.set_arm(max(z, self._lift()), 0.0)
+        self._settle(0.8)
+        self.world.set_arm(z, 0.0)
+        self._settle(0.6)
+        self.world.set_arm(z, ext)
+        self._settle(1.0)
+        load_before = self._load()
+        if not self.world.grasp():
+            self._retract(z)
+            raise ControlError(
+                f"grasp failed: the gripper closed on nothing where it saw {target.describe()} "
+                f"({ext:.2f} m out, {z:.2f} m up)",
+                "call robot.go_to_object(patch) again and retry; the object may be too big to grasp",
+            )
+        self.world.set_arm(z + headroom, ext)
+        self._settle(1.5)
+        load = self._load()
+        if load is not None and load_before is not None and abs(load - load_before) < 0.004:
+            self.world.release()
+            self._retract(z)
+            raise ControlError(
+                f"grasp failed: the force sensor feels no load after lifting {target.describe()}",
+                "call robot.go_to_object(patch) again and retry",
+            )
+        self.holding = _Hold(
+            label=target.label or "object",
+            find=target.find,
+            pose=self._pose(),
+            lift=z,
+            extension=ext,
+            below=z - est.support_z,
+            above=est.top_z - z,
+            radius=est.radius,
+        )
+        self.approached = None
+
+    def put_down(self) -> None:
+        hold = self._held("put_down")
+        if _moved(self._pose(), hold.pose, 0.01, 0.02):
+            self._carry_height(hold, hold.lift)
+            self._drive_to(hold.pose, None, "put_down")
+        self._place(hold, hold.lift + 0.005)
+
+    def put_on(self, target: Target) -> None:
+        hold = self._held("put_on")
+        body = self._body("put_on")
+        receptacle = self._locate(target, "put_on")
+        place_z = receptacle.top_z + hold.below + 0.01
+        if place_z > body.lift_range[1]:
+            raise ControlError(
+                f"not reachable: the top of {target.describe()} is {receptacle.top_z:.2f} m up, too high "
+                "for the lift with the held object",
+                "put the object on something lower",
+            )
+        self._carry_height(hold, place_z + 0.06)
+        reach = self._go_reach(receptacle, target, "put_on", holding=hold)
+        self.world.set_arm(place_z + 0.06, reach.extension)
+        self._settle(1.0)
+        self._place(hold, place_z, extension=reach.extension)
+        self._check_rests(hold, reach.estimate, target)
+
+    def push(self, target: Target) -> None:
+        body = self._body("push")
+        est = self._locate(target, "push")
+        if est.support_z > 0.08:
+            raise ControlError(
+                f"not reachable: {target.describe()} stands {est.support_z:.2f} m up, and this robot pushes "
+                "with its base, which reaches only objects on the floor",
+                "push objects that lie on the floor",
+            )
+        floor = self._map([target])
+        floor.clear_disc(est.xy(), est.radius + 0.05)
+        here = self._pose()
+        yaw = math.atan2(est.centre[1] - here[1], est.centre[0] - here[0])
+        gap = body.base_half[0] + est.radius + 0.12
+        start = (est.centre[0] - gap * math.cos(yaw), est.centre[1] - gap * math.sin(yaw), yaw)
+        self._drive_to(start, floor, "push", look_at=np.array(est.centre))
+        before = self._refind(est, target, "push")
+        # drive into it: the base's front meets the object after 0.12 m, then pushes it on
+        self._straight(0.12 + self.push_m, look_at=np.array(before.centre))
+        self._straight(-(0.12 + self.push_m), look_at=None)
+        after = self._refind(before, target, "push", search=0.6)
+        moved = float(np.linalg.norm(after.xy() - before.xy()))
+        if moved < 0.04:
+            raise ControlError(
+                f"push failed: {target.describe()} moved {moved * 100:.0f} cm",
+                "the object may be too heavy or blocked; push something else",
+            )
+
+    def go_to_coords(self, target: Target) -> None:
+        body = self._body("go_to_coords")
+        goal = self._floor_point(target, body)
+        floor = self._map([target])
+        here = self._pose()
+        yaw = math.atan2(goal[1] - here[1], goal[0] - here[0])
+        towards = goal - np.array(here[:2])
+        span = float(np.linalg.norm(towards))
+        for back in np.arange(0.0, min(span, 1.5), 0.05):
+            xy = goal - towards / max(span, 1e-9) * back
+            if floor.footprint_free((xy[0], xy[1], yaw), body.base_half, 0.03):
+                self._drive_to((float(xy[0]), float(xy[1]), yaw), floor, "go_to_coords")
+                return
+        raise ControlError(
+            f"not reachable: the floor at ({goal[0]:.2f}, {goal[1]:.2f}) and the way to it are taken by "
+            "something the camera sees",
+            "choose a point on free floor",
+        )
+
+    # --- locating -------------------------------------------------------------------------------------
+    def _body(self, action: str) -> BodyGeometry:
+        body = getattr(self.world, "body", None)
+        if body is None:
+            raise not_available(action, self._world_name, "it does not state its body geometry")
+        for need in ("base", "pose"):
+            if need not in {str(c) for c in self.world.capabilities()}:
+                raise not_available(action, self._world_name, f"it has no {need} capability")
+        return body()
+
+    def _pose(self) -> tuple[float, float, float]:
+        p = self.world.base_pose()
+        return float(p.x), float(p.y), float(p.yaw)
+
+    def _has(self, capability: str) -> bool:
+        return capability in {str(c) for c in self.world.capabilities()}
+
+    def _locate(self, target: Target, action: str) -> ObjectEstimate:
+        """Where the target is, from the depth of the image it was seen in; without one, by centring the
+        camera on it and reading the rangefinder (which needs the view unchanged since that image)."""
+        body = self._body(action)
+        cap = target.capture
+        if cap.depth is not None and cap.camera is not None and cap.head is not None and cap.base is not None:
+            est = estimate_object(cap.depth, cap.camera, cap.head, cap.base, body, target.box)
+            if est is not None:
+                return est
+        if cap.camera is None or not self._has("distance"):
+            raise not_available(action, self._world_name, "it has neither depth images nor a distance sensor")
+        self.focus_on(target)
+        return self._range_estimate(target.box, cap.camera, body)
+
+    def _range_estimate(
+        self, box: tuple[float, float, float, float], camera: Any, body: BodyGeometry
+    ) -> ObjectEstimate:
+        """The object at the image centre by the rangefinder, sized by its box at that range."""
+        metres = float(self.world.read_distance())
+        if not math.isfinite(metres):
+            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
+        head = _head(self.world)
+        p = to_world(point_from_range(metres, camera, head, body, camera.cx, camera.cy), self._pose())
+        w = (box[2] - box[0]) / camera.fx * metres
+        h = (box[3] - box[1]) / camera.fy * metres
+        return ObjectEstimate((float(p[0]), float(p[1]), float(p[2])), p[2] - h / 2, p[2] + h / 2, w / 2, 1)
+
+    def _refind(
+        self,
+        est: ObjectEstimate,
+        target: Target,
+        action: str,
+        search: float = 0.25,
+        holding: _Hold | None = None,
+    ) -> ObjectEstimate:
+        """Look at where `est` should be, find the target there with the detector, centre it with the servo
+        loop and locate it again from the new view."""
+        body = self._body(action)
+        self._aim(np.array(est.centre), body, target)
+        camera = self.world.camera_info()
+        frame = self.world.observe()
+        boxes = target.find(frame) if target.find is not None else []
+        box = _nearest_to_centre(boxes, camera, search)
+        if box is None:
+            raise ControlError(
+                f"target lost: the camera no longer sees {target.describe()} where it was "
+                f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
+                "find the object again in a new image and retry",
+            )
+        seen = Target(box, self._capture(frame, camera), label=target.label, find=target.find)
+        self.focus_on(seen)
+        frame = self.world.observe()
+        box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search) or box
+        if frame.depth is not None:
+            ignore = None if holding is None else self._held_points(holding, body)
+            new = estimate_object(frame.depth, camera, _head(self.world), self._pose(), body, box, ignore)
+            if new is not None:
+                return new
+        if self._has("distance"):
+            return self._range_estimate(box, camera, body)
+        return est
+
+    def _held_points(self, hold: _Hold, body: BodyGeometry) -> Any:
+        """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a
+        capsule along the arm, from where the joints stand now."""
+        js = self.world.joint_states()
+        lift, ext = float(js.get("lift", hold.lift)), float(js.get("arm", hold.extension))
+        pose = self._pose()
+        grip = to_world(np.array([body.reach_x(ext), body.arm_xy[1], lift]), pose)
+        tips = to_world(np.array([body.reach_x(ext) + 0.05, body.arm_xy[1], lift]), pose)
+        root = to_world(np.array([body.arm_xy[0], body.arm_xy[1], lift]), pose)
+        r = hold.radius + 0.04
+
+        def held(points: np.ndarray) -> np.ndarray:
+            flat = np.hypot(points[:, 0] - grip[0], points[:, 1] - grip[1]) <= r
+            on = (
+                flat & (points[:, 2] >= lift - hold.below - 0.03) & (points[:, 2] <= lift + hold.above + 0.03)
+            )
+            axis = tips - root
+            t = np.clip((points - root) @ axis / max(float(axis @ axis), 1e-9), 0.0, 1.0)
+            arm = np.linalg.norm(points - (root + t[:, None] * axis), axis=1) <= 0.1  # wrist and fingers
+            return on | arm
+
+        return held
+
+    def _capture(self, frame: Any, camera: Any) -> Capture:
+        return Capture(-1, camera, _head(self.world), self._pose(), depth=frame.depth)
+
+    def _aim(self, point: np.ndarray, body: BodyGeometry, target: Target) -> None:
+        pan, tilt = head_towards(point, self._pose(), body)
+        self.world.set_head(pan, tilt)
+        self._wait_still(target)
+
+    def _floor_point(self, target: Target, body: BodyGeometry) -> np.ndarray:
+        """The floor point under pixel `target.center` of its image: depth when the image has it, else the
+        ray's crossing with the floor."""
+        cap = target.capture
+        if cap.camera is None or cap.head is None or cap.base is None:
+            raise not_available("go_to_coords", self._world_name, "the image has no known intrinsics or pose")
+        u, v = target.center
+        if cap.depth is not None:
+            r, c = min(int(v), cap.depth.shape[0] - 1), min(int(u), cap.depth.shape[1] - 1)
+            p = base_points(cap.depth, cap.camera, cap.head, body, (c, r, c + 1, r + 1))
+            if len(p):
+                return to_world(p[0], cap.base)[:2]
+        ray = point_from_range(1.0, cap.camera, cap.head, body, u, v) - np.asarray(body.camera_xyz)
+        if ray[2] >= -1e-6:
+            raise ControlError(
+                f"go_to_coords: pixel ({u:.0f}, {v:.0f}) looks at or above the horizon, not at the floor",
+                "pass a point on the floor, lower in the image",
+            )
+        t = body.camera_xyz[2] / -ray[2]
+        return to_world(np.asarray(body.camera_xyz) + ray * t, cap.base)[:2]
+
+    def _map(self, targets: list[Target], holding: _Hold | None = None) -> FloorMap:
+        """A floor map from the current view and the depth images the targets were seen in."""
+        body = self._body("go_to_object")
+        here = self._pose()
+        floor = FloorMap((here[0], here[1]))
+        views = []
+        frame = self.world.observe()
+        if frame.depth is not None:
+            views.append((frame.depth, frame.camera or self.world.camera_info(), _head(self.world), here))
+        for t in targets:
+            c = t.capture
+            if c.depth is not None and c.camera is not None and c.head is not None and c.base is not None:
+                views.append((c.depth, c.camera, c.head, c.base))
+        for depth, camera, head, base in views:
+            pts = base_points(depth, camera, head, body, stride=3)
+            # not the robot itself, nor what its gripper holds
+            pts = pts[np.hypot(pts[:, 0], pts[:, 1]) > body.radius + 0.05]
+            floor.add(to_world(pts, base))
+        if holding is not None:
+            grip = to_world(np.array([body.reach_x(holding.extension), body.arm_xy[1], 0.0]), here)
+            floor.clear_disc(grip[:2], 0.15)
+        return floor
+
+    # --- reaching -------------------------------------------------------------------------------------
+    def _go_reach(
+        self, est: ObjectEstimate, target: Target, action: str, holding: _Hold | None = None
+    ) -> _Reach:
+        """Drive to where the arm's line passes through the object and it is within the arm's range."""
+        body = self._body(action)
+        floor = self._map([target], holding)
+        pose, path = self._standing_pose(est, body, floor)
+        if pose is None:
+            raise ControlError(
+                f"not reachable: no free place to stand within the arm's reach of {target.describe()} "
+                f"(at {est.centre[0]:.2f}, {est.centre[1]:.2f}, {est.centre[2]:.2f} m)",
+                "choose an object nearer a free edge of its furniture",
+            )
+        self._follow(path or [], pose, np.array(est.centre), action)
+        for _ in range(self.align_tries):
+            est = self._refind(est, target, action, holding=holding)
+            local = to_base(np.array(est.centre), self._pose())
+            ext = float(local[0] - body.reach_x(0.0))
+            side = float(local[1] - body.arm_xy[1])
+            lo, hi = body.arm_range[0] + 0.01, body.arm_range[1] - 0.01
+            fix = ext - float(np.clip(ext, lo, hi))
+            if abs(side) <= self.arrive_tol and fix == 0.0:
+                return _Reach(target.label, est, float(np.clip(ext, *body.arm_range)))
+            x, y, yaw = self._pose()
+            c, s = math.cos(yaw), math.sin(yaw)
+            self._drive_to((x + c * fix - s * side, y + s * fix + c * side, yaw), None, action, est.centre)
+        raise ControlError(
+            f"not reachable: the robot could not line its arm up with {target.describe()} "
+            f"(after {self.align_tries} corrections, {abs(side) * 100:.1f} cm aside, extension {ext:.2f} m)",
+            "the object may lie beyond the arm's reach from any free place; choose another",
+        )
+
+    def _standing_pose(
+        self, est: ObjectEstimate, body: BodyGeometry, floor: FloorMap
+    ) -> tuple[tuple[float, float, float] | None, list[np.ndarray] | None]:
+        """A base pose facing the object with the grip point on it at the shortest free extension, the
+        approach turned as little as possible from the straight line, and a path to it."""
+        here = self._pose()
+        centre = est.xy()
+        bearing = math.atan2(centre[1] - here[1], centre[0] - here[0])
+        for turn in (0.0, 0.35, -0.35, 0.7, -0.7, 1.05, -1.05, 1.4, -1.4, 1.75, -1.75, 2.1, -2.1, math.pi):
+            yaw = bearing + turn
+            c, s = math.cos(yaw), math.sin(yaw)
+            lo = max(body.arm_range[0], 0.02)
+            for ext in np.arange(lo, body.arm_range[1] - 0.02, 0.02):
+                lx, ly = body.reach_x(float(ext)), body.arm_xy[1]
+                pose = (centre[0] - (c * lx - s * ly), centre[1] - (s * lx + c * ly), yaw)
+                if floor.footprint_free(pose, body.base_half, 0.04):
+                    path = floor.path(np.array(here[:2]), np.array(pose[:2]), body.radius + 0.02)
+                    if path is not None:
+                        return pose, path
+                    break
+        return None, None
+
+    def _headroom(self, est: ObjectEstimate, body: BodyGeometry) -> float:
+        """How far the object can be raised before it meets what is above it (a shelf board), by depth."""
+        frame = self.world.observe()
+        if frame.depth is None:
+            return self.lift_clear
+        camera = frame.camera or self.world.camera_info()
+        pts = to_world(base_points(frame.depth, camera, _head(self.world), body, stride=2), self._pose())
+        over = pts[
+            (np.hypot(pts[:, 0] - est.centre[0], pts[:, 1] - est.centre[1]) < est.radius + 0.03)
+            & (pts[:, 2] > est.top_z + 0.04)
+        ]
+        if len(over) == 0:
+            return self.lift_clear
+        return float(np.clip(float(over[:, 2].min()) - est.top_z - 0.02, 0.005, self.lift_clear))
+
+    # --- holding and placing --------------------------------------------------------------------------
+    def _held(self, action: str) -> _Hold:
+        if self.holding is None:
+            raise ControlError(f"{action}: the gripper holds nothing", "pick an object up first")
+        return self.holding
+
+    def _lift(self) -> float:
+        return float(self.world.joint_states().get("lift", 0.2))
+
+    def _carry_height(self, hold: _Hold, z: float) -> None:
+        """Raise what is held to `z` (at least where it is) and pull the arm in, to drive with it."""
+        z = max(z, self._lift())
+        self.world.set_arm(z, hold.extension)
+        self._settle(0.8)
+        self.world.set_arm(z, 0.0)
+        self._settle(0.8)
+
+    def _place(self, hold: _Hold, z: float, extension: float | None = None) -> None:
+        ext = hold.extension if extension is None else extension
+        self.world.set_arm(max(z, self._lift()), ext)
+        self._settle(0.8)
+        self.world.set_arm(z, ext)
+        self._settle(1.2)
+        self.world.release()
+        self.holding = None
+        self.world.set_arm(z + self.lift_clear, ext)
+        self._settle(0.6)
+        self._retract(z + self.lift_clear)
+
+    def _retract(self, z: float) -> None:
+        self.world.set_arm(z, 0.0)
+        self._settle(0.8)
+        self.world.set_arm(0.2, 0.0)
+        self._settle(0.8)
+
+    def _check_rests(self, hold: _Hold, receptacle: ObjectEstimate, target: Target) -> None:
+        """Look at the receptacle: the placed object must stand on it."""
+        body = self._body("put_on")
+        self._aim(np.array(receptacle.centre), body, target)
+        camera = self.world.camera_info()
+        frame = self.world.observe()
+        boxes = hold.find(frame) if hold.find is not None else []
+        box = _nearest_to_centre(boxes, camera, 0.45)
+        if box is None or frame.depth is None:
+            if box is None and hold.find is not None:
+                raise ControlError(
+                    f"put_on failed: after letting go, the camera does not see the {hold.label} on "
+                    f"{target.describe()}",
+                    "it may have fallen; find it again in a new image",
+                )
+            return
+        placed = estimate_object(frame.depth, camera, _head(self.world), self._pose(), body, box)
+        if placed is None:
+            return
+        off = float(np.linalg.norm(placed.xy() - receptacle.xy()))
+        if off > receptacle.radius + 0.04 or placed.support_z < receptacle.top_z - 0.04:
+            raise ControlError(
+                f"put_on failed: the {hold.label} came to rest {off * 100:.0f} cm from the middle of "
+                f"{target.describe()}, at {placed.support_z:.2f} m (its top is at {receptacle.top_z:.2f} m)",
+                "try a larger or flatter receptacle",
+            )
+
+    def _load(self) -> float | None:
+        """The wrist's vertical load in newtons, averaged over a few readings; None without a force sensor."""
+        if not self._has("force"):
+            return None
+        total = 0.0
+        for _ in range(5):
+            self.world.step(0.02)
+            total += float(self.world.read_force()[2])
+        return abs(total / 5)
+
+    # --- driving --------------------------------------------------------------------------------------
+    def _settle(self, seconds: float) -> None:
+        self.world.step(seconds)
+
+    def _drive_to(
+        self,
+        pose: tuple[float, float, float],
+        floor: FloorMap | None,
+        action: str,
+        look_at: Any = None,
+    ) -> None:
+        """Drive to `pose`: along a path on `floor` when given, else straight."""
+        path: list[np.ndarray] | None = [np.array(pose[:2])]
+        if floor is not None:
+            body = self._body(action)
+            path = floor.path(np.array(self._pose()[:2]), np.array(pose[:2]), body.radius + 0.02)
+            if path is None:
+                raise ControlError(
+                    f"not reachable: no free way to ({pose[0]:.2f}, {pose[1]:.2f}) on the floor the camera "
+                    "sees",
+                    "choose a place the robot can drive to",
+                )
+        self._follow(path or [], pose, None if look_at is None else np.asarray(look_at, float), action)
+
+    def _follow(
+        self, path: list[np.ndarray], pose: tuple[float, float, float], look_at: Any, action: str
+    ) -> None:
+        """Follow waypoints with a PID per axis on the odometry pose, ending at `pose` (its yaw on the last
+        leg), the head kept on `look_at`; fail when the base stalls or the step budget runs out."""
+        body = self._body(action)
+        dt = self.control_s
+        pids = [PID(2.0, 0.3, out_min=-self.drive_speed, out_max=self.drive_speed) for _ in "xy"]
+        yaw_pid = PID(2.5, 0.2, out_min=-1.5, out_max=1.5)
+        legs = list(path) or [np.array(pose[:2])]
+        budget = int(60.0 / dt)
+        stall_at, stall_from = 0, self._pose()
+        for i, wp in enumerate(legs):
+            last = i == len(legs) - 1
+            for p in [*pids, yaw_pid]:
+                p.reset()
+            while True:
+                x, y, yaw = self._pose()
+                ex, ey = float(wp[0] - x), float(wp[1] - y)
+                dist = math.hypot(ex, ey)
+                want = pose[2] if (last or dist < 0.05) else math.atan2(ey, ex)
+                eyaw = math.remainder(want - yaw, math.tau)
+                if dist < (self.arrive_tol * 0.5 if last else 0.08) and (not last or abs(eyaw) < 0.01):
+                    break
+                c, s = math.cos(yaw), math.sin(yaw)
+                fx, fy = c * ex + s * ey, -s * ex + c * ey  # the error in the robot's frame
+                self.world.command_base(
+                    pids[0].update(fx, 0.0, dt), pids[1].update(fy, 0.0, dt), yaw_pid.update(eyaw, 0.0, dt)
+                )
+                if look_at is not None:
+                    self.world.set_head(*head_towards(look_at, (x, y, yaw), body))
+                self.world.step(dt)
+                budget -= 1
+                stall_at += 1
+                if stall_at * dt >= 1.5:
+                    now = self._pose()
+                    if not _moved(now, stall_from, 0.01, 0.02) and dist > 0.05:
+                        self._stop()
+                        raise ControlError(
+                            f"blocked: the base stopped at ({now[0]:.2f}, {now[1]:.2f}) on its way to "
+                            f"({pose[0]:.2f}, {pose[1]:.2f})",
+                            "something the camera did not see is in the way; choose another target",
+                        )
+                    stall_at, stall_from = 0, now
+                if budget <= 0:
+                    self._stop()
+                    raise ControlError(
+                        f"did not converge: the base did not reach ({pose[0]:.2f}, {pose[1]:.2f}) within "
+                        "60 s",
+                        "something blocks the way; choose another target",
+                    )
+        self._stop()
+
+    def _straight(self, metres: float, look_at: Any) -> None:
+        """Drive straight forward (or back) by `metres` on odometry, whatever is in the way."""
+        x, y, yaw = self._pose()
+        goal = (x + metres * math.cos(yaw), y + metres * math.sin(yaw), yaw)
+        speed, dt = 0.2 * math.copysign(1.0, metres), self.control_s
+        for _ in range(int(abs(metres) / 0.2 / dt * 2) + 20):
+            now = self._pose()
+            left = (goal[0] - now[0]) * math.cos(yaw) + (goal[1] - now[1]) * math.sin(yaw)
+            if left * speed <= 0.005:
+                break
+            self.world.command_base(speed, 0.0, 0.0)
+            self.world.step(dt)
+        self._stop()
+
+    def _stop(self) -> None:
+        self.world.command_base(0.0, 0.0, 0.0)
+        self.world.step(0.3)
+
 
 def _head(world: Any) -> tuple[float, float]:
     js = world.joint_states()
@@ -162,11 +704,46 @@ def _off_centre(box: tuple[float, float, float, float], camera: Any) -> float:
     return math.hypot((box[0] + box[2]) / 2 - camera.cx, (box[1] + box[3]) / 2 - camera.cy)
 
 
-def _nearest_to_centre(boxes: list[tuple[float, float, float, float]], camera: Any) -> Any:
-    """The box whose centre is nearest the image centre, within a quarter of the image; None if none."""
-    radius = min(camera.width, camera.height) / 4.0
+def _nearest_to_centre(
+    boxes: list[tuple[float, float, float, float]], camera: Any, within: float = 0.25
+) -> Any:
+    """The box whose centre is nearest the image centre, within `within` of the image's smaller side;
+    None if none."""
+    radius = min(camera.width, camera.height) * within
     near = [b for b in boxes if _off_centre(b, camera) <= radius]
     return min(near, key=lambda b: _off_centre(b, camera)) if near else None
+
+
+@dataclass(frozen=True)
+class _Reach:
+    """Where go_to_object left the robot: the object located from there, and the arm extension to it."""
+
+    label: str
+    estimate: ObjectEstimate
+    extension: float
+
+
+@dataclass(frozen=True)
+class _Hold:
+    """What pick_up holds: its name and finder, the base pose, lift and extension it was picked at, and how
+    far the object reaches below and above the grip point, and its radius."""
+
+    label: str
+    find: Any
+    pose: tuple[float, float, float]
+    lift: float
+    extension: float
+    below: float
+    above: float
+    radius: float
+
+
+def _moved(
+    a: tuple[float, float, float], b: tuple[float, float, float], metres: float, radians: float
+) -> bool:
+    """True when pose `a` lies more than `metres` or `radians` from pose `b`."""
+    turned = abs(math.remainder(a[2] - b[2], math.tau))
+    return math.hypot(a[0] - b[0], a[1] - b[1]) > metres or turned > radians
 
 
 @CONTROLLERS.register("servo")

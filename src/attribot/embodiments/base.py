@@ -12,6 +12,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from attribot.control.body import BodyGeometry
 from attribot.errors import UnsupportedAction
 from attribot.frame import CameraInfo, Frame
 from attribot.registry import Registry
@@ -104,6 +105,11 @@ class Embodiment:
     def read_force(self) -> np.ndarray:
         """Wrist force in newtons, (3,) in the world frame, relative to the last tare."""
         raise self._unsupported(Capability.FORCE, "measure force")
+
+    def body(self) -> BodyGeometry:
+        """Where the camera sits and how far the arm reaches: what a perception-driven controller needs to
+        act on what it sees."""
+        raise self._unsupported(Capability.ARM, "state its body geometry")
 
     def base_pose(self) -> Pose2D:
         raise self._unsupported(Capability.POSE, "report its base pose")

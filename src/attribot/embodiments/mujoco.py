@@ -13,9 +13,11 @@ from typing import Any
 import numpy as np
 
 from attribot.config import SceneConfig
+from attribot.control.body import BodyGeometry
 from attribot.embodiments import mujoco_control  # noqa: F401  (registers this world's controller)
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
+from attribot.sim.robot import GEOMETRY
 from attribot.sim.world import SceneInfo, SimWorld
 
 __all__ = ["MujocoWorld"]
@@ -72,6 +74,18 @@ class MujocoWorld(Embodiment):
 
     def read_force(self) -> np.ndarray:
         return self.sim.read_force()
+
+    def body(self) -> BodyGeometry:
+        g = GEOMETRY
+        return BodyGeometry(
+            camera_xyz=(g.mast_xy[0], g.mast_xy[1], g.head_height),
+            arm_xy=g.mast_xy,
+            reach0=g.arm_reach0 + g.grip_offset,
+            arm_range=g.arm_range,
+            lift_range=g.lift_range,
+            base_half=g.base_half,
+            finger_open=g.finger_range[1],
+        )
 
     def base_pose(self) -> Pose2D:
         return Pose2D(*self.sim.base_pose())
