@@ -1,4 +1,6 @@
-"""The API in the embedded MuJoCo world: pointing + rangefinder, privileged manipulation + force sensor."""
+"""The API in the embedded MuJoCo world: the default (servo) controller's focus + rangefinder, and the
+privileged controller's scripted manipulation + force sensor (the perception-driven manipulation has its
+own tests in test_servo_actions.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ pytest.importorskip("attribot.sim.scripted")
 
 from attribot.api import ImagePatch, Perception, PreconditionError, Robot  # noqa: E402
 from attribot.config import Settings  # noqa: E402
-from attribot.control.base import ControlError  # noqa: E402
+from attribot.control.base import ControlError, build_controller  # noqa: E402
 from attribot.embodiments.mujoco import MujocoWorld  # noqa: E402
 from attribot.embodiments.mujoco_control import SimController  # noqa: E402
 from attribot.errors import UnsupportedAction  # noqa: E402
@@ -39,7 +41,7 @@ def patches_by_id(image: ImagePatch, infos) -> dict[str, ImagePatch]:
 def test_measure_distance_reads_the_object_at_the_patch(perception, seed):
     with open_world(seed) as world:
         robot = Robot(ALL, world=world)
-        assert isinstance(robot.controller, SimController) and robot.backend_name() == "sim-privileged"
+        assert robot.backend_name() == "servo"
         infos = [o for o in world.scene_info().objects if o.box is not None]
         image = robot.look(perception)
         patches = patches_by_id(image, infos)
@@ -60,7 +62,8 @@ def test_measure_distance_reads_the_object_at_the_patch(perception, seed):
 
 def test_weighing_with_privileged_manipulation_returns_the_mass(perception):
     with open_world(0, force_noise_std=0.05) as world:
-        robot = Robot(ALL, world=world)
+        robot = Robot(ALL, world=world, controller=build_controller(world, "privileged"))
+        assert isinstance(robot.controller, SimController) and robot.backend_name() == "sim-privileged"
         infos = [o for o in world.scene_info().objects if o.box is not None and o.pickable]
         image = robot.look(perception)
         patches = patches_by_id(image, infos)
@@ -84,7 +87,7 @@ def test_weighing_with_privileged_manipulation_returns_the_mass(perception):
 
 def test_unscripted_actions_and_id_less_patches_are_refused(perception):
     with open_world(0) as world:
-        robot = Robot(ALL, world=world)
+        robot = Robot(ALL, world=world, controller=build_controller(world, "privileged"))
         image = robot.look(perception)
         info = next(o for o in world.scene_info().objects if o.box is not None)
         patch = patches_by_id(image, [info])[info.id]

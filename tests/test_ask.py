@@ -66,7 +66,7 @@ def test_distance_query_measures_and_picks_the_truly_closer_object(truth):
         "detector": "oracle",
         "vqa": "oracle",
         "language": "catalog",
-        "robot": "sim-privileged",
+        "robot": "servo",
     }
 
 

@@ -12,12 +12,12 @@ from attribot.config import SceneConfig, load_settings
 from attribot.control.base import Capture, Target, build_controller
 from attribot.control.servo import ServoController
 from attribot.control.tracker import BoxTracker, TrackResult
-from attribot.embodiments.base import Capability, Embodiment
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
 from attribot.frame import Frame
 from attribot.models.oracle import OracleDetector
 from attribot.planning.ask import Scene, ask
+from conftest import TruthBlindWorld
 
 W, H = 320, 240
 
@@ -49,38 +49,6 @@ def test_focus_centres_every_object_within_the_tolerance(seed):
             assert patch.object_id in patch_ids
 
 
-class TruthBlindWorld(Embodiment):
-    """The MuJoCo world as a real robot would see it: frames with RGB and depth only (no segmentation, no
-    object truth), and no access to the simulator behind it."""
-
-    name = "truth-blind"
-
-    def __init__(self, inner: MujocoWorld) -> None:
-        self._inner = inner
-
-    def capabilities(self) -> frozenset[Capability]:
-        return self._inner.capabilities() - {Capability.SEGMENTATION}
-
-    def observe(self) -> Frame:
-        f = self._inner.observe()
-        return Frame(rgb=f.rgb, depth=f.depth, camera=f.camera)
-
-    def camera_info(self):
-        return self._inner.camera_info()
-
-    def step(self, seconds: float) -> None:
-        self._inner.step(seconds)
-
-    def set_head(self, pan: float, tilt: float) -> None:
-        self._inner.set_head(pan, tilt)
-
-    def joint_states(self):
-        return self._inner.joint_states()
-
-    def base_pose(self):
-        return self._inner.base_pose()
-
-
 def test_servo_centres_an_object_seeing_only_pixels():
     with MujocoWorld(SceneConfig(layout="household", seed=4, width=W, height=H)) as world:
         detector = OracleDetector()
@@ -106,7 +74,7 @@ def test_servo_centres_an_object_seeing_only_pixels():
         assert _truth_centre_error(world, det.object_id) <= 5.0
 
 
-def test_servo_refuses_what_it_cannot_do_yet_and_says_so():
+def test_servo_refuses_actions_on_an_image_without_intrinsics_and_says_so():
     with MujocoWorld(SceneConfig(layout="triplet", seed=3, width=W, height=H)) as world:
         servo = build_controller(world, "servo")
         target = Target(box=(10, 10, 20, 20), capture=Capture(0))
@@ -118,7 +86,7 @@ def test_servo_refuses_what_it_cannot_do_yet_and_says_so():
 def test_ask_with_the_servo_controller_measures_distances_like_the_privileged_one():
     query = "Which object is the closest to me?"
     values = {}
-    for controller in ("servo", None):
+    for controller in ("privileged", None):
         answer = ask(
             query,
             Scene(
@@ -128,9 +96,9 @@ def test_ask_with_the_servo_controller_measures_distances_like_the_privileged_on
         )
         assert answer.error is None
         values[controller] = (answer.object.id, answer.value, answer.backends["robot"])
-    assert values["servo"][0] == values[None][0]
-    assert values["servo"][1] == pytest.approx(values[None][1], abs=0.02)
-    assert values["servo"][2] == "servo" and values[None][2] == "sim-privileged"
+    assert values["privileged"][0] == values[None][0]
+    assert values["privileged"][1] == pytest.approx(values[None][1], abs=0.02)
+    assert values["privileged"][2] == "sim-privileged" and values[None][2] == "servo"
 
 
 def test_unknown_controller_is_a_clear_error():

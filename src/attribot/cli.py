@@ -241,8 +241,9 @@ _JSON = typer.Option(False, "--json", help="Print the whole answer as JSON.")
 _CONTROLLER = typer.Option(
     None,
     "--controller",
-    help="Robot controller: the world's own (default; in MuJoCo 'privileged', which reads the simulator's "
-    "state to move and grasp) or 'servo' (focuses by what the camera sees; no driving or grasping yet).",
+    help="Robot controller: the world's own (default; in MuJoCo 'servo', which acts on what the camera and "
+    "sensors perceive) or 'privileged' (MuJoCo only: reads the simulator's state to move and grasp, to "
+    "compare against).",
 )
 _SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
 _DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")

@@ -125,8 +125,8 @@ def not_available(action: str, world: str, why: str = "") -> UnsupportedAction:
     reason = f": {why}" if why else ""
     return UnsupportedAction(
         f"robot action {action!r} is not available in this world ({world}){reason}",
-        "write the program without it, or run in a world whose controller supports it "
-        "(the visual-servoing controller that will provide it for every world is planned, not built)",
+        "write the program without it, or run with a controller that supports it (--controller servo, "
+        "in a world that gives depth or a distance sensor, a base and an arm)",
     )
 
 

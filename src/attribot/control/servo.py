@@ -22,6 +22,7 @@ the force sensor, placements and pushes by looking at the object afterwards.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,7 +66,11 @@ class ServoController(PointingController):
     focus; kp / ki: PID gains on the angular error (radians of head command per radian of error per step);
     max_step_rad: the largest head correction in one step; preaim: aim by geometry first and detect again
     (True), or track the target's box from the current view at once, which must not have changed since the
-    capture (False: the paper's robot, and the only way without intrinsics one trusts).
+    capture (False: the paper's robot, and the only way without intrinsics one trusts). drive_speed: the
+    base's top speed, m/s; arrive_tol: how close (metres) the arm's line must pass to the object;
+    align_tries: base corrections at the goal; stand_tries: places to stand tried when the camera loses the
+    object at one; lift_clear: how high a picked object is raised (less under a shelf board); push_m: how
+    far a push drives on after the base meets the object.
     """
 
     name: str = "servo"
@@ -79,6 +84,7 @@ class ServoController(PointingController):
     drive_speed: float = 0.5
     arrive_tol: float = 0.012
     align_tries: int = 4
+    stand_tries: int = 3
     lift_clear: float = 0.08
     push_m: float = 0.15
     last: FocusReport | None = None
@@ -250,7 +256,9 @@ class ServoController(PointingController):
                 "put the object on something lower",
             )
         self._carry_height(hold, place_z + 0.06)
-        reach = self._go_reach(receptacle, target, "put_on", holding=hold)
+        # a receptacle takes the object anywhere near its middle: line up to a third of its radius
+        tol = max(self.arrive_tol, min(0.05, receptacle.radius / 3))
+        reach = self._go_reach(receptacle, target, "put_on", holding=hold, tol=tol)
         self.world.set_arm(place_z + 0.06, reach.extension)
         self._settle(1.0)
         self._place(hold, place_z, extension=reach.extension)
@@ -329,7 +337,9 @@ class ServoController(PointingController):
             est = estimate_object(cap.depth, cap.camera, cap.head, cap.base, body, target.box)
             if est is not None:
                 return est
-        if cap.camera is None or not self._has("distance"):
+        if cap.camera is None:
+            raise not_available(action, self._world_name, "the image was taken without known intrinsics")
+        if not self._has("distance"):
             raise not_available(action, self._world_name, "it has neither depth images nor a distance sensor")
         self.focus_on(target)
         return self._range_estimate(target.box, cap.camera, body)
@@ -459,28 +469,61 @@ class ServoController(PointingController):
 
     # --- reaching -------------------------------------------------------------------------------------
     def _go_reach(
-        self, est: ObjectEstimate, target: Target, action: str, holding: _Hold | None = None
+        self,
+        est: ObjectEstimate,
+        target: Target,
+        action: str,
+        holding: _Hold | None = None,
+        tol: float | None = None,
     ) -> _Reach:
-        """Drive to where the arm's line passes through the object and it is within the arm's range."""
+        """Drive to where the arm's line passes through the object and it is within the arm's range. The
+        approach comes from the side the object was seen from; where the camera loses it at the goal (a
+        shelf's side board in the way), the next place to stand is tried."""
         body = self._body(action)
         floor = self._map([target], holding)
-        pose, path = self._standing_pose(est, body, floor)
-        if pose is None:
-            raise ControlError(
-                f"not reachable: no free place to stand within the arm's reach of {target.describe()} "
-                f"(at {est.centre[0]:.2f}, {est.centre[1]:.2f}, {est.centre[2]:.2f} m)",
-                "choose an object nearer a free edge of its furniture",
-            )
-        self._follow(path or [], pose, np.array(est.centre), action)
+        seen_from = target.capture.base or self._pose()
+        lost: ControlError | None = None
+        for tried, (pose, path) in enumerate(self._standing_poses(est, body, floor, seen_from)):
+            if tried == self.stand_tries:
+                break
+            self._follow(path, pose, np.array(est.centre), action)
+            try:
+                return self._line_up(est, target, action, body, holding, tol)
+            except ControlError as e:
+                if not str(e).startswith("target lost"):
+                    raise
+                lost = e
+        if lost is not None:
+            raise lost
+        raise ControlError(
+            f"not reachable: no free place to stand within the arm's reach of {target.describe()} "
+            f"(at {est.centre[0]:.2f}, {est.centre[1]:.2f}, {est.centre[2]:.2f} m)",
+            "choose an object nearer a free edge of its furniture",
+        )
+
+    def _line_up(
+        self,
+        est: ObjectEstimate,
+        target: Target,
+        action: str,
+        body: BodyGeometry,
+        holding: _Hold | None,
+        tol: float | None,
+    ) -> _Reach:
+        """Find the object again from here and correct the base until the arm's line passes within `tol`
+        (default `arrive_tol`) of it."""
+        tol = self.arrive_tol if tol is None else tol
+        side = ext = math.nan
         for _ in range(self.align_tries):
             est = self._refind(est, target, action, holding=holding)
             local = to_base(np.array(est.centre), self._pose())
             ext = float(local[0] - body.reach_x(0.0))
             side = float(local[1] - body.arm_xy[1])
-            lo, hi = body.arm_range[0] + 0.01, body.arm_range[1] - 0.01
-            fix = ext - float(np.clip(ext, lo, hi))
-            if abs(side) <= self.arrive_tol and fix == 0.0:
-                return _Reach(target.label, est, float(np.clip(ext, *body.arm_range)))
+            lo, hi = body.arm_range
+            # a centimetre beyond the telescope's ends still closes the fingers on the object
+            if abs(side) <= tol and lo - 0.015 <= ext <= hi + 0.015:
+                return _Reach(target.label, est, float(np.clip(ext, lo, hi)))
+            fix = ext - float(np.clip(ext, lo + 0.03, hi - 0.03))
             x, y, yaw = self._pose()
             c, s = math.cos(yaw), math.sin(yaw)
             self._drive_to((x + c * fix - s * side, y + s * fix + c * side, yaw), None, action, est.centre)
@@ -490,27 +533,31 @@ class ServoController(PointingController):
             "the object may lie beyond the arm's reach from any free place; choose another",
         )
 
-    def _standing_pose(
-        self, est: ObjectEstimate, body: BodyGeometry, floor: FloorMap
-    ) -> tuple[tuple[float, float, float] | None, list[np.ndarray] | None]:
-        """A base pose facing the object with the grip point on it at the shortest free extension, the
-        approach turned as little as possible from the straight line, and a path to it."""
+    def _standing_poses(
+        self,
+        est: ObjectEstimate,
+        body: BodyGeometry,
+        floor: FloorMap,
+        seen_from: tuple[float, float, float],
+    ) -> Iterator[tuple[tuple[float, float, float], list[np.ndarray]]]:
+        """Base poses facing the object with the grip point on it at the shortest free extension, and paths
+        to them: first along the line it was seen along (that side has a view of it), then turned more and
+        more from it."""
         here = self._pose()
         centre = est.xy()
-        bearing = math.atan2(centre[1] - here[1], centre[0] - here[0])
+        bearing = math.atan2(centre[1] - seen_from[1], centre[0] - seen_from[0])
         for turn in (0.0, 0.35, -0.35, 0.7, -0.7, 1.05, -1.05, 1.4, -1.4, 1.75, -1.75, 2.1, -2.1, math.pi):
             yaw = bearing + turn
             c, s = math.cos(yaw), math.sin(yaw)
-            lo = max(body.arm_range[0], 0.02)
-            for ext in np.arange(lo, body.arm_range[1] - 0.02, 0.02):
+            # a few centimetres of extension to spare either way, for the corrections at the goal
+            for ext in np.arange(body.arm_range[0] + 0.05, body.arm_range[1] - 0.03, 0.02):
                 lx, ly = body.reach_x(float(ext)), body.arm_xy[1]
                 pose = (centre[0] - (c * lx - s * ly), centre[1] - (s * lx + c * ly), yaw)
                 if floor.footprint_free(pose, body.base_half, 0.04):
                     path = floor.path(np.array(here[:2]), np.array(pose[:2]), body.radius + 0.02)
                     if path is not None:
-                        return pose, path
+                        yield pose, path
                     break
-        return None, None
 
     def _headroom(self, est: ObjectEstimate, body: BodyGeometry) -> float:
         """How far the object can be raised before it meets what is above it (a shelf board), by depth."""

@@ -1,14 +1,15 @@
-"""The MuJoCo world's controller: geometric pointing plus PRIVILEGED scripted manipulation.
+"""The MuJoCo world's controllers: `servo` (perception alone, `attribot.control.servo`) by default, and
+`privileged`, geometric pointing plus PRIVILEGED scripted manipulation, to compare against.
 
 Approaching, picking up and putting back use `attribot.sim.scripted`, which reads the simulator's state
 (the object's true pose, found by the object id of the detection) to compute targets and then moves the
 robot with its ordinary commands. That is privileged information a real robot does not have, exactly as
 the AI2-THOR actions of the paper were; the backend name says so ("sim-privileged") and it shows up in
 every answer that names its backends. Navigating to image coordinates, placing on another object and
-pushing are not implemented and raise `UnsupportedAction`.
+pushing are not scripted and raise `UnsupportedAction` (the servo controller does them).
 
-It lives beside the MuJoCo embodiment (not in `control/`, which knows no simulator) and registers itself in
-`CONTROLLERS` under the world's name when `attribot.embodiments.mujoco` is imported.
+It lives beside the MuJoCo embodiment (not in `control/`, which knows no simulator) and registers the
+world's default in `CONTROLLERS` under the world's name when `attribot.embodiments.mujoco` is imported.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from types import ModuleType
 
 from attribot.control.base import CONTROLLERS, ControlError, Target, not_available
 from attribot.control.pointing import PointingController
+from attribot.control.servo import ServoController
 from attribot.errors import UnsupportedAction
 
 __all__ = ["SimController"]
@@ -71,6 +73,11 @@ class SimController(PointingController):
         )
 
 
-@CONTROLLERS.register("mujoco", aliases=("privileged", "sim-privileged"))
-def _mujoco(world: object) -> SimController:
+@CONTROLLERS.register("privileged", aliases=("sim-privileged",))
+def _privileged(world: object) -> SimController:
     return SimController(world)
+
+
+@CONTROLLERS.register("mujoco")
+def _mujoco(world: object) -> ServoController:
+    return ServoController(world)

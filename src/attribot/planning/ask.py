@@ -37,7 +37,7 @@ class Scene:
     image: Path | None = None
     world: str = "mujoco"
     sensors: Sequence[str] | None = None
-    controller: str | None = None  # None: the world's own (privileged in MuJoCo); "servo": by perception
+    controller: str | None = None  # None: the world's own (servo in MuJoCo); "privileged": sim state
 
     def __post_init__(self) -> None:
         if self.image is not None and self.config is not None:

@@ -1,0 +1,162 @@
+"""Locating objects and planning paths from depth alone: back-projection, object estimates from a ray-cast
+depth image whose scene is known exactly, the floor map and its paths."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from attribot.control.body import BodyGeometry
+from attribot.control.spatial import (
+    FloorMap,
+    base_points,
+    estimate_object,
+    head_towards,
+    point_from_range,
+    to_base,
+    to_world,
+)
+from attribot.frame import CameraInfo
+
+BODY = BodyGeometry(
+    camera_xyz=(-0.1, -0.08, 1.3),
+    arm_xy=(-0.1, -0.08),
+    reach0=0.5,
+    arm_range=(0.0, 0.55),
+    lift_range=(0.03, 1.1),
+    base_half=(0.19, 0.16),
+)
+CAMERA = CameraInfo(width=160, height=120, fx=110.0, fy=110.0, cx=80.0, cy=60.0)
+
+Box3 = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+
+def _ray_cast(head: tuple[float, float], base: tuple[float, float, float], boxes: list[Box3]) -> np.ndarray:
+    """Depth along the optical axis of a floor (z=0) and axis-aligned boxes (world frame), by exact ray
+    intersection: the scene is known, so the estimates can be checked to the millimetre."""
+    v, u = np.mgrid[0 : CAMERA.height, 0 : CAMERA.width] + 0.5
+    d = np.ones_like(u)
+    rays = base_points(d.astype(np.float32), CAMERA, head, BODY) - np.asarray(BODY.camera_xyz)
+    origin = to_world(np.asarray(BODY.camera_xyz), base)
+    dirs = to_world(rays, (0.0, 0.0, base[2]))  # rotate only
+    best = np.full(len(dirs), np.inf)
+    down = dirs[:, 2] < 0
+    best[down] = -origin[2] / dirs[down, 2]
+    for lo, hi in boxes:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0 = (np.asarray(lo) - origin) / dirs
+            t1 = (np.asarray(hi) - origin) / dirs
+        near = np.nanmax(np.minimum(t0, t1), axis=1)
+        far = np.nanmin(np.maximum(t0, t1), axis=1)
+        hit = (near <= far) & (near > 0)
+        best[hit] = np.minimum(best[hit], near[hit])
+    # t runs along a ray whose forward (optical axis) component is 1: t is the depth
+    return best.reshape(u.shape).astype(np.float32)
+
+
+def _project(point: np.ndarray, head: tuple[float, float], base: tuple[float, float, float]) -> tuple:
+    p = to_base(point, base) - np.asarray(BODY.camera_xyz)
+    pan, tilt = head
+    # undo pan, then tilt
+    f = p[0] * math.cos(pan) + p[1] * math.sin(pan)
+    left = -p[0] * math.sin(pan) + p[1] * math.cos(pan)
+    fwd = f * math.cos(tilt) + p[2] * math.sin(tilt)
+    up = -f * math.sin(tilt) + p[2] * math.cos(tilt)
+    return CAMERA.cx - left / fwd * CAMERA.fx, CAMERA.cy - up / fwd * CAMERA.fy
+
+
+def test_world_and_base_frames_are_inverse():
+    pts = np.array([[1.0, 2.0, 0.3], [-0.5, 0.25, 1.0]])
+    pose = (0.7, -1.2, 2.1)
+    assert np.allclose(to_base(to_world(pts, pose), pose), pts)
+    assert np.allclose(to_world(np.array([1.0, 0.0, 0.5]), (1.0, 1.0, math.pi / 2)), [1.0, 2.0, 0.5])
+
+
+def test_a_range_along_the_aimed_axis_lands_on_the_point():
+    pose = (0.3, -0.4, 0.6)
+    target = np.array([1.8, 0.9, 0.5])
+    head = head_towards(target, pose, BODY)
+    rng = float(np.linalg.norm(to_base(target, pose) - np.asarray(BODY.camera_xyz)))
+    p = to_world(point_from_range(rng, CAMERA, head, BODY, CAMERA.cx, CAMERA.cy), pose)
+    assert np.allclose(p, target, atol=1e-9)
+
+
+@pytest.mark.parametrize("head", [(0.0, -0.5), (0.35, -0.7), (-0.3, -0.4)])
+def test_an_object_on_a_table_is_located_from_its_depth_pixels(head):
+    base = (0.1, 0.2, 0.15)
+    table = ((1.0, -0.6, 0.0), (1.8, 0.8, 0.45))
+    obj = ((1.25, 0.05, 0.45), (1.33, 0.13, 0.57))  # 8 x 8 x 12 cm on the table
+    centre = np.array([1.29, 0.09, 0.51])
+    # look at it, as the controller would before locating
+    head = head_towards(centre, base, BODY)
+    depth = _ray_cast(head, base, [table, obj])
+    corners = np.array([[x, y, z] for x in (1.25, 1.33) for y in (0.05, 0.13) for z in (0.45, 0.57)])
+    uv = np.array([_project(c, head, base) for c in corners])
+    box = (uv[:, 0].min() - 2, uv[:, 1].min() - 2, uv[:, 0].max() + 2, uv[:, 1].max() + 2)
+    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    assert est is not None
+    assert est.support_z == pytest.approx(0.45, abs=0.01)
+    assert est.top_z == pytest.approx(0.57, abs=0.015)
+    assert np.linalg.norm(np.array(est.centre[:2]) - centre[:2]) < 0.025
+    assert est.radius == pytest.approx(0.04, abs=0.025)
+
+
+def test_a_thin_object_in_front_of_a_wall_is_not_taken_for_the_wall():
+    base = (0.0, 0.0, 0.0)
+    wall = ((3.0, -3.0, 0.0), (3.1, 3.0, 2.5))
+    pole = ((1.5, -0.09, 0.0), (1.52, -0.07, 1.4))
+    head = head_towards(np.array([1.51, -0.08, 0.7]), base, BODY)
+    depth = _ray_cast(head, base, [wall, pole])
+    top, bottom = (_project(np.array([1.51, -0.08, z]), head, base)[1] for z in (1.4, 0.0))
+    box = (CAMERA.cx - 6, max(top - 2, 0.0), CAMERA.cx + 6, min(bottom + 2, CAMERA.height))  # a loose box
+    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    assert est is not None and abs(est.centre[0] - 1.51) < 0.05
+
+
+def test_ignored_points_are_left_out_of_the_estimate():
+    base = (0.0, 0.0, 0.0)
+    table = ((1.0, -0.5, 0.0), (1.6, 0.5, 0.45))
+    plate = ((1.2, -0.15, 0.45), (1.4, 0.05, 0.47))
+    held = ((1.2, -0.12, 0.6), (1.28, -0.04, 0.68))  # hangs between the camera and the plate
+    head = head_towards(np.array([1.3, -0.05, 0.46]), base, BODY)
+    depth = _ray_cast(head, base, [table, plate, held])
+    uv = np.array([_project(np.array(c), head, base) for c in [(1.2, -0.15, 0.45), (1.4, 0.05, 0.47)]])
+    box = (uv[:, 0].min() - 15, uv[:, 1].min() - 15, uv[:, 0].max() + 15, uv[:, 1].max() + 15)
+    fooled = estimate_object(depth, CAMERA, head, base, BODY, box)
+    assert fooled is not None and fooled.top_z > 0.55  # what the held object does to it
+
+    def is_held(points: np.ndarray) -> np.ndarray:
+        return points[:, 2] > 0.55
+
+    est = estimate_object(depth, CAMERA, head, base, BODY, box, ignore=is_held)
+    assert est is not None and est.top_z == pytest.approx(0.47, abs=0.01)
+
+
+def test_the_floor_map_plans_around_what_depth_saw():
+    floor = FloorMap((0.0, 0.0), half=3.0)
+    # a wall of points from y=-1 to y=1 at x=1, 0.5 m high
+    ys = np.linspace(-1.0, 1.0, 200)
+    floor.add(np.column_stack([np.full_like(ys, 1.0), ys, np.full_like(ys, 0.5)]))
+    floor.add(np.array([[2.0, 2.0, 0.01]]))  # on the floor: not an obstacle
+    assert not floor.occupied[floor.index(np.array([2.0, 2.0]))]
+    path = floor.path(np.array([0.0, 0.0]), np.array([2.0, 0.0]), radius=0.3)
+    assert path is not None and np.allclose(path[-1], [2.0, 0.0])
+    # every leg keeps the base's radius from the wall (less a cell of grid rounding)
+    wall = np.column_stack([np.full_like(ys, 1.0), ys])
+    pts = [np.array([0.0, 0.0]), *path]
+    for a, b in zip(pts, pts[1:], strict=False):
+        for t in np.linspace(0, 1, 50):
+            assert np.min(np.linalg.norm(wall - (a + (b - a) * t), axis=1)) > 0.3 - 0.05
+    assert not floor.footprint_free((1.0, 0.0, 0.0), BODY.base_half, 0.03)
+    assert floor.footprint_free((0.0, 0.0, 0.0), BODY.base_half, 0.03)
+    floor.clear_disc(np.array([1.0, 0.0]), 0.2)
+    assert not floor.occupied[floor.index(np.array([1.0, 0.0]))]
+
+
+def test_no_path_through_a_closed_room():
+    floor = FloorMap((0.0, 0.0), half=2.0)
+    t = np.linspace(0, math.tau, 2000)
+    floor.add(np.column_stack([np.cos(t), np.sin(t), np.full_like(t, 0.5)]))  # a ring around the robot
+    assert floor.path(np.array([0.0, 0.0]), np.array([1.6, 0.0]), radius=0.25) is None
