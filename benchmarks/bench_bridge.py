@@ -7,7 +7,8 @@
    against the same loop in-process (target: at least 30 per second over the bridge).
 3. Time from the last command to the base stopping when the client process is killed (SIGKILL), with the
    watchdog at 0.5 s (target under 0.5 s; a dropped connection stops it at once).
-4. The same embodied distance queries (held-out seeds) over the bridge and directly: answers compared.
+4. The same embodied distance and weight queries (held-out seeds) over the bridge and directly, with the
+   servo controller on both sides: answers compared, and the wall time of each side.
 
     .venv/bin/python benchmarks/bench_bridge.py [--frames 30] [--steps 60] [--seeds 10,11,12,13,14]
 """
@@ -122,30 +123,47 @@ def main() -> None:
         server.close()
         thread.join(timeout=30)
 
-    queries = ["Which object is the closest to the robot?", "Which object is the farthest from the robot?"]
+    queries = [
+        ("Which object is the closest to the robot?", "distance"),
+        ("Which object is the farthest from the robot?", "distance"),
+        ("Which object is the heaviest?", "force"),
+        ("Which item is the lightest?", "force"),
+    ]
     same = total = 0
+    walls = {"bridge": 0.0, "direct": 0.0}
     settings = load_settings()
     os.environ["ATTRIBOT_BRIDGE_TOKEN"] = TOKEN
     for seed in [int(s) for s in args.seeds.split(",")]:
         cfg = SceneConfig(layout="household", seed=seed)
-        for query in queries:  # a fresh robot per query, as the direct world is fresh per query
+        for query, sensor in queries:  # a fresh robot per query, as the direct world is fresh per query
+            sensors = ["camera", sensor]
             server, driver, thread = serve(cfg, Limits(watchdog_s=5.0))
             bridged = cfg.model_copy(
                 update={"options": {"bridge_url": f"tcp://127.0.0.1:{server.address[1]}"}}
             )
             try:
-                over = ask(
-                    query, Scene(world="bridge", config=bridged, sensors=["camera", "distance"]), settings
-                )
+                t0 = time.perf_counter()
+                over = ask(query, Scene(world="bridge", config=bridged, sensors=sensors), settings)
+                walls["bridge"] += time.perf_counter() - t0
             finally:
                 server.close()
                 thread.join(timeout=30)
-            here = ask(query, Scene(world="mujoco", config=cfg, sensors=["camera", "distance"]), settings)
+            t0 = time.perf_counter()
+            here = ask(query, Scene(world="mujoco", config=cfg, sensors=sensors), settings)
+            walls["direct"] += time.perf_counter() - t0
             total += 1
             same += over.answer == here.answer and over.error is None
             if over.answer != here.answer:
                 print(f"  seed {seed} {query!r}: bridge {over.answer!r} / direct {here.answer!r}")
-    print(f"embodied distance queries, seeds {args.seeds}: {same}/{total} answers identical over the bridge")
+            if over.backends.get("robot") != "servo":
+                print(
+                    f"  seed {seed} {query!r}: the bridge answer names robot {over.backends.get('robot')!r}"
+                )
+    print(
+        f"embodied distance and weight queries, seeds {args.seeds}: {same}/{total} answers identical over "
+        f"the bridge; wall {walls['bridge']:.1f} s over the bridge vs {walls['direct']:.1f} s direct "
+        f"(ratio {walls['bridge'] / max(walls['direct'], 1e-9):.2f})"
+    )
 
 
 if __name__ == "__main__":

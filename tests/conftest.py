@@ -8,6 +8,8 @@ import json
 import math
 import os
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -31,6 +33,19 @@ EMPTY_SETTINGS = ARTIFACTS / "empty-settings.toml"
 
 
 # ---- settings -----------------------------------------------------------------------------------------
+
+
+def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """`attribot ARGS...` in a fresh process with the empty settings file, its output captured."""
+    env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS)}
+    return subprocess.run(
+        [sys.executable, "-m", "attribot.cli", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=cwd,
+        timeout=120,
+    )
 
 
 @pytest.fixture

@@ -5,10 +5,6 @@ and the errors a user meets."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,7 +14,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
 from attribot.planning.ask import Scene, ask, execute
-from conftest import EMPTY_SETTINGS, serve_chat_replies
+from conftest import cli, serve_chat_replies
 
 LAYOUT, SEED = "household", 7
 
@@ -31,18 +27,6 @@ def truth() -> dict:
 
 def by_category(truth: dict) -> dict[str, dict]:
     return {o["category"]: o for o in truth["objects"]}
-
-
-def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS)}
-    return subprocess.run(
-        [sys.executable, "-m", "attribot.cli", *args],
-        capture_output=True,
-        text=True,
-        env=env,
-        cwd=cwd,
-        timeout=120,
-    )
 
 
 def test_distance_query_measures_and_picks_the_truly_closer_object(truth):

@@ -309,6 +309,40 @@ def test_the_weight_path_over_the_bridge_reads_what_the_direct_world_reads():
         assert over[oid] == pytest.approx(here[oid], rel=0.02, abs=0.01)
 
 
+def test_the_servo_controller_weighs_over_the_bridge_as_in_the_direct_world():
+    from attribot.api import Perception, Robot
+    from attribot.config import load_settings
+
+    perception = Perception.from_settings(load_settings(detector="oracle", vqa="oracle", language="catalog"))
+
+    def weigh_all(world: Any) -> dict[str, float]:
+        robot = Robot(sensors=["camera", "force"], world=world)
+        assert robot.backend_name() == "servo"
+        out = {}
+        for patch in robot.look(perception).find("object")[:2]:
+            robot.go_to_object(patch)
+            robot.pick_up(patch)
+            out[patch.object_id] = robot.measure_weight(patch)
+            robot.put_down()
+        return out
+
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0)
+    with serving(_mujoco_driver, limits) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as bridge:
+        with MujocoWorld(layout=LAYOUT, seed=SEED) as direct:
+            assert bridge.body() == direct.body()
+            here = weigh_all(direct)
+        over = weigh_all(bridge)
+    assert len(here) == 2 and over.keys() == here.keys()
+    for oid in here:
+        assert over[oid] == pytest.approx(here[oid], rel=0.01)
+
+
+def test_a_robot_that_does_not_state_its_body_is_not_driven_by_perception():
+    with serving(RecordingDriver) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as world:
+        with pytest.raises(UnsupportedAction, match="does not state its body geometry"):
+            world.body()
+
+
 def test_grasp_without_the_capability_is_refused_by_the_robot():
     with serving(RecordingDriver) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as world:
         with pytest.raises(UnsupportedAction, match="no gripper capability"):
@@ -328,8 +362,9 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-@pytest.fixture(scope="module")
-def served_cli() -> Iterator[int]:
+@contextmanager
+def _served_process() -> Iterator[int]:
+    """`attribot bridge serve --driver mujoco` in its own process on a free port, stopped with SIGINT."""
     port = _free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "attribot.cli", "bridge", "serve", "--driver", "mujoco", "--layout", LAYOUT,
@@ -352,6 +387,12 @@ def served_cli() -> Iterator[int]:
             proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             proc.kill()
+
+
+@pytest.fixture(scope="module")
+def served_cli() -> Iterator[int]:
+    with _served_process() as port:
+        yield port
 
 
 def _ask(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
@@ -383,3 +424,22 @@ def test_cli_wrong_token_exits_2_and_says_so(served_cli):
     assert none.returncode == 2 and "ATTRIBOT_BRIDGE_TOKEN is not set" in none.stderr
     nourl = _ask("the closest item", "--world", "bridge")
     assert nourl.returncode == 2 and "--bridge-url" in nourl.stderr
+
+
+def test_cli_embodied_weight_query_over_the_bridge_answers_as_the_direct_world():
+    query = "Which object is the heaviest?"
+    with _served_process() as port:  # a robot of its own: it starts where the direct world starts
+        over = _ask(query, "--world", "bridge", "--bridge-url", f"tcp://127.0.0.1:{port}",
+                    "--sensors", "camera,force", "--json", ATTRIBOT_BRIDGE_TOKEN=TOKEN)  # fmt: skip
+    assert over.returncode == 0, over.stderr
+    here = _ask(query, "--layout", LAYOUT, "--seed", str(SEED), "--sensors", "camera,force", "--json")
+    assert here.returncode == 0, here.stderr
+    a, b = json.loads(over.stdout), json.loads(here.stdout)
+    assert a["error"] is None and a["backends"]["robot"] == b["backends"]["robot"] == "servo"
+    assert a["answer"] == b["answer"] and a["value"] == pytest.approx(b["value"], rel=0.01)
+    weighed = [t for t in a["trace"] if t["call"] == "Robot.measure_weight"]
+    direct = [t for t in b["trace"] if t["call"] == "Robot.measure_weight"]
+    assert len(weighed) == len(direct) >= 2
+    for x, y in zip(weighed, direct, strict=True):
+        assert x["args"][0]["object_id"] == y["args"][0]["object_id"]
+        assert x["result"] == pytest.approx(y["result"], rel=0.01)

@@ -5,6 +5,7 @@ program can act on. The simulator's truth only checks the outcome."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -20,7 +21,7 @@ from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
 from attribot.models.oracle import OracleDetector
 from attribot.planning.ask import Scene, ask
-from conftest import TruthBlindWorld
+from conftest import TruthBlindWorld, cli
 
 W, H = 320, 240
 GRAVITY = 9.81
@@ -249,3 +250,43 @@ def test_robot_actions_through_the_api_with_a_detector_without_ids():
         robot.put_on(plate)
         held = world.held_object()
         assert held is None
+
+
+PLACE = """def execute_command(image, robot):
+    apple = image.find("apple")[0]
+    plate = image.find("plate")[0]
+    robot.go_to_object(apple)
+    robot.pick_up(apple)
+    robot.put_on(plate)
+    return plate
+"""
+
+PUSH = """def execute_command(image):
+    image_patch = ImagePatch(image)
+    robot = Robot(sensors=["camera"])
+    ball = image_patch.find("ball")[0]
+    robot.push(ball)
+    return ball
+"""
+
+
+@pytest.mark.parametrize(
+    ("program", "scene", "calls"),
+    [
+        (PLACE, ["--seed", "5", "--categories", "apple,plate", "--objects", "2"], ["Robot.put_on"]),
+        (PUSH, ["--seed", "2", "--categories", "basketball", "--objects", "1"], ["Robot.push"]),
+    ],
+    ids=["pick-and-place", "push-in-the-papers-dialect"],
+)
+def test_manipulation_programs_run_through_attribot_exec(tmp_path, program, scene, calls):
+    path = tmp_path / "program.py"
+    path.write_text(program)
+    done = cli(
+        "exec", str(path), "--layout", "household", *scene, "--width", "320", "--height", "240", "--json"
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    answer = json.loads(done.stdout)
+    assert answer["error"] is None and answer["backends"]["robot"] == "servo"
+    made = [t["call"] for t in answer["trace"]]
+    for call in calls:
+        assert call in made and all(t["error"] is None for t in answer["trace"])

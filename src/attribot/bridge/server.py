@@ -65,6 +65,12 @@ class Driver:
         """Intrinsics: width, height, fx, fy, cx, cy (pixels)."""
         raise NotImplementedError
 
+    def body(self) -> dict[str, Any] | None:
+        """The body geometry a perception-driven controller needs (the fields of
+        `attribot.control.body.BodyGeometry`: camera_xyz, arm_xy, reach0, arm_range, lift_range, base_half,
+        finger_open; metres, base frame), or None when the robot does not state it."""
+        return None
+
     def frame(self) -> CameraFrame:
         raise NotImplementedError
 
@@ -324,6 +330,9 @@ class RobotServer:
         }
         if "camera" in caps:
             reply["camera"] = dict(self.driver.camera())
+        body = self.driver.body()
+        if body is not None:
+            reply["body"] = dict(body)
         return reply
 
     def _need(self, capability: str, op: str) -> None:

@@ -167,6 +167,12 @@ def estimate_object(
     above = near[near[:, 2] > support + 0.01]
     if len(above) < 3:  # a flat thing: it is all the object
         above = near
+    # an object is a stack without gaps from its support up: what hangs above a gap (a shelf's board
+    # over it) is something else
+    zs = np.sort(above[:, 2])
+    gaps = np.nonzero(np.diff(zs) > 0.05)[0]
+    if len(gaps):
+        above = above[above[:, 2] <= zs[gaps[0]]]
     top = float(np.percentile(above[:, 2], 98))
     # the visible faces lie towards the camera: the centre is half the object's depth behind the front
     cam = cam[:2]
@@ -180,6 +186,12 @@ def estimate_object(
     centre_along = max((front + back) / 2, front + radius)
     centre_across = float(np.percentile(across, 95) + np.percentile(across, 5)) / 2
     c = cam + view * centre_along + side * centre_across
+    # the middle of a thin or bent thing (a ladle, a ring) may be empty: then the grip goes to the
+    # nearest part of it (from above, the top of a solid object covers its middle); not where ignored
+    # points hide the middle (it is unseen, not empty)
+    gap = np.hypot(above[:, 0] - c[0], above[:, 1] - c[1])
+    if ignore is None and float(gap.min()) > 0.01:
+        c = above[int(np.argmin(gap)), :2]
     centre = to_world(np.array([c[0], c[1], (support + top) / 2]), base)
     return ObjectEstimate(
         centre=(float(centre[0]), float(centre[1]), float(centre[2])),

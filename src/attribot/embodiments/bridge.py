@@ -9,6 +9,7 @@ The protocol is in docs/bridge-protocol.md; the robot side in `attribot.bridge`.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import time
@@ -21,6 +22,9 @@ import numpy as np
 from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
 from attribot.bridge.server import CameraFrame, Driver
 from attribot.config import SceneConfig
+from attribot.control.base import CONTROLLERS
+from attribot.control.body import BodyGeometry
+from attribot.control.servo import ServoController
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.errors import AttribotError, ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo, Frame, ObjectTruth
@@ -43,6 +47,18 @@ def _parse_url(url: str) -> tuple[str, int]:
             "give the robot's address, e.g. --bridge-url tcp://192.168.2.1:7777",
         )
     return parsed.hostname, parsed.port
+
+
+def _body_geometry(fields: dict[str, Any]) -> BodyGeometry:
+    """The hello's `body` as a BodyGeometry (JSON lists become tuples); a malformed one is the robot's bug."""
+    try:
+        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else float(v) for k, v in fields.items()}
+        return BodyGeometry(**values)
+    except (TypeError, ValueError) as exc:
+        raise BridgeError(
+            f"the robot's hello gives a body geometry this client cannot read ({exc})",
+            "check the robot driver's body(): the fields of attribot.control.body.BodyGeometry",
+        ) from None
 
 
 def _jpeg(rgb: np.ndarray, quality: int) -> bytes:
@@ -101,6 +117,8 @@ class BridgeWorld(Embodiment):
         self._camera = (
             None if cam is None else CameraInfo(**{k: cam[k] for k in CameraInfo.__dataclass_fields__})
         )
+        body = hello.get("body")
+        self._body = None if body is None else _body_geometry(body)
         self.last_timestamp: float | None = None
 
     # --- transport --------------------------------------------------------------------------------
@@ -175,6 +193,14 @@ class BridgeWorld(Embodiment):
         self.last_timestamp = float(head.get("timestamp", time.time()))
         return Frame(rgb=rgb, depth=depth, segmentation=seg, objects=objects, camera=camera)
 
+    def body(self) -> BodyGeometry:
+        if self._body is None:
+            raise UnsupportedAction(
+                f"the robot behind the bridge ({self.robot}) does not state its body geometry",
+                "give its driver a body() (camera position, arm reach; see docs/bridge-protocol.md)",
+            )
+        return self._body
+
     def step(self, seconds: float) -> None:
         self._call({"op": "step", "seconds": float(seconds)})
 
@@ -243,6 +269,12 @@ class EmbodimentDriver(Driver):
         info = self.world.camera_info()
         return {k: getattr(info, k) for k in CameraInfo.__dataclass_fields__}
 
+    def body(self) -> dict[str, Any] | None:
+        try:
+            return dataclasses.asdict(self.world.body())
+        except UnsupportedAction:
+            return None
+
     def frame(self) -> CameraFrame:
         frame = self.world.observe()
         objects = [
@@ -305,3 +337,9 @@ class EmbodimentDriver(Driver):
 
     def close(self) -> None:
         self.world.close()
+
+
+@CONTROLLERS.register("bridge")
+def _bridge_controller(world: object) -> ServoController:
+    """A robot behind the bridge is driven by what it perceives: the servo controller, by default."""
+    return ServoController(world)
