@@ -12,6 +12,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.control.base import Capture, Target, build_controller
 from attribot.control.servo import ServoController
 from attribot.control.tracker import BoxTracker, TrackResult
+from attribot.embodiments.base import Capability
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
 from attribot.frame import Frame
@@ -193,3 +194,43 @@ def test_a_drifted_track_is_caught_by_the_confirming_detection(monkeypatch):
         servo.focus_on(patch.target())
         assert servo.last is not None and servo.last.error_px <= 1.5
         assert _truth_centre_error(world, patch.object_id) <= 5.0  # the object, not the drifted box
+
+
+class HeadlessWorld(TruthBlindWorld):
+    """A robot whose camera cannot pan or tilt (the paper's RoboMaster EP): it turns its base instead."""
+
+    name = "headless"
+
+    def capabilities(self) -> frozenset[Capability]:
+        return super().capabilities() - {Capability.HEAD}
+
+    def set_head(self, pan: float, tilt: float) -> None:
+        raise AssertionError("a headless robot has no head to move")
+
+
+@pytest.mark.parametrize("seed", [2, 4])
+def test_a_robot_without_a_camera_head_centres_by_turning_its_base(seed):
+    with MujocoWorld(SceneConfig(layout="household", seed=seed, width=W, height=H)) as world:
+        detector = OracleDetector()
+        first = world.observe()
+        det = max(detector.detect(first, ["object"]), key=lambda d: abs((d.box[0] + d.box[2]) / 2 - W / 2))
+        js, pose = world.joint_states(), world.base_pose()
+        capture = Capture(
+            0, world.camera_info(), (js["head_pan"], js["head_tilt"]), (pose.x, pose.y, pose.yaw)
+        )
+
+        def find(frame: Frame) -> list[tuple[float, float, float, float]]:
+            return [
+                d.box for d in detector.detect(world.observe(), ["object"]) if d.object_id == det.object_id
+            ]
+
+        servo = ServoController(HeadlessWorld(world))
+        servo.focus_on(Target(box=det.box, capture=capture, label=det.label, find=find))
+        box = next(o.box for o in world.scene_info().objects if o.id == det.object_id)
+        assert abs((box[0] + box[2]) / 2 - W / 2) <= 5.0
+        assert abs(world.base_pose().yaw - pose.yaw) > 0.02  # the base turned, the head did not
+        assert world.joint_states()["head_pan"] == pytest.approx(js["head_pan"], abs=1e-3)
+        yaw = world.base_pose().yaw
+        world.step(0.5)
+        assert world.base_pose().yaw == pytest.approx(yaw, abs=2e-3)  # and it stopped turning
+        assert servo.last is not None and servo.last.error_px <= servo.tol_px

@@ -8,7 +8,8 @@ drives the head with a PID per axis on the box centre's angular error until the 
 `tol_px` of the image centre. When the tracker loses the target it detects again, once, before giving up.
 It steps the world one control period at a time (sim time in the simulator, wall time on a robot: no
 sleeps) and uses only what a real robot has: frames (RGB), intrinsics, head joint angles and its base
-pose; never the simulator's object poses, ids or segmentation.
+pose; never the simulator's object poses, ids or segmentation. A robot without a camera head (the paper's
+RoboMaster) centres left-right by turning its base with a PID on the same error, from the unchanged view.
 
 The other actions act on what depth and odometry say, never on the simulator's state: an object is
 located from the depth pixels in its box (or the rangefinder when there is no depth image); a floor map
@@ -66,7 +67,9 @@ class ServoController(PointingController):
     focus; kp / ki: PID gains on the angular error (radians of head command per radian of error per step);
     max_step_rad: the largest head correction in one step; preaim: aim by geometry first and detect again
     (True), or track the target's box from the current view at once, which must not have changed since the
-    capture (False: the paper's robot, and the only way without intrinsics one trusts). drive_speed: the
+    capture (False: the paper's robot, and the only way without intrinsics one trusts). turn_kp / turn_ki /
+    max_turn: the PID that turns the base (rad/s per radian of error) on a robot without a camera head,
+    which is then centred left-right only and always from the unchanged view. drive_speed: the
     base's top speed, m/s; arrive_tol: how close (metres) the arm's line must pass to the object;
     align_tries: base corrections at the goal; stand_tries: places to stand tried when the camera loses the
     object at one; lift_clear: how high a picked object is raised (less under a shelf board); push_m: how
@@ -80,6 +83,9 @@ class ServoController(PointingController):
     kp: float = 0.8
     ki: float = 0.4
     max_step_rad: float = 0.15
+    turn_kp: float = 3.0
+    turn_ki: float = 0.5
+    max_turn: float = 1.0
     preaim: bool = True
     drive_speed: float = 0.5
     arrive_tol: float = 0.012
@@ -101,7 +107,13 @@ class ServoController(PointingController):
     def _centre(self, target: Target) -> None:
         camera = self.world.camera_info()
         self.waited_s, self.last = 0.0, None  # no report when the geometric aim is all there is
-        if self.preaim:
+        caps = {str(c) for c in self.world.capabilities()}
+        # without a pan/tilt head (the paper's RoboMaster) the base turns instead, centring the box
+        # left-right only: its camera cannot tilt
+        headless = "head" not in caps
+        if headless and "base" not in caps:
+            raise not_available("focus_on_patch", self._world_name, "it has neither a camera head nor a base")
+        if self.preaim and not headless:
             super().focus_on(target)  # aim by geometry: the object is now near the image centre
             if target.find is None:
                 return  # nothing to see it with again: keep the geometric aim
@@ -111,7 +123,7 @@ class ServoController(PointingController):
                 return  # the detector does not see it again: keep the geometric aim, as pointing would
         else:
             # the paper's way: the view has not changed since the capture, so its box is tracked as it is
-            self._check_base(target.capture.base, {str(c) for c in self.world.capabilities()})
+            self._check_base(target.capture.base, caps)
             frame, box = self.world.observe(), target.box
 
         def see(frame: Any) -> Any:
@@ -129,6 +141,7 @@ class ServoController(PointingController):
         # frame instead (slower per step, as sure)
         tracking = not state.lost
         pids = [PID(self.kp, self.ki, out_min=-self.max_step_rad, out_max=self.max_step_rad) for _ in "pt"]
+        turn = PID(self.turn_kp, self.turn_ki, out_min=-self.max_turn, out_max=self.max_turn)
         redetections, steps, error, checked = 0, 0, math.inf, False
         for step in range(1, self.max_steps + 1):
             steps = step
@@ -146,7 +159,7 @@ class ServoController(PointingController):
                 box = state.box
             self.tracked = box
             u, v = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
-            error = math.hypot(u - camera.cx, v - camera.cy)
+            error = abs(u - camera.cx) if headless else math.hypot(u - camera.cx, v - camera.cy)
             if error <= self.tol_px:
                 if not tracking or target.find is None or checked:
                     break
@@ -154,18 +167,21 @@ class ServoController(PointingController):
                 # one detection confirms the centring, or the loop goes on with detections every frame
                 checked = True
                 seen = see(frame)
-                if seen is None or _off_centre(seen, camera) <= self.tol_px:
+                if seen is None or _off_centre(seen, camera, headless) <= self.tol_px:
                     break
                 tracking, box = False, seen
                 continue
             # angular errors: left of the centre means pan left (positive), above means tilt up (positive)
             pan_err = math.atan2(camera.cx - u, camera.fx)
             tilt_err = math.atan2(camera.cy - v, camera.fy)
-            pan, tilt = _head(self.world)
-            self.world.set_head(
-                pan + pids[0].update(0.0, -pan_err, self.control_s),
-                tilt + pids[1].update(0.0, -tilt_err, self.control_s),
-            )
+            if headless:
+                self.world.command_base(0.0, 0.0, turn.update(0.0, -pan_err, self.control_s))
+            else:
+                pan, tilt = _head(self.world)
+                self.world.set_head(
+                    pan + pids[0].update(0.0, -pan_err, self.control_s),
+                    tilt + pids[1].update(0.0, -tilt_err, self.control_s),
+                )
             self.world.step(self.control_s)
             frame = self.world.observe()
             if tracking:
@@ -175,11 +191,15 @@ class ServoController(PointingController):
                 if box is None:
                     raise lost("too little texture to track, and the detector does not see it")
         else:
+            if headless:
+                self.world.command_base(0.0, 0.0, 0.0)
             raise ControlError(
                 f"the camera did not centre {target.describe()} within {self.max_steps} control steps "
                 f"({error:.1f} px off)",
                 "the object may be moving or beyond the head's range: go_to_object first",
             )
+        if headless:
+            self.world.command_base(0.0, 0.0, 0.0)
         self.last = FocusReport(steps, self.waited_s + steps * self.control_s, error, redetections)
 
     # --- perception-driven actions ------------------------------------------------------------------
@@ -747,8 +767,10 @@ def _head(world: Any) -> tuple[float, float]:
     return float(js["head_pan"]), float(js["head_tilt"])
 
 
-def _off_centre(box: tuple[float, float, float, float], camera: Any) -> float:
-    return math.hypot((box[0] + box[2]) / 2 - camera.cx, (box[1] + box[3]) / 2 - camera.cy)
+def _off_centre(box: tuple[float, float, float, float], camera: Any, across_only: bool = False) -> float:
+    """Pixels from the box's centre to the image centre (left-right only with `across_only`)."""
+    dx = (box[0] + box[2]) / 2 - camera.cx
+    return abs(dx) if across_only else math.hypot(dx, (box[1] + box[3]) / 2 - camera.cy)
 
 
 def _nearest_to_centre(
