@@ -134,6 +134,21 @@ def test_the_grip_of_a_thin_bent_thing_lands_on_it_not_in_the_empty_middle():
     assert on_a_bar, est.centre
 
 
+def test_an_open_laptop_is_gripped_by_its_base_not_the_middle_of_its_screen():
+    base = (0.0, 0.0, 0.0)
+    table = ((1.0, -0.6, 0.0), (1.8, 0.6, 0.75))
+    keyboard = ((1.2, -0.17, 0.75), (1.44, 0.17, 0.77))
+    screen = ((1.44, -0.17, 0.75), (1.46, 0.17, 0.98))
+    head = head_towards(np.array([1.32, 0.0, 0.8]), base, BODY)
+    depth = _ray_cast(head, base, [table, keyboard, screen])
+    corners = [(1.2, -0.17, 0.75), (1.46, 0.17, 0.98), (1.2, 0.17, 0.75), (1.46, -0.17, 0.98)]
+    uv = np.array([_project(np.array(c), head, base) for c in corners])
+    box = (uv[:, 0].min() - 1, uv[:, 1].min() - 1, uv[:, 0].max() + 1, uv[:, 1].max() + 1)
+    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    assert est is not None and est.top_z == pytest.approx(0.98, abs=0.015)
+    assert est.grip_z == pytest.approx(0.76, abs=0.015)
+
+
 def test_a_thin_object_in_front_of_a_wall_is_not_taken_for_the_wall():
     base = (0.0, 0.0, 0.0)
     wall = ((3.0, -3.0, 0.0), (3.1, 3.0, 2.5))

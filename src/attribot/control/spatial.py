@@ -110,18 +110,21 @@ def head_towards(point_world: np.ndarray, base: Pose, body: BodyGeometry) -> tup
 @dataclass(frozen=True)
 class ObjectEstimate:
     """An object as depth sees it, world frame: centre (x, y, z), the height of what it stands on, its top,
-    its horizontal radius, and how many depth points it rests on."""
+    its horizontal radius, how many depth points it rests on, and its top above the centre."""
 
     centre: tuple[float, float, float]
     support_z: float
     top_z: float
     radius: float
     points: int
+    local_top_z: float | None = None  # the object's top right above its centre, where depth saw it
 
     @property
     def grip_z(self) -> float:
-        """Halfway up the object: where the fingers close."""
-        return (self.support_z + self.top_z) / 2
+        """Where the fingers close: halfway up the material under the centre (an open laptop: its base,
+        not the middle of its screen), or halfway up the object when depth did not see its centre."""
+        top = self.top_z if self.local_top_z is None else self.local_top_z
+        return (self.support_z + top) / 2
 
     def xy(self) -> np.ndarray:
         return np.array(self.centre[:2])
@@ -193,12 +196,14 @@ def estimate_object(
     if ignore is None and float(gap.min()) > 0.01:
         c = above[int(np.argmin(gap)), :2]
     centre = to_world(np.array([c[0], c[1], (support + top) / 2]), base)
+    local = above[np.hypot(above[:, 0] - c[0], above[:, 1] - c[1]) <= max(0.03, radius * 0.3)]
     return ObjectEstimate(
         centre=(float(centre[0]), float(centre[1]), float(centre[2])),
         support_z=support,
         top_z=top,
         radius=max(radius, 0.01),
         points=len(above),
+        local_top_z=float(np.percentile(local[:, 2], 98)) if len(local) >= 3 else None,
     )
 
 
