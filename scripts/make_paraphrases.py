@@ -34,6 +34,10 @@ WEIGHT = {
         "which {n} weighs most",
         "the most heavy {n}",
         "Which {n} has the most weight?",
+        "Which {n} would be the heaviest?",
+        "Which {n} is heavier than the others?",
+        "Which {n} is highest in weight?",
+        "Can you tell me which {n} is the heaviest?",
     ),
     False: (
         "Which {n} is the lightest?",
@@ -48,6 +52,9 @@ WEIGHT = {
         "which {n} weighs least",
         "the {n} that is the lightest",
         "Which {n} has the least weight?",
+        "Which {n} weighs less than all the others?",
+        "Which {n} is lowest in weight?",
+        "I need the lightest {n}",
     ),
 }
 DISTANCE = {
@@ -60,6 +67,8 @@ DISTANCE = {
         "which {n} is nearest",
         "the {n} closest to me",
         "What is the closest {n}?",
+        "Which {n} in front of you is the nearest?",
+        "Which {n} is closer to me than the others?",
     ),
     False: (
         "Which {n} is the farthest away?",
@@ -70,30 +79,81 @@ DISTANCE = {
         "the {n} farthest from me",
         "What is the furthest {n}?",
         "Find the farthest {n}",
+        "What's the farthest {n} you can see?",
     ),
 }
 SIZE = {
-    True: ("the largest {n}", "Which {n} is the largest?", "the biggest {n}", "which {n} is the tallest"),
-    False: ("the smallest {n}", "Which {n} is the smallest?", "the tiniest {n}", "which {n} is the shortest"),
+    True: (
+        "the largest {n}",
+        "Which {n} is the largest?",
+        "the biggest {n}",
+        "which {n} is the tallest",
+        "Which {n} is the largest by size?",
+    ),
+    False: (
+        "the smallest {n}",
+        "Which {n} is the smallest?",
+        "the tiniest {n}",
+        "which {n} is the shortest",
+        "What is the smallest {n} here?",
+    ),
+}
+# "Which of the three objects is the heaviest?": the candidate set is any object in view
+CANDIDATE_SETS = {
+    ("weight", True): (
+        "Which of the three objects is the heaviest?",
+        "Which of these three items is the heaviest?",
+        "Which of the objects is heaviest?",
+        "Of all the things here, which weighs the most?",
+    ),
+    ("weight", False): (
+        "Which of the three is the lightest?",
+        "Among these, which one would be the lightest?",
+        "Which one of the items weighs the least?",
+    ),
+    ("distance", True): (
+        "Which of the 3 objects is the closest to me?",
+        "Of all the items, which is nearest?",
+    ),
+    ("distance", False): ("Which of these things is the farthest away?",),
+    ("size", True): ("Which of the objects is the biggest?",),
+    ("size", False): ("Which of these items is the smallest?",),
 }
 NAMED_WEIGHT = {
     True: (
         "Out of the {a}, the {b} and the {c}, which one is the heaviest?",
         "Give me the heaviest of the {a}, the {b} and the {c}",
         "Is the {a} heavier than the {b}?",
+        "Which is heavier: the {a} or the {b}?",
+        "Does the {a} weigh more than the {b}?",
+        "Which is heavier, the {a}, the {b} or the {c}?",
     ),
     False: (
         "Out of the {a}, the {b} and the {c}, which one is the most lightweight?",
         "Give me the lightest of the {a}, the {b} and the {c}",
         "Is the {a} lighter than the {b}?",
+        "Between the {a} and the {b}, which is lighter?",
     ),
 }
 NAMED_DISTANCE = {
-    True: ("Is the {a} or the {b} closer to me?", "Is the {a} closer to me than the {b}?"),
-    False: ("Is the {a} or the {b} farther from me?", "Is the {a} farther from me than the {b}?"),
+    True: (
+        "Is the {a} or the {b} closer to me?",
+        "Is the {a} closer to me than the {b}?",
+        "Which is closer to me: the {a} or the {b}?",
+    ),
+    False: (
+        "Is the {a} or the {b} farther from me?",
+        "Is the {a} farther from me than the {b}?",
+        "Which one is farther away, the {a} or the {b}?",
+    ),
 }
 MEASURE = {
-    "distance": ("How far away is the {a}?", "How far is the {a}?", "What's the distance to the {a}?"),
+    "distance": (
+        "How far away is the {a}?",
+        "How far is the {a}?",
+        "What's the distance to the {a}?",
+        "How far away from me is the {a}?",
+    ),
     "weight": ("How heavy is the {a}?", "How much does the {a} weigh?", "What is the weight of the {a}?"),
 }
 GROUNDING = ("Where is the {a}?", "Find the {a}", "Point at the {a}", "Show me the {a}", "the {c} {a}")
@@ -102,6 +162,7 @@ ODD = (
     "Which object does not belong?",
     "which one is different",
     "What is the odd one out?",
+    "Which one is different from the others?",
 )
 COLOURS = ("red", "blue", "teal", "green")
 
@@ -114,6 +175,8 @@ def rows() -> list[dict]:
         for most, forms in table.items():
             for form in forms:
                 out.append({"query": form.format(n=noun), "family": family, "most": most, "noun": noun})
+    for (family, most), forms in CANDIDATE_SETS.items():
+        out += [{"query": q, "family": family, "most": most, "noun": "object"} for q in forms]
     triples = [("apple", "book", "kettle"), ("mug", "bottle", "lamp"), ("phone", "box", "chair")]
     for family, table in (("weight", NAMED_WEIGHT), ("distance", NAMED_DISTANCE)):
         for (a, b, c), (most, forms) in itertools.product(triples, table.items()):

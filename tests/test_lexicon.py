@@ -63,6 +63,10 @@ PARAPHRASE_EXAMPLES = [
     "which is closest by",
     "what's the distance to the book",
     "which's heavier",
+    "which object is lowest in weight",
+    "which item is highest in mass",
+    "which one is heaviest by weight",
+    "the largest by size",
 ]
 
 

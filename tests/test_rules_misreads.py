@@ -94,6 +94,15 @@ REFUSALS = [
     "the thing next to the mug",
     "Which one do you like?",
     "sing me a song",
+    # an attribute word with something the reading by meaning cannot place: refused, not guessed
+    "the mug closest to the lamp",
+    "the object closest to the wall",
+    "Which object is heavier than the mug?",
+    "What is the lightest item on the table?",
+    "the second heaviest object",
+    "Which is bigger, the apple or the melon?",
+    "Which of them is the heaviest and which is the closest?",
+    "the heaviest thing you would never lift",
     # questions for the VQA model, not for a program that chooses an object
     "Is the mug red?",
     "What color is the mug?",
@@ -105,3 +114,17 @@ REFUSALS = [
 def test_what_it_cannot_read_it_refuses(query):
     with pytest.raises(UnsupportedQuery):
         parse_query(query)
+
+
+@pytest.mark.parametrize(
+    ("query", "part"),
+    [
+        ("the mug closest to the lamp", "'closest' but could not place 'mug to lamp'"),
+        ("the second heaviest object", "rank"),
+        ("the heaviest mug and the lightest book", "at once"),
+    ],
+)
+def test_a_refusal_names_the_part_it_could_not_place(query, part):
+    with pytest.raises(UnsupportedQuery) as refused:
+        parse_query(query)
+    assert part in str(refused.value)

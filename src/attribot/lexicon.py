@@ -44,7 +44,29 @@ GENERIC_NOUNS: frozenset[str] = frozenset(
 """Head nouns that stand for any object ("the heaviest item")."""
 
 DEICTIC_WORDS: frozenset[str] = frozenset(
-    {"it", "its", "this", "that", "they", "them", "their", "these", "those", "he", "she", "here", "there"}
+    {
+        "it",
+        "its",
+        "this",
+        "that",
+        "they",
+        "them",
+        "their",
+        "theirs",
+        "these",
+        "those",
+        "he",
+        "she",
+        "him",
+        "her",
+        "his",
+        "hers",
+        "mine",
+        "yours",
+        "ours",
+        "here",
+        "there",
+    }
 )
 """Pronouns and place words: they point at something and never name it, so a planner never searches them."""
 
@@ -59,6 +81,10 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
         "is the heaviest",
     ),
     (r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b", "is the lightest"),
+    (r"\b(?:lowest|least|smallest)\s+in\s+(?:weight|mass)\b", "lightest"),
+    (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest"),
+    (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1"),
+    (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1"),
     (r"\bmost\s+massive\b", "heaviest"),
     (r"\bleast\s+massive\b", "lightest"),
     # distance: "farthest away", "closest by" mean the adjective alone
@@ -70,7 +96,7 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
 """(pattern, replacement) pairs that turn paraphrases of an attribute into the words the planner reads
 ("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text."""
 
-ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = ("weigh", "mass", "weight", "away", " by", "'s")
+ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = ("weigh", "mass", "weight", "away", " by", "'s", " size")
 """Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
 without any can skip the patterns."""
 

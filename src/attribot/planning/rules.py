@@ -357,6 +357,22 @@ _STOP = {
     "any",
     "all",
     "every",
+    # verbs and persons of a sentence around a name, never part of it
+    "would",
+    "be",
+    "will",
+    "should",
+    "might",
+    "need",
+    "want",
+    "see",
+    "think",
+    "i",
+    "we",
+    "by",
+    "has",
+    "have",
+    "seems",
     *_ORDINAL_WORDS,
     "last",
     "penultimate",
@@ -772,7 +788,7 @@ def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
 
 
 _MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight"]], ...] = (
-    (r"how\s+(?:far(?:\s+away)?|close|near)\s+(?:is|are)\s+(?P<obj>.+?)" + _ME, "distance"),
+    (r"how\s+(?:far(?:\s+away)?|close|near)" + _ME + r"\s+(?:is|are)\s+(?P<obj>.+?)" + _ME, "distance"),
     (r"(?:what\s+is\s+)?(?:the\s+)?distance\s+(?:to|of)\s+(?P<obj>.+?)" + _ME, "distance"),
     (r"how\s+heavy\s+(?:is|are)\s+(?P<obj>.+)", "weight"),
     (r"how\s+much\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
@@ -823,11 +839,16 @@ _WHICH_X_IS = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2})\s+(?:is|are)\s+(?:the\s+)?"
     r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
 )
+_WHICH_X_IS_NTH = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?P<ord>" + _ORD + r"|last)\s+(?P<rest>(?:from|in|on)\s+.+)"
+)
 _ODD = re.compile(
     r"(?:(?:which|what)\s+(?:is\s+)?)?(?:the\s+)?odd\s+(?P<a>[a-z]+(?:\s+[a-z]+)?\s+)?out"
     r"|(?:the\s+)?odd\s+one"
     r"|(?:which|what|the)\s+(?P<b>[a-z]+)\s+(?:that\s+)?(?:does\s+not|doesn't|doesnt)\s+belong(?:\s+here)?"
     r"|(?:which|what|the)\s+(?P<c>[a-z]+)\s+(?:that\s+)?is\s+(?:the\s+)?(?:different|odd)(?:\s+one)?"
+    r"(?:\s+(?:from|than)\s+(?:all\s+)?the\s+(?:others|rest))?"
 )
 
 
@@ -839,6 +860,112 @@ def _parse_odd(text: str) -> OddQuery | None:
     noun = (match["a"] or match["b"] or match["c"] or "object").strip()
     obj = ObjectSpec("object") if noun in ("one", "ones") else _object(noun)
     return None if obj is None else OddQuery(obj)
+
+
+# ---- reading by meaning: the attribute wherever it stands, the candidates from what is left -----------
+
+_CUE = re.compile(
+    r"\b(?:(?P<ord>" + _ORD + r")\s+)?(?:(?P<deg>most|least|more|less)\s+)?(?P<adj>"
+    + "|".join(sorted([*_SIZE, *_SUPERLATIVE, *_COMPARATIVE, *_WEIGHT_HEAVY, *_WEIGHT_LIGHT, *_NEAR, *_FAR],
+                      key=len, reverse=True))
+    + r")\b(?:\s+away)?"
+)  # fmt: skip
+_POLITE = re.compile(
+    r"^(?:please\s+)?(?:(?:can|could|would)\s+you\s+)?(?:please\s+)?"
+    r"(?:tell\s+me|let\s+me\s+know|do\s+you\s+know|i\s+(?:want|would\s+like|d\s+like)\s+to\s+know"
+    r"|i\s+(?:need|want)|i\s+am\s+looking\s+for|get\s+me|bring\s+me|hand\s+me)\s+"
+)
+_FRAME = re.compile(
+    r"\b(?:which|what|is|are|of|among|amongst|out|from|between|the|a|an|one|ones|all|these|those|them|"
+    r"here|currently|visible|present|" + _COUNT_WORDS + r"|[2-6])\b"
+)
+_PLACE = re.compile(
+    r"\b(?:in|on)\s+(?:the\s+)?(?:image|picture|photo|frame|scene|view|room)\b|\bin\s+view\b"
+    r"|\bin\s+front\s+of\s+(?:me|you|us|the\s+robot|the\s+camera)\b"
+    r"|\b(?:that\s+|which\s+)?(?:you|i|we)\s+(?:can\s+)?see\b"
+    r"|\b(?:do|would)\s+you\s+(?:think|say)\b|\b(?:would|will|might|could)\s+be\b|\b(?:does|do|did)\b"
+)
+# "heavier than the others" is the heaviest
+_THAN_THE_REST = re.compile(
+    r"\bthan\s+(?:all\s+)?(?:the\s+|any\s+)?(?:others?|rest|other\s+(?:objects?|items?|things?|ones?))\b"
+)
+_ME_ANYWHERE = re.compile(r"\b(?:to|from)\s+(?:me|you|us|the\s+robot|the\s+camera)\b")
+
+
+def _attribute(adjective: str) -> str:
+    if adjective in _WEIGHT_HEAVY or adjective in _WEIGHT_LIGHT:
+        return "weight"
+    if adjective in _NEAR or adjective in _FAR:
+        return "distance"
+    return "size"
+
+
+def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
+    """The attribute (weight, distance, size and its dimension), its direction and rank wherever they stand,
+    and the candidates from what is left once the question's frame ("which of the three ... is") is taken
+    away: what the family forms above did not read. None when there is no attribute word; a refusal that
+    names what it could not place when the rest is not names."""
+    cues = list(_CUE.finditer(text))
+    if not cues:
+        return None
+    attributes = {_attribute(c["adj"]) for c in cues}
+    if len(cues) > 1:
+        raise UnsupportedQuery(
+            original, f"it asks about {' and '.join(repr(c.group(0)) for c in cues)} at once; ask one thing"
+        )
+    cue = cues[0]
+    attribute = attributes.pop()
+    adjective, degree = cue["adj"], cue["deg"]
+    rest = text[: cue.start()] + " " + text[cue.end() :]
+    rest = _POLITE.sub("", rest.strip())
+    distance_from_me = _ME_ANYWHERE.search(rest) is not None
+    rest = _PLACE.sub(" ", _ME_ANYWHERE.sub(" ", _THAN_THE_REST.sub(" ", rest)))
+    rest = " ".join(_FRAME.sub(" ", rest).split()).strip(" ,")
+    rest = re.sub(r"\s*,\s*", ", ", rest)
+    if distance_from_me and attribute != "distance":
+        raise UnsupportedQuery(
+            original, f"found the {attribute} word {adjective!r} with 'to me', which it does not relate"
+        )
+    if re.search(r"(?:,|\band\b|\bor\b|\bthan\b)", rest):
+        objects = _split_names(re.sub(r"\s+than\s+", " or ", rest))
+        named = True
+        if objects is None or len(objects) < 2:
+            raise UnsupportedQuery(
+                original,
+                f"found the {attribute} word {adjective!r} but could not read {rest!r} as names to compare",
+            )
+    else:
+        single = _object(rest)
+        if single is None:
+            raise UnsupportedQuery(
+                original, f"found the {attribute} word {adjective!r} but could not place {rest!r}"
+            )
+        objects, named = (single,), False
+    rank, from_end = _ordinal(cue["ord"]) if cue["ord"] else (1, False)
+    if attribute == "size":
+        if named:
+            raise UnsupportedQuery(original, "it compares the size of named objects, which it does not read")
+        base = _SUPERLATIVE.get(adjective) or _COMPARATIVE.get(adjective) or adjective
+        measure, largest = _SIZE[base]
+        if degree in ("least", "less"):
+            largest = not largest
+        return SizeQuery(
+            obj=objects[0],
+            adjective=" ".join(w for w in (degree, adjective) if w),
+            measure=measure,  # type: ignore[arg-type]
+            largest=largest != from_end,
+            rank=rank,
+        )
+    if rank != 1 or from_end:
+        raise UnsupportedQuery(
+            original, f"it asks for a rank ({cue['ord']!r}) of {attribute}, which it does not read"
+        )
+    if attribute == "weight":
+        heavy = adjective in _WEIGHT_HEAVY
+        if degree in ("least", "less") and adjective in ("heavy", "light", "lightweight"):
+            heavy = not heavy
+        return WeightQuery(objects=objects, heaviest=heavy, named=named)
+    return DistanceQuery(objects=objects, nearest=adjective in _NEAR, named=named)
 
 
 # "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
@@ -865,6 +992,10 @@ def parse_query(query: str) -> ParsedQuery:
     which = _WHICH_X_IS.fullmatch(text) if text.startswith(("which ", "what ")) else None
     if which is not None and _object(which["noun"]) is not None:
         text = f"{which['adj']} {which['noun']}"
+    # "which cup is second from the left" asks for "the second cup from the left"
+    place = _WHICH_X_IS_NTH.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if place is not None and _object(place["noun"]) is not None:
+        text = f"{place['ord']} {place['noun']} {place['rest']}"
     for parser in (_parse_location, _parse_size, _parse_superlative):
         reading = parser(text)
         if reading is not None:
@@ -872,6 +1003,9 @@ def parse_query(query: str) -> ParsedQuery:
     grounding = _parse_grounding(text, opened)
     if grounding is not None:
         return grounding
+    by_meaning = _read_by_meaning(normalized[0], original)
+    if by_meaning is not None:
+        return by_meaning
     raise UnsupportedQuery(original)
 
 
