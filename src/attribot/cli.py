@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import re
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,7 @@ app = typer.Typer(
     add_completion=False,
 )
 err_console = Console(stderr=True, soft_wrap=True)  # no hard breaks inside paths and messages
+console = Console(soft_wrap=True)
 
 
 def fail(message: str, fix: str | None = None, code: int = 2) -> typer.Exit:
@@ -452,6 +454,182 @@ def exec_program(
         settings = load_settings(detector=detector, vqa=vqa, language=language)
         answer = execute(source, scene, settings, query=query, save_dir=save)
     _show(answer, as_json)
+
+
+# ---- evaluation: datasets, runs, reports --------------------------------------------------------------
+
+dataset_app = typer.Typer(
+    help="Evaluation datasets: `attribot dataset build --suite paper --out DIR`, `attribot dataset show`.",
+    no_args_is_help=True,
+)
+app.add_typer(dataset_app, name="dataset")
+_SUITE = typer.Option("paper", "--suite", help="The suite: paper (the paper's five tasks).")
+_TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all five).")
+_LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")
+
+
+def _writable_folder(folder: Path, flag: str) -> None:
+    """Create `folder` if need be and check that files can be written in it (before any work)."""
+    from attribot.errors import InputError
+    from attribot.files import check_writable
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(
+            f"{flag} {str(folder)!r} cannot be created ({exc.strerror})", "give a writable folder"
+        ) from None
+    check_writable(folder, f"{flag} {str(folder)!r}", "give a writable folder")
+
+
+def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
+    from attribot.errors import InputError
+    from attribot.eval.datasets import TASKS
+
+    if suite != "paper":
+        raise InputError(f"unknown suite {suite!r}", "use --suite paper")
+    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else list(TASKS)
+    if not chosen:
+        raise InputError("--tasks names no task", f"choose from: {', '.join(TASKS)}")
+    return chosen
+
+
+@dataset_app.command("build")
+def dataset_build(
+    out: Path = typer.Option(..., "--out", help="Folder for manifest.jsonl, dataset.json and images/."),
+    suite: str = _SUITE,
+    tasks: str | None = _TASKS,
+    limit: int | None = _LIMIT,
+) -> None:
+    """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
+    from attribot.eval.datasets import DATASET_VERSION, build_items, write_dataset
+
+    chosen = _suite_tasks(suite, tasks)
+    _writable_folder(out, "--out")
+    items = build_items(chosen, limit)
+    write_dataset(items, out)
+    console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
+
+
+@dataset_app.command("show")
+def dataset_show(
+    folder: Path = typer.Argument(..., help="A dataset folder (or a run folder's dataset/)."),
+    item_id: str = typer.Argument(..., help="The item's id, e.g. weight_embodied-003."),
+    out: Path | None = typer.Option(None, "--out", help="Where to write the image with the true box."),
+) -> None:
+    """Print one item and write its image with the true box drawn."""
+    from attribot.errors import UnknownName
+    from attribot.eval.datasets import read_dataset
+
+    if (folder / "dataset" / "manifest.jsonl").is_file():
+        folder = folder / "dataset"
+    items = {i.id: i for i in read_dataset(folder)}
+    if item_id not in items:
+        raise UnknownName(
+            f"no item {item_id!r} in {folder}", f"items there: {', '.join(list(items)[:8])}, ..."
+        )
+    item = items[item_id]
+    typer.echo(item.model_dump_json(indent=2))
+    image = folder / "images" / f"{item_id}.png"
+    if image.is_file():
+        from PIL import Image, ImageDraw
+
+        target = out or Path(f"{item_id}.png")
+        _writable_folder(target.parent, "--out")
+        img = Image.open(image).convert("RGB")
+        ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
+        img.save(target)
+        console.print(f"image with the true box -> {target}", highlight=False)
+
+
+@app.command("eval")
+def evaluate(
+    out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
+    suite: str = _SUITE,
+    tasks: str | None = _TASKS,
+    methods: str | None = typer.Option(
+        None,
+        "--methods",
+        help="Comma-separated: ovd,vqa,vqa+llm,vlm,attr-api,pa-api (default: the paper's per task).",
+    ),
+    limit: int | None = _LIMIT,
+    noise: str = typer.Option("clean", "--noise", help="Comma-separated noise levels: clean,realistic."),
+    workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
+    executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
+    planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
+    llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
+    llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
+    detector: str | None = _DETECTOR,
+    vqa: str | None = _VQA,
+    language: str | None = _LANGUAGE,
+) -> None:
+    """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from attribot.config import load_settings
+    from attribot.eval.run import EvalPlan, run_eval
+
+    plan = EvalPlan(
+        tasks=tuple(_suite_tasks(suite, tasks)),
+        methods=tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else None,
+        noise=tuple(n.strip() for n in noise.split(",") if n.strip()),
+        limit=limit,
+    )
+    settings = load_settings(
+        planner=planner,
+        llm_base_url=llm_base_url,
+        llm_model=llm_model,
+        detector=detector,
+        vqa=vqa,
+        language=language,
+    )
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeRemainingColumn(),
+        console=err_console,
+        transient=False,
+    ) as bar:
+        job = bar.add_task("items", total=None, rate="")
+        started = time.perf_counter()
+
+        def on_record(record: Any, finished: int, total: int) -> None:
+            rate = finished / max(time.perf_counter() - started, 1e-9)
+            bar.update(job, completed=finished, total=total, rate=f"{rate:.1f}/s", description=record.task)
+
+        summary = run_eval(
+            plan,
+            settings,
+            out,
+            workers=workers,
+            executor=executor,
+            progress=lambda msg: bar.update(job, description=msg),
+            on_record=on_record,
+        )
+    console.print(
+        f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
+        f"report: attribot report {out}",
+        highlight=False,
+    )
+
+
+@app.command("report")
+def report(
+    run: Path = typer.Argument(..., help="A run folder written by attribot eval."),
+    out: Path | None = typer.Option(None, "--out", help="The HTML file (default: RUN/report.html)."),
+) -> None:
+    """Write the run's report: one self-contained HTML file, and PNG plots beside it."""
+    from attribot.errors import InputError
+    from attribot.eval.report import write_report
+
+    if not (run / "records").is_dir():
+        raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
+    if out is not None:
+        _writable_folder(out.parent, "--out")
+    path = write_report(run, out)
+    console.print(f"report -> {path}", highlight=False)
 
 
 # ---- backends (model configuration) ------------------------------------------------------------------

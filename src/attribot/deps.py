@@ -19,6 +19,7 @@ _EXTRA_OF = {
     "httpx": "server",
     "matplotlib": "plots",
     "ai2thor": "ai2thor",
+    "ray": "ray",
 }
 
 

@@ -1,0 +1,261 @@
+"""The paper's methods (its table's rows), each run on one dataset item with any planner and backends.
+
+- `ovd`: the detector given the whole query; its highest-scoring box (the paper's OVD row).
+- `vqa`: the VQA model asked the query; its answer grounded with the detector.
+- `vqa+llm`: `visual_query("What are the items in this image?")`, then `language_query` to choose among
+  them, then the detector for the box (the paper's VQA + GPT rows).
+- `vlm`: an end-to-end vision-chat model shown the image and the query, answering with a box (the paper's
+  GPT-4o row). It needs a real backend (`--vqa openai:MODEL`); without one it is recorded as not run.
+- `attr-api`: a program over ImagePatch only (camera alone, no robot actions): the attribute API.
+- `pa-api`: a program over the whole perception-action API with the item's sensors.
+
+`run_method` returns one `Record`: the box and object chosen, whether it is right (box IoU >= 0.5 with the
+true object, and the same object id where the world gives ids), the program and trace, measured values,
+the error and its category (planner, runner, perception, action), and wall seconds.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from typing import Any
+
+from pydantic import BaseModel
+
+from attribot.boxes import iou
+from attribot.config import Settings
+from attribot.eval.datasets import Item
+
+__all__ = ["METHODS", "PAPER_METHODS", "Record", "run_method", "noisy_settings"]
+
+METHODS = ("ovd", "vqa", "vqa+llm", "vlm", "attr-api", "pa-api")
+PAPER_METHODS = {
+    "location": ("ovd", "attr-api", "vlm"),
+    "size": ("ovd", "attr-api", "vlm"),
+    "weight_image": ("ovd", "vqa", "vqa+llm", "attr-api", "vlm"),
+    "distance_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
+    "weight_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
+}
+"""Which methods the paper compares on each task (the default of `attribot eval`)."""
+NOISE_LEVELS = ("clean", "realistic")
+
+
+class Record(BaseModel):
+    """One method's result on one item (see the module docstring).
+
+    status: right | wrong | failed | not run."""
+
+    id: str
+    task: str
+    method: str
+    noise: str
+    query: str
+    status: str
+    right: bool
+    iou: float | None = None
+    box: list[float] | None = None
+    chosen_id: str | None = None
+    true_id: str
+    true_box: list[float]
+    answer: str = ""
+    value: float | None = None
+    unit: str | None = None
+    program: str | None = None
+    trace: list[dict[str, Any]] = []
+    measured: list[dict[str, Any]] = []
+    error: str | None = None
+    error_category: str | None = None  # planner | runner | perception | action
+    wall_s: float = 0.0
+
+
+def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
+    """The settings with the noise preset on the oracle backends, drawn from the item's seed."""
+    if noise == "clean":
+        return settings
+    if noise not in NOISE_LEVELS:
+        raise ValueError(f"unknown noise level {noise!r}")
+    update: dict[str, str] = {}
+    for role in ("detector", "vqa"):
+        spec = str(getattr(settings, role))
+        if spec.split("?")[0] == "oracle":
+            update[role] = f"oracle?noise={noise}&seed={seed}"
+    return settings.model_copy(update=update)
+
+
+def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
+    box = fields.get("box")
+    chosen = fields.get("chosen_id")
+    overlap = iou(tuple(box), tuple(item.true_box)) if box and item.true_box else None
+    right = overlap is not None and overlap >= 0.5 and (chosen is None or chosen == item.true_id)
+    status = fields.pop("status", None) or (
+        "right" if right else ("failed" if fields.get("error") else "wrong")
+    )
+    return Record(
+        id=item.id,
+        task=item.task,
+        method=method,
+        noise=noise,
+        query=item.query,
+        status=status,
+        right=right,
+        iou=overlap,
+        true_id=item.true_id,
+        true_box=item.true_box,
+        **fields,
+    )
+
+
+def _world_frame(item: Item) -> Any:
+    from attribot.embodiments.mujoco import MujocoWorld
+
+    with MujocoWorld(item.scene()) as world:
+        return world.observe()
+
+
+def _best(detections: list[Any]) -> Any:
+    return max(detections, key=lambda d: d.score) if detections else None
+
+
+def _grounded(
+    item: Item, method: str, noise: str, perception: Any, frame: Any, name: str, **extra: Any
+) -> Record:
+    """The detector's best box for `name` (a model's answer), as the record of `method`."""
+    if not name or name.strip().lower() in ("unknown", "none", ""):
+        return _record(
+            item,
+            method,
+            noise,
+            error=f"the model gave no object ({name!r})",
+            error_category="perception",
+            **extra,
+        )
+    best = _best(perception.detector.detect(frame, [name]))
+    if best is None:
+        return _record(
+            item, method, noise, error=f"the detector found no {name!r}", error_category="perception", **extra
+        )
+    return _record(
+        item, method, noise, box=list(best.box), chosen_id=best.object_id, **{"answer": name, **extra}
+    )
+
+
+_ANSWER_NAME = re.compile(r"(?:the\s+)?([a-z][a-z ]*?)(?:[.!,]|$)")
+
+
+def _first_name(text: str) -> str:
+    match = _ANSWER_NAME.match(text.strip().lower())
+    return match.group(1).strip() if match else ""
+
+
+def run_method(item: Item, method: str, settings: Settings, noise: str = "clean") -> Record:
+    """Run `method` on `item` with `settings` (and the noise level on the oracle backends)."""
+    from attribot.api import Perception
+    from attribot.planning.ask import Scene, ask
+
+    started = time.perf_counter()
+    settings = noisy_settings(settings, noise, item.seed)
+    try:
+        if method in ("attr-api", "pa-api"):
+            sensors = item.sensors if method == "pa-api" else ["camera"]
+            answer = ask(item.query, Scene(item.scene(), sensors=sensors), settings)
+            trace = answer.trace
+            failing = next((t["call"] for t in reversed(trace) if t.get("error")), "")
+            category = None
+            if answer.error is not None:
+                if answer.error.category == "planner" or answer.program is None:
+                    category = "planner"
+                elif failing.startswith("Robot."):
+                    category = "action"
+                elif failing:
+                    category = "perception"
+                else:
+                    category = "runner"
+            measured = [
+                {
+                    "call": t["call"],
+                    "object_id": (t["args"] or [{}])[0].get("object_id")
+                    if t["args"] and isinstance(t["args"][0], dict)
+                    else None,
+                    "value": t["result"],
+                }
+                for t in trace
+                if t["call"] in ("Robot.measure_weight", "Robot.measure_distance") and t.get("error") is None
+            ]
+            record = _record(
+                item,
+                method,
+                noise,
+                box=list(answer.object.box) if answer.object else None,
+                chosen_id=answer.object.id if answer.object else None,
+                answer=answer.answer,
+                value=answer.value,
+                unit=answer.unit,
+                program=answer.program,
+                trace=trace,
+                measured=measured,
+                error=answer.error.message if answer.error else None,
+                error_category=category,
+            )
+        else:
+            perception = Perception.from_settings(settings)
+            frame = _world_frame(item)
+            if method == "ovd":
+                best = _best(perception.detector.detect(frame, [item.query]))
+                record = (
+                    _record(
+                        item, method, noise, box=list(best.box), chosen_id=best.object_id, answer=best.label
+                    )
+                    if best is not None
+                    else _record(
+                        item, method, noise, error="the detector found nothing", error_category="perception"
+                    )
+                )
+            elif method == "vqa":
+                said = perception.vqa.answer(frame, item.query)
+                record = _grounded(item, method, noise, perception, frame, _first_name(said), answer=said)
+            elif method == "vqa+llm":
+                items = perception.vqa.answer(frame, "What are the items in this image?")
+                choice = perception.language.complete(
+                    f"Out of these items: {items}; which one is {item.query}?"
+                )
+                record = _grounded(item, method, noise, perception, frame, _first_name(choice), answer=choice)
+            elif method == "vlm":
+                record = _vlm(item, noise, settings, frame)
+            else:
+                raise ValueError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+    except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
+        record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
+    record.wall_s = time.perf_counter() - started
+    return record
+
+
+def _vlm(item: Item, noise: str, settings: Settings, frame: Any) -> Record:
+    """An end-to-end vision-chat model asked for the box; not run without one."""
+    spec = str(settings.vqa)
+    if not spec.startswith("openai:"):
+        return _record(
+            item,
+            "vlm",
+            noise,
+            status="not run",
+            error="no vision-chat backend is configured (the vlm row needs one: --vqa openai:MODEL)",
+        )
+    from attribot.api import Perception
+
+    vqa = Perception.from_settings(settings).vqa
+    said = vqa.answer(
+        frame,
+        f"{item.query} Answer only with the bounding box of that object in pixels as x0,y0,x1,y1 "
+        f"(image {frame.width}x{frame.height}, origin top-left).",
+    )
+    numbers = [float(n) for n in re.findall(r"-?\d+(?:\.\d+)?", said)[:4]]
+    if len(numbers) != 4:
+        return _record(
+            item,
+            "vlm",
+            noise,
+            answer=said,
+            error="the model's reply holds no box",
+            error_category="perception",
+        )
+    return _record(item, "vlm", noise, box=numbers, answer=said)
