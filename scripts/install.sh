@@ -31,9 +31,19 @@ PY=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 pip=(.venv/bin/python -m pip install -q --disable-pip-version-check --no-warn-script-location)
 if [ $want_test = 1 ]; then
+  # The evaluation report's test opens it in headless Chromium (Debian's package, not a downloaded build).
+  if ! command -v chromium >/dev/null; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+      echo "installing Chromium for the report test"
+      apt-get update -qq >/dev/null
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null
+    else
+      echo "warning: no chromium; the report's browser test will be skipped (sudo apt-get install chromium)" >&2
+    fi
+  fi
   # The CPU build of torch keeps the test install small; any torch>=2.4 works for the package.
   "${pip[@]}" "torch==2.13.0" 2>/dev/null || true
-  "${pip[@]}" -e ".[models,server,plots,test]"
+  "${pip[@]}" -e ".[models,server,plots,ray,test]"
 else
   "${pip[@]}" -e .
 fi
