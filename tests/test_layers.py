@@ -25,6 +25,7 @@ LEVELS: list[set[str]] = [
         "shutdown",
         "lexicon",
         "video",
+        "gridpath",
         "bridge",  # the robot side: standard library, numpy and the SDK only, nothing of attribot
     },
     {"sim", "control"},

@@ -248,6 +248,9 @@ _CONTROLLER = typer.Option(
     "compare against).",
 )
 _SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
+_PLANNER = typer.Option(None, "--planner", help="rules (offline, default) or llm.")
+_LLM_BASE_URL = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint.")
+_LLM_MODEL = typer.Option(None, "--llm-model", help="Model name at that endpoint.")
 _DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
 _VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
 _LANGUAGE = typer.Option(
@@ -382,9 +385,9 @@ def ask(
     controller: str | None = _CONTROLLER,
     world: str | None = _WORLD,
     bridge_url: str | None = _BRIDGE_URL,
-    planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
-    llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
-    llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
+    planner: str | None = _PLANNER,
+    llm_base_url: str | None = _LLM_BASE_URL,
+    llm_model: str | None = _LLM_MODEL,
     detector: str | None = _DETECTOR,
     vqa: str | None = _VQA,
     language: str | None = _LANGUAGE,
@@ -556,9 +559,9 @@ def evaluate(
     noise: str = typer.Option("clean", "--noise", help="Comma-separated noise levels: clean,realistic."),
     workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
-    planner: str | None = typer.Option(None, "--planner", help="rules (offline, default) or llm."),
-    llm_base_url: str | None = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint."),
-    llm_model: str | None = typer.Option(None, "--llm-model", help="Model name at that endpoint."),
+    planner: str | None = _PLANNER,
+    llm_base_url: str | None = _LLM_BASE_URL,
+    llm_model: str | None = _LLM_MODEL,
     detector: str | None = _DETECTOR,
     vqa: str | None = _VQA,
     language: str | None = _LANGUAGE,

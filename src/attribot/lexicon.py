@@ -19,6 +19,15 @@ __all__ = [
     "DEICTIC_WORDS",
     "ATTRIBUTE_PARAPHRASES",
     "ATTRIBUTE_PARAPHRASE_CUES",
+    "WEIGHT_HEAVY",
+    "WEIGHT_LIGHT",
+    "NEAR_WORDS",
+    "FAR_WORDS",
+    "SIZE_ADJECTIVES",
+    "SIZE_SUPERLATIVES",
+    "SIZE_COMPARATIVES",
+    "WEIGHT_PHRASES",
+    "paraphrased",
     "words",
     "singular_forms",
 ]
@@ -70,6 +79,50 @@ DEICTIC_WORDS: frozenset[str] = frozenset(
 )
 """Pronouns and place words: they point at something and never name it, so a planner never searches them."""
 
+# ---- the attributes: the words that name a weight, a distance or a size, and their direction ----------
+
+WEIGHT_HEAVY: frozenset[str] = frozenset(
+    {"heaviest", "heavier", "heavy", "most heavy", "more heavy", "least lightweight", "less lightweight",
+     "least light"}
+)  # fmt: skip
+"""Words (and two-word phrases) that ask for more weight."""
+WEIGHT_LIGHT: frozenset[str] = frozenset(
+    {"lightest", "lighter", "light", "lightweight", "most lightweight", "more lightweight", "least heavy",
+     "less heavy"}
+)  # fmt: skip
+"""Words that ask for less weight."""
+NEAR_WORDS: frozenset[str] = frozenset({"closer", "closest", "nearer", "nearest"})
+FAR_WORDS: frozenset[str] = frozenset(
+    {"farther", "farthest", "further", "furthest", "more distant", "most distant"}
+)
+WEIGHT_PHRASES = (
+    r"weighs?\s+(?:the\s+)?(?:most|least|more|less)"
+    r"|(?:greatest|highest|largest|biggest|most|more|lowest|smallest|least|less)\s+(?:weight|mass)"
+)
+"""A regex of the verb and noun phrases of weight ("weighs the most", "greatest mass") that
+`ATTRIBUTE_PARAPHRASES` turns into adjectives, for parsers that must find them in place."""
+SIZE_ADJECTIVES: dict[str, tuple[str, bool]] = {
+    "big": ("area", True), "large": ("area", True), "huge": ("area", True),
+    "small": ("area", False), "little": ("area", False), "tiny": ("area", False),
+    "tall": ("height", True), "high": ("height", True),
+    "long": ("length", True), "short": ("length", False),
+    "wide": ("width", True), "broad": ("width", True), "narrow": ("width", False),
+    "thin": ("thickness", False), "thick": ("thickness", True), "slim": ("thickness", False),
+}  # fmt: skip
+"""Size adjectives: the dimension each measures (area, height, length, width, thickness) and whether it asks
+for more of it."""
+SIZE_SUPERLATIVES: dict[str, str] = {
+    "biggest": "big", "largest": "large", "hugest": "huge", "smallest": "small", "littlest": "little",
+    "tiniest": "tiny", "tallest": "tall", "longest": "long", "shortest": "short", "widest": "wide",
+    "broadest": "broad", "narrowest": "narrow", "thinnest": "thin", "thickest": "thick", "slimmest": "slim",
+}  # fmt: skip
+SIZE_COMPARATIVES: dict[str, str] = {
+    "bigger": "big", "larger": "large", "smaller": "small", "taller": "tall", "longer": "long",
+    "shorter": "short", "wider": "wide", "narrower": "narrow", "thinner": "thin", "thicker": "thick",
+    "tinier": "tiny",
+}  # fmt: skip
+
+
 ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
     # verb phrases of weight, to the adjective they mean
     (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest"),
@@ -85,6 +138,8 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
     (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest"),
     (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1"),
     (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1"),
+    (r"\b(?:greatest|highest|largest|biggest|most|more)\s+(?:weight|mass)\b", "heaviest"),
+    (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest"),
     (r"\bmost\s+massive\b", "heaviest"),
     (r"\bleast\s+massive\b", "lightest"),
     # distance: "farthest away", "closest by" mean the adjective alone
@@ -95,6 +150,21 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
 )
 """(pattern, replacement) pairs that turn paraphrases of an attribute into the words the planner reads
 ("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text."""
+
+
+def paraphrased(text: str) -> str:
+    """Lower-case `text` with every paraphrase of `ATTRIBUTE_PARAPHRASES` turned into the words it means
+    ("Which one weighs the most?" -> "which one is the heaviest?").
+
+    >>> paraphrased("Which item has the greatest mass?")
+    'which item is the heaviest?'
+    """
+    text = text.lower()
+    if any(cue in text for cue in ATTRIBUTE_PARAPHRASE_CUES):  # most texts have none: skip the patterns
+        for pattern, meaning in _COMPILED_PARAPHRASES:
+            text = pattern.sub(meaning, text)
+    return text
+
 
 ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = ("weigh", "mass", "weight", "away", " by", "'s", " size")
 """Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
@@ -135,3 +205,6 @@ def singular_forms(word: str) -> list[str]:
         if word.endswith("ves"):
             forms.extend([word[:-3] + "f", word[:-3] + "fe"])
     return list(dict.fromkeys(forms))
+
+
+_COMPILED_PARAPHRASES = [(re.compile(p), meaning) for p, meaning in ATTRIBUTE_PARAPHRASES]

@@ -10,7 +10,6 @@ at the base's centre); world (the odometry frame of `base_pose`).
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,6 +18,7 @@ import numpy as np
 
 from attribot.control.body import BodyGeometry
 from attribot.frame import CameraInfo
+from attribot.gridpath import Cell, astar, shortcut
 
 __all__ = [
     "ObjectEstimate",
@@ -273,43 +273,17 @@ class FloorMap:
         gi, gj = self.index(goal)
         s, g = (int(si), int(sj)), (int(gi), int(gj))
         relax = grow + 2
-        n = blocked.shape[0]
-        dist = {s: 0.0}
-        prev: dict[tuple[int, int], tuple[int, int]] = {}
-        heap = [(0.0, s)]
-        moves = [(di, dj, math.hypot(di, dj)) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj]
 
-        def passable(c: tuple[int, int]) -> bool:
+        def cost(c: Cell) -> float | None:
             if not blocked[c]:
-                return True
+                return 1.0
             near = min(max(abs(c[0] - e[0]), abs(c[1] - e[1])) for e in (s, g)) <= relax
-            return near and not self.occupied[c]
+            return 3.0 if near and not self.occupied[c] else None
 
-        while heap:
-            _, c = heapq.heappop(heap)
-            if c == g:
-                break
-            for di, dj, w in moves:
-                nb = (c[0] + di, c[1] + dj)
-                if not (0 <= nb[0] < n and 0 <= nb[1] < n) or not passable(nb):
-                    continue
-                nd = dist[c] + w * (3.0 if blocked[nb] else 1.0)
-                if nd < dist.get(nb, math.inf):
-                    dist[nb], prev[nb] = nd, c
-                    heapq.heappush(heap, (nd + math.hypot(g[0] - nb[0], g[1] - nb[1]), nb))
-        if g not in dist:
+        cells = astar(blocked.shape, s, g, cost)
+        if cells is None:
             return None
-        cells = [g]
-        while cells[-1] != s:
-            cells.append(prev[cells[-1]])
-        cells.reverse()
-        keep, i = [cells[0]], 0
-        while i < len(cells) - 1:
-            j = len(cells) - 1
-            while j > i + 1 and not _clear_line(blocked, cells[i], cells[j]):
-                j -= 1
-            keep.append(cells[j])
-            i = j
+        keep = shortcut(blocked, cells)
         return [self.centre_of(*c) for c in keep[1:-1]] + [np.asarray(goal, float)]
 
 
@@ -324,11 +298,3 @@ def _dilate(grid: np.ndarray, cells: int) -> np.ndarray:
             src = grid[max(-di, 0) : n - max(di, 0), max(-dj, 0) : n - max(dj, 0)]
             out[max(di, 0) : n - max(-di, 0), max(dj, 0) : n - max(-dj, 0)] |= src
     return out
-
-
-def _clear_line(blocked: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> bool:
-    steps = max(abs(a[0] - b[0]), abs(a[1] - b[1]), 1) * 2
-    for t in np.linspace(0.0, 1.0, steps + 1):
-        if blocked[round(a[0] + (b[0] - a[0]) * t), round(a[1] + (b[1] - a[1]) * t)]:
-            return False
-    return True

@@ -19,11 +19,22 @@ Lists may be "apple, book, laptop" or "an apple, a book and a laptop" (what a VQ
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from attribot.errors import ConfigError, InputError
-from attribot.lexicon import singular_forms, words
+from attribot.lexicon import (
+    SIZE_ADJECTIVES,
+    SIZE_COMPARATIVES,
+    SIZE_SUPERLATIVES,
+    WEIGHT_HEAVY,
+    WEIGHT_LIGHT,
+    WEIGHT_PHRASES,
+    paraphrased,
+    singular_forms,
+    words,
+)
 from attribot.models.base import LANGUAGE_MODELS, UNKNOWN
 from attribot.sim.catalog import Category, categories, find_category
 
@@ -32,25 +43,28 @@ if TYPE_CHECKING:
 
 __all__ = ["CatalogLanguageModel", "Comparison", "parse_comparison", "split_items", "resolve_item"]
 
-# (pattern, property, +1 for "most", -1 for "least"); weight first so "largest weight" is not a size
-_WEIGHT_WORDS = [
-    (
-        r"heaviest|heavier|(?:most|more) heavy|weighs? (?:the )?most|weighs? more|"
-        r"(?:greatest|highest|largest|biggest|most|more) weight|(?:least|less) lightweight",
-        +1,
-    ),
-    (
-        r"lightest|lighter|(?:most|more) (?:lightweight|light)|(?:least|less) heavy|weighs? (?:the )?least|"
-        r"weighs? less|(?:lowest|smallest|least|less) weight",
-        -1,
-    ),
-]
+
+def _alternatives(words: Iterable[str]) -> str:
+    return "|".join(sorted((re.escape(w).replace(r"\ ", r"\s+") for w in words), key=len, reverse=True))
+
+
+# (pattern, +1 for "most", -1 for "least"), from the one vocabulary; questions are paraphrased first
+# ("weighs the most" is "is the heaviest", "greatest weight" is "heaviest"), so weight comes before size
+_WEIGHT_WORDS = [(_alternatives(WEIGHT_HEAVY - {"heavy"}), +1), (_alternatives(WEIGHT_LIGHT - {"light"}), -1)]
+# the catalog knows each object's longest dimension, not its height: "taller" is left unknown
 _SIZE_WORDS = [
-    # the catalog knows each object's longest dimension, not its height: "taller" is left unknown
-    (r"biggest|bigger|largest|larger|longest|longer|(?:most|more) (?:big|large)", +1),
-    (r"smallest|smaller|tiniest|tinier|littlest|(?:least|less) (?:big|large)", -1),
+    (
+        _alternatives(
+            w
+            for table in (SIZE_SUPERLATIVES, SIZE_COMPARATIVES)
+            for w, base in table.items()
+            if SIZE_ADJECTIVES[base] in (("area", direction), ("length", direction))
+        ),
+        +1 if direction else -1,
+    )
+    for direction in (True, False)
 ]
-_ANY_KEYWORD = "|".join(p for p, _ in _WEIGHT_WORDS + _SIZE_WORDS)
+_ANY_KEYWORD = "|".join([WEIGHT_PHRASES] + [p for p, _ in _WEIGHT_WORDS + _SIZE_WORDS])
 
 _LEADING = re.compile(
     r"^(?:(?:a|an|the|some|these|those|this|that|my|two|three|four|a pair of|pair of|a couple of|one|both"
@@ -124,7 +138,7 @@ def _property(text: str) -> tuple[str, int] | None:
     if re.search(r"\b(?:colou?rs?|shades?|tones?|brightness|darker|darkest|brighter|brightest)\b", text):
         return None  # "lighter in colour" is not a weight
     found: set[tuple[str, int]] = set()
-    rest = text
+    rest = paraphrased(text)
     for prop, table in (("mass", _WEIGHT_WORDS), ("size", _SIZE_WORDS)):
         for pattern, direction in table:
             if re.search(rf"\b(?:{pattern})\b", rest):

@@ -21,12 +21,18 @@ from typing import TYPE_CHECKING, Literal
 
 from attribot.errors import InputError
 from attribot.lexicon import (
-    ATTRIBUTE_PARAPHRASE_CUES,
-    ATTRIBUTE_PARAPHRASES,
     COLOR_ALIASES,
     COLOR_WORDS,
     DEICTIC_WORDS,
+    FAR_WORDS,
     GENERIC_NOUNS,
+    NEAR_WORDS,
+    SIZE_ADJECTIVES,
+    SIZE_COMPARATIVES,
+    SIZE_SUPERLATIVES,
+    WEIGHT_HEAVY,
+    WEIGHT_LIGHT,
+    paraphrased,
 )
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
 
@@ -232,67 +238,15 @@ _SIDES: dict[str, Side] = {
 _OPPOSITE: dict[str, Side] = {"left": "right", "right": "left", "top": "bottom", "bottom": "top"}
 
 # size adjectives: word -> (measure, largest)
-_SIZE = {
-    "big": ("area", True),
-    "large": ("area", True),
-    "huge": ("area", True),
-    "small": ("area", False),
-    "little": ("area", False),
-    "tiny": ("area", False),
-    "tall": ("height", True),
-    "high": ("height", True),
-    "long": ("length", True),
-    "short": ("length", False),
-    "wide": ("width", True),
-    "broad": ("width", True),
-    "narrow": ("width", False),
-    "thin": ("thickness", False),
-    "thick": ("thickness", True),
-    "slim": ("thickness", False),
-}
-_SUPERLATIVE = {
-    "biggest": "big",
-    "largest": "large",
-    "hugest": "huge",
-    "smallest": "small",
-    "littlest": "little",
-    "tiniest": "tiny",
-    "tallest": "tall",
-    "longest": "long",
-    "shortest": "short",
-    "widest": "wide",
-    "broadest": "broad",
-    "narrowest": "narrow",
-    "thinnest": "thin",
-    "thickest": "thick",
-    "slimmest": "slim",
-}
-_COMPARATIVE = {
-    "bigger": "big",
-    "larger": "large",
-    "smaller": "small",
-    "taller": "tall",
-    "longer": "long",
-    "shorter": "short",
-    "wider": "wide",
-    "narrower": "narrow",
-    "thinner": "thin",
-    "thicker": "thick",
-}
+_SIZE = SIZE_ADJECTIVES
+_SUPERLATIVE = SIZE_SUPERLATIVES
+_COMPARATIVE = SIZE_COMPARATIVES
 _SIZE_WORDS = "|".join(sorted([*_SIZE, *_SUPERLATIVE, *_COMPARATIVE], key=len, reverse=True))
-_WEIGHT_HEAVY = {"heaviest", "heavy", "heavier", "most heavy", "least lightweight", "least light"}
-_WEIGHT_LIGHT = {
-    "lightest",
-    "light",
-    "lighter",
-    "lightweight",
-    "most lightweight",
-    "least heavy",
-    "more lightweight",
-}
+_WEIGHT_HEAVY = WEIGHT_HEAVY
+_WEIGHT_LIGHT = WEIGHT_LIGHT
 _WEIGHT_WORDS = "|".join(sorted(_WEIGHT_HEAVY | _WEIGHT_LIGHT, key=len, reverse=True))
-_NEAR = {"closer", "closest", "nearer", "nearest"}
-_FAR = {"farther", "farthest", "further", "furthest", "more distant", "most distant"}
+_NEAR = NEAR_WORDS
+_FAR = FAR_WORDS
 _DIST_WORDS = "|".join(sorted(_NEAR | _FAR, key=len, reverse=True))
 _ME = r"(?:\s+(?:to|from)\s+(?:me|you|us|the\s+robot|the\s+camera))?"
 
@@ -397,9 +351,6 @@ _LEAD = (
 )
 
 
-_PARAPHRASES = [(re.compile(p), meaning) for p, meaning in ATTRIBUTE_PARAPHRASES]
-
-
 def _normalize(query: str) -> tuple[str, bool] | None:
     """Lower case, accents folded, punctuation to spaces, polite or imperative openings ("find", "where
     is") and articles dropped, and whether there was such an opening; None when the text holds letters
@@ -410,9 +361,7 @@ def _normalize(query: str) -> tuple[str, bool] | None:
         return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
-    if any(word in text for word in ATTRIBUTE_PARAPHRASE_CUES):  # most queries have none: skip the patterns
-        for pattern, meaning in _PARAPHRASES:
-            text = pattern.sub(meaning, text)
+    text = paraphrased(text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
     stripped = re.sub(_LEAD, "", text)
     return _strip_article(stripped), stripped != text

@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 
 from attribot.errors import AttribotError, UnknownName
+from attribot.gridpath import Cell, astar, shortcut
 from attribot.sim.robot import GEOMETRY
 from attribot.sim.world import SimWorld
 
@@ -77,60 +78,24 @@ def _cell(p: np.ndarray, half: float) -> tuple[int, int]:
     return (int(np.clip((p[0] + half) // _CELL, 0, n - 1)), int(np.clip((p[1] + half) // _CELL, 0, n - 1)))
 
 
-def _free_line(occ: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> bool:
-    steps = max(abs(a[0] - b[0]), abs(a[1] - b[1]), 1) * 2
-    for t in np.linspace(0.0, 1.0, steps + 1):
-        i, j = round(a[0] + (b[0] - a[0]) * t), round(a[1] + (b[1] - a[1]) * t)
-        if occ[i, j]:
-            return False
-    return True
-
-
 def _path(sim: SimWorld, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
     """Waypoints from start to goal around furniture: A* on a 5 cm grid, shortened by line of sight."""
-    import heapq
-
     occ, half = _blocked_grid(sim, goal, start)
     s, g = _cell(start, half), _cell(goal, half)
+
     # leaving the furniture margin the robot starts in: the start cell region was cleared above, and the
     # planner may step out of it through blocked cells only in its first moves
-    n = occ.shape[0]
-    dist = {s: 0.0}
-    prev: dict[tuple[int, int], tuple[int, int]] = {}
-    heap = [(0.0, s)]
-    moves = [(di, dj, math.hypot(di, dj)) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj]
-    while heap:
-        _, c = heapq.heappop(heap)
-        if c == g:
-            break
-        for di, dj, w in moves:
-            nb = (c[0] + di, c[1] + dj)
-            if not (0 <= nb[0] < n and 0 <= nb[1] < n):
-                continue
-            near_start = abs(nb[0] - s[0]) + abs(nb[1] - s[1]) <= 8
-            if occ[nb] and not near_start:
-                continue
-            nd = dist[c] + w * (3.0 if occ[nb] else 1.0)
-            if nd < dist.get(nb, math.inf):
-                dist[nb], prev[nb] = nd, c
-                heapq.heappush(heap, (nd + math.hypot(g[0] - nb[0], g[1] - nb[1]), nb))
-    if g not in dist:
+    def cost(c: Cell) -> float | None:
+        if not occ[c]:
+            return 1.0
+        return 3.0 if abs(c[0] - s[0]) + abs(c[1] - s[1]) <= 8 else None
+
+    cells = astar(occ.shape, s, g, cost)
+    if cells is None:
         raise ManipulationError(
             "no path for the base between the furniture to the target", "choose another target"
         )
-    cells = [g]
-    while cells[-1] != s:
-        cells.append(prev[cells[-1]])
-    cells.reverse()
-    # keep only the turning points that line of sight cannot skip
-    keep = [cells[0]]
-    i = 0
-    while i < len(cells) - 1:
-        j = len(cells) - 1
-        while j > i + 1 and not _free_line(occ, cells[i], cells[j]):
-            j -= 1
-        keep.append(cells[j])
-        i = j
+    keep = shortcut(occ, cells)
     pts = [np.array([(c[0] + 0.5) * _CELL - half, (c[1] + 0.5) * _CELL - half]) for c in keep[1:-1]]
     return pts + [goal]
 
