@@ -7,7 +7,7 @@
 
 The dataset is generated once beforehand and copied into each run, so that only running is timed.
 
-    .venv/bin/python benchmarks/bench_eval.py [--limit 6] [--tasks weight_image,distance_embodied,weight_embodied]
+    .venv/bin/python benchmarks/bench_eval.py [--limit 6] [--tasks weight_image,weight_embodied]
 """
 
 from __future__ import annotations
@@ -54,7 +54,10 @@ def main() -> None:
         print(f"resume of the finished run: {time.perf_counter() - t0:.2f} s, {again.done} recomputed")
         if not args.no_ray:
             ray_s, _ = timed("ray", executor="ray")
-            print(f"ray (local instance, started and stopped): {ray_s:.1f} s, {ray_s / two:.2f}x the time of workers 2")
+            print(
+                f"ray (local instance, started and stopped): {ray_s:.1f} s, "
+                f"{ray_s / two:.2f}x the time of workers 2"
+            )
     finally:
         shutil.rmtree(root, ignore_errors=True)
 
