@@ -141,6 +141,15 @@ def test_tracker_on_a_box_without_texture_is_lost_at_once():
     assert BoxTracker().start(flat, (10, 10, 60, 60)).lost
 
 
+def test_a_sliver_of_a_box_is_lost_at_once_not_an_error():
+    # a far object's box, or one a detector's jitter squeezed to a pixel: nothing to track, so the servo
+    # falls back on detecting it in every frame
+    tracker = BoxTracker()
+    result = tracker.start(_texture(), (120.0, 80.0, 170.0, 81.0))
+    assert result.lost and "too thin" in result.reason
+    assert tracker.update(_texture()).lost
+
+
 def test_tracker_refuses_bad_input():
     tracker = BoxTracker()
     with pytest.raises(InputError, match="no target"):

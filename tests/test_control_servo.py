@@ -3,6 +3,7 @@ the MuJoCo world, without reading the simulator's truth."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -171,6 +172,52 @@ def test_a_target_lost_again_after_the_second_detection_fails_clearly(monkeypatc
         _focus_without_preaim(AlwaysLost, monkeypatch)
 
 
+class _NoTexture(BoxTracker):
+    """A tracker that finds nothing to track in any box (a plain object): the servo detects every frame."""
+
+    def start(self, image, box):
+        super().start(image, box)
+        return TrackResult(self.box, True, 0, True, "no texture to track inside the box")
+
+
+def _focus_with_a_flaky_detector(monkeypatch: pytest.MonkeyPatch, misses: set[int]) -> tuple[float, int]:
+    """Focus on household seed 7's first object by detection alone, the detector missing it on the calls
+    numbered in `misses` (1 is the first); the truth's pixel error and the number of detector calls."""
+
+    import attribot.control.servo as servo_module
+
+    monkeypatch.setattr(servo_module, "BoxTracker", _NoTexture)
+    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
+        servo = ServoController(world, preaim=False)
+        patch = (
+            Robot(world=world, controller=servo)
+            .look(Perception.from_settings(load_settings()))
+            .find("object")[0]
+        )
+        target = patch.target()
+        calls = 0
+
+        def flaky(frame: Frame) -> list[tuple[float, float, float, float]]:
+            nonlocal calls
+            calls += 1
+            return [] if calls in misses else target.find(frame)
+
+        servo.focus_on(dataclasses.replace(target, find=flaky))
+        return _truth_centre_error(world, patch.object_id), calls
+
+
+def test_a_detector_missing_the_object_a_few_frames_in_a_row_does_not_stop_the_focus(monkeypatch):
+    error, calls = _focus_with_a_flaky_detector(monkeypatch, misses={1, 2, 3})
+    assert error <= 5.0 and calls > 4  # the box was carried along by the head's motion, then seen again
+
+
+def test_a_detector_that_stops_seeing_the_object_fails_the_focus_clearly(monkeypatch):
+    from attribot.control.base import ControlError
+
+    with pytest.raises(ControlError, match="detector missed it 4 times in a row"):
+        _focus_with_a_flaky_detector(monkeypatch, misses=set(range(1, 100)))
+
+
 class _Drifts(BoxTracker):
     """A tracker whose box drifts 8 px off the object (as background features at its edges can make it)."""
 
@@ -234,3 +281,28 @@ def test_a_robot_without_a_camera_head_centres_by_turning_its_base(seed):
         world.step(0.5)
         assert world.base_pose().yaw == pytest.approx(yaw, abs=2e-3)  # and it stopped turning
         assert servo.last is not None and servo.last.error_px <= servo.tol_px
+
+
+def test_looking_again_turns_the_head_a_little_until_the_detector_sees_the_object():
+    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
+        servo = ServoController(world)
+        patch = Robot(world=world, controller=servo).look(Perception.from_settings(load_settings()))
+        target = patch.find("object")[0].target()
+        servo.focus_on(target)
+        pan = world.joint_states()["head_pan"]
+        views: list[float] = []
+
+        def misses_this_view(frame: Frame) -> list[tuple[float, float, float, float]]:
+            views.append(world.joint_states()["head_pan"])
+            return [] if len(views) < 3 else target.find(frame)
+
+        missing = dataclasses.replace(target, find=misses_this_view)
+        frame, box = servo._look_again(missing, world.camera_info(), 0.25)
+        assert box is not None and len(views) == 3
+        assert len({round(v, 3) for v in views}) == 3 and views[0] == pytest.approx(pan, abs=1e-3)
+
+        def never(frame: Frame) -> list[tuple[float, float, float, float]]:
+            return []
+
+        _, box = servo._look_again(dataclasses.replace(target, find=never), world.camera_info(), 0.25)
+        assert box is None

@@ -116,6 +116,9 @@ def test_methods_give_records_with_their_failures_categorised(small_items):
     assert records["vlm"].status == "not run" and "--vqa openai:MODEL" in (records["vlm"].error or "")
     assert records["vqa"].status == "failed" and records["vqa"].error_category == "perception"
     assert all(r.wall_s > 0 for r in records.values())
+    # picking three objects up takes the simulated robot seconds; the still-image methods none
+    assert pa.sim_s is not None and pa.sim_s > 1.0
+    assert records["ovd"].sim_s is None
 
 
 def test_realistic_noise_is_drawn_from_the_item_seed(small_items):

@@ -73,7 +73,9 @@ class ServoController(PointingController):
     base's top speed, m/s; arrive_tol: how close (metres) the arm's line must pass to the object;
     align_tries: base corrections at the goal; stand_tries: places to stand tried when the camera loses the
     object at one; lift_clear: how high a picked object is raised (less under a shelf board); push_m: how
-    far a push drives on after the base meets the object.
+    far a push drives on after the base meets the object. max_misses: frames in a row a flaky detector may
+    miss the object, when it is found by detection rather than tracked, while its box is carried along by
+    the camera's own measured motion.
     """
 
     name: str = "servo"
@@ -93,6 +95,7 @@ class ServoController(PointingController):
     stand_tries: int = 3
     lift_clear: float = 0.08
     push_m: float = 0.15
+    max_misses: int = 3
     last: FocusReport | None = None
     tracked: tuple[float, float, float, float] | None = None  # the box being centred, while it is
     approached: _Reach | None = field(default=None, repr=False)  # where go_to_object brought the arm
@@ -135,6 +138,12 @@ class ServoController(PointingController):
                 "find the object again in a new image (image.find) and retry",
             )
 
+        def carried(box: Any, turned: tuple[float, float]) -> Any:
+            """The box moved by the camera's own rotation (pan, tilt; left and up positive): where a still
+            object is now seen."""
+            du, dv = camera.fx * math.tan(turned[0]), camera.fy * math.tan(turned[1])
+            return (box[0] + du, box[1] + dv, box[2] + du, box[3] + dv)
+
         tracker = BoxTracker()
         state = tracker.start(frame.rgb, box)
         # a small or plain object may give too few features to track: the detector then finds it in every
@@ -142,19 +151,21 @@ class ServoController(PointingController):
         tracking = not state.lost
         pids = [PID(self.kp, self.ki, out_min=-self.max_step_rad, out_max=self.max_step_rad) for _ in "pt"]
         turn = PID(self.turn_kp, self.turn_ki, out_min=-self.max_turn, out_max=self.max_turn)
-        redetections, steps, error, checked = 0, 0, math.inf, False
+        redetections, misses, steps, error, checked = 0, 0, 0, math.inf, False
         for step in range(1, self.max_steps + 1):
             steps = step
             if tracking and state.lost:
                 if redetections or target.find is None:
                     raise lost(state.reason)
                 redetections += 1
-                frame = self.world.observe()
-                box = see(frame)
-                if box is None:
-                    raise lost("the detector does not see it again")
-                state = tracker.start(frame.rgb, box)
-                tracking = not state.lost
+                seen = see(frame)
+                tracking = False  # until the detector sees it again; then tracked anew
+                if seen is None:
+                    misses, box = 1, state.box
+                else:
+                    box = seen
+                    state = tracker.start(frame.rgb, box)
+                    tracking = not state.lost
             if tracking:
                 box = state.box
             self.tracked = box
@@ -175,7 +186,8 @@ class ServoController(PointingController):
             pan_err = math.atan2(camera.cx - u, camera.fx)
             tilt_err = math.atan2(camera.cy - v, camera.fy)
             if headless:
-                self.world.command_base(0.0, 0.0, turn.update(0.0, -pan_err, self.control_s))
+                wz = turn.update(0.0, -pan_err, self.control_s)
+                self.world.command_base(0.0, 0.0, wz)
             else:
                 pan, tilt = _head(self.world)
                 self.world.set_head(
@@ -186,10 +198,19 @@ class ServoController(PointingController):
             frame = self.world.observe()
             if tracking:
                 state = tracker.update(frame.rgb)
+                continue
+            seen = see(frame)
+            if seen is not None:
+                misses, box = 0, seen
+                continue
+            misses += 1
+            if misses > self.max_misses:
+                raise lost(f"too little texture to track, and the detector missed it {misses} times in a row")
+            if headless:  # a robot without a head may not report its pose: the commanded turn it is
+                box = carried(box, (wz * self.control_s, 0.0))
             else:
-                box = see(frame)
-                if box is None:
-                    raise lost("too little texture to track, and the detector does not see it")
+                now = _head(self.world)
+                box = carried(box, (now[0] - pan, now[1] - tilt))
         else:
             if headless:
                 self.world.command_base(0.0, 0.0, 0.0)
@@ -390,9 +411,7 @@ class ServoController(PointingController):
         body = self._body(action)
         self._aim(np.array(est.centre), body, target)
         camera = self.world.camera_info()
-        frame = self.world.observe()
-        boxes = target.find(frame) if target.find is not None else []
-        box = _nearest_to_centre(boxes, camera, search)
+        frame, box = self._look_again(target, camera, search)
         if box is None:
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "
@@ -411,6 +430,25 @@ class ServoController(PointingController):
         if self._has("distance"):
             return self._range_estimate(box, camera, body)
         return est
+
+    def _look_again(self, target: Target, camera: Any, search: float) -> tuple[Any, Any]:
+        """The frame and the target's box nearest the image centre. A detector that misses the object in
+        this view is given up to `max_misses` more views, the head turned a little each time (the same view
+        would often be missed the same way)."""
+        frame = self.world.observe()
+        box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search)
+        if box is not None or target.find is None:
+            return frame, box
+        pan, tilt = _head(self.world)
+        for k in range(1, self.max_misses + 1):
+            side = 1 if k % 2 else -1
+            self.world.set_head(pan + side * 0.02 * ((k + 1) // 2), tilt)
+            self._settle(0.15)
+            frame = self.world.observe()
+            box = _nearest_to_centre(target.find(frame), camera, search)
+            if box is not None:
+                return frame, box
+        return frame, None
 
     def _held_points(self, hold: _Hold, body: BodyGeometry) -> Any:
         """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a

@@ -102,8 +102,12 @@ class BoxTracker:
         gray = _gray(image)
         self._shape = gray.shape[:2]
         self.box = _clip(box, self._shape)
-        if self.box[2] - self.box[0] < 2 or self.box[3] - self.box[1] < 2:
+        if self.box[2] <= self.box[0] or self.box[3] <= self.box[1]:
             raise InputError(f"cannot track the box {tuple(box)}: it lies outside the image or is empty")
+        if self.box[2] - self.box[0] < 2 or self.box[3] - self.box[1] < 2:
+            # a sliver (a far object, a detector's jitter) is no error: there is just nothing to track in it
+            self._previous, self._points = gray, None
+            return TrackResult(self.box, True, 0, True, "the box is too thin to track")
         self._previous = gray
         self._points = self._seed(gray, self.box)
         n = 0 if self._points is None else len(self._points)

@@ -74,6 +74,11 @@ class Embodiment:
         """Advance the world (or wait on a real robot) by `seconds`, holding the last commands."""
         raise self._unsupported(Capability.BASE, "advance time")
 
+    def world_time(self) -> float | None:
+        """Seconds of world time since the world was built (simulated seconds in a simulator); None where
+        the world keeps no clock of its own (a real robot's time is the wall clock)."""
+        return None
+
     def command_base(self, vx: float, vy: float, wz: float) -> None:
         """Base velocity in the robot frame: forward m/s, left m/s, counter-clockwise rad/s."""
         raise self._unsupported(Capability.BASE, "drive its base")

@@ -50,6 +50,9 @@ class MujocoWorld(Embodiment):
     def step(self, seconds: float) -> None:
         self.sim.step(seconds)
 
+    def world_time(self) -> float:
+        return float(self.sim.data.time)
+
     def command_base(self, vx: float, vy: float, wz: float) -> None:
         self.sim.command_base(vx, vy, wz)
 

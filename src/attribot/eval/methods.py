@@ -66,6 +66,7 @@ class Record(BaseModel):
     error: str | None = None
     error_category: str | None = None  # planner | runner | perception | action
     wall_s: float = 0.0
+    sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
@@ -195,6 +196,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
                 measured=measured,
                 error=answer.error.message if answer.error else None,
                 error_category=category,
+                sim_s=answer.sim_s,
             )
         else:
             perception = Perception.from_settings(settings)

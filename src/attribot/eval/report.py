@@ -24,6 +24,7 @@ from attribot.eval.datasets import TASKS
 from attribot.eval.methods import METHODS, NOISE_LEVELS, Record
 from attribot.eval.run import read_records
 from attribot.files import write_whole
+from attribot.models.noise import PRESETS
 
 __all__ = ["wilson", "summarize", "write_report", "PAPER"]
 
@@ -62,6 +63,15 @@ WHY = {
     "driving, grasping and lifting by perception.",
     "vlm": "An end-to-end vision-chat model; not run without a configured backend (--vqa openai:MODEL).",
 }
+_REALISTIC = PRESETS["realistic"]
+NOISY_WHY = (
+    f"Under the realistic preset every detection may be missed ({_REALISTIC['miss']:.0%}), swapped for "
+    f"another object's box ({_REALISTIC['confuse']:.0%}) or jittered ({_REALISTIC['jitter_px']:g} px per "
+    "edge), and "
+    f"every VQA answer may be wrong ({_REALISTIC['wrong']:.0%}): a program's first find, and each detection "
+    "while the robot acts on what it saw, compound these (the error propagation the paper names as its main "
+    "limitation), and a jittered box of a small object falls under IoU 0.5 even when the object is right."
+)
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -92,6 +102,7 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
         right = sum(r.right for r in ran)
         lo, hi = wilson(right, len(ran))
         failures = Counter(r.error_category or "wrong answer" for r in ran if not r.right)
+        simulated = [r.sim_s for r in ran if r.sim_s is not None]
         rows.append(
             {
                 "task": task,
@@ -104,6 +115,8 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "high": hi,
                 "failures": dict(failures),
                 "not_run": len(rs) - len(ran),
+                "wall_s": sum(r.wall_s for r in ran) / len(ran) if ran else None,
+                "sim_s": sum(simulated) / len(simulated) if simulated else None,
                 "not_run_reason": next((r.error for r in rs if r.status == "not run"), None),
                 "paper": PAPER.get((task, method), []),
             }
@@ -277,17 +290,23 @@ def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "c
         parts.append(
             f"<img alt='{e(task)} accuracy' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
         )
-        parts.append("<table><tr><th>method</th><th>noise</th><th>accuracy [95% Wilson]</th><th>failures</th>"
-                     "<th class='paper'>paper (other models, another world)</th></tr>")  # fmt: skip
+        parts.append(
+            "<table><tr><th>method</th><th>noise</th><th>accuracy [95% Wilson]</th><th>failures</th>"
+            "<th>mean wall / sim s</th><th class='paper'>paper (other models, another world)</th></tr>"
+        )
         for r in task_rows:
             failures = ", ".join(f"{k}: {v}" for k, v in sorted(r["failures"].items())) or "-"
             if r["not_run"]:
                 failures = f"not run: {r['not_run_reason']}"
             published = ", ".join(f"{lbl} {v:.2f}" for lbl, v in r["paper"]) or "-"
             key = f"{task}|{r['method']}|{r['noise']}"
+            seconds = "-" if r["wall_s"] is None else f"{r['wall_s']:.2f}"
+            if r["sim_s"] is not None:
+                seconds += f" / {r['sim_s']:.1f}"
             parts.append(
                 f"<tr><td>{e(r['method'])}</td><td>{e(r['noise'])}</td><td class='acc' data-key='{key}'>"
-                f"{e(_fmt(r))}</td><td>{e(failures)}</td><td class='paper'>{e(published)}</td></tr>"
+                f"{e(_fmt(r))}</td><td>{e(failures)}</td><td>{seconds}</td>"
+                f"<td class='paper'>{e(published)}</td></tr>"
             )
         parts.append("</table>")
         flagged = [
@@ -300,7 +319,9 @@ def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "c
         for r in flagged:
             parts.append(
                 f"<p class='note'>{e(r['method'])} ({e(r['noise'])}) differs from the paper's by more than "
-                f"0.25: {e(WHY.get(r['method'], ''))}</p>"
+                f"0.25: {e(WHY.get(r['method'], ''))}"
+                + (f" {e(NOISY_WHY)}" if r["noise"] != "clean" else "")
+                + "</p>"
             )
     # failures by category
     parts.append(

@@ -42,6 +42,7 @@ class Answer(BaseModel):
     trace: list[dict[str, Any]] = []
     error: AnswerError | None = None
     world: dict[str, Any] | None = None  # layout and seed, or the image file
+    sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
 
     @property
     def ok(self) -> bool:

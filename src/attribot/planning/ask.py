@@ -116,6 +116,7 @@ class _Session:
         self.scene = scene
         self.runs = 0
         self.world: Any = None
+        self.world_started: float | None = None
         self.runner: Any = None
         self.recorder: Any = None
         try:
@@ -141,6 +142,7 @@ class _Session:
                 self.perception = Perception.from_settings(settings)
                 world_cls: Any = EMBODIMENTS.get(scene.world)  # worlds are built from a SceneConfig
                 self.world = world_cls(scene.config)
+                self.world_started = self.world.world_time()
                 have = {str(c) for c in self.world.capabilities()}
                 self.sensors = list(
                     scene.sensors or [s for s in ("camera", "distance", "force") if s in have]
@@ -202,6 +204,8 @@ class _Session:
             world=self.scene.describe(),
             frame=self.image.frame,
         )
+        if self.world_started is not None:
+            answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:
             video = self.recorder.finish() if self.recorder is not None else None
             save_answer(answer, save_dir, rgb=self.image.frame.rgb, settings=settings, video=video)
