@@ -3,8 +3,11 @@ the MuJoCo world, without reading the simulator's truth."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -140,17 +143,26 @@ class _LosesOnce(BoxTracker):
         return super().update(image)
 
 
-def _focus_without_preaim(
+@contextlib.contextmanager
+def _first_object_without_preaim(
     tracker_class: type[BoxTracker], monkeypatch: pytest.MonkeyPatch
-) -> ServoController:
-    """Focus on the first object of household seed 7 from its first view, tracking with `tracker_class`."""
+) -> Iterator[tuple[MujocoWorld, ServoController, Any]]:
+    """Household seed 7, a servo that tracks with `tracker_class` from the first view, and the first object
+    seen in it."""
     import attribot.control.servo as servo_module
 
     monkeypatch.setattr(servo_module, "BoxTracker", tracker_class)
     with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
         servo = ServoController(world, preaim=False)
         perception = Perception.from_settings(load_settings())
-        patch = Robot(world=world, controller=servo).look(perception).find("object")[0]
+        yield world, servo, Robot(world=world, controller=servo).look(perception).find("object")[0]
+
+
+def _focus_without_preaim(
+    tracker_class: type[BoxTracker], monkeypatch: pytest.MonkeyPatch
+) -> ServoController:
+    """Focus on the first object of household seed 7 from its first view, tracking with `tracker_class`."""
+    with _first_object_without_preaim(tracker_class, monkeypatch) as (_, servo, patch):
         servo.focus_on(patch.target())
         return servo
 
@@ -183,17 +195,7 @@ class _NoTexture(BoxTracker):
 def _focus_with_a_flaky_detector(monkeypatch: pytest.MonkeyPatch, misses: set[int]) -> tuple[float, int]:
     """Focus on household seed 7's first object by detection alone, the detector missing it on the calls
     numbered in `misses` (1 is the first); the truth's pixel error and the number of detector calls."""
-
-    import attribot.control.servo as servo_module
-
-    monkeypatch.setattr(servo_module, "BoxTracker", _NoTexture)
-    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
-        servo = ServoController(world, preaim=False)
-        patch = (
-            Robot(world=world, controller=servo)
-            .look(Perception.from_settings(load_settings()))
-            .find("object")[0]
-        )
+    with _first_object_without_preaim(_NoTexture, monkeypatch) as (world, servo, patch):
         target = patch.target()
         calls = 0
 
@@ -228,16 +230,7 @@ class _Drifts(BoxTracker):
 
 
 def test_a_drifted_track_is_caught_by_the_confirming_detection(monkeypatch):
-    import attribot.control.servo as servo_module
-
-    monkeypatch.setattr(servo_module, "BoxTracker", _Drifts)
-    with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
-        servo = ServoController(world, preaim=False)
-        patch = (
-            Robot(world=world, controller=servo)
-            .look(Perception.from_settings(load_settings()))
-            .find("object")[0]
-        )
+    with _first_object_without_preaim(_Drifts, monkeypatch) as (world, servo, patch):
         servo.focus_on(patch.target())
         assert servo.last is not None and servo.last.error_px <= 1.5
         assert _truth_centre_error(world, patch.object_id) <= 5.0  # the object, not the drifted box
