@@ -67,10 +67,10 @@ _REALISTIC = PRESETS["realistic"]
 NOISY_WHY = (
     f"Under the realistic preset every detection may be missed ({_REALISTIC['miss']:.0%}), swapped for "
     f"another object's box ({_REALISTIC['confuse']:.0%}) or jittered ({_REALISTIC['jitter_px']:g} px per "
-    "edge), and "
-    f"every VQA answer may be wrong ({_REALISTIC['wrong']:.0%}): a program's first find, and each detection "
-    "while the robot acts on what it saw, compound these (the error propagation the paper names as its main "
-    "limitation), and a jittered box of a small object falls under IoU 0.5 even when the object is right."
+    f"edge), and every VQA answer may be wrong ({_REALISTIC['wrong']:.0%}): a program's first find, and each "
+    "detection while the robot acts on what it saw, compound these (the error propagation the paper names as "
+    "its main limitation), and a jittered box of a small object falls under IoU 0.5 even when the object is "
+    "right."
 )
 
 
