@@ -135,3 +135,19 @@ def test_a_measure_and_a_choice_of_different_attributes_is_refused():
 
     with pytest.raises(UnsupportedQuery):
         parse_query("How far is the heaviest box?")
+
+
+@pytest.mark.parametrize(
+    ("query", "largest"), [("Which object is the largest?", True), ("the tiniest object", False)]
+)
+def test_with_a_distance_sensor_a_size_is_in_the_world_not_in_the_picture(query, largest):
+    """Household seed 40100: a near tomato looks bigger than a far plate. The camera alone goes by the
+    picture; with the rangefinder, pixels times metres find the object that is bigger in the world."""
+    with MujocoWorld(layout="household", seed=40100) as world:
+        seen = [o for o in world.scene_info().objects if o.box is not None]
+    by_size = sorted(seen, key=lambda o: o.size_m)
+    truth = (by_size[-1] if largest else by_size[0]).id
+    measured = _ask(query, "household", 40100, ["camera", "distance"])
+    assert measured.object.id == truth
+    assert "robot.measure_distance" in measured.program
+    assert _ask(query, "household", 40100, ["camera"]).object.id != truth  # perspective fooled the picture

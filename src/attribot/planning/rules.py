@@ -1147,7 +1147,7 @@ _MEASURES = {
 }
 
 
-def _write_size(w: _Writer, q: SizeQuery) -> None:
+def _write_size(w: _Writer, q: SizeQuery, sensors: Sequence[str], embodied: bool) -> None:
     _find(w, q.obj)
     key, meaning = _MEASURES[q.measure]
     w.line(f'# "{q.adjective}" is measured as {meaning}')
@@ -1158,8 +1158,19 @@ def _write_size(w: _Writer, q: SizeQuery) -> None:
     base = q.adjective.split()[-1]
     base = _SUPERLATIVE.get(base) or _COMPARATIVE.get(base) or base
     word = superlative.get(base, base) if " " not in q.adjective else q.adjective
-    w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
-    w.line(f"ordered = {_sorted('candidates', key, q.largest)}")
+    if embodied and "distance" in sensors:
+        # a near object looks big: pixels times the measured distance are a size in the world
+        power, squared = (" ** 2", " squared") if q.measure == "area" else ("", "")
+        w.line(f"# in the world, not in the picture: times the measured distance{squared}")
+        w.line(f"sizes = [{key} * robot.measure_distance(patch){power} for patch in candidates]")
+        w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
+        w.line(
+            "ordered = [candidates[i] for i in sorted(range(len(candidates)), key=lambda i: sizes[i]"
+            f"{', reverse=True' if q.largest else ''})]"
+        )
+    else:
+        w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
+        w.line(f"ordered = {_sorted('candidates', key, q.largest)}")
     if q.rank > 1:
         w.fail(
             f"len(ordered) < {q.rank}",
@@ -1394,7 +1405,7 @@ def write_program(
     if isinstance(parsed, LocationQuery):
         _write_location(w, parsed)
     elif isinstance(parsed, SizeQuery):
-        _write_size(w, parsed)
+        _write_size(w, parsed, sensors, embodied)
     elif isinstance(parsed, WeightQuery):
         _write_weight(w, parsed, sensors, embodied)
     elif isinstance(parsed, DistanceQuery):
