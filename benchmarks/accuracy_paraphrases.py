@@ -8,10 +8,11 @@ it and checks the answer against the world, with every sensor:
 - weight / distance: a household scene with three objects of the noun's category (the layout's own objects
   for "object", "item", "thing"; one of each named category for named objects); truth: the heaviest or
   lightest pickable object, the nearest or farthest visible one;
-- size: a row of three objects of the category at about one distance, one clearly bigger or smaller (the
-  arrangement layout's odd size); truth: the largest or smallest `size_m` when it is that odd one (one
-  category's objects are scaled as a whole, so the biggest is also the tallest and the widest); "object":
-  a household scene;
+- size: a row of three objects of the category (the layout's choice for "object") at about one distance,
+  one clearly bigger or smaller (the arrangement layout's odd size); truth: the largest or smallest `size_m`
+  when it is that odd one (one category's objects are scaled as a whole, so the biggest is also the tallest
+  and the widest; across categories `size_m`, an object's longest extent, says nothing of which is
+  "tallest", so sizes are not compared across categories here);
 - measurement: one object of the category; right when the value is within 3% of the mass, or within half
   the object's size (+3 cm) of the camera's distance to its centre (the rangefinder meets its surface);
 - grounding: one object of the category, of the colour the phrasing names if it names one;
@@ -56,11 +57,12 @@ def _scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None
         s = seed * 100 + tries
         if family == "odd":
             config = SceneConfig(layout="arrangement", seed=s)
-        elif family == "size" and not generic:
-            # one row of the category at about one distance, one of them clearly bigger or smaller: what
-            # is largest in the image is then largest in the world
+        elif family == "size":
+            # one row of one category at about one distance, one of them clearly bigger or smaller: what is
+            # largest in the image is then largest in the world, in every dimension
             options = {"pattern": "row", "odd": "size", "size_variation": 0.03}
-            config = SceneConfig(layout="arrangement", seed=s, categories=(noun,), objects=3, options=options)
+            named = None if generic else (noun,)
+            config = SceneConfig(layout="arrangement", seed=s, categories=named, objects=3, options=options)
         elif row.get("named"):
             config = SceneConfig(
                 layout="household", seed=s, categories=tuple(row["named"]), objects=len(row["named"])

@@ -11,8 +11,10 @@ Tasks (sizes as in the paper): `location` (100, arrangements: "the second mug fr
 seen in a still image, no robot), `distance_embodied` (50) and `weight_embodied` (50) in household
 scenes, with the distance or force sensor.
 
-`DATASET_VERSION` is a digest of the code that generates items (this module, the scene layouts, the
-catalog): it changes whenever generation changes, and a run refuses to mix items of two versions.
+`DATASET_VERSION` is a digest of the code that generates items and their truth (this module, the
+simulator's scenes, catalog, rendering and truth, and the rules parser with its lexicon, which reads the
+location and size phrasings): it changes whenever generation may change, and a run refuses to mix items of
+two versions.
 """
 
 from __future__ import annotations
@@ -63,8 +65,14 @@ def _version() -> str:
     digest = hashlib.sha256()
     for package, name in (
         ("attribot.eval", "datasets.py"),
-        ("attribot.sim", "scene.py"),
-        ("attribot.sim", "catalog.py"),
+        # the scenes, their images and their truth (boxes, distances, masses)
+        *(
+            ("attribot.sim", f)
+            for f in ("scene.py", "catalog.py", "shapes.py", "robot.py", "world.py", "render.py")
+        ),
+        # the location and size truth is the parser's meaning of the released phrasing, in its vocabulary
+        ("attribot.planning", "rules.py"),
+        ("attribot", "lexicon.py"),
     ):
         digest.update(resources.files(package).joinpath(name).read_bytes())
     return "paper-" + digest.hexdigest()[:12]
