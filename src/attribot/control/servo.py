@@ -435,20 +435,16 @@ class ServoController(PointingController):
         """The frame and the target's box nearest the image centre. A detector that misses the object in
         this view is given up to `max_misses` more views, the head turned a little each time (the same view
         would often be missed the same way)."""
-        frame = self.world.observe()
-        box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search)
-        if box is not None or target.find is None:
-            return frame, box
         pan, tilt = _head(self.world)
-        for k in range(1, self.max_misses + 1):
-            side = 1 if k % 2 else -1
-            self.world.set_head(pan + side * 0.02 * ((k + 1) // 2), tilt)
-            self._settle(0.15)
+        for k in range(self.max_misses + 1 if target.find is not None else 1):
+            if k:  # 0.02 rad to one side, then the other, then further
+                self.world.set_head(pan + (1 if k % 2 else -1) * 0.02 * ((k + 1) // 2), tilt)
+                self._settle(0.15)
             frame = self.world.observe()
-            box = _nearest_to_centre(target.find(frame), camera, search)
+            box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search)
             if box is not None:
-                return frame, box
-        return frame, None
+                break
+        return frame, box
 
     def _held_points(self, hold: _Hold, body: BodyGeometry) -> Any:
         """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a

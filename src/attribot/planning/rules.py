@@ -1162,15 +1162,9 @@ def _write_size(w: _Writer, q: SizeQuery, sensors: Sequence[str], embodied: bool
         # a near object looks big: pixels times the measured distance are a size in the world
         power, squared = (" ** 2", " squared") if q.measure == "area" else ("", "")
         w.line(f"# in the world, not in the picture: times the measured distance{squared}")
-        w.line(f"sizes = [{key} * robot.measure_distance(patch){power} for patch in candidates]")
-        w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
-        w.line(
-            "ordered = [candidates[i] for i in sorted(range(len(candidates)), key=lambda i: sizes[i]"
-            f"{', reverse=True' if q.largest else ''})]"
-        )
-    else:
-        w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
-        w.line(f"ordered = {_sorted('candidates', key, q.largest)}")
+        key = f"{key} * robot.measure_distance(patch){power}"
+    w.line(f"# order them from the {order} and take the {_nth(q.rank)}")
+    w.line(f"ordered = {_sorted('candidates', key, q.largest)}")
     if q.rank > 1:
         w.fail(
             f"len(ordered) < {q.rank}",
