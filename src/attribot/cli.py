@@ -115,6 +115,7 @@ def _scene_config(
     width: int | None,
     height: int | None,
     profile: str | None,
+    world_noise: str | None = None,
 ) -> Any:
     """The `SceneConfig` of the scene flags, or None when no flag was given."""
     from attribot.config import SceneConfig
@@ -148,6 +149,10 @@ def _scene_config(
         "height": height,
         "profile": profile,
     }
+    if world_noise is not None:
+        from attribot.noise import world_noise as parse_world_noise
+
+        given["noise"] = parse_world_noise(world_noise, seed or 0)
     fields = {k: v for k, v in given.items() if v is not None}
     return SceneConfig.create(**fields) if fields else None
 
@@ -249,6 +254,18 @@ _CONTROLLER = typer.Option(
 )
 _SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
 _PLANNER = typer.Option(None, "--planner", help="rules (offline, default) or llm.")
+_WORLD_NOISE = typer.Option(
+    None,
+    "--world-noise",
+    help="Imperfect sensing and acting in the simulator, seeded: a preset (clean, sensing, acting, "
+    "realistic) and/or KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise).",
+)
+_CHECKS = typer.Option(
+    None,
+    "--checks",
+    help="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
+    "remeasure, confidence, reset); all,-NAME leaves one out.",
+)
 _LLM_BASE_URL = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint.")
 _LLM_MODEL = typer.Option(None, "--llm-model", help="Model name at that endpoint.")
 _DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
@@ -256,6 +273,15 @@ _VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, ope
 _LANGUAGE = typer.Option(
     None, "--language", help="Language backend spec (catalog, openai:MODEL, remote:URL)."
 )
+
+
+def _checks(spec: str | None) -> str | None:
+    """`--checks` checked now (an unknown name is a usage error before any world is built)."""
+    if spec is None:
+        return None
+    from attribot.api.safeguards import parse_checks
+
+    return ",".join(parse_checks(spec)) or "none"
 
 
 def _prefetch_rendering() -> None:
@@ -380,11 +406,13 @@ def ask(
     width: int | None = _S_WIDTH,
     height: int | None = _S_HEIGHT,
     profile: str | None = _S_PROFILE,
+    world_noise: str | None = _WORLD_NOISE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     controller: str | None = _CONTROLLER,
     world: str | None = _WORLD,
     bridge_url: str | None = _BRIDGE_URL,
+    checks: str | None = _CHECKS,
     planner: str | None = _PLANNER,
     llm_base_url: str | None = _LLM_BASE_URL,
     llm_model: str | None = _LLM_MODEL,
@@ -396,12 +424,13 @@ def ask(
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
     with _errors_as_json(as_json, query, planner or "rules"):
-        config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+        config = _scene_config(layout, seed, objects, categories, option, width, height, profile, world_noise)
         scene = _scene(config, image, sensors, controller, world, bridge_url)
         from attribot.config import load_settings
         from attribot.planning.ask import ask as run_ask
 
         settings = load_settings(
+            checks=_checks(checks),
             planner=planner,
             llm_base_url=llm_base_url,
             llm_model=llm_model,
@@ -424,11 +453,13 @@ def exec_program(
     width: int | None = _S_WIDTH,
     height: int | None = _S_HEIGHT,
     profile: str | None = _S_PROFILE,
+    world_noise: str | None = _WORLD_NOISE,
     image: Path | None = _IMAGE,
     sensors: str | None = _SENSORS,
     controller: str | None = _CONTROLLER,
     world: str | None = _WORLD,
     bridge_url: str | None = _BRIDGE_URL,
+    checks: str | None = _CHECKS,
     query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
     detector: str | None = _DETECTOR,
     vqa: str | None = _VQA,
@@ -440,7 +471,7 @@ def exec_program(
     from attribot.errors import InputError
 
     with _errors_as_json(as_json, query, "file"):
-        config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
+        config = _scene_config(layout, seed, objects, categories, option, width, height, profile, world_noise)
         scene = _scene(config, image, sensors, controller, world, bridge_url)
         from attribot.config import load_settings
         from attribot.planning.ask import execute
@@ -454,7 +485,7 @@ def exec_program(
                 f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
                 "save it as UTF-8",
             ) from None
-        settings = load_settings(detector=detector, vqa=vqa, language=language)
+        settings = load_settings(detector=detector, vqa=vqa, language=language, checks=_checks(checks))
         answer = execute(source, scene, settings, query=query, save_dir=save)
     _show(answer, as_json)
 
@@ -556,7 +587,18 @@ def evaluate(
         help="Comma-separated: ovd,vqa,vqa+llm,vlm,attr-api,pa-api (default: the paper's per task).",
     ),
     limit: int | None = _LIMIT,
-    noise: str = typer.Option("clean", "--noise", help="Comma-separated noise levels: clean,realistic."),
+    noise: str = typer.Option(
+        "clean",
+        "--noise",
+        help="Comma-separated noise presets: clean, frame (per-frame perception noise, earlier releases' "
+        "realistic), perception, sensing, acting, realistic (all three); PRESET-no-MECHANISM for one "
+        "ablation condition.",
+    ),
+    ablation: bool = typer.Option(
+        False,
+        "--ablation",
+        help="Add realistic with each error-catching mechanism off in turn (api methods).",
+    ),
     workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
     planner: str | None = _PLANNER,
@@ -570,12 +612,13 @@ def evaluate(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from attribot.config import load_settings
+    from attribot.eval.methods import ablations
     from attribot.eval.run import EvalPlan, run_eval
 
     plan = EvalPlan(
         tasks=tuple(_suite_tasks(suite, tasks)),
         methods=tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else None,
-        noise=tuple(n.strip() for n in noise.split(",") if n.strip()),
+        noise=tuple(n.strip() for n in noise.split(",") if n.strip()) + (ablations() if ablation else ()),
         limit=limit,
     )
     settings = load_settings(

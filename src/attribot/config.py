@@ -23,6 +23,7 @@ from pydantic_settings import (
 )
 
 from attribot.errors import ConfigError, InputError
+from attribot.noise import WorldNoise
 
 __all__ = [
     "Settings",
@@ -69,6 +70,10 @@ class Settings(BaseSettings):
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
     remote_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
+
+    # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
+    # names, or "all,-look_again" to leave one out
+    checks: str = "all"
 
     cache_dir: Path = Path(".attribot-cache")
 
@@ -174,7 +179,8 @@ class SceneConfig(BaseModel):
     layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: the same seed gives
     the same scene and pixels; objects / categories: override the layout's choice; options: layout
     options (e.g. {"pattern": "grid", "odd": "size"}); width, height: camera pixels; profile: "fast" or
-    "pretty"; force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis.
+    "pretty"; force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
+    world's seeded imperfections of sensing and acting (`attribot.noise.WorldNoise`, presets by name).
     Build it with `SceneConfig.create(...)` to get an `InputError` that names the bad field.
     """
 
@@ -189,6 +195,7 @@ class SceneConfig(BaseModel):
     height: int = Field(480, ge=16, le=4096, strict=True)
     profile: str = "fast"
     force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
+    noise: WorldNoise = Field(default_factory=WorldNoise)
 
     @field_validator("profile")
     @classmethod
@@ -228,6 +235,7 @@ _SCENE_FLAGS = {
     "width": "--width",
     "height": "--height",
     "profile": "--profile",
+    "noise": "--world-noise",
 }
 _SCENE_FIXES = {
     "seed": f"give a whole number from 0 to {MAX_SEED}, e.g. --seed 7",
@@ -237,5 +245,6 @@ _SCENE_FIXES = {
     "profile": f"choose one of: {', '.join(RENDER_PROFILES)}",
     "force_noise_std": "give a finite standard deviation >= 0 N",
     "options": "write layout options as KEY=VALUE, e.g. --option pattern=grid",
+    "noise": "give --world-noise a preset (clean, realistic, sensing, acting) or KEY=VALUE pairs",
     "categories": "name categories from `attribot scene info` or the catalog, e.g. mug,apple",
 }

@@ -16,7 +16,9 @@ import numpy as np
 
 from attribot.api.checks import check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
+from attribot.api.looking import Survey
 from attribot.api.perception import Perception
+from attribot.api.safeguards import Safeguards
 from attribot.boxes import from_upward, to_upward
 from attribot.control.base import Capture, Target
 from attribot.errors import BackendError
@@ -64,6 +66,8 @@ class ImagePatch:
         "score",
         "object_id",
         "capture",
+        "survey",
+        "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
         "from_image",
@@ -100,6 +104,8 @@ class ImagePatch:
         self.object_id = object_id
         self.label = label
         self.score = score
+        self.survey: Survey | None = None  # views around the first image, where the robot looked again
+        self.safeguards: Safeguards | None = None
         self._pixels: Frame | None = None
         self._upward = to_upward(self.box, frame.height)
 
@@ -263,6 +269,19 @@ class ImagePatch:
                 f"the detector {self.perception.detector.name!r} did not return a list of Detection",
                 "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
             )
+        whole = (0.0, 0.0, float(self.frame.width), float(self.frame.height))
+        if self.survey is not None and self.box == whole:
+            first = len(detections)
+            detections = self.survey.fuse(self.perception.detector, name, detections)
+            report = self.survey.reports[-1]
+            if self.safeguards is not None:
+                changed = report.dropped or report.added
+                self.safeguards.note(
+                    "look_again",
+                    f"find({name!r})",
+                    "caught" if changed else "confirmed",
+                    f"{report.describe()} ({first} -> {len(detections)})",
+                )
         dx = pixels.origin[0] - self.frame.origin[0]
         dy = pixels.origin[1] - self.frame.origin[1]
         found: list[ImagePatch] = []

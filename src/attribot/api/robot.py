@@ -13,13 +13,16 @@ import math
 from collections.abc import Sequence
 from typing import Any, ClassVar, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from attribot.api.checks import check_number, check_patch
 from attribot.api.errors import ActionFailed, ApiArgumentError, MissingSensor, PreconditionError
+from attribot.api.looking import Survey, View
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
-from attribot.control.base import Capture, Controller, Target, build_controller
+from attribot.api.safeguards import Safeguards
+from attribot.control.base import Capture, ControlError, Controller, Target, build_controller
 from attribot.embodiments.base import Capability, Embodiment
 from attribot.errors import InputError, UnsupportedAction
 from attribot.frame import CameraInfo
@@ -84,6 +87,7 @@ class Measurement(BaseModel):
     unit: Literal["m", "kg"]
     newtons: float | None = None  # the weight as the force sensor measured it
     samples: int = 1
+    uncertainty: float = 0.0  # one standard deviation, in `unit`
 
 
 class Robot:
@@ -117,8 +121,17 @@ class Robot:
         "measurements",
         "capture",
         "activity",
+        "safeguards",
     )
-    HOST_METHODS: ClassVar[tuple[str, ...]] = ("for_world", "look", "backend_name", "from_program")
+    HOST_METHODS: ClassVar[tuple[str, ...]] = (
+        "for_world",
+        "look",
+        "backend_name",
+        "from_program",
+        "settle",
+        "snapshot",
+        "restore",
+    )
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `Robot(...)` in a program calls on the session's robot (the paper's dialect)."""
 
@@ -126,15 +139,26 @@ class Robot:
     FOCUS_TOL_PX: ClassVar[float] = 1.5
     FORCE_SAMPLES: ClassVar[int] = 10
     FORCE_SAMPLE_S: ClassVar[float] = 0.05
+    FORCE_MAX_SAMPLES: ClassVar[int] = 40  # re-measuring: until the standard error is small, at most this
+    FORCE_RESOLUTION_N: ClassVar[float] = 0.02  # the least uncertainty a weighing claims
+    RANGE_READINGS: ClassVar[int] = 5
+    RANGE_RESOLUTION_M: ClassVar[float] = 0.003
+    BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
+    GRASP_TRIES: ClassVar[int] = 4
+    APPROACH_TRIES: ClassVar[int] = 3
+    SETTLE_ROUNDS: ClassVar[int] = 3
+    SETTLE_Z: ClassVar[float] = 2.0  # a margin of this many standard deviations settles a comparison
 
     def __init__(
         self,
         sensors: Sequence[str] = ("camera",),
         world: Embodiment | None = None,
         controller: Controller | None = None,
+        safeguards: Safeguards | None = None,
     ) -> None:
         """Host side: a robot with `sensors` in `world` (None: a still image, every action refused), acting
-        through `controller` (default: the one registered for the world, see attribot.control.base)."""
+        through `controller` (default: the one registered for the world, see attribot.control.base), with
+        the error-catching mechanisms of `safeguards` (default: all on)."""
         self._sensors: list[str] = check_sensors(sensors)
         self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
         if world is not None and not isinstance(world, Embodiment):
@@ -153,7 +177,9 @@ class Robot:
         self.world = world
         self.controller: Controller = controller if controller is not None else build_controller(world)
         self.held: ImagePatch | None = None
+        self.safeguards = safeguards if safeguards is not None else Safeguards()
         self.measurements: list[Measurement] = []
+        self._measured: list[tuple[Measurement, ImagePatch]] = []
         self.capture: Capture | None = None
         self._near: ImagePatch | None = None
         self._captures = 0
@@ -192,8 +218,95 @@ class Robot:
         self.capture = Capture(index=self._captures, camera=camera, head=head, base=base, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
+        if self.safeguards.on("look_again") and "head" in caps and "arm" in caps and frame.depth is not None:
+            self._image.survey = Survey.take(self.world, View(frame, self.capture), self.world.body())
+            self._image.safeguards = self.safeguards
         self._acted_on = []
         return self._image
+
+    def settle(self, chosen: ImagePatch) -> str | None:
+        """Host side, after a program chose `chosen`: with `confidence`, when the choice rests on measured
+        values (the chosen object's is the largest or smallest of its kind, or lies between two) and the
+        margin to the next one lies inside their uncertainty, measure both again (up to SETTLE_ROUNDS),
+        combining the readings. None when settled (or nothing to settle); otherwise the sentence that says
+        it cannot tell, naming both values."""
+        if not self.safeguards.on("confidence"):
+            return None
+        mine = [(m, p) for m, p in self._measured if p.same_object(chosen) or p is chosen]
+        if not mine:
+            return None
+        kind = mine[-1][0].kind
+        for round_ in range(self.SETTLE_ROUNDS + 1):
+            values = self._combined(kind)
+            me = next((v for v in values if v[2].same_object(chosen) or v[2] is chosen), None)
+            if me is None or len(values) < 2:
+                return None
+            rivals = _neighbours(values, me)
+            close = [r for r in rivals if abs(r[0] - me[0]) <= self.SETTLE_Z * math.hypot(r[1], me[1])]
+            call = f"answer({chosen.label or 'patch'})"
+            if not close:
+                if round_ > 0:
+                    self.safeguards.note("confidence", call, "caught", "settled after measuring again")
+                return None
+            if round_ == self.SETTLE_ROUNDS:
+                rival = close[0]
+                unit = "kg" if kind == "weight" else "m"
+                text = (
+                    f"cannot tell the {chosen.label or 'chosen object'} ({me[0]:.3f} +/- {me[1]:.3f} "
+                    f"{unit}) from the {rival[2].label or 'other object'} ({rival[0]:.3f} +/- "
+                    f"{rival[1]:.3f} {unit}): "
+                    "the difference lies inside the measurements' uncertainty"
+                )
+                self.safeguards.note("confidence", call, "unsettled", text)
+                return text
+            for _value, _error, patch in [me, *close]:
+                self._measure_again(kind, patch)
+        return None
+
+    def _combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
+        """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
+        groups: list[list[tuple[Measurement, ImagePatch]]] = []
+        for m, p in self._measured:
+            if m.kind != kind:
+                continue
+            home = next((g for g in groups if g[0][1].same_object(p) or g[0][1] is p), None)
+            if home is None:
+                groups.append([(m, p)])
+            else:
+                home.append((m, p))
+        out = []
+        for g in groups:
+            weights = [1.0 / max(m.uncertainty, 1e-6) ** 2 for m, _ in g]
+            value = sum(w * m.value for w, (m, _) in zip(weights, g, strict=True)) / sum(weights)
+            out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
+        return out
+
+    def _measure_again(self, kind: str, patch: ImagePatch) -> None:
+        if kind == "distance":
+            self.measure_distance(patch)
+            return
+        if self.held is not None:
+            self.put_down()
+        self.go_to_object(patch)
+        self.pick_up(patch)
+        self.measure_weight(patch)
+        self.put_down()
+
+    def snapshot(self) -> Any:
+        """Host side: the robot's state now (pose, head, arm, gripper), or None where the world cannot
+        put it back."""
+        return None if self.world is None else self.world.snapshot()
+
+    def restore(self, snapshot: Any, image: ImagePatch) -> None:
+        """Host side: back to `snapshot` with `image` as the camera's last look: how a retry starts from
+        the state the first try started from."""
+        assert self.world is not None
+        self.world.restore(snapshot)
+        self.held = None
+        self._near = None
+        self._image = image
+        self.capture = image.capture
+        self._acted_on = []
 
     def from_program(self, sensors: Sequence[str] | None = None) -> Robot:
         """Host side: `Robot(sensors=[...])` written in a program, as the paper's programs do: this robot,
@@ -363,16 +476,87 @@ class Robot:
         p, target = self._target(patch, "measure_distance")
         self._focus(p, target)
         assert self.world is not None  # _target checked it
-        metres = float(self.world.read_distance())
-        if not math.isfinite(metres) or metres < 0:
-            raise ActionFailed(
-                f"the distance sensor saw nothing within range when pointed at {target.describe()}",
-                "the object may be too far away or hidden; compare the objects another way",
-            )
-        self.measurements.append(
-            Measurement(kind="distance", object_id=p.object_id, label=p.label, value=metres, unit="m")
+        metres, spread, samples = self._read_range(p)
+        self._record(
+            Measurement(
+                kind="distance",
+                object_id=p.object_id,
+                label=p.label,
+                value=metres,
+                unit="m",
+                samples=samples,
+                uncertainty=spread,
+            ),
+            p,
         )
         return metres
+
+    def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
+        """The rangefinder's reading of the object the camera is centred on: (metres, one standard
+        deviation, readings used). With `remeasure`, several readings are combined (dropouts left out);
+        with `verify_actions`, readings where the beam did not hit the object (it disagrees with the depth
+        in the object's middle: an edge, the wall behind) are left out, re-aiming once if none is left."""
+        assert self.world is not None
+        guards = self.safeguards
+        count = self.RANGE_READINGS if guards.on("remeasure") else 1
+        call = f"measure_distance({p.label or 'patch'})"
+        for aim in range(2):
+            readings = []
+            for _ in range(count):
+                r = float(self.world.read_distance())
+                if math.isfinite(r) and r >= 0:
+                    readings.append(r)
+                if count > 1:
+                    self.world.step(0.02)
+            if count > 1:
+                empty = count - len(readings)
+                outcome = "caught" if empty else "confirmed"
+                guards.note("remeasure", call, outcome, f"{count} readings, {empty} empty")
+            depth = self._centre_depth() if guards.on("verify_actions") else None
+            if depth is not None and readings:
+                tol = max(0.04, self.BEAM_TOLERANCE * depth)
+                hits = [r for r in readings if abs(r - depth) <= tol]
+                if len(hits) < len(readings):
+                    guards.note(
+                        "verify_actions",
+                        call,
+                        "caught",
+                        f"{len(readings) - len(hits)} beam readings off the object "
+                        f"(depth there {depth:.3f} m)",
+                    )
+                readings = hits
+            if readings:
+                break
+            if aim == 0 and (guards.on("verify_actions") or guards.on("remeasure")):
+                self._focus(p, p.target() or self._target(p, "measure_distance")[1])  # aim again, read again
+                continue
+            break
+        if not readings:
+            raise ActionFailed(
+                f"the distance sensor saw nothing within range when pointed at {p.label or 'the object'}",
+                "the object may be too far away or hidden; compare the objects another way",
+            )
+        values = sorted(readings)
+        metres = values[len(values) // 2] if len(values) % 2 else sum(values[len(values) // 2 - 1 :][:2]) / 2
+        spread = _std(values) / math.sqrt(len(values)) if len(values) > 1 else 0.0
+        floor = self.RANGE_RESOLUTION_M + (0.01 * metres if len(values) == 1 else 0.0)
+        return metres, max(spread, floor), len(values)
+
+    def _centre_depth(self) -> float | None:
+        """The depth camera's distance to the surface at the image centre (where the object is, once
+        focused): the nearest surface in a small window, along the optical axis. None without depth."""
+        assert self.world is not None
+        frame = self.world.observe()
+        if frame.depth is None:
+            return None
+        h, w = frame.depth.shape
+        win = frame.depth[h // 2 - 2 : h // 2 + 3, w // 2 - 2 : w // 2 + 3]
+        finite = win[np.isfinite(win) & (win > 0.05)]
+        return float(np.median(finite)) if finite.size else None
+
+    def _record(self, m: Measurement, p: ImagePatch) -> None:
+        self.measurements.append(m)
+        self._measured.append((m, p))
 
     def measure_weight(self, patch: ImagePatch) -> float:
         """Returns the mass in kilograms of the object in `patch`, measured with the force sensor in the
@@ -407,14 +591,9 @@ class Robot:
                 + "robot.go_to_object(patch) and robot.pick_up(patch) before robot.measure_weight(patch)",
             )
         assert self.world is not None
-        # average a short window: the reading sways while the arm settles and carries sensor noise
-        total = 0.0
-        for _ in range(self.FORCE_SAMPLES):
-            self.world.step(self.FORCE_SAMPLE_S)
-            total += abs(float(self.world.read_force()[2]))
-        newtons = total / self.FORCE_SAMPLES
+        newtons, error, samples = self._weigh(p)
         kg = newtons / GRAVITY
-        self.measurements.append(
+        self._record(
             Measurement(
                 kind="weight",
                 object_id=p.object_id,
@@ -422,10 +601,43 @@ class Robot:
                 value=kg,
                 unit="kg",
                 newtons=newtons,
-                samples=self.FORCE_SAMPLES,
-            )
+                samples=samples,
+                uncertainty=error / GRAVITY,
+            ),
+            p,
         )
         return kg
+
+    def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
+        """The held load in newtons, its standard error and the readings used. A short window is averaged
+        (the reading sways while the arm settles and carries sensor noise); with `remeasure`, readings are
+        added until the standard error is small or FORCE_MAX_SAMPLES are taken; with `verify_actions`, a
+        load too small to be an object means it slipped out: it is picked up again and weighed again."""
+        assert self.world is not None
+        guards = self.safeguards
+        call = f"measure_weight({p.label or 'patch'})"
+        for attempt in range(2):
+            readings = []
+            while True:
+                for _ in range(self.FORCE_SAMPLES):
+                    self.world.step(self.FORCE_SAMPLE_S)
+                    readings.append(abs(float(self.world.read_force()[2])))
+                mean = sum(readings) / len(readings)
+                error = _std(readings) / math.sqrt(len(readings))
+                small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
+                if not guards.on("remeasure") or small or len(readings) >= self.FORCE_MAX_SAMPLES:
+                    break
+            if guards.on("remeasure") and len(readings) > self.FORCE_SAMPLES:
+                guards.note("remeasure", call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
+            if not guards.on("verify_actions") or mean > 0.05 or attempt == 1:
+                return mean, max(error, self.FORCE_RESOLUTION_N), len(readings)
+            guards.note(
+                "verify_actions", call, "caught", f"no load ({mean:.3f} N): it slipped; lifting again"
+            )
+            self.put_down()
+            self.go_to_object(p)
+            self.pick_up(p)
+        raise AssertionError("unreachable")
 
     def go_to_coords(self, x: float, y: float) -> None:
         """Drives the robot towards the point (x, y) of the image (pixels, y growing upward, like the
@@ -465,7 +677,16 @@ class Robot:
         >>>     return fridge
         """
         p, target = self._target(patch, "go_to_object")
-        self.controller.approach(target)
+        tries = self.APPROACH_TRIES if self.safeguards.on("verify_actions") else 1
+        for attempt in range(tries):
+            try:
+                self.controller.approach(target)
+                break
+            except ControlError as exc:
+                if attempt + 1 == tries or not exc.message.startswith(_RETRYABLE):
+                    raise
+                call = f"go_to_object({p.label or 'patch'})"
+                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
         self._near = p
 
     def pick_up(self, patch: ImagePatch) -> None:
@@ -491,10 +712,20 @@ class Robot:
                 f"robot.pick_up() needs the robot next to {target.describe()}",
                 "call robot.go_to_object(patch) right before robot.pick_up(patch)",
             )
-        if "force" in self.sensors:
-            assert self.world is not None
-            self.world.tare_force()  # zero with the gripper empty, so a later reading is the load alone
-        self.controller.pick_up(target)
+        tries = self.GRASP_TRIES if self.safeguards.on("verify_actions") else 1
+        for attempt in range(tries):
+            if "force" in self.sensors:
+                assert self.world is not None
+                self.world.tare_force()  # zero with the gripper empty, so a later reading is the load alone
+            try:
+                self.controller.pick_up(target)
+                break
+            except ControlError as exc:
+                if attempt + 1 == tries or not str(exc.message).startswith("grasp failed"):
+                    raise
+                call = f"pick_up({p.label or 'patch'})"
+                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
+                self.controller.approach(target)
         self.held = p
 
     def put_down(self) -> None:
@@ -608,6 +839,26 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
     if "camera" not in out:
         out.insert(0, "camera")  # every robot here sees through its camera: the image is the program's input
     return out
+
+
+_RETRYABLE = ("target lost", "not reachable", "did not converge", "blocked")
+"""Approach failures another try from where the robot now stands can mend (a new view, another path)."""
+
+
+def _neighbours(
+    values: list[tuple[float, float, ImagePatch]], me: tuple[float, float, ImagePatch]
+) -> list[tuple[float, float, ImagePatch]]:
+    """The measured objects next to `me` in order of value: the one the choice was made against."""
+    ranked = sorted(values, key=lambda v: v[0])
+    i = next(k for k, v in enumerate(ranked) if v is me)
+    return [ranked[k] for k in (i - 1, i + 1) if 0 <= k < len(ranked)]
+
+
+def _std(values: Sequence[float]) -> float:
+    if len(values) < 2:
+        return 0.0
+    mean = sum(values) / len(values)
+    return math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
 
 
 def _dist_to_center(box: tuple[float, float, float, float], cam: CameraInfo) -> float:

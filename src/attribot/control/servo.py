@@ -443,8 +443,24 @@ class ServoController(PointingController):
             frame = self.world.observe()
             box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search)
             if box is not None:
-                break
-        return frame, box
+                return frame, box
+        if target.find is None:
+            return frame, None
+        # a detector that misses an object from one viewpoint may not from another: turn a third of the
+        # view to each side, where the object sits elsewhere in the image, and look for it where it must be
+        hfov = 2.0 * math.atan(camera.width / (2.0 * camera.fx))
+        for turn in (hfov / 3.0, -hfov / 3.0):
+            self.world.set_head(pan + turn, tilt)
+            self._settle(0.4)
+            frame = self.world.observe()
+            shift = camera.fx * math.tan(turn)  # where the old line of sight now is, from the centre
+            moved = [(b[0] - shift, b[1], b[2] - shift, b[3]) for b in target.find(frame)]
+            box = _nearest_to_centre(moved, camera, search)
+            if box is not None:
+                return frame, (box[0] + shift, box[1], box[2] + shift, box[3])
+        self.world.set_head(pan, tilt)
+        self._settle(0.3)
+        return frame, None
 
     def _held_points(self, hold: _Hold, body: BodyGeometry) -> Any:
         """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a

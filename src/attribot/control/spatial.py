@@ -298,3 +298,19 @@ def _dilate(grid: np.ndarray, cells: int) -> np.ndarray:
             src = grid[max(-di, 0) : n - max(di, 0), max(-dj, 0) : n - max(dj, 0)]
             out[max(di, 0) : n - max(-di, 0), max(dj, 0) : n - max(-dj, 0)] |= src
     return out
+
+
+def project(
+    points_base: np.ndarray, camera: CameraInfo, head: tuple[float, float], body: BodyGeometry
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels `(u, v)` (y down) of base-frame points (N, 3) in a camera at `head`, and a mask of the
+    points in front of it: the inverse of `base_points`."""
+    p = np.atleast_2d(np.asarray(points_base, float)) - np.asarray(body.camera_xyz)
+    pan, tilt = head
+    cp, sp, ct, st = math.cos(pan), math.sin(pan), math.cos(tilt), math.sin(tilt)
+    # undo the pan (about up), then the tilt (about left)
+    f1, left, up1 = cp * p[:, 0] + sp * p[:, 1], -sp * p[:, 0] + cp * p[:, 1], p[:, 2]
+    fwd, up = ct * f1 + st * up1, -st * f1 + ct * up1
+    front = fwd > 0.05
+    safe = np.where(front, fwd, 1.0)
+    return np.stack([camera.cx - left / safe * camera.fx, camera.cy - up / safe * camera.fy], -1), front

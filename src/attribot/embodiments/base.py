@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -121,6 +122,15 @@ class Embodiment:
 
     def joint_states(self) -> dict[str, float]:
         raise self._unsupported(Capability.POSE, "report joint states")
+
+    def snapshot(self) -> Any:
+        """The robot's own state now (pose, head, arm, gripper), for `restore`; None where the world cannot
+        put its robot back (a real robot: a retry then starts from where it is, and says so)."""
+        return None
+
+    def restore(self, snapshot: Any) -> None:
+        """Put the robot back into the state of `snapshot`; objects stay where they are."""
+        raise self._unsupported(Capability.POSE, "put its robot back where it started")
 
     def close(self) -> None:
         """Free renderers, sockets and threads. Safe to call twice."""

@@ -91,7 +91,13 @@ class MujocoWorld(Embodiment):
         )
 
     def base_pose(self) -> Pose2D:
-        return Pose2D(*self.sim.base_pose())
+        return Pose2D(*self.sim.odometry())  # what the wheels say, drift and all (truth: scene_info)
+
+    def snapshot(self) -> Any:
+        return self.sim.robot_state()
+
+    def restore(self, snapshot: Any) -> None:
+        self.sim.restore_robot(snapshot)
 
     def joint_states(self) -> dict[str, float]:
         return self.sim.joint_states()

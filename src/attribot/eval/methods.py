@@ -22,22 +22,52 @@ from typing import Any
 
 from pydantic import BaseModel
 
+from attribot.api.safeguards import MECHANISMS
 from attribot.boxes import iou
 from attribot.config import Settings
+from attribot.errors import InputError
 from attribot.eval.datasets import Item
+from attribot.noise import NOISE_PRESETS, world_noise
 
-__all__ = ["METHODS", "PAPER_METHODS", "Record", "run_method", "noisy_settings"]
+__all__ = [
+    "METHODS",
+    "PAPER_METHODS",
+    "Record",
+    "run_method",
+    "noisy_settings",
+    "check_condition",
+    "ablations",
+]
 
 METHODS = ("ovd", "vqa", "vqa+llm", "vlm", "attr-api", "pa-api")
 PAPER_METHODS = {
-    "location": ("ovd", "attr-api", "vlm"),
-    "size": ("ovd", "attr-api", "vlm"),
+    "location": ("ovd", "attr-api", "vlm", "pa-api"),
+    "size": ("ovd", "attr-api", "vlm", "pa-api"),
     "weight_image": ("ovd", "vqa", "vqa+llm", "attr-api", "vlm"),
     "distance_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
     "weight_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
 }
-"""Which methods the paper compares on each task (the default of `attribot eval`)."""
-NOISE_LEVELS = ("clean", "realistic")
+"""Which methods the paper compares on each task (the default of `attribot eval`); pa-api is added on
+location and size, where the robot can look again."""
+NOISE_LEVELS = tuple(NOISE_PRESETS)
+_WITHOUT = "-no-"
+
+
+def check_condition(condition: str) -> tuple[str, str]:
+    """A run condition, `PRESET` or `PRESET-no-MECHANISM` (an ablation): (preset, the checks spec)."""
+    preset, _, mechanism = condition.partition(_WITHOUT)
+    if preset not in NOISE_LEVELS or (mechanism and mechanism not in MECHANISMS):
+        raise InputError(
+            f"unknown noise level {condition!r}",
+            f"choose from: {', '.join(NOISE_LEVELS)}, or PRESET{_WITHOUT}MECHANISM for an ablation "
+            f"(mechanisms: {', '.join(MECHANISMS)})",
+        )
+    return preset, f"all,-{mechanism}" if mechanism else "all"
+
+
+def ablations(preset: str = "realistic") -> tuple[str, ...]:
+    """The conditions of the ablation table: `preset` with each mechanism off in turn."""
+    return tuple(f"{preset}{_WITHOUT}{m}" for m in MECHANISMS)
 
 
 class Record(BaseModel):
@@ -64,22 +94,23 @@ class Record(BaseModel):
     trace: list[dict[str, Any]] = []
     measured: list[dict[str, Any]] = []
     error: str | None = None
-    error_category: str | None = None  # planner | runner | perception | action
+    error_category: str | None = None  # planner | runner | perception | action | uncertain
+    checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
     wall_s: float = 0.0
     sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
-    """The settings with the noise preset on the oracle backends, drawn from the item's seed."""
-    if noise == "clean":
-        return settings
-    if noise not in NOISE_LEVELS:
-        raise ValueError(f"unknown noise level {noise!r}")
-    update: dict[str, str] = {}
+    """The settings with the condition's noise preset on the oracle backends, drawn from the item's seed,
+    and its mechanisms (an ablation leaves one out)."""
+    preset, checks = check_condition(noise)
+    update: dict[str, str] = {} if checks == "all" else {"checks": checks}
+    if preset == "clean":
+        return settings.model_copy(update=update) if update else settings
     for role in ("detector", "vqa"):
         spec = str(getattr(settings, role))
         if spec.split("?")[0] == "oracle":
-            update[role] = f"oracle?noise={noise}&seed={seed}"
+            update[role] = f"oracle?noise={preset}&seed={seed}"
     return settings.model_copy(update=update)
 
 
@@ -158,13 +189,20 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     try:
         if method in ("attr-api", "pa-api"):
             sensors = item.sensors if method == "pa-api" else ["camera"]
-            answer = ask(item.query, Scene(item.scene(), sensors=sensors), settings)
+            scene = item.scene().model_copy(
+                update={"noise": world_noise(check_condition(noise)[0], item.seed)}
+            )
+            if method == "attr-api":  # one image and no robot: nothing to look again with
+                settings = settings.model_copy(update={"checks": f"{settings.checks},-look_again"})
+            answer = ask(item.query, Scene(scene, sensors=sensors), settings)
             trace = answer.trace
             failing = next((t["call"] for t in reversed(trace) if t.get("error")), "")
             category = None
             if answer.error is not None:
                 if answer.error.category == "planner" or answer.program is None:
                     category = "planner"
+                elif answer.error.category == "uncertain":
+                    category = "uncertain"
                 elif failing.startswith("Robot."):
                     category = "action"
                 elif failing:
@@ -197,6 +235,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
                 error=answer.error.message if answer.error else None,
                 error_category=category,
                 sim_s=answer.sim_s,
+                checks=answer.checks,
             )
         else:
             perception = Perception.from_settings(settings)

@@ -26,7 +26,7 @@ from typing import Any
 from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
 from attribot.eval.datasets import DATASET_VERSION, TASKS, Item, build_items, read_dataset, write_dataset
-from attribot.eval.methods import METHODS, NOISE_LEVELS, PAPER_METHODS, Record, run_method
+from attribot.eval.methods import METHODS, PAPER_METHODS, Record, check_condition, run_method
 
 __all__ = ["EvalPlan", "RunSummary", "run_eval", "read_records", "records_path"]
 
@@ -43,10 +43,11 @@ class EvalPlan:
     limit: int | None = None
 
     def __post_init__(self) -> None:
+        for condition in self.noise:
+            check_condition(condition)
         for name, given, known in (
             ("task", self.tasks, TASKS),
             ("method", self.methods or (), METHODS),
-            ("noise level", self.noise, NOISE_LEVELS),
         ):
             unknown = [g for g in given if g not in known]
             if unknown:
@@ -74,6 +75,7 @@ def fingerprint(settings: Settings) -> dict[str, Any]:
         "detector": str(settings.detector),
         "vqa": str(settings.vqa),
         "language": str(settings.language),
+        "checks": settings.checks,
         "llm_model": getattr(settings, "llm_model", None),
         "llm_base_url": getattr(settings, "llm_base_url", None),
     }
@@ -159,6 +161,8 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
     for item in items:
         for method in plan.methods_for(item.task):
             for noise in plan.noise:
+                if check_condition(noise)[1] != "all" and method not in ("attr-api", "pa-api"):
+                    continue  # an ablation of the error-catching mechanisms: only programs have them
                 path = records_path(out, item.task, method, noise)
                 if path not in done:
                     done[path] = {r.id for r in _records_in(path)}

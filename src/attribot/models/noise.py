@@ -4,20 +4,28 @@ The offline oracle sees perfectly, which hides the error propagation that the pa
 limitation. These wrappers add it, as spec options of the `oracle` backends:
 
     oracle?miss=0.1&false_pos=0.05&jitter_px=4&confuse=0.05      (detector)
+    oracle?miss_view=0.1&confuse_view=0.05&jitter_rel=0.04       (detector, errors that persist)
     oracle?wrong=0.1                                             (VQA)
-    oracle?noise=realistic                                       (either: the named preset below)
+    oracle?noise=realistic                                       (either: a preset of attribot.noise)
 
+Per frame:
 - miss: the chance that a true detection is dropped;
 - false_pos: the chance, per query, of one spurious box somewhere in the image with the query's label;
 - jitter_px: the standard deviation of Gaussian noise on each box edge, pixels;
+- jitter_rel: the same, as a fraction of the box's width and height (a real detector's error scales);
 - confuse: the chance that a detection is another visible object's box (a category confusion);
 - wrong: the chance that a VQA answer is replaced by a plausible wrong one (another visible object's name,
   another colour, the other of yes/no).
+From a viewpoint (the same in every frame taken from about the same place, looking about the same way):
+- miss_view: the chance that an object is missed from a viewpoint, in every frame taken from it;
+- confuse_view: the chance that, from a viewpoint, an object is taken for a given other one, every time.
+A viewpoint is the object's cell in a 3x3 grid of the image and its distance in half-metre bands (from the
+frame's depth): turning the head by a third of the view or moving by half a metre gives a new one.
 
-Every draw comes from a generator seeded with the spec's `seed` (default 0) and a digest of the frame's
-pixels and the query: the same scene, query and seed give the same errors on every rerun, on any machine,
-and different scenes get independent errors. The backend's name carries its options, so answers and
-records say which noise produced them.
+Per-frame draws come from a generator seeded with the spec's `seed` (default 0) and a digest of the frame's
+pixels and the query; viewpoint draws from the seed, the object and the viewpoint. The same scene, query
+and seed give the same errors on every rerun, on any machine, and different scenes get independent
+errors. The backend's name carries its options, so answers and records say which noise produced them.
 """
 
 from __future__ import annotations
@@ -33,8 +41,9 @@ from attribot.errors import ConfigError
 from attribot.frame import Frame
 from attribot.lexicon import COLOR_WORDS
 from attribot.models.base import Detection
+from attribot.noise import preset
 
-__all__ = ["DetectorNoise", "VQANoise", "PRESETS", "NoisyDetector", "NoisyVQA", "split_options"]
+__all__ = ["DetectorNoise", "VQANoise", "NoisyDetector", "NoisyVQA", "split_options"]
 
 
 @dataclass(frozen=True)
@@ -42,12 +51,15 @@ class DetectorNoise:
     miss: float = 0.0
     false_pos: float = 0.0
     jitter_px: float = 0.0
+    jitter_rel: float = 0.0
     confuse: float = 0.0
+    miss_view: float = 0.0
+    confuse_view: float = 0.0
     seed: int = 0
 
     @property
     def clean(self) -> bool:
-        return not (self.miss or self.false_pos or self.jitter_px or self.confuse)
+        return not any(getattr(self, f.name) for f in fields(self) if f.name != "seed")
 
 
 @dataclass(frozen=True)
@@ -58,14 +70,6 @@ class VQANoise:
     @property
     def clean(self) -> bool:
         return not self.wrong
-
-
-PRESETS: dict[str, dict[str, float]] = {
-    "clean": {},
-    # about what an open-vocabulary detector and BLIP-2 get wrong on simulated household scenes
-    "realistic": {"miss": 0.1, "false_pos": 0.05, "jitter_px": 4.0, "confuse": 0.05, "wrong": 0.1},
-}
-"""Named noise levels (`oracle?noise=NAME`); each role takes the options that are its own."""
 
 
 def split_options(arg: str | None) -> tuple[str | None, dict[str, str]]:
@@ -86,11 +90,9 @@ def noise_options(options: dict[str, str], kind: type[DetectorNoise] | type[VQAN
     """The noise fields of `kind` from spec options (a preset first, then the explicit values)."""
     known = {f.name for f in fields(kind)}
     values: dict[str, float] = {}
-    preset = options.get("noise")
-    if preset is not None:
-        if preset not in PRESETS:
-            raise ConfigError(f"unknown noise preset {preset!r}", f"choose one of: {', '.join(PRESETS)}")
-        values.update({k: v for k, v in PRESETS[preset].items() if k in known})
+    named = options.get("noise")
+    if named is not None:
+        values.update({k: v for k, v in preset(named).items() if k in known})
     for key, raw in options.items():
         if key == "noise":
             continue
@@ -138,19 +140,23 @@ class NoisyDetector:
         n = self.noise
         rng = _rng(n.seed, frame, "\x1f".join(queries if not isinstance(queries, str) else [queries]))
         everything: list[Detection] = []
-        if n.confuse:
+        if n.confuse or n.confuse_view:
             everything = self.inner.detect(frame, ["object"])  # type: ignore[attr-defined]
         out: list[Detection] = []
         for det in clean:
-            if rng.random() < n.miss:
+            view = _viewpoint(det, frame) if (n.miss_view or n.confuse_view) else None
+            if rng.random() < n.miss or (
+                view is not None and _view_rng(n.seed, det, view, 1).random() < n.miss_view
+            ):
                 continue
-            if everything and rng.random() < n.confuse:
-                others = [d for d in everything if d.object_id != det.object_id]
-                if others:
-                    other = others[int(rng.integers(len(others)))]
-                    det = Detection(
-                        box=other.box, score=det.score, label=det.label, object_id=other.object_id
-                    )
+            others = [d for d in everything if d.object_id != det.object_id]
+            if others and view is not None and n.confuse_view:
+                from_here = _view_rng(n.seed, det, view, 2)
+                if from_here.random() < n.confuse_view:  # the same other object, every time from here
+                    ranked = sorted(others, key=lambda d: str(d.object_id))
+                    det = _as(det, ranked[int(from_here.integers(len(ranked)))])
+            elif others and rng.random() < n.confuse:
+                det = _as(det, others[int(rng.integers(len(others)))])
             out.append(self._jitter(det, frame, rng))
         phrases = [queries] if isinstance(queries, str) else list(queries)
         for query in phrases:
@@ -159,10 +165,12 @@ class NoisyDetector:
         return sorted(out, key=lambda d: -d.score)
 
     def _jitter(self, det: Detection, frame: Frame, rng: np.random.Generator) -> Detection:
-        if not self.noise.jitter_px:
+        if not (self.noise.jitter_px or self.noise.jitter_rel):
             return det
         w, h = frame.width, frame.height
-        x0, y0, x1, y1 = (np.asarray(det.box) + rng.normal(0.0, self.noise.jitter_px, 4)).tolist()
+        bw, bh = det.box[2] - det.box[0], det.box[3] - det.box[1]
+        scale = np.hypot(self.noise.jitter_px, self.noise.jitter_rel * np.array([bw, bh, bw, bh]))
+        x0, y0, x1, y1 = (np.asarray(det.box) + rng.normal(0.0, 1.0, 4) * scale).tolist()
         x0, x1 = sorted((min(max(x0, 0.0), w - 1.0), min(max(x1, 0.0), w - 1.0)))
         y0, y1 = sorted((min(max(y0, 0.0), h - 1.0), min(max(y1, 0.0), h - 1.0)))
         box = (x0, y0, max(x1, x0 + 1.0), max(y1, y0 + 1.0))  # at least a pixel each way
@@ -175,6 +183,35 @@ class NoisyDetector:
         x0, y0 = rng.uniform(0, w - bw), rng.uniform(0, h - bh)
         score = float(rng.uniform(0.1, 0.5))  # a real detector is often less sure of what is not there
         return Detection(box=(x0, y0, x0 + bw, y0 + bh), score=score, label=query.strip(), object_id=None)
+
+
+def _as(det: Detection, other: Detection) -> Detection:
+    """`det` confused with `other`: the other object's box under this detection's label and score."""
+    return Detection(box=other.box, score=det.score, label=det.label, object_id=other.object_id)
+
+
+def _viewpoint(det: Detection, frame: Frame) -> tuple[int, int, int]:
+    """Where the object is seen from: its cell in a 3x3 grid of the image, and its distance in half-metre
+    bands (the median depth in the box's middle; 0 without depth)."""
+    x0, y0, x1, y1 = det.box
+    cx, cy = (x0 + x1) / 2.0, (y0 + y1) / 2.0
+    col = min(int(3 * cx / max(frame.width, 1)), 2)
+    row = min(int(3 * cy / max(frame.height, 1)), 2)
+    band = 0
+    if frame.depth is not None:
+        qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
+        patch = frame.depth[int(y0 + qy) : int(y1 - qy) + 1, int(x0 + qx) : int(x1 - qx) + 1]
+        finite = patch[np.isfinite(patch)] if patch.size else patch
+        if finite.size:
+            band = int(float(np.median(finite)) / 0.5)
+    return row, col, band
+
+
+def _view_rng(seed: int, det: Detection, view: tuple[int, int, int], stream: int) -> np.random.Generator:
+    """A generator for one object seen from one viewpoint: the same draws every time it is seen from there."""
+    key = (det.object_id or f"{det.box[0]:.0f},{det.box[1]:.0f}").encode("utf-8", "surrogatepass")
+    digest = np.frombuffer(hashlib.blake2b(key, digest_size=8).digest(), np.uint32).tolist()
+    return np.random.default_rng([seed, stream, *view, *digest])
 
 
 class NoisyVQA:

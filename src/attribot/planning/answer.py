@@ -43,6 +43,7 @@ class Answer(BaseModel):
     error: AnswerError | None = None
     world: dict[str, Any] | None = None  # layout and seed, or the image file
     sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
+    checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.api.safeguards)
 
     @property
     def ok(self) -> bool:

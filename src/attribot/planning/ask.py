@@ -111,8 +111,12 @@ class _Session:
         from attribot.api.patch import ImagePatch
         from attribot.api.perception import Perception
         from attribot.api.robot import Robot
+        from attribot.api.safeguards import Safeguards, parse_checks
         from attribot.runner import ProgramRunner
 
+        self.safeguards = Safeguards(parse_checks(settings.checks))
+        self.start: Any = None  # the robot's state when the first try started, for the next tries
+        self.first_image: Any = None
         self.scene = scene
         self.runs = 0
         self.world: Any = None
@@ -150,7 +154,9 @@ class _Session:
                 from attribot.control.base import build_controller
 
                 controller = build_controller(self.world, scene.controller)
-                self.robot = Robot(sensors=self.sensors, world=self.world, controller=controller)
+                self.robot = Robot(
+                    sensors=self.sensors, world=self.world, controller=controller, safeguards=self.safeguards
+                )
                 if record and hasattr(self.world, "sim"):  # a simulated world can be filmed from outside
                     from attribot.embodiments.episode import EpisodeRecorder
 
@@ -161,6 +167,9 @@ class _Session:
                         tracked=lambda: getattr(robot.controller, "tracked", None),
                     )
                 self.image = self.robot.look(self.perception)
+                self.first_image = self.image
+                if self.safeguards.on("reset"):
+                    self.start = self.robot.snapshot()
             self.runner = ProgramRunner(classes=[ImagePatch, Robot])
         except BaseException:
             self.close()
@@ -168,13 +177,38 @@ class _Session:
 
     def run(self, program: str) -> Any:
         if self.runs and self.world is not None:
-            # a failed try may have moved the robot or left an object in its gripper: the next one starts
-            # with empty hands from what the camera sees now
+            # a failed try may have moved the robot or left an object in its gripper
             if self.robot.held is not None:
                 self.robot.put_down()
-            self.image = self.robot.look(self.perception)
+            if self.start is not None:  # back to where the first try started, with its first image
+                self.robot.restore(self.start, self.first_image)
+                self.image = self.first_image
+                self.safeguards.note(
+                    "reset",
+                    f"try {self.runs + 1}",
+                    "caught",
+                    "the robot was put back where the first try started",
+                )
+            else:  # a world that cannot put its robot back: start with empty hands from what it sees now
+                self.image = self.robot.look(self.perception)
+                if self.safeguards.on("reset"):
+                    self.safeguards.note(
+                        "reset", f"try {self.runs + 1}", "unsettled", "this world cannot put the robot back"
+                    )
         self.runs += 1
         return self.runner.run(program, args=[self.image, self.robot])
+
+    def _doubt(self, result: Any) -> str | None:
+        """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
+        the sentence saying it cannot tell, with both values, when it is still unsettled."""
+        chosen = _chosen_patch(result.value_object) if result is not None and result.error is None else None
+        if chosen is None or self.world is None:
+            return None
+        try:
+            return self.robot.settle(chosen)
+        except Exception as exc:  # noqa: BLE001 (measuring again failed: keep the program's own answer)
+            self.safeguards.note("confidence", "answer", "unsettled", f"measuring again failed: {exc}")
+            return None
 
     def backends(self) -> dict[str, str]:
         names = self.perception.names()
@@ -192,7 +226,9 @@ class _Session:
         settings: Settings,
         error: Any = None,
     ) -> Answer:
+        doubt = self._doubt(result)
         answer = build_answer(
+            doubt=doubt,
             error=error,
             query=query,
             planner=planner,
@@ -204,6 +240,7 @@ class _Session:
             world=self.scene.describe(),
             frame=self.image.frame,
         )
+        answer.checks = [e.model_dump() for e in self.safeguards.events]
         if self.world_started is not None:
             answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:
@@ -236,9 +273,11 @@ def build_answer(
     world: dict[str, Any],
     frame: Any,
     error: Any = None,
+    doubt: str | None = None,
 ) -> Answer:
     """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
-    `error` is the planner's own error when no program ever ran (a reply with no code)."""
+    `error` is the planner's own error when no program ever ran (a reply with no code); `doubt` says that
+    the measurements behind the program's choice cannot tell it from another (no object is chosen)."""
     trace = [t.model_dump(mode="json") for t in (result.trace if result is not None else [])]
     common = dict(
         query=query,
@@ -257,6 +296,10 @@ def build_answer(
             answer=f"no answer: {message}",
             error=AnswerError(category=category, message=message, line=getattr(err, "line", None)),
             **common,
+        )
+    if doubt is not None:
+        return Answer(
+            answer=f"no answer: {doubt}", error=AnswerError(category="uncertain", message=doubt), **common
         )
     chosen = _chosen_patch(result.value_object)
     if chosen is not None:

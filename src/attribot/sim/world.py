@@ -6,6 +6,14 @@ the rangefinder casts along the camera's optical axis, the wrist force/torque se
 that the arm transmits to the gripper, so a held object's weight reaches it through the grasp weld and
 the physics, never from the catalog. Ground truth (object ids, categories, masses, boxes) is available
 separately for perception oracles, scoring and scene info.
+
+The config's `noise` (`attribot.noise.WorldNoise`) makes sensing and acting imperfect, with draws from a
+generator seeded by the noise seed and the scene seed (a rerun is identical): the rangefinder's noise grows
+with range, it drops readings and reads nothing past its maximum, and its beam, off the optical axis by a
+small pointing error, reads whatever it really hits; the force sensor carries a bias and drifts from its
+last tare; a grasp can close on nothing, a held object can slip out while it is lifted; odometry
+(`odometry()`, what a controller reads) drifts in proportion to the distance travelled, while
+`base_pose()` stays the truth.
 """
 
 from __future__ import annotations
@@ -121,7 +129,9 @@ class SimWorld:
         request = SceneRequest(config.objects, resolve_categories(config.categories), dict(config.options))
         self.width, self.height, self.profile = width, height, config.profile
         self.force_noise_std = config.force_noise_std
+        self.noise = config.noise
         self._rng = np.random.default_rng([int(seed), 1])
+        self._noise_rng = np.random.default_rng([int(config.noise.seed), int(seed), 7])
         self._renderer: SceneRenderer | None = None
         # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
         error: InputError | None = None
@@ -148,6 +158,16 @@ class SimWorld:
             assert error is not None
             raise error
         self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
+        self._slip_at: float | None = None  # when a held object that will slip falls out
+        n = self.noise
+        # odometry: a wheel scale error and a heading bias, drawn once, so drift grows with distance
+        self._odom_scale = 1.0 + float(self._noise_rng.normal(0.0, n.odom_drift))
+        self._odom_bias = float(self._noise_rng.normal(0.0, n.odom_drift))
+        self._odom = np.array(self.base_pose(), float)
+        self._odom_last = self._odom.copy()
+        self._force_bias = self._noise_rng.normal(0.0, n.force_bias, 3) if n.force_bias else np.zeros(3)
+        self._drift_rate = np.zeros(3)
+        self._tare_time = 0.0
         self.step(settle_s)
         self._tare = np.zeros(3)
         self._held: int | None = None
@@ -274,8 +294,72 @@ class SimWorld:
                 k = min(chunk, n)
                 mujoco.mj_step(m, d, nstep=k)
                 n -= k
+        self._track_odometry()
+        if self._slip_at is not None and d.time >= self._slip_at and self._held is not None:
+            self.data.eq_active[self.weld_of[self._held]] = 0  # the grip gives: it falls out
+            self._held = None
+            self._slip_at = None
         for hook in getattr(self, "step_hooks", ()):
             hook(float(d.time))
+
+    def _track_odometry(self) -> None:
+        """Add this step's motion to the odometry, through the wheels' scale error and heading bias."""
+        if not hasattr(self, "_odom"):
+            return
+        true = np.array(self.base_pose(), float)
+        delta = true - self._odom_last
+        delta[2] = math.remainder(delta[2], math.tau)
+        self._odom_last = true
+        if not delta.any():
+            return
+        # the displacement in the robot's frame, as the wheels measure it, turned into the odometry frame
+        yaw_true = true[2] - delta[2] / 2
+        c, s = math.cos(yaw_true), math.sin(yaw_true)
+        fwd, left = c * delta[0] + s * delta[1], -s * delta[0] + c * delta[1]
+        fwd, left = fwd * self._odom_scale, left * self._odom_scale
+        yaw_odom = self._odom[2] + (delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left)) / 2
+        c, s = math.cos(yaw_odom), math.sin(yaw_odom)
+        self._odom[0] += c * fwd - s * left
+        self._odom[1] += s * fwd + c * left
+        self._odom[2] = math.remainder(
+            self._odom[2] + delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left), math.tau
+        )
+
+    def robot_state(self) -> dict[str, Any]:
+        """The robot's own state (joints, targets, odometry, tare), for `restore_robot`; no objects."""
+        q = self._qadr
+        return {
+            "qpos": {n: float(self.data.qpos[a]) for n, a in q.items()},
+            "targets": dict(self._targets),
+            "odom": self._odom.copy(),
+            "tare": (self._tare.copy(), self._tare_time, self._drift_rate.copy()),
+        }
+
+    def restore_robot(self, state: dict[str, Any]) -> None:
+        """Put the robot back into `state` (from `robot_state`): where it stood, its head, arm and open
+        gripper, and what its odometry believed. What it holds is let go first; objects stay put."""
+        if self._held is not None:
+            self.release()
+        for name, value in state["qpos"].items():
+            self.data.qpos[self._qadr[name]] = value
+            self.data.qvel[self._dadr[name]] = 0.0
+        for name, value in state["targets"].items():
+            self._target(name, value)
+        self._base_cmd = (0.0, 0.0, 0.0)
+        self._set_base_ctrl()
+        mujoco.mj_forward(self.model, self.data)
+        self._odom = np.array(state["odom"], float)
+        self._odom_last = np.array(self.base_pose(), float)
+        self._tare, self._tare_time, self._drift_rate = (
+            np.array(v) if i != 1 else v for i, v in enumerate(state["tare"])
+        )
+        self.step(0.3)
+
+    def odometry(self) -> tuple[float, float, float]:
+        """The base pose as the robot believes it (x, y, yaw): the truth plus the drift of its odometry."""
+        if not self.noise.odom_drift:
+            return self.base_pose()
+        return float(self._odom[0]), float(self._odom[1]), float(self._odom[2])
 
     def _set_base_ctrl(self) -> None:
         vx, vy, wz = self._base_cmd
@@ -338,6 +422,8 @@ class SimWorld:
             return True
         near = [(self._object_distance(self._probe, k), k) for k in self.weld_of]
         near = [(dist, k) for dist, k in near if dist < 0.03]
+        if near and self.noise.grasp_fail and self._noise_rng.random() < self.noise.grasp_fail:
+            near = []  # the fingers slide off: they close on nothing
         if not near:
             self.set_gripper(0.0)
             self.step(0.4)
@@ -366,6 +452,8 @@ class SimWorld:
         if not (max(gaps) < 0.006 or off_centre):
             return False
         self._weld(key)
+        if self.noise.slip and self._noise_rng.random() < self.noise.slip:
+            self._slip_at = float(self.data.time) + float(self._noise_rng.uniform(0.5, 1.5))  # while lifting
         self.step(0.3)
         return True
 
@@ -394,6 +482,7 @@ class SimWorld:
         if self._held is not None:
             self.data.eq_active[self.weld_of[self._held]] = 0
             self._held = None
+        self._slip_at = None
         self.set_gripper(GEOMETRY.finger_range[1])
         self.step(0.3)
 
@@ -404,10 +493,36 @@ class SimWorld:
 
     # --- sensors ------------------------------------------------------------------------------------
     def read_distance(self) -> float:
-        """Rangefinder along the optical axis, metres from the optical centre; inf when nothing in range."""
+        """Rangefinder along the optical axis, metres from the optical centre; inf when nothing in range
+        (and, with noise, when the reading drops out)."""
         mujoco.mj_forward(self.model, self.data)
-        r = float(self.data.sensordata[self._range_adr])
-        return math.inf if r < 0 or r > GEOMETRY.range_max else r
+        n, rng = self.noise, self._noise_rng
+        if n.beam_deg:
+            r = self._beam(math.radians(n.beam_deg))
+        else:
+            r = float(self.data.sensordata[self._range_adr])
+        range_max = min(GEOMETRY.range_max, n.range_max or math.inf)
+        if r < 0 or r > range_max:
+            return math.inf
+        if n.range_dropout and rng.random() < n.range_dropout:
+            return math.inf
+        if n.range_std:
+            r = max(0.0, r + float(rng.normal(0.0, n.range_std * r)))
+        return r
+
+    def _beam(self, sigma: float) -> float:
+        """What the beam hits, cast along the optical axis turned by a pointing error of `sigma` radians."""
+        site = _name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "range_site")
+        origin = self.data.site_xpos[site].copy()
+        frame = self.data.site_xmat[site].reshape(3, 3)
+        ex, ey = self._noise_rng.normal(0.0, sigma, 2)
+        direction = frame @ np.array([math.tan(ex), math.tan(ey), 1.0])
+        direction /= np.linalg.norm(direction)
+        geom = np.zeros(1, np.int32)
+        body = int(self.model.site_bodyid[site])
+        visible = np.array([1, 1, 1, 0, 0, 0], np.uint8)  # what renders (collision-only groups do not)
+        r = mujoco.mj_ray(self.model, self.data, origin, direction, visible, 1, body, geom)
+        return float(r)
 
     def _raw_force(self) -> np.ndarray:
         mujoco.mj_rnePostConstraint(self.model, self.data)
@@ -419,13 +534,20 @@ class SimWorld:
 
     def tare_force(self) -> None:
         """Zero the wrist force sensor with what it carries now (the gripper, and anything it holds)."""
-        self._tare = self._raw_force()
+        self._tare = self._raw_force() + self._force_bias
+        self._tare_time = float(self.data.time)
+        if self.noise.force_drift:  # each tare starts a new slow drift
+            self._drift_rate = self._noise_rng.normal(0.0, self.noise.force_drift, 3)
 
     def read_force(self) -> np.ndarray:
-        """Wrist force in newtons, world frame, relative to the last tare, with the configured noise."""
-        f = self._raw_force() - self._tare
+        """Wrist force in newtons, world frame, relative to the last tare, with the configured noise (a bias
+        that the tare removes, a drift since the tare, noise on every reading)."""
+        since = float(self.data.time) - self._tare_time
+        f = self._raw_force() + self._force_bias + self._drift_rate * since - self._tare
         if self.force_noise_std > 0:
             f = f + self._rng.normal(0.0, self.force_noise_std, 3)
+        if self.noise.force_std:
+            f = f + self._noise_rng.normal(0.0, self.noise.force_std, 3)
         return f
 
     def joint_states(self) -> dict[str, float]:

@@ -1,0 +1,255 @@
+"""Looking again: one image's detections checked against views from other head poses, fused by 3-D position.
+
+A detector errs per frame (a miss, a confusion, a spurious box) and from a viewpoint (an object it does not
+see from here, a pair it mixes up from here). When the robot takes its first image it also turns its head
+to either side (`Survey.take`), so that every object in the first image is seen from at least one other
+angle. `Survey.fuse` then asks the detector for a name in each view, places each box in the world from
+the depth inside it (the nearest surface in the box's middle, through the head angles and odometry of
+that view), and groups the boxes of all views by where they are: a group seen in at least two views, or in
+the only view that can see it, is an object; one seen in one view where two or more could see it was a
+mistake of that view and is dropped. An object missed in the first image but seen from the other views
+gets a box in the first image, projected from where it was seen. Nothing here reads the simulator's truth:
+only frames, depth, head angles and odometry, as a real robot has.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from attribot.control.base import Capture
+from attribot.control.body import BodyGeometry
+from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
+from attribot.embodiments.base import Embodiment
+from attribot.frame import Frame
+from attribot.models.base import Detection, Detector
+
+__all__ = ["Survey", "View", "LookAgainReport"]
+
+_SETTLE_S = 0.05
+_SETTLE_STEPS = 30
+_SAME_RAD = 0.004  # the head has stopped when it moves less than this in one settle step
+
+
+@dataclass
+class View:
+    """One frame of the survey and what was known when it was taken."""
+
+    frame: Frame
+    capture: Capture
+
+
+@dataclass
+class LookAgainReport:
+    """What looking again changed for one `find`: shown in the trace."""
+
+    views: int
+    first: int  # detections in the first image
+    kept: int
+    dropped: int  # boxes of the first image no other view confirmed
+    added: int  # objects the first image missed, seen from the other views
+
+    def describe(self) -> str:
+        return (
+            f"looked again from {self.views - 1} other head poses: {self.first} in the first image, "
+            f"{self.kept} confirmed, {self.dropped} dropped, {self.added} added"
+        )
+
+
+@dataclass
+class Survey:
+    """The first image and the views taken around it (see the module docstring)."""
+
+    first: View
+    body: BodyGeometry
+    others: list[View] = field(default_factory=list)
+    reports: list[LookAgainReport] = field(default_factory=list)
+
+    @classmethod
+    def take(
+        cls, world: Embodiment, first: View, body: BodyGeometry, turn_rad: float | None = None
+    ) -> Survey:
+        """Turn the head to either side of where `first` was taken (a third of the view's width by
+        default: enough that every object is seen elsewhere in the image) and up and down (a quarter of its
+        height), take a frame at each, and turn it back."""
+        survey = cls(first=first, body=body)
+        cap = first.capture
+        if cap.head is None or cap.camera is None or cap.base is None or first.frame.depth is None:
+            return survey
+        pan, tilt = cap.head
+        hfov = 2.0 * math.atan(cap.camera.width / (2.0 * cap.camera.fx))
+        vfov = 2.0 * math.atan(cap.camera.height / (2.0 * cap.camera.fy))
+        turn = hfov / 3.0 if turn_rad is None else turn_rad
+        nod = vfov / 4.0
+        for k, (d_pan, d_tilt) in enumerate(((turn, 0.0), (-turn, 0.0), (0.0, -nod), (0.0, nod))):
+            head = _move_head(world, pan + d_pan, tilt + d_tilt)
+            frame = world.observe()
+            pose = world.base_pose()
+            survey.others.append(
+                View(
+                    frame=frame,
+                    capture=Capture(
+                        index=-(k + 1),
+                        camera=frame.camera or cap.camera,
+                        head=head,
+                        base=(float(pose.x), float(pose.y), float(pose.yaw)),
+                        depth=frame.depth,
+                    ),
+                )
+            )
+        _move_head(world, pan, tilt)
+        return survey
+
+    def fuse(self, detector: Detector, name: str, first: list[Detection]) -> list[Detection]:
+        """`first` (the detector's answer for `name` in the first image) checked against the other views."""
+        if not self.others:
+            return first
+        views = [self.first, *self.others]
+        groups: list[_Group] = []
+        for v, view in enumerate(views):
+            found = first if v == 0 else detector.detect(view.frame, [name])
+            for det in found:
+                where = self._place(det.box, view)
+                if where is None:
+                    continue
+                point, points = where
+                near = [g for g in groups if v not in g.members and g.close(point)]
+                group = min(near, key=lambda g: g.gap(point)) if near else None
+                if group is None:
+                    group = _Group()
+                    groups.append(group)
+                group.add(v, det, point, points)
+        first_ids = {id(d) for d in first}
+        kept: list[Detection] = []
+        added = 0
+        confirmed = [g for g in groups if _confirmed(g, views, self._visible)]
+        if not confirmed and groups:
+            # nothing confirmed: the detector's best single sighting, as one image would have given
+            confirmed = [max(groups, key=lambda g: max(m[0].score for m in g.members.values()))]
+        for group in confirmed:
+            if 0 in group.members:
+                kept.append(group.members[0][0])
+                continue
+            box = self._first_box(group)
+            if box is None:
+                continue
+            best = max(group.members.values(), key=lambda m: m[0].score)[0]
+            kept.append(Detection(box=box, score=best.score, label=best.label, object_id=best.object_id))
+            added += 1
+        unplaced = [d for d in first if not any(d is m[0] for g in groups for m in g.members.values())]
+        kept += unplaced  # no depth where the box is: nothing to check it against, kept as seen
+        confirmed = sum(1 for d in kept if id(d) in first_ids)
+        self.reports.append(
+            LookAgainReport(
+                views=len(views),
+                first=len(first),
+                kept=confirmed,
+                dropped=len(first) - confirmed,
+                added=added,
+            )
+        )
+        return sorted(kept, key=lambda d: -d.score)
+
+    def _place(
+        self, box: tuple[float, float, float, float], view: View
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the object in `box` is in the world: the centre of the nearest surface in the box's middle
+        (and those surface points), or None without depth there."""
+        cap = view.capture
+        if cap.depth is None or cap.camera is None or cap.head is None or cap.base is None:
+            return None
+        x0, y0, x1, y1 = box
+        qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
+        inner = base_points(cap.depth, cap.camera, cap.head, self.body, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
+        if len(inner) == 0:
+            return None
+        rng = np.linalg.norm(inner - np.asarray(self.body.camera_xyz), axis=1)
+        near = np.quantile(rng, 0.2)
+        surface = inner[rng <= near + 0.08]  # the object, not what shows behind it around its edges
+        points = to_world(surface, cap.base)
+        return points.mean(axis=0), points
+
+    def _visible(self, point: np.ndarray, view: View) -> bool:
+        cap = view.capture
+        assert cap.camera is not None and cap.head is not None and cap.base is not None
+        uv, front = project(to_base(point[None, :], cap.base), cap.camera, cap.head, self.body)
+        u, v = uv[0]
+        margin = 0.04 * cap.camera.width
+        inside = margin <= u <= cap.camera.width - margin and margin <= v <= cap.camera.height - margin
+        return bool(front[0]) and inside
+
+    def _first_box(self, group: _Group) -> tuple[float, float, float, float] | None:
+        """The box in the first image of what another view saw: that view's box corners, at the object's
+        distance, projected into the first image (turning the head hardly moves the camera, so the box
+        keeps its shape)."""
+        cap = self.first.capture
+        assert cap.camera is not None and cap.head is not None and cap.base is not None
+        v, (det, _, points) = max(group.members.items(), key=lambda kv: (kv[1][0].score, len(kv[1][2])))
+        seen = [self.first, *self.others][v].capture
+        assert seen.camera is not None and seen.head is not None and seen.base is not None
+        eye = to_world(np.asarray(self.body.camera_xyz, float)[None, :], seen.base)[0]
+        metres = float(np.median(np.linalg.norm(points - eye, axis=1)))
+        x0, y0, x1, y1 = det.box
+        corners = np.array(
+            [
+                point_from_range(metres, seen.camera, seen.head, self.body, u, vv)
+                for u, vv in ((x0, y0), (x1, y0), (x0, y1), (x1, y1))
+            ]
+        )
+        uv, front = project(to_base(to_world(corners, seen.base), cap.base), cap.camera, cap.head, self.body)
+        if not front.all():
+            return None
+        w, h = cap.camera.width, cap.camera.height
+        bx0, by0 = np.clip(uv.min(axis=0), 0, [w, h])
+        bx1, by1 = np.clip(uv.max(axis=0), 0, [w, h])
+        if bx1 - bx0 < 1 or by1 - by0 < 1:
+            return None
+        return float(bx0), float(by0), float(bx1), float(by1)
+
+
+def _confirmed(group: _Group, views: list[View], visible: object) -> bool:
+    """Seen in at least two views, or in every view that can see where it is."""
+    votes = len(group.members)
+    if votes >= 2:
+        return True
+    seen_from = sum(1 for view in views if visible(group.centre, view))  # type: ignore[operator]
+    return votes >= seen_from
+
+
+@dataclass
+class _Group:
+    """Boxes of several views placed at about the same point: one object."""
+
+    members: dict[int, tuple[Detection, np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    @property
+    def centre(self) -> np.ndarray:
+        return np.mean([m[1] for m in self.members.values()], axis=0)
+
+    def gap(self, point: np.ndarray) -> float:
+        return float(np.linalg.norm(self.centre[:2] - point[:2]))
+
+    def close(self, point: np.ndarray) -> bool:
+        # the same object seen from another angle shows another face: a few centimetres apart
+        spread = max(float(np.ptp(m[2][:, :2], axis=0).max()) for m in self.members.values())
+        return self.gap(point) <= max(0.08, 0.5 * spread)
+
+    def add(self, view: int, det: Detection, point: np.ndarray, points: np.ndarray) -> None:
+        self.members[view] = (det, point, points)
+
+
+def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:
+    """Command the head and wait until it stops; the angles it stopped at."""
+    world.set_head(pan, tilt)
+    last = None
+    for _ in range(_SETTLE_STEPS):
+        world.step(_SETTLE_S)
+        js = world.joint_states()
+        now = (float(js["head_pan"]), float(js["head_tilt"]))
+        if last is not None and max(abs(now[0] - last[0]), abs(now[1] - last[1])) < _SAME_RAD:
+            return now
+        last = now
+    assert last is not None
+    return last
