@@ -26,6 +26,7 @@ LEVELS: list[set[str]] = [
         "lexicon",
         "video",
         "gridpath",
+        "noise",  # noise presets and the world's imperfections: plain data (pydantic)
         "bridge",  # the robot side: standard library, numpy and the SDK only, nothing of attribot
     },
     {"sim", "control"},

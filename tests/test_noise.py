@@ -143,7 +143,7 @@ def test_attribot_backends_shows_the_noise():
 
 
 def test_a_noisy_run_names_its_noise_and_reruns_identically():
-    settings = load_settings(detector="oracle?noise=realistic&seed=3", vqa="oracle?noise=realistic")
+    settings = load_settings(detector="oracle?noise=frame&seed=3", vqa="oracle?noise=frame")
     scene = Scene(SceneConfig(layout="household", seed=5), sensors=["camera", "distance"])
     first = ask("Which object is the closest to me?", scene, settings)
     second = ask("Which object is the closest to me?", scene, settings)

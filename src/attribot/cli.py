@@ -139,7 +139,7 @@ def _scene_config(
         raise fail(
             "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
         )
-    given = {
+    given: dict[str, Any] = {
         "layout": layout,
         "seed": seed,
         "objects": objects,

@@ -15,6 +15,7 @@ only frames, depth, head angles and odometry, as a real robot has.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -140,13 +141,13 @@ class Survey:
             added += 1
         unplaced = [d for d in first if not any(d is m[0] for g in groups for m in g.members.values())]
         kept += unplaced  # no depth where the box is: nothing to check it against, kept as seen
-        confirmed = sum(1 for d in kept if id(d) in first_ids)
+        kept_first = sum(1 for d in kept if id(d) in first_ids)
         self.reports.append(
             LookAgainReport(
                 views=len(views),
                 first=len(first),
-                kept=confirmed,
-                dropped=len(first) - confirmed,
+                kept=kept_first,
+                dropped=len(first) - kept_first,
                 added=added,
             )
         )
@@ -209,12 +210,12 @@ class Survey:
         return float(bx0), float(by0), float(bx1), float(by1)
 
 
-def _confirmed(group: _Group, views: list[View], visible: object) -> bool:
+def _confirmed(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> bool:
     """Seen in at least two views, or in every view that can see where it is."""
     votes = len(group.members)
     if votes >= 2:
         return True
-    seen_from = sum(1 for view in views if visible(group.centre, view))  # type: ignore[operator]
+    seen_from = sum(1 for view in views if visible(group.centre, view))
     return votes >= seen_from
 
 

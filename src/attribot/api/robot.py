@@ -510,8 +510,8 @@ class Robot:
                     self.world.step(0.02)
             if count > 1:
                 empty = count - len(readings)
-                outcome = "caught" if empty else "confirmed"
-                guards.note("remeasure", call, outcome, f"{count} readings, {empty} empty")
+                detail = f"{count} readings, {empty} empty"
+                guards.note("remeasure", call, "caught" if empty else "confirmed", detail)
             depth = self._centre_depth() if guards.on("verify_actions") else None
             if depth is not None and readings:
                 tol = max(0.04, self.BEAM_TOLERANCE * depth)

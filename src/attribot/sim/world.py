@@ -350,9 +350,8 @@ class SimWorld:
         mujoco.mj_forward(self.model, self.data)
         self._odom = np.array(state["odom"], float)
         self._odom_last = np.array(self.base_pose(), float)
-        self._tare, self._tare_time, self._drift_rate = (
-            np.array(v) if i != 1 else v for i, v in enumerate(state["tare"])
-        )
+        tare, self._tare_time, drift = state["tare"]
+        self._tare, self._drift_rate = np.array(tare), np.array(drift)
         self.step(0.3)
 
     def odometry(self) -> tuple[float, float, float]:
