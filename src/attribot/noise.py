@@ -79,9 +79,9 @@ _SENSING = {
     "beam_deg": 0.4,
     "force_std": 0.3,
     "force_bias": 1.0,
-    "force_drift": 0.02,
+    "force_drift": 0.005,
 }
-_ACTING = {"grasp_fail": 0.15, "slip": 0.1, "odom_drift": 0.02}
+_ACTING = {"grasp_fail": 0.1, "slip": 0.05, "odom_drift": 0.01}
 
 NOISE_PRESETS: dict[str, dict[str, float]] = {
     "clean": {},

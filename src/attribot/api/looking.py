@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from attribot.boxes import iou
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
 from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
@@ -51,12 +52,14 @@ class LookAgainReport:
     kept: int
     dropped: int  # boxes of the first image no other view confirmed
     added: int  # objects the first image missed, seen from the other views
+    conflicts: int = 0  # boxes found before under another name, put last
 
     def describe(self) -> str:
-        return (
+        text = (
             f"looked again from {self.views - 1} other head poses: {self.first} in the first image, "
             f"{self.kept} confirmed, {self.dropped} dropped, {self.added} added"
         )
+        return text + (f", {self.conflicts} found before under another name" if self.conflicts else "")
 
 
 @dataclass
@@ -67,6 +70,8 @@ class Survey:
     body: BodyGeometry
     others: list[View] = field(default_factory=list)
     reports: list[LookAgainReport] = field(default_factory=list)
+    claims: list[tuple[str, tuple[float, float, float, float], float]] = field(default_factory=list)
+    """What earlier finds settled on: (name, box in the first image, support)."""
 
     @classmethod
     def take(
@@ -116,32 +121,50 @@ class Survey:
                 if where is None:
                     continue
                 point, points = where
-                near = [g for g in groups if v not in g.members and g.close(point)]
-                group = min(near, key=lambda g: g.gap(point)) if near else None
+                # where the first image shows it: boxes of one object land on each other there
+                box = det.box if v == 0 else self._in_first(det.box, view, points)
+                if box is None:
+                    continue
+                near = [g for g in groups if v not in g.members and iou(g.box, box) >= _SAME_IOU]
+                group = max(near, key=lambda g: iou(g.box, box)) if near else None
                 if group is None:
                     group = _Group()
                     groups.append(group)
-                group.add(v, det, point, points)
-        first_ids = {id(d) for d in first}
-        kept: list[Detection] = []
-        added = 0
-        confirmed = [g for g in groups if _confirmed(g, views, self._visible)]
+                group.add(v, _Sighting(det, point, points, box))
+        support = {id(g): _support(g, views, self._visible) for g in groups}
+        confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
+        # two calls disagree: a box found, as well or better, under another name before goes last
+        disputed = {
+            id(g)
+            for g in confirmed
+            if any(n != name and iou(g.box, b) >= 0.5 and s >= support[id(g)] for n, b, s in self.claims)
+        }
+        conflicts = len(disputed)
         if not confirmed and groups:
             # nothing confirmed: the detector's best single sighting, as one image would have given
-            confirmed = [max(groups, key=lambda g: max(m[0].score for m in g.members.values()))]
+            confirmed = [max(groups, key=lambda g: max(m.det.score for m in g.members.values()))]
+        kept: list[tuple[float, Detection]] = []
+        added = 0
         for group in confirmed:
             if 0 in group.members:
-                kept.append(group.members[0][0])
-                continue
-            box = self._first_box(group)
-            if box is None:
-                continue
-            best = max(group.members.values(), key=lambda m: m[0].score)[0]
-            kept.append(Detection(box=box, score=best.score, label=best.label, object_id=best.object_id))
-            added += 1
-        unplaced = [d for d in first if not any(d is m[0] for g in groups for m in g.members.values())]
-        kept += unplaced  # no depth where the box is: nothing to check it against, kept as seen
-        kept_first = sum(1 for d in kept if id(d) in first_ids)
+                det = group.members[0].det
+            else:
+                nearest = self._least_turned(group)
+                best = nearest.det
+                det = Detection(box=nearest.box, score=best.score, label=best.label, object_id=best.object_id)
+                added += 1
+            kept.append((min(support[id(group)], 1.0) - (2.0 if id(group) in disputed else 0.0), det))
+        placed = {id(m.det) for g in groups for m in g.members.values()}
+        # no depth where the box is: nothing to check it against, kept as seen
+        kept += [(1.0, d) for d in first if id(d) not in placed]
+        # the best supported first (seen from every view that could see it), then the detector's order
+        result = [d for _, d in sorted(kept, key=lambda sd: (-sd[0], -sd[1].score))]
+        kept_first = sum(1 for d in result if any(d is f for f in first))
+        best = max(
+            (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
+        )
+        if best is not None:
+            self.claims.append((name, best.box, support[id(best)]))
         self.reports.append(
             LookAgainReport(
                 views=len(views),
@@ -149,9 +172,10 @@ class Survey:
                 kept=kept_first,
                 dropped=len(first) - kept_first,
                 added=added,
+                conflicts=conflicts,
             )
         )
-        return sorted(kept, key=lambda d: -d.score)
+        return result
 
     def _place(
         self, box: tuple[float, float, float, float], view: View
@@ -181,25 +205,41 @@ class Survey:
         inside = margin <= u <= cap.camera.width - margin and margin <= v <= cap.camera.height - margin
         return bool(front[0]) and inside
 
-    def _first_box(self, group: _Group) -> tuple[float, float, float, float] | None:
-        """The box in the first image of what another view saw: that view's box corners, at the object's
-        distance, projected into the first image (turning the head hardly moves the camera, so the box
-        keeps its shape)."""
-        cap = self.first.capture
+    def _least_turned(self, group: _Group) -> _Sighting:
+        """The sighting from the view whose head was turned least from the first's: a box carried over from
+        a view turned far (and rolled, when the head pans while it looks down) comes out wider."""
+        first = self.first.capture.head
+        views = [self.first, *self.others]
+        assert first is not None
+
+        def turned(v: int) -> float:
+            head = views[v].capture.head
+            assert head is not None
+            return abs(head[0] - first[0]) + abs(head[1] - first[1])
+
+        return group.members[min(group.members, key=turned)]
+
+    def _in_first(
+        self, box: tuple[float, float, float, float], view: View, points: np.ndarray
+    ) -> tuple[float, float, float, float] | None:
+        """Where `box` of `view` lies in the first image: the ellipse inside it (an object fills its box's
+        middle, not its corners), at the object's distance, projected into the first image; None when it
+        falls outside it. Turning the head hardly moves the camera, so the box keeps its shape."""
+        cap, seen = self.first.capture, view.capture
         assert cap.camera is not None and cap.head is not None and cap.base is not None
-        v, (det, _, points) = max(group.members.items(), key=lambda kv: (kv[1][0].score, len(kv[1][2])))
-        seen = [self.first, *self.others][v].capture
         assert seen.camera is not None and seen.head is not None and seen.base is not None
         eye = to_world(np.asarray(self.body.camera_xyz, float)[None, :], seen.base)[0]
         metres = float(np.median(np.linalg.norm(points - eye, axis=1)))
-        x0, y0, x1, y1 = det.box
-        corners = np.array(
+        x0, y0, x1, y1 = box
+        angles = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+        cx, cy, rx, ry = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2
+        rim = np.array(
             [
-                point_from_range(metres, seen.camera, seen.head, self.body, u, vv)
-                for u, vv in ((x0, y0), (x1, y0), (x0, y1), (x1, y1))
+                point_from_range(metres, seen.camera, seen.head, self.body, cx + rx * c, cy + ry * s)
+                for c, s in zip(np.cos(angles), np.sin(angles), strict=True)
             ]
         )
-        uv, front = project(to_base(to_world(corners, seen.base), cap.base), cap.camera, cap.head, self.body)
+        uv, front = project(to_base(to_world(rim, seen.base), cap.base), cap.camera, cap.head, self.body)
         if not front.all():
             return None
         w, h = cap.camera.width, cap.camera.height
@@ -210,35 +250,44 @@ class Survey:
         return float(bx0), float(by0), float(bx1), float(by1)
 
 
-def _confirmed(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> bool:
-    """Seen in at least two views, or in every view that can see where it is."""
-    votes = len(group.members)
-    if votes >= 2:
-        return True
+_SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
+
+
+def _support(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> float:
+    """The share of the views that can see where the group is that did see it (1.0: every one)."""
     seen_from = sum(1 for view in views if visible(group.centre, view))
-    return votes >= seen_from
+    return len(group.members) / max(seen_from, 1)
+
+
+@dataclass(frozen=True)
+class _Sighting:
+    """One view's detection: the box, where it is in the world, its surface points, its box in the first
+    image."""
+
+    det: Detection
+    point: np.ndarray
+    points: np.ndarray
+    box: tuple[float, float, float, float]
 
 
 @dataclass
 class _Group:
-    """Boxes of several views placed at about the same point: one object."""
+    """Sightings of several views that land on each other in the first image: one object."""
 
-    members: dict[int, tuple[Detection, np.ndarray, np.ndarray]] = field(default_factory=dict)
+    members: dict[int, _Sighting] = field(default_factory=dict)
 
     @property
     def centre(self) -> np.ndarray:
-        return np.mean([m[1] for m in self.members.values()], axis=0)
+        return np.mean([m.point for m in self.members.values()], axis=0)
 
-    def gap(self, point: np.ndarray) -> float:
-        return float(np.linalg.norm(self.centre[:2] - point[:2]))
+    @property
+    def box(self) -> tuple[float, float, float, float]:
+        boxes = np.array([m.box for m in self.members.values()])
+        x0, y0, x1, y1 = boxes.mean(axis=0)
+        return float(x0), float(y0), float(x1), float(y1)
 
-    def close(self, point: np.ndarray) -> bool:
-        # the same object seen from another angle shows another face: a few centimetres apart
-        spread = max(float(np.ptp(m[2][:, :2], axis=0).max()) for m in self.members.values())
-        return self.gap(point) <= max(0.08, 0.5 * spread)
-
-    def add(self, view: int, det: Detection, point: np.ndarray, points: np.ndarray) -> None:
-        self.members[view] = (det, point, points)
+    def add(self, view: int, sighting: _Sighting) -> None:
+        self.members[view] = sighting
 
 
 def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:

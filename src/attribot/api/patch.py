@@ -275,7 +275,7 @@ class ImagePatch:
             detections = self.survey.fuse(self.perception.detector, name, detections)
             report = self.survey.reports[-1]
             if self.safeguards is not None:
-                changed = report.dropped or report.added
+                changed = report.dropped or report.added or report.conflicts
                 self.safeguards.note(
                     "look_again",
                     f"find({name!r})",

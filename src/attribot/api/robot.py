@@ -145,6 +145,7 @@ class Robot:
     RANGE_RESOLUTION_M: ClassVar[float] = 0.003
     BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
     GRASP_TRIES: ClassVar[int] = 4
+    GRIPPER_EMPTY_M: ClassVar[float] = 0.0003  # fingers closer than this hold nothing
     APPROACH_TRIES: ClassVar[int] = 3
     SETTLE_ROUNDS: ClassVar[int] = 3
     SETTLE_Z: ClassVar[float] = 2.0  # a margin of this many standard deviations settles a comparison
@@ -542,6 +543,15 @@ class Robot:
         floor = self.RANGE_RESOLUTION_M + (0.01 * metres if len(values) == 1 else 0.0)
         return metres, max(spread, floor), len(values)
 
+    def _gripper_empty(self) -> bool:
+        """The fingers have closed (almost) all the way: nothing is between them."""
+        assert self.world is not None
+        try:
+            opening = self.world.joint_states().get("gripper")
+        except UnsupportedAction:
+            return False
+        return opening is not None and float(opening) < self.GRIPPER_EMPTY_M
+
     def _centre_depth(self) -> float | None:
         """The depth camera's distance to the surface at the image centre (where the object is, once
         focused): the nearest surface in a small window, along the optical axis. None without depth."""
@@ -629,11 +639,11 @@ class Robot:
                     break
             if guards.on("remeasure") and len(readings) > self.FORCE_SAMPLES:
                 guards.note("remeasure", call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
-            if not guards.on("verify_actions") or mean > 0.05 or attempt == 1:
+            empty = self._gripper_empty()
+            if not guards.on("verify_actions") or (mean > 0.05 and not empty) or attempt == 1:
                 return mean, max(error, self.FORCE_RESOLUTION_N), len(readings)
-            guards.note(
-                "verify_actions", call, "caught", f"no load ({mean:.3f} N): it slipped; lifting again"
-            )
+            why = "the gripper has closed on nothing" if empty else f"no load ({mean:.3f} N)"
+            guards.note("verify_actions", call, "caught", f"{why}: it slipped; lifting it again")
             self.put_down()
             self.go_to_object(p)
             self.pick_up(p)
@@ -686,8 +696,41 @@ class Robot:
                 if attempt + 1 == tries or not exc.message.startswith(_RETRYABLE):
                     raise
                 call = f"go_to_object({p.label or 'patch'})"
-                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
+                # from where it stopped, the robot sees the object anew: approach what it sees now
+                fresh = self._seen_from_here(p, target)
+                how = "from a new look at it" if fresh is not target else "again"
+                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying {how}")
+                target = fresh
         self._near = p
+
+    def _seen_from_here(self, p: ImagePatch, target: Target) -> Target:
+        """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
+        detection of its name nearest the image centre; `target` itself when it cannot be seen again."""
+        assert self.world is not None
+        try:
+            self.controller.focus_on(target)
+            frame = self.world.observe()
+            cam = frame.camera or _camera_info(self.world)
+            js, pose = self.world.joint_states(), self.world.base_pose()
+        except (ControlError, UnsupportedAction):
+            return target
+        if cam is None or not p.label:
+            return target
+        radius = min(cam.width, cam.height) / 4.0
+        found = p.perception.detector.detect(frame, [p.label])
+        near = [d for d in found if _dist_to_center(d.box, cam) <= radius]
+        if not near:
+            return target
+        box = min(near, key=lambda d: _dist_to_center(d.box, cam)).box
+        capture = Capture(
+            index=self._captures,
+            camera=cam,
+            head=(float(js["head_pan"]), float(js["head_tilt"])),
+            base=(float(pose.x), float(pose.y), float(pose.yaw)),
+            depth=frame.depth,
+        )
+        self._captures += 1
+        return Target(box=box, capture=capture, object_id=p.object_id, label=p.label, find=target.find)
 
     def pick_up(self, patch: ImagePatch) -> None:
         """Grasps and lifts the object in `patch`. Call robot.go_to_object(patch) first; the gripper must be
@@ -725,6 +768,7 @@ class Robot:
                     raise
                 call = f"pick_up({p.label or 'patch'})"
                 self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
+                target = self._seen_from_here(p, target)  # a failed grasp may have moved it
                 self.controller.approach(target)
         self.held = p
 

@@ -23,7 +23,7 @@ the force sensor, placements and pushes by looking at the object afterwards.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -75,7 +75,8 @@ class ServoController(PointingController):
     object at one; lift_clear: how high a picked object is raised (less under a shelf board); push_m: how
     far a push drives on after the base meets the object. max_misses: frames in a row a flaky detector may
     miss the object, when it is found by detection rather than tracked, while its box is carried along by
-    the camera's own measured motion.
+    the camera's own measured motion. max_tol_px: the most the centring tolerance widens to when the box is
+    found by detection in every frame and the detections jitter (their spread sets it).
     """
 
     name: str = "servo"
@@ -96,6 +97,9 @@ class ServoController(PointingController):
     lift_clear: float = 0.08
     push_m: float = 0.15
     max_misses: int = 3
+    max_tol_px: float = 6.0
+    load_readings: int = 8
+    load_spread: float = field(default=0.0, repr=False)  # the standard error of the last load reading
     last: FocusReport | None = None
     tracked: tuple[float, float, float, float] | None = None  # the box being centred, while it is
     approached: _Reach | None = field(default=None, repr=False)  # where go_to_object brought the arm
@@ -152,6 +156,10 @@ class ServoController(PointingController):
         pids = [PID(self.kp, self.ki, out_min=-self.max_step_rad, out_max=self.max_step_rad) for _ in "pt"]
         turn = PID(self.turn_kp, self.turn_ki, out_min=-self.max_turn, out_max=self.max_turn)
         redetections, misses, steps, error, checked = 0, 0, 0, math.inf, False
+        # found by detection, a box jitters from frame to frame: how far each detection lands from where
+        # the last box, carried by the head's motion, says it must be; the centring tolerance widens to it
+        innovations: list[float] = []
+        tol = self.tol_px
         for step in range(1, self.max_steps + 1):
             steps = step
             if tracking and state.lost:
@@ -171,14 +179,16 @@ class ServoController(PointingController):
             self.tracked = box
             u, v = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
             error = abs(u - camera.cx) if headless else math.hypot(u - camera.cx, v - camera.cy)
-            if error <= self.tol_px:
+            if not tracking and len(innovations) >= 3:
+                tol = min(max(self.tol_px, float(np.median(innovations[-6:]))), self.max_tol_px)
+            if error <= tol:
                 if not tracking or target.find is None or checked:
                     break
                 # the tracked box may have drifted off the object (background features at its edges):
                 # one detection confirms the centring, or the loop goes on with detections every frame
                 checked = True
                 seen = see(frame)
-                if seen is None or _off_centre(seen, camera, headless) <= self.tol_px:
+                if seen is None or _off_centre(seen, camera, headless) <= max(tol, self.tol_px):
                     break
                 tracking, box = False, seen
                 continue
@@ -199,18 +209,21 @@ class ServoController(PointingController):
             if tracking:
                 state = tracker.update(frame.rgb)
                 continue
-            seen = see(frame)
+            if headless:  # a robot without a head may not report its pose: the commanded turn it is
+                predicted = carried(box, (wz * self.control_s, 0.0))
+            else:
+                now = _head(self.world)
+                predicted = carried(box, (now[0] - pan, now[1] - tilt))
+            seen = _nearest_to(target.find(frame) if target.find else [], predicted)
             if seen is not None:
-                misses, box = 0, seen
+                innovations.append(_gap(seen, predicted))
+                # half the detection, half the prediction: a jittery detector's noise is halved
+                misses, box = 0, tuple((a + b) / 2 for a, b in zip(seen, predicted, strict=True))
                 continue
             misses += 1
             if misses > self.max_misses:
                 raise lost(f"too little texture to track, and the detector missed it {misses} times in a row")
-            if headless:  # a robot without a head may not report its pose: the commanded turn it is
-                box = carried(box, (wz * self.control_s, 0.0))
-            else:
-                now = _head(self.world)
-                box = carried(box, (now[0] - pan, now[1] - tilt))
+            box = predicted
         else:
             if headless:
                 self.world.command_base(0.0, 0.0, 0.0)
@@ -258,12 +271,21 @@ class ServoController(PointingController):
             )
         self.world.set_arm(z + headroom, ext)
         self._settle(1.5)
+        before_spread = self.load_spread
         load = self._load()
-        if load is not None and load_before is not None and abs(load - load_before) < 0.004:
+        closed = float(self.world.joint_states().get("gripper", 1.0)) < 0.0003  # the fingers met: it fell out
+        # no load: no change beyond the readings' noise (three standard errors of the difference), when the
+        # sensor is fine enough to feel a light object at all; a noisier one leaves it to the gripper
+        noise = 3.0 * math.hypot(before_spread, self.load_spread)
+        unloaded = (
+            load is not None and load_before is not None and abs(load - load_before) < max(0.004, noise)
+        )
+        if closed or (unloaded and noise < 0.05):
             self.world.release()
             self._retract(z)
+            felt = "the gripper closed on nothing" if closed else "the force sensor feels no load"
             raise ControlError(
-                f"grasp failed: the force sensor feels no load after lifting {target.describe()}",
+                f"grasp failed: {felt} after lifting {target.describe()}",
                 "call robot.go_to_object(patch) again and retry",
             )
         self.holding = _Hold(
@@ -411,37 +433,58 @@ class ServoController(PointingController):
         body = self._body(action)
         self._aim(np.array(est.centre), body, target)
         camera = self.world.camera_info()
-        frame, box = self._look_again(target, camera, search)
+        ignore = None if holding is None else self._held_points(holding, body)
+        reach = max(0.25, 3.0 * est.radius)
+
+        def where(frame: Any, box: Any) -> ObjectEstimate | None:
+            """The object in `box` located from depth, if it is about where `est` was (a box elsewhere,
+            another object of the kind or a detector's mistake, is not it)."""
+            if frame.depth is None:
+                return est
+            new = estimate_object(frame.depth, camera, _head(self.world), self._pose(), body, box, ignore)
+            near = new is not None and float(np.linalg.norm(new.xy() - est.xy())) <= reach
+            return new if near else None
+
+        frame, box = self._look_again(target, camera, search, where)
         if box is None:
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "
                 f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
                 "find the object again in a new image and retry",
             )
+        located = where(frame, box)
         seen = Target(box, self._capture(frame, camera), label=target.label, find=target.find)
         self.focus_on(seen)
         frame = self.world.observe()
-        box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search) or box
-        if frame.depth is not None:
-            ignore = None if holding is None else self._held_points(holding, body)
-            new = estimate_object(frame.depth, camera, _head(self.world), self._pose(), body, box, ignore)
-            if new is not None:
-                return new
-        if self._has("distance"):
-            return self._range_estimate(box, camera, body)
-        return est
+        if frame.depth is None:
+            box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search) or box
+            return self._range_estimate(box, camera, body) if self._has("distance") else est
+        for box in _by_centre(target.find(frame) if target.find else [], camera, search):
+            found = where(frame, box)
+            if found is not None:
+                return found
+        # centred, the detector sees it no better (a viewpoint it misses the object from): where it was
+        # found before centring
+        return located if located is not None else est
 
-    def _look_again(self, target: Target, camera: Any, search: float) -> tuple[Any, Any]:
-        """The frame and the target's box nearest the image centre. A detector that misses the object in
-        this view is given up to `max_misses` more views, the head turned a little each time (the same view
-        would often be missed the same way)."""
+    def _look_again(
+        self, target: Target, camera: Any, search: float, accept: Callable[[Any, Any], Any] | None = None
+    ) -> tuple[Any, Any]:
+        """The frame and the target's box nearest the image centre (of those `accept` takes). A detector
+        that misses the object in this view is given up to `max_misses` more views, the head turned a
+        little each time, then a third of the view to either side (the same view would often be missed,
+        or mistaken, the same way)."""
         pan, tilt = _head(self.world)
+
+        def first(frame: Any, boxes: list[Any]) -> Any:
+            return next((b for b in boxes if accept is None or accept(frame, b) is not None), None)
+
         for k in range(self.max_misses + 1 if target.find is not None else 1):
             if k:  # 0.02 rad to one side, then the other, then further
                 self.world.set_head(pan + (1 if k % 2 else -1) * 0.02 * ((k + 1) // 2), tilt)
                 self._settle(0.15)
             frame = self.world.observe()
-            box = _nearest_to_centre(target.find(frame) if target.find else [], camera, search)
+            box = first(frame, _by_centre(target.find(frame) if target.find else [], camera, search))
             if box is not None:
                 return frame, box
         if target.find is None:
@@ -454,10 +497,12 @@ class ServoController(PointingController):
             self._settle(0.4)
             frame = self.world.observe()
             shift = camera.fx * math.tan(turn)  # where the old line of sight now is, from the centre
-            moved = [(b[0] - shift, b[1], b[2] - shift, b[3]) for b in target.find(frame)]
-            box = _nearest_to_centre(moved, camera, search)
+            moved = _by_centre(
+                [(b[0] - shift, b[1], b[2] - shift, b[3]) for b in target.find(frame)], camera, search
+            )
+            box = first(frame, [(b[0] + shift, b[1], b[2] + shift, b[3]) for b in moved])
             if box is not None:
-                return frame, (box[0] + shift, box[1], box[2] + shift, box[3])
+                return frame, box
         self.world.set_head(pan, tilt)
         self._settle(0.3)
         return frame, None
@@ -710,11 +755,12 @@ class ServoController(PointingController):
         """The wrist's vertical load in newtons, averaged over a few readings; None without a force sensor."""
         if not self._has("force"):
             return None
-        total = 0.0
-        for _ in range(5):
+        readings = []
+        for _ in range(self.load_readings):
             self.world.step(0.02)
-            total += float(self.world.read_force()[2])
-        return abs(total / 5)
+            readings.append(float(self.world.read_force()[2]))
+        self.load_spread = float(np.std(readings, ddof=1)) / math.sqrt(len(readings))
+        return abs(sum(readings) / len(readings))
 
     # --- driving --------------------------------------------------------------------------------------
     def _settle(self, seconds: float) -> None:
@@ -821,6 +867,31 @@ def _off_centre(box: tuple[float, float, float, float], camera: Any, across_only
     """Pixels from the box's centre to the image centre (left-right only with `across_only`)."""
     dx = (box[0] + box[2]) / 2 - camera.cx
     return abs(dx) if across_only else math.hypot(dx, (box[1] + box[3]) / 2 - camera.cy)
+
+
+def _gap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:
+    """Distance between two boxes' centres, pixels."""
+    return math.hypot((a[0] + a[2] - b[0] - b[2]) / 2, (a[1] + a[3] - b[1] - b[3]) / 2)
+
+
+def _nearest_to(
+    boxes: list[tuple[float, float, float, float]], predicted: tuple[float, float, float, float]
+) -> Any:
+    """The box nearest the predicted one, within the predicted box's own size (farther is another thing:
+    a false positive, another object of the kind); None if none."""
+    reach = max(predicted[2] - predicted[0], predicted[3] - predicted[1], 8.0)
+    near = [b for b in boxes if _gap(b, predicted) <= reach]
+    return min(near, key=lambda b: _gap(b, predicted)) if near else None
+
+
+def _by_centre(
+    boxes: list[tuple[float, float, float, float]], camera: Any, within: float = 0.25
+) -> list[Any]:
+    """The boxes within `within` of the image's smaller side from its centre, nearest first."""
+    radius = min(camera.width, camera.height) * within
+    return sorted(
+        (b for b in boxes if _off_centre(b, camera) <= radius), key=lambda b: _off_centre(b, camera)
+    )
 
 
 def _nearest_to_centre(

@@ -299,6 +299,7 @@ class SimWorld:
             self.data.eq_active[self.weld_of[self._held]] = 0  # the grip gives: it falls out
             self._held = None
             self._slip_at = None
+            self.set_gripper(0.0)  # and the fingers, still closing, meet each other
         for hook in getattr(self, "step_hooks", ()):
             hook(float(d.time))
 
@@ -452,7 +453,9 @@ class SimWorld:
             return False
         self._weld(key)
         if self.noise.slip and self._noise_rng.random() < self.noise.slip:
-            self._slip_at = float(self.data.time) + float(self._noise_rng.uniform(0.5, 1.5))  # while lifting
+            self._slip_at = float(self.data.time) + float(
+                self._noise_rng.uniform(0.3, 0.45)
+            )  # as the lift starts
         self.step(0.3)
         return True
 
