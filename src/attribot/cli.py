@@ -357,6 +357,11 @@ def _world_choice(
         raise fail(
             "--world and --image cannot be given together", "drop one: --image answers about a still image"
         )
+    if config is not None and not config.noise.clean and name != "mujoco":
+        raise fail(
+            f"--world-noise makes the simulator imperfect, and --world {name} is not the simulator",
+            "drop --world-noise (a real robot brings its own), or use --world mujoco",
+        )
     if bridge_url is not None and name != "bridge":
         raise fail(
             f"--bridge-url only applies to --world bridge, not {name}", "add --world bridge or drop it"
@@ -385,6 +390,15 @@ def _show(answer: Any, as_json: bool) -> None:
                 f"{escape(answer.error.message)}",
                 highlight=False,
             )
+        if answer.checks:
+            tally: dict[str, dict[str, int]] = {}
+            for c in answer.checks:
+                outcomes = tally.setdefault(c["mechanism"], {})
+                outcomes[c["outcome"]] = outcomes.get(c["outcome"], 0) + 1
+            shown = "; ".join(
+                f"{m} " + ", ".join(f"{n} {o}" for o, n in sorted(outs.items())) for m, outs in tally.items()
+            )
+            out.print(f"[dim]checks: {escape(shown)}[/]", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
         out.print(
             f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "

@@ -28,7 +28,7 @@ from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
 from attribot.models.base import Detection, Detector
 
-__all__ = ["Survey", "View", "LookAgainReport"]
+__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again"]
 
 _SETTLE_S = 0.05
 _SETTLE_STEPS = 30
@@ -52,11 +52,12 @@ class LookAgainReport:
     kept: int
     dropped: int  # boxes of the first image no other view confirmed
     added: int  # objects the first image missed, seen from the other views
-    conflicts: int = 0  # boxes found before under another name, put last
+    conflicts: int = 0  # boxes found before under another name, left out
+    how: str = "head poses"  # what the other views were
 
     def describe(self) -> str:
         text = (
-            f"looked again from {self.views - 1} other head poses: {self.first} in the first image, "
+            f"looked again from {self.views - 1} other {self.how}: {self.first} in the first image, "
             f"{self.kept} confirmed, {self.dropped} dropped, {self.added} added"
         )
         return text + (f", {self.conflicts} found before under another name" if self.conflicts else "")
@@ -131,15 +132,18 @@ class Survey:
                     group = _Group()
                     groups.append(group)
                 group.add(v, _Sighting(det, point, points, box))
+        # an object the first image cannot show (seen past its edge from a turned head) is not one of its
+        groups = [g for g in groups if 0 in g.members or self._visible(g.centre, self.first)]
         support = {id(g): _support(g, views, self._visible) for g in groups}
         confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
-        # two calls disagree: a box found, as well or better, under another name before goes last
+        # two calls disagree: a box found, as well or better, under another name before is not this one
         disputed = {
             id(g)
             for g in confirmed
             if any(n != name and iou(g.box, b) >= 0.5 and s >= support[id(g)] for n, b, s in self.claims)
         }
         conflicts = len(disputed)
+        confirmed = [g for g in confirmed if id(g) not in disputed]
         if not confirmed and groups:
             # nothing confirmed: the detector's best single sighting, as one image would have given
             confirmed = [max(groups, key=lambda g: max(m.det.score for m in g.members.values()))]
@@ -153,11 +157,13 @@ class Survey:
                 best = nearest.det
                 det = Detection(box=nearest.box, score=best.score, label=best.label, object_id=best.object_id)
                 added += 1
-            kept.append((min(support[id(group)], 1.0) - (2.0 if id(group) in disputed else 0.0), det))
+            # how strongly it is seen: by how many views, times the share of those that could that did
+            strength = len(group.members) * min(support[id(group)], 1.0)
+            kept.append((strength, det))
         placed = {id(m.det) for g in groups for m in g.members.values()}
         # no depth where the box is: nothing to check it against, kept as seen
         kept += [(1.0, d) for d in first if id(d) not in placed]
-        # the best supported first (seen from every view that could see it), then the detector's order
+        # the most strongly seen first, then the detector's order
         result = [d for _, d in sorted(kept, key=lambda sd: (-sd[0], -sd[1].score))]
         kept_first = sum(1 for d in result if any(d is f for f in first))
         best = max(
@@ -288,6 +294,99 @@ class _Group:
 
     def add(self, view: int, sighting: _Sighting) -> None:
         self.members[view] = sighting
+
+
+_CROPS = "crops of the image a few pixels in"
+
+
+def _variants(frame: Frame) -> list[tuple[Frame, float, float]]:
+    """Two crops of `frame` a few pixels in from opposite corners (and their offsets): the same view, other
+    pixels, as a detector sees a slightly moved camera. An object keeps its place in the view."""
+    w, h = frame.width, frame.height
+    dx, dy = max(2.0, round(0.02 * w)), max(2.0, round(0.02 * h))
+    if w <= 4 * dx or h <= 4 * dy:
+        return []
+    out = []
+    for box in ((dx, dy, float(w), float(h)), (0.0, 0.0, w - dx, h - dy)):
+        crop = frame.crop(box)
+        out.append((crop, float(crop.origin[0] - frame.origin[0]), float(crop.origin[1] - frame.origin[1])))
+    return out
+
+
+def reexamine(
+    detector: Detector, frame: Frame, name: str, first: list[Detection]
+) -> tuple[list[Detection], LookAgainReport]:
+    """A still image looked at again (no head to turn): `first` checked against the detector's answers on
+    two crops a few pixels in from opposite corners (test-time augmentation). Boxes that overlap in at least
+    two of the three are one object, their box the mean of the three (a jittery detector's error shrinks);
+    a box only one of them found is dropped. Per-frame mistakes (a miss, a confusion, a false box) rarely
+    repeat; what a detector gets wrong about the view itself repeats, and stays."""
+    variants = _variants(frame)
+    if not variants:
+        return first, LookAgainReport(
+            views=1, first=len(first), kept=len(first), dropped=0, added=0, how=_CROPS
+        )
+    answers = [list(first)]
+    for crop, ox, oy in variants:
+        answers.append(
+            [
+                Detection(
+                    box=(d.box[0] + ox, d.box[1] + oy, d.box[2] + ox, d.box[3] + oy),
+                    score=d.score,
+                    label=d.label,
+                    object_id=d.object_id,
+                )
+                for d in detector.detect(crop, [name])
+            ]
+        )
+    clusters: list[dict[int, Detection]] = []
+    for v, found in enumerate(answers):
+        for det in found:
+            near = [c for c in clusters if v not in c and max(iou(det.box, o.box) for o in c.values()) >= 0.5]
+            home = max(near, key=lambda c: max(iou(det.box, o.box) for o in c.values())) if near else None
+            if home is None:
+                clusters.append({v: det})
+            else:
+                home[v] = det
+    kept: list[Detection] = []
+    for c in clusters:
+        if len(c) < 2:
+            continue
+        boxes = np.array([d.box for d in c.values()])
+        ids = [d.object_id for d in c.values()]
+        best = c.get(0) or max(c.values(), key=lambda d: d.score)
+        x0, y0, x1, y1 = (float(v) for v in boxes.mean(axis=0))
+        kept.append(
+            Detection(
+                box=(x0, y0, x1, y1),
+                score=float(np.mean([d.score for d in c.values()])),
+                label=best.label,
+                object_id=max(set(ids), key=lambda i: (ids.count(i), i == best.object_id)),
+            )
+        )
+    if not kept and first:  # nothing seen twice: the first answer, as one look would have given
+        return first, LookAgainReport(
+            views=3, first=len(first), kept=len(first), dropped=0, added=0, how=_CROPS
+        )
+    confirmed = sum(1 for c in clusters if len(c) >= 2 and 0 in c)
+    report = LookAgainReport(
+        views=3,
+        first=len(first),
+        kept=confirmed,
+        dropped=len(first) - confirmed,
+        added=len(kept) - confirmed,
+        how=_CROPS,
+    )
+    return sorted(kept, key=lambda d: -d.score), report
+
+
+def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
+    """A visual question asked of `frame` and of two crops a few pixels in: the answer most of the three
+    give (the first one's when all differ), and how many of the others disagreed with the first."""
+    answers = [answer(frame)] + [answer(crop) for crop, _, _ in _variants(frame)]
+    keys = [" ".join(a.strip().lower().rstrip(".").split()) for a in answers]
+    best = max(range(len(keys)), key=lambda i: (keys.count(keys[i]), i == 0))
+    return answers[best], sum(1 for k in keys[1:] if k != keys[0])
 
 
 def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:

@@ -16,7 +16,7 @@ import numpy as np
 
 from attribot.api.checks import check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.looking import Survey
+from attribot.api.looking import Survey, ask_again, reexamine
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
 from attribot.boxes import from_upward, to_upward
@@ -270,18 +270,21 @@ class ImagePatch:
                 "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
             )
         whole = (0.0, 0.0, float(self.frame.width), float(self.frame.height))
-        if self.survey is not None and self.box == whole:
+        if self.safeguards is not None and self.safeguards.on("look_again"):
             first = len(detections)
-            detections = self.survey.fuse(self.perception.detector, name, detections)
-            report = self.survey.reports[-1]
-            if self.safeguards is not None:
-                changed = report.dropped or report.added or report.conflicts
-                self.safeguards.note(
-                    "look_again",
-                    f"find({name!r})",
-                    "caught" if changed else "confirmed",
-                    f"{report.describe()} ({first} -> {len(detections)})",
-                )
+            # the image itself looked at again (its boxes averaged), then the views around it
+            detections, report = reexamine(self.perception.detector, pixels, name, detections)
+            reports = [report]
+            if self.survey is not None and self.box == whole:
+                detections = self.survey.fuse(self.perception.detector, name, detections)
+                reports.append(self.survey.reports[-1])
+            changed = any(r.dropped or r.added or r.conflicts for r in reports)
+            self.safeguards.note(
+                "look_again",
+                f"find({name!r})",
+                "caught" if changed else "confirmed",
+                "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
+            )
         dx = pixels.origin[0] - self.frame.origin[0]
         dy = pixels.origin[1] - self.frame.origin[1]
         found: list[ImagePatch] = []
@@ -293,17 +296,17 @@ class ImagePatch:
                 min(max(x1 + dx, 0.0), self.frame.width),
                 min(max(y1 + dy, 0.0), self.frame.height),
             )
-            found.append(
-                ImagePatch(
-                    self.frame,
-                    self.perception,
-                    box,
-                    capture=self.capture,
-                    object_id=det.object_id,
-                    label=det.label or name,
-                    score=det.score,
-                )
+            child = ImagePatch(
+                self.frame,
+                self.perception,
+                box,
+                capture=self.capture,
+                object_id=det.object_id,
+                label=det.label or name,
+                score=det.score,
             )
+            child.safeguards = self.safeguards  # its own finds and questions are checked the same way
+            found.append(child)
         return found
 
     def exists(self, object_name: str) -> bool:
@@ -332,7 +335,17 @@ class ImagePatch:
         >>>     return image.visual_query("What are the items in this image?")
         """
         q = check_text(question, "question", "visual_query")
-        return _answer(self.perception.vqa.answer(self._crop_frame(), q), self.perception.vqa.name)
+        vqa = self.perception.vqa
+        if self.safeguards is None or not self.safeguards.on("look_again"):
+            return _answer(vqa.answer(self._crop_frame(), q), vqa.name)
+        said, disagreed = ask_again(lambda frame: _answer(vqa.answer(frame, q), vqa.name), self._crop_frame())
+        self.safeguards.note(
+            "look_again",
+            f"visual_query({q[:40]!r})",
+            "caught" if disagreed else "confirmed",
+            f"asked again on two crops a few pixels in: {disagreed} of 2 disagreed with the first answer",
+        )
+        return said
 
     def language_query(self, question: str) -> str:
         """Returns a language model's answer to a text question: commonsense and factual knowledge (which
@@ -389,7 +402,9 @@ class ImagePatch:
                 f"{self.lower:g}, {self.right:g}, {self.upper:g})",
                 "crop a region inside the patch, or crop the whole image instead",
             )
-        return ImagePatch(self.frame, self.perception, from_upward(il, ilo, ir, iu, h), capture=self.capture)
+        part = ImagePatch(self.frame, self.perception, from_upward(il, ilo, ir, iu, h), capture=self.capture)
+        part.safeguards = self.safeguards
+        return part
 
     def overlaps(self, other: ImagePatch) -> bool:
         """Returns True if this patch and `other` share some area (touching edges do not count).

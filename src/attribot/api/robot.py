@@ -199,9 +199,11 @@ class Robot:
         """Host side: the robot in `world` with the controller registered for it."""
         return cls(sensors=sensors, world=world)
 
-    def look(self, perception: Perception) -> ImagePatch:
+    def look(self, perception: Perception, survey: bool = True) -> ImagePatch:
         """Host side: take a camera frame now and return its whole-image patch, remembering the head
-        angles and base pose so that boxes in it can be acted on later."""
+        angles and base pose so that boxes in it can be acted on later. With `look_again` on and `survey`,
+        the head also turns around it to take the views that finds are checked against; without `survey`
+        (the image is all a program may see) finds are checked on the image itself."""
         if self.world is None:
             raise UnsupportedAction(
                 "a robot without a world has no camera to look with", "build Robot(world=...)"
@@ -219,9 +221,10 @@ class Robot:
         self.capture = Capture(index=self._captures, camera=camera, head=head, base=base, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
-        if self.safeguards.on("look_again") and "head" in caps and "arm" in caps and frame.depth is not None:
-            self._image.survey = Survey.take(self.world, View(frame, self.capture), self.world.body())
+        if self.safeguards.on("look_again"):
             self._image.safeguards = self.safeguards
+            if survey and {"head", "arm"} <= caps and frame.depth is not None:
+                self._image.survey = Survey.take(self.world, View(frame, self.capture), self.world.body())
         self._acted_on = []
         return self._image
 

@@ -57,7 +57,9 @@ class Safeguards:
 def parse_checks(spec: str | list[str] | tuple[str, ...] | None) -> tuple[str, ...]:
     """The mechanisms named by `spec`: "all" (default), "none", names, and "-name" to leave one out
     ("all,-look_again"), comma-separated or as a list."""
-    parts = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else list(spec or ["all"])
+    if spec is None:
+        spec = "all"
+    parts = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else list(spec)
     chosen: list[str] = []
     for part in (p for p in parts if p):
         drop = part.startswith("-")

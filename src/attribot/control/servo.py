@@ -76,7 +76,8 @@ class ServoController(PointingController):
     far a push drives on after the base meets the object. max_misses: frames in a row a flaky detector may
     miss the object, when it is found by detection rather than tracked, while its box is carried along by
     the camera's own measured motion. max_tol_px: the most the centring tolerance widens to when the box is
-    found by detection in every frame and the detections jitter (their spread sets it).
+    found by detection in every frame and the detections jitter (their spread sets it). back_off_m: how far
+    the base backs off to look once more when the object is missed from where it stands at every turn.
     """
 
     name: str = "servo"
@@ -98,6 +99,7 @@ class ServoController(PointingController):
     push_m: float = 0.15
     max_misses: int = 3
     max_tol_px: float = 6.0
+    back_off_m: float = 0.3
     load_readings: int = 8
     load_spread: float = field(default=0.0, repr=False)  # the standard error of the last load reading
     last: FocusReport | None = None
@@ -446,6 +448,12 @@ class ServoController(PointingController):
             return new if near else None
 
         frame, box = self._look_again(target, camera, search, where)
+        if box is None and self._has("base") and self.back_off_m > 0:
+            # missed from here at every turn of the head (a viewpoint the detector fails from): step back
+            # and look again from farther away, before giving it up
+            self._straight(-self.back_off_m, None)
+            self._aim(np.array(est.centre), body, target)
+            frame, box = self._look_again(target, camera, search, where)
         if box is None:
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "

@@ -192,9 +192,8 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
             scene = item.scene().model_copy(
                 update={"noise": world_noise(check_condition(noise)[0], item.seed)}
             )
-            if method == "attr-api":  # one image and no robot: nothing to look again with
-                settings = settings.model_copy(update={"checks": f"{settings.checks},-look_again"})
-            answer = ask(item.query, Scene(scene, sensors=sensors), settings)
+            # attr-api: one image and no robot (looking again happens within that image)
+            answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
             trace = answer.trace
             failing = next((t["call"] for t in reversed(trace) if t.get("error")), "")
             category = None

@@ -38,6 +38,7 @@ class Scene:
     world: str = "mujoco"
     sensors: Sequence[str] | None = None
     controller: str | None = None  # None: the world's own (servo in MuJoCo); "privileged": sim state
+    still: bool = False  # the first camera image is all a program sees: the robot does not look around
 
     def __post_init__(self) -> None:
         if self.image is not None and self.config is not None:
@@ -140,6 +141,8 @@ class _Session:
                 self.sensors = list(scene.sensors or ["camera"])
                 self.robot = Robot(sensors=self.sensors)
                 self.image = ImagePatch.from_image(rgb, self.perception)
+                if self.safeguards.on("look_again"):  # a still image is looked at again within itself
+                    self.image.safeguards = self.safeguards
             else:
                 from attribot.embodiments.base import EMBODIMENTS
 
@@ -166,7 +169,7 @@ class _Session:
                         caption=lambda: robot.activity,
                         tracked=lambda: getattr(robot.controller, "tracked", None),
                     )
-                self.image = self.robot.look(self.perception)
+                self.image = self.robot.look(self.perception, survey=not scene.still)
                 self.first_image = self.image
                 if self.safeguards.on("reset"):
                     self.start = self.robot.snapshot()
@@ -190,7 +193,7 @@ class _Session:
                     "the robot was put back where the first try started",
                 )
             else:  # a world that cannot put its robot back: start with empty hands from what it sees now
-                self.image = self.robot.look(self.perception)
+                self.image = self.robot.look(self.perception, survey=not self.scene.still)
                 if self.safeguards.on("reset"):
                     self.safeguards.note(
                         "reset", f"try {self.runs + 1}", "unsettled", "this world cannot put the robot back"
