@@ -74,3 +74,34 @@ def test_the_cutting_signal_is_put_back_after_a_run():
     result, _ = _run("quick")
     assert result.ok and result.value == 7
     assert signal.getsignal(_CUT_SIGNAL) is before
+
+
+class Watched:
+    """A host API that notes, at each call, the cutting signal's handler and the threads alive."""
+
+    API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ()
+    API_METHODS: ClassVar[tuple[str, ...]] = ("ping",)
+
+    def __init__(self) -> None:
+        self.handlers: list[object] = []
+        self.threads: set[int] = set()
+
+    def ping(self) -> int:
+        from attribot.runner.host import _CUT_SIGNAL
+
+        self.handlers.append(signal.getsignal(_CUT_SIGNAL))
+        self.threads.update(t.ident or 0 for t in threading.enumerate() if t is not threading.main_thread())
+        return 1
+
+
+def test_the_protection_is_armed_once_per_run_not_once_per_call():
+    # issue 22 item 23: a timer thread and a handler per call tripled the cost of every API call
+    watched = Watched()
+    program = "def execute_command(api):\n    return sum(api.ping() for _ in range(40))\n"
+    with ProgramRunner(classes=[Watched], limits=Limits(wall_s=5.0)) as runner:
+        result = runner.run(program, args=[watched])
+    assert result.ok and result.value == 40
+    assert len(watched.handlers) == 40
+    assert all(h is watched.handlers[0] for h in watched.handlers)  # one handler, installed once
+    assert callable(watched.handlers[0])  # and armed during the calls
+    assert len(watched.threads) <= 2  # the one watcher (plus at most one thread of the test session)

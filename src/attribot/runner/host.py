@@ -6,7 +6,6 @@ into a `RunResult`. A worker runs one program and is then discarded, so no state
 from __future__ import annotations
 
 import binascii
-import contextlib
 import inspect
 import json
 import marshal
@@ -20,7 +19,7 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -94,48 +93,58 @@ _CUT_SIGNAL = signal.SIGRTMIN + 5 if hasattr(signal, "SIGRTMIN") else signal.SIG
 leave alone."""
 
 
-@contextlib.contextmanager
-def _deadline_alarm(seconds: float) -> Iterator[None]:
-    """Raise `_CallTimeout` in this thread after `seconds`, when it is the main thread (where Python runs
-    signal handlers) and the cutting signal is free.
+class _Cutter:
+    """Cuts a host-side API call that is still running at the run's deadline; armed once per run.
 
-    A timer thread sends the signal to this thread at the deadline: it interrupts Python code and
-    blocking system calls (a socket read from a stuck endpoint, a wait); a C call that never returns to
-    Python (one model forward pass) ends first. Elsewhere (another thread, the signal owned by the
-    application) the deadline is checked when the call returns, as before.
+    When the run is served from the main thread (where Python runs signal handlers) and the cutting
+    signal is free, `arm` installs the handler and starts one watcher thread that sleeps until the
+    deadline and then signals the main thread if it is inside a call (`in_call`). The signal interrupts
+    Python code and blocking system calls (a socket read from a stuck endpoint, a wait); a C call that
+    never returns to Python (one model forward pass) ends first. A call itself only sets and clears
+    `in_call` and checks the clock once, so the protection costs next to nothing per call. Elsewhere
+    (another thread, the signal owned by the application) the deadline is checked when a call returns.
     """
-    usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
-        signal.SIG_DFL,
-        signal.SIG_IGN,
-        None,
-    )
-    if not usable or not math.isfinite(seconds):
-        yield
-        return
-    armed = threading.Event()
-    armed.set()
-    target = threading.get_ident()
 
-    def expire(signum: int, frame: Any) -> None:
-        if armed.is_set():
-            armed.clear()
+    def __init__(self) -> None:
+        self.in_call = False
+        self._done = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._previous: Any = None
+
+    def arm(self, deadline: float) -> None:
+        """Start watching `deadline` (time.monotonic) for the rest of the run."""
+        usable = threading.current_thread() is threading.main_thread() and signal.getsignal(
+            _CUT_SIGNAL
+        ) in (signal.SIG_DFL, signal.SIG_IGN, None)
+        if not usable or not math.isfinite(deadline) or self._thread is not None:
+            return
+        target = threading.get_ident()
+
+        def watch() -> None:
+            while not self._done.wait(max(deadline - time.monotonic(), 0.0)):
+                if time.monotonic() >= deadline:
+                    # a call that starts after this check sees the deadline passed when it starts
+                    if self.in_call:
+                        signal.pthread_kill(target, _CUT_SIGNAL)
+                    return
+
+        self._previous = signal.signal(_CUT_SIGNAL, self._expire)
+        self._thread = threading.Thread(target=watch, name="attribot-run-deadline", daemon=True)
+        self._thread.start()
+
+    def _expire(self, signum: int, frame: Any) -> None:
+        if self.in_call:  # a signal that lands between calls is ignored
+            self.in_call = False
             raise _CallTimeout()
 
-    def send() -> None:
-        if armed.is_set():
-            signal.pthread_kill(target, _CUT_SIGNAL)
-
-    previous = signal.signal(_CUT_SIGNAL, expire)
-    timer = threading.Timer(max(seconds, 1e-3), send)
-    timer.daemon = True
-    try:
-        timer.start()
-        yield
-    finally:
-        armed.clear()  # a signal still on its way is ignored by `expire`
-        timer.cancel()
-        timer.join()
-        signal.signal(_CUT_SIGNAL, previous)
+    def disarm(self) -> None:
+        """Stop watching and put the previous handler back (the end of the run)."""
+        self.in_call = False
+        if self._thread is not None:
+            self._done.set()
+            self._thread.join()
+            self._thread = None
+            signal.signal(_CUT_SIGNAL, self._previous)
 
 
 class _Gone(Exception):
@@ -254,6 +263,7 @@ class _Run:
         self.calls = 0
         self.last_line: int | None = None
         self.stop: tuple[str, str, int | None] | None = None
+        self.cutter = _Cutter()
 
     # ---- host objects <-> handles -------------------------------------------------------------------
     def handle(self, obj: Any) -> dict[str, Any]:
@@ -388,9 +398,15 @@ class _Run:
             except TypeError as e:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown)
         t0 = time.perf_counter()
+        cutter = self.cutter
         try:
-            with _deadline_alarm(deadline - time.monotonic()):
+            cutter.in_call = True  # before the clock is read: see `_Cutter.arm`
+            try:
+                if time.monotonic() >= deadline:
+                    raise _CallTimeout()
                 result = fn(*args, **kwargs)
+            finally:
+                cutter.in_call = False
         except _CallTimeout:
             ms = (time.perf_counter() - t0) * 1000
             self.trace.append(
@@ -576,6 +592,7 @@ class ProgramRunner:
             try:
                 result = self._serve(state, request, t0)
             finally:
+                state.cutter.disarm()
                 self._respawn()
         return result
 
@@ -663,6 +680,7 @@ class ProgramRunner:
                 elif kind == Kind.GO and not ready:  # the worker has the program and starts its clocks
                     ready = True
                     deadline = time.monotonic() + limits.wall_s + grace
+                    state.cutter.arm(deadline)
                 elif kind == Kind.READY:
                     pass
                 else:
