@@ -113,9 +113,11 @@ class _Cutter:
 
     def arm(self, deadline: float) -> None:
         """Start watching `deadline` (time.monotonic) for the rest of the run."""
-        usable = threading.current_thread() is threading.main_thread() and signal.getsignal(
-            _CUT_SIGNAL
-        ) in (signal.SIG_DFL, signal.SIG_IGN, None)
+        usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
+            signal.SIG_DFL,
+            signal.SIG_IGN,
+            None,
+        )
         if not usable or not math.isfinite(deadline) or self._thread is not None:
             return
         target = threading.get_ident()

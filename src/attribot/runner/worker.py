@@ -451,6 +451,17 @@ def g_ilshift(a, b):
 def safe_pow(base, exp, mod=None):
     if mod is None:
         return g_pow(base, exp)
+    if type(base) in _INTS and type(exp) in _INTS and type(mod) in _INTS:
+        # the result is below the modulus, but the work grows with the exponent's and the modulus's bits
+        _check_bits(max(abs(base).bit_length(), abs(mod).bit_length()), "pow(base, exp, mod)")
+        work = abs(exp).bit_length() * max(abs(mod).bit_length(), 64)
+        if work > STATE.max_bits * 1000:
+            stop(
+                "limit",
+                f"pow(base, exp, mod) with an exponent of {abs(exp).bit_length()} bits and a modulus of "
+                f"{abs(mod).bit_length()} bits is too much work (the product of their bits may be at most "
+                f"{STATE.max_bits * 1000})",
+            )
     return pow(base, exp, mod)
 
 
@@ -508,7 +519,16 @@ def make_math():
         _check_bits(bits, "math.prod")
         return math.prod(items, start=start)
 
-    for f in (factorial, comb, perm, prod):
+    def gcd(*integers):
+        # the result is small, but the operands must have been allowed to exist
+        _check_bits(max((abs(v).bit_length() for v in integers if type(v) in _INTS), default=0), "math.gcd")
+        return math.gcd(*integers)
+
+    def lcm(*integers):
+        _check_bits(sum(abs(v).bit_length() for v in integers if type(v) in _INTS), "math.lcm")
+        return math.lcm(*integers)
+
+    for f in (factorial, comb, perm, prod, gcd, lcm):
         setattr(mod, f.__name__, f)
     return mod
 
