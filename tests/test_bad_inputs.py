@@ -157,6 +157,8 @@ def test_flags_click_cannot_parse_without_json_print_no_json(empty_settings):
         ('return float("-inf")', 1, "returned -inf"),
         ('return "a\\ud800b"', 0, "a\ufffdb"),
         ('print("\\udcff")\n    return 1', 0, ""),
+        # a lone surrogate that comes back inside an action's error, and in the trace (issue 22 item 3)
+        ('robot.pick_up("stap\\udc80ler")\n    return 1', 1, "stap\ufffdler"),
     ],
 )
 def test_program_results_that_json_cannot_hold(tmp_path, body, code, words, empty_settings):

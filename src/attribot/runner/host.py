@@ -29,6 +29,7 @@ from attribot.runner import worker
 from attribot.runner.policy import prepare_program, snippet_of
 from attribot.runner.protocol import KIND, Key, Kind
 from attribot.runner.records import Limits, RunError, RunResult, TraceRecord
+from attribot.text import json_safe as _text
 
 __all__ = ["ProgramRunner"]
 
@@ -39,18 +40,6 @@ _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
 """Longest text kept whole in a trace record; longer ones are cut and say how long they were."""
-
-
-_SURROGATES = re.compile("[\ud800-\udfff]")
-
-
-def _text(value: str) -> str:
-    """`value` as text any JSON file can hold: lone surrogates (which a program can make) become U+FFFD."""
-    try:
-        value.encode("utf-8")
-        return value
-    except UnicodeEncodeError:
-        return _SURROGATES.sub("\ufffd", value)
 
 
 def _cut(value: Any) -> Any:
@@ -441,6 +430,7 @@ class _Run:
     def _refuse(
         self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
     ) -> dict[str, Any]:
+        message = _text(message)  # a host error may quote a program's text, lone surrogates and all
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
         return {KIND: Kind.API_ERROR, Key.CATEGORY: "api", Key.MESSAGE: message}
 
