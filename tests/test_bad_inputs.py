@@ -283,3 +283,29 @@ def test_scene_render_writes_a_whole_image(tmp_path):
 def test_empty_categories_are_refused(empty_settings):
     result = _invoke(["ask", "Where is the mug?", "--categories", " , "])
     assert result.exit_code == 2 and "--categories names no category" in result.output
+
+
+@pytest.mark.parametrize("as_json", [False, True])
+def test_control_characters_from_a_program_are_shown_not_acted_on(tmp_path, as_json, empty_settings):
+    # issue 22 item 4: clear the screen, recolour it, set the clipboard (OSC 52), a C1 CSI, a bidi override
+    import json
+
+    made = "\\x1b[2J\\x1b[31mred\\x1b]52;c;aGk=\\x07\\x9b2J\\u202ekcab\\r"
+    program = tmp_path / "p.py"
+    program.write_text(f'def execute_command(image, robot):\n    return "{made}"\n')
+    result = _invoke(["exec", str(program), "--layout", "triplet", *(["--json"] if as_json else [])])
+    assert result.exit_code == 0, result.output
+    for acting in ("\x1b", "\x07", "\x9b", "\u202e", "\r"):
+        assert acting not in result.stdout
+    if as_json:  # the data reads back whole
+        assert json.loads(result.stdout)["answer"] == "\x1b[2J\x1b[31mred\x1b]52;c;aGk=\x07\x9b2J\u202ekcab\r"
+    else:
+        assert "\\x1b[2J\\x1b[31mred\\x1b]52;c;aGk=\\x07\\x9b2J\\u202ekcab\\x0d" in result.stdout
+
+
+def test_control_characters_in_an_error_message_are_shown(tmp_path, empty_settings):
+    program = tmp_path / "p.py"
+    program.write_text('def execute_command(image, robot):\n    raise ValueError("\\x1b[2Jgone")\n')
+    result = _invoke(["exec", str(program), "--layout", "triplet"])
+    assert result.exit_code == 1
+    assert "\x1b" not in result.stdout and "\\x1b[2Jgone" in result.stdout

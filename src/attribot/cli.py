@@ -8,7 +8,6 @@ converts them); nothing prints a traceback at a user.
 from __future__ import annotations
 
 import contextlib
-import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -308,16 +307,17 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
     """Print, as --json does, an answer that holds only an error (no program ran)."""
     from attribot.planning.answer import Answer, AnswerError
 
-    shown = re.sub("[\ud800-\udfff]", "\ufffd", query)  # undecodable command-line bytes
     answer = Answer(
-        query=shown,
+        query=query,  # an Answer makes undecodable command-line bytes JSON-safe
         answer=f"no answer: {message}",
         planner=planner,
         backends={},
         attempts=0,
         error=AnswerError(category=category, message=message),
     )
-    typer.echo(answer.model_dump_json(indent=2))
+    from attribot.text import terminal_json
+
+    typer.echo(terminal_json(answer.model_dump_json(indent=2)))
 
 
 def _world_choice(
@@ -346,17 +346,21 @@ def _world_choice(
 
 
 def _show(answer: Any, as_json: bool) -> None:
+    """Print an answer; what a program made (answer text, error message) cannot act on the terminal: its
+    control characters are shown as escapes (JSON escapes those JSON leaves as they are)."""
+    from attribot.text import terminal_json, visible
+
     if as_json:
-        typer.echo(answer.model_dump_json(indent=2))
+        typer.echo(terminal_json(answer.model_dump_json(indent=2)))
     else:
         out = Console(soft_wrap=True)
         if answer.error is None:
-            out.print(f"[bold green]answer:[/] {escape(answer.answer)}", highlight=False)
+            out.print(f"[bold green]answer:[/] {escape(visible(answer.answer))}", highlight=False)
         else:
             where = f" at line {answer.error.line}" if answer.error.line else ""
             out.print(
                 f"[bold red]no answer[/] ({answer.error.category} error{where}): "
-                f"{escape(answer.error.message)}",
+                f"{escape(visible(answer.error.message))}",
                 highlight=False,
             )
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
