@@ -309,3 +309,23 @@ def test_control_characters_in_an_error_message_are_shown(tmp_path, empty_settin
     result = _invoke(["exec", str(program), "--layout", "triplet"])
     assert result.exit_code == 1
     assert "\x1b" not in result.stdout and "\\x1b[2Jgone" in result.stdout
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "return image.find(robot)",
+        "return robot.pick_up(robot)",
+        'r = Robot(sensors=["distance"])\n    return image.visual_query(r)',
+    ],
+)
+def test_api_errors_name_a_host_object_by_its_class_not_its_repr(tmp_path, body, empty_settings):
+    # issue 22 item 5
+    import json
+
+    program = tmp_path / "p.py"
+    program.write_text(f"def execute_command(image, robot):\n    {body}\n")
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json"])
+    assert result.exit_code == 1
+    message = json.loads(result.stdout)["error"]["message"]
+    assert "got a Robot" in message and "object at 0x" not in result.stdout and "attribot." not in message

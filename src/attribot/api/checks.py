@@ -15,11 +15,22 @@ MAX_TEXT = 2000
 T = TypeVar("T")
 
 
+def _given(value: object) -> str:
+    """What a program passed, for an error message: plain values as written (cut), anything else by its
+    public class name only (never a host object's repr, which shows module paths and addresses)."""
+    if value is None or isinstance(value, str | bytes | int | float):
+        return f"{type(value).__name__} {value!r:.60}"
+    if isinstance(value, list | tuple | dict | set | frozenset):
+        return f"{type(value).__name__} of {len(value)} item{'' if len(value) == 1 else 's'}"
+    public = next((c.__name__ for c in type(value).__mro__ if not c.__name__.startswith("_")), "object")
+    return f"a {public}"
+
+
 def check_text(value: object, arg: str, method: str) -> str:
     """`value` stripped, if it is a non-empty str of at most MAX_TEXT characters."""
     if not isinstance(value, str):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as text, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as text, got {_given(value)}",
             f'pass a string, e.g. {method}("cup")'
             if arg == "object_name"
             else f'pass a string, e.g. {method}("What is this?")',
@@ -38,7 +49,7 @@ def check_number(value: object, arg: str, method: str) -> float:
     """`value` as a float, if it is a finite int or float (not a bool)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as a number, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as a number, got {_given(value)}",
             "pass a number, e.g. a patch attribute such as patch.horizontal_center",
         )
     number = float(value)
@@ -51,7 +62,7 @@ def check_patch(value: object, cls: type[T], arg: str, method: str) -> T:
     """`value` if it is an instance of `cls` (an ImagePatch), else an error that says what to pass."""
     if not isinstance(value, cls):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as an {cls.__name__}, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as an {cls.__name__}, got {_given(value)}",
             f'pass a patch returned by image.find(...), e.g. {method}(image.find("cup")[0])',
         )
     return value

@@ -53,9 +53,13 @@ def _cut(value: Any) -> Any:
     return value
 
 
+# a default repr, "<attribot.api.robot._RobotWithSensors object at 0x7f...>": its class name is enough
+_HOST_REPR = re.compile(r"<(?:\w+\.)*_*(\w+) object at 0x[0-9a-fA-F]+>")
+
+
 def _scrub(text: str, limit: int = 300) -> str:
-    """A host exception's text without file paths, short."""
-    text = _PATHS.sub("<path>", text)
+    """A host exception's text without file paths or host object reprs, short."""
+    text = _PATHS.sub("<path>", _HOST_REPR.sub(r"<\1>", text))
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
@@ -347,7 +351,10 @@ class _Run:
         cls = self.runner._class_of(value)
         if cls is not None:
             return self.runner.summarise(value)
-        return repr(value)[:200]
+        item = getattr(value, "item", None)  # numpy scalars
+        if callable(item) and getattr(value, "shape", None) == ():
+            return self.summary(item(), depth + 1)
+        return f"<{type(value).__name__}>"  # not its repr: that shows host modules and addresses
 
     # ---- one API call -------------------------------------------------------------------------------
     def call(self, msg: dict[str, Any], deadline: float = math.inf) -> dict[str, Any]:
@@ -430,7 +437,8 @@ class _Run:
     def _refuse(
         self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
     ) -> dict[str, Any]:
-        message = _text(message)  # a host error may quote a program's text, lone surrogates and all
+        # a host error may quote a program's text, lone surrogates and all, or a host object's repr
+        message = _text(_HOST_REPR.sub(r"<\1>", message))
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
         return {KIND: Kind.API_ERROR, Key.CATEGORY: "api", Key.MESSAGE: message}
 
