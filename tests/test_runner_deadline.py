@@ -16,7 +16,7 @@ class Stuck:
     peer that never answers (what a stuck model endpoint looks like)."""
 
     API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ()
-    API_METHODS: ClassVar[tuple[str, ...]] = ("wait", "read", "quick")
+    API_METHODS: ClassVar[tuple[str, ...]] = ("wait", "read", "quick", "spin")
 
     def __init__(self) -> None:
         self.finished: list[str] = []
@@ -38,6 +38,13 @@ class Stuck:
 
     def quick(self) -> int:
         return 7
+
+    def spin(self) -> int:
+        n = 0
+        while n >= 0:  # host CPU, not the program's: what a backend's slow parsing looks like
+            n += 1
+        self.finished.append("spin")
+        return n
 
 
 def _run(method: str) -> tuple[object, Stuck]:
@@ -65,6 +72,14 @@ def test_a_blocked_socket_read_is_cut_at_the_wall_limit():
     result, stuck = _run("read")
     assert result.error is not None and result.error.category == "timeout"
     assert stuck.finished == []
+
+
+def test_host_cpu_spent_by_a_call_counts_against_the_wall_limit():
+    # issue 22 item 1: a backend call burnt 45 s of host CPU for a program limited to 10 s
+    result, stuck = _run("spin")
+    assert result.error is not None and result.error.category == "timeout"
+    assert stuck.finished == []
+    assert result.trace[-1].call == "Stuck.spin" and result.trace[-1].error == "cut at the run's time limit"
 
 
 def test_the_cutting_signal_is_put_back_after_a_run():

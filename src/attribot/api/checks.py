@@ -9,8 +9,10 @@ from attribot.api.errors import ApiArgumentError
 
 __all__ = ["check_text", "check_number", "check_patch", "MAX_TEXT"]
 
-MAX_TEXT = 2000
-"""Longest question or object name accepted, in characters."""
+MAX_TEXT = {"detector": 300, "vqa": 1000, "language": 2000}
+"""Longest text accepted per backend role, in characters: an object name for the detector, a question for
+visual question answering, a question for the language model. A backend's work grows with its input, so
+the cap bounds what one API call can cost the host."""
 
 T = TypeVar("T")
 
@@ -26,8 +28,8 @@ def _given(value: object) -> str:
     return f"a {public}"
 
 
-def check_text(value: object, arg: str, method: str) -> str:
-    """`value` stripped, if it is a non-empty str of at most MAX_TEXT characters."""
+def check_text(value: object, arg: str, method: str, role: str) -> str:
+    """`value` stripped, if it is a non-empty str of at most `MAX_TEXT[role]` characters."""
     if not isinstance(value, str):
         raise ApiArgumentError(
             f"{method}() needs {arg} as text, got {_given(value)}",
@@ -38,9 +40,11 @@ def check_text(value: object, arg: str, method: str) -> str:
     text = value.strip()
     if not text:
         raise ApiArgumentError(f"{method}() got an empty {arg}", f"pass a non-empty {arg}")
-    if len(text) > MAX_TEXT:
+    limit = MAX_TEXT[role]
+    if len(text) > limit:
         raise ApiArgumentError(
-            f"{method}() got a {arg} of {len(text)} characters, more than {MAX_TEXT}", f"shorten the {arg}"
+            f"{method}() got a {arg} of {len(text)} characters, more than {limit}",
+            f"shorten the {arg} to at most {limit} characters",
         )
     return text
 
