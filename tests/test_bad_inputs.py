@@ -30,6 +30,11 @@ def _invoke(args: list[str], env: dict[str, str | None] | None = None):
         (b"llm_timeout_s = -3\n", ["llm_timeout_s", "greater than 0"]),
         (b"llm_timeout_s = nan\n", ["llm_timeout_s", "finite"]),
         (b"llm_max_tries = 0\n", ["llm_max_tries"]),
+        # issue 22 items 6 and 9: a deep nesting, a time that overflows every clock it reaches
+        (b"a = " + b"[" * 100_000 + b"]" * 100_000 + b"\n", ["nests arrays or tables too deeply"]),
+        (b"x = " + b"{a = " * 50_000 + b"1" + b"}" * 50_000 + b"\n", ["too deeply"]),
+        (b"remote_timeout_s = 1e308\n", ["remote_timeout_s", "less than or equal to 86400"]),
+        (b"llm_timeout_s = 1e10\n", ["llm_timeout_s", "less than or equal to 86400"]),
     ],
 )
 def test_bad_settings_file(tmp_path, content, words):

@@ -31,12 +31,15 @@ __all__ = [
     "SceneConfig",
     "MAX_OBJECTS",
     "MAX_SEED",
+    "MAX_TIME_S",
     "RENDER_PROFILES",
 ]
 
 MAX_OBJECTS = 30
 """The most objects any layout places (each layout states its own, smaller range)."""
 MAX_SEED = 2**32 - 1
+MAX_TIME_S = 86_400.0
+"""The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 
@@ -57,7 +60,7 @@ class Settings(BaseSettings):
     llm_base_url: str | None = None
     llm_model: str = "gpt-4o"
     llm_api_key: str | None = Field(default=None, repr=False)
-    llm_timeout_s: float = Field(60.0, gt=0, allow_inf_nan=False)
+    llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
     llm_max_tries: int = Field(3, ge=1, le=100)
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
 
@@ -68,7 +71,7 @@ class Settings(BaseSettings):
 
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
-    remote_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
+    remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     cache_dir: Path = Path(".attribot-cache")
 
@@ -157,6 +160,11 @@ def _check_toml(path: Path) -> None:
     except UnicodeDecodeError as exc:
         raise ConfigError(
             f"the settings file {str(path)!r} is not UTF-8 text (byte {exc.start})", "save it as UTF-8"
+        ) from None
+    except RecursionError:
+        raise ConfigError(
+            f"the settings file {str(path)!r} nests arrays or tables too deeply to read",
+            "attribot's settings are flat `key = value` lines; remove the nesting",
         ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(
