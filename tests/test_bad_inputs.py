@@ -200,16 +200,30 @@ def test_long_values_are_cut_in_the_trace(tmp_path, empty_settings):
         (["--image", "{photo}", "--sensors", "camera,distance"], "camera only, not distance"),
         (["--image", "{photo}", "--seed", "3"], "not both"),
         (["--image", "{bomb}"], "megapixels"),
+        # issue 22 item 12: refused from the header, before 15 s and 1.2 GB of decoding
+        (["--image", "{large}"], "6000x4500 = 27 megapixels, more than the 25 allowed"),
+        # issue 22 item 11: not "does not exist"
+        (["--image", "{folder}"], "is a folder, not a regular file"),
+        (["--image", "{fifo}"], "is a FIFO (named pipe), not a regular file"),
+        (["--image", "/dev/zero"], "'/dev/zero' is a device, not a regular file"),
+        (["--image", "{missing}"], "does not exist"),
     ],
 )
 def test_sensors_and_images(tmp_path, args, words, empty_settings):
+    import os
+
     import numpy as np
     from PIL import Image
 
-    photo, bomb = tmp_path / "photo.png", tmp_path / "bomb.png"
+    photo, bomb, large = tmp_path / "photo.png", tmp_path / "bomb.png", tmp_path / "large.png"
     Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(photo)
     Image.new("L", (11000, 10000)).save(bomb)  # 110 MP, a few kB
-    args = [a.format(photo=photo, bomb=bomb) for a in args]
+    Image.new("L", (6000, 4500)).save(large)
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "folder").mkdir()
+    names = {"photo": photo, "bomb": bomb, "large": large, "folder": tmp_path / "folder"}
+    names |= {"fifo": tmp_path / "fifo", "missing": tmp_path / "missing.png"}
+    args = [a.format(**names) for a in args]
     result = _invoke(["ask", "Where is the mug?", *args, "--detector", "hf:/no/such/model"])
     assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output
 
@@ -334,3 +348,45 @@ def test_api_errors_name_a_host_object_by_its_class_not_its_repr(tmp_path, body,
     assert result.exit_code == 1
     message = json.loads(result.stdout)["error"]["message"]
     assert "got a Robot" in message and "object at 0x" not in result.stdout and "attribot." not in message
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
+def test_a_program_that_is_not_a_regular_file_is_named_as_such(tmp_path, kind, empty_settings):
+    # issue 22 item 11: a FIFO would block the read forever, /dev/zero never ends
+    import os
+
+    path = {"folder": tmp_path, "fifo": tmp_path / "p.py", "device": "/dev/zero"}[kind]
+    if kind == "fifo":
+        os.mkfifo(path)
+    result = _invoke(["exec", str(path), "--layout", "triplet"])
+    assert result.exit_code == 2
+    said = " ".join(result.output.split())
+    assert "not a regular file" in said and "does not exist" not in said
+
+
+def test_a_program_file_may_start_with_a_byte_order_mark(tmp_path, empty_settings):
+    # issue 22 item 10: Python accepts a UTF-8 BOM; so does exec
+    program = tmp_path / "p.py"
+    program.write_bytes(b"\xef\xbb\xbfdef execute_command(image, robot):\n    return 41 + 1\n")
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json"])
+    assert result.exit_code == 0, result.output
+    import json
+
+    assert json.loads(result.stdout)["answer"] == "42"
+
+
+def test_a_16_bit_greyscale_png_is_scaled_to_8_bits(tmp_path):
+    # issue 22 item 7: PIL's conversion clipped it, 99.6% of the pixels at 255
+    import numpy as np
+    from PIL import Image
+
+    from attribot.frame import load_image
+
+    grey = np.linspace(0, 65535, 64 * 64).reshape(64, 64).astype(np.uint16)
+    Image.fromarray(grey).save(tmp_path / "g16.png")
+    rgb = load_image(tmp_path / "g16.png")
+    assert rgb.dtype == np.uint8 and rgb.shape == (64, 64, 3)
+    assert (rgb[..., 0] == rgb[..., 1]).all() and (rgb[..., 1] == rgb[..., 2]).all()
+    expected = np.rint(grey / 257.0).astype(np.uint8)
+    assert np.abs(rgb[..., 0].astype(int) - expected).max() <= 1
+    assert (rgb == 255).mean() < 0.01

@@ -442,6 +442,7 @@ def exec_program(
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
     from attribot.errors import InputError
+    from attribot.files import check_regular_file
 
     with _errors_as_json(as_json, query, "file"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
@@ -449,10 +450,9 @@ def exec_program(
         from attribot.config import load_settings
         from attribot.planning.ask import execute
 
-        if not program.is_file():
-            raise InputError(f"program file {str(program)!r} does not exist", "give the path of a .py file")
+        check_regular_file(program, "program file", "give the path of a .py file")
         try:
-            source = program.read_text(encoding="utf-8")
+            source = program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(
                 f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",

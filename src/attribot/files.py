@@ -8,12 +8,13 @@ since permission bits lie to root (/proc/self looks writable) and /dev/null is n
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
 from attribot.errors import InputError
 
-__all__ = ["write_whole", "check_writable"]
+__all__ = ["write_whole", "check_writable", "check_regular_file"]
 
 
 def write_whole(path: Path, data: bytes) -> None:
@@ -38,6 +39,31 @@ def check_writable(folder: Path, what: str, fix: str) -> None:
         raise InputError(
             f"{what} cannot be written: {exc.strerror or exc.__class__.__name__} in {str(folder)!r}", fix
         ) from None
+
+
+def check_regular_file(path: Path, what: str, fix: str) -> None:
+    """Raise `InputError` unless `path` is a regular file (or a link to one): a missing path, a folder, a
+    FIFO (which would block a reader forever) or a device (/dev/zero, which never ends) each say which."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise InputError(f"{what} {str(path)!r} does not exist", fix) from None
+    except OSError as exc:
+        raise InputError(f"{what} {str(path)!r} cannot be read ({exc.strerror or exc})", fix) from None
+    if stat.S_ISREG(mode):
+        return
+    kind = (
+        "a folder"
+        if stat.S_ISDIR(mode)
+        else "a FIFO (named pipe)"
+        if stat.S_ISFIFO(mode)
+        else "a device"
+        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+        else "a socket"
+        if stat.S_ISSOCK(mode)
+        else "not a file"
+    )
+    raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file", fix)
 
 
 def _umask() -> int:
