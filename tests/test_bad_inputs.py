@@ -390,3 +390,19 @@ def test_a_16_bit_greyscale_png_is_scaled_to_8_bits(tmp_path):
     expected = np.rint(grey / 257.0).astype(np.uint8)
     assert np.abs(rgb[..., 0].astype(int) - expected).max() <= 1
     assert (rgb == 255).mean() < 0.01
+
+
+@pytest.mark.parametrize("as_json", [False, True])
+def test_control_characters_in_the_query_are_refused_naming_them(as_json, empty_settings):
+    # issue 22 item 8: "Which object\x1b[2J is ..." reached the planner, which searched for "object 2j"
+    import json
+
+    result = _invoke(["ask", "Which object\x1b[2J is the heaviest?\x07", *(["--json"] if as_json else [])])
+    assert result.exit_code == 2
+    if as_json:
+        error = json.loads(result.stdout)["error"]
+        assert error["category"] == "input"
+        said = error["message"]
+    else:
+        said = " ".join(result.output.split())
+    assert "control characters (\\x1b, \\x07)" in said and "\x1b" not in result.output
