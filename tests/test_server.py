@@ -528,3 +528,24 @@ def test_language_work_of_a_client_that_left_is_not_run():
         first.join(30)
         stays.join(30)
         assert language.seen == ["first", "stays"]
+
+
+def test_cli_serve_models_on_a_port_in_use_exits_2_naming_it(tmp_path, monkeypatch):
+    # issue 22 item 13: it printed "listening on ..." and then exited 3
+    import socket
+
+    from typer.testing import CliRunner
+
+    from attribot.cli import app
+
+    (tmp_path / "none.toml").write_text("")
+    monkeypatch.setenv("ATTRIBOT_CONFIG", str(tmp_path / "none.toml"))
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(app, ["serve", "models", "--port", str(port), "--language", "catalog"])
+    said = " ".join(result.output.split())
+    assert result.exit_code == 2, said
+    assert f"port {port} on 127.0.0.1 is already in use" in said and "--port" in said
+    assert "listening on" not in said and "serving" not in said

@@ -754,7 +754,7 @@ def serve_models(
     from pydantic import ValidationError
 
     from attribot.config import load_settings
-    from attribot.server import ServerConfig, build_served_backends, check_bind, served_specs
+    from attribot.server import ServerConfig, build_served_backends, check_bind, listen_socket, served_specs
     from attribot.server import serve_models as run_server
 
     if not 0 < port < 65536:
@@ -775,9 +775,14 @@ def serve_models(
     check_bind(host, config.token)
     given = {"detector": detector, "vqa": vqa, "language": language}
     _, notes = served_specs(settings, given)
+    sock = listen_socket(host, port)  # a port in use is said before any model loads
     for note in notes:
         err_console.print(f"[yellow]note:[/] {note}", highlight=False)
-    backends = build_served_backends(settings, given, model_process=model_process)
+    try:
+        backends = build_served_backends(settings, given, model_process=model_process)
+    except BaseException:
+        sock.close()
+        raise
     for role, backend in backends.items():
         pid = getattr(backend, "pid", None)
         where = f" (model process {pid})" if pid is not None else ""
@@ -789,7 +794,7 @@ def serve_models(
         f"clients give remote:http://{host}:{port} as the backend spec of each served role",
         highlight=False,
     )
-    run_server(backends, config, host=host, port=port, log_level=log_level)
+    run_server(backends, config, host=host, port=port, log_level=log_level, sock=sock)
 
 
 # ---- bridge (the robot side of the robot bridge) -----------------------------------------------------
