@@ -498,6 +498,9 @@ def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else list(TASKS)
     if not chosen:
         raise InputError("--tasks names no task", f"choose from: {', '.join(TASKS)}")
+    unknown = [t for t in chosen if t not in TASKS]
+    if unknown:
+        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(TASKS)}")
     return chosen
 
 
@@ -509,12 +512,25 @@ def dataset_build(
     limit: int | None = _LIMIT,
 ) -> None:
     """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
-    from attribot.eval.datasets import DATASET_VERSION, build_items, write_dataset
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from attribot.eval.datasets import DATASET_VERSION, build_items, item_count, write_dataset
 
     chosen = _suite_tasks(suite, tasks)
     _writable_folder(out, "--out")
-    items = build_items(chosen, limit)
-    write_dataset(items, out)
+    total = sum(item_count(task, limit) for task in chosen)
+    # generation and rendering take minutes for the whole suite: say how far they are
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+    ) as bar:
+        made = bar.add_task("generating items", total=total)
+        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made))
+        drawn = bar.add_task("rendering images", total=len(items))
+        write_dataset(items, out, on_image=lambda _item: bar.advance(drawn))
     console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
 
 
@@ -563,6 +579,12 @@ def evaluate(
     noise: str = typer.Option("clean", "--noise", help="Comma-separated noise levels: clean,realistic."),
     workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
+    dataset: Path | None = typer.Option(
+        None,
+        "--dataset",
+        help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
+        "generating them.",
+    ),
     planner: str | None = _PLANNER,
     llm_base_url: str | None = _LLM_BASE_URL,
     llm_model: str | None = _LLM_MODEL,
@@ -614,6 +636,7 @@ def evaluate(
             executor=executor,
             progress=lambda msg: bar.update(job, description=msg),
             on_record=on_record,
+            dataset=dataset,
         )
     console.print(
         f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
