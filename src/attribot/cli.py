@@ -64,10 +64,13 @@ console = Console(soft_wrap=True)
 
 
 def fail(message: str, fix: str | None = None, code: int = 2) -> typer.Exit:
-    """Print an error (and its fix) to stderr; return the Exit to raise."""
-    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False)
+    """Print an error (and its fix) to stderr, its control characters shown as escapes (a message may quote
+    a program's or a file's text); return the Exit to raise."""
+    from attribot.text import visible
+
+    err_console.print(f"[bold red]error:[/] {escape(visible(message))}", highlight=False)
     if fix:
-        err_console.print(f"[yellow]fix:[/] {escape(fix)}", highlight=False)
+        err_console.print(f"[yellow]fix:[/] {escape(visible(fix))}", highlight=False)
     return typer.Exit(code)
 
 
