@@ -58,6 +58,7 @@ def test_bad_settings_file(tmp_path, content, words):
         ({"ATTRIBOT_DETECTOR_THRESHOLD": "2"}, ["detector_threshold"]),
         ({"ATTRIBOT_CONFIG": "/nonexistent/attribot.toml"}, ["ATTRIBOT_CONFIG", "missing"]),
         ({"ATTRIBOT_CONFIG": "/"}, ["ATTRIBOT_CONFIG", "folder"]),
+        ({"ATTRIBOT_CONFIG": "/dev/zero"}, ["ATTRIBOT_CONFIG", "a device, not a settings file"]),
     ],
 )
 def test_bad_settings_environment(env, words):

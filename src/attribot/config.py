@@ -23,6 +23,7 @@ from pydantic_settings import (
 )
 
 from attribot.errors import ConfigError, InputError
+from attribot.files import not_a_file
 
 __all__ = [
     "Settings",
@@ -105,8 +106,8 @@ def config_path() -> Path | None:
         path = Path("attribot.toml")
         return path if path.is_file() else None
     path = Path(named).expanduser()
-    if not path.is_file():
-        what = "a folder" if path.is_dir() else "missing"
+    what = not_a_file(path)  # a FIFO or /dev/zero is named as such, and never opened
+    if what is not None:
         raise ConfigError(
             f"ATTRIBOT_CONFIG names {named!r}, which is {what}, not a settings file",
             "point ATTRIBOT_CONFIG at a TOML file, or unset it to use ./attribot.toml",

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from attribot.errors import InputError
 
-__all__ = ["write_whole", "check_writable", "check_regular_file"]
+__all__ = ["write_whole", "check_writable", "check_regular_file", "not_a_file"]
 
 
 def write_whole(path: Path, data: bytes) -> None:
@@ -41,28 +41,36 @@ def check_writable(folder: Path, what: str, fix: str) -> None:
         ) from None
 
 
-def check_regular_file(path: Path, what: str, fix: str) -> None:
-    """Raise `InputError` unless `path` is a regular file (or a link to one): a missing path, a folder, a
-    FIFO (which would block a reader forever) or a device (/dev/zero, which never ends) each say which."""
+def not_a_file(path: Path) -> str | None:
+    """None when `path` is a regular file (or a link to one); else what it is instead: "missing", "a
+    folder", "a FIFO (named pipe)", "a device", "a socket", or why it cannot be looked at."""
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
-        raise InputError(f"{what} {str(path)!r} does not exist", fix) from None
+        return "missing"
     except OSError as exc:
-        raise InputError(f"{what} {str(path)!r} cannot be read ({exc.strerror or exc})", fix) from None
+        return f"unreadable ({exc.strerror or exc})"
     if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "a socket" if stat.S_ISSOCK(mode) else "not a file"
+
+
+def check_regular_file(path: Path, what: str, fix: str) -> None:
+    """Raise `InputError` unless `path` is a regular file (or a link to one): a missing path, a folder, a
+    FIFO (which would block a reader forever) or a device (/dev/zero, which never ends) each say which."""
+    kind = not_a_file(path)
+    if kind is None:
         return
-    kind = (
-        "a folder"
-        if stat.S_ISDIR(mode)
-        else "a FIFO (named pipe)"
-        if stat.S_ISFIFO(mode)
-        else "a device"
-        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-        else "a socket"
-        if stat.S_ISSOCK(mode)
-        else "not a file"
-    )
+    if kind == "missing":
+        raise InputError(f"{what} {str(path)!r} does not exist", fix)
+    if kind.startswith("unreadable"):
+        raise InputError(f"{what} {str(path)!r} cannot be read: it is {kind}", fix)
     raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file", fix)
 
 
