@@ -87,45 +87,62 @@ leave alone."""
 
 
 class _Cutter:
-    """Cuts a host-side API call that is still running at the run's deadline; armed once per run.
+    """Cuts a host-side API call that is still running at its run's deadline.
 
-    When the run is served from the main thread (where Python runs signal handlers) and the cutting
-    signal is free, `arm` installs the handler and starts one watcher thread that sleeps until the
-    deadline and then signals the main thread if it is inside a call (`in_call`). The signal interrupts
-    Python code and blocking system calls (a socket read from a stuck endpoint, a wait); a C call that
-    never returns to Python (one model forward pass) ends first. A call itself only sets and clears
-    `in_call` and checks the clock once, so the protection costs next to nothing per call. Elsewhere
-    (another thread, the signal owned by the application) the deadline is checked when a call returns.
+    One watcher thread per runner, started with its first run, sleeps until the armed deadline and then
+    signals the main thread if it is inside a call (`in_call`). `arm` (once per run, when the run is served
+    from the main thread, where Python runs signal handlers, and the cutting signal is free) installs the
+    handler and hands the watcher the deadline; `disarm` takes both back. The signal interrupts Python
+    code and blocking system calls (a socket read from a stuck endpoint, a wait); a C call that never
+    returns to Python (one model forward pass) ends first. A call itself only sets and clears `in_call`
+    and reads the clock once, so the protection costs next to nothing per call. Elsewhere (another thread,
+    the signal owned by the application) the deadline is checked when a call returns.
     """
 
     def __init__(self) -> None:
         self.in_call = False
-        self._done = threading.Event()
+        self._cond = threading.Condition()
+        self._deadline: float | None = None  # armed: the deadline the watcher waits for
+        self._target = 0
         self._thread: threading.Thread | None = None
+        self._closed = False
         self._previous: Any = None
+        self._armed = False
 
     def arm(self, deadline: float) -> None:
-        """Start watching `deadline` (time.monotonic) for the rest of the run."""
+        """Watch `deadline` (time.monotonic) until `disarm`."""
         usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
             signal.SIG_DFL,
             signal.SIG_IGN,
             None,
         )
-        if not usable or not math.isfinite(deadline) or self._thread is not None:
+        if not usable or not math.isfinite(deadline) or self._armed:
             return
-        target = threading.get_ident()
-
-        def watch() -> None:
-            while not self._done.wait(max(deadline - time.monotonic(), 0.0)):
-                if time.monotonic() >= deadline:
-                    # a call that starts after this check sees the deadline passed when it starts
-                    if self.in_call:
-                        signal.pthread_kill(target, _CUT_SIGNAL)
-                    return
-
         self._previous = signal.signal(_CUT_SIGNAL, self._expire)
-        self._thread = threading.Thread(target=watch, name="attribot-run-deadline", daemon=True)
-        self._thread.start()
+        self._armed = True
+        with self._cond:
+            self._target = threading.get_ident()
+            self._deadline = deadline
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._watch, name="attribot-run-deadline", daemon=True)
+                self._thread.start()
+            self._cond.notify()
+
+    def _watch(self) -> None:
+        with self._cond:
+            while not self._closed:
+                if self._deadline is None:
+                    self._cond.wait()
+                    continue
+                left = self._deadline - time.monotonic()
+                if left > 0:
+                    self._cond.wait(left)
+                    continue
+                # a call that starts after this check sees the deadline passed when it starts; the signal
+                # is sent under the lock, so never after `disarm` has put the previous handler back
+                if self.in_call:
+                    signal.pthread_kill(self._target, _CUT_SIGNAL)
+                self._deadline = None
 
     def _expire(self, signum: int, frame: Any) -> None:
         if self.in_call:  # a signal that lands between calls is ignored
@@ -135,11 +152,20 @@ class _Cutter:
     def disarm(self) -> None:
         """Stop watching and put the previous handler back (the end of the run)."""
         self.in_call = False
-        if self._thread is not None:
-            self._done.set()
-            self._thread.join()
-            self._thread = None
-            signal.signal(_CUT_SIGNAL, self._previous)
+        if not self._armed:
+            return
+        with self._cond:
+            self._deadline = None
+            self._cond.notify()
+        signal.signal(_CUT_SIGNAL, self._previous)
+        self._armed = False
+
+    def close(self) -> None:
+        """End the watcher thread (the runner is closed)."""
+        with self._cond:
+            self._closed = True
+            self._deadline = None
+            self._cond.notify()
 
 
 class _Gone(Exception):
@@ -258,7 +284,7 @@ class _Run:
         self.calls = 0
         self.last_line: int | None = None
         self.stop: tuple[str, str, int | None] | None = None
-        self.cutter = _Cutter()
+        self.cutter = runner._cutter
 
     # ---- host objects <-> handles -------------------------------------------------------------------
     def handle(self, obj: Any) -> dict[str, Any]:
@@ -511,7 +537,9 @@ class ProgramRunner:
         self._lock = threading.Lock()
         self._box: list[_Worker | None] = [None]
         self._closed = False
+        self._cutter = _Cutter()  # one watcher thread for every run of this runner
         self._finalizer = weakref.finalize(self, _kill_worker, self._box)
+        weakref.finalize(self, self._cutter.close)
         self._box[0] = _Worker()
 
     # ---- host-side helpers --------------------------------------------------------------------------
@@ -724,6 +752,7 @@ class ProgramRunner:
         self._closed = True
         with self._lock:
             _kill_worker(self._box)
+            self._cutter.close()
 
     def __enter__(self) -> ProgramRunner:
         return self
