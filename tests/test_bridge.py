@@ -248,6 +248,29 @@ def test_an_idle_connection_holds_nothing_and_is_dropped_after_the_hello_deadlin
         assert idle.recv(1) == b""  # the robot closed it: no hello within the deadline
 
 
+def test_a_hello_trickled_a_byte_at_a_time_is_cut_at_the_deadline():
+    import select
+    import struct
+
+    with serving(RecordingDriver) as (server, _), socket.create_connection(server.address) as slow:
+        slow.sendall(struct.pack(">4sII", b"ATB1", 1000, 0))  # a header of 1000 bytes is announced
+        closed = False
+        for _ in range(60):  # then sent a byte every 0.25 s: it would take 250 s
+            try:
+                slow.sendall(b" ")
+            except OSError:
+                closed = True
+                break
+            readable, _, _ = select.select([slow], [], [], 0.25)
+            if readable:
+                try:
+                    closed = slow.recv(1) == b""
+                except OSError:
+                    closed = True
+                break
+        assert closed  # the robot hung up long before the hello was whole
+
+
 def test_a_second_client_is_told_the_robot_is_busy():
     with serving(RecordingDriver) as (server, _):
         with BridgeWorld(url=url(server), token=TOKEN) as first:

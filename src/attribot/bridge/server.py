@@ -167,6 +167,14 @@ MAX_GREETING = 16
 """Connections in their hello at once; more are closed at once (a flood must not exhaust threads)."""
 
 
+def _shut(conn: socket.socket) -> None:
+    """End a connection's reads and writes (its reader then sees the connection closed)."""
+    try:
+        conn.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass
+
+
 def _finite(h: dict[str, Any], key: str, op: str) -> float:
     """`h[key]` as a finite float; anything else (missing, text, a bool, NaN, an infinity: clipping a NaN
     gives the limit, so NaN would drive the base at full speed) is refused with code `value`."""
@@ -308,10 +316,15 @@ class RobotServer:
     def _greet(self, conn: socket.socket, peer: Any) -> None:
         """Read and check one connection's hello; hand it to the serving thread, or refuse it."""
         handed = False
+        # the deadline holds for the whole hello: a client that trickles a byte a second is cut too
+        cutoff = threading.Timer(HELLO_TIMEOUT_S, _shut, (conn,))
+        cutoff.daemon = True
         try:
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             conn.settimeout(HELLO_TIMEOUT_S)
+            cutoff.start()
             header, _ = recv_message(conn)
+            cutoff.cancel()
             self._check_hello(header, peer)
             with self._slot:
                 busy = self._client
@@ -336,6 +349,7 @@ class RobotServer:
         except (ProtocolError, OSError) as exc:  # a timeout is an OSError: no hello within the deadline
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
         finally:
+            cutoff.cancel()
             with self._slot:
                 self._greeting -= 1
             if not handed:
