@@ -293,6 +293,8 @@ def test_a_second_writer_is_refused_and_the_report_refuses_duplicates(tmp_path):
         with pytest.raises(InputError, match=r"another attribot eval \(process \d+\) is writing into"):
             run_eval(plan, settings, tmp_path / "new")
     assert not (tmp_path / "new" / "run.json").exists()  # refused before any work
+    with pytest.raises(InputError, match="cannot be written"):
+        RunLock(Path("/dev/null/run"))
     run_eval(plan, settings, tmp_path / "new")  # the lock went with its holder
     path = tmp_path / "new" / "records" / "weight_image__ovd__clean.jsonl"
     path.write_text(path.read_text() * 2)

@@ -122,9 +122,13 @@ class RunLock:
     def __init__(self, out: Path) -> None:
         import fcntl
 
-        out.mkdir(parents=True, exist_ok=True)
-        path = out / ".lock"
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise InputError(
+                f"the run folder {out} cannot be written ({exc.strerror or exc})", "give a writable --out"
+            ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
