@@ -152,6 +152,8 @@ ATTEMPTS: list[tuple[str, str, str]] = [
         "limit",
     ),
     ("modular pow bomb", program("return pow(3, 10 ** 30000, 10 ** 30000 + 1)"), "limit"),
+    ("int.from_bytes past the guard", program("return int.from_bytes(b'\\xff' * 1000000, 'big')"), "policy"),
+    ("round to a huge negative place", program("return round(7, -10 ** 7)"), "limit"),
     ("ljust memory bomb", program("return 'a'.ljust(10 ** 10)"), "limit"),
     ("range to list memory bomb", program("return list(range(10 ** 9))"), "limit"),
     ("doubling memory", program("s = 'a'\nwhile True:\n    s = s + s"), "limit"),

@@ -465,6 +465,15 @@ def safe_pow(base, exp, mod=None):
     return pow(base, exp, mod)
 
 
+def safe_round(number, ndigits=None):
+    # round(7, -10**7) computes 10 ** (10**7) to round with
+    if type(number) in _INTS and type(ndigits) in _INTS and ndigits < 0:
+        _check_bits(-ndigits * 3.33, "round")
+    if ndigits is None:
+        return round(number)
+    return round(number, ndigits)
+
+
 def safe_print(*args, sep=" ", end="\n", file=None, flush=False):
     if file is not None:
         raise TypeError("print() writes to the program's output only: drop file=")
@@ -543,6 +552,7 @@ def build_globals():
     safe = {name: getattr(builtins, name) for name in SAFE_BUILTIN_NAMES}
     safe["print"] = safe_print
     safe["pow"] = safe_pow
+    safe["round"] = safe_round
     safe["__import__"] = safe_import
     STATE.math = make_math()
     return {
