@@ -119,6 +119,10 @@ def test_overlaps_and_distance_to(image):
         (lambda p: p.visual_query(""), "visual_query\\(\\) got an empty question"),
         (lambda p: p.language_query(b"hi"), "language_query\\(\\) needs question as text, got bytes"),
         (lambda p: p.language_query("x" * 5000), "more than 2000"),
+        # a length cap per role (issue 22 item 1): names for the detector, questions for VQA
+        (lambda p: p.find("x" * 301), "object_name of 301 characters, more than 300"),
+        (lambda p: p.exists("x" * 400), "more than 300"),
+        (lambda p: p.visual_query("x" * 1001), "question of 1001 characters, more than 1000"),
         (lambda p: p.crop(10, 10, 5, 20), "is empty: it needs right > left"),
         (lambda p: p.crop(10, 20, 30, 20), "is empty"),
         (lambda p: p.crop(-5, 0, 10, 10), "reaches outside the image"),

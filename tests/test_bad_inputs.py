@@ -30,6 +30,11 @@ def _invoke(args: list[str], env: dict[str, str | None] | None = None):
         (b"llm_timeout_s = -3\n", ["llm_timeout_s", "greater than 0"]),
         (b"llm_timeout_s = nan\n", ["llm_timeout_s", "finite"]),
         (b"llm_max_tries = 0\n", ["llm_max_tries"]),
+        # issue 22 items 6 and 9: a deep nesting, a time that overflows every clock it reaches
+        (b"a = " + b"[" * 100_000 + b"]" * 100_000 + b"\n", ["nests arrays or tables too deeply"]),
+        (b"x = " + b"{a = " * 50_000 + b"1" + b"}" * 50_000 + b"\n", ["too deeply"]),
+        (b"remote_timeout_s = 1e308\n", ["remote_timeout_s", "less than or equal to 86400"]),
+        (b"llm_timeout_s = 1e10\n", ["llm_timeout_s", "less than or equal to 86400"]),
     ],
 )
 def test_bad_settings_file(tmp_path, content, words):
@@ -53,6 +58,7 @@ def test_bad_settings_file(tmp_path, content, words):
         ({"ATTRIBOT_DETECTOR_THRESHOLD": "2"}, ["detector_threshold"]),
         ({"ATTRIBOT_CONFIG": "/nonexistent/attribot.toml"}, ["ATTRIBOT_CONFIG", "missing"]),
         ({"ATTRIBOT_CONFIG": "/"}, ["ATTRIBOT_CONFIG", "folder"]),
+        ({"ATTRIBOT_CONFIG": "/dev/zero"}, ["ATTRIBOT_CONFIG", "a device, not a settings file"]),
     ],
 )
 def test_bad_settings_environment(env, words):
@@ -157,6 +163,8 @@ def test_flags_click_cannot_parse_without_json_print_no_json(empty_settings):
         ('return float("-inf")', 1, "returned -inf"),
         ('return "a\\ud800b"', 0, "a\ufffdb"),
         ('print("\\udcff")\n    return 1', 0, ""),
+        # a lone surrogate that comes back inside an action's error, and in the trace (issue 22 item 3)
+        ('robot.pick_up("stap\\udc80ler")\n    return 1', 1, "stap\ufffdler"),
     ],
 )
 def test_program_results_that_json_cannot_hold(tmp_path, body, code, words, empty_settings):
@@ -193,16 +201,30 @@ def test_long_values_are_cut_in_the_trace(tmp_path, empty_settings):
         (["--image", "{photo}", "--sensors", "camera,distance"], "camera only, not distance"),
         (["--image", "{photo}", "--seed", "3"], "not both"),
         (["--image", "{bomb}"], "megapixels"),
+        # issue 22 item 12: refused from the header, before 15 s and 1.2 GB of decoding
+        (["--image", "{large}"], "6000x4500 = 27 megapixels, more than the 25 allowed"),
+        # issue 22 item 11: not "does not exist"
+        (["--image", "{folder}"], "is a folder, not a regular file"),
+        (["--image", "{fifo}"], "is a FIFO (named pipe), not a regular file"),
+        (["--image", "/dev/zero"], "'/dev/zero' is a device, not a regular file"),
+        (["--image", "{missing}"], "does not exist"),
     ],
 )
 def test_sensors_and_images(tmp_path, args, words, empty_settings):
+    import os
+
     import numpy as np
     from PIL import Image
 
-    photo, bomb = tmp_path / "photo.png", tmp_path / "bomb.png"
+    photo, bomb, large = tmp_path / "photo.png", tmp_path / "bomb.png", tmp_path / "large.png"
     Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(photo)
     Image.new("L", (11000, 10000)).save(bomb)  # 110 MP, a few kB
-    args = [a.format(photo=photo, bomb=bomb) for a in args]
+    Image.new("L", (6000, 4500)).save(large)
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "folder").mkdir()
+    names = {"photo": photo, "bomb": bomb, "large": large, "folder": tmp_path / "folder"}
+    names |= {"fifo": tmp_path / "fifo", "missing": tmp_path / "missing.png"}
+    args = [a.format(**names) for a in args]
     result = _invoke(["ask", "Where is the mug?", *args, "--detector", "hf:/no/such/model"])
     assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output
 
@@ -281,3 +303,107 @@ def test_scene_render_writes_a_whole_image(tmp_path):
 def test_empty_categories_are_refused(empty_settings):
     result = _invoke(["ask", "Where is the mug?", "--categories", " , "])
     assert result.exit_code == 2 and "--categories names no category" in result.output
+
+
+@pytest.mark.parametrize("as_json", [False, True])
+def test_control_characters_from_a_program_are_shown_not_acted_on(tmp_path, as_json, empty_settings):
+    # issue 22 item 4: clear the screen, recolour it, set the clipboard (OSC 52), a C1 CSI, a bidi override
+    import json
+
+    made = "\\x1b[2J\\x1b[31mred\\x1b]52;c;aGk=\\x07\\x9b2J\\u202ekcab\\r"
+    program = tmp_path / "p.py"
+    program.write_text(f'def execute_command(image, robot):\n    return "{made}"\n')
+    result = _invoke(["exec", str(program), "--layout", "triplet", *(["--json"] if as_json else [])])
+    assert result.exit_code == 0, result.output
+    for acting in ("\x1b", "\x07", "\x9b", "\u202e", "\r"):
+        assert acting not in result.stdout
+    if as_json:  # the data reads back whole
+        assert json.loads(result.stdout)["answer"] == "\x1b[2J\x1b[31mred\x1b]52;c;aGk=\x07\x9b2J\u202ekcab\r"
+    else:
+        assert "\\x1b[2J\\x1b[31mred\\x1b]52;c;aGk=\\x07\\x9b2J\\u202ekcab\\x0d" in result.stdout
+
+
+def test_control_characters_in_an_error_message_are_shown(tmp_path, empty_settings):
+    program = tmp_path / "p.py"
+    program.write_text('def execute_command(image, robot):\n    raise ValueError("\\x1b[2Jgone")\n')
+    result = _invoke(["exec", str(program), "--layout", "triplet"])
+    assert result.exit_code == 1
+    assert "\x1b" not in result.stdout and "\\x1b[2Jgone" in result.stdout
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "return image.find(robot)",
+        "return robot.pick_up(robot)",
+        'r = Robot(sensors=["distance"])\n    return image.visual_query(r)',
+    ],
+)
+def test_api_errors_name_a_host_object_by_its_class_not_its_repr(tmp_path, body, empty_settings):
+    # issue 22 item 5
+    import json
+
+    program = tmp_path / "p.py"
+    program.write_text(f"def execute_command(image, robot):\n    {body}\n")
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json"])
+    assert result.exit_code == 1
+    message = json.loads(result.stdout)["error"]["message"]
+    assert "got a Robot" in message and "object at 0x" not in result.stdout and "attribot." not in message
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
+def test_a_program_that_is_not_a_regular_file_is_named_as_such(tmp_path, kind, empty_settings):
+    # issue 22 item 11: a FIFO would block the read forever, /dev/zero never ends
+    import os
+
+    path = {"folder": tmp_path, "fifo": tmp_path / "p.py", "device": "/dev/zero"}[kind]
+    if kind == "fifo":
+        os.mkfifo(path)
+    result = _invoke(["exec", str(path), "--layout", "triplet"])
+    assert result.exit_code == 2
+    said = " ".join(result.output.split())
+    assert "not a regular file" in said and "does not exist" not in said
+
+
+def test_a_program_file_may_start_with_a_byte_order_mark(tmp_path, empty_settings):
+    # issue 22 item 10: Python accepts a UTF-8 BOM; so does exec
+    program = tmp_path / "p.py"
+    program.write_bytes(b"\xef\xbb\xbfdef execute_command(image, robot):\n    return 41 + 1\n")
+    result = _invoke(["exec", str(program), "--layout", "triplet", "--json"])
+    assert result.exit_code == 0, result.output
+    import json
+
+    assert json.loads(result.stdout)["answer"] == "42"
+
+
+def test_a_16_bit_greyscale_png_is_scaled_to_8_bits(tmp_path):
+    # issue 22 item 7: PIL's conversion clipped it, 99.6% of the pixels at 255
+    import numpy as np
+    from PIL import Image
+
+    from attribot.frame import load_image
+
+    grey = np.linspace(0, 65535, 64 * 64).reshape(64, 64).astype(np.uint16)
+    Image.fromarray(grey).save(tmp_path / "g16.png")
+    rgb = load_image(tmp_path / "g16.png")
+    assert rgb.dtype == np.uint8 and rgb.shape == (64, 64, 3)
+    assert (rgb[..., 0] == rgb[..., 1]).all() and (rgb[..., 1] == rgb[..., 2]).all()
+    expected = np.rint(grey / 257.0).astype(np.uint8)
+    assert np.abs(rgb[..., 0].astype(int) - expected).max() <= 1
+    assert (rgb == 255).mean() < 0.01
+
+
+@pytest.mark.parametrize("as_json", [False, True])
+def test_control_characters_in_the_query_are_refused_naming_them(as_json, empty_settings):
+    # issue 22 item 8: "Which object\x1b[2J is ..." reached the planner, which searched for "object 2j"
+    import json
+
+    result = _invoke(["ask", "Which object\x1b[2J is the heaviest?\x07", *(["--json"] if as_json else [])])
+    assert result.exit_code == 2
+    if as_json:
+        error = json.loads(result.stdout)["error"]
+        assert error["category"] == "input"
+        said = error["message"]
+    else:
+        said = " ".join(result.output.split())
+    assert "control characters (\\x1b, \\x07)" in said and "\x1b" not in result.output

@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 import json
 import logging
+import math
 import os
 import signal
 import socket
@@ -202,6 +203,90 @@ def test_the_watchdog_stops_the_robot_when_commands_stop_arriving():
         assert 0.3 <= since_command < 0.3 + 0.4  # 50 Hz watchdog; slack for a loaded machine
         assert driver.velocity == (0.0, 0.0, 0.0)
         assert any("watchdog" in why for _, why in server.stops)
+
+
+def _hello(sock: socket.socket) -> dict[str, Any]:
+    send_message(sock, {"op": "hello", "version": PROTOCOL_VERSION, "token": TOKEN})
+    return recv_message(sock)[0]
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [
+        {"op": "base", "vx": float("nan"), "vy": 0.0, "wz": 0.0},
+        {"op": "base", "vx": 0.1, "vy": float("inf"), "wz": 0.0},
+        {"op": "base", "vx": 0.1, "vy": 0.0, "wz": float("-inf")},
+        {"op": "base", "vx": "0.3", "vy": 0.0, "wz": 0.0},
+        {"op": "base", "vx": True, "vy": 0.0, "wz": 0.0},
+        {"op": "base", "vy": 0.0, "wz": 0.0},
+        {"op": "arm", "lift": float("nan"), "extension": 0.1},
+        {"op": "step", "seconds": float("inf")},
+    ],
+    ids=["nan", "inf", "-inf", "text", "bool", "missing", "arm-nan", "step-inf"],
+)
+def test_non_finite_numbers_are_refused_robot_side_and_nothing_moves(request_):
+    # issue 22 item 19: clipping a NaN gives the limit, so {"vx": NaN} drove the base at full speed
+    with serving(RecordingDriver) as (server, driver), socket.create_connection(server.address) as sock:
+        assert _hello(sock)["ok"] is True
+        send_message(sock, request_)  # Python's json writes NaN and Infinity, as a hostile client may
+        reply, _ = recv_message(sock)
+        assert reply["ok"] is False and reply["code"] == "value", reply
+        key = next(k for k in ("vx", "vy", "wz", "lift", "seconds") if k in reply["error"])
+        assert f"needs {key} as a finite number" in reply["error"]
+        send_message(sock, {"op": "base", "vx": 0.1, "vy": 0.0, "wz": 0.0})  # the session goes on
+        assert recv_message(sock)[0]["ok"] is True
+    assert all(math.isfinite(x) and abs(x) <= 0.1 + 1e-9 for _, v in driver.drives for x in v)
+    assert driver.arm == []
+
+
+def test_an_idle_connection_holds_nothing_and_is_dropped_after_the_hello_deadline():
+    # issue 22 item 20: one connection that sent nothing blocked the robot for every client
+    with serving(RecordingDriver) as (server, _), socket.create_connection(server.address) as idle:
+        with BridgeWorld(url=url(server), token=TOKEN) as world:  # served at once, idle or not
+            assert world.observe().rgb.shape == (2, 4, 3)
+        idle.settimeout(30)
+        assert idle.recv(1) == b""  # the robot closed it: no hello within the deadline
+
+
+def test_a_hello_trickled_a_byte_at_a_time_is_cut_at_the_deadline():
+    import select
+    import struct
+
+    with serving(RecordingDriver) as (server, _), socket.create_connection(server.address) as slow:
+        slow.sendall(struct.pack(">4sII", b"ATB1", 1000, 0))  # a header of 1000 bytes is announced
+        closed = False
+        for _ in range(60):  # then sent a byte every 0.25 s: it would take 250 s
+            try:
+                slow.sendall(b" ")
+            except OSError:
+                closed = True
+                break
+            readable, _, _ = select.select([slow], [], [], 0.25)
+            if readable:
+                try:
+                    closed = slow.recv(1) == b""
+                except OSError:
+                    closed = True
+                break
+        assert closed  # the robot hung up long before the hello was whole
+
+
+def test_a_second_client_is_told_the_robot_is_busy():
+    with serving(RecordingDriver) as (server, _):
+        with BridgeWorld(url=url(server), token=TOKEN) as first:
+            with pytest.raises(BridgeError, match="robot busy") as info:
+                BridgeWorld(url=url(server), token=TOKEN, timeout_s=30)
+            assert "wait until that client has finished" in (info.value.fix or "")
+            assert first.observe().rgb.shape == (2, 4, 3)  # the first is still served
+        for _ in range(2):  # once it has gone, the next client is served
+            with BridgeWorld(url=url(server), token=TOKEN) as again:
+                assert again.observe().rgb.shape == (2, 4, 3)
+
+
+def test_a_client_with_a_wrong_token_is_refused_even_while_the_robot_is_busy():
+    with serving(RecordingDriver) as (server, _), BridgeWorld(url=url(server), token=TOKEN):
+        with pytest.raises(BridgeError, match="refused the bridge token"):
+            BridgeWorld(url=url(server), token="wrong")
 
 
 _CLIENT = textwrap.dedent(

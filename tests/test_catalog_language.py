@@ -221,3 +221,24 @@ def test_probe_for_the_backends_listing():
     ok = probe_backend("language", "catalog", Settings())
     assert ok.available is True and "catalog categories" in ok.detail
     assert probe_backend("language", "catalog:x", Settings()).available is False
+
+
+def test_the_host_work_of_a_long_question_grows_linearly(monkeypatch):
+    # issue 22 item 1: a 1,990-character question held the host for 45 s: every tail of a long item was
+    # looked up, each lookup itself trying every run of words
+    import attribot.models.catalog as catalog
+
+    looked_up: list[str] = []
+    real = catalog.find_category
+
+    def counting(phrase: str):
+        looked_up.append(phrase)
+        return real(phrase)
+
+    monkeypatch.setattr(catalog, "find_category", counting)
+    for words in (100, 400):
+        looked_up.clear()
+        question = "Which is heavier: " + "red " * words + "mug or apple"
+        assert len(question) <= 2000 and LM.complete(question).endswith("red mug")
+        assert len(looked_up) <= 8  # a few short tails per item, whatever the item's length
+        assert max(len(p.split()) for p in looked_up) <= 3

@@ -244,3 +244,167 @@ def test_the_report_renders_in_chromium_without_console_errors_and_shows_the_rec
 def test_a_report_of_no_run_is_refused(tmp_path):
     done = cli("report", str(tmp_path))
     assert done.returncode == 2 and "no records" in done.stderr
+
+
+# ---- integrity of runs (issue 22 items 14 to 18) ---------------------------------------------------------
+
+
+def test_a_torn_record_is_set_aside_before_the_resumed_run_appends(tmp_path):
+    # item 15: the first resume appended the redone record onto the fragment, with no newline
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=3)
+    run_eval(plan, settings, tmp_path)
+    path = tmp_path / "records" / "weight_image__ovd__clean.jsonl"
+    lines = path.read_text().splitlines()
+    fragment = lines[2][: len(lines[2]) // 2]
+    path.write_text(lines[0] + "\n" + lines[1] + "\n" + fragment)
+    notes: list[str] = []
+    summary = run_eval(plan, settings, tmp_path, progress=notes.append)
+    assert (summary.done, summary.skipped) == (1, 2)
+    from attribot.eval.methods import Record
+
+    assert [Record.model_validate_json(line).id for line in path.read_text().splitlines()] == [
+        "weight_image-000",
+        "weight_image-001",
+        "weight_image-002",
+    ]
+    assert path.read_text().endswith("\n")
+    assert (tmp_path / "records" / "weight_image__ovd__clean.jsonl.torn").read_text() == fragment + "\n"
+    assert any("set aside" in n for n in notes)
+    assert len(read_records(tmp_path)) == 3
+
+
+def test_resumed_counts_agree_with_the_first_run(tmp_path):
+    # item 17: the size task has two items per query; a resume took only `limit` of them
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("size",), methods=("ovd",), limit=2)
+    first = run_eval(plan, settings, tmp_path)
+    again = run_eval(plan, settings, tmp_path)
+    assert first.done == 4 and (again.done, again.skipped) == (0, 4)
+
+
+def test_a_second_writer_is_refused_and_the_report_refuses_duplicates(tmp_path):
+    # item 16: two runs into one folder wrote 50 duplicated records, and the report counted 100
+    from attribot.eval.run import RunLock
+
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=2)
+    with RunLock(tmp_path / "new"):  # another run holds the folder (here: this process)
+        with pytest.raises(InputError, match=r"another attribot eval \(process \d+\) is writing into"):
+            run_eval(plan, settings, tmp_path / "new")
+    assert not (tmp_path / "new" / "run.json").exists()  # refused before any work
+    with pytest.raises(InputError, match="cannot be written"):
+        RunLock(Path("/dev/null/run"))
+    run_eval(plan, settings, tmp_path / "new")  # the lock went with its holder
+    path = tmp_path / "new" / "records" / "weight_image__ovd__clean.jsonl"
+    path.write_text(path.read_text() * 2)
+    with pytest.raises(InputError, match="records 2 item\\(s\\) more than once") as info:
+        read_records(tmp_path / "new")
+    assert "new --out" in (info.value.fix or "")
+    report = cli("report", str(tmp_path / "new"))
+    assert report.returncode == 2 and "more than once" in report.stderr
+
+
+def test_a_second_eval_process_into_the_same_folder_is_refused_with_a_message(tmp_path):
+    import os
+    import sys
+
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys, pathlib; from attribot.eval.run import RunLock; "
+            "lock = RunLock(pathlib.Path(sys.argv[1])); print('held', flush=True); sys.stdin.read()",
+            str(tmp_path),
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        second = cli(
+            "eval", "--tasks", "weight_image", "--methods", "ovd", "--limit", "1", "--out", str(tmp_path)
+        )
+        assert second.returncode == 2, second.stderr
+        said = " ".join(second.stderr.split())
+        assert f"another attribot eval (process {holder.pid}) is writing into" in said
+        assert "Traceback" not in second.stderr and not (tmp_path / "dataset").exists()
+    finally:
+        holder.stdin.close()
+        holder.wait(timeout=30)
+    assert os.path.exists(tmp_path / ".lock")
+
+
+def test_eval_uses_a_built_dataset_and_dataset_build_shows_progress(tmp_path, monkeypatch):
+    # item 18: seven minutes without a word; and eval generated again what was built
+    built = cli("dataset", "build", "--tasks", "weight_image", "--limit", "2", "--out", str(tmp_path / "ds"))
+    assert built.returncode == 0, built.stderr
+    assert "generating items" in built.stderr and "rendering images" in built.stderr
+    import attribot.eval.run as run_module
+
+    def no_generation(*args, **kwargs):
+        raise AssertionError("the run generated items that the dataset holds")
+
+    def no_rendering(items, out, images=True, **kwargs):
+        assert not images, "the run rendered images that the dataset holds"
+        return write_dataset(items, out, images=False)
+
+    monkeypatch.setattr(run_module, "build_items", no_generation)
+    monkeypatch.setattr(run_module, "write_dataset", no_rendering)
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=2)
+    summary = run_eval(plan, settings, tmp_path / "run", dataset=tmp_path / "ds")
+    assert summary.done == 2
+    assert read_dataset(tmp_path / "run" / "dataset") == read_dataset(tmp_path / "ds")
+    for image in (tmp_path / "ds" / "images").glob("*.png"):
+        assert (tmp_path / "run" / "dataset" / "images" / image.name).read_bytes() == image.read_bytes()
+    with pytest.raises(InputError, match="holds 2 weight_image items, and this run needs 3"):
+        run_eval(
+            EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=3),
+            settings,
+            tmp_path / "r2",
+            dataset=tmp_path / "ds",
+        )
+    bad = cli("eval", "--tasks", "weight_image", "--dataset", str(tmp_path), "--out", str(tmp_path / "r3"))
+    assert bad.returncode == 2 and "holds no dataset" in bad.stderr and not (tmp_path / "r3").exists()
+
+
+POOL_OWNER = """
+import sys, time
+from attribot.eval.run import worker_pool
+pool = worker_pool(2)
+futures = [pool.submit(time.sleep, 600) for _ in range(2)]
+print("busy", flush=True)
+time.sleep(600)
+"""
+
+
+def test_pool_workers_exit_when_the_parent_is_killed(tmp_path):
+    # item 14: after kill -9 of `attribot eval --workers 2`, the workers lived on, 360 MB each
+    import os
+    import signal
+    import sys
+
+    from conftest import alive, wait_for
+
+    owner = subprocess.Popen([sys.executable, "-c", POOL_OWNER], stdout=subprocess.PIPE, text=True)
+    children: set[int] = set()
+    try:
+        assert owner.stdout.readline().strip() == "busy"
+
+        def spawned() -> bool:
+            text = Path(f"/proc/{owner.pid}/task/{owner.pid}/children").read_text()
+            children.update(int(p) for p in text.split())
+            return len(children) >= 3  # two workers and the resource tracker
+
+        assert wait_for(spawned, 60)
+        owner.send_signal(signal.SIGKILL)
+        owner.wait(timeout=30)
+        assert wait_for(lambda: not any(alive(p) for p in children), 30), [p for p in children if alive(p)]
+    finally:
+        owner.kill()
+        owner.wait()
+        for p in children:
+            if alive(p):
+                os.kill(p, signal.SIGKILL)

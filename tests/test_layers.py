@@ -23,6 +23,7 @@ LEVELS: list[set[str]] = [
         "deps",
         "files",
         "shutdown",
+        "text",
         "lexicon",
         "video",
         "gridpath",

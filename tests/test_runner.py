@@ -394,6 +394,29 @@ def test_host_exceptions_carry_no_paths_or_tracebacks(runner):
     assert "/home" not in res.error.message and "Traceback" not in res.error.message
 
 
+class _Leaky:
+    """A host API whose failures and results quote host objects' reprs (module paths, addresses)."""
+
+    API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ()
+    API_METHODS: ClassVar[tuple[str, ...]] = ("fails", "refuses")
+
+    def fails(self) -> None:
+        raise ValueError(f"cannot use {self!r}")
+
+    def refuses(self) -> None:
+        raise UnsupportedAction(f"no way with {self!r}", "use another")
+
+
+@pytest.mark.parametrize("method", ["fails", "refuses"])
+def test_errors_show_no_host_object_repr(method):
+    # issue 22 item 5: "<attribot.api.robot._RobotWithSensors object at 0x...>" reached the program
+    with ProgramRunner(classes=[_Leaky], limits=LIMITS) as r:
+        res = r.run(f"def execute_command(api):\n    return api.{method}()\n", args=[_Leaky()])
+    text = res.model_dump_json()
+    assert res.error is not None and "<Leaky>" in res.error.message
+    assert " object at 0x" not in text and "test_runner" not in text
+
+
 def test_no_host_path_in_any_error(runner):
     for body in (
         "def execute_command(image, meter):\n    return [][1]\n",

@@ -143,6 +143,17 @@ ATTEMPTS: list[tuple[str, str, str]] = [
     ("augmented power on an item", program("a = [10]\na[0] **= 10 ** 8\nreturn a"), "limit"),
     ("squaring loop", program("x = 3\nwhile True:\n    x = x * x"), "limit"),
     ("factorial bomb", "import math\n" + program("return math.factorial(10 ** 8)"), "limit"),
+    ("lcm bomb", "import math\n" + program("return math.lcm(*range(1, 100000))"), "limit"),
+    ("lcm of two large", "import math\n" + program("x = 10 ** 30000\nreturn math.lcm(x, x - 1)"), "limit"),
+    (
+        "gcd of operands grown past the guard",
+        "import math\n"
+        + program("x = 10 ** 30000\nfor i in range(1200):\n    x = x + x\nreturn math.gcd(x, x - 1)"),
+        "limit",
+    ),
+    ("modular pow bomb", program("return pow(3, 10 ** 30000, 10 ** 30000 + 1)"), "limit"),
+    ("int.from_bytes past the guard", program("return int.from_bytes(b'\\xff' * 1000000, 'big')"), "policy"),
+    ("round to a huge negative place", program("return round(7, -10 ** 7)"), "limit"),
     ("ljust memory bomb", program("return 'a'.ljust(10 ** 10)"), "limit"),
     ("range to list memory bomb", program("return list(range(10 ** 9))"), "limit"),
     ("doubling memory", program("s = 'a'\nwhile True:\n    s = s + s"), "limit"),

@@ -25,7 +25,7 @@ from attribot.models.remote import RemoteClient, RemoteDetector, RemoteLanguageM
 from attribot.models.wire import ErrorBody, decode_image, encode_image
 from attribot.server import Batcher, ServerConfig, ServerThread, check_bind, create_app, served_specs
 from attribot.server.batching import Overloaded
-from conftest import EchoLanguage, MeanColourVQA, bright_box, free_port, mean_colour
+from conftest import EchoLanguage, MeanColourVQA, bright_box, free_port, mean_colour, wait_for
 
 TOKEN = "test-token-0123"
 
@@ -462,3 +462,90 @@ def test_cli_serve_models_refuses_bad_options(args, message, tmp_path, monkeypat
     monkeypatch.delenv("ATTRIBOT_REMOTE_TOKEN", raising=False)
     result = CliRunner().invoke(app, ["serve", "models", *args])
     assert result.exit_code == 2 and message in " ".join(result.output.split())
+
+
+# ---- text caps (issue 22 item 21) ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("path", "body", "words"),
+    [
+        ("/v1/answer", {"question": "x" * 100_000}, "question is 100000 characters long"),
+        ("/v1/complete", {"question": "x" * 9_000_000}, "limit of 28096 bytes for a text question"),
+        ("/v1/complete", {"question": "é" * 4001}, "question is 4001 characters long"),
+        ("/v1/detect", {"queries": ["cup"] * 65}, "65 queries"),
+        ("/v1/detect", {"queries": ["x" * 4001]}, "query is 4001 characters long"),
+    ],
+)
+def test_overlong_text_is_413_with_a_message(server, path, body, words):
+    if path != "/v1/complete":
+        body = {"image": encode_image(unique_image(1), "png"), **body}
+    r = post(server, path, json=body)
+    assert r.status_code == 413
+    err = error_of(r)
+    assert err.category == "too_large" and words in err.message and err.fix
+    ok = post(server, "/v1/complete", json={"question": "still here?"})
+    assert ok.status_code == 200 and ok.json()["answer"] == "STILL HERE?"
+
+
+class GatedLanguage:
+    """Answers only when `gate` is set; records every question it was given."""
+
+    name = "test:gated-language"
+
+    def __init__(self) -> None:
+        self.gate = threading.Event()
+        self.seen: list[str] = []
+
+    def complete(self, question: str) -> str:
+        self.seen.append(question)
+        self.gate.wait(30)
+        return question
+
+
+def test_language_work_of_a_client_that_left_is_not_run():
+    # issue 22 item 21: work whose client has gone is cancelled before it reaches the backend
+    language = GatedLanguage()
+    config = ServerConfig(language_threads=1)
+    with ServerThread(create_app(language=language, config=config)) as srv:
+
+        def ask(question: str, timeout: float) -> None:
+            try:
+                httpx.post(srv.url + "/v1/complete", json={"question": question}, timeout=timeout)
+            except httpx.HTTPError:
+                pass
+
+        first = threading.Thread(target=ask, args=("first", 30))
+        first.start()
+        assert wait_for(lambda: language.seen == ["first"])
+        ask("leaves", 0.5)  # queued behind "first"; its client gives up and closes the connection
+        metrics = lambda: httpx.get(srv.url + "/metrics").json()["roles"]["language"]  # noqa: E731
+        assert wait_for(lambda: metrics()["errors"].get("disconnected") == 1)
+        stays = threading.Thread(target=ask, args=("stays", 30))
+        stays.start()
+        assert wait_for(lambda: metrics()["requests"] == 3)
+        language.gate.set()
+        first.join(30)
+        stays.join(30)
+        assert language.seen == ["first", "stays"]
+
+
+def test_cli_serve_models_on_a_port_in_use_exits_2_naming_it(tmp_path, monkeypatch):
+    # issue 22 item 13: it printed "listening on ..." and then exited 3
+    import socket
+
+    from typer.testing import CliRunner
+
+    from attribot.cli import app
+
+    (tmp_path / "none.toml").write_text("")
+    monkeypatch.setenv("ATTRIBOT_CONFIG", str(tmp_path / "none.toml"))
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(app, ["serve", "models", "--port", str(port), "--language", "catalog"])
+    said = " ".join(result.output.split())
+    assert result.exit_code == 2, said
+    assert f"port {port} on 127.0.0.1 is already in use" in said and "--port" in said
+    assert "listening on" not in said and "serving" not in said

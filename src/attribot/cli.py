@@ -8,7 +8,6 @@ converts them); nothing prints a traceback at a user.
 from __future__ import annotations
 
 import contextlib
-import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -65,10 +64,13 @@ console = Console(soft_wrap=True)
 
 
 def fail(message: str, fix: str | None = None, code: int = 2) -> typer.Exit:
-    """Print an error (and its fix) to stderr; return the Exit to raise."""
-    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False)
+    """Print an error (and its fix) to stderr, its control characters shown as escapes (a message may quote
+    a program's or a file's text); return the Exit to raise."""
+    from attribot.text import visible
+
+    err_console.print(f"[bold red]error:[/] {escape(visible(message))}", highlight=False)
     if fix:
-        err_console.print(f"[yellow]fix:[/] {escape(fix)}", highlight=False)
+        err_console.print(f"[yellow]fix:[/] {escape(visible(fix))}", highlight=False)
     return typer.Exit(code)
 
 
@@ -334,16 +336,17 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
     """Print, as --json does, an answer that holds only an error (no program ran)."""
     from attribot.planning.answer import Answer, AnswerError
 
-    shown = re.sub("[\ud800-\udfff]", "\ufffd", query)  # undecodable command-line bytes
     answer = Answer(
-        query=shown,
+        query=query,  # an Answer makes undecodable command-line bytes JSON-safe
         answer=f"no answer: {message}",
         planner=planner,
         backends={},
         attempts=0,
         error=AnswerError(category=category, message=message),
     )
-    typer.echo(answer.model_dump_json(indent=2))
+    from attribot.text import terminal_json
+
+    typer.echo(terminal_json(answer.model_dump_json(indent=2)))
 
 
 def _world_choice(
@@ -377,17 +380,21 @@ def _world_choice(
 
 
 def _show(answer: Any, as_json: bool) -> None:
+    """Print an answer; what a program made (answer text, error message) cannot act on the terminal: its
+    control characters are shown as escapes (JSON escapes those JSON leaves as they are)."""
+    from attribot.text import terminal_json, visible
+
     if as_json:
-        typer.echo(answer.model_dump_json(indent=2))
+        typer.echo(terminal_json(answer.model_dump_json(indent=2)))
     else:
         out = Console(soft_wrap=True)
         if answer.error is None:
-            out.print(f"[bold green]answer:[/] {escape(answer.answer)}", highlight=False)
+            out.print(f"[bold green]answer:[/] {escape(visible(answer.answer))}", highlight=False)
         else:
             where = f" at line {answer.error.line}" if answer.error.line else ""
             out.print(
                 f"[bold red]no answer[/] ({answer.error.category} error{where}): "
-                f"{escape(answer.error.message)}",
+                f"{escape(visible(answer.error.message))}",
                 highlight=False,
             )
         if answer.checks:
@@ -483,6 +490,7 @@ def exec_program(
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
     from attribot.errors import InputError
+    from attribot.files import check_regular_file
 
     with _errors_as_json(as_json, query, "file"):
         config = _scene_config(layout, seed, objects, categories, option, width, height, profile, world_noise)
@@ -490,10 +498,9 @@ def exec_program(
         from attribot.config import load_settings
         from attribot.planning.ask import execute
 
-        if not program.is_file():
-            raise InputError(f"program file {str(program)!r} does not exist", "give the path of a .py file")
+        check_regular_file(program, "program file", "give the path of a .py file")
         try:
-            source = program.read_text(encoding="utf-8")
+            source = program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(
                 f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
@@ -539,6 +546,9 @@ def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else list(TASKS)
     if not chosen:
         raise InputError("--tasks names no task", f"choose from: {', '.join(TASKS)}")
+    unknown = [t for t in chosen if t not in TASKS]
+    if unknown:
+        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(TASKS)}")
     return chosen
 
 
@@ -550,12 +560,25 @@ def dataset_build(
     limit: int | None = _LIMIT,
 ) -> None:
     """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
-    from attribot.eval.datasets import DATASET_VERSION, build_items, write_dataset
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from attribot.eval.datasets import DATASET_VERSION, build_items, item_count, write_dataset
 
     chosen = _suite_tasks(suite, tasks)
     _writable_folder(out, "--out")
-    items = build_items(chosen, limit)
-    write_dataset(items, out)
+    total = sum(item_count(task, limit) for task in chosen)
+    # generation and rendering take minutes for the whole suite: say how far they are
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+    ) as bar:
+        made = bar.add_task("generating items", total=total)
+        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made))
+        drawn = bar.add_task("rendering images", total=len(items))
+        write_dataset(items, out, on_image=lambda _item: bar.advance(drawn))
     console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
 
 
@@ -615,6 +638,12 @@ def evaluate(
     ),
     workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
+    dataset: Path | None = typer.Option(
+        None,
+        "--dataset",
+        help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
+        "generating them.",
+    ),
     planner: str | None = _PLANNER,
     llm_base_url: str | None = _LLM_BASE_URL,
     llm_model: str | None = _LLM_MODEL,
@@ -667,6 +696,7 @@ def evaluate(
             executor=executor,
             progress=lambda msg: bar.update(job, description=msg),
             on_record=on_record,
+            dataset=dataset,
         )
     console.print(
         f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
@@ -807,7 +837,7 @@ def serve_models(
     from pydantic import ValidationError
 
     from attribot.config import load_settings
-    from attribot.server import ServerConfig, build_served_backends, check_bind, served_specs
+    from attribot.server import ServerConfig, build_served_backends, check_bind, listen_socket, served_specs
     from attribot.server import serve_models as run_server
 
     if not 0 < port < 65536:
@@ -828,9 +858,14 @@ def serve_models(
     check_bind(host, config.token)
     given = {"detector": detector, "vqa": vqa, "language": language}
     _, notes = served_specs(settings, given)
+    sock = listen_socket(host, port)  # a port in use is said before any model loads
     for note in notes:
         err_console.print(f"[yellow]note:[/] {note}", highlight=False)
-    backends = build_served_backends(settings, given, model_process=model_process)
+    try:
+        backends = build_served_backends(settings, given, model_process=model_process)
+    except BaseException:
+        sock.close()
+        raise
     for role, backend in backends.items():
         pid = getattr(backend, "pid", None)
         where = f" (model process {pid})" if pid is not None else ""
@@ -842,7 +877,7 @@ def serve_models(
         f"clients give remote:http://{host}:{port} as the backend spec of each served role",
         highlight=False,
     )
-    run_server(backends, config, host=host, port=port, log_level=log_level)
+    run_server(backends, config, host=host, port=port, log_level=log_level, sock=sock)
 
 
 # ---- bridge (the robot side of the robot bridge) -----------------------------------------------------

@@ -23,6 +23,7 @@ from pydantic_settings import (
 )
 
 from attribot.errors import ConfigError, InputError
+from attribot.files import not_a_file
 from attribot.noise import WorldNoise
 
 __all__ = [
@@ -32,12 +33,15 @@ __all__ = [
     "SceneConfig",
     "MAX_OBJECTS",
     "MAX_SEED",
+    "MAX_TIME_S",
     "RENDER_PROFILES",
 ]
 
 MAX_OBJECTS = 30
 """The most objects any layout places (each layout states its own, smaller range)."""
 MAX_SEED = 2**32 - 1
+MAX_TIME_S = 86_400.0
+"""The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 
@@ -58,7 +62,7 @@ class Settings(BaseSettings):
     llm_base_url: str | None = None
     llm_model: str = "gpt-4o"
     llm_api_key: str | None = Field(default=None, repr=False)
-    llm_timeout_s: float = Field(60.0, gt=0, allow_inf_nan=False)
+    llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
     llm_max_tries: int = Field(3, ge=1, le=100)
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
 
@@ -69,7 +73,7 @@ class Settings(BaseSettings):
 
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
-    remote_timeout_s: float = Field(30.0, gt=0, allow_inf_nan=False)
+    remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
     # names, or "all,-look_again" to leave one out
@@ -107,8 +111,8 @@ def config_path() -> Path | None:
         path = Path("attribot.toml")
         return path if path.is_file() else None
     path = Path(named).expanduser()
-    if not path.is_file():
-        what = "a folder" if path.is_dir() else "missing"
+    what = not_a_file(path)  # a FIFO or /dev/zero is named as such, and never opened
+    if what is not None:
         raise ConfigError(
             f"ATTRIBOT_CONFIG names {named!r}, which is {what}, not a settings file",
             "point ATTRIBOT_CONFIG at a TOML file, or unset it to use ./attribot.toml",
@@ -162,6 +166,11 @@ def _check_toml(path: Path) -> None:
     except UnicodeDecodeError as exc:
         raise ConfigError(
             f"the settings file {str(path)!r} is not UTF-8 text (byte {exc.start})", "save it as UTF-8"
+        ) from None
+    except RecursionError:
+        raise ConfigError(
+            f"the settings file {str(path)!r} nests arrays or tables too deeply to read",
+            "attribot's settings are flat `key = value` lines; remove the nesting",
         ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(

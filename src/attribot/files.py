@@ -8,12 +8,13 @@ since permission bits lie to root (/proc/self looks writable) and /dev/null is n
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
 from attribot.errors import InputError
 
-__all__ = ["write_whole", "check_writable"]
+__all__ = ["write_whole", "check_writable", "check_regular_file", "not_a_file"]
 
 
 def write_whole(path: Path, data: bytes) -> None:
@@ -38,6 +39,39 @@ def check_writable(folder: Path, what: str, fix: str) -> None:
         raise InputError(
             f"{what} cannot be written: {exc.strerror or exc.__class__.__name__} in {str(folder)!r}", fix
         ) from None
+
+
+def not_a_file(path: Path) -> str | None:
+    """None when `path` is a regular file (or a link to one); else what it is instead: "missing", "a
+    folder", "a FIFO (named pipe)", "a device", "a socket", or why it cannot be looked at."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return "missing"
+    except OSError as exc:
+        return f"unreadable ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "a socket" if stat.S_ISSOCK(mode) else "not a file"
+
+
+def check_regular_file(path: Path, what: str, fix: str) -> None:
+    """Raise `InputError` unless `path` is a regular file (or a link to one): a missing path, a folder, a
+    FIFO (which would block a reader forever) or a device (/dev/zero, which never ends) each say which."""
+    kind = not_a_file(path)
+    if kind is None:
+        return
+    if kind == "missing":
+        raise InputError(f"{what} {str(path)!r} does not exist", fix)
+    if kind.startswith("unreadable"):
+        raise InputError(f"{what} {str(path)!r} cannot be read: it is {kind}", fix)
+    raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file", fix)
 
 
 def _umask() -> int:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -104,8 +105,19 @@ class Frame:
         )
 
 
-MAX_IMAGE_PIXELS = 100_000_000
-"""The most pixels `load_image` decodes (a 10000x10000 photo); PIL's own bomb limit is 89 to 179 MP."""
+MAX_IMAGE_PIXELS = 25_000_000
+"""The most pixels `load_image` decodes (a 6000x4000 photo; the model server's limit too), checked from the
+header: a 97 KB PNG of 10000x10000 took 15 s and 1.2 GB to decode before anything was answered."""
+
+
+def _to_rgb8(im: Any) -> np.ndarray:
+    """A PIL image as a new uint8 RGB array; 16-bit greyscale (and 32-bit integer) pixels are scaled to 8
+    bits (PIL's own conversion clips them, which turned a 16-bit PNG 99.6% white)."""
+    if im.mode in ("I", "I;16", "I;16B", "I;16L", "I;16N"):
+        grey = np.asarray(im).astype(np.float64)
+        grey = np.clip(np.rint(grey / 257.0), 0, 255).astype(np.uint8)
+        return np.repeat(grey[:, :, None], 3, axis=2)
+    return np.array(im.convert("RGB"), dtype=np.uint8)
 
 
 def load_image(path: str | Path, max_pixels: int = MAX_IMAGE_PIXELS) -> np.ndarray:
@@ -115,9 +127,10 @@ def load_image(path: str | Path, max_pixels: int = MAX_IMAGE_PIXELS) -> np.ndarr
 
     from PIL import Image, UnidentifiedImageError
 
+    from attribot.files import check_regular_file
+
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"image file {str(p)!r} does not exist", "check the path")
+    check_regular_file(p, "image file", "give the path of a PNG or JPEG file")
     fix = "give a PNG or JPEG file that opens in an image viewer"
     try:
         with warnings.catch_warnings():
@@ -133,7 +146,7 @@ def load_image(path: str | Path, max_pixels: int = MAX_IMAGE_PIXELS) -> np.ndarr
                     )
                 im.load()
                 # a copy: torch warns about (and may not write to) the read-only view PIL hands out
-                rgb = np.array(im.convert("RGB"), dtype=np.uint8)
+                rgb = _to_rgb8(im)
     except Image.DecompressionBombError:
         raise InputError(
             f"image file {str(p)!r} has more pixels than PIL decodes (over {max_pixels / 1e6:.0f} MP)",

@@ -9,12 +9,14 @@ has stopped, which then lands here too.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["termination_as_exit"]
+__all__ = ["termination_as_exit", "die_with_parent"]
 
 
 @contextlib.contextmanager
@@ -38,3 +40,21 @@ def termination_as_exit() -> Iterator[None]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+
+
+def die_with_parent(parent: int | None = None) -> None:
+    """Ask Linux to kill this (child) process when its parent dies, however it dies (SIGKILL, a crash): a
+    child busy in a long call never reads its pipe, and would otherwise live on, re-parented, holding its
+    memory (and a GPU). `parent`: the parent's pid, to catch a parent that died before this call.
+    Elsewhere the pipe's end-of-file is what stops a child."""
+    import ctypes
+
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if parent is not None and os.getppid() != parent:  # the parent died before the request
+        os._exit(1)

@@ -9,17 +9,30 @@ from attribot.api.errors import ApiArgumentError
 
 __all__ = ["check_text", "check_number", "check_patch", "MAX_TEXT"]
 
-MAX_TEXT = 2000
-"""Longest question or object name accepted, in characters."""
+MAX_TEXT = {"detector": 300, "vqa": 1000, "language": 2000}
+"""Longest text accepted per backend role, in characters: an object name for the detector, a question for
+visual question answering, a question for the language model. A backend's work grows with its input, so
+the cap bounds what one API call can cost the host."""
 
 T = TypeVar("T")
 
 
-def check_text(value: object, arg: str, method: str) -> str:
-    """`value` stripped, if it is a non-empty str of at most MAX_TEXT characters."""
+def _given(value: object) -> str:
+    """What a program passed, for an error message: plain values as written (cut), anything else by its
+    public class name only (never a host object's repr, which shows module paths and addresses)."""
+    if value is None or isinstance(value, str | bytes | int | float):
+        return f"{type(value).__name__} {value!r:.60}"
+    if isinstance(value, list | tuple | dict | set | frozenset):
+        return f"{type(value).__name__} of {len(value)} item{'' if len(value) == 1 else 's'}"
+    public = next((c.__name__ for c in type(value).__mro__ if not c.__name__.startswith("_")), "object")
+    return f"a {public}"
+
+
+def check_text(value: object, arg: str, method: str, role: str) -> str:
+    """`value` stripped, if it is a non-empty str of at most `MAX_TEXT[role]` characters."""
     if not isinstance(value, str):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as text, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as text, got {_given(value)}",
             f'pass a string, e.g. {method}("cup")'
             if arg == "object_name"
             else f'pass a string, e.g. {method}("What is this?")',
@@ -27,9 +40,11 @@ def check_text(value: object, arg: str, method: str) -> str:
     text = value.strip()
     if not text:
         raise ApiArgumentError(f"{method}() got an empty {arg}", f"pass a non-empty {arg}")
-    if len(text) > MAX_TEXT:
+    limit = MAX_TEXT[role]
+    if len(text) > limit:
         raise ApiArgumentError(
-            f"{method}() got a {arg} of {len(text)} characters, more than {MAX_TEXT}", f"shorten the {arg}"
+            f"{method}() got a {arg} of {len(text)} characters, more than {limit}",
+            f"shorten the {arg} to at most {limit} characters",
         )
     return text
 
@@ -38,7 +53,7 @@ def check_number(value: object, arg: str, method: str) -> float:
     """`value` as a float, if it is a finite int or float (not a bool)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as a number, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as a number, got {_given(value)}",
             "pass a number, e.g. a patch attribute such as patch.horizontal_center",
         )
     number = float(value)
@@ -51,7 +66,7 @@ def check_patch(value: object, cls: type[T], arg: str, method: str) -> T:
     """`value` if it is an instance of `cls` (an ImagePatch), else an error that says what to pass."""
     if not isinstance(value, cls):
         raise ApiArgumentError(
-            f"{method}() needs {arg} as an {cls.__name__}, got {type(value).__name__} {value!r:.60}",
+            f"{method}() needs {arg} as an {cls.__name__}, got {_given(value)}",
             f'pass a patch returned by image.find(...), e.g. {method}(image.find("cup")[0])',
         )
     return value

@@ -261,7 +261,7 @@ class ImagePatch:
         >>>     bottom_row.sort(key=lambda w: w.horizontal_center)
         >>>     return bottom_row[len(bottom_row) // 2]
         """
-        name = check_text(object_name, "object_name", "find")
+        name = check_text(object_name, "object_name", "find", "detector")
         pixels = self._crop_frame()
         detections = self.perception.detector.detect(pixels, [name])
         if not isinstance(detections, list) or not all(isinstance(d, Detection) for d in detections):
@@ -316,7 +316,7 @@ class ImagePatch:
         >>> def execute_command(image, robot):
         >>>     return image.exists("fork") and image.exists("knife")
         """
-        check_text(object_name, "object_name", "exists")
+        check_text(object_name, "object_name", "exists", "detector")
         return len(self.find(object_name)) > 0
 
     def visual_query(self, question: str) -> str:
@@ -334,7 +334,7 @@ class ImagePatch:
         >>> def execute_command(image, robot):
         >>>     return image.visual_query("What are the items in this image?")
         """
-        q = check_text(question, "question", "visual_query")
+        q = check_text(question, "question", "visual_query", "vqa")
         vqa = self.perception.vqa
         if self.safeguards is None or not self.safeguards.on("look_again"):
             return _answer(vqa.answer(self._crop_frame(), q), vqa.name)
@@ -360,7 +360,7 @@ class ImagePatch:
         >>>     patches = image.find(heaviest)
         >>>     return patches[0] if patches else image
         """
-        q = check_text(question, "question", "language_query")
+        q = check_text(question, "question", "language_query", "language")
         return _answer(self.perception.language.complete(q), self.perception.language.name)
 
     def crop(self, left: float, lower: float, right: float, upper: float) -> ImagePatch:

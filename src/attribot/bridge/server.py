@@ -161,6 +161,31 @@ class _Refused(Exception):
 
 
 _RAMP_TICK = 0.02  # s: the ramp and the watchdog run at 50 Hz
+HELLO_TIMEOUT_S = 2.0
+"""How long a new connection has to send its hello: one that sends nothing must not hold the robot."""
+MAX_GREETING = 16
+"""Connections in their hello at once; more are closed at once (a flood must not exhaust threads)."""
+
+
+def _shut(conn: socket.socket) -> None:
+    """End a connection's reads and writes (its reader then sees the connection closed)."""
+    try:
+        conn.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass
+
+
+def _finite(h: dict[str, Any], key: str, op: str) -> float:
+    """`h[key]` as a finite float; anything else (missing, text, a bool, NaN, an infinity: clipping a NaN
+    gives the limit, so NaN would drive the base at full speed) is refused with code `value`."""
+    value = h.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _Refused(
+            "value",
+            f"{op} needs {key} as a finite number, got {value!r}",
+            "send finite numbers (no NaN or infinity; JSON has none)",
+        )
+    return float(value)
 
 
 class RobotServer:
@@ -185,6 +210,10 @@ class RobotServer:
         self._last_command = time.monotonic()
         self._armed = False  # something may be moving: the watchdog watches
         self._closing = threading.Event()
+        self._slot = threading.Lock()  # guards `_client` and `_greeting`
+        self._client: Any = None  # the peer being served, None when the robot is free
+        self._greeting = 0  # connections in their hello
+        self._handoff = queue.Queue()  # type: queue.Queue[tuple[socket.socket, Any, dict[str, Any]]]
         self.stops: list[tuple[float, str]] = []  # (monotonic time, why) of each safety stop
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -240,7 +269,33 @@ class RobotServer:
 
     # --- serving ----------------------------------------------------------------------------------
     def serve_forever(self) -> None:
-        """Accept clients one after the other until `close()`."""
+        """Serve clients one after the other until `close()`, in this thread (the driver's: a simulator's
+        GL context belongs to the thread that made it).
+
+        An accepting thread takes each connection's hello, with `HELLO_TIMEOUT_S` to send it, in a thread
+        of its own; a client whose version and token are right is handed here when the robot is free, and
+        told "robot busy" at once when another client drives it. An idle connection holds nothing."""
+        acceptor = threading.Thread(target=self._accept, name="bridge-accept", daemon=True)
+        acceptor.start()
+        try:
+            while not self._closing.is_set():
+                try:
+                    conn, peer, header = self._handoff.get(timeout=0.2)
+                except queue.Empty:
+                    continue
+                try:
+                    self.serve_client(conn, peer, header)
+                finally:
+                    conn.close()
+                    with self._slot:
+                        self._client = None
+        finally:
+            self._closing.set()
+            acceptor.join(timeout=1.0)
+            while not self._handoff.empty():
+                self._handoff.get_nowait()[0].close()
+
+    def _accept(self) -> None:
         while not self._closing.is_set():
             try:
                 conn, peer = self._sock.accept()
@@ -248,22 +303,64 @@ class RobotServer:
                 continue
             except OSError:
                 break  # closed
+            with self._slot:
+                crowded = self._greeting >= MAX_GREETING
+                if not crowded:
+                    self._greeting += 1
+            if crowded:
+                log.warning("bridge: refused %s: %d connections already in their hello", peer, MAX_GREETING)
+                conn.close()
+                continue
+            threading.Thread(target=self._greet, args=(conn, peer), name="bridge-hello", daemon=True).start()
+
+    def _greet(self, conn: socket.socket, peer: Any) -> None:
+        """Read and check one connection's hello; hand it to the serving thread, or refuse it."""
+        handed = False
+        # the deadline holds for the whole hello: a client that trickles a byte a second is cut too
+        cutoff = threading.Timer(HELLO_TIMEOUT_S, _shut, (conn,))
+        cutoff.daemon = True
+        try:
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            conn.settimeout(HELLO_TIMEOUT_S)
+            cutoff.start()
+            header, _ = recv_message(conn)
+            cutoff.cancel()
+            self._check_hello(header, peer)
+            with self._slot:
+                busy = self._client
+                if busy is None:
+                    self._client = peer
+            if busy is not None:
+                log.warning("bridge: refused %s: robot busy with %s", peer, busy)
+                raise _Refused(
+                    "busy",
+                    f"robot busy: another client ({busy[0] if isinstance(busy, tuple) else busy}) is "
+                    "connected, and the robot serves one client at a time",
+                    "wait until that client has finished, then connect again",
+                )
             conn.settimeout(None)
+            self._handoff.put((conn, peer, header))
+            handed = True
+        except _Refused as exc:
             try:
-                self.serve_client(conn, peer)
-            finally:
+                send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
+            except OSError:
+                pass
+        except (ProtocolError, OSError) as exc:  # a timeout is an OSError: no hello within the deadline
+            log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
+        finally:
+            cutoff.cancel()
+            with self._slot:
+                self._greeting -= 1
+            if not handed:
                 conn.close()
 
-    def serve_client(self, conn: socket.socket, peer: Any = None) -> None:
-        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    def serve_client(self, conn: socket.socket, peer: Any, hello: dict[str, Any]) -> None:
+        """Serve one client whose `hello` was checked: answer it, then its requests until it leaves."""
         authenticated = False
         try:
-            header, _ = recv_message(conn)
-            try:
-                reply = self._hello(header, peer)
-            except _Refused as exc:
-                send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
-                return
+            with self._lock:
+                reply = self._hello_reply()
             reply["ok"] = True
             send_message(conn, reply)
             authenticated = True
@@ -301,7 +398,7 @@ class RobotServer:
             if authenticated:  # a refused client never moved anything
                 self.safety_stop(f"client {peer} disconnected")
 
-    def _hello(self, header: dict[str, Any], peer: Any) -> dict[str, Any]:
+    def _check_hello(self, header: dict[str, Any], peer: Any) -> None:
         if header.get("op") != "hello":
             raise _Refused("hello", "the first message must be hello", "send hello with version and token")
         version = header.get("version")
@@ -321,6 +418,8 @@ class RobotServer:
                 "the robot refused the bridge token (wrong shared secret)",
                 "set ATTRIBOT_BRIDGE_TOKEN to the --token the robot's `attribot bridge serve` was given",
             )
+
+    def _hello_reply(self) -> dict[str, Any]:
         caps = list(self.driver.capabilities())
         reply = {
             "version": PROTOCOL_VERSION,
@@ -353,16 +452,16 @@ class RobotServer:
                 self._need("base", "drive its base")
                 lim = self.limits
                 self._target = (
-                    _clip(float(h["vx"]), lim.max_speed),
-                    _clip(float(h["vy"]), lim.max_speed),
-                    _clip(float(h["wz"]), lim.max_turn),
+                    _clip(_finite(h, "vx", op), lim.max_speed),
+                    _clip(_finite(h, "vy", op), lim.max_speed),
+                    _clip(_finite(h, "wz", op), lim.max_turn),
                 )
                 self._armed = True
                 if d.realtime:
                     self._ramp(_RAMP_TICK)
                 return {"commanded": list(self._target)}, b""
             if op == "step":
-                self._step(float(h["seconds"]))
+                self._step(_finite(h, "seconds", op))
                 return {"clock": d.clock()}, b""
             if op == "stop":
                 self._target = (0.0, 0.0, 0.0)
@@ -372,12 +471,13 @@ class RobotServer:
                 return {}, b""
             if op == "head":
                 self._need("head", "move a camera head")
-                d.set_head(float(h["pan"]), float(h["tilt"]))
+                d.set_head(_finite(h, "pan", op), _finite(h, "tilt", op))
                 return {}, b""
             if op == "arm":
                 self._need("arm", "move an arm")
+                lift, extension = _finite(h, "lift", op), _finite(h, "extension", op)
                 self._armed = True
-                d.set_arm(float(h["lift"]), float(h["extension"]))
+                d.set_arm(lift, extension)
                 return {}, b""
             if op == "grasp":
                 self._need("gripper", op)

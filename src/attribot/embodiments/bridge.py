@@ -136,7 +136,7 @@ class BridgeWorld(Embodiment):
             ) from None
         if not reply.get("ok"):
             error_type = UnsupportedAction if reply.get("code") == "unsupported" else BridgeError
-            if reply.get("code") in ("auth", "version", "hello"):
+            if reply.get("code") in ("auth", "version", "hello", "busy"):
                 self._drop()
             raise error_type(str(reply.get("error")), str(reply.get("fix") or "") or None)
         return reply, payload

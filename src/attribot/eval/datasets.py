@@ -43,6 +43,7 @@ __all__ = [
     "TASK_SIZES",
     "DATASET_VERSION",
     "build_items",
+    "item_count",
     "write_dataset",
     "read_dataset",
     "scene_info",
@@ -427,8 +428,19 @@ _SEED_BASE = {
 }
 
 
-def build_items(tasks: list[str] | None = None, limit: int | None = None) -> list[Item]:
-    """The suite's items, task by task (`limit`: at most that many queries per task). Deterministic."""
+def item_count(task: str, limit: int | None = None) -> int:
+    """How many items `build_items([task], limit)` gives (the size task has two per query)."""
+    n = TASK_SIZES[task] if limit is None else min(limit, TASK_SIZES[task])
+    return n * (2 if task == "size" else 1)
+
+
+def build_items(
+    tasks: list[str] | None = None,
+    limit: int | None = None,
+    on_item: Callable[[Item], None] | None = None,
+) -> list[Item]:
+    """The suite's items, task by task (`limit`: at most that many queries per task). Deterministic.
+    `on_item` is called as each item is made (generation takes minutes: a progress bar)."""
     chosen = list(TASKS) if tasks is None else tasks
     unknown = [t for t in chosen if t not in TASKS]
     if unknown:
@@ -436,13 +448,18 @@ def build_items(tasks: list[str] | None = None, limit: int | None = None) -> lis
     items: list[Item] = []
     for task in chosen:
         n = TASK_SIZES[task] if limit is None else min(limit, TASK_SIZES[task])
-        items += list(_BUILDERS[task](n, _SEED_BASE[task]))
+        for item in _BUILDERS[task](n, _SEED_BASE[task]):
+            items.append(item)
+            if on_item is not None:
+                on_item(item)
     return items
 
 
-def write_dataset(items: list[Item], out: Path, images: bool = True) -> None:
+def write_dataset(
+    items: list[Item], out: Path, images: bool = True, on_image: Callable[[Item], None] | None = None
+) -> None:
     """`out/manifest.jsonl`, `out/dataset.json` and, with `images`, `out/images/<id>.png` (the view the
-    item's query is asked on)."""
+    item's query is asked on); `on_image` is called as each image is written."""
     out.mkdir(parents=True, exist_ok=True)
     if images:
         from PIL import Image
@@ -455,6 +472,8 @@ def write_dataset(items: list[Item], out: Path, images: bool = True) -> None:
                 rgb = world.observe().rgb
             path = out / "images" / f"{item.id}.png"
             Image.fromarray(np.ascontiguousarray(rgb)).save(path)
+            if on_image is not None:
+                on_image(item)
     write_whole(out / "manifest.jsonl", "".join(i.model_dump_json() + "\n" for i in items).encode())
     about = {"suite": "paper", "version": DATASET_VERSION, "items": len(items)}
     write_whole(out / "dataset.json", (json.dumps(about, indent=2) + "\n").encode())

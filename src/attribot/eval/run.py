@@ -25,10 +25,20 @@ from typing import Any
 
 from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
-from attribot.eval.datasets import DATASET_VERSION, TASKS, Item, build_items, read_dataset, write_dataset
+from attribot.eval.datasets import (
+    DATASET_VERSION,
+    TASKS,
+    Item,
+    build_items,
+    item_count,
+    read_dataset,
+    write_dataset,
+)
 from attribot.eval.methods import METHODS, PAPER_METHODS, Record, check_condition, run_method
+from attribot.files import write_whole
+from attribot.shutdown import die_with_parent
 
-__all__ = ["EvalPlan", "RunSummary", "run_eval", "read_records", "records_path"]
+__all__ = ["EvalPlan", "RunSummary", "RunLock", "run_eval", "read_records", "records_path", "worker_pool"]
 
 Job = tuple[Item, str, str]  # item, method, noise
 
@@ -86,15 +96,89 @@ def records_path(out: Path, task: str, method: str, noise: str) -> Path:
 
 
 def read_records(out: Path) -> list[Record]:
-    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped)."""
+    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped).
+
+    An item recorded twice for one method and noise level (two runs that wrote into one folder) is an
+    `InputError`: counted twice, it would narrow every interval of the report."""
     records = []
     for path in sorted((out / "records").glob("*.jsonl")):
-        for line in path.read_text(encoding="utf-8").splitlines():
-            try:
-                records.append(Record.model_validate_json(line))
-            except ValueError:
-                continue
+        seen: dict[str, int] = {}
+        for record in _records_in(path):
+            seen[record.id] = seen.get(record.id, 0) + 1
+            records.append(record)
+        twice = sorted(i for i, n in seen.items() if n > 1)
+        if twice:
+            raise InputError(
+                f"{path} records {len(twice)} item(s) more than once ({', '.join(twice[:3])}"
+                f"{', ...' if len(twice) > 3 else ''}): two runs wrote into {out}",
+                "run the evaluation again into a new --out (one run per folder; attribot eval now locks it)",
+            )
     return records
+
+
+class RunLock:
+    """An exclusive lock on a run folder (`.lock`, held with flock): a second `attribot eval` into the same
+    folder is refused at once, not left to interleave its records with the first's. The kernel drops the
+    lock when the process ends, however it ends, so a killed run leaves no stale lock."""
+
+    def __init__(self, out: Path) -> None:
+        import fcntl
+
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise InputError(
+                f"the run folder {out} cannot be written ({exc.strerror or exc})", "give a writable --out"
+            ) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
+            os.close(fd)
+            raise InputError(
+                f"another attribot eval (process {holder}) is writing into {out}",
+                "wait for it to finish, or give another --out; two runs must not write one folder",
+            ) from None
+        except OSError as exc:
+            os.close(fd)
+            raise InputError(f"{out} cannot be locked ({exc.strerror})", "give another --out") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+        self._fd: int | None = fd
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing the descriptor drops the flock
+            self._fd = None
+
+    def __enter__(self) -> RunLock:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def _set_aside_torn(path: Path) -> str | None:
+    """A records file whose last line was torn by a crash mid-write: the fragment is moved to
+    `<name>.torn` and the file cut back to its last whole line, so that the next record starts on a line
+    of its own. Returns a note when it did so."""
+    if not path.is_file():
+        return None
+    with path.open("rb+") as f:
+        size = f.seek(0, os.SEEK_END)
+        if size == 0:
+            return None
+        f.seek(size - 1)
+        if f.read(1) == b"\n":
+            return None
+        f.seek(0)
+        data = f.read()
+        keep = data.rfind(b"\n") + 1
+        with path.with_name(path.name + ".torn").open("ab") as torn:
+            torn.write(data[keep:] + b"\n")
+        f.truncate(keep)
+    return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
 
 def _check_run(out: Path, settings: Settings) -> None:
@@ -114,26 +198,75 @@ def _check_run(out: Path, settings: Settings) -> None:
     path.write_text(json.dumps(want, indent=2) + "\n", encoding="utf-8")
 
 
-def _dataset(out: Path, plan: EvalPlan, progress: Callable[[str], None]) -> list[Item]:
-    """The plan's items: from the run's dataset when it holds them, else generated and added to it."""
+def _counter(progress: Callable[[str], None], what: str, total: int) -> Callable[[Item], None]:
+    """A callback that says "`what`: done/total" each time it is called."""
+    done = [0]
+
+    def count(_item: Item) -> None:
+        done[0] += 1
+        progress(f"{what}: {done[0]}/{total}")
+
+    return count
+
+
+def _first(items: dict[str, Item], task: str, n: int) -> list[Item]:
+    """The task's first `n` items by id: the ones `build_items` makes for that count, whatever else the
+    dataset holds (a resumed run takes the same items as the first, so its counts agree)."""
+    return sorted((i for i in items.values() if i.task == task), key=lambda i: i.id)[:n]
+
+
+def _dataset(
+    out: Path,
+    plan: EvalPlan,
+    progress: Callable[[str], None],
+    source: Path | None = None,
+    source_items: list[Item] | None = None,
+) -> list[Item]:
+    """The plan's items: from the run's dataset when it holds them, else taken from the built dataset at
+    `source` (`source_items`, with its images) or generated, and added to the run's dataset."""
     folder = out / "dataset"
     have = {i.id: i for i in read_dataset(folder)} if (folder / "manifest.jsonl").is_file() else {}
-    wanted = [t for t in plan.tasks]
+    given = None if source is None else {i.id: i for i in source_items or []}
     items: list[Item] = []
     missing: list[Item] = []
-    for task in wanted:
-        built = build_items([task], plan.limit) if not _covered(have, task, plan.limit) else None
-        if built is None:
-            items += [i for i in have.values() if i.task == task][: plan.limit or None]
+    for task in plan.tasks:
+        need = item_count(task, plan.limit)
+        present = _first(have, task, need)
+        if len(present) == need:
+            items += present
             continue
-        progress(f"generating {len(built)} {task} items")
+        if given is not None and source is not None:
+            built = _first(given, task, need)
+            if len(built) < need:
+                raise InputError(
+                    f"the dataset at {source} holds {len(built)} {task} items, and this run needs {need}",
+                    f"give a --limit it covers, or build it with more: attribot dataset build --tasks {task}",
+                )
+            absent = [i.id for i in built if not (source / "images" / f"{i.id}.png").is_file()]
+            if absent:
+                raise InputError(
+                    f"the dataset at {source} has no image of {', '.join(absent[:3])}",
+                    "build it again with attribot dataset build",
+                )
+            progress(f"taking {need} {task} items from {source}")
+        else:
+            progress(f"generating {task} items: 0/{need}")
+            built = build_items(
+                [task], plan.limit, on_item=_counter(progress, f"generating {task} items", need)
+            )
         items += built
         missing += [i for i in built if i.id not in have]
     if missing:
-        write_dataset(missing, folder / "new", images=True)
-        for image in (folder / "new" / "images").glob("*.png"):
-            (folder / "images").mkdir(parents=True, exist_ok=True)
-            image.replace(folder / "images" / image.name)
+        (folder / "images").mkdir(parents=True, exist_ok=True)
+        if given is not None and source is not None:
+            for item in missing:
+                name = f"{item.id}.png"
+                write_whole(folder / "images" / name, (source / "images" / name).read_bytes())
+        else:
+            rendered = _counter(progress, "rendering images", len(missing))
+            write_dataset(missing, folder / "new", images=True, on_image=rendered)
+            for image in (folder / "new" / "images").glob("*.png"):
+                image.replace(folder / "images" / image.name)
         merged = {**have, **{i.id: i for i in missing}}
         write_dataset(
             sorted(merged.values(), key=lambda i: (TASKS.index(i.task), i.id)), folder, images=False
@@ -145,14 +278,6 @@ def _dataset(out: Path, plan: EvalPlan, progress: Callable[[str], None]) -> list
             if sub.is_dir():
                 sub.rmdir()
     return items
-
-
-def _covered(have: dict[str, Item], task: str, limit: int | None) -> bool:
-    from attribot.eval.datasets import TASK_SIZES
-
-    n = sum(1 for i in have.values() if i.task == task)
-    need = TASK_SIZES[task] if limit is None else min(limit, TASK_SIZES[task])
-    return n >= need * (2 if task == "size" else 1)
 
 
 def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], int]:
@@ -204,17 +329,44 @@ def run_eval(
     executor: str = "local",
     progress: Callable[[str], None] | None = None,
     on_record: Callable[[Record, int, int], None] | None = None,
+    dataset: Path | None = None,
 ) -> RunSummary:
     """Run the plan into `out` (see the module docstring). `on_record(record, finished, total)` is called
-    as each record is written (the CLI's progress bar)."""
+    as each record is written (the CLI's progress bar). `dataset`: a folder made by `attribot dataset
+    build`, whose items and images the run takes instead of generating them.
+
+    The run holds a lock on `out` throughout: a second run into it is refused with an `InputError`."""
     if workers < 1:
         raise InputError(f"--workers {workers} runs nothing", "give 1 or more workers")
     if executor not in ("local", "ray"):
         raise InputError(f"unknown executor {executor!r}", "choose local or ray")
+    if dataset is not None and (dataset / "dataset" / "manifest.jsonl").is_file():
+        dataset = dataset / "dataset"  # a run folder's dataset
+    given = None if dataset is None else read_dataset(dataset)  # a wrong folder fails before any work
     say = progress or (lambda _msg: None)
     started = time.perf_counter()
+    with RunLock(out):
+        return _run_locked(plan, settings, out, workers, executor, say, on_record, dataset, given, started)
+
+
+def _run_locked(
+    plan: EvalPlan,
+    settings: Settings,
+    out: Path,
+    workers: int,
+    executor: str,
+    say: Callable[[str], None],
+    on_record: Callable[[Record, int, int], None] | None,
+    dataset: Path | None,
+    given: list[Item] | None,
+    started: float,
+) -> RunSummary:
     _check_run(out, settings)
-    items = _dataset(out, plan, say)
+    for path in sorted((out / "records").glob("*.jsonl")):
+        note = _set_aside_torn(path)
+        if note is not None:
+            say(note)
+    items = _dataset(out, plan, say, dataset, given)
     jobs, skipped = _jobs(items, plan, out)
     total = len(jobs)
     handles: dict[Path, Any] = {}
@@ -240,6 +392,17 @@ def run_eval(
     return RunSummary(done=finished, skipped=skipped, seconds=time.perf_counter() - started, out=out)
 
 
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """The local executor's pool. Spawned workers: each builds its own renderer (a forked EGL context is
+    not safe); each dies with this process, however it ends (after a kill -9 they ran on, 360 MB each)."""
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=get_context("spawn"),
+        initializer=die_with_parent,
+        initargs=(os.getpid(),),
+    )
+
+
 def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -> Iterator[Record]:
     if not jobs:
         return
@@ -251,8 +414,7 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
         for item, method, noise in jobs:
             yield run_method(item, method, settings, noise)
         return
-    # spawned workers: each builds its own renderer (a forked EGL context is not safe)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+    with worker_pool(workers) as pool:
         pending = {pool.submit(_run_job, _job_json(j), settings_json) for j in jobs[: workers * 4]}
         queued = jobs[workers * 4 :]
         while pending:

@@ -18,6 +18,7 @@ Lists may be "apple, book, laptop" or "an apple, a book and a laptop" (what a VQ
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -186,6 +187,12 @@ def parse_comparison(question: str) -> Comparison | None:
     return None
 
 
+@functools.cache
+def _longest_phrase() -> int:
+    """The most words of any catalog name or synonym."""
+    return max(len(w.split()) for cat in categories() for w in cat.words)
+
+
 def resolve_item(item: str) -> Category | None:
     """The catalog category an item names by its head noun, or None.
 
@@ -199,7 +206,9 @@ def resolve_item(item: str) -> Category | None:
     for cut in ("of", "with", "in", "on", "for", "from", "full"):
         if cut in tokens[1:]:
             tokens = tokens[: tokens.index(cut, 1)]
-    for k in range(len(tokens), 0, -1):
+    # only tails as long as the longest catalog phrase can match: the work stays linear in the item's
+    # length (trying every tail of a 300-word item held the host for seconds)
+    for k in range(min(len(tokens), _longest_phrase()), 0, -1):
         tail = tokens[-k:]
         for last in singular_forms(tail[-1]):
             phrase = " ".join([*tail[:-1], last])

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, model_validator
+
+from attribot.text import json_safe_data
 
 __all__ = ["AnswerObject", "AnswerError", "Answer"]
 
@@ -26,6 +28,11 @@ class AnswerError(BaseModel):
     message: str
     line: int | None = None
 
+    @model_validator(mode="before")
+    @classmethod
+    def _json_safe(cls, data: Any) -> Any:
+        return json_safe_data(data)
+
 
 class Answer(BaseModel):
     """One answered (or failed) query, with everything needed to check it: program, backends, trace."""
@@ -44,6 +51,13 @@ class Answer(BaseModel):
     world: dict[str, Any] | None = None  # layout and seed, or the image file
     sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.api.safeguards)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _json_safe(cls, data: Any) -> Any:
+        """Every text in an answer can be written as JSON: a lone surrogate (a program's own making, or
+        undecodable bytes of a command line) becomes U+FFFD, so that --json and --save never fail."""
+        return json_safe_data(data)
 
     @property
     def ok(self) -> bool:

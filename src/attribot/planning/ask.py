@@ -15,7 +15,7 @@ from typing import Any
 
 from attribot.config import SceneConfig, Settings
 from attribot.errors import ConfigError, InputError
-from attribot.files import check_writable, write_whole
+from attribot.files import check_regular_file, check_writable, write_whole
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
 from attribot.planning.base import is_utf8_text
@@ -57,6 +57,8 @@ class Scene:
                     f"a still image has a camera only, not {others}",
                     "drop --sensors (or give --sensors camera), or drop --image to ask in a simulated scene",
                 )
+        if self.image is not None:  # a folder, a FIFO or /dev/zero is named as such, before any work
+            check_regular_file(Path(self.image), "--image", "give the path of a PNG or JPEG file")
         if self.image is None and self.config is None:
             self.config = SceneConfig()
 
@@ -95,6 +97,7 @@ def execute(
     program: str, scene: Scene, settings: Settings, query: str = "", save_dir: Path | None = None
 ) -> Answer:
     """Run a program written the way the prompt asks (`def execute_command(image, robot)`) in `scene`."""
+    program = program.removeprefix("\ufeff")  # a byte-order mark, which Python itself accepts in a file
     if not program.strip():
         raise InputError("the program is empty", "give a file that defines execute_command(image, robot)")
     if not is_utf8_text(program) or not is_utf8_text(query):

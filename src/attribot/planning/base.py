@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict
 from attribot.api.prompt import ENTRY_POINT, MAX_QUERY_CHARS  # one definition of each, in the API layer
 from attribot.errors import AttribotError, InputError
 from attribot.registry import Registry
+from attribot.text import control_characters
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -142,7 +143,8 @@ def is_utf8_text(text: str) -> bool:
 
 
 def check_query(query: str) -> str:
-    """The query with surrounding white space removed; empty or overlong queries raise `InputError`."""
+    """The query with its white space runs made single spaces; an empty or overlong query, or one that holds
+    control characters, raises `InputError`."""
     if not isinstance(query, str):
         raise InputError(f"the query must be text, not {type(query).__name__}")
     text = " ".join(query.split())
@@ -153,6 +155,12 @@ def check_query(query: str) -> str:
         )
     if not text:
         raise InputError("the query is empty", 'ask about an object, e.g. "the second dog from the right"')
+    controls = control_characters(text)
+    if controls:  # "Which object\x1b[2J is ..." was searched for "object 2j"
+        raise InputError(
+            f"the query holds control characters ({', '.join(controls)}), which are no part of a question",
+            "type the question again without them (an escape sequence may have been pasted with it)",
+        )
     if len(text) > MAX_QUERY_CHARS:
         raise InputError(
             f"the query is {len(text)} characters long, more than the {MAX_QUERY_CHARS} allowed",

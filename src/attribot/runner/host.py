@@ -6,7 +6,6 @@ into a `RunResult`. A worker runs one program and is then discarded, so no state
 from __future__ import annotations
 
 import binascii
-import contextlib
 import inspect
 import json
 import marshal
@@ -20,7 +19,7 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +29,7 @@ from attribot.runner import worker
 from attribot.runner.policy import prepare_program, snippet_of
 from attribot.runner.protocol import KIND, Key, Kind
 from attribot.runner.records import Limits, RunError, RunResult, TraceRecord
+from attribot.text import json_safe as _text
 
 __all__ = ["ProgramRunner"]
 
@@ -40,18 +40,6 @@ _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
 """Longest text kept whole in a trace record; longer ones are cut and say how long they were."""
-
-
-_SURROGATES = re.compile("[\ud800-\udfff]")
-
-
-def _text(value: str) -> str:
-    """`value` as text any JSON file can hold: lone surrogates (which a program can make) become U+FFFD."""
-    try:
-        value.encode("utf-8")
-        return value
-    except UnicodeEncodeError:
-        return _SURROGATES.sub("\ufffd", value)
 
 
 def _cut(value: Any) -> Any:
@@ -65,9 +53,13 @@ def _cut(value: Any) -> Any:
     return value
 
 
+# a default repr, "<attribot.api.robot._RobotWithSensors object at 0x7f...>": its class name is enough
+_HOST_REPR = re.compile(r"<(?:\w+\.)*_*(\w+) object at 0x[0-9a-fA-F]+>")
+
+
 def _scrub(text: str, limit: int = 300) -> str:
-    """A host exception's text without file paths, short."""
-    text = _PATHS.sub("<path>", text)
+    """A host exception's text without file paths or host object reprs, short."""
+    text = _PATHS.sub("<path>", _HOST_REPR.sub(r"<\1>", text))
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
@@ -94,48 +86,86 @@ _CUT_SIGNAL = signal.SIGRTMIN + 5 if hasattr(signal, "SIGRTMIN") else signal.SIG
 leave alone."""
 
 
-@contextlib.contextmanager
-def _deadline_alarm(seconds: float) -> Iterator[None]:
-    """Raise `_CallTimeout` in this thread after `seconds`, when it is the main thread (where Python runs
-    signal handlers) and the cutting signal is free.
+class _Cutter:
+    """Cuts a host-side API call that is still running at its run's deadline.
 
-    A timer thread sends the signal to this thread at the deadline: it interrupts Python code and
-    blocking system calls (a socket read from a stuck endpoint, a wait); a C call that never returns to
-    Python (one model forward pass) ends first. Elsewhere (another thread, the signal owned by the
-    application) the deadline is checked when the call returns, as before.
+    One watcher thread per runner, started with its first run, sleeps until the armed deadline and then
+    signals the main thread if it is inside a call (`in_call`). `arm` (once per run, when the run is served
+    from the main thread, where Python runs signal handlers, and the cutting signal is free) installs the
+    handler and hands the watcher the deadline; `disarm` takes both back. The signal interrupts Python
+    code and blocking system calls (a socket read from a stuck endpoint, a wait); a C call that never
+    returns to Python (one model forward pass) ends first. A call itself only sets and clears `in_call`
+    and reads the clock once, so the protection costs next to nothing per call. Elsewhere (another thread,
+    the signal owned by the application) the deadline is checked when a call returns.
     """
-    usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
-        signal.SIG_DFL,
-        signal.SIG_IGN,
-        None,
-    )
-    if not usable or not math.isfinite(seconds):
-        yield
-        return
-    armed = threading.Event()
-    armed.set()
-    target = threading.get_ident()
 
-    def expire(signum: int, frame: Any) -> None:
-        if armed.is_set():
-            armed.clear()
+    def __init__(self) -> None:
+        self.in_call = False
+        self._cond = threading.Condition()
+        self._deadline: float | None = None  # armed: the deadline the watcher waits for
+        self._target = 0
+        self._thread: threading.Thread | None = None
+        self._closed = False
+        self._previous: Any = None
+        self._armed = False
+
+    def arm(self, deadline: float) -> None:
+        """Watch `deadline` (time.monotonic) until `disarm`."""
+        usable = threading.current_thread() is threading.main_thread() and signal.getsignal(_CUT_SIGNAL) in (
+            signal.SIG_DFL,
+            signal.SIG_IGN,
+            None,
+        )
+        if not usable or not math.isfinite(deadline) or self._armed:
+            return
+        self._previous = signal.signal(_CUT_SIGNAL, self._expire)
+        self._armed = True
+        with self._cond:
+            self._target = threading.get_ident()
+            self._deadline = deadline
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._watch, name="attribot-run-deadline", daemon=True)
+                self._thread.start()
+            self._cond.notify()
+
+    def _watch(self) -> None:
+        with self._cond:
+            while not self._closed:
+                if self._deadline is None:
+                    self._cond.wait()
+                    continue
+                left = self._deadline - time.monotonic()
+                if left > 0:
+                    self._cond.wait(left)
+                    continue
+                # a call that starts after this check sees the deadline passed when it starts; the signal
+                # is sent under the lock, so never after `disarm` has put the previous handler back
+                if self.in_call:
+                    signal.pthread_kill(self._target, _CUT_SIGNAL)
+                self._deadline = None
+
+    def _expire(self, signum: int, frame: Any) -> None:
+        if self.in_call:  # a signal that lands between calls is ignored
+            self.in_call = False
             raise _CallTimeout()
 
-    def send() -> None:
-        if armed.is_set():
-            signal.pthread_kill(target, _CUT_SIGNAL)
+    def disarm(self) -> None:
+        """Stop watching and put the previous handler back (the end of the run)."""
+        self.in_call = False
+        if not self._armed:
+            return
+        with self._cond:
+            self._deadline = None
+            self._cond.notify()
+        signal.signal(_CUT_SIGNAL, self._previous)
+        self._armed = False
 
-    previous = signal.signal(_CUT_SIGNAL, expire)
-    timer = threading.Timer(max(seconds, 1e-3), send)
-    timer.daemon = True
-    try:
-        timer.start()
-        yield
-    finally:
-        armed.clear()  # a signal still on its way is ignored by `expire`
-        timer.cancel()
-        timer.join()
-        signal.signal(_CUT_SIGNAL, previous)
+    def close(self) -> None:
+        """End the watcher thread (the runner is closed)."""
+        with self._cond:
+            self._closed = True
+            self._deadline = None
+            self._cond.notify()
 
 
 class _Gone(Exception):
@@ -254,6 +284,7 @@ class _Run:
         self.calls = 0
         self.last_line: int | None = None
         self.stop: tuple[str, str, int | None] | None = None
+        self.cutter = runner._cutter
 
     # ---- host objects <-> handles -------------------------------------------------------------------
     def handle(self, obj: Any) -> dict[str, Any]:
@@ -346,7 +377,10 @@ class _Run:
         cls = self.runner._class_of(value)
         if cls is not None:
             return self.runner.summarise(value)
-        return repr(value)[:200]
+        item = getattr(value, "item", None)  # numpy scalars
+        if callable(item) and getattr(value, "shape", None) == ():
+            return self.summary(item(), depth + 1)
+        return f"<{type(value).__name__}>"  # not its repr: that shows host modules and addresses
 
     # ---- one API call -------------------------------------------------------------------------------
     def call(self, msg: dict[str, Any], deadline: float = math.inf) -> dict[str, Any]:
@@ -388,9 +422,15 @@ class _Run:
             except TypeError as e:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown)
         t0 = time.perf_counter()
+        cutter = self.cutter
         try:
-            with _deadline_alarm(deadline - time.monotonic()):
+            cutter.in_call = True  # before the clock is read: see `_Cutter.arm`
+            try:
+                if time.monotonic() >= deadline:
+                    raise _CallTimeout()
                 result = fn(*args, **kwargs)
+            finally:
+                cutter.in_call = False
         except _CallTimeout:
             ms = (time.perf_counter() - t0) * 1000
             self.trace.append(
@@ -423,6 +463,8 @@ class _Run:
     def _refuse(
         self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
     ) -> dict[str, Any]:
+        # a host error may quote a program's text, lone surrogates and all, or a host object's repr
+        message = _text(_HOST_REPR.sub(r"<\1>", message))
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
         return {KIND: Kind.API_ERROR, Key.CATEGORY: "api", Key.MESSAGE: message}
 
@@ -495,7 +537,9 @@ class ProgramRunner:
         self._lock = threading.Lock()
         self._box: list[_Worker | None] = [None]
         self._closed = False
+        self._cutter = _Cutter()  # one watcher thread for every run of this runner
         self._finalizer = weakref.finalize(self, _kill_worker, self._box)
+        weakref.finalize(self, self._cutter.close)
         self._box[0] = _Worker()
 
     # ---- host-side helpers --------------------------------------------------------------------------
@@ -576,6 +620,7 @@ class ProgramRunner:
             try:
                 result = self._serve(state, request, t0)
             finally:
+                state.cutter.disarm()
                 self._respawn()
         return result
 
@@ -663,6 +708,7 @@ class ProgramRunner:
                 elif kind == Kind.GO and not ready:  # the worker has the program and starts its clocks
                     ready = True
                     deadline = time.monotonic() + limits.wall_s + grace
+                    state.cutter.arm(deadline)
                 elif kind == Kind.READY:
                     pass
                 else:
@@ -706,6 +752,7 @@ class ProgramRunner:
         self._closed = True
         with self._lock:
             _kill_worker(self._box)
+            self._cutter.close()
 
     def __enter__(self) -> ProgramRunner:
         return self

@@ -66,7 +66,8 @@ DENIED_BUILTINS: frozenset[str] = frozenset(
 attributes by computed names, other modules, the file system or the interpreter's internals."""
 
 DENIED_ATTRIBUTES: frozenset[str] = frozenset(
-    {"format", "format_map", "mro", "with_traceback", "throw", "send"}
+    # from_bytes: an integer of any size in one call, past the integer-size guard
+    {"format", "format_map", "mro", "with_traceback", "throw", "send", "from_bytes"}
 )
 # generator, coroutine, async-generator, frame, traceback and code attributes: gi_frame, f_back, ...
 _INTROSPECTION = re.compile(r"^(gi|cr|ag|tb|f|co)_")

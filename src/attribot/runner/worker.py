@@ -451,7 +451,27 @@ def g_ilshift(a, b):
 def safe_pow(base, exp, mod=None):
     if mod is None:
         return g_pow(base, exp)
+    if type(base) in _INTS and type(exp) in _INTS and type(mod) in _INTS:
+        # the result is below the modulus, but the work grows with the exponent's and the modulus's bits
+        _check_bits(max(abs(base).bit_length(), abs(mod).bit_length()), "pow(base, exp, mod)")
+        work = abs(exp).bit_length() * max(abs(mod).bit_length(), 64)
+        if work > STATE.max_bits * 1000:
+            stop(
+                "limit",
+                f"pow(base, exp, mod) with an exponent of {abs(exp).bit_length()} bits and a modulus of "
+                f"{abs(mod).bit_length()} bits is too much work (the product of their bits may be at most "
+                f"{STATE.max_bits * 1000})",
+            )
     return pow(base, exp, mod)
+
+
+def safe_round(number, ndigits=None):
+    # round(7, -10**7) computes 10 ** (10**7) to round with
+    if type(number) in _INTS and type(ndigits) in _INTS and ndigits < 0:
+        _check_bits(-ndigits * 3.33, "round")
+    if ndigits is None:
+        return round(number)
+    return round(number, ndigits)
 
 
 def safe_print(*args, sep=" ", end="\n", file=None, flush=False):
@@ -508,7 +528,16 @@ def make_math():
         _check_bits(bits, "math.prod")
         return math.prod(items, start=start)
 
-    for f in (factorial, comb, perm, prod):
+    def gcd(*integers):
+        # the result is small, but the operands must have been allowed to exist
+        _check_bits(max((abs(v).bit_length() for v in integers if type(v) in _INTS), default=0), "math.gcd")
+        return math.gcd(*integers)
+
+    def lcm(*integers):
+        _check_bits(sum(abs(v).bit_length() for v in integers if type(v) in _INTS), "math.lcm")
+        return math.lcm(*integers)
+
+    for f in (factorial, comb, perm, prod, gcd, lcm):
         setattr(mod, f.__name__, f)
     return mod
 
@@ -523,6 +552,7 @@ def build_globals():
     safe = {name: getattr(builtins, name) for name in SAFE_BUILTIN_NAMES}
     safe["print"] = safe_print
     safe["pow"] = safe_pow
+    safe["round"] = safe_round
     safe["__import__"] = safe_import
     STATE.math = make_math()
     return {

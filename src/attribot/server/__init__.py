@@ -12,6 +12,7 @@ from attribot.server.run import (
     build_served_backends,
     check_bind,
     close_backends,
+    listen_socket,
     serve_models,
     served_specs,
 )
@@ -29,5 +30,6 @@ __all__ = [
     "ProcessVisualQA",
     "served_specs",
     "check_bind",
+    "listen_socket",
     "serve_models",
 ]

@@ -68,6 +68,8 @@ class ServerConfig(BaseModel):
     max_image_mb: float = Field(default=10.0, gt=0.0)
     max_pixels: int = Field(default=25_000_000, ge=1)
     language_threads: int = Field(default=8, ge=1, le=256)
+    max_text_chars: int = Field(default=4000, ge=1, le=1_000_000)
+    max_queries: int = Field(default=64, ge=1, le=10_000)
 
     @property
     def max_image_bytes(self) -> int:
@@ -77,6 +79,12 @@ class ServerConfig(BaseModel):
     def max_body_bytes(self) -> int:
         # base64 grows the image by 4/3; the rest of the JSON is a few kilobytes of text
         return self.max_image_bytes * 4 // 3 + 4 + 64 * 1024
+
+    @property
+    def max_text_body_bytes(self) -> int:
+        """The largest body of a text-only request: a question of `max_text_chars`, each character
+        written as a JSON escape at worst."""
+        return self.max_text_chars * 6 + 4096
 
 
 class _Refused(Exception):
@@ -215,18 +223,28 @@ class _ModelServer:
                 "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with",
             )
 
-    async def read_body(self, request: Any) -> bytes:
+    async def read_body(self, request: Any, role: str) -> bytes:
         cfg = self.cfg
-        limit = cfg.max_body_bytes
+        if role == "language":  # text only: a body far larger than the longest question is refused unread
+            limit = cfg.max_text_body_bytes
+            too_large = _Refused(
+                413,
+                "too_large",
+                f"the request is over the server's limit of {limit} bytes for a text question "
+                f"(questions up to {cfg.max_text_chars} characters)",
+                "send a shorter question",
+            )
+        else:
+            limit = cfg.max_body_bytes
+            too_large = _Refused(
+                413,
+                "too_large",
+                f"the request is over the server's limit of {limit / 2**20:.1f} MB "
+                f"(images up to {cfg.max_image_mb:g} MB)",
+                "send a smaller image (JPEG is ~10x smaller than PNG), or start the server with a larger "
+                "--max-image-mb",
+            )
         declared = request.headers.get("content-length")
-        too_large = _Refused(
-            413,
-            "too_large",
-            f"the request is over the server's limit of {limit / 2**20:.1f} MB "
-            f"(images up to {cfg.max_image_mb:g} MB)",
-            "send a smaller image (JPEG is ~10x smaller than PNG), or start the server with a larger "
-            "--max-image-mb",
-        )
         if declared is not None and declared.isdigit() and int(declared) > limit:
             # read and drop what the client is sending (up to a bound), so that it sees the 413 and not a
             # reset connection half-way through its upload
@@ -244,6 +262,27 @@ class _ModelServer:
                 raise too_large
             chunks.append(chunk)
         return b"".join(chunks)
+
+    def check_text(self, texts: list[str], what: str) -> None:
+        """Refuse (413) a question or query longer than the server takes: a backend's time and memory grow
+        with its input (a 5 MB question doubled the VQA process's memory and ended in a 500)."""
+        cfg = self.cfg
+        if len(texts) > cfg.max_queries:
+            what_s = "queries" if what == "query" else what + "s"
+            raise _Refused(
+                413,
+                "too_large",
+                f"the request has {len(texts)} {what_s}, over the server's limit of {cfg.max_queries}",
+                f"send at most {cfg.max_queries} {what_s} per request",
+            )
+        longest = max((len(t) for t in texts), default=0)
+        if longest > cfg.max_text_chars:
+            raise _Refused(
+                413,
+                "too_large",
+                f"the {what} is {longest} characters long, over the server's limit of {cfg.max_text_chars}",
+                f"send a shorter {what} (attribot's API sends at most 2000 characters)",
+            )
 
     def decode(self, data: str) -> Frame:
         cfg = self.cfg
@@ -292,7 +331,7 @@ class _ModelServer:
                 )
             role_stats.requests += 1
             admitted = True
-            body = await self.read_body(request)
+            body = await self.read_body(request, role)
             record = await self.until_disconnected(request, handle(body))
             if record is None:  # the client went away: its work was dropped, nobody reads an answer
                 role_stats.errors["disconnected"] += 1
@@ -320,6 +359,7 @@ class _ModelServer:
 
     async def detect(self, body: bytes) -> BaseModel:
         req: DetectRequest = _parse(DetectRequest, body)
+        self.check_text(req.queries, "query")
         frame = await asyncio.to_thread(self.decode, req.image)
         served = await self.batchers["detector"].submit((frame, req.queries))
         return DetectResponse(
@@ -332,6 +372,7 @@ class _ModelServer:
 
     async def answer(self, body: bytes) -> BaseModel:
         req: AnswerRequest = _parse(AnswerRequest, body)
+        self.check_text([req.question], "question")
         frame = await asyncio.to_thread(self.decode, req.image)
         served = await self.batchers["vqa"].submit((frame, req.question))
         return AnswerResponse(
@@ -344,6 +385,7 @@ class _ModelServer:
 
     async def complete(self, body: bytes) -> BaseModel:
         req: CompleteRequest = _parse(CompleteRequest, body)
+        self.check_text([req.question], "question")
         t0 = time.perf_counter()
         loop = asyncio.get_running_loop()
         text = await loop.run_in_executor(self.language_pool[0], self.language.complete, req.question)

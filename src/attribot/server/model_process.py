@@ -38,6 +38,7 @@ from attribot import errors
 from attribot.errors import AttribotError, BackendError
 from attribot.frame import Frame
 from attribot.models.base import Detection, answer_many, build_backend, detect_many
+from attribot.shutdown import die_with_parent
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -82,22 +83,6 @@ def _rebuild(kind: str, message: str, fix: str | None) -> AttribotError:
 # ---- the child --------------------------------------------------------------------------------------
 
 
-def _die_with_parent() -> None:
-    """Ask Linux to kill this process when its parent dies, however it dies (SIGKILL, a crash): a child
-    stuck inside a model call never reads the pipe, and would otherwise live on, re-parented, holding its
-    memory and the GPU. Elsewhere the pipe's end-of-file is what stops it."""
-    import ctypes
-    import sys
-
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 class _Attached:
     """The parent's shared-memory block, opened by name in the child without the resource tracker.
 
@@ -128,7 +113,7 @@ def _child_main(conn: multiprocessing.connection.Connection, role: str, factory:
     # alone stops the server, and then this process, in order (here it would only print a traceback)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the same for a SIGTERM sent to the whole group
-    _die_with_parent()
+    die_with_parent()
     try:
         backend = factory()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import ipaddress
+import logging
+import os
+import socket
+import sys
 import threading
 import time
 from typing import TYPE_CHECKING, Any
@@ -23,12 +27,18 @@ __all__ = [
     "build_served_backends",
     "close_backends",
     "check_bind",
+    "listen_socket",
     "serve_models",
     "NONE",
 ]
 
+log = logging.getLogger("attribot.server")
+
 SHUTDOWN_GRACE_S = 3.0
 """How long a stopping server waits for the requests in flight."""
+STUCK_CALL_WAIT_S = 0.5
+"""How long a stopped server then waits for a backend call still running in one of its threads, before it
+exits without it (a thread cannot be stopped, and Python would wait for it at exit, for ever)."""
 
 NONE = "none"
 """The spec that leaves a role unserved."""
@@ -128,6 +138,64 @@ def check_bind(host: str, token: str | None) -> None:
         )
 
 
+def listen_socket(host: str, port: int) -> socket.socket:
+    """A socket bound to `host`:`port`, taken before any model is loaded; a port in use (or an address
+    this machine does not have) is a `ConfigError` that names it."""
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(
+            host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+        )[0]
+    except socket.gaierror as exc:
+        raise ConfigError(f"--host {host!r} is not an address of this machine ({exc.strerror})") from None
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn does: restarts are quick
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        if exc.errno == 98:  # EADDRINUSE
+            raise ConfigError(
+                f"port {port} on {host} is already in use",
+                f"stop what listens on port {port}, or choose another with --port",
+            ) from None
+        raise ConfigError(
+            f"cannot listen on {host}:{port} ({exc.strerror or exc})", "choose another --host or --port"
+        ) from None
+    sock.set_inheritable(True)
+    return sock
+
+
+def _leave_stuck_calls() -> None:
+    """Once the server has stopped: if a backend call still runs in one of its threads (a model or a
+    parser that takes minutes), wait a moment, then exit without it, the clean-up already done."""
+    current = threading.current_thread()
+    busy = [t for t in threading.enumerate() if t is not current and not t.daemon and t.is_alive()]
+    deadline = time.monotonic() + STUCK_CALL_WAIT_S
+    for t in busy:
+        t.join(max(deadline - time.monotonic(), 0.0))
+    stuck = [t.name for t in busy if t.is_alive()]
+    if not stuck:
+        return
+    exc = sys.exc_info()[1]
+    code = (
+        exc.code
+        if isinstance(exc, SystemExit) and isinstance(exc.code, int)
+        else 130
+        if isinstance(exc, KeyboardInterrupt)
+        else 1
+        if exc is not None
+        else 0
+    )
+    log.warning("exiting with a backend call still running (%s)", ", ".join(stuck))
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
 def _uvicorn_config(app: Any, host: str, port: int, log_level: str) -> Any:
     uvicorn = require("uvicorn", "the model server")
     return uvicorn.Config(
@@ -151,17 +219,26 @@ def serve_models(
     host: str = "127.0.0.1",
     port: int = 8500,
     log_level: str = "info",
+    sock: socket.socket | None = None,
 ) -> None:
-    """Serve `backends` until interrupted (Ctrl-C), then close them."""
+    """Serve `backends` until interrupted (Ctrl-C, SIGTERM), then close them, on `sock` when given (from
+    `listen_socket`) or on a socket of `host`:`port`.
+
+    A stop takes a few seconds whatever runs: requests in flight get `SHUTDOWN_GRACE_S`, model processes
+    are stopped, and a backend call stuck in one of the server's threads is left behind (the process
+    exits without waiting for it)."""
     check_bind(host, config.token)
     uvicorn = require("uvicorn", "the model server")
     app = create_app(config=config, **backends)
+    sock = sock if sock is not None else listen_socket(host, port)
     # uvicorn raises SIGTERM again once it has stopped: as SystemExit, so that the backends are closed
     with termination_as_exit():
         try:
-            uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run()
+            uvicorn.Server(_uvicorn_config(app, host, port, log_level)).run(sockets=[sock])
         finally:
+            sock.close()
             close_backends(backends)
+            _leave_stuck_calls()
 
 
 class ServerThread:
