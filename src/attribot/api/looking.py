@@ -166,11 +166,11 @@ class Survey:
         # the most strongly seen first, then the detector's order
         result = [d for _, d in sorted(kept, key=lambda sd: (-sd[0], -sd[1].score))]
         kept_first = sum(1 for d in result if any(d is f for f in first))
-        best = max(
+        settled = max(
             (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
         )
-        if best is not None:
-            self.claims.append((name, best.box, support[id(best)]))
+        if settled is not None:
+            self.claims.append((name, settled.box, support[id(settled)]))
         self.reports.append(
             LookAgainReport(
                 views=len(views),
