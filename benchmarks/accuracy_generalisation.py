@@ -19,6 +19,7 @@ Each phrasing is asked in a scene built for it, with every sensor; the truth com
 - yes/no: right when `Answer.boolean` says what the two named objects' values say;
 - measurements: a weight within 3% of the mass, a distance within half the object's size (+3 cm) of the
   camera's distance to its centre, a size within 35% of the object's longest extent `size_m`;
+- a colour the phrasing names ("the blue box") is the colour of the scene's objects;
 - a value too close to call at the end asked about (weight 5%, distance 8 cm, size 15%, position 12 px)
   makes the scene unusable: another seed is drawn.
 
@@ -45,7 +46,7 @@ from typing import Any
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
-from attribot.lexicon import GENERIC_NOUNS
+from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, words
 from attribot.planning.ask import Scene, ask
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
@@ -192,6 +193,9 @@ def scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None:
         except AttribotError:
             continue  # the layout could not place these objects on this seed, or no such category
         visible = [o for o in info.objects if o.box is not None]
+        colours = [w for w in words(row["query"]) if w in COLOR_WORDS]
+        if colours and not all(o.color == colours[0] for o in visible):
+            continue  # "the blue box": a scene whose box is blue
         truth = _truth(row, visible)
         if truth is not None:
             return config, truth

@@ -30,6 +30,7 @@ from attribot.lexicon import (
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
+    SURFACE_WORDS,
     WEIGHT_HEAVY,
     WEIGHT_LIGHT,
     paraphrased,
@@ -52,6 +53,9 @@ __all__ = [
     "GroundingQuery",
     "MeasureQuery",
     "OddQuery",
+    "YesNoQuery",
+    "Among",
+    "Request",
     "ParsedQuery",
     "parse_query",
     "write_program",
@@ -75,15 +79,13 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "weight": (
         "the heaviest item",
         "Out of the laptop, the chair and the credit card, which one is the most lightweight?",
-        "Is the apple heavier than the book?",
         "Which object weighs the most?",
-        "Give me the lightest of the apple, the phone and the kettle",
+        "the lightest of the apple, the phone and the kettle",
     ),
     "distance": (
         "Is the laptop or the tv closer to me?",
         "the closest chair",
         "Out of the mugs, which one is closer to me?",
-        "Is the lamp closer to me than the chair?",
         "Which object is farthest away from the robot?",
     ),
     "odd one out": ("the odd one out", "Which object does not belong?", "the odd mug out"),
@@ -93,7 +95,12 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "How heavy is the apple?",
         "How much does the book weigh?",
         "What's the distance to the book?",
+        "How big is the toaster?",
     ),
+    "yes/no": ("Is the kettle heavier than the backpack?", "Is the book to the left of the mug?"),
+    "scope": ("What's the heaviest thing on the counter?", "Which object is on the floor?"),
+    "action": ("bring me the lightest cup on the table", "Put the tomato on the counter"),
+    "composition": ("the second lightest mug", "the heaviest of the two closest objects"),
 }
 """The families the rules planner reads, each with example phrasings."""
 
@@ -102,14 +109,11 @@ class UnsupportedQuery(InputError):
     """The rules planner cannot read the query; the message lists the families it supports."""
 
     def __init__(self, query: str, reason: str | None = None) -> None:
-        families = "; ".join(
-            f"{name} (e.g. {' / '.join(repr(x) for x in ex[:2])})" for name, ex in FAMILIES.items()
-        )
         why = f": {reason}" if reason else ""
         super().__init__(
             f"the rules planner cannot read the query {query!r}{why}",
-            f"rephrase it in one of the supported families: {families}; "
-            "or use the llm planner (--planner llm)",
+            "ask within the supported families (location, size, weight, distance, odd one out, measurement), "
+            "e.g. 'the heaviest mug on the table', or use the llm planner (--planner llm)",
         )
         self.query = query
         self.reason = reason
@@ -177,6 +181,7 @@ class WeightQuery:
     objects: tuple[ObjectSpec, ...]  # one spec, or the named candidates of "Out of the X, Y and Z"
     heaviest: bool
     named: bool = False  # the candidates were listed by name
+    rank: int = 1  # "the second lightest": 2
 
 
 @dataclass(frozen=True)
@@ -184,6 +189,7 @@ class DistanceQuery:
     objects: tuple[ObjectSpec, ...]
     nearest: bool
     named: bool = False
+    rank: int = 1
 
 
 @dataclass(frozen=True)
@@ -198,7 +204,7 @@ class MeasureQuery:
     """One named object's distance or weight: "How far away is the lamp?", "How heavy is the apple?"."""
 
     obj: ObjectSpec
-    quantity: Literal["distance", "weight"]
+    quantity: Literal["distance", "weight", "size", "height", "width"]
 
 
 @dataclass(frozen=True)
@@ -208,8 +214,50 @@ class OddQuery:
     obj: ObjectSpec
 
 
+@dataclass(frozen=True)
+class YesNoQuery:
+    """Whether one named object has more (or less) of an attribute than another: "Is the kettle heavier
+    than the backpack?", "Is the book to the left of the mug?". The answer says yes or no, with both
+    values and which one has more."""
+
+    first: ObjectSpec
+    second: ObjectSpec
+    attribute: Literal["weight", "distance", "size", "position"]
+    more: bool  # asks whether `first` is heavier, farther, bigger, further right than `second`
+    word: str  # as written: "heavier", "closer", "to the left of"
+
+
+@dataclass(frozen=True)
+class Among:
+    """The candidates narrowed to the k at one end of another attribute: "of the two closest"."""
+
+    attribute: Literal["weight", "distance"]
+    most: bool  # the heaviest or the nearest end
+    k: int
+
+
+@dataclass(frozen=True)
+class Request:
+    """A reading with a frame around it: a surface it is scoped to ("on the table"), a narrowing ("of the
+    two closest"), an action on the chosen object ("bring me", "put ... on the counter")."""
+
+    inner: LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | OddQuery
+    scope: str | None = None  # a surface kind of `attribot.lexicon.SURFACE_WORDS`
+    among: Among | None = None
+    action: Literal["pick", "put"] | None = None
+    target: str | None = None  # what "put" puts the object on: a surface kind or an object's name
+
+
 ParsedQuery = (
-    LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | MeasureQuery | OddQuery
+    LocationQuery
+    | SizeQuery
+    | WeightQuery
+    | DistanceQuery
+    | GroundingQuery
+    | MeasureQuery
+    | OddQuery
+    | YesNoQuery
+    | Request
 )
 
 
@@ -327,6 +375,15 @@ _STOP = {
     "has",
     "have",
     "seems",
+    # verbs of a request and joining words, never part of a name
+    "put",
+    "onto",
+    "into",
+    "bring",
+    "give",
+    "tell",
+    "weigh",
+    "weighs",
     *_ORDINAL_WORDS,
     "last",
     "penultimate",
@@ -347,24 +404,46 @@ _STOP = {
 
 _LEAD = (
     r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|"
-    r"give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for))\s+"
+    r"give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|i\s+am\s+looking\s+for|"
+    r"show\s+me\s+where)\s+"
 )
 
 
-def _normalize(query: str) -> tuple[str, bool] | None:
+def _normalize(query: str) -> tuple[str, bool, str] | None:
     """Lower case, accents folded, punctuation to spaces, polite or imperative openings ("find", "where
     is") and articles dropped, and whether there was such an opening; None when the text holds letters
-    outside a-z (another script), which the planner cannot read."""
+    outside a-z (another script), which the planner cannot read. The third item is the text before the
+    opening was dropped, which the frames (actions) read."""
     text = unicodedata.normalize("NFKD", query.lower().replace("\u2019", "'").replace("-", " "))
     text = "".join(ch for ch in text if not unicodedata.combining(ch))
     if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
         return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
+    for short, full in _CONTRACTIONS:
+        if short in text:
+            text = text.replace(short, full)
+    text = _COURTESY.sub(" ", text)
+    text = " ".join(text.split()).strip(" ,")
     text = paraphrased(text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
     stripped = re.sub(_LEAD, "", text)
-    return _strip_article(stripped), stripped != text
+    return _strip_article(stripped), stripped != text, text
+
+
+_CONTRACTIONS = (
+    ("doesn't", "does not"),
+    ("don't", "do not"),
+    ("isn't", "is not"),
+    ("aren't", "are not"),
+    ("where's", "where is"),
+    ("what's", "what is"),
+    ("which's", "which is"),
+    ("i'm", "i am"),
+    ("you're", "you are"),
+)
+# courtesy carries no meaning: "please", "for me", "thanks", and "I'm looking for" is "find"
+_COURTESY = re.compile(r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b")
 
 
 def _strip_article(text: str) -> str:
@@ -736,13 +815,20 @@ def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
     return WeightQuery(objects=(obj,), heaviest=adjective in _WEIGHT_HEAVY)
 
 
-_MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight"]], ...] = (
+_MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight", "size", "height", "width"]], ...] = (
     (r"how\s+(?:far(?:\s+away)?|close|near)" + _ME + r"\s+(?:is|are)\s+(?P<obj>.+?)" + _ME, "distance"),
     (r"(?:what\s+is\s+)?(?:the\s+)?distance\s+(?:to|of)\s+(?P<obj>.+?)" + _ME, "distance"),
     (r"how\s+heavy\s+(?:is|are)\s+(?P<obj>.+)", "weight"),
     (r"how\s+much\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
     (r"what\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
     (r"(?:what\s+is\s+)?(?:the\s+)?(?:weight|mass)\s+of\s+(?P<obj>.+)", "weight"),
+    (r"how\s+(?:big|large|long)\s+(?:is|are)\s+(?P<obj>.+)", "size"),
+    (r"how\s+(?:tall|high)\s+(?:is|are)\s+(?P<obj>.+)", "height"),
+    (r"how\s+(?:wide|broad)\s+(?:is|are)\s+(?P<obj>.+)", "width"),
+    (r"what\s+size\s+(?:is|are)\s+(?P<obj>.+)", "size"),
+    (r"(?:what\s+is\s+)?(?:the\s+)?(?:size|length)\s+of\s+(?P<obj>.+)", "size"),
+    (r"(?:what\s+is\s+)?(?:the\s+)?height\s+of\s+(?P<obj>.+)", "height"),
+    (r"(?:what\s+is\s+)?(?:the\s+)?width\s+of\s+(?P<obj>.+)", "width"),
 )
 
 
@@ -788,14 +874,23 @@ _WHICH_X_IS = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2})\s+(?:is|are)\s+(?:the\s+)?"
     r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
 )
+_WHICH_X_IS_EXTREME = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?P<adj>leftmost|rightmost|topmost|uppermost|bottommost|lowermost)(?:\s+one)?"
+)
 _WHICH_X_IS_NTH = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
     r"(?P<ord>" + _ORD + r"|last)\s+(?P<rest>(?:from|in|on)\s+.+)"
 )
+_OTHERS = r"(?:all\s+)?the\s+(?:others|rest|other\s+(?:ones|objects|items|things))"
 _ODD = re.compile(
-    r"(?:(?:which|what)\s+(?:is\s+)?)?(?:the\s+)?odd\s+(?P<a>[a-z]+(?:\s+[a-z]+)?\s+)?out"
+    r"(?:(?:which|what)\s+(?:(?:one|object|item|thing)\s+)?(?:is\s+)?)?(?:the\s+)?odd\s+(?P<a>[a-z]+(?:\s+[a-z]+)?\s+)?out"
     r"|(?:the\s+)?odd\s+one"
-    r"|(?:which|what|the)\s+(?P<b>[a-z]+)\s+(?:that\s+)?(?:does\s+not|doesn't|doesnt)\s+belong(?:\s+here)?"
+    r"|(?:(?:which|what|the)\s+)?(?P<b>[a-z]+)\s+(?:that\s+)?(?:does\s+not|doesn't|doesnt)\s+(?:belong|fit(?:\s+in)?)"
+    r"(?:\s+(?:here|with\s+" + _OTHERS + r"|among\s+" + _OTHERS + r"))?"
+    r"|(?:which|what|the)\s+(?P<d>[a-z]+)?\s*(?:that\s+)?(?:sticks|stands)\s+out(?:\s+(?:from|among)\s+"
+    + _OTHERS
+    + r")?"
     r"|(?:which|what|the)\s+(?P<c>[a-z]+)\s+(?:that\s+)?is\s+(?:the\s+)?(?:different|odd)(?:\s+one)?"
     r"(?:\s+(?:from|than)\s+(?:all\s+)?the\s+(?:others|rest))?"
 )
@@ -806,7 +901,7 @@ def _parse_odd(text: str) -> OddQuery | None:
     match = _ODD.fullmatch(text)
     if match is None:
         return None
-    noun = (match["a"] or match["b"] or match["c"] or "object").strip()
+    noun = (match["a"] or match["b"] or match["c"] or match["d"] or "object").strip()
     obj = ObjectSpec("object") if noun in ("one", "ones") else _object(noun)
     return None if obj is None else OddQuery(obj)
 
@@ -905,16 +1000,14 @@ def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
             largest=largest != from_end,
             rank=rank,
         )
-    if rank != 1 or from_end:
-        raise UnsupportedQuery(
-            original, f"it asks for a rank ({cue['ord']!r}) of {attribute}, which it does not read"
-        )
+    if rank != 1 and named:
+        raise UnsupportedQuery(original, f"it asks for a rank ({cue['ord']!r}) among named objects")
     if attribute == "weight":
         heavy = adjective in _WEIGHT_HEAVY
         if degree in ("least", "less") and adjective in ("heavy", "light", "lightweight"):
             heavy = not heavy
-        return WeightQuery(objects=objects, heaviest=heavy, named=named)
-    return DistanceQuery(objects=objects, nearest=adjective in _NEAR, named=named)
+        return WeightQuery(objects=objects, heaviest=heavy != from_end, named=named, rank=rank)
+    return DistanceQuery(objects=objects, nearest=(adjective in _NEAR) != from_end, named=named, rank=rank)
 
 
 # "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
@@ -922,14 +1015,46 @@ _ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+o
 
 
 def parse_query(query: str) -> ParsedQuery:
-    """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text)."""
+    """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text).
+
+    The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
+    narrowing such as "of the two closest"), then the families read what is left."""
     original = check_query(query)
     normalized = _normalize(original)
     if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")
-    text, opened = normalized
+    text, opened, full = normalized
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
+    action, target, acted = _take_action(full)
+    if action == "measure":
+        return acted  # type: ignore[return-value]
+    if action is not None:
+        text, opened = _strip_article(str(acted)), True
+    yes_no = _parse_yes_no(text)
+    if yes_no is not None:
+        if action is not None:
+            raise UnsupportedQuery(original, "it asks to act and a yes/no question at once; ask one")
+        return yes_no
+    scope, text = _take_scope(text)
+    among, text = _take_among(text)
+    if scope is not None and _ONLY_FRAME.fullmatch(text):
+        inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
+    else:
+        inner = _parse_family(
+            text, opened, original, normalized[0] if scope is None and among is None else text
+        )
+    if scope is None and among is None and action is None:
+        return inner
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery):
+        raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
+    if among is not None and not isinstance(inner, WeightQuery | DistanceQuery | SizeQuery):
+        raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")
+    return Request(inner, scope=scope, among=among, action=action, target=target)  # type: ignore[arg-type]
+
+
+def _parse_family(text: str, opened: bool, original: str, whole: str) -> ParsedQuery:
+    """The families' readings of a text with no frame around it."""
     if text.endswith((" one", " ones")):
         text = _ADJECTIVE_ONE.sub(r"\1", text)
     parsed = _parse_compare(text) or _parse_measure(text) or _parse_odd(text)
@@ -941,6 +1066,10 @@ def parse_query(query: str) -> ParsedQuery:
     which = _WHICH_X_IS.fullmatch(text) if text.startswith(("which ", "what ")) else None
     if which is not None and _object(which["noun"]) is not None:
         text = f"{which['adj']} {which['noun']}"
+    # "which thing is leftmost" asks for "the leftmost thing"
+    extreme = _WHICH_X_IS_EXTREME.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if extreme is not None and _object(extreme["noun"]) is not None:
+        text = f"{extreme['adj']} {extreme['noun']}"
     # "which cup is second from the left" asks for "the second cup from the left"
     place = _WHICH_X_IS_NTH.fullmatch(text) if text.startswith(("which ", "what ")) else None
     if place is not None and _object(place["noun"]) is not None:
@@ -952,10 +1081,148 @@ def parse_query(query: str) -> ParsedQuery:
     grounding = _parse_grounding(text, opened)
     if grounding is not None:
         return grounding
-    by_meaning = _read_by_meaning(normalized[0], original)
+    by_meaning = _read_by_meaning(whole, original)
     if by_meaning is not None:
         return by_meaning
-    raise UnsupportedQuery(original)
+    raise UnsupportedQuery(original, _unplaced(whole))
+
+
+def _unplaced(text: str) -> str:
+    """The words of a refused text that no family reads, named for the refusal."""
+    known = _STOP | _FRAME_WORDS | GENERIC_NOUNS | set(SURFACE_WORDS)
+    rest = [w for w in text.split() if w not in known]
+    return f"it could not place {' '.join(rest or text.split())!r}"
+
+
+_FRAME_WORDS = {"of", "one", "ones", "it", "this", "that", "with", "for", "can", "could", "please"}
+
+
+# ---- frames around a reading: actions, yes/no, scopes, narrowings ---------------------------------------
+
+_SURFACE = "|".join(sorted(SURFACE_WORDS, key=len, reverse=True))
+_OPENING = r"^(?:(?:can|could|would|will)\s+you\s+)?"
+_ACT_PICK = re.compile(
+    _OPENING + r"(?:bring|give|hand|fetch|get|grab|take|pick\s+up)(?:\s+me|\s+us)?(?:\s+over)?\s+(?P<rest>.+)"
+)
+_ACT_PUT = re.compile(
+    _OPENING + r"(?:put|place|move|set)\s+(?P<rest>.+)\s+(?:on|onto|on\s+to|on\s+top\s+of)\s+(?:the\s+)?"
+    r"(?P<target>[a-z ]+?)$"
+)
+_ACT_MEASURE = re.compile(
+    _OPENING + r"(?:(?:pick\s+up|lift|grab|take|go\s+to|drive\s+to|approach)\s+)(?P<obj>.+?)\s+and\s+"
+    r"(?:(?:tell\s+me\s+|say\s+|find\s+out\s+|report\s+)?(?P<what>how\s+much\s+(?:it|they)\s+weighs?|"
+    r"its\s+(?:weight|mass)|how\s+heavy\s+(?:it|they)\s+(?:is|are)|weigh\s+(?:it|them)|"
+    r"how\s+far(?:\s+away)?\s+(?:it|they)\s+(?:is|are|was|were)|its\s+distance))$"
+)
+
+
+def _take_action(text: str) -> tuple[str | None, str | None, object]:
+    """("pick" or "put", the target, the rest of the text) of a request to act; ("measure", None, the
+    measurement) of "pick up the X and tell me how much it weighs"; (None, None, text) otherwise."""
+    match = _ACT_MEASURE.fullmatch(text)
+    if match is not None:
+        obj = _named(_strip_article(match["obj"]))
+        if obj is not None:
+            weight = any(w in match["what"] for w in ("weigh", "heavy", "mass"))
+            return "measure", None, MeasureQuery(obj, "weight" if weight else "distance")
+    match = _ACT_PUT.fullmatch(text)
+    if match is not None:
+        target = _strip_article(match["target"])
+        kind = SURFACE_WORDS.get(target)
+        spec = None if kind is not None else _named(target)
+        if kind is not None or spec is not None:
+            return "put", kind or (spec.phrase if spec else None), match["rest"]
+    match = _ACT_PICK.fullmatch(text)
+    if match is not None:
+        return "pick", None, match["rest"]
+    return None, None, text
+
+
+_YES_NO_WORDS = {
+    **{w: ("weight", True) for w in ("heavier", "more heavy")},
+    **{w: ("weight", False) for w in ("lighter", "less heavy")},
+    **{w: ("distance", False) for w in ("closer", "nearer")},
+    **{w: ("distance", True) for w in ("farther", "further", "more distant")},
+    **{w: ("size", True) for w in ("bigger", "larger")},
+    **{w: ("size", False) for w in ("smaller",)},
+}
+_YES_NO = re.compile(
+    r"(?:is|are|does|do)\s+(?P<a>.+?)\s+(?:(?:is|are)\s+)?(?P<adj>"
+    + "|".join(sorted(_YES_NO_WORDS, key=len, reverse=True))
+    + r")"
+    + _ME
+    + r"\s+than\s+(?P<b>.+?)"
+    + _ME
+)
+_YES_NO_SIDE = re.compile(
+    r"(?:is|are)\s+(?P<a>.+?)\s+(?:(?:on|to)\s+the\s+)?(?P<side>left|right)\s+(?:of|from)\s+(?P<b>.+)"
+)
+
+
+def _parse_yes_no(text: str) -> YesNoQuery | None:
+    """ "is the kettle heavier than the backpack", "is the book to the left of the mug"."""
+    match = _YES_NO.fullmatch(text)
+    if match is not None:
+        attribute, more = _YES_NO_WORDS[match["adj"]]
+        word = match["adj"]
+    else:
+        match = _YES_NO_SIDE.fullmatch(text)
+        if match is None:
+            return None
+        attribute, more, word = "position", match["side"] == "right", f"to the {match['side']} of"
+    first, second = _named(_strip_article(match["a"])), _named(_strip_article(match["b"]))
+    if first is None or second is None:
+        return None
+    return YesNoQuery(first, second, attribute, more, word)  # type: ignore[arg-type]
+
+
+_SCOPE = re.compile(
+    r"\s*\b(?:(?:that|which)\s+(?:is|are)\s+|(?:is|are)\s+)?(?:(?:sitting|standing|lying|placed|resting|kept|"
+    r"left)\s+)?(?:on|upon|on\s+top\s+of)\s+(?:the\s+)?(?P<surface>" + _SURFACE + r")\b"
+)
+# what is left of "which object is on the floor?" once the scope is taken: the question alone
+_ONLY_FRAME = re.compile(
+    r"(?:(?:which|what)(?:\s+(?:one|thing|object|item)s?)?(?:\s+(?:is|are))?|(?:the\s+)?(?:object|thing|item)s?)?"
+)
+
+
+def _take_scope(text: str) -> tuple[str | None, str]:
+    """The surface a query is scoped to ("the heaviest thing on the counter") and the text without it."""
+    match = _SCOPE.search(text)
+    if match is None:
+        return None, text
+    rest = " ".join((text[: match.start()] + " " + text[match.end() :]).split()).strip(" ,")
+    return SURFACE_WORDS[match["surface"]], rest
+
+
+_NUMBER_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "2": 2, "3": 3, "4": 4, "5": 5}
+_AMONG_WORDS = {
+    **{w: ("distance", True) for w in ("closest", "nearest")},
+    **{w: ("distance", False) for w in ("farthest", "furthest", "most distant")},
+    **{w: ("weight", True) for w in ("heaviest",)},
+    **{w: ("weight", False) for w in ("lightest",)},
+}
+_AMONG_ADJ = "|".join(sorted(_AMONG_WORDS, key=len, reverse=True))
+_AMONG = re.compile(
+    r"\b(?:of|among|out\s+of|from)\s+(?:the\s+)?(?P<k>two|three|four|five|[2-5])\s+(?:"
+    r"(?P<adj>" + _AMONG_ADJ + r")(?:\s+(?P<noun>[a-z]+))?|(?P<noun2>[a-z]+)\s+(?:that\s+are\s+)?"
+    r"(?:the\s+)?(?P<adj2>" + _AMONG_ADJ + r"))" + _ME + r"\b"
+)
+
+
+def _take_among(text: str) -> tuple[Among | None, str]:
+    """ "the heaviest of the two closest objects": the narrowing, and the text with "of the objects"."""
+    match = _AMONG.search(text)
+    if match is None:
+        return None, text
+    adjective = match["adj"] or match["adj2"]
+    noun = match["noun"] or match["noun2"] or "objects"
+    if noun in ("to", "from", "away", "one", "ones"):
+        noun = "objects"
+    attribute, most = _AMONG_WORDS[adjective]
+    among = Among(attribute, most, _NUMBER_WORDS[match["k"]])  # type: ignore[arg-type]
+    rest = text[: match.start()] + f" of the {noun} " + text[match.end() :]
+    return among, " ".join(rest.split()).strip(" ,")
 
 
 # ---- the program writer --------------------------------------------------------------------------------
@@ -1013,9 +1280,21 @@ class _Writer:
         self.helpers: list[str] = []
         self.body: list[str] = [f"# Query: {_q(query)}", "# Written by the offline rules planner."]
         self.uses_math = False
+        self.frame: Request | None = None  # a scope, narrowing or action around the reading
+        self.sensors: Sequence[str] = ("camera",)
+        self.embodied = False
+        self.act: str | None = None  # the helper call that acts on the chosen object: "bring(robot, {})"
 
     def line(self, text: str = "") -> None:
+        stripped = text.lstrip()
+        if self.act is not None and stripped.startswith("return ") and not stripped.startswith("return {"):
+            indent = text[: len(text) - len(stripped)]
+            text = indent + "return " + self.act.format(stripped[len("return ") :])
         self.body.append(text)
+
+    def helper(self, source: str) -> None:
+        if source not in self.helpers:
+            self.helpers.append(source)
 
     def fail(self, condition: str, message_expr: str) -> None:
         self.line(f"if {condition}:")
@@ -1056,6 +1335,91 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
         w.line("        kept.append(patch)")
         w.line(f"{var} = kept")
     w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
+    frame = w.frame
+    if frame is not None and frame.scope is not None:
+        _write_scope(w, var, frame.scope, obj)
+    if frame is not None and frame.among is not None and var == "candidates":
+        _write_among(w, frame.among)
+
+
+_ON_SURFACE_HELPER = '''
+def on_surface(patch, surface):
+    """True when the patch stands on the surface: the middle of its bottom edge lies inside the surface's box
+    (an object's foot is where it rests; y grows upward)."""
+    x = patch.horizontal_center
+    return surface.left <= x <= surface.right and surface.lower <= patch.lower <= surface.upper
+
+
+def on_any(patch, surfaces):
+    for surface in surfaces:
+        if on_surface(patch, surface):
+            return True
+    return False
+'''.lstrip("\n")
+
+
+def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
+    """Keep the patches of `var` that stand on the surface `scope` (on none of the furniture: the floor)."""
+    w.helper(_ON_SURFACE_HELPER)
+    if scope == "floor":
+        w.line("# on the floor: standing on none of the furniture")
+        w.line('furniture = image.find("table") + image.find("counter") + image.find("shelf")')
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    if not on_any(patch, furniture):")
+        w.line("        kept.append(patch)")
+    else:
+        w.line(f"# on the {scope}: the detector finds furniture too; keep what stands on it")
+        w.line(f"surfaces = image.find({_q(scope)})")
+        w.fail("len(surfaces) == 0", _q(f"no {scope} found in the image"))
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    if on_any(patch, surfaces):")
+        w.line("        kept.append(patch)")
+    w.line(f"{var} = kept")
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found on the {scope}"))
+
+
+def _write_among(w: _Writer, among: Among) -> None:
+    """Narrow `candidates` to the k at one end of another attribute ("of the two closest")."""
+    end = {("distance", True): "nearest", ("distance", False): "farthest"}.get(
+        (among.attribute, among.most), "heaviest" if among.most else "lightest"
+    )
+    w.line(f"# first the {among.k} {end}")
+    w.fail(
+        f"len(candidates) < {among.k}",
+        _count_message(f"asked among the {among.k} {end}, but only ", "len(candidates)", " were found"),
+    )
+    measured = w.embodied and ("distance" if among.attribute == "distance" else "force") in w.sensors
+    if among.attribute == "distance" and measured:
+        w.line("narrowing = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.focus_on_patch(patch)")
+        w.line("    narrowing.append(robot.measure_distance(patch))")
+        reverse = not among.most
+    elif among.attribute == "distance":
+        w.line("# no distance sensor: lower in the picture is nearer (a visual proxy, not a measurement)")
+        w.line("narrowing = [patch.lower for patch in candidates]")
+        reverse = not among.most
+    elif measured:
+        w.line("narrowing = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.go_to_object(patch)")
+        w.line("    robot.pick_up(patch)")
+        w.line("    narrowing.append(robot.measure_weight(patch))")
+        w.line("    robot.put_down()")
+        reverse = among.most
+    else:
+        w.line(
+            "# no force sensor: the bigger box is taken as the heavier (a visual proxy, not a measurement)"
+        )
+        w.line("narrowing = [patch.area for patch in candidates]")
+        reverse = among.most
+    w.line(
+        "order = sorted(range(len(candidates)), key=lambda index: narrowing[index]"
+        + (", reverse=True)" if reverse else ")")
+    )
+    w.line(f"candidates = [candidates[index] for index in order[:{among.k}]]")
 
 
 def _write_location(w: _Writer, q: LocationQuery) -> None:
@@ -1174,7 +1538,24 @@ def _write_size(w: _Writer, q: SizeQuery, sensors: Sequence[str], embodied: bool
                 " were found",
             ),
         )
+    if embodied and "distance" in sensors:
+        # the answer's value is the size asked, in metres: never the distance used to scale it
+        w.line(f"chosen = ordered[{q.rank - 1}]")
+        w.line("width, height = chosen.size_at(robot.measure_distance(chosen))")
+        if w.act is not None:
+            w.line("chosen = " + w.act.format("chosen"))
+        w.line(f'return {{"object": chosen, "value": {_SIZE_VALUES[q.measure]}, "unit": "m"}}')
+        return
     w.line(f"return ordered[{q.rank - 1}]")
+
+
+_SIZE_VALUES = {
+    "area": "max(width, height)",
+    "length": "max(width, height)",
+    "thickness": "min(width, height)",
+    "height": "height",
+    "width": "width",
+}
 
 
 def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
@@ -1189,7 +1570,18 @@ def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
         w.line(f"candidates = candidates + {var}")
 
 
-def _write_extreme_loop(w: _Writer, values: str, largest: bool) -> None:
+def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -> None:
+    if rank > 1:
+        w.line(
+            f"order = sorted(range(len(candidates)), key=lambda index: {values}[index]"
+            + (", reverse=True)" if largest else ")")
+        )
+        w.fail(
+            f"len(order) < {rank}",
+            _count_message(f"asked for the {_nth(rank)} one, but only ", "len(order)", " were found"),
+        )
+        w.line(f"return candidates[order[{rank - 1}]]")
+        return
     better = ">" if largest else "<"
     w.line("best = 0")
     w.line("for index in range(1, len(candidates)):")
@@ -1210,8 +1602,14 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line("    robot.pick_up(patch)")
         w.line("    weights.append(robot.measure_weight(patch))")
         w.line("    robot.put_down()")
-        _write_extreme_loop(w, "weights", q.heaviest)
+        _write_extreme_loop(w, "weights", q.heaviest, q.rank)
         return
+    if q.rank > 1 and (q.named or q.objects[0].generic):
+        raise InputError(
+            f"asked for the {_nth(q.rank)} {word.replace('est', 'est')} one, and without a force sensor the "
+            "language model can only name the extreme one",
+            "give the robot the sensor (--sensors camera,force) on the simulator or a robot",
+        )
     w.line(
         "# no force sensor: weight cannot be measured, so it is reasoned about (the paper's VQA + LLM chain)"
     )
@@ -1234,7 +1632,7 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         w.line('raise ValueError("the language model answered " + answer + ", none of the named objects")')
         return
     obj = q.objects[0]
-    if obj.generic and not obj.colors:
+    if obj.generic and not obj.colors and w.frame is None:
         w.line('items = image.visual_query("What are the items in this image?")')
         w.line('question = "Out of these items: " + items')
         w.line(f'question = question + ", which one is more likely to be the {word} one?"')
@@ -1269,7 +1667,14 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
     w.line("# objects of one kind: with no force sensor, the biggest box is taken as the heaviest")
     w.line("# (a visual proxy, not a measurement)")
     w.line(f"ordered = {_sorted('candidates', 'patch.width * patch.height', q.heaviest)}")
-    w.line("return ordered[0]")
+    if q.rank > 1:
+        w.fail(
+            f"len(ordered) < {q.rank}",
+            _count_message(
+                f"asked for the {_nth(q.rank)} {word} one, but only ", "len(ordered)", " were found"
+            ),
+        )
+    w.line(f"return ordered[{q.rank - 1}]")
 
 
 def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodied: bool) -> None:
@@ -1280,7 +1685,7 @@ def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodi
         w.line("for patch in candidates:")
         w.line("    robot.focus_on_patch(patch)")
         w.line("    distances.append(robot.measure_distance(patch))")
-        _write_extreme_loop(w, "distances", not q.nearest)
+        _write_extreme_loop(w, "distances", not q.nearest, q.rank)
         return
     w.line(
         "# no distance sensor: a visual proxy, not a measurement. Objects standing on the same floor or table"
@@ -1288,7 +1693,12 @@ def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodi
     w.line("# sit lower in the picture the closer they are, so the box whose bottom edge is lowest is taken")
     w.line("# as the closest (y grows upward: a smaller `lower` is lower in the picture)")
     w.line(f"ordered = {_sorted('candidates', 'patch.lower', not q.nearest)}")
-    w.line("return ordered[0]")
+    if q.rank > 1:
+        w.fail(
+            f"len(ordered) < {q.rank}",
+            _count_message(f"asked for the {_nth(q.rank)} one, but only ", "len(ordered)", " were found"),
+        )
+    w.line(f"return ordered[{q.rank - 1}]")
 
 
 def _write_grounding(w: _Writer, q: GroundingQuery) -> None:
@@ -1300,6 +1710,9 @@ def _write_grounding(w: _Writer, q: GroundingQuery) -> None:
 _MEASURING = {
     "distance": ("distance", "camera,distance", "Is the lamp or the chair closer to me?"),
     "weight": ("force", "camera,force", "Is the apple or the book heavier?"),
+    "size": ("distance", "camera,distance", "Which is bigger, the lamp or the chair?"),
+    "height": ("distance", "camera,distance", "Which is taller, the lamp or the chair?"),
+    "width": ("distance", "camera,distance", "Which is wider, the lamp or the chair?"),
 }
 
 
@@ -1308,13 +1721,25 @@ def _write_measure(w: _Writer, q: MeasureQuery, query: str, sensors: Sequence[st
     if sensor not in sensors or not embodied:
         # no proxy gives a number: a comparison can be estimated from the picture, a measurement cannot
         where = "the robot has no " + sensor + " sensor" if embodied else "a still image has no robot"
+        why = (
+            ", and the camera alone sees pixels, not metres"
+            if q.quantity in ("size", "height", "width")
+            else ""
+        )
         raise InputError(
-            f"{query!r} asks for a measured {q.quantity}, and {where}",
+            f"{query!r} asks for a measured {q.quantity}, and {where}{why}",
             f"give the robot the sensor (--sensors {flag}) on the simulator or a robot, or ask a comparison "
             f"such as {comparison!r}, which the camera alone can estimate",
         )
     _find(w, q.obj)
     w.line("patch = candidates[0]  # find lists the best match first")
+    if q.quantity in ("size", "height", "width"):
+        w.line("# a size in metres: the box's pixels times the measured distance over the focal length")
+        w.line("robot.focus_on_patch(patch)")
+        w.line("width, height = patch.size_at(robot.measure_distance(patch))")
+        value = {"size": "max(width, height)", "height": "height", "width": "width"}[q.quantity]
+        w.line(f'return {{"object": patch, "value": {value}, "unit": "m"}}')
+        return
     if q.quantity == "distance":
         w.line("# turn the camera (and the distance sensor with it) onto the object, then measure")
         w.line("robot.focus_on_patch(patch)")
@@ -1391,12 +1816,138 @@ def _write_odd(w: _Writer, q: OddQuery, sensors: Sequence[str], embodied: bool) 
     w.line("return candidates[odd]")
 
 
+_ACT_HELPERS = {
+    "pick": '''
+def bring(robot, patch):
+    """Go to the chosen object, pick it up and hold it: the request is done, and the answer names it."""
+    robot.go_to_object(patch)
+    robot.pick_up(patch)
+    return patch
+'''.lstrip("\n"),
+    "put": '''
+def put_it_on(robot, patch, target):
+    """Go to the chosen object, pick it up and put it on the target; the answer names the object."""
+    robot.go_to_object(patch)
+    robot.pick_up(patch)
+    robot.put_on(target)
+    return patch
+'''.lstrip("\n"),
+}
+
+_YES_NO_TERMS = {
+    # attribute: (sensor, unit, word for more, word for less)
+    "weight": ("force", "kg", "heavier", "lighter"),
+    "distance": ("distance", "m", "farther", "closer"),
+    "size": ("distance", "m", "bigger", "smaller"),
+    "position": ("camera", "px", "further right", "further left"),
+}
+
+
+def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: bool) -> None:
+    _find(w, q.first, "firsts")
+    _find(w, q.second, "seconds")
+    w.line("first = firsts[0]  # find lists the best match first")
+    w.line("second = seconds[0]")
+    sensor, unit, more_word, less_word = _YES_NO_TERMS[q.attribute]
+    measured = sensor == "camera" or (embodied and sensor in sensors)
+    if q.attribute == "weight" and measured:
+        w.line("# weigh both: the force sensor reads only what the gripper holds")
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    robot.go_to_object(patch)")
+        w.line("    robot.pick_up(patch)")
+        w.line("    values.append(robot.measure_weight(patch))")
+        w.line("    robot.put_down()")
+    elif q.attribute == "distance" and measured:
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    robot.focus_on_patch(patch)")
+        w.line("    values.append(robot.measure_distance(patch))")
+    elif q.attribute == "size" and measured:
+        w.line("# sizes in metres: each box's pixels times its measured distance over the focal length")
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    width, height = patch.size_at(robot.measure_distance(patch))")
+        w.line("    values.append(max(width, height))")
+    elif q.attribute == "position":
+        w.line("# left and right in the picture: the centres of the boxes, in pixels from the left edge")
+        w.line("values = [first.horizontal_center, second.horizontal_center]")
+    elif q.attribute == "weight":
+        w.line("# no force sensor: weight is reasoned about (the paper's VQA + LLM chain), not measured")
+        names = [q.first.phrase, q.second.phrase]
+        question = (
+            f"Out of these items: {', '.join(names)}, which one is more likely to be the heaviest one? "
+            "Answer with the name of one item only."
+        )
+        w.line(f"answer = image.language_query({_q(question)}).lower()")
+        w.line(f"if {_q(q.second.noun)} in answer and {_q(q.first.noun)} not in answer:")
+        w.line("    values = [0, 1]")
+        w.line(f"elif {_q(q.first.noun)} in answer:")
+        w.line("    values = [1, 0]")
+        w.line("else:")
+        w.line('    raise ValueError("the language model could not tell which is heavier: " + answer)')
+        unit = ""
+    elif q.attribute == "distance":
+        w.line(
+            "# no distance sensor: a visual proxy, not a measurement; on one floor or table, the box whose"
+        )
+        w.line("# bottom edge is higher in the picture is farther (y grows upward)")
+        w.line("values = [first.lower, second.lower]")
+        unit = ""
+    else:
+        w.line("# no distance sensor: the box areas in pixels (a visual proxy; a near object looks bigger)")
+        w.line("values = [first.area, second.area]")
+        unit = ""
+    op = ">" if q.more else "<"
+    w.line(f"yes = values[0] {op} values[1]")
+    w.line(f"# the one that is {more_word if q.more else less_word}, with the values of both")
+    w.line(f"winner = first if values[0] {op} values[1] else second")
+    first, second = _q(q.first.phrase), _q(q.second.phrase)
+    if unit:
+        w.line(f'shown = [" (" + str(round(value, 3)) + " {unit})" for value in values]')
+    else:
+        w.line('shown = ["", ""]')
+    w.line("if values[0] > values[1]:")
+    w.line(f'    text = "the " + {first} + shown[0] + " is {more_word} than the " + {second} + shown[1]')
+    w.line("elif values[0] < values[1]:")
+    w.line(f'    text = "the " + {first} + shown[0] + " is {less_word} than the " + {second} + shown[1]')
+    w.line("else:")
+    w.line(f'    text = "the " + {first} + shown[0] + " and the " + {second} + shown[1] + " are the same"')
+    w.line("value = values[0] if winner is first else values[1]")
+    if unit:
+        w.line(f'return {{"yes": yes, "object": winner, "value": value, "unit": "{unit}", "text": text}}')
+    else:
+        w.line('return {"yes": yes, "object": winner, "text": text}')
+
+
 def write_program(
     parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
 ) -> str:
     """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
     w = _Writer(query)
-    if isinstance(parsed, LocationQuery):
+    w.sensors, w.embodied = sensors, embodied
+    if isinstance(parsed, Request):
+        w.frame = parsed
+        if parsed.action is not None:
+            if not embodied:
+                raise InputError(
+                    f"{query!r} asks the robot to act, and a still image has no robot",
+                    "ask it in the simulator or on a robot, or ask only which object it means",
+                )
+            w.helper(_ACT_HELPERS[parsed.action])
+            if parsed.action == "put":
+                target = parsed.target or "table"
+                w.line(f"# where it goes: the {target}")
+                w.line(f"targets = image.find({_q(target)})")
+                w.fail("len(targets) == 0", _q(f"no {target} found in the image"))
+                w.line("target = targets[0]")
+                w.act = "put_it_on(robot, {}, target)"
+            else:
+                w.act = "bring(robot, {})"
+        parsed = parsed.inner
+    if isinstance(parsed, YesNoQuery):
+        _write_yes_no(w, parsed, sensors, embodied)
+    elif isinstance(parsed, LocationQuery):
         _write_location(w, parsed)
     elif isinstance(parsed, SizeQuery):
         _write_size(w, parsed, sensors, embodied)
