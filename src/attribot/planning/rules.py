@@ -405,7 +405,7 @@ _STOP = {
 _LEAD = (
     r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|"
     r"give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|i\s+am\s+looking\s+for|"
-    r"show\s+me\s+where)\s+"
+    r"show\s+me\s+where|where\s+can\s+i\s+find|help\s+me\s+find)\s+"
 )
 
 
@@ -443,7 +443,10 @@ _CONTRACTIONS = (
     ("you're", "you are"),
 )
 # courtesy carries no meaning: "please", "for me", "thanks", and "I'm looking for" is "find"
-_COURTESY = re.compile(r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b")
+_COURTESY = re.compile(
+    r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b"
+    r"|^(?:hey|hi|hello|ok|okay)(?:\s+(?:robot|there|attribot))?\s*,?"
+)
 
 
 def _strip_article(text: str) -> str:
@@ -891,7 +894,9 @@ _ODD = re.compile(
     r"|(?:which|what|the)\s+(?P<d>[a-z]+)?\s*(?:that\s+)?(?:sticks|stands)\s+out(?:\s+(?:from|among)\s+"
     + _OTHERS
     + r")?"
-    r"|(?:which|what|the)\s+(?P<c>[a-z]+)\s+(?:that\s+)?is\s+(?:the\s+)?(?:different|odd)(?:\s+one)?"
+    r"|(?:which|what|the)\s+(?P<e>[a-z]+)\s+(?:that\s+)?is\s+(?:not\s+like|unlike)\s+"
+    + _OTHERS
+    + r"|(?:which|what|the)\s+(?P<c>[a-z]+)\s+(?:that\s+)?is\s+(?:the\s+)?(?:different|odd)(?:\s+one)?"
     r"(?:\s+(?:from|than)\s+(?:all\s+)?the\s+(?:others|rest))?"
 )
 
@@ -901,7 +906,7 @@ def _parse_odd(text: str) -> OddQuery | None:
     match = _ODD.fullmatch(text)
     if match is None:
         return None
-    noun = (match["a"] or match["b"] or match["c"] or match["d"] or "object").strip()
+    noun = (match["a"] or match["b"] or match["c"] or match["d"] or match["e"] or "object").strip()
     obj = ObjectSpec("object") if noun in ("one", "ones") else _object(noun)
     return None if obj is None else OddQuery(obj)
 
@@ -1182,7 +1187,9 @@ _SCOPE = re.compile(
 )
 # what is left of "which object is on the floor?" once the scope is taken: the question alone
 _ONLY_FRAME = re.compile(
-    r"(?:(?:which|what)(?:\s+(?:one|thing|object|item)s?)?(?:\s+(?:is|are))?|(?:the\s+)?(?:object|thing|item)s?)?"
+    r"(?:(?:which|what)(?:\s+(?:one|thing|object|item)s?)?(?:\s+(?:is|are))?(?:\s+there)?"
+    r"|(?:what|which\s+(?:one|thing|object|item)s?)\s+(?:do|can)\s+you\s+see"
+    r"|(?:the\s+)?(?:object|thing|item)s?)?"
 )
 
 
