@@ -71,7 +71,11 @@ def _version() -> str:
             for f in ("scene.py", "catalog.py", "shapes.py", "robot.py", "world.py", "render.py")
         ),
         # the location and size truth is the parser's meaning of the released phrasing, in its vocabulary
-        ("attribot.planning", "rules.py"),
+        *(
+            ("attribot.planning.rules", f.name)
+            for f in sorted(resources.files("attribot.planning.rules").iterdir(), key=lambda f: f.name)
+            if f.name.endswith(".py")
+        ),
         ("attribot", "lexicon.py"),
     ):
         digest.update(resources.files(package).joinpath(name).read_bytes())

@@ -1,0 +1,84 @@
+"""The offline planner: a deterministic parser for the query families of the paper and beyond.
+
+It reads location, size, weight and distance queries (see `FAMILIES`) and writes the same kind of program
+an LLM writes against the API: `find` the objects the query names, then order or measure them. Rows and
+columns are found by clustering box centres, not by cutting the image into equal bands (the failure the
+paper reports for GPT-3.5). "long" and "short" follow the object's orientation (the longer box side).
+Weight and distance are measured with the robot's sensors when it has them; otherwise the program uses
+the paper's VQA + language-model chain (weight) or a visual proxy that it states in a comment
+(distance). A query outside these families raises `UnsupportedQuery`, which lists what is supported: the
+planner never guesses.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
+from attribot.planning.rules.forms import (
+    FAMILIES,
+    Among,
+    DistanceQuery,
+    GroundingQuery,
+    LineSpec,
+    LocationQuery,
+    MeasureQuery,
+    ObjectSpec,
+    OddQuery,
+    ParsedQuery,
+    Pick,
+    Request,
+    SizeQuery,
+    UnsupportedQuery,
+    WeightQuery,
+    YesNoQuery,
+)
+from attribot.planning.rules.read import parse_query
+from attribot.planning.rules.write import write_program
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = [
+    "FAMILIES",
+    "UnsupportedQuery",
+    "ObjectSpec",
+    "LineSpec",
+    "Pick",
+    "LocationQuery",
+    "SizeQuery",
+    "WeightQuery",
+    "DistanceQuery",
+    "GroundingQuery",
+    "MeasureQuery",
+    "OddQuery",
+    "YesNoQuery",
+    "Among",
+    "Request",
+    "ParsedQuery",
+    "parse_query",
+    "write_program",
+    "rules_program",
+    "RulesPlanner",
+]
+
+
+def rules_program(query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False) -> str:
+    """Parse `query` and write its program in one step."""
+    return write_program(parse_query(query), check_query(query), sensors, embodied)
+
+
+class RulesPlanner:
+    """The offline, deterministic planner. It ignores feedback: the same query gives the same program."""
+
+    name = "rules"
+    max_tries = 1
+
+    def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
+        return Plan(program=rules_program(request.query, request.sensors, request.embodied))
+
+
+@PLANNERS.register("rules")
+def _build_rules(settings: Settings) -> RulesPlanner:
+    return RulesPlanner()
