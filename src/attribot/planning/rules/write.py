@@ -23,6 +23,7 @@ from attribot.planning.rules.forms import (
     WeightQuery,
     YesNoQuery,
 )
+from attribot.planning.rules.helpers import source as helper_source
 from attribot.planning.rules.normalise import (
     _COMPARATIVE,
     _SIZE,
@@ -42,32 +43,6 @@ def _q(text: str) -> str:
     """A Python string literal (double quotes)."""
     return json.dumps(text)
 
-
-_GROUP_HELPER = '''
-def group_into_lines(patches, kind):
-    """Group patches into rows (kind "row", top row first) or columns (kind "column", left first).
-
-    Rows and columns follow the objects, not equal bands of the image: box centres are sorted across the
-    lines, and a new line starts wherever two neighbouring centres are further apart than half the
-    median box size in that direction.
-    """
-    if kind == "row":
-        # y grows upward, so the top row has the largest vertical_center
-        ordered = sorted(patches, key=lambda patch: -patch.vertical_center)
-        positions = [-patch.vertical_center for patch in ordered]
-        sizes = sorted([patch.height for patch in ordered])
-    else:
-        ordered = sorted(patches, key=lambda patch: patch.horizontal_center)
-        positions = [patch.horizontal_center for patch in ordered]
-        sizes = sorted([patch.width for patch in ordered])
-    gap = 0.5 * sizes[len(sizes) // 2]
-    lines = [[ordered[0]]]
-    for index in range(1, len(ordered)):
-        if positions[index] - positions[index - 1] > gap:
-            lines.append([])
-        lines[-1].append(ordered[index])
-    return lines
-'''.lstrip("\n")
 
 _SORT_KEYS = {
     "left": ("patch.horizontal_center", False, "from the left"),
@@ -96,9 +71,11 @@ class _Writer:
             text = indent + "return " + self.act.format(stripped[len("return ") :])
         self.body.append(text)
 
-    def helper(self, source: str) -> None:
-        if source not in self.helpers:
-            self.helpers.append(source)
+    def helper(self, name: str) -> None:
+        """Define the helper `name` of `attribot.planning.rules.helpers` in the program (once)."""
+        text = helper_source(name)
+        if text not in self.helpers:
+            self.helpers.append(text)
 
     def fail(self, condition: str, message_expr: str) -> None:
         self.line(f"if {condition}:")
@@ -146,25 +123,10 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
         _write_among(w, frame.among)
 
 
-_ON_SURFACE_HELPER = '''
-def on_surface(patch, surface):
-    """True when the patch stands on the surface: the middle of its bottom edge lies inside the surface's box
-    (an object's foot is where it rests; y grows upward)."""
-    x = patch.horizontal_center
-    return surface.left <= x <= surface.right and surface.lower <= patch.lower <= surface.upper
-
-
-def on_any(patch, surfaces):
-    for surface in surfaces:
-        if on_surface(patch, surface):
-            return True
-    return False
-'''.lstrip("\n")
-
-
 def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
     """Keep the patches of `var` that stand on the surface `scope` (on none of the furniture: the floor)."""
-    w.helper(_ON_SURFACE_HELPER)
+    w.helper("on_surface")
+    w.helper("on_any")
     if scope == "floor":
         w.line("# on the floor: standing on none of the furniture")
         w.line('furniture = image.find("table") + image.find("counter") + image.find("shelf")')
@@ -230,7 +192,7 @@ def _write_location(w: _Writer, q: LocationQuery) -> None:
     _find(w, q.obj)
     group = "candidates"
     if q.line is not None:
-        w.helpers.append(_GROUP_HELPER)
+        w.helper("group_into_lines")
         kind, plural = q.line.kind, q.line.kind + "s"
         first = "top" if kind == "row" else "left"
         last = "bottom" if kind == "row" else "right"
@@ -558,41 +520,9 @@ def _write_measure(w: _Writer, q: MeasureQuery, query: str, sensors: Sequence[st
     w.line("return patch")
 
 
-_ODD_HELPER = '''
-def the_one_unlike_the_rest(values):
-    """The index of the only value that differs from all the others, which agree; None otherwise."""
-    for index in range(len(values)):
-        rest = values[:index] + values[index + 1 :]
-        if values[index] not in rest and len(set(rest)) == 1:
-            return index
-    return None
-
-
-def size_outlier(patches):
-    """The index of the patch whose size least fits the others. Apparent size shrinks with distance, which
-    on a table grows with height in the image, so each patch is compared with the line through the others'
-    sizes against their vertical centres (their median when they share one row)."""
-    worst, worst_index = -1.0, 0
-    for index in range(len(patches)):
-        others = patches[:index] + patches[index + 1 :]
-        ys = [p.lower for p in others]
-        sizes = [math.sqrt(p.area) for p in others]
-        mean_y, mean_size = sum(ys) / len(ys), sum(sizes) / len(sizes)
-        spread = sum((y - mean_y) ** 2 for y in ys)
-        if spread > 1.0:
-            slope = sum((y - mean_y) * (z - mean_size) for y, z in zip(ys, sizes)) / spread
-            expected = mean_size + slope * (patches[index].lower - mean_y)
-        else:
-            expected = sorted(sizes)[len(sizes) // 2]
-        misfit = abs(math.log(math.sqrt(patches[index].area) / max(expected, 1.0)))
-        if misfit > worst:
-            worst, worst_index = misfit, index
-    return worst_index
-'''.lstrip("\n")
-
-
 def _write_odd(w: _Writer, q: OddQuery, sensors: Sequence[str], embodied: bool) -> None:
-    w.helpers.append(_ODD_HELPER)
+    w.helper("the_one_unlike_the_rest")
+    w.helper("size_outlier")
     w.uses_math = True
     _find(w, q.obj)
     w.fail(
@@ -619,24 +549,6 @@ def _write_odd(w: _Writer, q: OddQuery, sensors: Sequence[str], embodied: bool) 
         w.line("    odd = size_outlier(candidates)")
     w.line("return candidates[odd]")
 
-
-_ACT_HELPERS = {
-    "pick": '''
-def bring(robot, patch):
-    """Go to the chosen object, pick it up and hold it: the request is done, and the answer names it."""
-    robot.go_to_object(patch)
-    robot.pick_up(patch)
-    return patch
-'''.lstrip("\n"),
-    "put": '''
-def put_it_on(robot, patch, target):
-    """Go to the chosen object, pick it up and put it on the target; the answer names the object."""
-    robot.go_to_object(patch)
-    robot.pick_up(patch)
-    robot.put_on(target)
-    return patch
-'''.lstrip("\n"),
-}
 
 _YES_NO_TERMS = {
     # attribute: (sensor, unit, word for more, word for less)
@@ -738,7 +650,7 @@ def write_program(
                     f"{query!r} asks the robot to act, and a still image has no robot",
                     "ask it in the simulator or on a robot, or ask only which object it means",
                 )
-            w.helper(_ACT_HELPERS[parsed.action])
+            w.helper("bring" if parsed.action == "pick" else "put_it_on")
             if parsed.action == "put":
                 target = parsed.target or "table"
                 w.line(f"# where it goes: the {target}")
