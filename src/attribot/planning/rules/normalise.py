@@ -36,6 +36,17 @@ _ORDINAL_WORDS = {
         "fourteenth fifteenth sixteenth seventeenth eighteenth nineteenth twentieth".split()
     )
 }
+_PATTERNS: dict[str, re.Pattern[str]] = {}
+
+
+def rx(pattern: str) -> re.Pattern[str]:
+    """`pattern` compiled, once: the readers build their patterns from the vocabulary as strings."""
+    compiled = _PATTERNS.get(pattern)
+    if compiled is None:
+        compiled = _PATTERNS[pattern] = re.compile(pattern)
+    return compiled
+
+
 _ORD = (
     r"(?:(?:second|third|fourth|fifth|\d+(?:st|nd|rd|th))\s+(?:to|from)\s+(?:the\s+)?last|penultimate|last|"
     + "|".join(_ORDINAL_WORDS)
@@ -180,10 +191,12 @@ def _normalize(query: str) -> tuple[str, bool, str] | None:
     is") and articles dropped, and whether there was such an opening; None when the text holds letters
     outside a-z (another script), which the planner cannot read. The third item is the text before the
     opening was dropped, which the frames (actions) read."""
-    text = unicodedata.normalize("NFKD", query.lower().replace("\u2019", "'").replace("-", " "))
-    text = "".join(ch for ch in text if not unicodedata.combining(ch))
-    if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
-        return None
+    text = query.lower().replace("\u2019", "'").replace("-", " ")
+    if not text.isascii():  # lower-case ASCII letters are a-z already: only other text needs folding
+        text = unicodedata.normalize("NFKD", text)
+        text = "".join(ch for ch in text if not unicodedata.combining(ch))
+        if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
+            return None
     text = re.sub(r"[^a-z0-9',\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
     for short, full in _CONTRACTIONS:
@@ -193,7 +206,7 @@ def _normalize(query: str) -> tuple[str, bool, str] | None:
     text = " ".join(text.split()).strip(" ,")
     text = paraphrased(text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
-    stripped = re.sub(_LEAD, "", text)
+    stripped = rx(_LEAD).sub("", text)
     return _strip_article(stripped), stripped != text, text
 
 
@@ -216,7 +229,7 @@ _COURTESY = re.compile(
 
 
 def _strip_article(text: str) -> str:
-    return re.sub(r"^(?:the|a|an|some)\s+", "", text.strip(" ,")).strip(" ,")
+    return rx(r"^(?:the|a|an|some)\s+").sub("", text.strip(" ,")).strip(" ,")
 
 
 def _ordinal(text: str) -> tuple[int, bool]:
@@ -263,7 +276,7 @@ def _object(phrase: str) -> ObjectSpec | None:
         return None
     if not words:
         return ObjectSpec("object")
-    if len(words) > 6 or any(not re.fullmatch(r"[a-z0-9']+", w) or w in _STOP for w in words):
+    if len(words) > 6 or any(not rx(r"[a-z0-9']+").fullmatch(w) or w in _STOP for w in words):
         return None
     if all(w.isdigit() for w in words):
         return None
@@ -279,7 +292,7 @@ def _object(phrase: str) -> ObjectSpec | None:
 
 def _take(pattern: str, text: str) -> tuple[re.Match[str] | None, str]:
     """The first match of `pattern` and the text with it cut out."""
-    match = re.search(pattern, text)
+    match = rx(pattern).search(text)
     if match is None:
         return None, text
     return match, " ".join((text[: match.start()] + " " + text[match.end() :]).split())

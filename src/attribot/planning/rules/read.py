@@ -56,6 +56,7 @@ from attribot.planning.rules.normalise import (
     _split_names,
     _strip_article,
     _take,
+    rx,
 )
 
 
@@ -221,20 +222,18 @@ def _k_invalid(line: LineSpec) -> bool:
 
 
 def _parse_size(text: str) -> SizeQuery | None:
-    match = re.fullmatch(
+    match = rx(
         r"(?:(?P<ord>"
         + _ORD
         + r")\s+)?(?:(?P<deg>most|least)\s+)?(?P<adj>"
         + _SIZE_WORDS
-        + r")(?:\s+(?P<rest>.+))?",
-        text,
-    )
+        + r")(?:\s+(?P<rest>.+))?"
+    ).fullmatch(text)
     if match is None:
-        match = re.fullmatch(
+        match = rx(
             r"(?P<rest>.+?)\s+(?:that|which|who)\s+(?:is|are)\s+(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?"
-            r"(?:(?P<deg>most|least)\s+)?(?P<adj>" + _SIZE_WORDS + r")(?:\s+one)?",
-            text,
-        )
+            r"(?:(?P<deg>most|least)\s+)?(?P<adj>" + _SIZE_WORDS + r")(?:\s+one)?"
+        ).fullmatch(text)
     if match is None:
         return None
     adjective = match["adj"]
@@ -332,9 +331,9 @@ def _parse_compare(text: str) -> WeightQuery | DistanceQuery | None:
 def _parse_superlative(text: str) -> WeightQuery | DistanceQuery | None:
     """ "the heaviest item", "the light box", "the closest chair", "the mug nearest to me"."""
     words = _WEIGHT_WORDS + "|" + _DIST_WORDS
-    match = re.fullmatch(r"(?P<adj>" + words + r")(?:\s+(?P<rest>.+?))?" + _ME, text) or re.fullmatch(
-        r"(?P<rest>.+?)\s+(?:that\s+is\s+|which\s+is\s+)?(?:the\s+)?(?P<adj>" + words + r")" + _ME, text
-    )
+    match = rx(r"(?P<adj>" + words + r")(?:\s+(?P<rest>.+?))?" + _ME).fullmatch(text) or rx(
+        r"(?P<rest>.+?)\s+(?:that\s+is\s+|which\s+is\s+)?(?:the\s+)?(?P<adj>" + words + r")" + _ME
+    ).fullmatch(text)
     if match is None:
         return None
     obj = _object(match["rest"] or "")
@@ -367,7 +366,7 @@ def _parse_measure(text: str) -> MeasureQuery | WeightQuery | DistanceQuery | No
     """ "How far away is the lamp?", "How much does the apple weigh?": one named object's measurement; "How
     far is the closest chair?": the chosen object, measured."""
     for form, quantity in _MEASURE_FORMS:
-        match = re.fullmatch(form, text)
+        match = rx(form).fullmatch(text)
         if match is None:
             continue
         obj = _named(match["obj"])
@@ -492,8 +491,8 @@ def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
         raise UnsupportedQuery(
             original, f"found the {attribute} word {adjective!r} with 'to me', which it does not relate"
         )
-    if re.search(r"(?:,|\band\b|\bor\b|\bthan\b)", rest):
-        objects = _split_names(re.sub(r"\s+than\s+", " or ", rest))
+    if rx(r"(?:,|\band\b|\bor\b|\bthan\b)").search(rest):
+        objects = _split_names(rx(r"\s+than\s+").sub(" or ", rest))
         named = True
         if objects is None or len(objects) < 2:
             raise UnsupportedQuery(
