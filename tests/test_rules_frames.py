@@ -141,3 +141,15 @@ def test_a_size_answer_is_a_size_in_metres_not_the_distance_measured():
     assert answer.unit == "m" and answer.value is not None
     assert abs(answer.value - chosen.size_m) < 0.4 * chosen.size_m
     assert abs(answer.value - chosen.distance_m) > 0.5
+
+
+def test_every_registered_family_reads_and_writes_its_examples():
+    from attribot.planning.rules.families import FAMILY_REGISTRY
+
+    assert len(FAMILY_REGISTRY.names()) >= 10
+    for name, family in FAMILY_REGISTRY.items():
+        assert family.examples, name
+        for example in family.examples:
+            parse_query(example)
+            program = rules_program(example, tuple(ALL), True)
+            compile(program, "<program>", "exec")

@@ -16,8 +16,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
+from attribot.planning.rules.families import FAMILY_REGISTRY
 from attribot.planning.rules.forms import (
-    FAMILIES,
     Among,
     DistanceQuery,
     GroundingQuery,
@@ -39,6 +39,10 @@ from attribot.planning.rules.write import write_program
 
 if TYPE_CHECKING:
     from attribot.config import Settings
+
+FAMILIES: dict[str, tuple[str, ...]] = {name: family.examples for name, family in FAMILY_REGISTRY.items()}
+"""The families the rules planner reads, each with example phrasings (each family module registers its
+own)."""
 
 __all__ = [
     "FAMILIES",

@@ -13,47 +13,6 @@ from attribot.lexicon import (
     GENERIC_NOUNS,
 )
 
-FAMILIES: dict[str, tuple[str, ...]] = {
-    "location": (
-        "the second dog from the right",
-        "top right cocktail",
-        "the second umbrella from the left in the second to last row",
-        "the pill in the middle of the right column",
-    ),
-    "size": (
-        "the third tallest item",
-        "the smallest red apple",
-        "the long carrot",
-        "which cup is the tallest",
-    ),
-    "weight": (
-        "the heaviest item",
-        "Out of the laptop, the chair and the credit card, which one is the most lightweight?",
-        "Which object weighs the most?",
-        "the lightest of the apple, the phone and the kettle",
-    ),
-    "distance": (
-        "Is the laptop or the tv closer to me?",
-        "the closest chair",
-        "Out of the mugs, which one is closer to me?",
-        "Which object is farthest away from the robot?",
-    ),
-    "odd one out": ("the odd one out", "Which object does not belong?", "the odd mug out"),
-    "grounding": ("Where is the mug?", "find the red apple", "point at the remote control", "the red mug"),
-    "measurement": (
-        "How far away is the lamp?",
-        "How heavy is the apple?",
-        "How much does the book weigh?",
-        "What's the distance to the book?",
-        "How big is the toaster?",
-    ),
-    "yes/no": ("Is the kettle heavier than the backpack?", "Is the book to the left of the mug?"),
-    "scope": ("What's the heaviest thing on the counter?", "Which object is on the floor?"),
-    "action": ("bring me the lightest cup on the table", "Put the tomato on the counter"),
-    "composition": ("the second lightest mug", "the heaviest of the two closest objects"),
-}
-"""The families the rules planner reads, each with example phrasings."""
-
 
 class UnsupportedQuery(InputError):
     """The rules planner cannot read the query; the message lists the families it supports."""
