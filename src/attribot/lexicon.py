@@ -49,7 +49,7 @@ COLOR_WORDS: frozenset[str] = frozenset(
 GENERIC_NOUNS: frozenset[str] = frozenset(
     {
         "item", "items", "object", "objects", "thing", "things", "one", "ones", "something", "stuff",
-        "anything", "everything",
+        "anything", "everything", "whatever",
     }
 )  # fmt: skip
 """Head nouns that stand for any object ("the heaviest item")."""

@@ -203,8 +203,12 @@ def _normalize(query: str) -> tuple[str, bool, str] | None:
         if short in text:
             text = text.replace(short, full)
     text = _COURTESY.sub(" ", text)
+    if " where " in text:
+        text = _FROM_WHERE.sub("from you", text)
     text = " ".join(text.split()).strip(" ,")
     text = paraphrased(text)
+    if " is" in text:  # "which would weigh the most" reads "which would is the heaviest": "which is"
+        text = _AUXILIARY_IS.sub("is", text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
     stripped = rx(_LEAD).sub("", text)
     return _strip_article(stripped), stripped != text, text
@@ -219,13 +223,24 @@ _CONTRACTIONS = (
     ("what's", "what is"),
     ("which's", "which is"),
     ("i'm", "i am"),
+    ("that's", "that is"),
+    ("it's", "it is"),
+    ("there's", "there is"),
+    ("who's", "who is"),
+    ("how's", "how is"),
     ("you're", "you are"),
 )
 # courtesy carries no meaning: "please", "for me", "thanks", and "I'm looking for" is "find"
 _COURTESY = re.compile(
     r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b"
     r"|^(?:hey|hi|hello|ok|okay)(?:\s+(?:robot|there|attribot))?\s*,?"
+    r"|\b(?:right\s+now|at\s+the\s+moment|currently)\b|,?\s+or\s+not$"
+    r"|^(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say)\s+(?=how\b|what\b|which\b|where\b)"
 )
+
+
+_FROM_WHERE = re.compile(r"\bfrom\s+where\s+(?:you|i|we)\s+(?:are|am|is|stand|stands)\b")
+_AUXILIARY_IS = re.compile(r"\b(?:would|will|might|could|does|do|did)\s+is\b")
 
 
 def _strip_article(text: str) -> str:
@@ -263,9 +278,16 @@ _SET_OPENINGS = ("of ", "among ", "out of ", "from ")
 _NOT_A_NAME = DEICTIC_WORDS | {"of"}
 
 
+_RELATIVE_REST = re.compile(r"\s+(?:that|which|who)\s+(?:is|are|sits|stands)$")
+
+
 def _object(phrase: str) -> ObjectSpec | None:
     """The object named by what is left of a phrase, or None when the rest is not a plain name."""
     phrase = _strip_article(phrase)
+    if phrase.startswith(("that ", "this ")) and not phrase.startswith(("that is", "this is", "that one")):
+        phrase = phrase[5:]  # "that kettle" names the kettle; "that" alone names nothing
+    if phrase.endswith((" is", " are", " sits", " stands")):
+        phrase = _RELATIVE_REST.sub("", phrase)  # "the thing that is" (leftmost): the thing
     phrase = re.sub(r"\s+(?:in|of|from)\s+(?:the\s+)?(?:image|picture|photo|frame|scene|view)$", "", phrase)
     if phrase.endswith(_HERE_ENDINGS):  # the cheap test first: _object runs for every family tried
         phrase = _HERE.sub("", phrase)
@@ -287,6 +309,8 @@ def _object(phrase: str) -> ObjectSpec | None:
     noun = " ".join(noun_words)
     if noun in ("items", "objects", "things", "ones"):
         noun = noun[:-1]
+    elif noun in ("whatever", "anything", "everything", "something", "stuff"):
+        noun = "object"  # what a detector is asked for: any object
     return ObjectSpec(noun=noun, colors=colors)
 
 

@@ -49,7 +49,7 @@ _WHICH_X_IS = re.compile(
     r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
 )
 _WHICH_X_IS_EXTREME = re.compile(
-    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are|sits|stands|lies)\s+(?:the\s+)?"
     r"(?P<adj>leftmost|rightmost|topmost|uppermost|bottommost|lowermost)(?:\s+one)?"
 )
 _WHICH_X_IS_NTH = re.compile(

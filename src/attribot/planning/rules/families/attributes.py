@@ -285,7 +285,7 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
         return
     if q.rank > 1 and (q.named or q.objects[0].generic):
         raise InputError(
-            f"asked for the {_nth(q.rank)} {word.replace('est', 'est')} one, and without a force sensor the "
+            f"asked for the {_nth(q.rank)} {word} one, and without a force sensor the "
             "language model can only name the extreme one",
             "give the robot the sensor (--sensors camera,force) on the simulator or a robot",
         )

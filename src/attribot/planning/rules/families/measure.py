@@ -40,6 +40,11 @@ _MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight", "size", "height",
     (r"(?:what\s+is\s+)?(?:the\s+)?(?:size|length)\s+of\s+(?P<obj>.+)", "size"),
     (r"(?:what\s+is\s+)?(?:the\s+)?height\s+of\s+(?P<obj>.+)", "height"),
     (r"(?:what\s+is\s+)?(?:the\s+)?width\s+of\s+(?P<obj>.+)", "width"),
+    # embedded: "(tell me) how far away the bowl is", "how much the kettle weighs"
+    (r"how\s+(?:far(?:\s+away)?|close|near)\s+(?P<obj>.+?)\s+(?:is|are)" + _ME, "distance"),
+    (r"how\s+heavy\s+(?P<obj>.+?)\s+(?:is|are)", "weight"),
+    (r"how\s+much\s+(?P<obj>.+?)\s+weighs?", "weight"),
+    (r"how\s+(?:big|large)\s+(?P<obj>.+?)\s+(?:is|are)", "size"),
 )
 
 

@@ -31,7 +31,7 @@ _YES_NO_WORDS = {
     **{w: ("size", False) for w in ("smaller",)},
 }
 _YES_NO = re.compile(
-    r"(?:is|are|does|do)\s+(?P<a>.+?)\s+(?:(?:is|are)\s+)?(?P<adj>"
+    r"(?:is|are|does|do|would|will)\s+(?P<a>.+?)\s+(?:(?:is|are|be)\s+)?(?P<adj>"
     + "|".join(sorted(_YES_NO_WORDS, key=len, reverse=True))
     + r")"
     + _ME
