@@ -153,3 +153,19 @@ def test_every_registered_family_reads_and_writes_its_examples():
             parse_query(example)
             program = rules_program(example, tuple(ALL), True)
             compile(program, "<program>", "exec")
+
+
+def test_reading_and_writing_a_query_needs_neither_numpy_nor_the_runner():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from attribot.planning.rules import parse_query, rules_program\n"
+        "parse_query('the heaviest of the two closest objects on the table')\n"
+        "rules_program('is the kettle heavier than the backpack?', ('camera', 'force'), True)\n"
+        "heavy = ('numpy', 'attribot.runner', 'attribot.api')\n"
+        "print([m for m in sys.modules if m.startswith(heavy)])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

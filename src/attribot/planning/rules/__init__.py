@@ -13,9 +13,9 @@ planner never guesses.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest, check_query
+from attribot.planning.query import check_query
 from attribot.planning.rules.families import FAMILY_REGISTRY
 from attribot.planning.rules.forms import (
     Among,
@@ -38,7 +38,7 @@ from attribot.planning.rules.read import parse_query
 from attribot.planning.rules.write import write_program
 
 if TYPE_CHECKING:
-    from attribot.config import Settings
+    from attribot.planning.rules.planner import RulesPlanner
 
 FAMILIES: dict[str, tuple[str, ...]] = {name: family.examples for name, family in FAMILY_REGISTRY.items()}
 """The families the rules planner reads, each with example phrasings (each family module registers its
@@ -73,16 +73,9 @@ def rules_program(query: str, sensors: Sequence[str] = ("camera",), embodied: bo
     return write_program(parse_query(query), check_query(query), sensors, embodied)
 
 
-class RulesPlanner:
-    """The offline, deterministic planner. It ignores feedback: the same query gives the same program."""
+def __getattr__(name: str) -> Any:
+    if name == "RulesPlanner":  # with the planner protocol, which loads the API: only when asked
+        from attribot.planning.rules.planner import RulesPlanner
 
-    name = "rules"
-    max_tries = 1
-
-    def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
-        return Plan(program=rules_program(request.query, request.sensors, request.embodied))
-
-
-@PLANNERS.register("rules")
-def _build_rules(settings: Settings) -> RulesPlanner:
-    return RulesPlanner()
+        return RulesPlanner
+    raise AttributeError(f"module 'attribot.planning.rules' has no attribute {name!r}")

@@ -11,7 +11,7 @@ from attribot.lexicon import (
     GENERIC_NOUNS,
     SURFACE_WORDS,
 )
-from attribot.planning.base import check_query
+from attribot.planning.query import check_query
 from attribot.planning.rules.families import Reading, readers
 from attribot.planning.rules.families.yesno import _parse_yes_no
 from attribot.planning.rules.forms import (
