@@ -12,6 +12,7 @@ from attribot.errors import InputError
 from attribot.planning.rules.families import FAMILY_REGISTRY
 from attribot.planning.rules.forms import (
     Among,
+    DistanceQuery,
     ObjectSpec,
     ParsedQuery,
     Request,
@@ -44,6 +45,7 @@ class _Writer:
         self.sensors: Sequence[str] = ("camera",)
         self.embodied = False
         self.act: str | None = None  # the helper call that acts on the chosen object: "bring(robot, {})"
+        self.premeasured: str | None = None  # the distances of `candidates`, measured before the robot moved
 
     def line(self, text: str = "") -> None:
         stripped = text.lstrip()
@@ -149,6 +151,16 @@ def _write_among(w: _Writer, among: Among) -> None:
         w.line("narrowing = [patch.lower for patch in candidates]")
         reverse = not among.most
     elif measured:
+        frame = w.frame
+        if frame is not None and isinstance(frame.inner, DistanceQuery) and "distance" in w.sensors:
+            # weighing drives the robot about, after which the boxes no longer say where to look: measure
+            # the distances the choice needs first, from here
+            w.line("# distances first: weighing moves the robot, and the boxes are this view's")
+            w.line("distances_here = []")
+            w.line("for patch in candidates:")
+            w.line("    robot.focus_on_patch(patch)")
+            w.line("    distances_here.append(robot.measure_distance(patch))")
+            w.premeasured = "distances_here"
         w.line("narrowing = []")
         w.line("for patch in candidates:")
         w.line("    robot.go_to_object(patch)")
@@ -167,6 +179,8 @@ def _write_among(w: _Writer, among: Among) -> None:
         + (", reverse=True)" if reverse else ")")
     )
     w.line(f"candidates = [candidates[index] for index in order[:{among.k}]]")
+    if w.premeasured is not None:
+        w.line(f"{w.premeasured} = [{w.premeasured}[index] for index in order[:{among.k}]]")
 
 
 def write_program(

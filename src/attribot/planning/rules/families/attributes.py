@@ -358,6 +358,10 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
 
 def _write_distance(w: _Writer, q: DistanceQuery, sensors: Sequence[str], embodied: bool) -> None:
     _find_all(w, q.objects)
+    if "distance" in sensors and embodied and w.premeasured is not None:
+        w.line(f"distances = {w.premeasured}  # measured before the robot moved")
+        _write_extreme_loop(w, "distances", not q.nearest, q.rank)
+        return
     if "distance" in sensors and embodied:
         w.line("# measure each: turn the camera (and the distance sensor with it) onto the object first")
         w.line("distances = []")
