@@ -73,6 +73,7 @@ def test_frames_read_with_their_meaning():
     assert isinstance(narrowed.inner, WeightQuery) and narrowed.inner.heaviest
     second = parse_query("the second lightest mug")
     assert isinstance(second, WeightQuery) and second.rank == 2 and not second.heaviest
+    assert parse_query("the next to lightest mug") == second
     yes_no = parse_query("is the kettle heavier than the backpack?")
     assert isinstance(yes_no, YesNoQuery) and yes_no.attribute == "weight" and yes_no.more
     assert parse_query("is the book to the left of the mug?").attribute == "position"  # type: ignore[union-attr]

@@ -207,6 +207,8 @@ def _normalize(query: str) -> tuple[str, bool, str] | None:
         text = _FROM_WHERE.sub("from you", text)
     text = " ".join(text.split()).strip(" ,")
     text = paraphrased(text)
+    if "next to" in text:  # "the next to lightest" is the second lightest; "next to the lamp" stays
+        text = _NEXT_TO_SUPERLATIVE.sub("second ", text)
     if " is" in text:  # "which would weigh the most" reads "which would is the heaviest": "which is"
         text = _AUXILIARY_IS.sub("is", text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
@@ -239,6 +241,7 @@ _COURTESY = re.compile(
 )
 
 
+_NEXT_TO_SUPERLATIVE = re.compile(r"\bnext\s+to\s+(?:the\s+)?(?=[a-z]+est\b)")
 _FROM_WHERE = re.compile(r"\bfrom\s+where\s+(?:you|i|we)\s+(?:are|am|is|stand|stands)\b")
 _AUXILIARY_IS = re.compile(r"\b(?:would|will|might|could|does|do|did)\s+is\b")
 
