@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 from attribot.registry import Registry
@@ -49,6 +50,7 @@ FAMILY_REGISTRY: Registry[Family] = Registry(
 )
 
 
+@cache
 def readers() -> list[Reader]:
     """Every family's readers, in the order they are tried."""
     ordered = sorted(

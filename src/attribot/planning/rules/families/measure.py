@@ -48,9 +48,26 @@ _MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight", "size", "height",
 )
 
 
+_MEASURE_OPENINGS = (
+    "how ",
+    "what ",
+    "the ",
+    "distance ",
+    "weight ",
+    "mass ",
+    "size ",
+    "length ",
+    "height ",
+    "width ",
+)
+"""Every form of `_MEASURE_FORMS` starts with one of these."""
+
+
 def _parse_measure(text: str) -> MeasureQuery | WeightQuery | DistanceQuery | None:
     """ "How far away is the lamp?", "How much does the apple weigh?": one named object's measurement; "How
     far is the closest chair?": the chosen object, measured."""
+    if not text.startswith(_MEASURE_OPENINGS):  # the cheap test first: most queries are no measurement
+        return None
     for form, quantity in _MEASURE_FORMS:
         match = rx(form).fullmatch(text)
         if match is None:
