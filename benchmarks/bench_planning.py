@@ -5,6 +5,9 @@ it can run), and, when the runner is installed, its static policy check `check_p
 the median over rounds of the mean time per query.
 
     .venv/bin/python benchmarks/bench_planning.py [--rounds 7] [--corpus PATH]
+
+`--corpus tests/data/generalisation.jsonl` times the everyday phrasings of the generalisation protocol
+(those the planner reads) instead of the paper's corpus.
 """
 
 from __future__ import annotations
@@ -16,7 +19,8 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from attribot.planning.rules import UnsupportedQuery, rules_program
+from attribot.errors import InputError
+from attribot.planning.rules import rules_program
 
 DEFAULT_CORPUS = None  # the corpus shipped in attribot.eval
 
@@ -30,7 +34,7 @@ def load_queries(path: Path | None) -> list[str]:
         rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     queries = []
     for row in rows:
-        if row["task"] == "ai2thor_weight_scene_items":
+        if row.get("task") == "ai2thor_weight_scene_items":
             queries.append(f"Out of the {row['items']}, which one is the most lightweight?")
         elif "query" in row:
             queries.append(row["query"])
@@ -60,7 +64,7 @@ def main() -> None:
         try:
             programs.append(rules_program(query))
             readable.append(query)
-        except UnsupportedQuery:
+        except InputError:  # refused, or (an action) not for a still image: not timed
             pass
     # warm both paths once (regex compilation, imports)
     for q in readable:

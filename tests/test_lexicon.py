@@ -67,7 +67,29 @@ PARAPHRASE_EXAMPLES = [
     "which item is highest in mass",
     "which one is heaviest by weight",
     "the largest by size",
+    "the thing on the far right",
+    "which thing is furthest to the left",
+    "which is the left most item",
+    "which item is hardest to lift",
+    "which object is easiest to carry",
+    "how many metres away is the lamp",
 ]
+
+
+@pytest.mark.parametrize(
+    ("text", "meaning"),
+    [
+        ("which thing is furthest to the left?", "which thing is leftmost?"),
+        ("the object furthest to the right", "the object rightmost"),
+        ("which is the left most item", "which is the leftmost item"),
+        ("what is on the far right?", "what is rightmost?"),
+        ("which object is the most to the left?", "which object is leftmost?"),
+        ("which thing is furthest from me?", "which thing is furthest from me?"),  # a distance stays one
+        ("which item would be hardest to lift?", "which item would be heaviest?"),
+    ],
+)
+def test_left_and_right_are_positions_and_lifting_is_weight(text, meaning):
+    assert lexicon.paraphrased(text) == meaning
 
 
 @pytest.mark.parametrize("text", PARAPHRASE_EXAMPLES)

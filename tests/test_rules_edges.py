@@ -119,8 +119,10 @@ def test_every_listed_example_reads_as_its_family():
         LocationQuery,
         MeasureQuery,
         OddQuery,
+        Request,
         SizeQuery,
         WeightQuery,
+        YesNoQuery,
     )
 
     kinds = {
@@ -131,6 +133,10 @@ def test_every_listed_example_reads_as_its_family():
         "distance": DistanceQuery,
         "grounding": GroundingQuery,
         "measurement": MeasureQuery,
+        "yes/no": YesNoQuery,
+        "scope": Request,
+        "action": Request,
+        "composition": WeightQuery | Request,
     }
     assert set(FAMILIES) == set(kinds)
     for family, examples in FAMILIES.items():

@@ -11,9 +11,11 @@ from attribot.planning.rules import (
     GroundingQuery,
     MeasureQuery,
     OddQuery,
+    Request,
     SizeQuery,
     UnsupportedQuery,
     WeightQuery,
+    YesNoQuery,
     parse_query,
 )
 
@@ -28,7 +30,14 @@ def _noun(spec) -> str:
 
 
 def _meaning(parsed) -> dict:
-    """The parsed form in the set's terms."""
+    """The parsed form in the set's terms. A request to act ("Give me the heaviest of ...") means what
+    it chooses; a yes/no comparison ("Is the apple lighter than the book?") compares the named objects in
+    the direction it asks (since issue 17 it answers yes or no, with the one that is)."""
+    if isinstance(parsed, Request) and parsed.scope is None and parsed.among is None:
+        parsed = parsed.inner
+    if isinstance(parsed, YesNoQuery) and parsed.attribute in ("weight", "distance"):
+        most = parsed.more if parsed.attribute == "weight" else not parsed.more
+        return {"family": parsed.attribute, "most": most, "named": [parsed.first.noun, parsed.second.noun]}
     if isinstance(parsed, WeightQuery | DistanceQuery):
         family = "weight" if isinstance(parsed, WeightQuery) else "distance"
         most = parsed.heaviest if isinstance(parsed, WeightQuery) else parsed.nearest

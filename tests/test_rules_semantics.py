@@ -343,23 +343,32 @@ def test_several_objects_of_one_kind_without_a_force_sensor_use_a_stated_size_pr
 # ---- "than" comparisons and grounding ------------------------------------------------------------------
 
 
-def test_than_comparisons_pick_the_one_that_is():
+def test_than_comparisons_answer_yes_or_no_with_the_one_that_is():
+    """Issue 17: "Is the apple heavier than the book?" answers no (it used to answer with the book alone),
+    with the one that is heavier and both values."""
     apple = FakePatch("apple", (0, 0, 50, 50), kg=0.2)
     book = FakePatch("book", (100, 0, 150, 50), kg=0.9)
     robot = FakeRobot(["camera", "force"])
     query = "Is the apple heavier than the book?"
-    assert run(query, scene(apple, book), ("camera", "force"), True, robot) is book  # no: the book is
+    said = run(query, scene(apple, book), ("camera", "force"), True, robot)
+    assert said["yes"] is False and said["object"] is book and said["value"] == 0.9 and said["unit"] == "kg"
+    assert "0.2 kg" in said["text"] and "0.9 kg" in said["text"] and "lighter" in said["text"]
     assert [n for n, _ in robot.calls].count("measure_weight") == 2
-    assert run("Is the book heavier than the apple?", scene(apple, book)) is book  # yes, by reasoning
-    assert run("Is the apple lighter than the book?", scene(apple, book)) is apple
+    said = run("Is the book heavier than the apple?", scene(apple, book))  # by reasoning
+    assert said["yes"] is True and said["object"] is book
+    said = run("Is the apple lighter than the book?", scene(apple, book))
+    assert said["yes"] is True and said["object"] is apple
     lamp = FakePatch("lamp", (0, 0, 50, 50), metres=3.0)
     chair = FakePatch("chair", (100, 0, 150, 50), metres=1.0)
     query = "Is the lamp closer to me than the chair?"
-    assert run(query, scene(lamp, chair), ("camera", "distance"), True) is chair
-    assert (
-        run("Is the lamp farther from me than the chair?", scene(lamp, chair), ("camera", "distance"), True)
-        is lamp
+    said = run(query, scene(lamp, chair), ("camera", "distance"), True)
+    assert said["yes"] is False and said["object"] is chair and said["unit"] == "m"
+    said = run(
+        "Is the lamp farther from me than the chair?", scene(lamp, chair), ("camera", "distance"), True
     )
+    assert said["yes"] is True and said["object"] is lamp
+    said = run("Is the lamp to the left of the chair?", scene(lamp, chair))
+    assert said["yes"] is True and said["object"] is lamp and said["unit"] == "px"
 
 
 def test_grounding_returns_the_best_match_and_filters_by_colour():

@@ -32,11 +32,15 @@ __all__ = [
     "config_path",
     "SceneConfig",
     "MAX_OBJECTS",
+    "MAX_QUERY_CHARS",
     "MAX_SEED",
     "MAX_TIME_S",
     "RENDER_PROFILES",
 ]
 
+MAX_QUERY_CHARS = 500
+"""Longer queries are refused: the paper's queries are under 80 characters, and a prompt is no place for
+a pasted document. Defined here, below the API and the planners, so that reading a query imports neither."""
 MAX_OBJECTS = 30
 """The most objects any layout places (each layout states its own, smaller range)."""
 MAX_SEED = 2**32 - 1

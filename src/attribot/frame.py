@@ -60,6 +60,8 @@ class Frame:
     rgb: uint8 (H, W, 3). depth: float32 (H, W) metres along the optical axis, or None.
     segmentation: int32 (H, W) keys into `objects`, -1 where no object is seen, or None.
     origin: `(x, y)` of this frame's top-left pixel in the full frame it was cropped from.
+    surfaces: int16 (H, W) indices into `surface_names` (furniture and the floor, e.g. "table_1", "floor"),
+    -1 elsewhere, or None: what a simulator knows of the surfaces objects stand on.
     """
 
     rgb: np.ndarray
@@ -68,10 +70,12 @@ class Frame:
     objects: dict[int, ObjectTruth] = field(default_factory=dict)
     camera: CameraInfo | None = None
     origin: tuple[int, int] = (0, 0)
+    surfaces: np.ndarray | None = None
+    surface_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         check_rgb(self.rgb)
-        for name in ("depth", "segmentation"):
+        for name in ("depth", "segmentation", "surfaces"):
             layer = getattr(self, name)
             if layer is not None and layer.shape[:2] != self.rgb.shape[:2]:
                 raise ValueError(f"{name} has shape {layer.shape[:2]}, the image {self.rgb.shape[:2]}")
@@ -102,6 +106,8 @@ class Frame:
             objects=self.objects,
             camera=self.camera,
             origin=(self.origin[0] + x0, self.origin[1] + y0),
+            surfaces=None if self.surfaces is None else crop_array(self.surfaces, box),
+            surface_names=self.surface_names,
         )
 
 

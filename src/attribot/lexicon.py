@@ -27,6 +27,8 @@ __all__ = [
     "SIZE_SUPERLATIVES",
     "SIZE_COMPARATIVES",
     "WEIGHT_PHRASES",
+    "SURFACE_WORDS",
+    "surface_kind",
     "paraphrased",
     "words",
     "singular_forms",
@@ -47,7 +49,7 @@ COLOR_WORDS: frozenset[str] = frozenset(
 GENERIC_NOUNS: frozenset[str] = frozenset(
     {
         "item", "items", "object", "objects", "thing", "things", "one", "ones", "something", "stuff",
-        "anything", "everything",
+        "anything", "everything", "whatever",
     }
 )  # fmt: skip
 """Head nouns that stand for any object ("the heaviest item")."""
@@ -142,6 +144,21 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
     (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest"),
     (r"\bmost\s+massive\b", "heaviest"),
     (r"\bleast\s+massive\b", "lightest"),
+    # left and right are positions in the picture, not distances: "furthest to the left", "far right",
+    # "left-most" (hyphens are spaces by now), "on the very left" are the leftmost and the rightmost
+    (
+        r"\b(?:on|at|to|in)\s+the\s+(?:very|far|furthest|farthest|extreme)\s+(left|right)(?:\s+(?:side|end|edge))?\b",
+        r"\1most",
+    ),
+    (
+        r"\b(?:the\s+)?(?:furthest|farthest|further|farther|most|far)\s+(?:to\s+(?:the\s+)?|on\s+the\s+)?(left|right)\b",
+        r"\1most",
+    ),
+    (r"\b(left|right)\s+most\b", r"\1most"),
+    # what weight does to a person: hard or easy to lift
+    (r"\b(?:hardest|heaviest)\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "heaviest"),
+    (r"\beasiest\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "lightest"),
+    (r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b", "how far away"),
     # distance: "farthest away", "closest by" mean the adjective alone
     (r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b", r"\1"),
     # contractions
@@ -166,9 +183,31 @@ def paraphrased(text: str) -> str:
     return text
 
 
-ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = ("weigh", "mass", "weight", "away", " by", "'s", " size")
+ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = (
+    "weigh", "mass", "weight", "away", " by", "'s", " size", "left", "right", "lift", "carry",
+)  # fmt: skip
 """Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
 without any can skip the patterns."""
+
+SURFACE_WORDS: dict[str, str] = {
+    "table": "table", "tables": "table", "desk": "table", "dining table": "table",
+    "kitchen table": "table", "coffee table": "coffee table", "counter": "counter", "countertop": "counter",
+    "kitchen counter": "counter", "worktop": "counter", "shelf": "shelf", "shelves": "shelf",
+    "bookshelf": "shelf", "shelving": "shelf", "floor": "floor", "ground": "floor",
+}  # fmt: skip
+"""Words for the surfaces objects stand on (furniture and the floor), to the kind of surface they name: what
+the oracle detector finds as furniture and what the planner reads as a scope ("on the table")."""
+
+
+def surface_kind(name: str) -> str:
+    """The kind of a simulator surface from its name: "coffee_table_0" -> "coffee table", "shelf_2_low" ->
+    "shelf", "floor" -> "floor".
+
+    >>> surface_kind("counter_2")
+    'counter'
+    """
+    return re.sub(r"_\d+(?:_low)?$", "", name).replace("_", " ")
+
 
 IRREGULAR_PLURALS: dict[str, str] = {
     "knives": "knife", "mice": "mouse", "geese": "goose", "teeth": "tooth", "feet": "foot",

@@ -56,6 +56,7 @@ class ImagePatch:
         "crop",
         "overlaps",
         "distance_to",
+        "size_at",
     )
     # public names for the host only (runner, integrator, Robot); programs never see them
     HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
@@ -435,6 +436,28 @@ class ImagePatch:
         return math.hypot(
             self.horizontal_center - o.horizontal_center, self.vertical_center - o.vertical_center
         )
+
+    def size_at(self, distance: float) -> tuple[float, float]:
+        """Returns the (width, height) in metres of what this patch shows when it is `distance` metres from
+        the camera (its pixels times the distance over the camera's focal length); a still image file has
+        no camera model and raises.
+
+        >>> # how tall is the vase, in metres
+        >>> def execute_command(image, robot):
+        >>>     vase = image.find("vase")[0]
+        >>>     robot.focus_on_patch(vase)
+        >>>     return vase.size_at(robot.measure_distance(vase))[1]
+        """
+        d = check_number(distance, "distance", "size_at")
+        camera = self.frame.camera
+        if camera is None:
+            raise ApiArgumentError(
+                "size_at needs the camera's focal length, and this image has no camera model",
+                "measure sizes on the simulator or a robot, whose camera is known",
+            )
+        if not d > 0:
+            raise ApiArgumentError(f"size_at needs a distance above 0 metres; got {d:g}", "pass metres")
+        return (self.width * d / camera.fx, self.height * d / camera.fy)
 
 
 def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float, float, float]:

@@ -24,13 +24,11 @@ import jinja2
 
 from attribot.api.patch import ImagePatch
 from attribot.api.robot import SENSORS, Robot, check_sensors
+from attribot.config import MAX_QUERY_CHARS
 from attribot.errors import InputError
 
 __all__ = ["build_prompt", "api_reference", "offered_robot_methods", "MAX_QUERY_CHARS", "ENTRY_POINT"]
 
-MAX_QUERY_CHARS = 500
-"""Longer queries are refused: the paper's queries are under 80 characters, and a prompt is no place for
-a pasted document."""
 ENTRY_POINT = "execute_command"
 """The function every program defines: `execute_command(image, robot)`."""
 _TEMPLATE = "program.jinja"

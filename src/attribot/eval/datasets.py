@@ -62,6 +62,17 @@ TASK_SIZES = {
 WIDTH, HEIGHT = 640, 480
 
 
+def _package_files(package: str) -> list[tuple[str, str]]:
+    """Every module of `package` and of its subpackages, as (package, file name)."""
+    out = []
+    for f in sorted(resources.files(package).iterdir(), key=lambda f: f.name):
+        if f.name.endswith(".py"):
+            out.append((package, f.name))
+        elif f.is_dir() and f.joinpath("__init__.py").is_file():
+            out.extend(_package_files(f"{package}.{f.name}"))
+    return out
+
+
 def _version() -> str:
     digest = hashlib.sha256()
     for package, name in (
@@ -72,7 +83,7 @@ def _version() -> str:
             for f in ("scene.py", "catalog.py", "shapes.py", "robot.py", "world.py", "render.py")
         ),
         # the location and size truth is the parser's meaning of the released phrasing, in its vocabulary
-        ("attribot.planning", "rules.py"),
+        *_package_files("attribot.planning.rules"),
         ("attribot", "lexicon.py"),
     ):
         digest.update(resources.files(package).joinpath(name).read_bytes())

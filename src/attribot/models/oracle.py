@@ -23,7 +23,7 @@ import numpy as np
 
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, ObjectTruth
-from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, singular_forms, words
+from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, surface_kind, words
 from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
 from attribot.models.noise import (
     DetectorNoise,
@@ -256,13 +256,33 @@ class OracleDetector:
                     if m.obj.key not in best or score > best[m.obj.key][0]:
                         best[m.obj.key] = (score, query.strip())
         by_key = {o.key: o for o in objects}
+        surfaces = [d for q in phrases for d in surface_detections(frame, q, self.min_pixels)]
         ranked = sorted(
             best.items(), key=lambda kv: (-kv[1][0], by_key[kv[0]].center_x, by_key[kv[0]].truth.id)
         )
         return [
             Detection(box=by_key[k].box, score=s, label=label, object_id=by_key[k].truth.id)
             for k, (s, label) in ranked
-        ]
+        ] + sorted({d.object_id: d for d in surfaces}.values(), key=lambda d: -d.score)
+
+
+def surface_detections(frame: Frame, phrase: str, min_pixels: int = DEFAULT_MIN_PIXELS) -> list[Detection]:
+    """Furniture and the floor that `phrase` names ("table" finds tables and coffee tables, "counter" the
+    counters), boxes from the frame's surface layer; none when the phrase names no surface."""
+    tokens = _content(phrase)
+    kind = SURFACE_WORDS.get(" ".join(tokens[-2:])) or SURFACE_WORDS.get(tokens[-1]) if tokens else None
+    if kind is None or frame.surfaces is None:
+        return []
+    found = []
+    for index, name in enumerate(frame.surface_names):
+        if not (surface_kind(name) == kind or surface_kind(name).endswith(" " + kind)):
+            continue
+        ys, xs = np.nonzero(frame.surfaces == index)
+        if len(xs) < max(min_pixels, 1):
+            continue
+        box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+        found.append(Detection(box=box, score=_score(1.0, len(xs)), label=phrase.strip(), object_id=name))
+    return found
 
 
 def _check_queries(queries: Sequence[str] | str) -> list[str]:

@@ -42,6 +42,7 @@ class Answer(BaseModel):
     object: AnswerObject | None = None
     value: float | None = None
     unit: str | None = None
+    boolean: bool | None = None  # the yes or no of a yes/no question ("is the kettle heavier than ...?")
     program: str | None = None
     planner: str
     backends: dict[str, str]

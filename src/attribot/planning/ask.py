@@ -307,6 +307,9 @@ def build_answer(
         return Answer(
             answer=f"no answer: {doubt}", error=AnswerError(category="uncertain", message=doubt), **common
         )
+    stated = _stated(result.value_object)
+    if stated is not None:
+        return _stated_answer(stated, frame, common)
     chosen = _chosen_patch(result.value_object)
     if chosen is not None:
         category = _category(chosen, frame)
@@ -340,6 +343,52 @@ def build_answer(
         )
     text = value if isinstance(value, str) else json.dumps(value, default=str)
     return Answer(answer=str(text), value=number, **common)
+
+
+STATED_KEYS = frozenset({"object", "value", "unit", "yes", "text"})
+"""A program may return a dict with these keys (plain values, "object" an ImagePatch) to state its answer:
+the chosen object, the value of the attribute asked and its unit (a size in metres, not the distance
+measured to scale it), "yes" the answer to a yes/no question, and "text" the sentence that says why."""
+
+
+def _stated(value_object: Any) -> dict[str, Any] | None:
+    if not isinstance(value_object, dict) or not value_object or set(value_object) - STATED_KEYS:
+        return None
+    if not ({"object", "yes"} & set(value_object)):
+        return None
+    return value_object
+
+
+def _stated_answer(stated: dict[str, Any], frame: Any, common: dict[str, Any]) -> Answer:
+    chosen = _chosen_patch(stated.get("object"))
+    obj = None
+    parts = []
+    yes = stated.get("yes")
+    if isinstance(yes, bool):
+        parts.append("yes" if yes else "no")
+    if chosen is not None:
+        category = _category(chosen, frame)
+        obj = AnswerObject(id=chosen.object_id, category=category, box=tuple(round(v, 1) for v in chosen.box))
+    raw = stated.get("value")
+    value = float(raw) if isinstance(raw, int | float) and not isinstance(raw, bool) else None
+    unit = stated.get("unit") if isinstance(stated.get("unit"), str) and value is not None else None
+    text = stated.get("text")
+    if isinstance(text, str) and text:
+        parts.append(text)
+    elif obj is not None:
+        where = ", ".join(f"{v:.0f}" for v in obj.box)
+        sentence = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+        if value is not None:
+            sentence += f", {value:.3f} {unit or ''}".rstrip()
+        parts.append(sentence)
+    return Answer(
+        answer=": ".join(parts) if len(parts) == 2 else (parts[0] if parts else ""),
+        object=obj,
+        value=value,
+        unit=unit,
+        boolean=yes if isinstance(yes, bool) else None,
+        **common,
+    )
 
 
 def _chosen_patch(value_object: Any) -> Any:

@@ -17,8 +17,8 @@ from pydantic import BaseModel, ConfigDict
 
 from attribot.api.prompt import ENTRY_POINT, MAX_QUERY_CHARS  # one definition of each, in the API layer
 from attribot.errors import AttribotError, InputError
+from attribot.planning.query import check_query, is_utf8_text
 from attribot.registry import Registry
-from attribot.text import control_characters
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -38,6 +38,7 @@ __all__ = [
     "SolveResult",
     "solve",
     "check_query",
+    "is_utf8_text",
 ]
 
 
@@ -115,7 +116,9 @@ class Planner(Protocol):
 
 PlannerBuilder = Callable[["Settings"], Planner]
 
-PLANNERS: Registry[PlannerBuilder] = Registry("planner", ("attribot.planning.rules", "attribot.planning.llm"))
+PLANNERS: Registry[PlannerBuilder] = Registry(
+    "planner", ("attribot.planning.rules.planner", "attribot.planning.llm")
+)
 
 
 def build_planner(name: str, settings: Settings) -> Planner:
@@ -130,43 +133,6 @@ class NoProgram(AttribotError):
         super().__init__(message, fix)
         self.reply = reply
         self.error = RunError(category="syntax", message=message, line=None, snippet=None, output="")
-
-
-def is_utf8_text(text: str) -> bool:
-    """False when `text` holds lone surrogates: undecodable bytes of a command line or a file, which no
-    JSON file or terminal can take."""
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
-
-
-def check_query(query: str) -> str:
-    """The query with its white space runs made single spaces; an empty or overlong query, or one that holds
-    control characters, raises `InputError`."""
-    if not isinstance(query, str):
-        raise InputError(f"the query must be text, not {type(query).__name__}")
-    text = " ".join(query.split())
-    if not is_utf8_text(text):
-        raise InputError(
-            "the query is not valid UTF-8 text (it holds bytes that are no character)",
-            "type the question again, or check the terminal's encoding (e.g. LANG=C.UTF-8)",
-        )
-    if not text:
-        raise InputError("the query is empty", 'ask about an object, e.g. "the second dog from the right"')
-    controls = control_characters(text)
-    if controls:  # "Which object\x1b[2J is ..." was searched for "object 2j"
-        raise InputError(
-            f"the query holds control characters ({', '.join(controls)}), which are no part of a question",
-            "type the question again without them (an escape sequence may have been pasted with it)",
-        )
-    if len(text) > MAX_QUERY_CHARS:
-        raise InputError(
-            f"the query is {len(text)} characters long, more than the {MAX_QUERY_CHARS} allowed",
-            "ask one short question about one object",
-        )
-    return text
 
 
 @dataclass(frozen=True)

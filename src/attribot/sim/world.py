@@ -237,6 +237,13 @@ class SimWorld:
             if o.category.pickable:
                 self.weld_of[o.key] = _name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp:{o.id}")
         self.key_of_id = {o.id: o.key for o in self.plan.objects}
+        # furniture and the floor: geom id -> index into surface_names (-1 for everything else)
+        self.surface_names = (*(f.name for f in self.plan.furniture), "floor")
+        self.geom_surface = np.full(m.ngeom, -1, np.int16)
+        for i, f in enumerate(self.plan.furniture):
+            b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"furniture:{f.name}")
+            self.geom_surface[m.geom_bodyid == b] = i
+        self.geom_surface[_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")] = len(self.plan.furniture)
         self.truth = {
             o.key: ObjectTruth(id=o.id, category=o.category.name, color=o.color, synonyms=o.category.synonyms)
             for o in self.plan.objects
@@ -605,10 +612,11 @@ class SimWorld:
         out = self.renderer.render(
             self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation
         )
-        seg = None
+        seg = surfaces = None
         if out.geom_ids is not None:
             ids = out.geom_ids
             seg = np.where(ids >= 0, self.geom_key[np.clip(ids, 0, None)], -1).astype(np.int32)
+            surfaces = np.where(ids >= 0, self.geom_surface[np.clip(ids, 0, None)], -1).astype(np.int16)
         assert out.rgb is not None
         return Frame(
             rgb=out.rgb,
@@ -616,6 +624,8 @@ class SimWorld:
             segmentation=seg,
             objects=dict(self.truth),
             camera=self.camera_info(),
+            surfaces=surfaces,
+            surface_names=self.surface_names,
         )
 
     # --- ground truth ---------------------------------------------------------------------------------

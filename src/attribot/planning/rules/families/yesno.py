@@ -1,0 +1,156 @@
+"""Yes/no comparisons: whether one named object has more of an attribute than another, answered yes
+or no with both values and the one that is.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+
+from attribot.planning.rules.families import FAMILY_REGISTRY, Family
+from attribot.planning.rules.forms import (
+    YesNoQuery,
+)
+from attribot.planning.rules.normalise import (
+    _ME,
+    _named,
+    _strip_article,
+)
+from attribot.planning.rules.write import (
+    _find,
+    _q,
+    _Writer,
+)
+
+_YES_NO_WORDS = {
+    **{w: ("weight", True) for w in ("heavier", "more heavy")},
+    **{w: ("weight", False) for w in ("lighter", "less heavy")},
+    **{w: ("distance", False) for w in ("closer", "nearer")},
+    **{w: ("distance", True) for w in ("farther", "further", "more distant")},
+    **{w: ("size", True) for w in ("bigger", "larger")},
+    **{w: ("size", False) for w in ("smaller",)},
+}
+_YES_NO = re.compile(
+    r"(?:is|are|does|do|would|will)\s+(?P<a>.+?)\s+(?:(?:is|are|be)\s+)?(?P<adj>"
+    + "|".join(sorted(_YES_NO_WORDS, key=len, reverse=True))
+    + r")"
+    + _ME
+    + r"\s+than\s+(?P<b>.+?)"
+    + _ME
+)
+_YES_NO_SIDE = re.compile(
+    r"(?:is|are)\s+(?P<a>.+?)\s+(?:(?:on|to)\s+the\s+)?(?P<side>left|right)\s+(?:of|from)\s+(?P<b>.+)"
+)
+
+
+def _parse_yes_no(text: str) -> YesNoQuery | None:
+    """ "is the kettle heavier than the backpack", "is the book to the left of the mug"."""
+    match = _YES_NO.fullmatch(text)
+    if match is not None:
+        attribute, more = _YES_NO_WORDS[match["adj"]]
+        word = match["adj"]
+    else:
+        match = _YES_NO_SIDE.fullmatch(text)
+        if match is None:
+            return None
+        attribute, more, word = "position", match["side"] == "right", f"to the {match['side']} of"
+    first, second = _named(_strip_article(match["a"])), _named(_strip_article(match["b"]))
+    if first is None or second is None:
+        return None
+    return YesNoQuery(first, second, attribute, more, word)  # type: ignore[arg-type]
+
+
+_YES_NO_TERMS = {
+    # attribute: (sensor, unit, word for more, word for less)
+    "weight": ("force", "kg", "heavier", "lighter"),
+    "distance": ("distance", "m", "farther", "closer"),
+    "size": ("distance", "m", "bigger", "smaller"),
+    "position": ("camera", "px", "further right", "further left"),
+}
+
+
+def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: bool) -> None:
+    _find(w, q.first, "firsts")
+    _find(w, q.second, "seconds")
+    w.line("first = firsts[0]  # find lists the best match first")
+    w.line("second = seconds[0]")
+    sensor, unit, more_word, less_word = _YES_NO_TERMS[q.attribute]
+    measured = sensor == "camera" or (embodied and sensor in sensors)
+    if q.attribute == "weight" and measured:
+        w.line("# weigh both: the force sensor reads only what the gripper holds")
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    robot.go_to_object(patch)")
+        w.line("    robot.pick_up(patch)")
+        w.line("    values.append(robot.measure_weight(patch))")
+        w.line("    robot.put_down()")
+    elif q.attribute == "distance" and measured:
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    robot.focus_on_patch(patch)")
+        w.line("    values.append(robot.measure_distance(patch))")
+    elif q.attribute == "size" and measured:
+        w.line("# sizes in metres: each box's pixels times its measured distance over the focal length")
+        w.line("values = []")
+        w.line("for patch in [first, second]:")
+        w.line("    width, height = patch.size_at(robot.measure_distance(patch))")
+        w.line("    values.append(max(width, height))")
+    elif q.attribute == "position":
+        w.line("# left and right in the picture: the centres of the boxes, in pixels from the left edge")
+        w.line("values = [first.horizontal_center, second.horizontal_center]")
+    elif q.attribute == "weight":
+        w.line("# no force sensor: weight is reasoned about (the paper's VQA + LLM chain), not measured")
+        names = [q.first.phrase, q.second.phrase]
+        question = (
+            f"Out of these items: {', '.join(names)}, which one is more likely to be the heaviest one? "
+            "Answer with the name of one item only."
+        )
+        w.line(f"answer = image.language_query({_q(question)}).lower()")
+        w.line(f"if {_q(q.second.noun)} in answer and {_q(q.first.noun)} not in answer:")
+        w.line("    values = [0, 1]")
+        w.line(f"elif {_q(q.first.noun)} in answer:")
+        w.line("    values = [1, 0]")
+        w.line("else:")
+        w.line('    raise ValueError("the language model could not tell which is heavier: " + answer)')
+        unit = ""
+    elif q.attribute == "distance":
+        w.line(
+            "# no distance sensor: a visual proxy, not a measurement; on one floor or table, the box whose"
+        )
+        w.line("# bottom edge is higher in the picture is farther (y grows upward)")
+        w.line("values = [first.lower, second.lower]")
+        unit = ""
+    else:
+        w.line("# no distance sensor: the box areas in pixels (a visual proxy; a near object looks bigger)")
+        w.line("values = [first.area, second.area]")
+        unit = ""
+    op = ">" if q.more else "<"
+    w.line(f"yes = values[0] {op} values[1]")
+    w.line(f"# the one that is {more_word if q.more else less_word}, with the values of both")
+    w.line(f"winner = first if values[0] {op} values[1] else second")
+    first, second = _q(q.first.phrase), _q(q.second.phrase)
+    if unit:
+        w.line(f'shown = [" (" + str(round(value, 3)) + " {unit})" for value in values]')
+    else:
+        w.line('shown = ["", ""]')
+    w.line("if values[0] > values[1]:")
+    w.line(f'    text = "the " + {first} + shown[0] + " is {more_word} than the " + {second} + shown[1]')
+    w.line("elif values[0] < values[1]:")
+    w.line(f'    text = "the " + {first} + shown[0] + " is {less_word} than the " + {second} + shown[1]')
+    w.line("else:")
+    w.line(f'    text = "the " + {first} + shown[0] + " and the " + {second} + shown[1] + " are the same"')
+    w.line("value = values[0] if winner is first else values[1]")
+    if unit:
+        w.line(f'return {{"yes": yes, "object": winner, "value": value, "unit": "{unit}", "text": text}}')
+    else:
+        w.line('return {"yes": yes, "object": winner, "text": text}')
+
+
+FAMILY_REGISTRY.register("yes/no")(
+    Family(
+        examples=("Is the kettle heavier than the backpack?", "Is the book to the left of the mug?"),
+        readers=(),
+        forms=(YesNoQuery,),
+        write=lambda w, q: _write_yes_no(w, q, w.sensors, w.embodied),
+    )
+)

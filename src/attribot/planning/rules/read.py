@@ -1,0 +1,237 @@
+"""Reading a query: the frames around a reading (an action, a yes/no comparison, a surface scope, a
+narrowing) come off first, then the families read what is left; the reading must account for the whole
+text, and what no family places is refused, naming the words.
+"""
+
+from __future__ import annotations
+
+import re
+
+from attribot.lexicon import (
+    GENERIC_NOUNS,
+    SURFACE_WORDS,
+)
+from attribot.planning.query import check_query
+from attribot.planning.rules.families import Reading, readers
+from attribot.planning.rules.families.yesno import _parse_yes_no
+from attribot.planning.rules.forms import (
+    Among,
+    DistanceQuery,
+    GroundingQuery,
+    MeasureQuery,
+    ObjectSpec,
+    ParsedQuery,
+    Request,
+    SizeQuery,
+    UnsupportedQuery,
+    WeightQuery,
+    YesNoQuery,
+)
+from attribot.planning.rules.normalise import (
+    _DIST_WORDS,
+    _ME,
+    _ORD,
+    _SIZE_WORDS,
+    _STOP,
+    _WEIGHT_WORDS,
+    _named,
+    _normalize,
+    _object,
+    _strip_article,
+    rx,
+)
+
+"""The comparative and "out of" forms of weight and distance queries, compiled once."""
+
+
+_WHICH_X_IS = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2})\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?P<adj>(?:(?:" + _ORD + r")\s+)?(?:" + _SIZE_WORDS + r"))"
+)
+_WHICH_X_IS_EXTREME = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are|sits|stands|lies)\s+(?:the\s+)?"
+    r"(?P<adj>leftmost|rightmost|topmost|uppermost|bottommost|lowermost)(?:\s+one)?"
+)
+_WHICH_X_IS_NTH = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
+    r"(?P<ord>" + _ORD + r"|last)\s+(?P<rest>(?:from|in|on)\s+.+)"
+)
+
+
+# "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
+_ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+ones?$")
+
+
+def parse_query(query: str) -> ParsedQuery:
+    """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text).
+
+    The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
+    narrowing such as "of the two closest"), then the families read what is left."""
+    original = check_query(query)
+    normalized = _normalize(original)
+    if normalized is None:
+        raise UnsupportedQuery(original, "it has letters outside the English alphabet")
+    text, opened, full = normalized
+    if not text:
+        raise UnsupportedQuery(original, "it has no words the planner reads")
+    action, target, acted = _take_action(full)
+    if action == "measure":
+        return acted  # type: ignore[return-value]
+    if action is not None:
+        text, opened = _strip_article(str(acted)), True
+    yes_no = _parse_yes_no(text)
+    if yes_no is not None:
+        if action is not None:
+            raise UnsupportedQuery(original, "it asks to act and a yes/no question at once; ask one")
+        return yes_no
+    scope, text = _take_scope(text)
+    among, text = _take_among(text)
+    if scope is not None and _ONLY_FRAME.fullmatch(text):
+        inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
+    else:
+        inner = _parse_family(
+            text, opened, original, normalized[0] if scope is None and among is None else text
+        )
+    if scope is None and among is None and action is None:
+        return inner
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery):
+        raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
+    if among is not None and not isinstance(inner, WeightQuery | DistanceQuery | SizeQuery):
+        raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")
+    return Request(inner, scope=scope, among=among, action=action, target=target)  # type: ignore[arg-type]
+
+
+def _parse_family(text: str, opened: bool, original: str, whole: str) -> ParsedQuery:
+    """The families' readings of a text with no frame around it: the first reader, in their order, whose
+    reading accounts for the whole text; refused, naming the words none placed, when there is none."""
+    if text.endswith((" one", " ones")):
+        text = _ADJECTIVE_ONE.sub(r"\1", text)
+    reading = Reading(text, _plain(text), opened, whole, original)
+    for reader in readers():
+        parsed = reader(reading)
+        if parsed is not None:
+            return parsed
+    raise UnsupportedQuery(original, _unplaced(whole))
+
+
+def _plain(text: str) -> str:
+    """The text as the position and superlative readers read it: "which is the second dog" is "the second
+    dog", "which cup is the tallest" is "the tallest cup"."""
+    text = _strip_article(rx(r"^(?:which|what)\s+(?:one\s+)?(?:is|are)\s+").sub("", text))
+    if not text.startswith(("which ", "what ")):
+        return text
+    # "which cup is the tallest" asks for "the tallest cup"
+    which = _WHICH_X_IS.fullmatch(text)
+    if which is not None and _object(which["noun"]) is not None:
+        text = f"{which['adj']} {which['noun']}"
+    # "which thing is leftmost" asks for "the leftmost thing"
+    extreme = _WHICH_X_IS_EXTREME.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if extreme is not None and _object(extreme["noun"]) is not None:
+        text = f"{extreme['adj']} {extreme['noun']}"
+    # "which cup is second from the left" asks for "the second cup from the left"
+    place = _WHICH_X_IS_NTH.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if place is not None and _object(place["noun"]) is not None:
+        text = f"{place['ord']} {place['noun']} {place['rest']}"
+    return text
+
+
+def _unplaced(text: str) -> str:
+    """The words of a refused text that no family reads, named for the refusal."""
+    known = _STOP | _FRAME_WORDS | GENERIC_NOUNS | set(SURFACE_WORDS)
+    rest = [w for w in text.split() if w not in known]
+    return f"it could not place {' '.join(rest or text.split())!r}"
+
+
+_FRAME_WORDS = {"of", "one", "ones", "it", "this", "that", "with", "for", "can", "could", "please"}
+
+
+# ---- frames around a reading: actions, yes/no, scopes, narrowings ---------------------------------------
+
+_SURFACE = "|".join(sorted(SURFACE_WORDS, key=len, reverse=True))
+_OPENING = r"^(?:(?:can|could|would|will)\s+you\s+)?"
+_ACT_PICK = re.compile(
+    _OPENING + r"(?:bring|give|hand|fetch|get|grab|take|pick\s+up)(?:\s+me|\s+us)?(?:\s+over)?\s+(?P<rest>.+)"
+)
+_ACT_PUT = re.compile(
+    _OPENING + r"(?:put|place|move|set)\s+(?P<rest>.+)\s+(?:on|onto|on\s+to|on\s+top\s+of)\s+(?:the\s+)?"
+    r"(?P<target>[a-z ]+?)$"
+)
+_ACT_MEASURE = re.compile(
+    _OPENING + r"(?:(?:pick\s+up|lift|grab|take|go\s+to|drive\s+to|approach)\s+)(?P<obj>.+?)\s+and\s+"
+    r"(?:(?:tell\s+me\s+|say\s+|find\s+out\s+|report\s+)?(?P<what>how\s+much\s+(?:it|they)\s+weighs?|"
+    r"its\s+(?:weight|mass)|how\s+heavy\s+(?:it|they)\s+(?:is|are)|weigh\s+(?:it|them)|"
+    r"how\s+far(?:\s+away)?\s+(?:it|they)\s+(?:is|are|was|were)|its\s+distance))$"
+)
+
+
+def _take_action(text: str) -> tuple[str | None, str | None, object]:
+    """("pick" or "put", the target, the rest of the text) of a request to act; ("measure", None, the
+    measurement) of "pick up the X and tell me how much it weighs"; (None, None, text) otherwise."""
+    match = _ACT_MEASURE.fullmatch(text)
+    if match is not None:
+        obj = _named(_strip_article(match["obj"]))
+        if obj is not None:
+            weight = any(w in match["what"] for w in ("weigh", "heavy", "mass"))
+            return "measure", None, MeasureQuery(obj, "weight" if weight else "distance")
+    match = _ACT_PUT.fullmatch(text)
+    if match is not None:
+        target = _strip_article(match["target"])
+        kind = SURFACE_WORDS.get(target)
+        spec = None if kind is not None else _named(target)
+        if kind is not None or spec is not None:
+            return "put", kind or (spec.phrase if spec else None), match["rest"]
+    match = _ACT_PICK.fullmatch(text)
+    if match is not None:
+        return "pick", None, match["rest"]
+    return None, None, text
+
+
+_SCOPE = re.compile(
+    r"\s*\b(?:(?:that|which)\s+(?:is|are)\s+|(?:is|are)\s+)?(?:(?:sitting|standing|lying|placed|resting|kept|"
+    r"left)\s+)?(?:on|upon|on\s+top\s+of)\s+(?:the\s+)?(?P<surface>" + _SURFACE + r")\b"
+)
+# what is left of "which object is on the floor?" once the scope is taken: the question alone
+_ONLY_FRAME = re.compile(
+    r"(?:(?:which|what)(?:\s+(?:one|thing|object|item)s?)?(?:\s+(?:is|are))?(?:\s+there)?"
+    r"|(?:what|which\s+(?:one|thing|object|item)s?)\s+(?:do|can)\s+you\s+see"
+    r"|(?:the\s+)?(?:object|thing|item)s?)?"
+)
+
+
+def _take_scope(text: str) -> tuple[str | None, str]:
+    """The surface a query is scoped to ("the heaviest thing on the counter") and the text without it."""
+    match = _SCOPE.search(text)
+    if match is None:
+        return None, text
+    rest = " ".join((text[: match.start()] + " " + text[match.end() :]).split()).strip(" ,")
+    return SURFACE_WORDS[match["surface"]], rest
+
+
+_NUMBER_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "2": 2, "3": 3, "4": 4, "5": 5}
+_AMONG_WORDS = {
+    **{w: ("distance", True) for w in ("closest", "nearest")},
+    **{w: ("distance", False) for w in ("farthest", "furthest", "most distant")},
+    **{w: ("weight", True) for w in ("heaviest",)},
+    **{w: ("weight", False) for w in ("lightest",)},
+}
+_AMONG_ADJ = "|".join(sorted(_AMONG_WORDS, key=len, reverse=True))
+_AMONG = re.compile(
+    r"\b(?:of|among|out\s+of|from)\s+(?:the\s+)?(?P<k>two|three|four|five|[2-5])\s+(?:"
+    r"(?P<adj>" + _AMONG_ADJ + r")(?:\s+(?P<noun>[a-z]+))?|(?P<noun2>[a-z]+)\s+(?:that\s+are\s+)?"
+    r"(?:the\s+)?(?P<adj2>" + _AMONG_ADJ + r"))" + _ME + r"\b"
+)
+
+
+def _take_among(text: str) -> tuple[Among | None, str]:
+    """ "the heaviest of the two closest objects": the narrowing, and the text with "of the objects"."""
+    match = _AMONG.search(text)
+    if match is None:
+        return None, text
+    adjective = match["adj"] or match["adj2"]
+    noun = match["noun"] or match["noun2"] or "objects"
+    if noun in ("to", "from", "away", "one", "ones"):
+        noun = "objects"
+    attribute, most = _AMONG_WORDS[adjective]
+    among = Among(attribute, most, _NUMBER_WORDS[match["k"]])  # type: ignore[arg-type]
+    rest = text[: match.start()] + f" of the {noun} " + text[match.end() :]
+    return among, " ".join(rest.split()).strip(" ,")

@@ -1,0 +1,217 @@
+"""Writing the program of a reading: readable Python defining `execute_command(image, robot)`, the same
+kind of program an LLM writes against the API, sensor-aware (measured with the robot's sensors when it has
+them, a stated visual proxy or the paper's VQA + language-model chain otherwise).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+
+from attribot.errors import InputError
+from attribot.planning.rules.families import FAMILY_REGISTRY
+from attribot.planning.rules.forms import (
+    Among,
+    DistanceQuery,
+    ObjectSpec,
+    ParsedQuery,
+    Request,
+)
+from attribot.planning.rules.helpers import source as helper_source
+
+# ---- the program writer --------------------------------------------------------------------------------
+
+_ORDINAL_NAMES = {1: "1st", 2: "2nd", 3: "3rd"}
+
+
+def _nth(k: int) -> str:
+    return _ORDINAL_NAMES.get(k, f"{k}th") if not 10 < k % 100 < 14 else f"{k}th"
+
+
+def _q(text: str) -> str:
+    """A Python string literal (double quotes)."""
+    return json.dumps(text)
+
+
+class _Writer:
+    """Collects the lines of `execute_command` with their indentation."""
+
+    def __init__(self, query: str) -> None:
+        self.helpers: list[str] = []
+        self.body: list[str] = [f"# Query: {_q(query)}", "# Written by the offline rules planner."]
+        self.uses_math = False
+        self.query = query
+        self.frame: Request | None = None  # a scope, narrowing or action around the reading
+        self.sensors: Sequence[str] = ("camera",)
+        self.embodied = False
+        self.act: str | None = None  # the helper call that acts on the chosen object: "bring(robot, {})"
+        self.premeasured: str | None = None  # the distances of `candidates`, measured before the robot moved
+
+    def line(self, text: str = "") -> None:
+        stripped = text.lstrip()
+        if self.act is not None and stripped.startswith("return ") and not stripped.startswith("return {"):
+            indent = text[: len(text) - len(stripped)]
+            text = indent + "return " + self.act.format(stripped[len("return ") :])
+        self.body.append(text)
+
+    def helper(self, name: str) -> None:
+        """Define the helper `name` of `attribot.planning.rules.helpers` in the program (once)."""
+        text = helper_source(name)
+        if text not in self.helpers:
+            self.helpers.append(text)
+
+    def fail(self, condition: str, message_expr: str) -> None:
+        self.line(f"if {condition}:")
+        if len(message_expr) <= 80:
+            self.line(f"    raise ValueError({message_expr})")
+        else:  # keep the program readable: the message on its own line
+            self.line("    raise ValueError(")
+            self.line(f"        {message_expr}")
+            self.line("    )")
+
+    def source(self) -> str:
+        parts = []
+        if self.uses_math:
+            parts.append("import math\n")
+        parts.extend(h + "\n" for h in self.helpers)
+        body = "\n".join(("    " + b) if b else "" for b in self.body)
+        parts.append("def execute_command(image, robot):\n" + body + "\n")
+        return "\n".join(parts)
+
+
+def _sorted(group: str, key: str, reverse: bool) -> str:
+    return f"sorted({group}, key=lambda patch: {key}{', reverse=True' if reverse else ''})"
+
+
+def _count_message(before: str, count: str, after: str) -> str:
+    """The expression of an error message with a count in it: "before" + str(count) + "after"."""
+    return f"{_q(before)} + str({count}) + {_q(after)}"
+
+
+def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
+    """`var = image.find(noun)`, the colour filter, and the "none found" error."""
+    w.line(f"{var} = image.find({_q(obj.noun)})")
+    for color in obj.colors:
+        w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line(f'    if {_q(color)} in patch.visual_query("What color is this object?").lower():')
+        w.line("        kept.append(patch)")
+        w.line(f"{var} = kept")
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
+    frame = w.frame
+    if frame is not None and frame.scope is not None:
+        _write_scope(w, var, frame.scope, obj)
+    if frame is not None and frame.among is not None and var == "candidates":
+        _write_among(w, frame.among)
+
+
+def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
+    """Keep the patches of `var` that stand on the surface `scope` (on none of the furniture: the floor)."""
+    w.helper("on_surface")
+    w.helper("on_any")
+    if scope == "floor":
+        w.line("# on the floor: standing on none of the furniture")
+        w.line('furniture = image.find("table") + image.find("counter") + image.find("shelf")')
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    if not on_any(patch, furniture):")
+        w.line("        kept.append(patch)")
+    else:
+        w.line(f"# on the {scope}: the detector finds furniture too; keep what stands on it")
+        w.line(f"surfaces = image.find({_q(scope)})")
+        w.fail("len(surfaces) == 0", _q(f"no {scope} found in the image"))
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    if on_any(patch, surfaces):")
+        w.line("        kept.append(patch)")
+    w.line(f"{var} = kept")
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found on the {scope}"))
+
+
+def _write_among(w: _Writer, among: Among) -> None:
+    """Narrow `candidates` to the k at one end of another attribute ("of the two closest")."""
+    end = {("distance", True): "nearest", ("distance", False): "farthest"}.get(
+        (among.attribute, among.most), "heaviest" if among.most else "lightest"
+    )
+    w.line(f"# first the {among.k} {end}")
+    w.fail(
+        f"len(candidates) < {among.k}",
+        _count_message(f"asked among the {among.k} {end}, but only ", "len(candidates)", " were found"),
+    )
+    measured = w.embodied and ("distance" if among.attribute == "distance" else "force") in w.sensors
+    if among.attribute == "distance" and measured:
+        w.line("narrowing = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.focus_on_patch(patch)")
+        w.line("    narrowing.append(robot.measure_distance(patch))")
+        reverse = not among.most
+    elif among.attribute == "distance":
+        w.line("# no distance sensor: lower in the picture is nearer (a visual proxy, not a measurement)")
+        w.line("narrowing = [patch.lower for patch in candidates]")
+        reverse = not among.most
+    elif measured:
+        frame = w.frame
+        if frame is not None and isinstance(frame.inner, DistanceQuery) and "distance" in w.sensors:
+            # weighing drives the robot about, after which the boxes no longer say where to look: measure
+            # the distances the choice needs first, from here
+            w.line("# distances first: weighing moves the robot, and the boxes are this view's")
+            w.line("distances_here = []")
+            w.line("for patch in candidates:")
+            w.line("    robot.focus_on_patch(patch)")
+            w.line("    distances_here.append(robot.measure_distance(patch))")
+            w.premeasured = "distances_here"
+        w.line("narrowing = []")
+        w.line("for patch in candidates:")
+        w.line("    robot.go_to_object(patch)")
+        w.line("    robot.pick_up(patch)")
+        w.line("    narrowing.append(robot.measure_weight(patch))")
+        w.line("    robot.put_down()")
+        reverse = among.most
+    else:
+        w.line(
+            "# no force sensor: the bigger box is taken as the heavier (a visual proxy, not a measurement)"
+        )
+        w.line("narrowing = [patch.area for patch in candidates]")
+        reverse = among.most
+    w.line(
+        "order = sorted(range(len(candidates)), key=lambda index: narrowing[index]"
+        + (", reverse=True)" if reverse else ")")
+    )
+    w.line(f"candidates = [candidates[index] for index in order[:{among.k}]]")
+    if w.premeasured is not None:
+        w.line(f"{w.premeasured} = [{w.premeasured}[index] for index in order[:{among.k}]]")
+
+
+def write_program(
+    parsed: ParsedQuery, query: str, sensors: Sequence[str] = ("camera",), embodied: bool = False
+) -> str:
+    """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
+    w = _Writer(query)
+    w.sensors, w.embodied, w.query = sensors, embodied, query
+    if isinstance(parsed, Request):
+        w.frame = parsed
+        if parsed.action is not None:
+            if not embodied:
+                raise InputError(
+                    f"{query!r} asks the robot to act, and a still image has no robot",
+                    "ask it in the simulator or on a robot, or ask only which object it means",
+                )
+            w.helper("bring" if parsed.action == "pick" else "put_it_on")
+            if parsed.action == "put":
+                target = parsed.target or "table"
+                w.line(f"# where it goes: the {target}")
+                w.line(f"targets = image.find({_q(target)})")
+                w.fail("len(targets) == 0", _q(f"no {target} found in the image"))
+                w.line("target = targets[0]")
+                w.act = "put_it_on(robot, {}, target)"
+            else:
+                w.act = "bring(robot, {})"
+        parsed = parsed.inner
+    for _, family in FAMILY_REGISTRY.items():
+        if family.write is not None and isinstance(parsed, family.forms):
+            family.write(w, parsed)
+            break
+    else:
+        raise TypeError(f"no family writes a {type(parsed).__name__}")
+    return w.source()
