@@ -67,8 +67,8 @@ _PERCEPTION = {
     "false_pos": 0.05,
     "jitter_rel": 0.04,
     "confuse": 0.03,
-    "miss_view": 0.1,
-    "confuse_view": 0.05,
+    "miss_view": 0.05,
+    "confuse_view": 0.03,
     "wrong": 0.1,
 }
 # a hobby-grade ToF ranger and load cell, a gripper without tactile sensing, wheel odometry

@@ -15,6 +15,7 @@ only frames, depth, head angles and odometry, as a real robot has.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -297,6 +298,7 @@ class _Group:
 
 
 _CROPS = "crops of the image a few pixels in"
+_NAMES = re.compile(r"\s*(?:,|\band\b|\ba\b|\ban\b|\bthe\b)\s*")
 
 
 def _variants(frame: Frame) -> list[tuple[Frame, float, float]]:
@@ -384,9 +386,16 @@ def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
     """A visual question asked of `frame` and of two crops a few pixels in: the answer most of the three
     give (the first one's when all differ), and how many of the others disagreed with the first."""
     answers = [answer(frame)] + [answer(crop) for crop, _, _ in _variants(frame)]
-    keys = [" ".join(a.strip().lower().rstrip(".").split()) for a in answers]
-    best = max(range(len(keys)), key=lambda i: (keys.count(keys[i]), i == 0))
-    return answers[best], sum(1 for k in keys[1:] if k != keys[0])
+    # an answer may be a list ("fork, pencil and a cup"): compared as the set of what it names
+    names = [frozenset(n for n in _NAMES.split(a.strip().lower().rstrip(".")) if n.strip()) for a in answers]
+
+    def agreement(i: int) -> float:
+        return sum(
+            len(names[i] & names[j]) / max(len(names[i] | names[j]), 1) for j in range(len(names)) if j != i
+        )
+
+    best = max(range(len(answers)), key=lambda i: (round(agreement(i), 6), i == 0))
+    return answers[best], sum(1 for n in names[1:] if n != names[0])
 
 
 def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:

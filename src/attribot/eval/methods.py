@@ -137,11 +137,26 @@ def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
     )
 
 
-def _world_frame(item: Item) -> Any:
-    from attribot.embodiments.mujoco import MujocoWorld
+_FRAMES: dict[str, Any] = {}
+_FRAMES_KEPT = 4
 
-    with MujocoWorld(item.scene()) as world:
-        return world.observe()
+
+def _world_frame(item: Item) -> Any:
+    """The item's first camera frame; the last few are kept, since an item's methods and noise levels
+    follow one another and each needs the same frame (building the world is most of their cost)."""
+    key = item.model_dump_json()
+    if key not in _FRAMES:
+        from attribot.embodiments.mujoco import MujocoWorld
+
+        with MujocoWorld(item.scene()) as world:
+            _FRAMES[key] = world.observe()
+        while len(_FRAMES) > _FRAMES_KEPT:
+            _FRAMES.pop(next(iter(_FRAMES)))
+    return _FRAMES[key]
+
+
+def _vlm_configured(settings: Settings) -> bool:
+    return str(settings.vqa).startswith("openai:")
 
 
 def _best(detections: list[Any]) -> Any:
@@ -236,6 +251,8 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
                 sim_s=answer.sim_s,
                 checks=answer.checks,
             )
+        elif method == "vlm" and not _vlm_configured(settings):
+            record = _vlm(item, noise, settings, None)  # not run: no world to build for it
         else:
             perception = Perception.from_settings(settings)
             frame = _world_frame(item)
@@ -271,8 +288,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
 
 def _vlm(item: Item, noise: str, settings: Settings, frame: Any) -> Record:
     """An end-to-end vision-chat model asked for the box; not run without one."""
-    spec = str(settings.vqa)
-    if not spec.startswith("openai:"):
+    if not _vlm_configured(settings):
         return _record(
             item,
             "vlm",

@@ -243,10 +243,11 @@ def _checks_tables(records: list[Record], rows: list[dict[str, Any]]) -> list[st
     e = html.escape
     out = [
         "<h2>What the error-catching mechanisms did</h2><p class='note'>Per cell: items where the "
-        "mechanism caught something / of those, answered right; unsettled: items it left unsettled.</p>"
+        "mechanism caught something / of those, answered right; unsettled: items it left unsettled. Missed: "
+        "items that failed with nothing caught.</p>"
         "<table><tr><th>task</th><th>method</th><th>noise</th>"
         + "".join(f"<th>{e(m)}</th>" for m in MECHANISMS)
-        + "</tr>"
+        + "<th>missed</th></tr>"
     ]
     groups: dict[tuple[str, str, str], list[Record]] = defaultdict(list)
     for r in records:
@@ -265,6 +266,8 @@ def _checks_tables(records: list[Record], rows: list[dict[str, Any]]) -> list[st
             cells.append(
                 f"<td>{len(caught)} / {right}" + (f"; {unsettled} unsettled" if unsettled else "") + "</td>"
             )
+        missed = sum(not r.right and not any(c["outcome"] == "caught" for c in r.checks) for r in rs)
+        cells.append(f"<td>{missed} of {sum(not r.right for r in rs)} failures</td>")
         out.append(f"<tr><td>{e(task)}</td><td>{e(method)}</td><td>{e(noise)}</td>{''.join(cells)}</tr>")
     out.append("</table>")
     ablated = sorted({r["noise"] for r in rows if "-no-" in r["noise"]})
