@@ -481,18 +481,7 @@ class Robot:
         self._focus(p, target)
         assert self.world is not None  # _target checked it
         metres, spread, samples = self._read_range(p)
-        self._record(
-            Measurement(
-                kind="distance",
-                object_id=p.object_id,
-                label=p.label,
-                value=metres,
-                unit="m",
-                samples=samples,
-                uncertainty=spread,
-            ),
-            p,
-        )
+        self._record(p, kind="distance", value=metres, unit="m", samples=samples, uncertainty=spread)
         return metres
 
     def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
@@ -567,7 +556,9 @@ class Robot:
         finite = win[np.isfinite(win) & (win > 0.05)]
         return float(np.median(finite)) if finite.size else None
 
-    def _record(self, m: Measurement, p: ImagePatch) -> None:
+    def _record(self, p: ImagePatch, **reading: Any) -> None:
+        """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
+        m = Measurement(object_id=p.object_id, label=p.label, **reading)
         self.measurements.append(m)
         self._measured.append((m, p))
 
@@ -607,17 +598,13 @@ class Robot:
         newtons, error, samples = self._weigh(p)
         kg = newtons / GRAVITY
         self._record(
-            Measurement(
-                kind="weight",
-                object_id=p.object_id,
-                label=p.label,
-                value=kg,
-                unit="kg",
-                newtons=newtons,
-                samples=samples,
-                uncertainty=error / GRAVITY,
-            ),
             p,
+            kind="weight",
+            value=kg,
+            unit="kg",
+            newtons=newtons,
+            samples=samples,
+            uncertainty=error / GRAVITY,
         )
         return kg
 
