@@ -100,6 +100,7 @@ class Robot:
         "focus_on_patch",
         "measure_distance",
         "measure_weight",
+        "uncertainty",
         "go_to_coords",
         "go_to_object",
         "pick_up",
@@ -638,6 +639,29 @@ class Robot:
             self.go_to_object(p)
             self.pick_up(p)
         raise AssertionError("unreachable")
+
+    def uncertainty(self, patch: ImagePatch) -> float:
+        """Returns the uncertainty (one standard deviation, in the same unit) of the last measurement of the
+        object in `patch`. Two measured values whose difference is within twice their uncertainties cannot
+        be told apart: measure again, or answer that you cannot tell.
+
+        >>> # the closer of two balls, or "cannot tell" when their distances overlap
+        >>> def execute_command(image, robot):
+        >>>     first, second = image.find("ball")[:2]
+        >>>     d1 = robot.measure_distance(first)
+        >>>     d2 = robot.measure_distance(second)
+        >>>     if abs(d1 - d2) <= 2 * (robot.uncertainty(first) + robot.uncertainty(second)):
+        >>>         return "cannot tell"
+        >>>     return first if d1 < d2 else second
+        """
+        p = check_patch(patch, ImagePatch, "patch", "uncertainty")
+        m = next((m for m, q in reversed(self._measured) if q is p or q.same_object(p)), None)
+        if m is None:
+            raise PreconditionError(
+                f"robot.uncertainty() has no measurement of {p.label or 'this patch'} yet",
+                "call robot.measure_distance(patch) or robot.measure_weight(patch) first",
+            )
+        return m.uncertainty
 
     def go_to_coords(self, x: float, y: float) -> None:
         """Drives the robot towards the point (x, y) of the image (pixels, y growing upward, like the
