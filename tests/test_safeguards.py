@@ -222,13 +222,22 @@ def test_find_looks_again_and_recovers_the_object(perception, mode):
         assert [p.object_id for p in image.find(truth.category)] != [truth.id]
 
 
-def test_looking_again_changes_nothing_for_a_perfect_detector(perception):
-    with world() as w:
+def _scene(layout: str, seed: int, **options: str) -> MujocoWorld:
+    return MujocoWorld(SceneConfig(layout=layout, seed=seed, width=640, height=480, options=options))
+
+
+# household; a row of thin pencils, whose boxes from turned views are much wider than the first image's
+@pytest.mark.parametrize(
+    ("layout", "seed", "options"),
+    [("household", 7, {}), ("arrangement", 10054, {"pattern": "row", "odd": "size"})],
+)
+def test_looking_again_changes_nothing_for_a_perfect_detector(perception, layout, seed, options):
+    with _scene(layout, seed, **options) as w:
         plain = Robot(["camera"], world=w, safeguards=Safeguards("none")).look(perception)
         expected = {
             o.category: [(p.object_id, p.box) for p in plain.find(o.category)] for o in w.scene_info().objects
         }
-    with world() as w:
+    with _scene(layout, seed, **options) as w:
         image = Robot(["camera"], world=w).look(perception)
         for category, boxes in expected.items():
             assert [(p.object_id, p.box) for p in image.find(category)] == boxes

@@ -17,6 +17,7 @@ __all__ = [
     "area",
     "iou",
     "iou_matrix",
+    "overlap_of_smaller",
     "nms",
     "clip",
     "center",
@@ -61,6 +62,18 @@ def iou(a: Sequence[float], b: Sequence[float]) -> float:
     0.3333333333333333
     """
     return float(iou_matrix(np.asarray([a]), np.asarray([b]))[0, 0])
+
+
+def overlap_of_smaller(a: Sequence[float], b: Sequence[float]) -> float:
+    """The share of the smaller of two xyxy boxes that the other covers (1.0: one holds the other).
+
+    >>> overlap_of_smaller((0, 0, 4, 4), (1, 1, 2, 3))
+    1.0
+    """
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    smaller = min((a[2] - a[0]) * (a[3] - a[1]), (b[2] - b[0]) * (b[3] - b[1]))
+    return float(max(w, 0.0) * max(h, 0.0) / smaller) if smaller > 0 else 0.0
 
 
 def nms(

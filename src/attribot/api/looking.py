@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attribot.boxes import iou
+from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
 from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
@@ -127,8 +127,12 @@ class Survey:
                 box = det.box if v == 0 else self._in_first(det.box, view, points)
                 if box is None:
                     continue
-                near = [g for g in groups if v not in g.members and iou(g.box, box) >= _SAME_IOU]
-                group = max(near, key=lambda g: iou(g.box, box)) if near else None
+                near = [g for g in groups if v not in g.members and g.same(box, point)]
+                group = (
+                    max(near, key=lambda g: iou(g.box, box) + overlap_of_smaller(g.box, box))
+                    if near
+                    else None
+                )
                 if group is None:
                     group = _Group()
                     groups.append(group)
@@ -150,22 +154,23 @@ class Survey:
             confirmed = [max(groups, key=lambda g: max(m.det.score for m in g.members.values()))]
         kept: list[tuple[float, Detection]] = []
         added = 0
+        in_first = [g.members[0].box for g in confirmed if 0 in g.members]
         for group in confirmed:
             if 0 in group.members:
                 det = group.members[0].det
+            elif any(overlap_of_smaller(group.box, b) >= 0.5 for b in in_first):
+                continue  # what the first image shows already, seen from elsewhere: not another object
             else:
                 nearest = self._least_turned(group)
                 best = nearest.det
                 det = Detection(box=nearest.box, score=best.score, label=best.label, object_id=best.object_id)
                 added += 1
-            # how strongly it is seen: by how many views, times the share of those that could that did
-            strength = len(group.members) * min(support[id(group)], 1.0)
-            kept.append((strength, det))
+            kept.append((support[id(group)], det))
         placed = {id(m.det) for g in groups for m in g.members.values()}
         # no depth where the box is: nothing to check it against, kept as seen
         kept += [(1.0, d) for d in first if id(d) not in placed]
-        # the most strongly seen first, then the detector's order
-        result = [d for _, d in sorted(kept, key=lambda sd: (-sd[0], -sd[1].score))]
+        # the detector's order, best match first, as find promises
+        result = [d for _, d in sorted(kept, key=lambda sd: -sd[1].score)]
         kept_first = sum(1 for d in result if any(d is f for f in first))
         settled = max(
             (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
@@ -258,6 +263,8 @@ class Survey:
 
 
 _SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
+# or, a thin thing's box inside the wider one another view gives it, both at the same place in the world
+_SAME_INSIDE, _SAME_PLACE_M = 0.6, 0.1
 
 
 def _support(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> float:
@@ -292,6 +299,13 @@ class _Group:
         boxes = np.array([m.box for m in self.members.values()])
         x0, y0, x1, y1 = boxes.mean(axis=0)
         return float(x0), float(y0), float(x1), float(y1)
+
+    def same(self, box: tuple[float, float, float, float], point: np.ndarray) -> bool:
+        """A sighting at `box` (in the first image) and `point` (in the world) shows this group's object."""
+        if iou(self.box, box) >= _SAME_IOU:
+            return True
+        near = float(np.linalg.norm(self.centre - point)) <= _SAME_PLACE_M
+        return near and overlap_of_smaller(self.box, box) >= _SAME_INSIDE
 
     def add(self, view: int, sighting: _Sighting) -> None:
         self.members[view] = sighting
