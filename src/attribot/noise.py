@@ -37,7 +37,7 @@ class WorldNoise(BaseModel):
     it really hits); force_std: newtons of noise per force reading; force_bias: newtons, the standard
     deviation of an offset drawn once per world (a tare removes it); force_drift: newtons per second, the
     standard deviation of the drift rate since the last tare; grasp_fail: the chance that a grasp closes on
-    nothing; slip: the chance that a held object slips out while it is lifted; odom_drift: metres of
+    nothing; slip: the chance that a grasped object slips out as the lift starts; odom_drift: metres of
     odometry error (standard deviation) per metre travelled; seed: the draws' seed.
     """
 

@@ -460,9 +460,8 @@ class SimWorld:
             return False
         self._weld(key)
         if self.noise.slip and self._noise_rng.random() < self.noise.slip:
-            self._slip_at = float(self.data.time) + float(
-                self._noise_rng.uniform(0.3, 0.45)
-            )  # as the lift starts
+            # the grip is too weak: as the lift starts, the object stays behind on its support
+            self._slip_at = float(self.data.time) + float(self._noise_rng.uniform(0.05, 0.25))
         self.step(0.3)
         return True
 
