@@ -224,8 +224,13 @@ class Robot:
         self._image = ImagePatch(frame, perception, capture=self.capture)
         if self.safeguards.on("look_again"):
             self._image.safeguards = self.safeguards
-            if survey and {"head", "arm"} <= caps and frame.depth is not None:
-                self._image.survey = Survey.take(self.world, View(frame, self.capture), self.world.body())
+            if survey and {"head", "pose"} <= caps and frame.depth is not None:
+                try:
+                    body = self.world.body()
+                except UnsupportedAction:  # a robot that does not state where its camera sits
+                    body = None
+                if body is not None:
+                    self._image.survey = Survey.take(self.world, View(frame, self.capture), body)
         self._acted_on = []
         return self._image
 
