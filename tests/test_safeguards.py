@@ -473,3 +473,18 @@ def test_a_miss_tied_to_the_view_is_mended_by_turning_the_head(perception):
     with world() as w:  # the image alone (its crops) cannot mend it
         still = Robot(["camera"], world=w).look(blind, survey=False)
         assert truth.id not in [p.object_id for p in still.find(truth.category)]
+
+
+def test_a_robot_that_does_not_state_its_body_looks_again_within_its_image(perception):
+    from attribot.errors import UnsupportedAction
+
+    class Bodiless(MujocoWorld):
+        def body(self):  # type: ignore[override]
+            raise UnsupportedAction("this robot does not state its body geometry")
+
+    with Bodiless(SceneConfig(layout="household", seed=7, width=W, height=H)) as w:
+        head = w.sim.head()
+        image = Robot(["camera"], world=w).look(perception)
+        assert image.survey is None and image.safeguards is not None and w.sim.head() == head
+        truth = next(o for o in w.scene_info().objects if o.box is not None)
+        assert truth.id in [p.object_id for p in image.find(truth.category)]
