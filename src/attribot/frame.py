@@ -8,6 +8,7 @@ A crop keeps all layers aligned and remembers where it sits in the full frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,6 +41,16 @@ class CameraInfo:
     fy: float
     cx: float
     cy: float
+
+    @property
+    def hfov(self) -> float:
+        """The horizontal field of view, radians."""
+        return 2.0 * math.atan(self.width / (2.0 * self.fx))
+
+    @property
+    def vfov(self) -> float:
+        """The vertical field of view, radians."""
+        return 2.0 * math.atan(self.height / (2.0 * self.fy))
 
 
 def check_rgb(rgb: np.ndarray) -> np.ndarray:

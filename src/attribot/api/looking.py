@@ -26,10 +26,10 @@ from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
 from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
 from attribot.embodiments.base import Embodiment
-from attribot.frame import Frame
+from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, Detector
 
-__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again"]
+__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "capture_now"]
 
 _SETTLE_S = 0.05
 _SETTLE_STEPS = 30
@@ -76,9 +76,7 @@ class Survey:
     """What earlier finds settled on: (name, box in the first image, support)."""
 
     @classmethod
-    def take(
-        cls, world: Embodiment, first: View, body: BodyGeometry, turn_rad: float | None = None
-    ) -> Survey:
+    def take(cls, world: Embodiment, first: View, body: BodyGeometry) -> Survey:
         """Turn the head to either side of where `first` was taken (a third of the view's width by
         default: enough that every object is seen elsewhere in the image) and up and down (a quarter of its
         height), take a frame at each, and turn it back."""
@@ -87,26 +85,11 @@ class Survey:
         if cap.head is None or cap.camera is None or cap.base is None or first.frame.depth is None:
             return survey
         pan, tilt = cap.head
-        hfov = 2.0 * math.atan(cap.camera.width / (2.0 * cap.camera.fx))
-        vfov = 2.0 * math.atan(cap.camera.height / (2.0 * cap.camera.fy))
-        turn = hfov / 3.0 if turn_rad is None else turn_rad
-        nod = vfov / 4.0
+        turn, nod = cap.camera.hfov / 3.0, cap.camera.vfov / 4.0
         for k, (d_pan, d_tilt) in enumerate(((turn, 0.0), (-turn, 0.0), (0.0, -nod), (0.0, nod))):
-            head = _move_head(world, pan + d_pan, tilt + d_tilt)
+            _move_head(world, pan + d_pan, tilt + d_tilt)
             frame = world.observe()
-            pose = world.base_pose()
-            survey.others.append(
-                View(
-                    frame=frame,
-                    capture=Capture(
-                        index=-(k + 1),
-                        camera=frame.camera or cap.camera,
-                        head=head,
-                        base=(float(pose.x), float(pose.y), float(pose.yaw)),
-                        depth=frame.depth,
-                    ),
-                )
-            )
+            survey.others.append(View(frame, capture_now(world, frame, -(k + 1), frame.camera or cap.camera)))
         _move_head(world, pan, tilt)
         return survey
 
@@ -152,7 +135,7 @@ class Survey:
         if not confirmed and groups:
             # nothing confirmed: the detector's best single sighting, as one image would have given
             confirmed = [max(groups, key=lambda g: max(m.det.score for m in g.members.values()))]
-        kept: list[tuple[float, Detection]] = []
+        kept: list[Detection] = []
         added = 0
         in_first = [g.members[0].box for g in confirmed if 0 in g.members]
         for group in confirmed:
@@ -165,12 +148,12 @@ class Survey:
                 best = nearest.det
                 det = Detection(box=nearest.box, score=best.score, label=best.label, object_id=best.object_id)
                 added += 1
-            kept.append((support[id(group)], det))
+            kept.append(det)
         placed = {id(m.det) for g in groups for m in g.members.values()}
         # no depth where the box is: nothing to check it against, kept as seen
-        kept += [(1.0, d) for d in first if id(d) not in placed]
+        kept += [d for d in first if id(d) not in placed]
         # the detector's order, best match first, as find promises
-        result = [d for _, d in sorted(kept, key=lambda sd: -sd[1].score)]
+        result = sorted(kept, key=lambda d: -d.score)
         kept_first = sum(1 for d in result if any(d is f for f in first))
         settled = max(
             (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
@@ -410,6 +393,18 @@ def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
 
     best = max(range(len(answers)), key=lambda i: (round(agreement(i), 6), i == 0))
     return answers[best], sum(1 for n in names[1:] if n != names[0])
+
+
+def capture_now(world: Embodiment, frame: Frame, index: int, camera: CameraInfo) -> Capture:
+    """What is known of `frame`, taken just now: the head's angles and the base's odometry pose."""
+    js, pose = world.joint_states(), world.base_pose()
+    return Capture(
+        index=index,
+        camera=camera,
+        head=(float(js["head_pan"]), float(js["head_tilt"])),
+        base=(float(pose.x), float(pose.y), float(pose.yaw)),
+        depth=frame.depth,
+    )
 
 
 def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:

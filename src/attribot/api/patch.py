@@ -175,9 +175,11 @@ class ImagePatch:
 
     def _crop_frame(self) -> Frame:
         if self._pixels is None:
-            whole = self.box == (0.0, 0.0, float(self.frame.width), float(self.frame.height))
-            self._pixels = self.frame if whole else self.frame.crop(self.box)
+            self._pixels = self.frame if self._whole() else self.frame.crop(self.box)
         return self._pixels
+
+    def _whole(self) -> bool:
+        return self.box == (0.0, 0.0, float(self.frame.width), float(self.frame.height))
 
     def __repr__(self) -> str:
         what = f"{self.label!r} " if self.label else ""
@@ -270,13 +272,12 @@ class ImagePatch:
                 f"the detector {self.perception.detector.name!r} did not return a list of Detection",
                 "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
             )
-        whole = (0.0, 0.0, float(self.frame.width), float(self.frame.height))
         if self.safeguards is not None and self.safeguards.on("look_again"):
             first = len(detections)
             # the image itself looked at again (its boxes averaged), then the views around it
             detections, report = reexamine(self.perception.detector, pixels, name, detections)
             reports = [report]
-            if self.survey is not None and self.box == whole:
+            if self.survey is not None and self._whole():
                 detections = self.survey.fuse(self.perception.detector, name, detections)
                 reports.append(self.survey.reports[-1])
             changed = any(r.dropped or r.added or r.conflicts for r in reports)

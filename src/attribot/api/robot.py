@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict
 
 from attribot.api.checks import check_number, check_patch
 from attribot.api.errors import ActionFailed, ApiArgumentError, MissingSensor, PreconditionError
-from attribot.api.looking import Survey, View
+from attribot.api.looking import Survey, View, capture_now
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
@@ -419,27 +419,20 @@ class Robot:
                 return
             self.controller.focus_on(seen)
 
-    def _reacquire(self, patch: ImagePatch) -> Target | None:
-        """The object of `patch` in a new camera image: by world id when known, else the detection of
-        the same name nearest the image centre (where the aim put it), within a quarter of the image."""
+    def _reacquire(self, patch: ImagePatch, by_id: bool = True) -> Target | None:
+        """The object of `patch` in a new camera image: by world id when known (and `by_id`), else the
+        detection of the same name nearest the image centre (where the aim put it), within a quarter of
+        the image."""
         if not patch.label or self.world is None or "pose" not in {str(c) for c in self.world.capabilities()}:
             return None
         frame = self.world.observe()
         cam = frame.camera or _camera_info(self.world)
         if cam is None:
             return None
-        js = self.world.joint_states()
-        pose = self.world.base_pose()
-        capture = Capture(
-            index=self._captures,
-            camera=cam,
-            head=(float(js["head_pan"]), float(js["head_tilt"])),
-            base=(float(pose.x), float(pose.y), float(pose.yaw)),
-            depth=frame.depth,
-        )
+        capture = capture_now(self.world, frame, self._captures, cam)
         self._captures += 1
         detections = patch.perception.detector.detect(frame, [patch.label])
-        if patch.object_id is not None:
+        if by_id and patch.object_id is not None:
             same = [d for d in detections if d.object_id == patch.object_id]
         else:
             radius = min(cam.width, cam.height) / 4.0
@@ -725,31 +718,16 @@ class Robot:
     def _seen_from_here(self, p: ImagePatch, target: Target) -> Target:
         """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
         detection of its name nearest the image centre; `target` itself when it cannot be seen again."""
-        assert self.world is not None
         try:
             self.controller.focus_on(target)
-            frame = self.world.observe()
-            cam = frame.camera or _camera_info(self.world)
-            js, pose = self.world.joint_states(), self.world.base_pose()
+            seen = self._reacquire(p, by_id=False)  # what the camera sees there, not what the id says
         except (ControlError, UnsupportedAction):
             return target
-        if cam is None or not p.label:
+        if seen is None:
             return target
-        radius = min(cam.width, cam.height) / 4.0
-        found = p.perception.detector.detect(frame, [p.label])
-        near = [d for d in found if _dist_to_center(d.box, cam) <= radius]
-        if not near:
-            return target
-        box = min(near, key=lambda d: _dist_to_center(d.box, cam)).box
-        capture = Capture(
-            index=self._captures,
-            camera=cam,
-            head=(float(js["head_pan"]), float(js["head_tilt"])),
-            base=(float(pose.x), float(pose.y), float(pose.yaw)),
-            depth=frame.depth,
+        return Target(
+            box=seen.box, capture=seen.capture, object_id=p.object_id, label=p.label, find=target.find
         )
-        self._captures += 1
-        return Target(box=box, capture=capture, object_id=p.object_id, label=p.label, find=target.find)
 
     def pick_up(self, patch: ImagePatch) -> None:
         """Grasps and lifts the object in `patch`. Call robot.go_to_object(patch) first; the gripper must be

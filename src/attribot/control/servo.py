@@ -499,8 +499,7 @@ class ServoController(PointingController):
             return frame, None
         # a detector that misses an object from one viewpoint may not from another: turn a third of the
         # view to each side, where the object sits elsewhere in the image, and look for it where it must be
-        hfov = 2.0 * math.atan(camera.width / (2.0 * camera.fx))
-        for turn in (hfov / 3.0, -hfov / 3.0):
+        for turn in (camera.hfov / 3.0, -camera.hfov / 3.0):
             self.world.set_head(pan + turn, tilt)
             self._settle(0.4)
             frame = self.world.observe()
@@ -907,9 +906,8 @@ def _nearest_to_centre(
 ) -> Any:
     """The box whose centre is nearest the image centre, within `within` of the image's smaller side;
     None if none."""
-    radius = min(camera.width, camera.height) * within
-    near = [b for b in boxes if _off_centre(b, camera) <= radius]
-    return min(near, key=lambda b: _off_centre(b, camera)) if near else None
+    near = _by_centre(boxes, camera, within)
+    return near[0] if near else None
 
 
 @dataclass(frozen=True)

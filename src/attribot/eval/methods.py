@@ -36,10 +36,13 @@ __all__ = [
     "run_method",
     "noisy_settings",
     "check_condition",
+    "PROGRAM_METHODS",
     "ablations",
 ]
 
 METHODS = ("ovd", "vqa", "vqa+llm", "vlm", "attr-api", "pa-api")
+PROGRAM_METHODS = ("attr-api", "pa-api")
+"""The methods that run a program through the API: the ones with error-catching mechanisms to ablate."""
 PAPER_METHODS = {
     "location": ("ovd", "attr-api", "vlm", "pa-api"),
     "size": ("ovd", "attr-api", "vlm", "pa-api"),
@@ -202,7 +205,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     started = time.perf_counter()
     settings = noisy_settings(settings, noise, item.seed)
     try:
-        if method in ("attr-api", "pa-api"):
+        if method in PROGRAM_METHODS:
             sensors = item.sensors if method == "pa-api" else ["camera"]
             scene = item.scene().model_copy(
                 update={"noise": world_noise(check_condition(noise)[0], item.seed)}

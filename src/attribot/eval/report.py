@@ -22,7 +22,7 @@ from PIL import Image, ImageDraw
 
 from attribot.api.safeguards import MECHANISMS
 from attribot.eval.datasets import TASKS
-from attribot.eval.methods import METHODS, NOISE_LEVELS, Record
+from attribot.eval.methods import METHODS, NOISE_LEVELS, PROGRAM_METHODS, Record
 from attribot.eval.run import read_records
 from attribot.files import write_whole
 from attribot.noise import NOISE_PRESETS
@@ -251,7 +251,7 @@ def _checks_tables(records: list[Record], rows: list[dict[str, Any]]) -> list[st
     ]
     groups: dict[tuple[str, str, str], list[Record]] = defaultdict(list)
     for r in records:
-        if r.method in ("attr-api", "pa-api"):
+        if r.method in PROGRAM_METHODS:
             groups[(r.task, r.method, r.noise)].append(r)
     for (task, method, noise), rs in sorted(groups.items()):
         cells = []

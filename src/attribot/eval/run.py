@@ -34,7 +34,14 @@ from attribot.eval.datasets import (
     read_dataset,
     write_dataset,
 )
-from attribot.eval.methods import METHODS, PAPER_METHODS, Record, check_condition, run_method
+from attribot.eval.methods import (
+    METHODS,
+    PAPER_METHODS,
+    PROGRAM_METHODS,
+    Record,
+    check_condition,
+    run_method,
+)
 from attribot.files import write_whole
 from attribot.shutdown import die_with_parent
 
@@ -286,7 +293,7 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
     for item in items:
         for method in plan.methods_for(item.task):
             for noise in plan.noise:
-                if check_condition(noise)[1] != "all" and method not in ("attr-api", "pa-api"):
+                if check_condition(noise)[1] != "all" and method not in PROGRAM_METHODS:
                     continue  # an ablation of the error-catching mechanisms: only programs have them
                 path = records_path(out, item.task, method, noise)
                 if path not in done:

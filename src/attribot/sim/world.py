@@ -11,7 +11,7 @@ The config's `noise` (`attribot.noise.WorldNoise`) makes sensing and acting impe
 generator seeded by the noise seed and the scene seed (a rerun is identical): the rangefinder's noise grows
 with range, it drops readings and reads nothing past its maximum, and its beam, off the optical axis by a
 small pointing error, reads whatever it really hits; the force sensor carries a bias and drifts from its
-last tare; a grasp can close on nothing, a held object can slip out while it is lifted; odometry
+last tare; a grasp can close on nothing, or slip as the lift starts and leave the object behind; odometry
 (`odometry()`, what a controller reads) drifts in proportion to the distance travelled, while
 `base_pose()` stays the truth.
 """
@@ -311,8 +311,9 @@ class SimWorld:
             hook(float(d.time))
 
     def _track_odometry(self) -> None:
-        """Add this step's motion to the odometry, through the wheels' scale error and heading bias."""
-        if not hasattr(self, "_odom"):
+        """Add this step's motion to the odometry, through the wheels' scale error and heading bias (nothing
+        to do without drift: odometry is then the truth)."""
+        if not self.noise.odom_drift or not hasattr(self, "_odom"):
             return
         true = np.array(self.base_pose(), float)
         delta = true - self._odom_last
@@ -325,13 +326,11 @@ class SimWorld:
         c, s = math.cos(yaw_true), math.sin(yaw_true)
         fwd, left = c * delta[0] + s * delta[1], -s * delta[0] + c * delta[1]
         fwd, left = fwd * self._odom_scale, left * self._odom_scale
-        yaw_odom = self._odom[2] + (delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left)) / 2
-        c, s = math.cos(yaw_odom), math.sin(yaw_odom)
+        turn = delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left)
+        c, s = math.cos(self._odom[2] + turn / 2), math.sin(self._odom[2] + turn / 2)
         self._odom[0] += c * fwd - s * left
         self._odom[1] += s * fwd + c * left
-        self._odom[2] = math.remainder(
-            self._odom[2] + delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left), math.tau
-        )
+        self._odom[2] = math.remainder(self._odom[2] + turn, math.tau)
 
     def robot_state(self) -> dict[str, Any]:
         """The robot's own state (joints, targets, odometry, tare), for `restore_robot`; no objects."""
