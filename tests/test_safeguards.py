@@ -488,3 +488,23 @@ def test_a_robot_that_does_not_state_its_body_looks_again_within_its_image(perce
         assert image.survey is None and image.safeguards is not None and w.sim.head() == head
         truth = next(o for o in w.scene_info().objects if o.box is not None)
         assert truth.id in [p.object_id for p in image.find(truth.category)]
+
+
+def test_a_stated_answer_is_held_to_its_measurements_too():
+    """A yes/no answer ({"yes": ..., "object": ...}) rests on measurements like a chosen object does."""
+    from attribot.planning.ask import Scene, execute
+
+    base = SceneConfig(layout="triplet", seed=3, width=W, height=H)
+    with MujocoWorld(base) as w:
+        lighter, heavier = sorted(w.scene_info().objects, key=lambda o: o.mass_kg)[:2]
+    gap_n = (heavier.mass_kg - lighter.mass_kg) * 9.81
+    program = HEAVIER.replace("NAMES", repr([lighter.category, heavier.category])).replace(
+        "    return best", "    return {'yes': best is not None, 'object': best}"
+    )
+    noisy = base.model_copy(update={"noise": WorldNoise(force_std=8 * gap_n, seed=1)})
+    answer = execute(program, Scene(noisy, sensors=["camera", "force"]), Settings())
+    assert any(e["mechanism"] == "confidence" for e in answer.checks)
+    if answer.error is not None:
+        assert answer.error.category == "uncertain"
+    else:
+        assert answer.object is not None and answer.object.id == heavier.id

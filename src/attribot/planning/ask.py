@@ -207,7 +207,7 @@ class _Session:
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
         the sentence saying it cannot tell, with both values, when it is still unsettled."""
-        chosen = _chosen_patch(result.value_object) if result is not None and result.error is None else None
+        chosen = _answer_patch(result.value_object) if result is not None and result.error is None else None
         if chosen is None or self.world is None:
             return None
         try:
@@ -349,6 +349,12 @@ STATED_KEYS = frozenset({"object", "value", "unit", "yes", "text"})
 """A program may return a dict with these keys (plain values, "object" an ImagePatch) to state its answer:
 the chosen object, the value of the attribute asked and its unit (a size in metres, not the distance
 measured to scale it), "yes" the answer to a yes/no question, and "text" the sentence that says why."""
+
+
+def _answer_patch(value_object: Any) -> Any:
+    """The object a program's return chose: the patch itself, or a stated answer's "object"."""
+    stated = _stated(value_object)
+    return _chosen_patch(stated.get("object") if stated is not None else value_object)
 
 
 def _stated(value_object: Any) -> dict[str, Any] | None:
