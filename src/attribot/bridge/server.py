@@ -287,8 +287,7 @@ class RobotServer:
                     self.serve_client(conn, peer, header)
                 finally:
                     conn.close()
-                    with self._slot:
-                        self._client = None
+                    self._free(peer)
         finally:
             self._closing.set()
             acceptor.join(timeout=1.0)
@@ -355,6 +354,12 @@ class RobotServer:
             if not handed:
                 conn.close()
 
+    def _free(self, peer: Any) -> None:
+        """Free the robot for the next client, unless the next one already holds it."""
+        with self._slot:
+            if self._client == peer:
+                self._client = None
+
     def serve_client(self, conn: socket.socket, peer: Any, hello: dict[str, Any]) -> None:
         """Serve one client whose `hello` was checked: answer it, then its requests until it leaves."""
         authenticated = False
@@ -371,6 +376,10 @@ class RobotServer:
                     self._last_command = time.monotonic()
                 op = header.get("op")
                 if op == "bye":
+                    # stopped and free before the reply: a client that reconnects at once is served
+                    self.safety_stop(f"client {peer} said goodbye")
+                    authenticated = False
+                    self._free(peer)
                     send_message(conn, {"ok": True})
                     break
                 try:
