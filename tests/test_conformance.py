@@ -94,3 +94,25 @@ def test_every_planner_writes_a_program_the_sandbox_accepts_or_explains(name, tm
     assert planner.name == name
     assert check_program(plan.program) is None
     assert planner.plan(request).program == plan.program  # deterministic for the same request
+
+
+@pytest.mark.parametrize("name", EMBODIMENTS.names())
+def test_every_world_offers_what_the_servo_controller_uses(name):
+    """Every world class has each member of `ServoWorld` (the servo's whole use of a world), with the same
+    parameters; a built MuJoCo world passes the runtime check too."""
+    import inspect
+
+    from attribot.control.world import ServoWorld
+
+    world_cls = EMBODIMENTS.get(name)
+    members = [*ServoWorld.__annotations__, *(m for m in vars(ServoWorld) if not m.startswith("_"))]
+    assert {"observe", "step", "set_head", "base_pose", "name"} <= set(members)
+    for member in members:
+        assert hasattr(world_cls, member), f"{world_cls.__name__} lacks {member}"
+        wanted = getattr(ServoWorld, member, None)
+        if callable(wanted):
+            have = list(inspect.signature(getattr(world_cls, member)).parameters)
+            assert have == list(inspect.signature(wanted).parameters), f"{world_cls.__name__}.{member}"
+    if name == "mujoco":
+        with world_cls(**SMALL) as world:
+            assert isinstance(world, ServoWorld)

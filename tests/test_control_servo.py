@@ -149,9 +149,9 @@ def _first_object_without_preaim(
 ) -> Iterator[tuple[MujocoWorld, ServoController, Any]]:
     """Household seed 7, a servo that tracks with `tracker_class` from the first view, and the first object
     seen in it."""
-    import attribot.control.servo as servo_module
+    import attribot.control.focus as focus_module
 
-    monkeypatch.setattr(servo_module, "BoxTracker", tracker_class)
+    monkeypatch.setattr(focus_module, "BoxTracker", tracker_class)
     with MujocoWorld(SceneConfig(layout="household", seed=7, width=W, height=H)) as world:
         servo = ServoController(world, preaim=False)
         perception = Perception.from_settings(load_settings())
@@ -273,7 +273,7 @@ def test_a_robot_without_a_camera_head_centres_by_turning_its_base(seed):
         yaw = world.base_pose().yaw
         world.step(0.5)
         assert world.base_pose().yaw == pytest.approx(yaw, abs=2e-3)  # and it stopped turning
-        assert servo.last is not None and servo.last.error_px <= servo.tol_px
+        assert servo.last is not None and servo.last.error_px <= servo.tuning.tol_px
 
 
 def test_looking_again_turns_the_head_a_little_until_the_detector_sees_the_object():
@@ -290,12 +290,12 @@ def test_looking_again_turns_the_head_a_little_until_the_detector_sees_the_objec
             return [] if len(views) < 3 else target.find(frame)
 
         missing = dataclasses.replace(target, find=misses_this_view)
-        frame, box = servo._look_again(missing, world.camera_info(), 0.25)
+        frame, box = servo.locator.look_again(missing, world.camera_info(), 0.25)
         assert box is not None and len(views) == 3
         assert len({round(v, 3) for v in views}) == 3 and views[0] == pytest.approx(pan, abs=1e-3)
 
         def never(frame: Frame) -> list[tuple[float, float, float, float]]:
             return []
 
-        _, box = servo._look_again(dataclasses.replace(target, find=never), world.camera_info(), 0.25)
+        _, box = servo.locator.look_again(dataclasses.replace(target, find=never), world.camera_info(), 0.25)
         assert box is None

@@ -119,7 +119,7 @@ def test_a_push_that_moves_nothing_fails(monkeypatch):
     with _world(2, ("basketball",)) as world:
         ball = _ids(world, "basketball")[0]
         servo = ServoController(TruthBlindWorld(world))
-        monkeypatch.setattr(servo, "_straight", lambda metres, look_at: None)  # the base does not move
+        monkeypatch.setattr(servo.driver, "straight", lambda metres: None)  # the base does not move
         with pytest.raises(ControlError, match="push failed: .* moved 0 cm"):
             servo.push(_target(world, ball))
 

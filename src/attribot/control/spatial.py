@@ -177,8 +177,23 @@ def estimate_object(
     if len(gaps):
         above = above[above[:, 2] <= zs[gaps[0]]]
     top = float(np.percentile(above[:, 2], 98))
+    c, radius = _footprint(above, cam[:2], ignore is None)
+    centre = to_world(np.array([c[0], c[1], (support + top) / 2]), base)
+    local = above[np.hypot(above[:, 0] - c[0], above[:, 1] - c[1]) <= max(0.03, radius * 0.3)]
+    return ObjectEstimate(
+        centre=(float(centre[0]), float(centre[1]), float(centre[2])),
+        support_z=support,
+        top_z=top,
+        radius=max(radius, 0.01),
+        points=len(above),
+        local_top_z=float(np.percentile(local[:, 2], 98)) if len(local) >= 3 else None,
+    )
+
+
+def _footprint(above: np.ndarray, cam: np.ndarray, middle_seen: bool) -> tuple[np.ndarray, float]:
+    """The object's centre (x, y in the base frame) and horizontal radius from its points `above`, seen
+    from the camera at `cam` (x, y); `middle_seen`: no points were masked out of the view."""
     # the visible faces lie towards the camera: the centre is half the object's depth behind the front
-    cam = cam[:2]
     view = above[:, :2].mean(axis=0) - cam
     view /= max(float(np.linalg.norm(view)), 1e-9)
     side = np.array([-view[1], view[0]])
@@ -193,18 +208,9 @@ def estimate_object(
     # nearest part of it (from above, the top of a solid object covers its middle); not where ignored
     # points hide the middle (it is unseen, not empty)
     gap = np.hypot(above[:, 0] - c[0], above[:, 1] - c[1])
-    if ignore is None and float(gap.min()) > 0.01:
+    if middle_seen and float(gap.min()) > 0.01:
         c = above[int(np.argmin(gap)), :2]
-    centre = to_world(np.array([c[0], c[1], (support + top) / 2]), base)
-    local = above[np.hypot(above[:, 0] - c[0], above[:, 1] - c[1]) <= max(0.03, radius * 0.3)]
-    return ObjectEstimate(
-        centre=(float(centre[0]), float(centre[1]), float(centre[2])),
-        support_z=support,
-        top_z=top,
-        radius=max(radius, 0.01),
-        points=len(above),
-        local_top_z=float(np.percentile(local[:, 2], 98)) if len(local) >= 3 else None,
-    )
+    return c, radius
 
 
 @dataclass

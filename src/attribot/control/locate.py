@@ -1,0 +1,254 @@
+"""Locating objects by perception: from the depth of the image a target was seen in, by the rangefinder
+after centring on it, or by looking where it should be and finding it again with the detector (turning the
+head a little, then a third of the view aside, then backing off, when the detector misses it). Also the
+floor map built from depth images and the floor point under a pixel."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from attribot.control.base import Capture, ControlError, Target, not_available
+from attribot.control.body import BodyGeometry
+from attribot.control.drive import Driver
+from attribot.control.plant import Hold, Plant
+from attribot.control.sighting import Box, by_centre, nearest_to_centre
+from attribot.control.spatial import (
+    FloorMap,
+    ObjectEstimate,
+    base_points,
+    estimate_object,
+    head_towards,
+    point_from_range,
+    to_world,
+)
+from attribot.frame import CameraInfo, Frame
+
+__all__ = ["Locator"]
+
+Accept = Callable[[Frame, Box], ObjectEstimate | None]
+
+
+@dataclass
+class Locator:
+    """Finds where targets are (see the module docstring). focus: centres the camera on a target (the
+    controller's focus_on); wait_still: steps the world until the head stops after a command."""
+
+    plant: Plant
+    driver: Driver
+    focus: Callable[[Target], None]
+    wait_still: Callable[[Target], Any]
+
+    def locate(self, target: Target, action: str) -> ObjectEstimate:
+        """Where the target is, from the depth of the image it was seen in; without one, by centring the
+        camera on it and reading the rangefinder (which needs the view unchanged since that image)."""
+        body = self.plant.body(action)
+        cap = target.capture
+        if cap.depth is not None and cap.camera is not None and cap.head is not None and cap.base is not None:
+            est = estimate_object(cap.depth, cap.camera, cap.head, cap.base, body, target.box)
+            if est is not None:
+                return est
+        if cap.camera is None:
+            raise not_available(action, self.plant.world_name, "the image was taken without known intrinsics")
+        if not self.plant.has("distance"):
+            raise not_available(
+                action, self.plant.world_name, "it has neither depth images nor a distance sensor"
+            )
+        self.focus(target)
+        return self.range_estimate(target.box, cap.camera, body)
+
+    def range_estimate(self, box: Box, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
+        """The object at the image centre by the rangefinder, sized by its box at that range."""
+        metres = float(self.plant.world.read_distance())
+        if not math.isfinite(metres):
+            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
+        head = self.plant.head()
+        p = to_world(point_from_range(metres, camera, head, body, camera.cx, camera.cy), self.plant.pose())
+        w = (box[2] - box[0]) / camera.fx * metres
+        h = (box[3] - box[1]) / camera.fy * metres
+        return ObjectEstimate((float(p[0]), float(p[1]), float(p[2])), p[2] - h / 2, p[2] + h / 2, w / 2, 1)
+
+    def near(
+        self, est: ObjectEstimate, camera: CameraInfo, body: BodyGeometry, holding: Hold | None
+    ) -> Accept:
+        """Whether a box of a frame is the object of `est`: it is located from depth about where `est` was
+        (a box elsewhere, another object of the kind or a detector's mistake, is not it); without depth,
+        every box is."""
+        ignore = None if holding is None else self.held_points(holding, body)
+        reach = max(0.25, 3.0 * est.radius)
+
+        def where(frame: Frame, box: Box) -> ObjectEstimate | None:
+            if frame.depth is None:
+                return est
+            pose = self.plant.pose()
+            new = estimate_object(frame.depth, camera, self.plant.head(), pose, body, box, ignore)
+            near = new is not None and float(np.linalg.norm(new.xy() - est.xy())) <= reach
+            return new if near else None
+
+        return where
+
+    def refind(
+        self,
+        est: ObjectEstimate,
+        target: Target,
+        action: str,
+        search: float = 0.25,
+        holding: Hold | None = None,
+    ) -> ObjectEstimate:
+        """Look at where `est` should be, find the target there with the detector, centre it with the servo
+        loop and locate it again from the new view."""
+        body = self.plant.body(action)
+        self.aim(np.array(est.centre), body, target)
+        camera = self.plant.world.camera_info()
+        where = self.near(est, camera, body, holding)
+        frame, box = self.look_again(target, camera, search, where)
+        if box is None and self.plant.has("base") and self.plant.tuning.back_off_m > 0:
+            # missed from here at every turn of the head (a viewpoint the detector fails from): step back
+            # and look again from farther away, before giving it up
+            self.driver.straight(-self.plant.tuning.back_off_m)
+            self.aim(np.array(est.centre), body, target)
+            frame, box = self.look_again(target, camera, search, where)
+        if box is None:
+            raise ControlError(
+                f"target lost: the camera no longer sees {target.describe()} where it was "
+                f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
+                "find the object again in a new image and retry",
+            )
+        located = where(frame, box)
+        self.focus(Target(box, self.capture(frame, camera), label=target.label, find=target.find))
+        frame = self.plant.world.observe()
+        found = target.find(frame) if target.find else []
+        if frame.depth is None:
+            box = nearest_to_centre(found, camera, search) or box
+            return self.range_estimate(box, camera, body) if self.plant.has("distance") else est
+        for box in by_centre(found, camera, search):
+            again = where(frame, box)
+            if again is not None:
+                return again
+        # centred, the detector sees it no better (a viewpoint it misses the object from): where it was
+        # found before centring
+        return located if located is not None else est
+
+    def look_again(
+        self, target: Target, camera: CameraInfo, search: float, accept: Accept | None = None
+    ) -> tuple[Frame, Box | None]:
+        """The frame and the target's box nearest the image centre (of those `accept` takes). A detector
+        that misses the object in this view is given up to `max_misses` more views, the head turned a
+        little each time, then a third of the view to either side (the same view would often be missed,
+        or mistaken, the same way)."""
+        t, world = self.plant.tuning, self.plant.world
+        pan, tilt = self.plant.head()
+
+        def first(frame: Frame, boxes: list[Box]) -> Box | None:
+            return next((b for b in boxes if accept is None or accept(frame, b) is not None), None)
+
+        for k in range(t.max_misses + 1 if target.find is not None else 1):
+            if k:  # a nudge to one side, then the other, then further
+                world.set_head(pan + (1 if k % 2 else -1) * t.nudge_rad * ((k + 1) // 2), tilt)
+                self.plant.settle(t.nudge_settle_s)
+            frame = world.observe()
+            box = first(frame, by_centre(target.find(frame) if target.find else [], camera, search))
+            if box is not None:
+                return frame, box
+        if target.find is None:
+            return frame, None
+        # a detector that misses an object from one viewpoint may not from another: turn a third of the
+        # view to each side, where the object sits elsewhere in the image, and look for it where it must be
+        for turn in (camera.hfov / 3.0, -camera.hfov / 3.0):
+            world.set_head(pan + turn, tilt)
+            self.plant.settle(t.side_look_settle_s)
+            frame = world.observe()
+            shift = camera.fx * math.tan(turn)  # where the old line of sight now is, from the centre
+            moved = by_centre(
+                [(b[0] - shift, b[1], b[2] - shift, b[3]) for b in target.find(frame)], camera, search
+            )
+            box = first(frame, [(b[0] + shift, b[1], b[2] + shift, b[3]) for b in moved])
+            if box is not None:
+                return frame, box
+        world.set_head(pan, tilt)
+        self.plant.settle(t.look_back_settle_s)
+        return frame, None
+
+    def held_points(self, hold: Hold, body: BodyGeometry) -> Callable[[np.ndarray], np.ndarray]:
+        """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a
+        capsule along the arm, from where the joints stand now."""
+        js = self.plant.world.joint_states()
+        lift, ext = float(js.get("lift", hold.lift)), float(js.get("arm", hold.extension))
+        pose = self.plant.pose()
+        grip = to_world(np.array([body.reach_x(ext), body.arm_xy[1], lift]), pose)
+        tips = to_world(np.array([body.reach_x(ext) + 0.05, body.arm_xy[1], lift]), pose)
+        root = to_world(np.array([body.arm_xy[0], body.arm_xy[1], lift]), pose)
+        r = hold.radius + 0.04
+
+        def held(points: np.ndarray) -> np.ndarray:
+            flat = np.hypot(points[:, 0] - grip[0], points[:, 1] - grip[1]) <= r
+            on = (
+                flat & (points[:, 2] >= lift - hold.below - 0.03) & (points[:, 2] <= lift + hold.above + 0.03)
+            )
+            axis = tips - root
+            t = np.clip((points - root) @ axis / max(float(axis @ axis), 1e-9), 0.0, 1.0)
+            arm = np.linalg.norm(points - (root + t[:, None] * axis), axis=1) <= 0.1  # wrist and fingers
+            return on | arm
+
+        return held
+
+    def capture(self, frame: Frame, camera: CameraInfo) -> Capture:
+        """What is known of `frame`, taken just now."""
+        return Capture(-1, camera, self.plant.head(), self.plant.pose(), depth=frame.depth)
+
+    def aim(self, point: np.ndarray, body: BodyGeometry, target: Target) -> None:
+        """Turn the head onto a world point and wait until it stops."""
+        pan, tilt = head_towards(point, self.plant.pose(), body)
+        self.plant.world.set_head(pan, tilt)
+        self.wait_still(target)
+
+    def floor_point(self, target: Target, body: BodyGeometry) -> np.ndarray:
+        """The floor point under pixel `target.center` of its image: depth when the image has it, else the
+        ray's crossing with the floor."""
+        cap = target.capture
+        if cap.camera is None or cap.head is None or cap.base is None:
+            raise not_available(
+                "go_to_coords", self.plant.world_name, "the image has no known intrinsics or pose"
+            )
+        u, v = target.center
+        if cap.depth is not None:
+            r, c = min(int(v), cap.depth.shape[0] - 1), min(int(u), cap.depth.shape[1] - 1)
+            p = base_points(cap.depth, cap.camera, cap.head, body, (c, r, c + 1, r + 1))
+            if len(p):
+                return to_world(p[0], cap.base)[:2]
+        ray = point_from_range(1.0, cap.camera, cap.head, body, u, v) - np.asarray(body.camera_xyz)
+        if ray[2] >= -1e-6:
+            raise ControlError(
+                f"go_to_coords: pixel ({u:.0f}, {v:.0f}) looks at or above the horizon, not at the floor",
+                "pass a point on the floor, lower in the image",
+            )
+        t = body.camera_xyz[2] / -ray[2]
+        return to_world(np.asarray(body.camera_xyz) + ray * t, cap.base)[:2]
+
+    def floor_map(self, targets: list[Target], holding: Hold | None = None) -> FloorMap:
+        """A floor map from the current view and the depth images the targets were seen in."""
+        body = self.plant.body("go_to_object")
+        here = self.plant.pose()
+        floor = FloorMap((here[0], here[1]))
+        views = []
+        frame = self.plant.world.observe()
+        if frame.depth is not None:
+            camera = frame.camera or self.plant.world.camera_info()
+            views.append((frame.depth, camera, self.plant.head(), here))
+        for t in targets:
+            c = t.capture
+            if c.depth is not None and c.camera is not None and c.head is not None and c.base is not None:
+                views.append((c.depth, c.camera, c.head, c.base))
+        for depth, camera, head, base in views:
+            pts = base_points(depth, camera, head, body, stride=3)
+            # not the robot itself, nor what its gripper holds
+            pts = pts[np.hypot(pts[:, 0], pts[:, 1]) > body.radius + 0.05]
+            floor.add(to_world(pts, base))
+        if holding is not None:
+            grip = to_world(np.array([body.reach_x(holding.extension), body.arm_xy[1], 0.0]), here)
+            floor.clear_disc(grip[:2], 0.15)
+        return floor

@@ -1,0 +1,239 @@
+"""Manipulating by perception: grasp and lift (checked by the gripper and the wrist's force sensor, within
+the sensor's noise), put down where it was picked, put on a receptacle (checked by looking at it
+afterwards), and push (checked by finding the object again where it went)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from attribot.control.base import ControlError, Target
+from attribot.control.body import BodyGeometry
+from attribot.control.drive import Driver
+from attribot.control.locate import Locator
+from attribot.control.plant import Hold, Plant, Reach, moved
+from attribot.control.reach import Reacher
+from attribot.control.sighting import nearest_to_centre
+from attribot.control.spatial import ObjectEstimate, base_points, estimate_object, to_world
+
+__all__ = ["Manipulator"]
+
+
+@dataclass
+class Manipulator:
+    """Picks, places and pushes (see the module docstring); `holding` is what the gripper holds."""
+
+    plant: Plant
+    driver: Driver
+    locator: Locator
+    reacher: Reacher
+    holding: Hold | None = None
+    load_spread: float = field(default=0.0, repr=False)  # the standard error of the last load reading
+
+    def pick_up(self, target: Target, reach: Reach) -> None:
+        """Grasp the object where `reach` brought the arm, lift it, and check that it is held."""
+        t, world = self.plant.tuning, self.plant.world
+        body = self.plant.body("pick_up")
+        est = reach.estimate
+        ext, z = reach.extension, float(np.clip(est.grip_z, *body.lift_range))
+        headroom = self.headroom(est, body)
+        world.release()  # open the fingers
+        world.set_arm(max(z, self.plant.lift()), 0.0)
+        self.plant.settle(t.arm_move_s)
+        world.set_arm(z, 0.0)
+        self.plant.settle(t.grip_lower_s)
+        world.set_arm(z, ext)
+        self.plant.settle(t.extend_s)
+        load_before = self.load()
+        if not world.grasp():
+            self.retract(z)
+            raise ControlError(
+                f"grasp failed: the gripper closed on nothing where it saw {target.describe()} "
+                f"({ext:.2f} m out, {z:.2f} m up)",
+                "call robot.go_to_object(patch) again and retry; the object may be too big to grasp",
+            )
+        world.set_arm(z + headroom, ext)
+        self.plant.settle(t.lift_load_s)
+        self._check_lifted(target, z, load_before)
+        self.holding = Hold(
+            label=target.label or "object",
+            find=target.find,
+            pose=self.plant.pose(),
+            lift=z,
+            extension=ext,
+            below=z - est.support_z,
+            above=est.top_z - z,
+            radius=est.radius,
+        )
+
+    def _check_lifted(self, target: Target, z: float, load_before: float | None) -> None:
+        """After lifting: the fingers must not have met (it fell out), and the wrist must feel a load
+        beyond the readings' noise (three standard errors of the difference), when the sensor is fine
+        enough to feel a light object at all; a noisier one leaves it to the gripper."""
+        t = self.plant.tuning
+        before_spread = self.load_spread
+        load = self.load()
+        closed = float(self.plant.world.joint_states().get("gripper", 1.0)) < t.closed_gripper_m
+        noise = t.load_sigmas * math.hypot(before_spread, self.load_spread)
+        unloaded = False
+        if load is not None and load_before is not None:
+            unloaded = abs(load - load_before) < max(t.load_min_n, noise)
+        if closed or (unloaded and noise < t.load_max_noise_n):
+            self.plant.world.release()
+            self.retract(z)
+            felt = "the gripper closed on nothing" if closed else "the force sensor feels no load"
+            raise ControlError(
+                f"grasp failed: {felt} after lifting {target.describe()}",
+                "call robot.go_to_object(patch) again and retry",
+            )
+
+    def put_down(self) -> None:
+        """Put what is held back where it was picked up."""
+        hold = self.held("put_down")
+        if moved(self.plant.pose(), hold.pose, 0.01, 0.02):
+            self.carry_height(hold, hold.lift)
+            self.driver.drive_to(hold.pose, None, "put_down")
+        self.place(hold, hold.lift + 0.005)
+
+    def put_on(self, target: Target) -> None:
+        """Place what is held on top of the target object and check that it rests there."""
+        hold = self.held("put_on")
+        body = self.plant.body("put_on")
+        receptacle = self.locator.locate(target, "put_on")
+        place_z = receptacle.top_z + hold.below + 0.01
+        if place_z > body.lift_range[1]:
+            raise ControlError(
+                f"not reachable: the top of {target.describe()} is {receptacle.top_z:.2f} m up, too high "
+                "for the lift with the held object",
+                "put the object on something lower",
+            )
+        self.carry_height(hold, place_z + 0.06)
+        # a receptacle takes the object anywhere near its middle: line up to a third of its radius
+        tol = max(self.plant.tuning.arrive_tol, min(0.05, receptacle.radius / 3))
+        reach = self.reacher.reach(receptacle, target, "put_on", holding=hold, tol=tol)
+        self.plant.world.set_arm(place_z + 0.06, reach.extension)
+        self.plant.settle(self.plant.tuning.extend_s)
+        self.place(hold, place_z, extension=reach.extension)
+        self.check_rests(hold, reach.estimate, target)
+
+    def push(self, target: Target) -> None:
+        """Drive the base's front into an object on the floor and on by `push_m`; check that it moved."""
+        body = self.plant.body("push")
+        est = self.locator.locate(target, "push")
+        if est.support_z > 0.08:
+            raise ControlError(
+                f"not reachable: {target.describe()} stands {est.support_z:.2f} m up, and this robot pushes "
+                "with its base, which reaches only objects on the floor",
+                "push objects that lie on the floor",
+            )
+        floor = self.locator.floor_map([target])
+        floor.clear_disc(est.xy(), est.radius + 0.05)
+        here = self.plant.pose()
+        yaw = math.atan2(est.centre[1] - here[1], est.centre[0] - here[0])
+        gap = body.base_half[0] + est.radius + 0.12
+        start = (est.centre[0] - gap * math.cos(yaw), est.centre[1] - gap * math.sin(yaw), yaw)
+        self.driver.drive_to(start, floor, "push", look_at=np.array(est.centre))
+        before = self.locator.refind(est, target, "push")
+        # drive into it: the base's front meets the object after 0.12 m, then pushes it on
+        self.driver.straight(0.12 + self.plant.tuning.push_m)
+        self.driver.straight(-(0.12 + self.plant.tuning.push_m))
+        after = self.locator.refind(before, target, "push", search=0.6)
+        shift = float(np.linalg.norm(after.xy() - before.xy()))
+        if shift < 0.04:
+            raise ControlError(
+                f"push failed: {target.describe()} moved {shift * 100:.0f} cm",
+                "the object may be too heavy or blocked; push something else",
+            )
+
+    def headroom(self, est: ObjectEstimate, body: BodyGeometry) -> float:
+        """How far the object can be raised before it meets what is above it (a shelf board), by depth."""
+        clear = self.plant.tuning.lift_clear
+        frame = self.plant.world.observe()
+        if frame.depth is None:
+            return clear
+        camera = frame.camera or self.plant.world.camera_info()
+        pts = base_points(frame.depth, camera, self.plant.head(), body, stride=2)
+        pts = to_world(pts, self.plant.pose())
+        over = pts[
+            (np.hypot(pts[:, 0] - est.centre[0], pts[:, 1] - est.centre[1]) < est.radius + 0.03)
+            & (pts[:, 2] > est.top_z + 0.04)
+        ]
+        if len(over) == 0:
+            return clear
+        return float(np.clip(float(over[:, 2].min()) - est.top_z - 0.02, 0.005, clear))
+
+    def held(self, action: str) -> Hold:
+        if self.holding is None:
+            raise ControlError(f"{action}: the gripper holds nothing", "pick an object up first")
+        return self.holding
+
+    def carry_height(self, hold: Hold, z: float) -> None:
+        """Raise what is held to `z` (at least where it is) and pull the arm in, to drive with it."""
+        t = self.plant.tuning
+        z = max(z, self.plant.lift())
+        self.plant.world.set_arm(z, hold.extension)
+        self.plant.settle(t.arm_move_s)
+        self.plant.world.set_arm(z, 0.0)
+        self.plant.settle(t.arm_move_s)
+
+    def place(self, hold: Hold, z: float, extension: float | None = None) -> None:
+        """Lower what is held to `z`, let go, rise off it and pull the arm in."""
+        t, world = self.plant.tuning, self.plant.world
+        ext = hold.extension if extension is None else extension
+        world.set_arm(max(z, self.plant.lift()), ext)
+        self.plant.settle(t.arm_move_s)
+        world.set_arm(z, ext)
+        self.plant.settle(t.place_lower_s)
+        world.release()
+        self.holding = None
+        world.set_arm(z + t.lift_clear, ext)
+        self.plant.settle(t.clear_s)
+        self.retract(z + t.lift_clear)
+
+    def retract(self, z: float) -> None:
+        """Pull the arm in at `z`, then lower it to its resting height."""
+        t = self.plant.tuning
+        self.plant.world.set_arm(z, 0.0)
+        self.plant.settle(t.arm_move_s)
+        self.plant.world.set_arm(0.2, 0.0)
+        self.plant.settle(t.arm_move_s)
+
+    def check_rests(self, hold: Hold, receptacle: ObjectEstimate, target: Target) -> None:
+        """Look at the receptacle: the placed object must stand on it."""
+        body = self.plant.body("put_on")
+        self.locator.aim(np.array(receptacle.centre), body, target)
+        camera = self.plant.world.camera_info()
+        frame = self.plant.world.observe()
+        box = nearest_to_centre(hold.find(frame) if hold.find is not None else [], camera, 0.45)
+        if box is None or frame.depth is None:
+            if box is None and hold.find is not None:
+                raise ControlError(
+                    f"put_on failed: after letting go, the camera does not see the {hold.label} on "
+                    f"{target.describe()}",
+                    "it may have fallen; find it again in a new image",
+                )
+            return
+        placed = estimate_object(frame.depth, camera, self.plant.head(), self.plant.pose(), body, box)
+        if placed is None:
+            return
+        off = float(np.linalg.norm(placed.xy() - receptacle.xy()))
+        if off > receptacle.radius + 0.04 or placed.support_z < receptacle.top_z - 0.04:
+            raise ControlError(
+                f"put_on failed: the {hold.label} came to rest {off * 100:.0f} cm from the middle of "
+                f"{target.describe()}, at {placed.support_z:.2f} m (its top is at {receptacle.top_z:.2f} m)",
+                "try a larger or flatter receptacle",
+            )
+
+    def load(self) -> float | None:
+        """The wrist's vertical load in newtons, averaged over a few readings; None without a force sensor."""
+        t = self.plant.tuning
+        if not self.plant.has("force"):
+            return None
+        readings = []
+        for _ in range(t.load_readings):
+            self.plant.world.step(t.load_step_s)
+            readings.append(float(self.plant.world.read_force()[2]))
+        self.load_spread = float(np.std(readings, ddof=1)) / math.sqrt(len(readings))
+        return abs(sum(readings) / len(readings))
