@@ -1,0 +1,29 @@
+"""Frames for tests: random pixels, one bright box, and the box of the bright pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from attribot.frame import Frame
+
+__all__ = ["random_frame", "frame_with_box", "bright_box"]
+
+
+def random_frame(h: int, w: int, seed: int = 0) -> Frame:
+    """A frame of uniform random pixels."""
+    return Frame(rgb=np.random.default_rng(seed).integers(0, 256, (h, w, 3), dtype=np.uint8))
+
+
+def frame_with_box(h: int, w: int, box: tuple[int, int, int, int]) -> Frame:
+    """A black frame with one bright rectangle (x0, y0, x1, y1): what `bright_box` finds again."""
+    rgb = np.zeros((h, w, 3), np.uint8)
+    x0, y0, x1, y1 = box
+    rgb[y0:y1, x0:x1] = 200
+    return Frame(rgb=rgb)
+
+
+def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
+    """The box of the bright pixels: stand-in detectors answer with it, so a frame that crossed a pipe or
+    a wire can be checked against the one that was sent."""
+    ys, xs = np.nonzero(rgb.max(axis=2) > 40)
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
