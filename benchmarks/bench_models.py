@@ -43,6 +43,8 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # tests/fakes: the random models
+
 # anchors: ms per image on an H100, fp16, batch 1, random weights (issue 4)
 ANCHORS_MS = {"owlv2-b16": 21.0, "owlv2-l14": 45.0, "grounding-dino-t": 58.0, "blip2-opt-2.7b": 62.0}
 TARGET_FRACTION = 1 / 3  # per-image cost at batch 32 against the batch-1 anchor
@@ -215,7 +217,7 @@ def _frames(n: int, seed: int = 0) -> list:
 
 def run_sizes(args: argparse.Namespace) -> list[dict]:
     torch, transformers = _imports()
-    from attribot.models.hf_random import build_random
+    from fakes.hf_random import build_random
 
     device = args.device
     if device.startswith("cuda") and not torch.cuda.is_available():
@@ -366,7 +368,7 @@ def _line(row: dict, tiny: bool) -> str:
 def run_cpu_batching(args: argparse.Namespace) -> list[dict]:
     torch, transformers = _imports()
     from attribot.models.hf import HFDetector, HFVisualQA
-    from attribot.models.hf_random import save_random
+    from fakes.hf_random import save_random
 
     print(
         f"# torch {torch.__version__}, transformers {transformers.__version__}, cpu, "

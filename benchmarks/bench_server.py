@@ -10,7 +10,7 @@
       launches per call and 150 per image, each 8 us of Python holding the GIL (--op-us) and a release;
       --model-process serves it from a child process of the server (`attribot serve models`' default).
   PYTHONPATH=src python3 benchmarks/bench_server.py --backend random:owlv2-b16 --device cuda --dtype float16
-      GPU. A real-size transformers model with random weights (attribot.models.hf_random: owlv2-b16,
+      GPU. A real-size transformers model with random weights (tests/fakes/hf_random.py: owlv2-b16,
       owlv2-l14, grounding-dino-t, blip2-opt-2.7b; no download), served by the real `hf` backend code.
       Add --model-process to serve it as `attribot serve models` does.
   PYTHONPATH=src python3 benchmarks/bench_server.py --backend hf:/path/to/model --device cuda
@@ -56,6 +56,8 @@ import threading
 import time
 from pathlib import Path
 from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # tests/fakes: the random models
 
 SRC = Path(__file__).resolve().parent.parent / "src"
 if str(SRC) not in sys.path:  # runnable without installing attribot
@@ -140,7 +142,7 @@ def build_backend(args: argparse.Namespace) -> tuple[str, Any]:
     kind, _, arg = args.backend.partition(":")
     if kind == "random":
         from attribot.models.hf import HFDetector, HFVisualQA
-        from attribot.models.hf_random import build_random
+        from fakes.hf_random import build_random
 
         dtype = {"auto": "float16" if args.device.startswith("cuda") else "float32"}.get(
             args.dtype, args.dtype

@@ -282,7 +282,7 @@ def test_image_mode_runs_through_a_real_detector_and_vqa(tmp_path):
     the whole flow runs; what random weights find is arbitrary, so the answer is an object or a structured
     runtime error raised by the program, never a crash."""
     pytest.importorskip("transformers", reason="needs the models extra")
-    from attribot.models.hf_random import save_random
+    from fakes.hf_random import save_random
 
     owl, blip = tmp_path / "owl", tmp_path / "blip"
     save_random("owlv2-tiny", owl)

@@ -5,7 +5,6 @@ trackers: its phases, its transitions and its failures. The servo's tests run it
 from __future__ import annotations
 
 import pytest
-from conftest import BALLS, CAM, BallWorld
 
 from attribot.control.base import Capture, ControlError, Target
 from attribot.control.focus import FocusLoop, Phase
@@ -13,6 +12,7 @@ from attribot.control.plant import Plant
 from attribot.control.tracker import TrackResult
 from attribot.control.tuning import ServoTuning
 from attribot.frame import Frame
+from conftest import BALLS, CAM, BallWorld
 
 
 def _ball_box(world: BallWorld, ball: str = "b1") -> tuple[float, float, float, float]:
@@ -27,7 +27,8 @@ def _finder(ball: str = "b1"):
     return find
 
 
-def _loop(world: BallWorld, find=_finder(), tracker=None, **tuning) -> FocusLoop:
+def _loop(world: BallWorld, find=None, tracker=None, **tuning) -> FocusLoop:
+    find = find or _finder()
     frame = world.observe()
     target = Target(_ball_box(world), Capture(0, CAM, (0.0, 0.0)), label="ball", find=find)
     plant = Plant(world, ServoTuning(**tuning), world.name)
@@ -72,7 +73,8 @@ def test_a_textureless_box_is_centred_by_detection_in_every_frame():
     loop.run()
     assert loop.phase is Phase.CENTRED and loop.error <= loop.tol and loop.steps > 3
     assert _off_centre(_ball_box(world)) <= 3.0  # by the world's geometry, not the loop's own box
-    assert loop.redetections == 0 and loop.innovations  # each frame's detection was compared with its prediction
+    # each frame's detection was compared with where the head's motion carried the box
+    assert loop.redetections == 0 and loop.innovations
 
 
 def test_a_track_that_drifted_onto_the_centre_is_caught_by_the_confirming_detection():

@@ -148,7 +148,7 @@ def test_build_served_backends_puts_the_hf_detector_in_a_child_and_matches_in_pr
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
     from attribot.models.hf import HFDetector
-    from attribot.models.hf_random import save_random
+    from fakes.hf_random import save_random
 
     folder = save_random("owlv2-tiny", tmp_path / "owl")
     settings = Settings(detector=f"hf:{folder}", detector_threshold=0.0)

@@ -25,7 +25,7 @@ from attribot.errors import ConfigError, InputError, MissingDependency  # noqa: 
 from attribot.frame import Frame  # noqa: E402
 from attribot.models import hf  # noqa: E402
 from attribot.models.base import UNKNOWN, VQAS, build_backend, detect_many, probe_backend  # noqa: E402
-from attribot.models.hf_random import build_random, save_random  # noqa: E402
+from fakes.hf_random import build_random, save_random  # noqa: E402
 
 
 def _owl_grid(model) -> None:
@@ -337,7 +337,7 @@ def test_random_model_catalog_builds_real_size_configs_without_weights():
 def test_import_attribot_does_not_import_torch():
     code = (
         "import sys, attribot, attribot.models.base as b; b.DETECTORS.names(); b.VQAS.names();"
-        "import attribot.models.hf, attribot.models.openai_chat, attribot.models.hf_random;"
+        "import attribot.models.hf, attribot.models.openai_chat;"
         "assert 'torch' not in sys.modules and 'transformers' not in sys.modules, 'torch imported'"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

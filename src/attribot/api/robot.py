@@ -125,7 +125,6 @@ class Robot:
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
-        "for_world",
         "look",
         "backend_name",
         "from_program",
@@ -195,11 +194,6 @@ class Robot:
         return list(self._sensors)
 
     # ---- host side ---------------------------------------------------------------------------------
-    @classmethod
-    def for_world(cls, world: Embodiment, sensors: Sequence[str] = ("camera",)) -> Robot:
-        """Host side: the robot in `world` with the controller registered for it."""
-        return cls(sensors=sensors, world=world)
-
     def look(self, perception: Perception, survey: bool = True) -> ImagePatch:
         """Host side: take a camera frame now and return its whole-image patch, remembering the head
         angles and base pose so that boxes in it can be acted on later. With `look_again` on and `survey`,

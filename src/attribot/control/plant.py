@@ -13,7 +13,7 @@ from attribot.control.base import not_available
 from attribot.control.body import BodyGeometry
 from attribot.control.spatial import ObjectEstimate
 from attribot.control.tuning import ServoTuning
-from attribot.control.world import ServoWorld
+from attribot.control.world import ServoWorld, head_angles
 
 __all__ = ["Plant", "Reach", "Hold", "moved"]
 
@@ -37,8 +37,7 @@ class Plant:
 
     def head(self) -> tuple[float, float]:
         """The head's `(pan, tilt)`, radians."""
-        js = self.world.joint_states()
-        return float(js["head_pan"]), float(js["head_tilt"])
+        return head_angles(self.world)
 
     def lift(self) -> float:
         """The lift's height now, metres."""

@@ -25,6 +25,7 @@ from attribot.control.base import (
     angle_close,
     not_available,
 )
+from attribot.control.world import head_angles
 from attribot.frame import CameraInfo
 
 __all__ = ["PointingController", "pan_tilt_towards", "pixel_ray"]
@@ -133,13 +134,13 @@ class PointingController(UnsupportedController):
 
     def _wait_still(self, target: Target) -> tuple[float, float]:
         """Step the world until the head stops moving; its angles then."""
-        last = _head(self.world)
+        last = head_angles(self.world)
         elapsed = 0.0
         while elapsed < self.timeout_s:
             self.world.step(self.step_s)
             elapsed += self.step_s
             self.waited_s += self.step_s
-            now = _head(self.world)
+            now = head_angles(self.world)
             still = all(angle_close(a, b, self.still_rad) for a, b in zip(now, last, strict=True))
             if still and elapsed >= self.min_wait_s:
                 return now
@@ -149,11 +150,6 @@ class PointingController(UnsupportedController):
             f"{self.timeout_s:.1f} s",
             "check the world's head controller; this is a fault of the world, not of the program",
         )
-
-
-def _head(world: Any) -> tuple[float, float]:
-    js = world.joint_states()
-    return float(js["head_pan"]), float(js["head_tilt"])
 
 
 @CONTROLLERS.register("default")

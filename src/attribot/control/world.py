@@ -16,7 +16,7 @@ import numpy as np
 from attribot.control.body import BodyGeometry
 from attribot.frame import CameraInfo, Frame
 
-__all__ = ["BasePose", "ServoWorld"]
+__all__ = ["BasePose", "ServoWorld", "head_angles"]
 
 
 class BasePose(Protocol):
@@ -94,3 +94,9 @@ class ServoWorld(Protocol):
     def body(self) -> BodyGeometry:
         """Where the camera sits and how far the arm reaches."""
         ...
+
+
+def head_angles(world: ServoWorld) -> tuple[float, float]:
+    """The head's `(pan, tilt)` now, radians."""
+    js = world.joint_states()
+    return float(js["head_pan"]), float(js["head_tilt"])

@@ -124,16 +124,9 @@ _BACKEND_MODULES = (
 )
 
 
-def _existing(modules: tuple[str, ...]) -> tuple[str, ...]:
-    """The backend modules present in this installation (some are added by later work)."""
-    import importlib.util
-
-    return tuple(m for m in modules if importlib.util.find_spec(m) is not None)
-
-
-DETECTORS: Registry[Builder] = Registry("detector backend", _existing(_BACKEND_MODULES))
-VQAS: Registry[Builder] = Registry("vqa backend", _existing(_BACKEND_MODULES))
-LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", _existing(_BACKEND_MODULES))
+DETECTORS: Registry[Builder] = Registry("detector backend", _BACKEND_MODULES)
+VQAS: Registry[Builder] = Registry("vqa backend", _BACKEND_MODULES)
+LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", _BACKEND_MODULES)
 
 ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "language": LANGUAGE_MODELS}
 

@@ -154,11 +154,6 @@ class OpenAILanguageModel(_ChatBackend):
         """A short answer to `question`, `UNKNOWN` when the model cannot tell."""
         return self._chat(self.messages(question))
 
-    def complete_batch(self, questions: Sequence[str]) -> list[str]:
-        """One answer per question, requested concurrently."""
-        msgs = [self.messages(q) for q in questions]
-        return self._map(self._chat, msgs)
-
 
 def _client_args(settings: Settings) -> dict[str, Any]:
     return {

@@ -1,4 +1,6 @@
 """Randomly initialised transformers models built from configs, with working processors: no download.
+Test tooling, kept out of the package: tests and benchmarks import it as `fakes.hf_random` (a benchmark puts
+tests/ on its path first, as `benchmarks/bench_models.py` does).
 
 For tests (tiny sizes, saved to a folder and loaded by path through the real `hf:` backends) and for
 speed benchmarks (the real architectures' sizes, written out below, built on the GPU in fp16/bf16).
@@ -20,7 +22,7 @@ from typing import Any
 from attribot.deps import require
 from attribot.errors import ConfigError
 
-__all__ = ["RANDOM_MODELS", "build_random", "save_random", "random_model_names"]
+__all__ = ["RANDOM_MODELS", "build_random", "save_random"]
 
 _LETTERS = [chr(c) for c in range(ord("a"), ord("z") + 1)]
 _DIGITS = [str(d) for d in range(10)]
@@ -399,11 +401,6 @@ RANDOM_MODELS: dict[str, tuple[str, Callable[[Path], tuple[Any, Any]]]] = {
         ),
     ),
 }
-
-
-def random_model_names() -> list[str]:
-    """The names `build_random` and `save_random` accept."""
-    return list(RANDOM_MODELS)
 
 
 def build_random(name: str, *, device: str = "cpu", dtype: str = "float32", seed: int = 0) -> tuple[Any, Any]:
