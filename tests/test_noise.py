@@ -11,7 +11,7 @@ from attribot.errors import ConfigError
 from attribot.frame import Frame, ObjectTruth
 from attribot.models.base import Detection, build_backend, parse_spec, probe_backend
 from attribot.models.noise import DetectorNoise, NoisyDetector, NoisyVQA, VQANoise
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 from conftest import random_frame
 
 N_OBJECTS = 5
