@@ -722,9 +722,15 @@ def dataset_build(
 def dataset_show(
     folder: Path = typer.Argument(..., help="A dataset folder (or a run folder's dataset/)."),
     item_id: str = typer.Argument(..., help="The item's id, e.g. weight_embodied-003."),
-    out: Path | None = typer.Option(None, "--out", help="Where to write the image with the true box."),
+    out: Path | None = typer.Option(
+        None,
+        "--out",
+        metavar="PATH",
+        help="Where to write the image with the true box: a .png file, or a folder (default: the dataset's "
+        "shown/ folder).",
+    ),
 ) -> None:
-    """Print one item and write its image with the true box drawn."""
+    """Print one item as JSON and write its image with the true box drawn (the path goes to stderr)."""
     from attribot.errors import UnknownName
     from attribot.eval.datasets import read_dataset
 
@@ -741,12 +747,27 @@ def dataset_show(
     if image.is_file():
         from PIL import Image, ImageDraw
 
-        target = out or Path(f"{item_id}.png")
+        target = _shown_path(out, folder, item_id)
         _writable_folder(target.parent, "--out")
         img = Image.open(image).convert("RGB")
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
         img.save(target)
-        console.print(f"image with the true box -> {target}", highlight=False)
+        err_console.print(f"image with the true box -> {target}", highlight=False)
+
+
+def _shown_path(out: Path | None, dataset: Path, item_id: str) -> Path:
+    """Where `dataset show` writes: the file `--out` names, into the folder it names, or the dataset's
+    shown/ folder; never into the current folder unasked."""
+    if out is None:
+        return dataset / "shown" / f"{item_id}.png"
+    if out.is_dir() or not out.suffix:
+        return out / f"{item_id}.png"
+    if out.suffix.lower() != ".png":
+        raise fail(
+            f"--out {str(out)!r}: the image is a PNG",
+            f"give a .png file or a folder, e.g. --out {item_id}.png",
+        )
+    return out
 
 
 @app.command("eval", cls=_Command)
