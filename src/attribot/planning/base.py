@@ -205,7 +205,7 @@ def solve(
         tried.add(plan.program)
         plans.append(plan)
         result = _checked(execute(plan.program), check)
-        did = describe_calls(result.trace)
+        did = describe_calls(getattr(result, "trace", ()))  # a caller's own result may keep no trace
         attempts.append(Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did))
         if result.ok:
             break
