@@ -22,20 +22,24 @@ from rich.console import Console
 from rich.markup import escape
 from typer.core import TyperCommand, TyperGroup
 
-from attribot.config import WORLD_CONFIGS, FieldNaming
 from attribot.errors import AttribotError
 
 __all__ = ["app", "main"]
 
 
 class _PlainFlags:
-    """In --help, a plain flag (--json, --help) shows no value type: it takes none."""
+    """In --help, a plain flag (--json, --help) shows no value type: it takes none; and `{worlds}` in a
+    help text is the registered worlds, read when the help is shown (not when `attribot` starts)."""
 
     def get_params(self, ctx: Any) -> list[Any]:
         params: list[Any] = super().get_params(ctx)  # type: ignore[misc]
         for param in params:
             if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
                 param.metavar = ""
+            if "{worlds}" in (getattr(param, "help", None) or ""):
+                from attribot.config import WORLD_CONFIGS
+
+                param.help = param.help.replace("{worlds}", ", ".join(WORLD_CONFIGS.names()))
         return params
 
 
@@ -145,8 +149,8 @@ SCENE_FLAGS = (
           "realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
 )  # fmt: skip
 WORLD_FLAGS = (
-    _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: "
-          f"{', '.join(WORLD_CONFIGS.names())} (default mujoco, the embedded scene; bridge: a robot)."),
+    _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
+          "the embedded scene; bridge: a robot)."),
     _flag("bridge_url", str | None, "--bridge-url", metavar="URL", help="With --world bridge: the robot's "
           "tcp://HOST:PORT; the token comes from ATTRIBOT_BRIDGE_TOKEN."),
     _flag("image", Path | None, "--image", metavar="FILE", help="Answer about this image file instead of a "
@@ -193,13 +197,15 @@ def _flag_name(field: str) -> str:
     return _FLAG_OF.get(field) or f"--option {field}="
 
 
-FLAGS = FieldNaming(
-    _flag_name,
-    lambda field, value: (
-        f"{_flag_name(field)}{value}" if field not in _FLAG_OF else f"{_FLAG_OF[field]} {value}"
-    ),
-)
-"""Config and settings fields named by their flags, for the errors of configs built from flags."""
+def _flag_example(field: str, value: str) -> str:
+    return f"{_FLAG_OF[field]} {value}" if field in _FLAG_OF else f"{_flag_name(field)}{value}"
+
+
+def _naming() -> Any:
+    """Config and settings fields named by their flags, for the errors of configs built from flags."""
+    from attribot.config import FieldNaming
+
+    return FieldNaming(_flag_name, _flag_example)
 
 
 def _with_flags(*groups: tuple[_Flag, ...]) -> Any:
@@ -289,7 +295,7 @@ def _scene_config(given: Any) -> Any:
     options = _layout_options(_given(given, "option"))
     if options:
         fields["options"] = options
-    return SceneConfig.create(naming=FLAGS, **fields) if fields else None
+    return SceneConfig.create(naming=_naming(), **fields) if fields else None
 
 
 def _scene_world(config: Any) -> Any:
@@ -449,9 +455,9 @@ def _world_config(name: str, given: Any) -> Any:
     if required:
         raise fail(
             f"--world {name} needs {', '.join(_flag_name(f).rstrip('=') for f in required)}",
-            "give it, e.g. " + ", ".join(FLAGS.example(f, "...") for f in required),
+            "give it, e.g. " + ", ".join(_flag_example(f, "...") for f in required),
         )
-    return kind.create(naming=FLAGS, **fields)
+    return kind.create(naming=_naming(), **fields)
 
 
 def _settings(given: Any) -> Any:
@@ -460,7 +466,7 @@ def _settings(given: Any) -> Any:
 
     names = ("detector", "vqa", "language", "planner", "llm_base_url", "llm_model")
     return load_settings(
-        naming=FLAGS, checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
+        naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
     )
 
 
