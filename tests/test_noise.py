@@ -156,5 +156,5 @@ def test_a_noisy_oracle_on_a_still_image_is_refused_like_the_oracle(tmp_path):
 
     photo = tmp_path / "photo.png"
     Image.fromarray(np.zeros((48, 64, 3), np.uint8)).save(photo)
-    with pytest.raises(ConfigError, match="--image needs a real detector"):
+    with pytest.raises(ConfigError, match="a still image needs a real detector"):
         ask("Where is the mug?", Scene(image=photo), load_settings(detector="oracle?noise=realistic"))
