@@ -487,8 +487,6 @@ def _errors_as_json(as_json: bool, query: str, planner: str) -> Iterator[None]:
         message = exc.message if exc.fix is None else f"{exc.message} (fix: {exc.fix})"
         _print_error_answer(category, message, query, planner)
         raise typer.Exit(2) from None
-    except typer.Exit:
-        raise
 
 
 def _print_error_answer(category: str, message: str, query: str, planner: str) -> None:
