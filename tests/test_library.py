@@ -66,6 +66,7 @@ def test_a_notebook_asks_and_runs_programs_on_two_scenes(empty_settings):
         picture = scene.render()
         assert picture.shape == (240, 320, 3) and picture.dtype == np.uint8
         truth = scene_truth("triplet", seed)
+        assert [o.id for o in scene.truth().objects] == [o.id for o in truth]  # what to score against
         answer = attribot.ask("Which object is the heaviest?", scene)
         assert isinstance(answer, attribot.Answer) and answer.ok
         assert answer.object.id == max(truth, key=lambda o: o.mass_kg).id

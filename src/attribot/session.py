@@ -149,11 +149,29 @@ class Scene:
         """The camera's first image of this scene, an RGB uint8 array (H, W, 3): to look at in a notebook."""
         if self.image is not None:
             return load_image(Path(self.image))
+        with self._built() as world:
+            return world.observe().rgb
+
+    def truth(self) -> Any:
+        """The simulated scene's ground truth (`SceneInfo`: each object's id, category, mass, distance and
+        box; the robot), to score an experiment's answers against the world's own state. Only a simulator
+        knows it: a robot or a still image raises `UnsupportedAction`."""
+        from attribot.errors import UnsupportedAction
+
+        if self.image is None:
+            with self._built() as world:
+                if hasattr(world, "scene_info"):
+                    return world.scene_info()
+        raise UnsupportedAction(
+            f"the {self.world or 'still image'} scene has no ground truth to read",
+            "score against the embedded MuJoCo world, or keep the truth of your own scene",
+        )
+
+    def _built(self) -> Any:
         from attribot.embodiments.base import EMBODIMENTS
 
         world_cls: Any = EMBODIMENTS.get(str(self.world))
-        with world_cls(self.config) as world:
-            return world.observe().rgb
+        return world_cls(self.config)
 
 
 def _default_config(world: str) -> Any:
