@@ -47,7 +47,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, words
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 ALL = DATA / "generalisation.jsonl"

@@ -23,7 +23,7 @@ import time
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import InputError
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 
 
 def cases(seed: int) -> list[tuple[str, str, str, str]]:

@@ -38,7 +38,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 from attribot.sim.scene import resolve_categories
 
 ROWS = Path(__file__).resolve().parents[1] / "tests" / "data" / "paraphrases.jsonl"

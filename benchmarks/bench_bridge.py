@@ -26,10 +26,10 @@ import time
 from typing import Any
 
 from attribot.bridge.server import Limits, RobotServer, serve_in_thread
-from attribot.config import SceneConfig, load_settings
+from attribot.config import BridgeConfig, SceneConfig, load_settings
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 
 TOKEN = "bench"
 
@@ -138,9 +138,7 @@ def main() -> None:
         for query, sensor in queries:  # a fresh robot per query, as the direct world is fresh per query
             sensors = ["camera", sensor]
             server, driver, thread = serve(cfg, Limits(watchdog_s=5.0))
-            bridged = cfg.model_copy(
-                update={"options": {"bridge_url": f"tcp://127.0.0.1:{server.address[1]}"}}
-            )
+            bridged = BridgeConfig(url=f"tcp://127.0.0.1:{server.address[1]}")
             try:
                 t0 = time.perf_counter()
                 over = ask(query, Scene(world="bridge", config=bridged, sensors=sensors), settings)

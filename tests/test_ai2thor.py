@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from attribot.config import SceneConfig, load_settings
+from attribot.config import Ai2ThorConfig, load_settings
 from attribot.control.base import Capture, Target, build_controller
 from attribot.embodiments.ai2thor import Ai2ThorController, Ai2ThorError, Ai2ThorWorld
 from attribot.embodiments.base import EMBODIMENTS, Capability
@@ -196,7 +196,7 @@ def test_the_world_is_built_from_the_registry_with_the_scene_option(monkeypatch)
     fake.Controller = FakeThor  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "ai2thor", types.ModuleType("ai2thor"))
     monkeypatch.setitem(sys.modules, "ai2thor.controller", fake)
-    world = EMBODIMENTS.get("ai2thor")(SceneConfig(options={"scene": "FloorPlan7"}))
+    world = EMBODIMENTS.get("ai2thor")(Ai2ThorConfig(scene="FloorPlan7"))
     assert world.controller.scene == "FloorPlan7"
     assert (
         world.controller.kwargs["renderDepthImage"] and world.controller.kwargs["renderInstanceSegmentation"]
@@ -211,14 +211,14 @@ def test_without_the_package_the_error_names_the_extra(monkeypatch):
 
 
 def test_an_embodied_query_runs_in_the_ai2thor_world(monkeypatch):
-    from attribot.planning.ask import Scene, ask
+    from attribot.session import Scene, ask
 
     fake = types.ModuleType("ai2thor.controller")
     fake.Controller = FakeThor  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "ai2thor", types.ModuleType("ai2thor"))
     monkeypatch.setitem(sys.modules, "ai2thor.controller", fake)
     scene = Scene(
-        world="ai2thor", config=SceneConfig(width=W, height=H), sensors=["camera", "distance", "force"]
+        world="ai2thor", config=Ai2ThorConfig(width=W, height=H), sensors=["camera", "distance", "force"]
     )
     answer = ask("Which object is the heaviest?", scene, load_settings())
     assert answer.error is None, answer.error

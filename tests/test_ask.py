@@ -13,7 +13,7 @@ from PIL import Image
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
-from attribot.planning.ask import Scene, ask, execute
+from attribot.session import Scene, ask, run_program
 from conftest import cli, serve_chat_replies
 
 LAYOUT, SEED = "household", 7
@@ -128,7 +128,7 @@ def test_ask_saves_and_exec_replays_the_same_answer(tmp_path, truth):
         plain = world.observe().rgb
     x0, y0, x1, y1 = (int(v) for v in first.object.box)
     assert not np.array_equal(drawn[y0:y1, x0:x1], plain[y0:y1, x0:x1])  # the box is drawn there
-    replay = execute(
+    replay = run_program(
         (tmp_path / "program.py").read_text(),
         Scene(SceneConfig(layout=LAYOUT, seed=SEED)),
         load_settings(),
@@ -140,7 +140,7 @@ def test_ask_saves_and_exec_replays_the_same_answer(tmp_path, truth):
 
 def test_a_program_may_return_a_plain_value():
     program = 'def execute_command(image, robot):\n    return len(image.find("item"))\n'
-    answer = execute(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
+    answer = run_program(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
     assert answer.error is None and answer.object is None
     with MujocoWorld(layout=LAYOUT, seed=SEED) as world:
         visible = [o for o in world.scene_info().objects if o.box is not None]
@@ -158,7 +158,7 @@ def test_a_program_may_return_a_plain_value():
     ],
 )
 def test_program_errors_become_structured_answers(program, category):
-    answer = execute(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
+    answer = run_program(program, Scene(SceneConfig(layout=LAYOUT, seed=SEED)), load_settings())
     assert answer.error is not None and answer.error.category == category
     assert answer.object is None and answer.answer.startswith("no answer")
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from attribot.config import load_settings
+from attribot.config import WORLD_CONFIGS, load_settings
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment
-from attribot.errors import AttribotError, ConfigError, MissingDependency
+from attribot.errors import AttribotError, ConfigError, InputError, MissingDependency
 from attribot.frame import Frame
 from attribot.models.base import ROLES, BackendStatus, LanguageModel, VisualQA, build_backend, probe_backend
 from attribot.models.base import Detector as DetectorProtocol
@@ -36,11 +36,19 @@ def test_every_layout_is_deterministic_and_finite(layout):
         assert c.scene_info() != a.scene_info(), "another seed gives another scene"
 
 
+def test_every_world_has_one_typed_config_registered_under_its_name():
+    assert sorted(WORLD_CONFIGS.names()) == sorted(EMBODIMENTS.names())
+    assert len({id(WORLD_CONFIGS.get(name)) for name in WORLD_CONFIGS.names()}) == len(WORLD_CONFIGS.names())
+
+
 @pytest.mark.parametrize("name", EMBODIMENTS.names())
 def test_every_world_observes_and_refuses_what_it_cannot_do(name):
-    try:
-        built = EMBODIMENTS.get(name)(**SMALL)
-    except (ConfigError, MissingDependency) as exc:
+    kind = WORLD_CONFIGS.get(name)
+    try:  # built from its own config, as the session builds it
+        built = EMBODIMENTS.get(name)(
+            kind.create(**{k: v for k, v in SMALL.items() if k in kind.model_fields})
+        )
+    except (InputError, ConfigError, MissingDependency) as exc:
         # a world that needs a robot's address or an extra (bridge, ai2thor) says what is missing; their own
         # tests (test_bridge.py, test_ai2thor.py) run them against a loopback robot and a fake controller
         assert name in ("bridge", "ai2thor") and exc.fix

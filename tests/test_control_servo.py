@@ -21,7 +21,7 @@ from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
 from attribot.frame import Frame
 from attribot.models.oracle import OracleDetector
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 from conftest import TruthBlindWorld
 
 W, H = 320, 240

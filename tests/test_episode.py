@@ -11,7 +11,7 @@ import av
 import numpy as np
 
 from attribot.config import SceneConfig, load_settings
-from attribot.planning.ask import Scene, ask, execute
+from attribot.session import Scene, ask, run_program
 from attribot.video import VideoWriter
 
 
@@ -68,7 +68,9 @@ def _umask() -> int:
 
 def test_exec_with_save_films_too(tmp_path):
     program = "def execute_command(image, robot):\n    return image.find('object')[0]\n"
-    execute(program, Scene(SceneConfig(layout="household", seed=1)), load_settings(), save_dir=tmp_path / "a")
+    run_program(
+        program, Scene(SceneConfig(layout="household", seed=1)), load_settings(), save_dir=tmp_path / "a"
+    )
     frames = _decode(tmp_path / "a" / "episode.mp4")
     assert len(frames) >= 1 and frames[0].shape == (268, 640, 3)
     # (a still image has no episode: tests/test_ask.py::test_image_mode_runs_through_a_real_detector_and_vqa)

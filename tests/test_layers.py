@@ -13,7 +13,6 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "attribot"
 # lowest first; names on one line share a level
 LEVELS: list[set[str]] = [
     {
-        "__init__",
         "errors",
         "registry",
         "boxes",
@@ -36,8 +35,9 @@ LEVELS: list[set[str]] = [
     {"api"},
     {"runner"},
     {"planning"},
+    {"session"},  # the composition root: wires world, controller, recorder, backends and runner
     {"eval", "server"},
-    {"cli"},
+    {"cli", "__init__"},  # the package's own names (ask, run_program, Scene) load the session lazily
 ]
 LEVEL_OF = {name: i for i, names in enumerate(LEVELS) for name in names}
 

@@ -11,7 +11,7 @@ from attribot.errors import ConfigError
 from attribot.frame import Frame, ObjectTruth
 from attribot.models.base import Detection, build_backend, parse_spec, probe_backend
 from attribot.models.noise import DetectorNoise, NoisyDetector, NoisyVQA, VQANoise
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 from conftest import random_frame
 
 N_OBJECTS = 5
@@ -156,5 +156,5 @@ def test_a_noisy_oracle_on_a_still_image_is_refused_like_the_oracle(tmp_path):
 
     photo = tmp_path / "photo.png"
     Image.fromarray(np.zeros((48, 64, 3), np.uint8)).save(photo)
-    with pytest.raises(ConfigError, match="--image needs a real detector"):
+    with pytest.raises(ConfigError, match="a still image needs a real detector"):
         ask("Where is the mug?", Scene(image=photo), load_settings(detector="oracle?noise=realistic"))

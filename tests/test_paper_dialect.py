@@ -12,8 +12,8 @@ import pytest
 from attribot.api import ImagePatch, Robot
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.planning.ask import Scene, ask
 from attribot.runner import ProgramRunner
+from attribot.session import Scene, ask
 from conftest import BALLS, BallController, BallWorld, serve_chat_replies, world_perception
 
 

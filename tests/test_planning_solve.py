@@ -214,3 +214,31 @@ def test_extraction_refusals_are_messages_for_the_model(reply, match):
 def test_a_syntax_error_is_left_for_the_runner_to_point_at():
     broken = "```python\ndef execute_command(image, robot):\n    return (\n```"
     assert extract_program(broken).startswith("def execute_command")
+
+
+def test_a_finished_run_that_is_no_answer_is_retried_with_its_output_and_calls():
+    """Issue 18: a program that prints its answer and returns None goes back to the planner."""
+    from attribot.planning.answer import result_problem
+    from attribot.planning.llm import feedback_message
+    from attribot.runner.records import RunResult, TraceRecord
+
+    printed = "def execute_command(image, robot):\n    print('the mug')\n"
+    planner = ScriptedPlanner([printed, GOOD])
+    call = TraceRecord(call="ImagePatch.find", args=["mug"], result=[{"type": "ImagePatch", "label": "mug",
+                       "object_id": "mug_1"}], ms=1.0, line=2)  # fmt: skip
+    results = {
+        printed: RunResult(ok=True, value=None, value_object=None, output="the mug\n", trace=[call]),
+        GOOD: RunResult(ok=True, value=1, value_object=1),
+    }
+    outcome = solve(
+        planner, REQUEST, results.__getitem__, max_tries=3, check=lambda r: result_problem(r, False)
+    )
+    assert outcome.ok and [a.program for a in outcome.attempts] == [printed, GOOD]
+    first = outcome.attempts[0]
+    assert first.error.category == "runtime" and first.error.output == "the mug\n"
+    assert "returned None (it printed its answer" in first.error.message
+    assert first.did == ['ImagePatch.find("mug") -> [mug mug_1]']
+    said = feedback_message(first.error, first.did, same_start=True)
+    assert "Its output so far:\nthe mug" in said and "- ImagePatch.find" in said and "same state" in said
+    # a query asking which object: a number returned chooses none, and is no answer either
+    assert "chooses none" in result_problem(RunResult(ok=True, value=3, value_object=3), wants_object=True)

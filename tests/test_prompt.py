@@ -79,7 +79,7 @@ def test_robot_methods_offered_follow_the_sensors():
         "robot.measure_distance (needs the distance sensor), robot.measure_weight (needs the force sensor)"
         in prompt
     )
-    assert "This robot's sensors: camera." in prompt
+    assert "This robot's sensors:\n- camera: colour images" in prompt and "- distance:" not in prompt
     offered, missing = offered_robot_methods(["distance"])
     assert "measure_distance" in offered and missing == {"measure_weight": "force"}
     still = build_prompt("the leftmost cup", ALL, embodied=False)
@@ -162,7 +162,8 @@ def test_docstring_examples_use_only_the_api_and_run(cls, name, program):
 def test_prompt_has_query_sensors_guidelines_and_format():
     prompt = build_prompt("  the second   cup from the left ", ["camera", "distance"])
     assert "Query: the second cup from the left\n" in prompt
-    assert "This robot's sensors: camera, distance." in prompt
+    assert "- camera: colour images" in prompt and "- distance: an infrared rangefinder" in prompt
+    assert "- force:" not in prompt and "except ActionFailed as error" in prompt
     assert "def execute_command(image, robot):" in prompt
     assert "exactly one fenced ```python code block" in prompt
     assert "y grows upward" in prompt
@@ -198,3 +199,19 @@ def test_api_text_lives_only_in_the_classes():
     # the only docstrings in the prompt are the classes' own
     assert textwrap.indent('"""' + inspect.getdoc(ImagePatch.find), 8 * " ") in api_reference(ALL)
     assert perception_for() is not None
+
+
+def test_the_prompt_says_what_the_detector_can_find_here():
+    """Issue 18: "bring the lightest cup to the table" needs to know that the table can be found."""
+    from attribot.api.perception import Perception
+    from attribot.config import SceneConfig, Settings
+    from attribot.embodiments.mujoco import MujocoWorld
+
+    with MujocoWorld(SceneConfig(layout="household", seed=0, width=320, height=240)) as world:
+        frame = world.observe()
+    findable = Perception.from_settings(Settings()).findable(frame)
+    assert findable.startswith('objects by a short name ("cup"')
+    assert "furniture and the floor in view:" in findable and "table" in findable.split("in view:")[1]
+    prompt = build_prompt("bring the lightest cup to the table", ALL, findable=findable)
+    assert f"- What `image.find` can find here: {findable}." in prompt
+    assert "{{" not in build_prompt("x", ALL) and "can find here" not in build_prompt("x", ALL)

@@ -9,7 +9,6 @@ import pytest
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.lexicon import surface_kind
-from attribot.planning.ask import Scene, ask
 from attribot.planning.rules import (
     Among,
     DistanceQuery,
@@ -24,6 +23,7 @@ from attribot.planning.rules import (
     parse_query,
     rules_program,
 )
+from attribot.session import Scene, ask
 
 ALL = ["camera", "distance", "force"]
 

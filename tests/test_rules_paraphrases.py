@@ -7,8 +7,8 @@ import pytest
 
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.planning.ask import Scene, ask
 from attribot.planning.rules import GroundingQuery, MeasureQuery, SizeQuery, parse_query
+from attribot.session import Scene, ask
 
 
 @pytest.fixture(scope="module")

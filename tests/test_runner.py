@@ -541,3 +541,64 @@ def test_the_child_imports_no_heavy_modules(runner):
     time.sleep(0.2)
     maps = open(f"/proc/{pid}/maps").read()
     assert "numpy" not in maps and "mujoco" not in maps and "pydantic" not in maps
+
+
+class Grasping:
+    """An API class whose action fails in the world (recoverable) or is misused (not)."""
+
+    API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("name",)
+    API_METHODS: ClassVar[tuple[str, ...]] = ("grasp", "misuse")
+
+    def __init__(self) -> None:
+        self.name = "robot"
+
+    def grasp(self, k: int) -> int:
+        if k % 2:
+            from attribot.control.base import ControlError
+
+            raise ControlError(f"grasp failed on {k}", "go to it again")
+        return k
+
+    def misuse(self) -> None:
+        from attribot.api.errors import PreconditionError
+
+        raise PreconditionError("the gripper is empty", "pick something up first")
+
+
+def test_a_program_catches_a_failed_action_as_ActionFailed_and_carries_on():  # noqa: N802
+    source = (
+        "from typing import List\n"
+        "def execute_command(robot):\n"
+        "    held: List[int] = []\n"
+        "    for k in range(4):\n"
+        "        try:\n"
+        "            held.append(robot.grasp(k))\n"
+        "        except ActionFailed as error:\n"
+        "            print(str(error), error.args == (str(error),), isinstance(robot, Grasping))\n"
+        "    return held\n"
+        "if __name__ == '__main__':\n"
+        "    execute_command(None)\n"
+    )
+    with ProgramRunner(classes=[Grasping]) as runner:
+        res = runner.run(source, args=[Grasping()])
+        assert res.ok, res.error
+        assert res.value == [0, 2]
+        assert (
+            res.output
+            == "grasp failed on 1 (go to it again) True True\ngrasp failed on 3 (go to it again) True True\n"
+        )
+        assert [t.error for t in res.trace] == [None, "grasp failed on 1 (go to it again)", None,
+                                                 "grasp failed on 3 (go to it again)"]  # fmt: skip
+        # not caught, a failed action is the API's error on its line; a misuse is never catchable
+        bare = runner.run("def execute_command(robot):\n    return robot.grasp(1)\n", args=[Grasping()])
+        assert (
+            bare.error.category == "api"
+            and bare.error.line == 2
+            and "grasp failed on 1" in bare.error.message
+        )
+        misuse = (
+            "def execute_command(robot):\n    try:\n        robot.misuse()\n    except ActionFailed:\n"
+            "        return 'swallowed'\n"
+        )
+        refused = runner.run(misuse, args=[Grasping()])
+        assert refused.error.category == "api" and "the gripper is empty" in refused.error.message

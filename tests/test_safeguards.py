@@ -273,7 +273,7 @@ def execute_command(image, robot):
 
 
 def test_force_noise_beyond_the_mass_gap_is_measured_again_or_said_unsettled():
-    from attribot.planning.ask import Scene, execute
+    from attribot.session import Scene, run_program
 
     base = SceneConfig(layout="triplet", seed=3, width=W, height=H)
     with MujocoWorld(base) as w:
@@ -282,7 +282,7 @@ def test_force_noise_beyond_the_mass_gap_is_measured_again_or_said_unsettled():
     names = [o.category for o in objects]
     program = HEAVIER.replace("NAMES", repr(names))
     noisy = base.model_copy(update={"noise": WorldNoise(force_std=8 * gap_n, seed=1)})
-    answer = execute(program, Scene(noisy, sensors=["camera", "force"]), Settings())
+    answer = run_program(program, Scene(noisy, sensors=["camera", "force"]), Settings())
     kinds = {e["mechanism"] for e in answer.checks}
     if answer.error is not None:  # it could not tell: it says so, with both values
         assert answer.error.category == "uncertain" and "cannot tell" in answer.error.message
@@ -293,7 +293,7 @@ def test_force_noise_beyond_the_mass_gap_is_measured_again_or_said_unsettled():
 
 
 def test_a_retry_starts_from_the_state_the_first_try_started_from():
-    from attribot.planning.ask import Scene, _Session
+    from attribot.session import Scene, Session
 
     scene = Scene(SceneConfig(layout="triplet", seed=3, width=W, height=H), sensors=["camera", "force"])
     first = """
@@ -302,7 +302,7 @@ def execute_command(image, robot):
     robot.go_to_object(patch)
     return 1 / 0
 """
-    with _Session(scene, Settings()) as session:
+    with Session(scene, Settings()) as session:
         name = session.world.scene_info().objects[0].category
         start_pose = session.world.sim.base_pose()
         start_head = session.world.sim.head()
@@ -318,7 +318,7 @@ def execute_command(image, robot):
 
 
 def test_answers_carry_the_checks_log(perception):
-    from attribot.planning.ask import Scene, ask
+    from attribot.session import Scene, ask
 
     answer = ask(
         "Which object is the closest to me?",
@@ -355,10 +355,10 @@ class _OriginalFrameWrong:
 
 @pytest.mark.parametrize("mode", ["miss", "confuse"])
 def test_a_still_image_is_looked_at_again_within_itself(perception, mode):
-    from attribot.planning.ask import Scene, _Session
+    from attribot.session import Scene, Session
 
     scene = Scene(SceneConfig(layout="household", seed=7, width=W, height=H), sensors=["camera"], still=True)
-    with _Session(scene, Settings()) as session:
+    with Session(scene, Settings()) as session:
         head = session.world.sim.head()
         truth = next(o for o in session.world.scene_info().objects if o.box is not None)
         assert session.image.survey is None and session.world.sim.head() == head  # the head never turned
@@ -378,12 +378,12 @@ def test_jittered_boxes_are_averaged_over_the_looks(perception):
     )
     errors = {}
     for checks in ("none", "all"):
-        from attribot.planning.ask import Scene, _Session
+        from attribot.session import Scene, Session
 
         scene = Scene(
             SceneConfig(layout="arrangement", seed=2, width=W, height=H), sensors=["camera"], still=True
         )
-        with _Session(scene, Settings(checks=checks)) as session:
+        with Session(scene, Settings(checks=checks)) as session:
             infos = {o.id: o for o in session.world.scene_info().objects if o.box is not None}
             session.image.perception = noisy
             category = next(iter(infos.values())).category
@@ -399,10 +399,10 @@ def test_a_visual_question_is_asked_again_and_the_majority_answers(perception):
         def answer(self, frame: Frame, question: str) -> str:
             return "purple" if frame.width == W else perception.vqa.answer(frame, question)
 
-    from attribot.planning.ask import Scene, _Session
+    from attribot.session import Scene, Session
 
     scene = Scene(SceneConfig(layout="household", seed=7, width=W, height=H), sensors=["camera"], still=True)
-    with _Session(scene, Settings()) as session:
+    with Session(scene, Settings()) as session:
         truth = next(o for o in session.world.scene_info().objects if o.box is not None)
         patch = session.image.find(truth.category)[0]
         session.image.perception = patch.perception = dataclasses.replace(
@@ -492,7 +492,7 @@ def test_a_robot_that_does_not_state_its_body_looks_again_within_its_image(perce
 
 def test_a_stated_answer_is_held_to_its_measurements_too():
     """A yes/no answer ({"yes": ..., "object": ...}) rests on measurements like a chosen object does."""
-    from attribot.planning.ask import Scene, execute
+    from attribot.session import Scene, run_program
 
     base = SceneConfig(layout="triplet", seed=3, width=W, height=H)
     with MujocoWorld(base) as w:
@@ -502,7 +502,7 @@ def test_a_stated_answer_is_held_to_its_measurements_too():
         "    return best", "    return {'yes': best is not None, 'object': best}"
     )
     noisy = base.model_copy(update={"noise": WorldNoise(force_std=8 * gap_n, seed=1)})
-    answer = execute(program, Scene(noisy, sensors=["camera", "force"]), Settings())
+    answer = run_program(program, Scene(noisy, sensors=["camera", "force"]), Settings())
     assert any(e["mechanism"] == "confidence" for e in answer.checks)
     if answer.error is not None:
         assert answer.error.category == "uncertain"

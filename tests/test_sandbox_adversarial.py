@@ -101,6 +101,71 @@ ATTEMPTS: list[tuple[str, str, str]] = [
         "policy",
     ),
     ("except star", program("try:\n    pass\nexcept* ValueError:\n    pass"), "policy"),
+    # ---- the one catchable error (issue 18): nothing of it but its message, and no stop caught with it
+    (
+        "ActionFailed traceback",
+        program("try:\n    image.find('x')\nexcept ActionFailed as e:\n    return e.__traceback__"),
+        "policy",
+    ),
+    ("ActionFailed with_traceback", program("return ActionFailed('x').with_traceback(None)"), "policy"),
+    (
+        "except ActionFailed around a bomb",
+        program("try:\n    x = 10 ** 10 ** 8\nexcept ActionFailed:\n    return 1"),
+        "limit",
+    ),
+    (
+        "except ActionFailed around a loop",
+        program("try:\n    while True:\n        pass\nexcept ActionFailed:\n    return 1"),
+        "timeout",
+    ),
+    ("finally ends a stop", program("try:\n    x = 10 ** 10 ** 8\nfinally:\n    return 1"), "policy"),
+    (
+        "except a tuple with Exception",
+        program("try:\n    pass\nexcept (ActionFailed, Exception):\n    pass"),
+        "policy",
+    ),
+    (
+        "except ActionFailed's base",
+        program("try:\n    pass\nexcept ActionFailed.mro()[1]:\n    pass"),
+        "policy",
+    ),
+    (
+        "rebound ActionFailed",
+        "ActionFailed = Exception\n" + program("try:\n    1 / 0\nexcept ActionFailed:\n    return 1"),
+        "policy",
+    ),
+    (
+        "ActionFailed as a parameter",
+        "def f(ActionFailed):\n"
+        + program("return 1")
+        .replace("def execute_command(image):\n", "")
+        .replace("    return", "    try:\n        1 / 0\n    except ActionFailed:\n        return")
+        + program("return f(Exception)"),
+        "policy",
+    ),
+    (
+        "ActionFailed bound by except",
+        program("try:\n    image.find('x')\nexcept ActionFailed as ActionFailed:\n    return 1"),
+        "policy",
+    ),
+    # ---- typing, API classes and the main block (issue 18)
+    (
+        "typing is a stand-in",
+        "import typing\n" + program("return typing.get_type_hints(execute_command)"),
+        "runtime",
+    ),
+    ("typing dunder", "import typing\n" + program("return typing.__dict__"), "policy"),
+    ("typing private", "from typing import _GenericAlias\n" + program("return 1"), "policy"),
+    ("future feature", "from __future__ import barry_as_FLUFL\n" + program("return 1"), "policy"),
+    ("API class internals", program("return Img.__subclasses__()"), "policy"),
+    ("API method globals", program("return Img.find.__globals__"), "policy"),
+    ("API class without a constructor", program("return Img()"), "runtime"),
+    ("API method on a foreign object", program("return Img.find(3, 'cup')"), "runtime"),
+    (
+        "code in a main block runs nowhere",
+        program("return 1") + "if __name__ == '__main__':\n    import os\n" + "__name__ = 1\n",
+        "policy",
+    ),
     ("with_traceback", program("return ValueError('x').with_traceback(None)"), "policy"),
     ("traceback frame attr", program("return image.tb_frame"), "policy"),
     # ---- format-string traversal

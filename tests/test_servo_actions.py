@@ -20,7 +20,7 @@ from attribot.embodiments.base import Capability, Embodiment
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
 from attribot.models.oracle import OracleDetector
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 from conftest import TruthBlindWorld, cli
 
 W, H = 320, 240

@@ -8,22 +8,50 @@ converts them); nothing prints a traceback at a user.
 from __future__ import annotations
 
 import contextlib
+import functools
+import inspect
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import typer
 from rich.console import Console
 from rich.markup import escape
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 
 from attribot.errors import AttribotError
 
 __all__ = ["app", "main"]
 
 
-class _Commands(TyperGroup):
+class _PlainFlags:
+    """In --help, a plain flag (--json, --help) shows no value type: it takes none; and `{worlds}` in a
+    help text is the registered worlds, read when the help is shown (not when `attribot` starts)."""
+
+    def get_params(self, ctx: Any) -> list[Any]:
+        params: list[Any] = super().get_params(ctx)  # type: ignore[misc]
+        for param in params:
+            if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
+                param.metavar = ""
+            if "{worlds}" in (getattr(param, "help", None) or ""):
+                from attribot.config import WORLD_CONFIGS
+
+                param.help = param.help.replace("{worlds}", ", ".join(WORLD_CONFIGS.names()))
+        return params
+
+
+class _Command(_PlainFlags, TyperCommand):
+    """Every command of `attribot`."""
+
+
+class _Group(_PlainFlags, TyperGroup):
+    """Every command group below the root (scene, dataset, serve, bridge)."""
+
+
+class _Commands(_PlainFlags, TyperGroup):
     """The root command group: turns an `AttribotError` from any command into its message and exit code 2."""
 
     def invoke(self, ctx: Any) -> Any:  # typer.Context; typer vendors click, whose private Context mypy wants
@@ -58,6 +86,7 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
 err_console = Console(stderr=True, soft_wrap=True)  # no hard breaks inside paths and messages
 console = Console(soft_wrap=True)
@@ -74,7 +103,7 @@ def fail(message: str, fix: str | None = None, code: int = 2) -> typer.Exit:
     return typer.Exit(code)
 
 
-@app.command()
+@app.command(cls=_Command)
 def version() -> None:
     """Print the attribot version."""
     from attribot import __version__
@@ -82,45 +111,145 @@ def version() -> None:
     typer.echo(__version__)
 
 
+# ---- option groups: flags that several commands share, each defined once -------------------------------
+
+
+@dataclass(frozen=True)
+class _Flag:
+    """One flag of a group: the parameter name the command sees, its type, and its typer option."""
+
+    name: str
+    annotation: Any
+    option: Any
+
+
+def _flag(name: str, annotation: Any, *decls: str, metavar: str | None = None, **kwargs: Any) -> _Flag:
+    default = kwargs.pop("default", None)
+    return _Flag(name, annotation, typer.Option(default, *decls, metavar=metavar, **kwargs))
+
+
+SCENE_FLAGS = (
+    _flag("layout", str | None, "--layout", metavar="NAME", help="Scene layout: household (default), "
+          "arrangement or triplet."),
+    _flag("seed", int | None, "--seed", metavar="INT", help="Scene seed (0 to 4294967295, default 0): the "
+          "same seed gives the same scene and pixels."),
+    _flag("objects", int | None, "--objects", metavar="INT", help="Number of objects (default: the layout "
+          "chooses)."),
+    _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object categories "
+          "to draw from, e.g. mug,apple."),
+    _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
+          "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
+          "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
+    _flag("width", int | None, "--width", metavar="PX", help="Image width in pixels (default 640)."),
+    _flag("height", int | None, "--height", metavar="PX", help="Image height in pixels (default 480)."),
+    _flag("profile", str | None, "--profile", metavar="NAME", help="Render profile: fast (no shadows, "
+          "default) or pretty."),
+    _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and acting in "
+          "the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or KEY=VALUE pairs, e.g. "
+          "realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
+)  # fmt: skip
+WORLD_FLAGS = (
+    _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
+          "the embedded scene; bridge: a robot)."),
+    _flag("bridge_url", str | None, "--bridge-url", metavar="URL", help="With --world bridge: the robot's "
+          "tcp://HOST:PORT; the token comes from ATTRIBOT_BRIDGE_TOKEN."),
+    _flag("image", Path | None, "--image", metavar="FILE", help="Answer about this image file instead of a "
+          "world."),
+    _flag("sensors", str | None, "--sensors", metavar="A,B", help="Comma-separated robot sensors: "
+          "camera,distance,force (default: all the world has)."),
+    _flag("controller", str | None, "--controller", metavar="NAME", help="Robot controller: the world's own "
+          "(default; in MuJoCo 'servo', which acts on what the camera and sensors perceive) or 'privileged' "
+          "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
+)  # fmt: skip
+BACKEND_FLAGS = (
+    _flag("detector", str | None, "--detector", metavar="SPEC", help="Detector backend spec (oracle, "
+          "hf:MODEL, remote:URL)."),
+    _flag("vqa", str | None, "--vqa", metavar="SPEC", help="VQA backend spec (oracle, hf:MODEL, "
+          "openai:MODEL, remote:URL)."),
+    _flag("language", str | None, "--language", metavar="SPEC", help="Language backend spec (catalog, "
+          "openai:MODEL, remote:URL)."),
+    _flag("checks", str | None, "--checks", metavar="NAMES", help="Error-catching mechanisms: all (default), "
+          "none, or names (look_again, verify_actions, remeasure, confidence, reset); all,-NAME leaves one "
+          "out."),
+)  # fmt: skip
+PLANNER_FLAGS = (
+    _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
+    _flag("llm_base_url", str | None, "--llm-base-url", metavar="URL", help="OpenAI-compatible endpoint."),
+    _flag("llm_model", str | None, "--llm-model", metavar="NAME", help="Model name at that endpoint."),
+)
+OUTPUT_FLAGS = (
+    _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
+    _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "
+          "program.py, settings.json, run.json (all that `attribot exec DIR` needs to replay it) and "
+          "answer.png."),
+)  # fmt: skip
+
+_FLAG_OF = {
+    f.name: f.option.param_decls[0]
+    for group in (SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, PLANNER_FLAGS)
+    for f in group
+}
+_FLAG_OF.update({"options": "--option", "noise": "--world-noise", "url": "--bridge-url"})
+
+
+def _flag_name(field: str) -> str:
+    """A config or settings field as a user of the command gives it: its flag, else `--option FIELD=`."""
+    return _FLAG_OF.get(field) or f"--option {field}="
+
+
+def _flag_example(field: str, value: str) -> str:
+    return f"{_FLAG_OF[field]} {value}" if field in _FLAG_OF else f"{_flag_name(field)}{value}"
+
+
+def _naming() -> Any:
+    """Config and settings fields named by their flags, for the errors of configs built from flags."""
+    from attribot.config import FieldNaming
+
+    return FieldNaming(_flag_name, _flag_example)
+
+
+def _with_flags(*groups: tuple[_Flag, ...]) -> Any:
+    """Add the flags of `groups` to a command; the command receives them together as `given`."""
+
+    def decorate(fn: Any) -> Any:
+        own = inspect.signature(fn, eval_str=True)
+        flags = [f for group in groups for f in group]
+        names = {f.name for f in flags}
+        params = [p for p in own.parameters.values() if p.name != "given"] + [
+            inspect.Parameter(
+                f.name, inspect.Parameter.KEYWORD_ONLY, default=f.option, annotation=f.annotation
+            )
+            for f in flags
+        ]
+
+        @functools.wraps(fn)
+        def command(**kwargs: Any) -> Any:
+            given = SimpleNamespace(**{k: kwargs.pop(k) for k in list(kwargs) if k in names})
+            return fn(**kwargs, given=given)
+
+        command.__signature__ = own.replace(parameters=params)  # type: ignore[attr-defined]
+        command.__annotations__ = {p.name: p.annotation for p in params}
+        return command
+
+    return decorate
+
+
+def _given(given: Any, name: str) -> Any:
+    return getattr(given, name, None)
+
+
 # ---- scene commands (the embodied world) -------------------------------------------------------------
 
 scene_app = typer.Typer(
+    cls=_Group,
     help="Render and inspect the embedded MuJoCo scenes (layouts: household, arrangement, triplet).",
     no_args_is_help=True,
 )
 app.add_typer(scene_app, name="scene")
 
-_S_LAYOUT = typer.Option(None, "--layout", help="Scene layout: household (default), arrangement or triplet.")
-_S_SEED = typer.Option(
-    None,
-    "--seed",
-    help="Scene seed (0 to 4294967295, default 0): the same seed gives the same scene and pixels.",
-)
-_S_OBJECTS = typer.Option(None, "--objects", help="Number of objects (default: the layout chooses).")
-_S_CATEGORIES = typer.Option(
-    None, "--categories", help="Comma-separated object categories to draw from, e.g. mug,apple."
-)
-_S_OPTION = typer.Option(
-    None, "--option", help="Layout option KEY=VALUE, repeatable (e.g. pattern=grid, odd=size)."
-)
-_S_WIDTH = typer.Option(None, "--width", help="Image width in pixels (default 640).")
-_S_HEIGHT = typer.Option(None, "--height", help="Image height in pixels (default 480).")
-_S_PROFILE = typer.Option(None, "--profile", help="Render profile: fast (no shadows, default) or pretty.")
 
-
-def _scene_config(
-    layout: str | None,
-    seed: int | None,
-    objects: int | None,
-    categories: str | None,
-    option: list[str] | None,
-    width: int | None,
-    height: int | None,
-    profile: str | None,
-    world_noise: str | None = None,
-) -> Any:
-    """The `SceneConfig` of the scene flags, or None when no flag was given."""
-    from attribot.config import SceneConfig
+def _layout_options(option: list[str] | None) -> dict[str, Any]:
+    """`--option KEY=VALUE` pairs as a dict, numbers as numbers."""
     from attribot.errors import InputError
 
     options: dict[str, Any] = {}
@@ -136,27 +265,37 @@ def _scene_config(
             except ValueError:
                 pass
         options[key.strip()] = value
+    return options
+
+
+def _scene_fields(given: Any) -> dict[str, Any]:
+    """The SceneConfig fields the scene flags give (options still as `--option` pairs)."""
+    categories = _given(given, "categories")
     names = None if categories is None else tuple(c.strip() for c in categories.split(",") if c.strip())
     if names == ():
         raise fail(
             "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
         )
-    given: dict[str, Any] = {
-        "layout": layout,
-        "seed": seed,
-        "objects": objects,
-        "categories": names,
-        "options": options or None,
-        "width": width,
-        "height": height,
-        "profile": profile,
+    fields = {
+        name: _given(given, name) for name in ("layout", "seed", "objects", "width", "height", "profile")
     }
-    if world_noise is not None:
+    fields["categories"] = names
+    if _given(given, "world_noise") is not None:
         from attribot.noise import world_noise as parse_world_noise
 
-        given["noise"] = parse_world_noise(world_noise, seed or 0)
-    fields = {k: v for k, v in given.items() if v is not None}
-    return SceneConfig.create(**fields) if fields else None
+        fields["noise"] = parse_world_noise(given.world_noise, _given(given, "seed") or 0)
+    return {k: v for k, v in fields.items() if v is not None}
+
+
+def _scene_config(given: Any) -> Any:
+    """The `SceneConfig` of the scene flags, or None when no flag was given."""
+    from attribot.config import SceneConfig
+
+    fields = _scene_fields(given)
+    options = _layout_options(_given(given, "option"))
+    if options:
+        fields["options"] = options
+    return SceneConfig.create(naming=_naming(), **fields) if fields else None
 
 
 def _scene_world(config: Any) -> Any:
@@ -167,18 +306,12 @@ def _scene_world(config: Any) -> Any:
     return MujocoWorld(config or SceneConfig())
 
 
-@scene_app.command("render")
+@scene_app.command("render", cls=_Command)
+@_with_flags(SCENE_FLAGS[:8])
 def scene_render(
-    out: Path = typer.Option(..., "--out", help="Image file to write (.png or .jpg)."),
+    out: Path = typer.Option(..., "--out", metavar="FILE", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
-    layout: str | None = _S_LAYOUT,
-    seed: int | None = _S_SEED,
-    objects: int | None = _S_OBJECTS,
-    categories: str | None = _S_CATEGORIES,
-    option: list[str] | None = _S_OPTION,
-    width: int | None = _S_WIDTH,
-    height: int | None = _S_HEIGHT,
-    profile: str | None = _S_PROFILE,
+    given: Any = None,
 ) -> None:
     """Write the robot camera's view of a scene to an image file."""
     import io
@@ -196,8 +329,7 @@ def scene_render(
     if out.is_dir():
         raise fail(f"--out {str(out)!r} is a folder", "give a file name, e.g. --out scene.png")
     check_writable(out.parent, f"--out {str(out)!r}", "write the image elsewhere, e.g. --out scene.png")
-    config = _scene_config(layout, seed, objects, categories, option, width, height, profile)
-    with _scene_world(config) as world:
+    with _scene_world(_scene_config(given)) as world:
         frame = world.observe()
         rgb = frame.rgb
         if boxes:
@@ -211,70 +343,16 @@ def scene_render(
     typer.echo(str(out))
 
 
-@scene_app.command("info")
-def scene_info(
-    layout: str | None = _S_LAYOUT,
-    seed: int | None = _S_SEED,
-    objects: int | None = _S_OBJECTS,
-    categories: str | None = _S_CATEGORIES,
-    option: list[str] | None = _S_OPTION,
-    width: int | None = _S_WIDTH,
-    height: int | None = _S_HEIGHT,
-) -> None:
+@scene_app.command("info", cls=_Command)
+@_with_flags(SCENE_FLAGS[:7])
+def scene_info(given: Any = None) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
-    config = _scene_config(layout, seed, objects, categories, option, width, height, None)
-    with _scene_world(config) as world:
+    with _scene_world(_scene_config(given)) as world:
         info = world.scene_info()
     typer.echo(info.model_dump_json(indent=2))
 
 
 # ---- ask / exec (planner, runner, API) ---------------------------------------------------------------
-
-_WORLD = typer.Option(
-    None,
-    "--world",
-    help="World to ask in: mujoco (the embedded scene, default), ai2thor or bridge (a robot).",
-)
-_BRIDGE_URL = typer.Option(
-    None,
-    "--bridge-url",
-    help="With --world bridge: the robot's tcp://HOST:PORT; the token comes from ATTRIBOT_BRIDGE_TOKEN.",
-)
-_IMAGE = typer.Option(None, "--image", help="Answer about this image file instead of a simulated scene.")
-_SENSORS = typer.Option(
-    None,
-    "--sensors",
-    help="Comma-separated robot sensors: camera,distance,force (default: all the world has).",
-)
-_JSON = typer.Option(False, "--json", help="Print the whole answer as JSON.")
-_CONTROLLER = typer.Option(
-    None,
-    "--controller",
-    help="Robot controller: the world's own (default; in MuJoCo 'servo', which acts on what the camera and "
-    "sensors perceive) or 'privileged' (MuJoCo only: reads the simulator's state to move and grasp, to "
-    "compare against).",
-)
-_SAVE = typer.Option(None, "--save", help="Write answer.json, program.py, settings.json and answer.png here.")
-_PLANNER = typer.Option(None, "--planner", help="rules (offline, default) or llm.")
-_WORLD_NOISE = typer.Option(
-    None,
-    "--world-noise",
-    help="Imperfect sensing and acting in the simulator, seeded: a preset (clean, sensing, acting, "
-    "realistic) and/or KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise).",
-)
-_CHECKS = typer.Option(
-    None,
-    "--checks",
-    help="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
-    "remeasure, confidence, reset); all,-NAME leaves one out.",
-)
-_LLM_BASE_URL = typer.Option(None, "--llm-base-url", help="OpenAI-compatible endpoint.")
-_LLM_MODEL = typer.Option(None, "--llm-model", help="Model name at that endpoint.")
-_DETECTOR = typer.Option(None, "--detector", help="Detector backend spec (oracle, hf:MODEL, remote:URL).")
-_VQA = typer.Option(None, "--vqa", help="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
-_LANGUAGE = typer.Option(
-    None, "--language", help="Language backend spec (catalog, openai:MODEL, remote:URL)."
-)
 
 
 def _checks(spec: str | None) -> str | None:
@@ -293,24 +371,103 @@ def _prefetch_rendering() -> None:
     prefetch_gl_backend()
 
 
-def _scene(
-    config: Any,
-    image: Path | None,
-    sensors: str | None,
-    controller: str | None = None,
-    world: str | None = None,
-    bridge_url: str | None = None,
-) -> Any:
-    """The world to ask in; called first, so that the OpenGL probe overlaps the slow imports."""
-    world, config = _world_choice(config, image, world, bridge_url)
-    if image is None and world == "mujoco":
+def _scene(given: Any) -> Any:
+    """The world to ask in, from the scene and world flags; called first, so that the OpenGL probe overlaps
+    the slow imports."""
+    image = _given(given, "image")
+    name = _world_name(given)
+    config = None if image is not None else _world_config(name, given)
+    if image is None and name == "mujoco":
         _prefetch_rendering()
-    from attribot.planning.ask import Scene
+    from attribot.session import Scene
 
+    sensors = _given(given, "sensors")
     names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
-    if controller is not None and image is not None:
+    if names == []:
+        raise fail("no sensor named: --sensors is empty", "name at least one, e.g. --sensors camera")
+    if _given(given, "controller") is not None and image is not None:
         raise fail("--controller acts in a world, and --image is a still image", "drop one of the two")
-    return Scene(config=config, image=image, sensors=names, controller=controller, world=world)
+    if image is not None and (_scene_fields(given) or _given(given, "option")):
+        raise fail(
+            "a query runs either on an image or in a generated scene, not both",
+            "drop --image, or drop the scene options (--layout, --seed, --objects, ...)",
+        )
+    if image is not None:
+        _check_image_file(image)
+        return Scene(image=image, sensors=names)
+    return Scene(config=config, world=name, sensors=names, controller=_given(given, "controller"))
+
+
+def _check_image_file(image: Path) -> None:
+    """A missing image is said as such, with its path, before any detector is looked at."""
+    from attribot.files import check_regular_file
+
+    if not image.exists():
+        raise fail(f"no such file: {str(image)!r} (--image)", "give the path of a PNG or JPEG file")
+    check_regular_file(image, "--image", "give the path of a PNG or JPEG file")
+
+
+def _world_name(given: Any) -> str:
+    """The world the flags choose (--world, or bridge when only --bridge-url is given), checked."""
+    from attribot.config import WORLD_CONFIGS
+
+    world, url = _given(given, "world"), _given(given, "bridge_url")
+    name = world or ("bridge" if url else "mujoco")
+    if name not in WORLD_CONFIGS:
+        raise fail(
+            f"--world {name!r} is not a world here", f"choose --world {' or '.join(WORLD_CONFIGS.names())}"
+        )
+    if _given(given, "image") is not None and (world is not None or url is not None):
+        raise fail(
+            f"{'--world' if world else '--bridge-url'} and --image cannot be given together",
+            "drop one: --image answers about a still image",
+        )
+    if url is not None and name != "bridge":
+        raise fail(
+            f"--bridge-url only applies to --world bridge, not {name}", "add --world bridge or drop it"
+        )
+    return name
+
+
+def _world_config(name: str, given: Any) -> Any:
+    """The typed config of world `name` from the flags: the scene flags for MuJoCo; for another world,
+    the flags and `--option` pairs its config has (and an error naming those it has not)."""
+    from attribot.config import WORLD_CONFIGS, SceneConfig
+
+    kind: Any = WORLD_CONFIGS.get(name)
+    if kind is SceneConfig:
+        return _scene_config(given)
+    fields = {**_scene_fields(given), **_layout_options(_given(given, "option"))}
+    if _given(given, "bridge_url") is not None:
+        fields["url"] = given.bridge_url
+    if "noise" in fields:
+        raise fail(
+            f"--world-noise makes the simulator imperfect, and --world {name} is not the simulator",
+            "drop --world-noise (a real robot brings its own), or use --world mujoco",
+        )
+    unknown = [field for field in fields if field not in kind.model_fields]
+    if unknown:
+        raise fail(
+            f"{', '.join(_flag_name(f).rstrip('=') for f in unknown)} does not apply to --world {name}",
+            f"its settings are: {', '.join(_flag_name(f).rstrip('=') for f in kind.model_fields)}",
+        )
+    required = [f for f, info in kind.model_fields.items() if info.is_required() and f not in fields]
+    if required:
+        raise fail(
+            f"--world {name} needs {', '.join(_flag_name(f).rstrip('=') for f in required)}",
+            "give it, e.g. " + ", ".join(_flag_example(f, "...") for f in required),
+        )
+    return kind.create(naming=_naming(), **fields)
+
+
+def _settings(given: Any) -> Any:
+    """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
+    from attribot.config import load_settings
+
+    names = ("detector", "vqa", "language", "planner", "llm_base_url", "llm_model")
+    return load_settings(
+        naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
+    )
 
 
 @contextlib.contextmanager
@@ -349,39 +506,9 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
     typer.echo(terminal_json(answer.model_dump_json(indent=2)))
 
 
-def _world_choice(
-    config: Any, image: Path | None, world: str | None, bridge_url: str | None
-) -> tuple[str, Any]:
-    """The world name and its config; `--bridge-url` rides in the config's options (`bridge_url`)."""
-    name = world or ("bridge" if bridge_url else "mujoco")
-    if name not in ("mujoco", "ai2thor", "bridge"):
-        raise fail(f"--world {name!r} is not a world here", "choose --world mujoco, ai2thor or bridge")
-    if image is not None and world is not None:
-        raise fail(
-            "--world and --image cannot be given together", "drop one: --image answers about a still image"
-        )
-    if config is not None and not config.noise.clean and name != "mujoco":
-        raise fail(
-            f"--world-noise makes the simulator imperfect, and --world {name} is not the simulator",
-            "drop --world-noise (a real robot brings its own), or use --world mujoco",
-        )
-    if bridge_url is not None and name != "bridge":
-        raise fail(
-            f"--bridge-url only applies to --world bridge, not {name}", "add --world bridge or drop it"
-        )
-    if name == "bridge":
-        if not bridge_url:
-            raise fail("--world bridge needs --bridge-url", "give --bridge-url tcp://HOST:PORT of the robot")
-        from attribot.config import SceneConfig
-
-        base = config or SceneConfig()
-        config = base.model_copy(update={"options": {**base.options, "bridge_url": bridge_url}})
-    return name, config
-
-
 def _show(answer: Any, as_json: bool) -> None:
-    """Print an answer; what a program made (answer text, error message) cannot act on the terminal: its
-    control characters are shown as escapes (JSON escapes those JSON leaves as they are)."""
+    """Print an answer; what a program made (answer text, output, error message) cannot act on the
+    terminal: its control characters are shown as escapes (JSON escapes those JSON leaves as they are)."""
     from attribot.text import terminal_json, visible
 
     if as_json:
@@ -397,15 +524,12 @@ def _show(answer: Any, as_json: bool) -> None:
                 f"{escape(visible(answer.error.message))}",
                 highlight=False,
             )
-        if answer.checks:
-            tally: dict[str, dict[str, int]] = {}
-            for c in answer.checks:
-                outcomes = tally.setdefault(c["mechanism"], {})
-                outcomes[c["outcome"]] = outcomes.get(c["outcome"], 0) + 1
-            shown = "; ".join(
-                f"{m} " + ", ".join(f"{n} {o}" for o, n in sorted(outs.items())) for m, outs in tally.items()
+        if answer.output.strip():
+            out.print(
+                f"[dim]the program printed:[/]\n{escape(visible(answer.output.rstrip()))}", highlight=False
             )
-            out.print(f"[dim]checks: {escape(shown)}[/]", highlight=False)
+        if answer.checks:
+            out.print(f"[dim]checks: {escape(_tally(answer.checks))}[/]", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
         out.print(
             f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
@@ -416,104 +540,120 @@ def _show(answer: Any, as_json: bool) -> None:
         raise typer.Exit(1)
 
 
-@app.command()
+def _tally(checks: list[dict[str, Any]]) -> str:
+    """The checks log in one line: each mechanism with the count of each outcome."""
+    tally: dict[str, dict[str, int]] = {}
+    for c in checks:
+        outcomes = tally.setdefault(c["mechanism"], {})
+        outcomes[c["outcome"]] = outcomes.get(c["outcome"], 0) + 1
+    return "; ".join(
+        f"{m} " + ", ".join(f"{n} {o}" for o, n in sorted(outs.items())) for m, outs in tally.items()
+    )
+
+
+@app.command(cls=_Command)
+@_with_flags(SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, PLANNER_FLAGS, OUTPUT_FLAGS)
 def ask(
-    query: str = typer.Argument(..., help='The question, e.g. "Which object is the heaviest?"'),
-    layout: str | None = _S_LAYOUT,
-    seed: int | None = _S_SEED,
-    objects: int | None = _S_OBJECTS,
-    categories: str | None = _S_CATEGORIES,
-    option: list[str] | None = _S_OPTION,
-    width: int | None = _S_WIDTH,
-    height: int | None = _S_HEIGHT,
-    profile: str | None = _S_PROFILE,
-    world_noise: str | None = _WORLD_NOISE,
-    image: Path | None = _IMAGE,
-    sensors: str | None = _SENSORS,
-    controller: str | None = _CONTROLLER,
-    world: str | None = _WORLD,
-    bridge_url: str | None = _BRIDGE_URL,
-    checks: str | None = _CHECKS,
-    planner: str | None = _PLANNER,
-    llm_base_url: str | None = _LLM_BASE_URL,
-    llm_model: str | None = _LLM_MODEL,
-    detector: str | None = _DETECTOR,
-    vqa: str | None = _VQA,
-    language: str | None = _LANGUAGE,
-    as_json: bool = _JSON,
-    save: Path | None = _SAVE,
+    query: str = typer.Argument(
+        ..., metavar="QUERY", help='The question, e.g. "Which object is the heaviest?"'
+    ),
+    given: Any = None,
 ) -> None:
     """Answer a query: plan a program, run it in the sandbox against the world, print the answer."""
-    with _errors_as_json(as_json, query, planner or "rules"):
-        config = _scene_config(layout, seed, objects, categories, option, width, height, profile, world_noise)
-        scene = _scene(config, image, sensors, controller, world, bridge_url)
-        from attribot.config import load_settings
-        from attribot.planning.ask import ask as run_ask
+    with _errors_as_json(given.as_json, query, given.planner or "rules"):
+        scene = _scene(given)
+        from attribot.session import ask as run_ask
 
-        settings = load_settings(
-            checks=_checks(checks),
-            planner=planner,
-            llm_base_url=llm_base_url,
-            llm_model=llm_model,
-            detector=detector,
-            vqa=vqa,
-            language=language,
-        )
-        answer = run_ask(query, scene, settings, save_dir=save)
-    _show(answer, as_json)
+        answer = run_ask(query, scene, _settings(given), save_dir=given.save)
+    _show(answer, given.as_json)
 
 
-@app.command("exec")
+_REPLAY_KEPT = ("as_json", "save")  # flags that a replay takes: where its answer goes, not what it does
+
+
+@app.command("exec", cls=_Command)
+@_with_flags(SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, OUTPUT_FLAGS)
 def exec_program(
-    program: Path = typer.Argument(..., help="A .py file defining execute_command(image, robot)."),
-    layout: str | None = _S_LAYOUT,
-    seed: int | None = _S_SEED,
-    objects: int | None = _S_OBJECTS,
-    categories: str | None = _S_CATEGORIES,
-    option: list[str] | None = _S_OPTION,
-    width: int | None = _S_WIDTH,
-    height: int | None = _S_HEIGHT,
-    profile: str | None = _S_PROFILE,
-    world_noise: str | None = _WORLD_NOISE,
-    image: Path | None = _IMAGE,
-    sensors: str | None = _SENSORS,
-    controller: str | None = _CONTROLLER,
-    world: str | None = _WORLD,
-    bridge_url: str | None = _BRIDGE_URL,
-    checks: str | None = _CHECKS,
-    query: str = typer.Option("", "--query", help="The question the program answers (recorded only)."),
-    detector: str | None = _DETECTOR,
-    vqa: str | None = _VQA,
-    language: str | None = _LANGUAGE,
-    as_json: bool = _JSON,
-    save: Path | None = _SAVE,
+    program: Path = typer.Argument(
+        ...,
+        metavar="PROGRAM",
+        help="A .py file defining "
+        "execute_command(image, robot), or a folder written by --save, which is "
+        "replayed as it was saved.",
+    ),  # fmt: skip
+    query: str = typer.Option(
+        "", "--query", metavar="TEXT", help="The question the program answers (recorded only)."
+    ),  # fmt: skip
+    given: Any = None,
 ) -> None:
-    """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one."""
+    """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one. A
+    --save folder (or its program.py, with no scene flags) runs with the scene and settings saved there."""
+    from attribot.session import RUN_FILE
+
+    with _errors_as_json(given.as_json, query, "file"):
+        flags = [
+            name for name, value in vars(given).items() if name not in _REPLAY_KEPT and value is not None
+        ]
+        if program.is_dir():
+            from attribot.session import load_saved
+
+            load_saved(program)  # a folder that is no saved run says what it lacks, before the flags
+            if flags:
+                shown = ", ".join(_flag_name(n) for n in flags)
+                raise fail(
+                    f"{shown}: a saved folder replays exactly as it was saved",
+                    "drop them, or run its program elsewhere: "
+                    f"attribot exec {program / 'program.py'} {shown} ...",
+                )
+            from attribot.session import replay
+
+            answer = replay(program, save_dir=given.save)
+        elif not flags and (program.parent / RUN_FILE).is_file():
+            err_console.print(
+                f"[dim]running in the scene saved beside it ({program.parent / RUN_FILE}); scene flags "
+                "run it elsewhere[/]",
+                highlight=False,
+            )
+            answer = _saved_scene_run(program, query, given.save)
+        else:
+            answer = _file_run(program, query, given)
+    _show(answer, given.as_json)
+
+
+def _read_program(program: Path) -> str:
     from attribot.errors import InputError
     from attribot.files import check_regular_file
 
-    with _errors_as_json(as_json, query, "file"):
-        config = _scene_config(layout, seed, objects, categories, option, width, height, profile, world_noise)
-        scene = _scene(config, image, sensors, controller, world, bridge_url)
-        from attribot.config import load_settings
-        from attribot.planning.ask import execute
+    check_regular_file(program, "program file", "give the path of a .py file, or a folder written by --save")
+    try:
+        return program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(
+            f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
+            "save it as UTF-8",
+        ) from None
 
-        check_regular_file(program, "program file", "give the path of a .py file")
-        try:
-            source = program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(
-                f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
-                "save it as UTF-8",
-            ) from None
-        settings = load_settings(detector=detector, vqa=vqa, language=language, checks=_checks(checks))
-        answer = execute(source, scene, settings, query=query, save_dir=save)
-    _show(answer, as_json)
+
+def _file_run(program: Path, query: str, given: Any) -> Any:
+    scene = _scene(given)
+    from attribot.session import run_program
+
+    source = _read_program(program)
+    return run_program(source, scene, _settings(given), query=query, save_dir=given.save)
+
+
+def _saved_scene_run(program: Path, query: str, save: Path | None) -> Any:
+    from attribot.session import load_saved, run_program
+
+    _, scene, settings, saved_query = load_saved(program.parent)
+    source = _read_program(program)
+    return run_program(source, scene, settings, query=query or saved_query, save_dir=save, planner="replay")
 
 
 # ---- evaluation: datasets, runs, reports --------------------------------------------------------------
 
 dataset_app = typer.Typer(
+    cls=_Group,
     help="Evaluation datasets: `attribot dataset build --suite paper --out DIR`, `attribot dataset show`.",
     no_args_is_help=True,
 )
@@ -552,7 +692,7 @@ def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     return chosen
 
 
-@dataset_app.command("build")
+@dataset_app.command("build", cls=_Command)
 def dataset_build(
     out: Path = typer.Option(..., "--out", help="Folder for manifest.jsonl, dataset.json and images/."),
     suite: str = _SUITE,
@@ -582,13 +722,19 @@ def dataset_build(
     console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
 
 
-@dataset_app.command("show")
+@dataset_app.command("show", cls=_Command)
 def dataset_show(
     folder: Path = typer.Argument(..., help="A dataset folder (or a run folder's dataset/)."),
     item_id: str = typer.Argument(..., help="The item's id, e.g. weight_embodied-003."),
-    out: Path | None = typer.Option(None, "--out", help="Where to write the image with the true box."),
+    out: Path | None = typer.Option(
+        None,
+        "--out",
+        metavar="PATH",
+        help="Where to write the image with the true box: a .png file, or a folder (default: the dataset's "
+        "shown/ folder).",
+    ),
 ) -> None:
-    """Print one item and write its image with the true box drawn."""
+    """Print one item as JSON and write its image with the true box drawn (the path goes to stderr)."""
     from attribot.errors import UnknownName
     from attribot.eval.datasets import read_dataset
 
@@ -605,15 +751,31 @@ def dataset_show(
     if image.is_file():
         from PIL import Image, ImageDraw
 
-        target = out or Path(f"{item_id}.png")
+        target = _shown_path(out, folder, item_id)
         _writable_folder(target.parent, "--out")
         img = Image.open(image).convert("RGB")
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
         img.save(target)
-        console.print(f"image with the true box -> {target}", highlight=False)
+        err_console.print(f"image with the true box -> {target}", highlight=False)
 
 
-@app.command("eval")
+def _shown_path(out: Path | None, dataset: Path, item_id: str) -> Path:
+    """Where `dataset show` writes: the file `--out` names, into the folder it names, or the dataset's
+    shown/ folder; never into the current folder unasked."""
+    if out is None:
+        return dataset / "shown" / f"{item_id}.png"
+    if out.is_dir() or not out.suffix:
+        return out / f"{item_id}.png"
+    if out.suffix.lower() != ".png":
+        raise fail(
+            f"--out {str(out)!r}: the image is a PNG",
+            f"give a .png file or a folder, e.g. --out {item_id}.png",
+        )
+    return out
+
+
+@app.command("eval", cls=_Command)
+@_with_flags(PLANNER_FLAGS, BACKEND_FLAGS[:3])
 def evaluate(
     out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
     suite: str = _SUITE,
@@ -644,17 +806,11 @@ def evaluate(
         help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
         "generating them.",
     ),
-    planner: str | None = _PLANNER,
-    llm_base_url: str | None = _LLM_BASE_URL,
-    llm_model: str | None = _LLM_MODEL,
-    detector: str | None = _DETECTOR,
-    vqa: str | None = _VQA,
-    language: str | None = _LANGUAGE,
+    given: Any = None,
 ) -> None:
     """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from attribot.config import load_settings
     from attribot.eval.methods import ablations
     from attribot.eval.run import EvalPlan, run_eval
 
@@ -664,14 +820,7 @@ def evaluate(
         noise=tuple(n.strip() for n in noise.split(",") if n.strip()) + (ablations() if ablation else ()),
         limit=limit,
     )
-    settings = load_settings(
-        planner=planner,
-        llm_base_url=llm_base_url,
-        llm_model=llm_model,
-        detector=detector,
-        vqa=vqa,
-        language=language,
-    )
+    settings = _settings(given)
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -705,7 +854,7 @@ def evaluate(
     )
 
 
-@app.command("report")
+@app.command("report", cls=_Command)
 def report(
     run: Path = typer.Argument(..., help="A run folder written by attribot eval."),
     out: Path | None = typer.Option(None, "--out", help="The HTML file (default: RUN/report.html)."),
@@ -725,7 +874,7 @@ def report(
 # ---- backends (model configuration) ------------------------------------------------------------------
 
 
-@app.command()
+@app.command(cls=_Command)
 def backends(
     as_json: bool = typer.Option(False, "--json", help="Print the statuses as JSON."),
     strict: bool = typer.Option(False, "--strict", help="Exit 1 when a configured backend is unavailable."),
@@ -791,11 +940,13 @@ def _planner_status(settings: Any, record: Any) -> Any:
 
 # ---- serve (remote model server) ---------------------------------------------------------------------
 
-serve_app = typer.Typer(help="Run servers: `attribot serve models` (the model server).", no_args_is_help=True)
+serve_app = typer.Typer(
+    cls=_Group, help="Run servers: `attribot serve models` (the model server).", no_args_is_help=True
+)
 app.add_typer(serve_app, name="serve")
 
 
-@serve_app.command("models")
+@serve_app.command("models", cls=_Command)
 def serve_models(
     host: str = typer.Option(
         "127.0.0.1", "--host", help="Address to listen on (127.0.0.1: reach it by SSH tunnel)."
@@ -883,29 +1034,27 @@ def serve_models(
 # ---- bridge (the robot side of the robot bridge) -----------------------------------------------------
 
 bridge_app = typer.Typer(
+    cls=_Group,
     help="The robot bridge: `attribot bridge serve` on the robot (see docs/bridge-protocol.md).",
     no_args_is_help=True,
 )
 app.add_typer(bridge_app, name="bridge")
 
 
-@bridge_app.command("serve")
+@bridge_app.command("serve", cls=_Command)
+@_with_flags(tuple(SCENE_FLAGS[i] for i in (0, 1, 4, 5, 6)))
 def bridge_serve(
     driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
     token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),
     port: int = typer.Option(7777, "--port", help="TCP port to listen on."),
     host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface)."),
-    layout: str | None = _S_LAYOUT,
-    seed: int | None = _S_SEED,
-    option: list[str] | None = _S_OPTION,
-    width: int | None = _S_WIDTH,
-    height: int | None = _S_HEIGHT,
     max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s."),
     max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s."),
     max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2."),
     watchdog: float = typer.Option(
         0.5, "--watchdog", help="Stop base and arm after this many s without a command."
     ),
+    given: Any = None,
 ) -> None:
     """Serve a robot (or the embedded world) to `attribot ask --world bridge` until interrupted."""
     import logging
@@ -918,15 +1067,14 @@ def bridge_serve(
     except ValueError as exc:
         raise fail(str(exc), "give positive limits, e.g. --watchdog 0.5") from None
     if driver == "mujoco":
-        config = _scene_config(layout, seed, None, None, option, width, height, None)
-        world = _scene_world(config)
+        world = _scene_world(_scene_config(given))
         from attribot.embodiments.bridge import EmbodimentDriver
 
         robot: Any = EmbodimentDriver(world)
     elif driver == "robomaster":
         from attribot.bridge.robomaster import RoboMasterDriver, driver_options
 
-        raw = {k: v for item in option or [] for k, _, v in [item.partition("=")]}
+        raw = {k: v for item in given.option or [] for k, _, v in [item.partition("=")]}
         try:
             kwargs = driver_options(raw)
         except ValueError as exc:

@@ -5,12 +5,19 @@ The file is `./attribot.toml`, or the path in `ATTRIBOT_CONFIG`. Nothing is read
 `load_settings()` when a command starts. Every run saves the resolved settings beside its results.
 
 `SceneConfig` is the one description of a simulated scene (layout, seed, objects, options, camera size,
-render profile): the CLI builds it from its flags, datasets store it, and the worlds are built from it.
+render profile): the CLI builds it from its flags, datasets store it, and the MuJoCo world is built from it.
+Every world has one typed config, registered in `WORLD_CONFIGS` under the world's name (mujoco:
+`SceneConfig`, bridge: `BridgeConfig`, ai2thor: `Ai2ThorConfig`); the world of the same name in
+`attribot.embodiments.base.EMBODIMENTS` is built from it.
+
+Errors name a field as the caller spells it: `create(..., naming=...)` takes a `FieldNaming` (the CLI's
+names its flags, the Python API's its keywords), so that no flag name lives here.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -25,12 +32,18 @@ from pydantic_settings import (
 from attribot.errors import ConfigError, InputError
 from attribot.files import not_a_file
 from attribot.noise import WorldNoise
+from attribot.registry import Registry
 
 __all__ = [
     "Settings",
     "load_settings",
     "config_path",
     "SceneConfig",
+    "BridgeConfig",
+    "Ai2ThorConfig",
+    "WORLD_CONFIGS",
+    "FieldNaming",
+    "KEYWORDS",
     "MAX_OBJECTS",
     "MAX_QUERY_CHARS",
     "MAX_SEED",
@@ -124,11 +137,12 @@ def config_path() -> Path | None:
     return path
 
 
-def load_settings(**overrides: Any) -> Settings:
+def load_settings(naming: FieldNaming | None = None, **overrides: Any) -> Settings:
     """Settings from file and environment; keyword arguments (CLI flags) win over both.
 
     A file that is not UTF-8 TOML, an unknown key or a bad value is a `ConfigError` that names the
-    setting and where it came from (the flag, the ATTRIBOT_* variable or the file)."""
+    setting and where it came from (the given value as `naming` spells it, the ATTRIBOT_* variable or the
+    file)."""
     given = {k: v for k, v in overrides.items() if v is not None}
     path = config_path()
     if path is not None:
@@ -140,7 +154,7 @@ def load_settings(**overrides: Any) -> Settings:
         name = ".".join(str(p) for p in first.get("loc", ())) or "settings"
         env = f"ATTRIBOT_{name.upper()}"
         if name in given:
-            source = f"--{name.replace('_', '-')}"
+            source = (naming or KEYWORDS).name(name)
         elif any(k.upper() == env for k in os.environ):
             source = f"the environment variable {env}"
         else:
@@ -183,6 +197,18 @@ def _check_toml(path: Path) -> None:
         ) from None
 
 
+class FieldNaming:
+    """How a caller spells a config field in messages: `name("seed")` is "seed=" for the Python API;
+    the CLI passes one that gives its flags ("--seed"). `example(field, value)` is "seed=7" or "--seed 7"."""
+
+    def __init__(self, name: Callable[[str], str], example: Callable[[str, str], str]) -> None:
+        self.name = name
+        self.example = example
+
+
+KEYWORDS = FieldNaming(lambda field: f"{field}=", lambda field, value: f"{field}={value}")
+"""Fields named as Python keywords: what `attribot.ask(..., seed=7)` and the configs take."""
+
 OptionValue = str | int | float | bool
 
 
@@ -218,20 +244,10 @@ class SceneConfig(BaseModel):
         return value
 
     @classmethod
-    def create(cls, **fields: Any) -> SceneConfig:
-        """A validated config; a bad field raises `InputError` naming it, its limits and the fix."""
-        try:
-            return cls(**fields)
-        except ValidationError as exc:
-            first = exc.errors()[0]
-            name = ".".join(str(p) for p in first.get("loc", ())) or "scene"
-            value = first.get("input")
-            flag = _SCENE_FLAGS.get(name.split(".")[0])
-            raise InputError(
-                f"scene setting {name}{f' ({flag})' if flag else ''} = {value!r} is not valid: "
-                f"{first.get('msg', 'invalid')}",
-                _SCENE_FIXES.get(name.split(".")[0], "see `attribot scene render --help`"),
-            ) from None
+    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> SceneConfig:
+        """A validated config; a bad field raises `InputError` naming it (as `naming` spells it), its
+        limits and the fix."""
+        return _create(cls, "scene", naming, fields)
 
     def describe(self) -> dict[str, Any]:
         """The fields that differ from the defaults, always with layout and seed: what answers record."""
@@ -239,25 +255,87 @@ class SceneConfig(BaseModel):
         return {"layout": self.layout, "seed": self.seed, **data}
 
 
-_SCENE_FLAGS = {
-    "layout": "--layout",
-    "seed": "--seed",
-    "objects": "--objects",
-    "categories": "--categories",
-    "options": "--option",
-    "width": "--width",
-    "height": "--height",
-    "profile": "--profile",
-    "noise": "--world-noise",
-}
-_SCENE_FIXES = {
-    "seed": f"give a whole number from 0 to {MAX_SEED}, e.g. --seed 7",
-    "objects": "ask for at least 1 object (each layout has its own range), e.g. --objects 4",
-    "width": "give a width and height from 16 to 4096 pixels",
-    "height": "give a width and height from 16 to 4096 pixels",
-    "profile": f"choose one of: {', '.join(RENDER_PROFILES)}",
-    "force_noise_std": "give a finite standard deviation >= 0 N",
-    "options": "write layout options as KEY=VALUE, e.g. --option pattern=grid",
-    "noise": "give --world-noise a preset (clean, realistic, sensing, acting) or KEY=VALUE pairs",
-    "categories": "name categories from `attribot scene info` or the catalog, e.g. mug,apple",
+class BridgeConfig(BaseModel):
+    """A robot behind `attribot bridge serve`: its address `url` (tcp://HOST:PORT) and the time-out of
+    one request. The shared token is never part of a config (it comes from ATTRIBOT_BRIDGE_TOKEN), so a
+    saved run holds no secret."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    url: str = Field(pattern=r"^tcp://[^:/]+:\d+$")
+    timeout_s: float = Field(10.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
+
+    @classmethod
+    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> BridgeConfig:
+        return _create(cls, "bridge", naming, fields)
+
+    def describe(self) -> dict[str, Any]:
+        return {"url": self.url, **self.model_dump(mode="json", exclude_defaults=True, exclude={"url"})}
+
+
+class Ai2ThorConfig(BaseModel):
+    """An AI2-THOR scene: its name (FloorPlan1 to FloorPlan430), camera pixels and field of view."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    scene: str = "FloorPlan1"
+    width: int = Field(640, ge=16, le=4096, strict=True)
+    height: int = Field(480, ge=16, le=4096, strict=True)
+    fov_deg: float = Field(90.0, gt=0, lt=180, allow_inf_nan=False)
+
+    @classmethod
+    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> Ai2ThorConfig:
+        return _create(cls, "ai2thor", naming, fields)
+
+    def describe(self) -> dict[str, Any]:
+        return {"scene": self.scene, **self.model_dump(mode="json", exclude_defaults=True)}
+
+
+WorldConfig = SceneConfig | BridgeConfig | Ai2ThorConfig
+WORLD_CONFIGS: Registry[type[BaseModel]] = Registry("world")
+"""The typed config of each world, under the world's name (the same names as `EMBODIMENTS`)."""
+WORLD_CONFIGS.register("mujoco", aliases=("sim",))(SceneConfig)
+WORLD_CONFIGS.register("bridge")(BridgeConfig)
+WORLD_CONFIGS.register("ai2thor")(Ai2ThorConfig)
+
+
+def _create(cls: Any, what: str, naming: FieldNaming | None, fields: dict[str, Any]) -> Any:
+    """`cls(**fields)`, a bad field an `InputError` naming it as `naming` spells it, and the fix."""
+    naming = naming or KEYWORDS
+    try:
+        return cls(**fields)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        name = ".".join(str(p) for p in first.get("loc", ())) or what
+        field = name.split(".")[0]
+        value = first.get("input")
+        shown = naming.name(field) if field in cls.model_fields else name
+        fix = _FIXES.get(field)
+        raise InputError(
+            f"{what} setting {name} ({shown}) = {value!r} is not valid: {first.get('msg', 'invalid')}",
+            fix(naming) if fix else f"the {what} settings are: {', '.join(cls.model_fields)}",
+        ) from None
+
+
+_FIXES: dict[str, Callable[[FieldNaming], str]] = {
+    "seed": lambda n: f"give a whole number from 0 to {MAX_SEED}, e.g. {n.example('seed', '7')}",
+    "objects": lambda n: (
+        "ask for at least 1 object (each layout has its own range), e.g. " + n.example("objects", "4")
+    ),
+    "width": lambda n: "give a width and height from 16 to 4096 pixels",
+    "height": lambda n: "give a width and height from 16 to 4096 pixels",
+    "profile": lambda n: f"choose one of: {', '.join(RENDER_PROFILES)}",
+    "force_noise_std": lambda n: "give a finite standard deviation >= 0 N",
+    "options": lambda n: f"write layout options as KEY=VALUE, e.g. {n.example('options', 'pattern=grid')}",
+    "noise": lambda n: (
+        f"give {n.name('noise')} a preset (clean, realistic, sensing, acting) or KEY=VALUE pairs"
+    ),
+    "categories": lambda n: (
+        "name categories from `attribot scene info` or the catalog, e.g. "
+        + n.example("categories", "mug,apple")
+    ),
+    "url": lambda n: f"give the robot's address, e.g. {n.example('url', 'tcp://192.168.2.1:7777')}",
+    "timeout_s": lambda n: "give a time-out in seconds, more than 0",
+    "scene": lambda n: f"name an AI2-THOR scene, e.g. {n.example('scene', 'FloorPlan1')}",
+    "fov_deg": lambda n: "give a field of view between 0 and 180 degrees",
 }

@@ -14,7 +14,13 @@ __all__ = [
 
 
 class AttribotError(Exception):
-    """Base class: a message for a person, and an optional line that says how to fix it."""
+    """Base class: a message for a person, and an optional line that says how to fix it.
+
+    `recoverable`: the error of an action or measurement that ran and failed in the world (a grasp that
+    closed on nothing, a rangefinder that saw nothing in range), which a program may catch and carry on
+    after; every other error is the program's to fix."""
+
+    recoverable = False
 
     def __init__(self, message: str, fix: str | None = None) -> None:
         self.message = message

@@ -1,4 +1,5 @@
-"""Errors raised inside API methods. The runner reports every one as category "api" with its message."""
+"""Errors raised inside API methods. The runner reports every one as category "api" with its message; a
+program may catch the recoverable ones (`ActionFailed` and a controller's failed motion) as `ActionFailed`."""
 
 from __future__ import annotations
 
@@ -25,3 +26,5 @@ class PreconditionError(ApiError):
 
 class ActionFailed(ApiError):
     """A sensor or action ran and gave no usable result (the rangefinder saw nothing in range)."""
+
+    recoverable = True

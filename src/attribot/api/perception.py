@@ -5,11 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from attribot.errors import ConfigError
+from attribot.lexicon import surface_kind
 from attribot.models.base import Detector, LanguageModel, VisualQA, build_backend
 
 if TYPE_CHECKING:
     from attribot.config import Settings
+    from attribot.frame import Frame
 
 __all__ = ["Perception"]
 
@@ -48,3 +52,18 @@ class Perception:
     def names(self) -> dict[str, str]:
         """Backend name per role, as answers and traces report them."""
         return {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}
+
+    def findable(self, frame: Frame) -> str:
+        """What `image.find` can find in `frame`, in words for the prompt: the detector's closed vocabulary
+        (a `vocabulary` attribute) or any short name, and the furniture and floor in view."""
+        vocabulary = getattr(self.detector, "vocabulary", None)
+        if vocabulary:
+            things = f"only these {len(vocabulary)} names: {', '.join(vocabulary)}"
+        else:
+            things = 'objects by a short name ("cup", "ball", "apple")'
+        if frame.surfaces is not None and frame.surface_names:
+            seen = {int(i) for i in np.unique(frame.surfaces)}
+            kinds = sorted({surface_kind(n) for i, n in enumerate(frame.surface_names) if i in seen})
+            if kinds:
+                things += f"; the furniture and the floor in view: {', '.join(kinds)}"
+        return things

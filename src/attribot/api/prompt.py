@@ -23,7 +23,7 @@ from typing import Any
 import jinja2
 
 from attribot.api.patch import ImagePatch
-from attribot.api.robot import SENSORS, Robot, check_sensors
+from attribot.api.robot import SENSOR_MEANINGS, SENSORS, Robot, check_sensors
 from attribot.config import MAX_QUERY_CHARS
 from attribot.errors import InputError
 
@@ -127,10 +127,11 @@ def _load_template(name: str) -> str:
     return resources.files("attribot.api").joinpath("prompts", name).read_text(encoding="utf-8")
 
 
-def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True) -> str:
+def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True, findable: str = "") -> str:
     """The whole prompt for `query` and a robot with `sensors` (names from SENSORS).
 
-    embodied=False says the query runs on a still image: no robot action is offered.
+    embodied=False says the query runs on a still image: no robot action is offered. `findable` says what
+    the detector can find in this world (`Perception.findable`); empty: the prompt says nothing of it.
     """
     if not isinstance(query, str) or not query.strip():
         raise InputError("the query is empty", 'ask a question, e.g. "the second cup from the left"')
@@ -149,6 +150,8 @@ def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True) -
             entry_point=ENTRY_POINT,
             sensors=have,
             known_sensors=SENSORS,
+            measures=SENSOR_MEANINGS,
+            findable=findable,
             embodied=embodied,
             offered=offered,
             missing=missing,

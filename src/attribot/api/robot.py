@@ -27,10 +27,19 @@ from attribot.embodiments.base import Capability, Embodiment
 from attribot.errors import InputError, UnsupportedAction
 from attribot.frame import CameraInfo
 
-__all__ = ["Robot", "Measurement", "SENSORS", "SENSOR_ALIASES", "GRAVITY", "check_sensors"]
+__all__ = ["Robot", "Measurement", "SENSORS", "SENSOR_MEANINGS", "SENSOR_ALIASES", "GRAVITY", "check_sensors"]
 
 SENSORS: tuple[str, ...] = ("camera", "distance", "force")
 """The sensor names a robot can be given, as `--sensors` takes them."""
+
+SENSOR_MEANINGS: dict[str, str] = {
+    "camera": "colour images (and depth where the world has it): what image.find and visual_query look at",
+    "distance": "an infrared rangefinder: the distance in metres from the robot to the object centred in "
+    "front of it (robot.measure_distance)",
+    "force": "a force sensor at the wrist: the weight of the object held in the gripper, in kilograms "
+    "(robot.measure_weight)",
+}
+"""What each sensor measures, in the prompt's words."""
 
 SENSOR_ALIASES: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(("rgb camera", "color camera", "colour camera", "rgb"), ("camera",)),

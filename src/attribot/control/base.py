@@ -39,6 +39,8 @@ __all__ = [
 class ControlError(AttribotError):
     """A motion was attempted and did not succeed (a joint did not settle, a grasp closed on nothing)."""
 
+    recoverable = True  # a program may catch it as ActionFailed and go on with the next object
+
 
 @dataclass(frozen=True)
 class Capture:

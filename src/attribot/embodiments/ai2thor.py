@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from attribot.config import SceneConfig
+from attribot.config import Ai2ThorConfig
 from attribot.control.base import CONTROLLERS, ControlError, Target, not_available
 from attribot.control.pointing import PointingController
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
@@ -47,21 +47,20 @@ def _category(object_type: str) -> str:
 
 @EMBODIMENTS.register("ai2thor")
 class Ai2ThorWorld(Embodiment):
-    """An AI2-THOR scene (`options["scene"]`, default FloorPlan1) or the given `controller`."""
+    """The AI2-THOR scene of an `Ai2ThorConfig` (default FloorPlan1), or the given `controller`."""
 
     name = "ai2thor"
 
     def __init__(
         self,
-        config: SceneConfig | None = None,
+        config: Ai2ThorConfig | None = None,
         *,
         controller: Any = None,
-        fov_deg: float = 90.0,
         **fields: Any,
     ) -> None:
-        """`fields`: SceneConfig fields instead of `config` (as every world takes them)."""
-        self.config = config or SceneConfig.create(**fields)
-        self.fov_deg = fov_deg
+        """`fields`: Ai2ThorConfig fields instead of `config` (as every world takes its config's)."""
+        self.config = config or Ai2ThorConfig.create(**fields)
+        fov_deg = self.fov_deg = self.config.fov_deg
         if controller is None:
             try:
                 from ai2thor.controller import Controller
@@ -71,7 +70,7 @@ class Ai2ThorWorld(Embodiment):
                     "pip install 'attribot[ai2thor]' (its first run downloads a Unity build, about 500 MB)",
                 ) from None
             controller = Controller(
-                scene=str(self.config.options.get("scene", "FloorPlan1")),
+                scene=self.config.scene,
                 width=self.config.width,
                 height=self.config.height,
                 fieldOfView=fov_deg,

@@ -21,7 +21,7 @@ import numpy as np
 
 from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
 from attribot.bridge.server import CameraFrame, Driver
-from attribot.config import SceneConfig
+from attribot.config import BridgeConfig
 from attribot.control.base import CONTROLLERS
 from attribot.control.body import BodyGeometry
 from attribot.control.servo import ServoController
@@ -29,10 +29,10 @@ from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2
 from attribot.errors import AttribotError, ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo, Frame, ObjectTruth
 
-__all__ = ["BridgeError", "BridgeWorld", "EmbodimentDriver", "TOKEN_ENV", "URL_OPTION"]
+__all__ = ["BridgeError", "BridgeWorld", "EmbodimentDriver", "TOKEN_ENV", "URL_ENV"]
 
 TOKEN_ENV = "ATTRIBOT_BRIDGE_TOKEN"
-URL_OPTION = "bridge_url"  # the SceneConfig option `--bridge-url` sets
+URL_ENV = "ATTRIBOT_BRIDGE_URL"  # the robot's address when neither the config nor `url` gives one
 
 
 class BridgeError(AttribotError):
@@ -72,22 +72,21 @@ def _jpeg(rgb: np.ndarray, quality: int) -> bytes:
 
 @EMBODIMENTS.register("bridge")
 class BridgeWorld(Embodiment):
-    """A robot behind `attribot bridge serve`, reached at `url` (or the config's `bridge_url` option)."""
+    """A robot behind `attribot bridge serve` at `url` (or its `BridgeConfig`'s, or $ATTRIBOT_BRIDGE_URL)."""
 
     name = "bridge"
 
     def __init__(
         self,
-        config: SceneConfig | None = None,
+        config: BridgeConfig | None = None,
         *,
         url: str | None = None,
         token: str | None = None,
-        timeout_s: float = 10.0,
-        **fields: Any,
+        timeout_s: float | None = None,
     ) -> None:
-        """`fields`: SceneConfig fields instead of `config` (as every world takes them)."""
-        self.config = config or SceneConfig.create(**fields)
-        url = url or str(self.config.options.get(URL_OPTION) or os.environ.get("ATTRIBOT_BRIDGE_URL") or "")
+        """`url` and `timeout_s` instead of a `config`; the token from $ATTRIBOT_BRIDGE_TOKEN if not given."""
+        url = url or (config.url if config is not None else os.environ.get(URL_ENV, ""))
+        timeout_s = timeout_s or (config.timeout_s if config is not None else 10.0)
         if not url:
             raise ConfigError(
                 "the bridge world needs the robot's address",

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 import cv2
+import mujoco
 import numpy as np
 
 from attribot.video import VideoWriter
@@ -34,6 +35,7 @@ class EpisodeRecorder:
         view: tuple[int, int] = (320, 240),
     ) -> None:
         self.sim = world.sim
+        self._scratch: Any = None
         self.caption = caption
         self.tracked = tracked
         self.period_s = period_s
@@ -50,6 +52,19 @@ class EpisodeRecorder:
                 self._next += self.period_s
 
     def _grab(self) -> None:
+        # filmed from a copy of the world's state: rendering runs mj_forward, which leaves solver state
+        # behind, and a filmed episode must move exactly as an unfilmed one (a --save run replays bit for bit)
+        live = self.sim.data
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(self.sim.model)
+        mujoco.mj_copyData(self._scratch, self.sim.model, live)
+        self.sim.data = self._scratch
+        try:
+            self._frame()
+        finally:
+            self.sim.data = live
+
+    def _frame(self) -> None:
         w, h = self.view
         camera = self.sim.observe(depth=False, segmentation=False).rgb
         sx, sy = w / camera.shape[1], h / camera.shape[0]

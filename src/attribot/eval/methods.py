@@ -200,7 +200,7 @@ def _first_name(text: str) -> str:
 def run_method(item: Item, method: str, settings: Settings, noise: str = "clean") -> Record:
     """Run `method` on `item` with `settings` (and the noise level on the oracle backends)."""
     from attribot.api import Perception
-    from attribot.planning.ask import Scene, ask
+    from attribot.session import Scene, ask
 
     started = time.perf_counter()
     settings = noisy_settings(settings, noise, item.seed)

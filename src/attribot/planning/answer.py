@@ -1,14 +1,26 @@
-"""The answer to one query: what `attribot ask --json` prints and `--save` writes."""
+"""The answer to one query (what `attribot ask --json` prints and `--save` writes), how a run's result
+becomes one, and which results are no answer and go back to the planner for another try."""
 
 from __future__ import annotations
 
+import json
+import math
+from collections.abc import Sequence
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
 from attribot.text import json_safe_data
 
-__all__ = ["AnswerObject", "AnswerError", "Answer"]
+__all__ = [
+    "AnswerObject",
+    "AnswerError",
+    "Answer",
+    "STATED_KEYS",
+    "build_answer",
+    "answer_patch",
+    "result_problem",
+]
 
 
 class AnswerObject(BaseModel):
@@ -43,13 +55,15 @@ class Answer(BaseModel):
     value: float | None = None
     unit: str | None = None
     boolean: bool | None = None  # the yes or no of a yes/no question ("is the kettle heavier than ...?")
+    returned: Any = None  # what execute_command returned, JSON-ready (API objects as summaries)
+    output: str = ""  # what the program printed (cut at the runner's output limit)
     program: str | None = None
     planner: str
     backends: dict[str, str]
     attempts: int
     trace: list[dict[str, Any]] = []
     error: AnswerError | None = None
-    world: dict[str, Any] | None = None  # layout and seed, or the image file
+    world: dict[str, Any] | None = None  # the world and its config, or the image file
     sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.api.safeguards)
 
@@ -63,3 +77,205 @@ class Answer(BaseModel):
     @property
     def ok(self) -> bool:
         return self.error is None
+
+
+STATED_KEYS = frozenset({"object", "value", "unit", "yes", "text"})
+"""A program may return a dict with these keys (plain values, "object" an ImagePatch) to state its answer:
+the chosen object, the value of the attribute asked and its unit (a size in metres, not the distance
+measured to scale it), "yes" the answer to a yes/no question, and "text" the sentence that says why."""
+
+
+# ---- which results are no answer -----------------------------------------------------------------------
+
+
+def result_problem(result: Any, wants_object: bool) -> str | None:
+    """Why a run that finished is still no answer (the planner tries again with this message), or None.
+
+    None returned; a number that is not finite; with `wants_object` (the query asks which object), a
+    return that chooses none."""
+    if result is None or result.error is not None:
+        return None
+    raw = result.value_object
+    printed = " (it printed its answer: return it instead of printing it)" if result.output.strip() else ""
+    if raw is None:
+        return f"execute_command returned None{printed}; return the chosen ImagePatch or a value"
+    if isinstance(raw, float) and not math.isfinite(raw):
+        return f"execute_command returned {raw}, which is no answer; return a finite number or an object"
+    if wants_object and answer_patch(raw) is None and _stated(raw) is None and not _patches(raw):
+        shown = json.dumps(result.value, default=str)
+        shown = shown if len(shown) <= 120 else shown[:117] + "..."
+        return (
+            f"the query asks which object, and execute_command returned {shown}, which chooses none; "
+            "return the ImagePatch of the chosen object (from image.find)"
+        )
+    return None
+
+
+# ---- a run's result as an answer -------------------------------------------------------------------
+
+
+def build_answer(
+    *,
+    query: str,
+    planner: str,
+    program: str | None,
+    result: Any,
+    attempts: int,
+    backends: dict[str, str],
+    measurements: Sequence[Any],
+    world: dict[str, Any],
+    frame: Any,
+    error: Any = None,
+    doubt: str | None = None,
+) -> Answer:
+    """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
+    `error` is the planner's own error when no program ever ran (a reply with no code); `doubt` says that
+    the measurements behind the program's choice cannot tell it from another (no object is chosen)."""
+    common: dict[str, Any] = dict(
+        query=query,
+        program=program,
+        planner=planner,
+        backends=backends,
+        attempts=attempts,
+        trace=[t.model_dump(mode="json") for t in (result.trace if result is not None else [])],
+        world=world,
+        output=result.output if result is not None else "",
+    )
+    if result is None or result.error is not None:
+        err = result.error if result is not None else error
+        message = err.message if err is not None else "no program was produced"
+        failed = AnswerError(
+            category=err.category if err is not None else "planner",
+            message=message,
+            line=getattr(err, "line", None),
+        )
+        return Answer(answer=f"no answer: {message}", error=failed, **common)
+    common["returned"] = result.value
+    if doubt is not None:
+        failed = AnswerError(category="uncertain", message=doubt)
+        return Answer(answer=f"no answer: {doubt}", error=failed, **common)
+    problem = result_problem(result, wants_object=False)
+    if problem is not None:
+        failed = AnswerError(category="runtime", message=problem)
+        return Answer(answer=f"no answer: {problem}", error=failed, **common)
+    stated = _stated(result.value_object)
+    if stated is not None:
+        return _stated_answer(stated, frame, common)
+    chosen = answer_patch(result.value_object)
+    if chosen is not None:
+        return _chosen_answer(chosen, result.value_object, frame, measurements, common)
+    value = result.value
+    number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+    text = value if isinstance(value, str) else json.dumps(value, default=str)
+    return Answer(answer=str(text), value=number, **common)
+
+
+def _chosen_answer(
+    chosen: Any, returned: Any, frame: Any, measurements: Sequence[Any], common: dict[str, Any]
+) -> Answer:
+    """The answer naming the chosen object, with its last measurement or the number returned beside it."""
+    obj = _answer_object(chosen, frame)
+    where = ", ".join(f"{v:.0f}" for v in obj.box)
+    text = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+    measured = _last_measurement(chosen, measurements)
+    if measured is not None:
+        text += f", measured {_format_measurement(measured)}"
+        return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
+    beside = _number_beside(returned)
+    if beside is not None:
+        text += f", {beside:g}"
+    return Answer(answer=text, object=obj, value=beside, **common)
+
+
+def _stated(value_object: Any) -> dict[str, Any] | None:
+    if not isinstance(value_object, dict) or not value_object or set(value_object) - STATED_KEYS:
+        return None
+    if not ({"object", "yes"} & set(value_object)):
+        return None
+    return value_object
+
+
+def _stated_answer(stated: dict[str, Any], frame: Any, common: dict[str, Any]) -> Answer:
+    chosen = answer_patch(stated.get("object"))
+    obj = _answer_object(chosen, frame) if chosen is not None else None
+    parts = []
+    yes = stated.get("yes")
+    if isinstance(yes, bool):
+        parts.append("yes" if yes else "no")
+    raw = stated.get("value")
+    value = float(raw) if isinstance(raw, int | float) and not isinstance(raw, bool) else None
+    unit = stated.get("unit") if isinstance(stated.get("unit"), str) and value is not None else None
+    text = stated.get("text")
+    if isinstance(text, str) and text:
+        parts.append(text)
+    elif obj is not None:
+        where = ", ".join(f"{v:.0f}" for v in obj.box)
+        sentence = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+        if value is not None:
+            sentence += f", {value:.3f} {unit or ''}".rstrip()
+        parts.append(sentence)
+    return Answer(
+        answer=": ".join(parts) if len(parts) == 2 else (parts[0] if parts else ""),
+        object=obj,
+        value=value,
+        unit=unit,
+        boolean=yes if isinstance(yes, bool) else None,
+        **common,
+    )
+
+
+def answer_patch(value_object: Any) -> Any:
+    """The object a program's return chose: the patch itself, a stated answer's "object", or the one patch
+    of a returned list, tuple or dict (`(patch, kg)`, `{"cup": patch, "kg": 0.3}`); None otherwise."""
+    from attribot.api.patch import ImagePatch
+
+    stated = _stated(value_object)
+    if stated is not None:
+        value_object = stated.get("object")
+    if isinstance(value_object, ImagePatch):
+        return value_object
+    items = value_object.values() if isinstance(value_object, dict) else value_object
+    if isinstance(items, list | tuple) or isinstance(value_object, dict):
+        patches = [v for v in items if isinstance(v, ImagePatch)]
+        if len(patches) == 1:
+            return patches[0]
+    return None
+
+
+def _patches(value_object: Any) -> bool:
+    """Whether a return is a non-empty list or tuple of patches only (the objects of "which ones ...")."""
+    from attribot.api.patch import ImagePatch
+
+    items = value_object if isinstance(value_object, list | tuple) else ()
+    return bool(items) and all(isinstance(v, ImagePatch) for v in items)
+
+
+def _number_beside(returned: Any) -> float | None:
+    """The one number returned beside the chosen patch (`(patch, 0.35)`), or None."""
+    items = list(returned.values()) if isinstance(returned, dict) else returned
+    if not isinstance(items, list | tuple):
+        return None
+    numbers = [v for v in items if isinstance(v, int | float) and not isinstance(v, bool)]
+    if len(numbers) == 1 and math.isfinite(numbers[0]):
+        return float(numbers[0])
+    return None
+
+
+def _answer_object(patch: Any, frame: Any) -> AnswerObject:
+    category = patch.label or None
+    if patch.object_id is not None:
+        category = next((t.category for t in frame.objects.values() if t.id == patch.object_id), category)
+    return AnswerObject(id=patch.object_id, category=category, box=tuple(round(v, 1) for v in patch.box))
+
+
+def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
+    """The last measurement the program took of the chosen object, or None."""
+    if patch.object_id is None:
+        return None
+    return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
+
+
+def _format_measurement(m: Any) -> str:
+    if m.unit == "kg" and m.newtons is not None:
+        return f"{m.value:.3f} kg ({m.newtons:.2f} N)"
+    return f"{m.value:.3f} {m.unit}"

@@ -9,6 +9,7 @@ structured error, asks the planner again with every earlier attempt and its erro
 from __future__ import annotations
 
 import importlib
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
@@ -39,6 +40,7 @@ __all__ = [
     "solve",
     "check_query",
     "is_utf8_text",
+    "describe_calls",
 ]
 
 
@@ -73,13 +75,17 @@ RunError = _run_error_type()
 
 
 class PlanRequest(BaseModel):
-    """What a planner is asked: the query, the robot's sensors, and whether robot actions are possible."""
+    """What a planner is asked: the query (checked once, by whoever makes the request: planners take it as
+    it is), the robot's sensors, whether robot actions are possible, what the detector can find in this
+    world (empty: not known), and whether every try starts from the state the first one started from."""
 
     model_config = ConfigDict(frozen=True)
 
     query: str
     sensors: list[str] = ["camera"]
     embodied: bool = False
+    findable: str = ""
+    same_start: bool = False
 
 
 class Plan(BaseModel):
@@ -103,6 +109,7 @@ class Attempt(BaseModel):
     program: str
     error: RunError | None = None  # type: ignore[valid-type]
     reply: str | None = None
+    did: list[str] = []  # the API calls the try made, in order, with their results or errors (short)
 
 
 @runtime_checkable
@@ -168,14 +175,18 @@ def solve(
     request: PlanRequest,
     execute: Callable[[str], Any],
     max_tries: int,
+    check: Callable[[Any], str | None] | None = None,
 ) -> SolveResult:
     """Plan, run, and on a structured error plan again with the error fed back, up to `max_tries` tries.
 
-    `execute(program)` returns a RunResult (`ok`, `error`). A reply with no program (`NoProgram`) counts as
-    a try whose error goes back to the planner. The loop also stops when the planner returns a program it
-    has already tried: a deterministic planner (rules) ignores feedback, and running the same program on
-    the same world again would only repeat the same error. Planner failures that are not about the
-    program (an unreachable endpoint, an unsupported query) propagate as the `AttribotError` they are.
+    `execute(program)` returns a RunResult (`ok`, `error`). `check(result)` says why a run that finished is
+    still no answer (None returned, no object where the query asks which): such a run fails the try as a
+    runtime error, with the program's output, and goes back to the planner like any other. A reply with
+    no program (`NoProgram`) counts as a try whose error goes back to the planner. The loop also stops when
+    the planner returns a program it has already tried: a deterministic planner (rules) ignores feedback,
+    and running the same program on the same world again would only repeat the same error. Planner
+    failures that are not about the program (an unreachable endpoint, an unsupported query) propagate as
+    the `AttribotError` they are.
     """
     if max_tries < 1:
         raise InputError(f"max_tries must be at least 1, not {max_tries}")
@@ -193,8 +204,42 @@ def solve(
             break
         tried.add(plan.program)
         plans.append(plan)
-        result = execute(plan.program)
-        attempts.append(Attempt(program=plan.program, error=result.error, reply=plan.reply))
+        result = _checked(execute(plan.program), check)
+        did = describe_calls(getattr(result, "trace", ()))  # a caller's own result may keep no trace
+        attempts.append(Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did))
         if result.ok:
             break
     return SolveResult(attempts=attempts, result=result, plans=plans)
+
+
+def _checked(result: Any, check: Callable[[Any], str | None] | None) -> Any:
+    """`result`, failed with `check`'s reason when it finished and is still no answer."""
+    problem = check(result) if check is not None and result.ok else None
+    if problem is None:
+        return result
+    error = RunError(category="runtime", message=problem, output=result.output)
+    return result.model_copy(update={"ok": False, "error": error})
+
+
+def describe_calls(trace: Sequence[Any], limit: int = 12) -> list[str]:
+    """The API calls of a run as short lines ("Robot.pick_up(ball) -> failed: grasp failed ..."), the
+    last `limit` of them: what a failed try did, for the feedback."""
+    lines = []
+    for record in trace:
+        args = ", ".join(_short(a) for a in record.args)
+        outcome = f"failed: {record.error}" if record.error else _short(record.result)
+        lines.append(f"{record.call}({args}) -> {outcome}")
+    if len(lines) > limit:
+        lines = [f"... {len(lines) - limit} earlier calls", *lines[-limit:]]
+    return lines
+
+
+def _short(value: Any, size: int = 60) -> str:
+    """A trace value in a few words: an API object by its label and id, the rest as JSON, cut."""
+    if isinstance(value, dict) and "type" in value:
+        name = value.get("label") or value.get("type")
+        return f"{name} {value['object_id']}" if value.get("object_id") else str(name)
+    if isinstance(value, list) and value and all(isinstance(v, dict) and "type" in v for v in value):
+        return "[" + ", ".join(_short(v) for v in value[:4]) + (", ...]" if len(value) > 4 else "]")
+    text = json.dumps(value, default=str)
+    return text if len(text) <= size else text[: size - 3] + "..."

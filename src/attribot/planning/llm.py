@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from attribot.errors import ConfigError
 from attribot.files import write_whole
-from attribot.planning.base import ENTRY_POINT, PLANNERS, Attempt, Plan, PlanRequest, check_query
+from attribot.planning.base import ENTRY_POINT, PLANNERS, Attempt, Plan, PlanRequest
 from attribot.planning.extract import extract_program
 
 if TYPE_CHECKING:
@@ -28,14 +28,15 @@ if TYPE_CHECKING:
 __all__ = ["LLMPlanner", "ReplyCache", "PromptBuilder", "feedback_message", "cache_key"]
 
 PromptBuilder = Callable[..., "str | list[dict[str, str]]"]
-"""`(query, sensors[, embodied=...]) -> prompt`: the whole prompt as one user message, or a list of chat
-messages. `embodied` is passed when the builder accepts it."""
+"""`(query, sensors[, embodied=..., findable=...]) -> prompt`: the whole prompt as one user message, or a
+list of chat messages. `embodied` and `findable` are passed when the builder accepts them."""
 
 _OUTPUT_TAIL = 1500  # characters of program output sent back: enough to see what it printed last
 
 
-def feedback_message(error: Any) -> str:
-    """The follow-up user message for a failed attempt: the structured error, and what to do."""
+def feedback_message(error: Any, did: Sequence[str] = (), same_start: bool = False) -> str:
+    """The follow-up user message for a failed attempt: the structured error, what the try did (its API
+    calls, `did`), where the next try starts, and what to do."""
     where = f", line {error.line}" if getattr(error, "line", None) else ""
     lines = [f"Your program failed ({error.category} error{where}): {error.message}"]
     if getattr(error, "snippet", None):
@@ -44,6 +45,13 @@ def feedback_message(error: Any) -> str:
     if output.strip():
         tail = output if len(output) <= _OUTPUT_TAIL else "..." + output[-_OUTPUT_TAIL:]
         lines.append(f"Its output so far:\n{tail}")
+    if did:
+        lines.append("What it did, call by call:\n" + "\n".join(f"- {line}" for line in did))
+    if same_start:
+        lines.append(
+            "The next program starts from the same state as this one: the robot back where it started, "
+            "its gripper empty, and the same first image."
+        )
     lines.append(
         f"Fix it and answer with the whole program again, as one ```python code block that defines "
         f"{ENTRY_POINT}(image, robot)."
@@ -116,12 +124,11 @@ class LLMPlanner:
 
     def messages(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> list[dict[str, str]]:
         """The chat messages for `request`: the prompt, then each failed attempt and its error."""
-        query = check_query(request.query)
         builder = self._builder()
-        if _takes_embodied(builder):
-            prompt = builder(query, list(request.sensors), embodied=request.embodied)
-        else:
-            prompt = builder(query, list(request.sensors))
+        extras = {"embodied": request.embodied, "findable": request.findable}
+        prompt = builder(
+            request.query, list(request.sensors), **{k: v for k, v in extras.items() if _accepts(builder, k)}
+        )
         if isinstance(prompt, str):
             messages = [{"role": "user", "content": prompt}]
         else:
@@ -131,7 +138,8 @@ class LLMPlanner:
                 continue
             said = attempt.reply if attempt.reply is not None else f"```python\n{attempt.program}```"
             messages.append({"role": "assistant", "content": said})
-            messages.append({"role": "user", "content": feedback_message(attempt.error)})
+            feedback_text = feedback_message(attempt.error, attempt.did, request.same_start)
+            messages.append({"role": "user", "content": feedback_text})
         return messages
 
     def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
@@ -183,13 +191,14 @@ class LLMPlanner:
         return self._client
 
 
-def _takes_embodied(builder: Callable[..., Any]) -> bool:
-    """Whether the prompt builder accepts `embodied=` (the API's does: no robot actions on a still image)."""
+def _accepts(builder: Callable[..., Any], name: str) -> bool:
+    """Whether the prompt builder accepts the keyword `name` (the API's takes `embodied=`: no robot actions
+    on a still image, and `findable=`: what the detector can find here)."""
     try:
         parameters = inspect.signature(builder).parameters
     except (TypeError, ValueError):
         return False
-    return "embodied" in parameters or any(p.kind is p.VAR_KEYWORD for p in parameters.values())
+    return name in parameters or any(p.kind is p.VAR_KEYWORD for p in parameters.values())
 
 
 @PLANNERS.register("llm")

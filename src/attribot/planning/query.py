@@ -5,11 +5,24 @@ It imports nothing of the API or the runner, so that reading a query (the rules 
 
 from __future__ import annotations
 
+import re
+
 from attribot.config import MAX_QUERY_CHARS
 from attribot.errors import InputError
 from attribot.text import control_characters
 
-__all__ = ["check_query", "is_utf8_text"]
+__all__ = ["check_query", "is_utf8_text", "asks_for_object"]
+
+# "which ...", "find the ...", "bring the lightest cup ...", "the second cup from the left", "what is the
+# heaviest object": the answer is an object. "how far ...", "is the mug heavier ...", "what colour ..." are
+# answered with a value, a yes or no, or a text.
+_OBJECT_QUERY = re.compile(
+    r"^(?:please\s+)?(?:which\b(?!\s+(?:colou?r|kind|type|material|shape|brand|word|number|side|way)\b)|"
+    r"(?:find|bring|fetch|get|grab|pick|point|show|locate|select|choose|give|"
+    r"hand|take|move|put|push|where)\b|the\b|a\b|an\b|"
+    r"(?:what|whats|what's)\s+(?:is|are)\s+the\s+\w+(?:est|most)\b)",
+    re.IGNORECASE,
+)
 
 
 def is_utf8_text(text: str) -> bool:
@@ -20,6 +33,12 @@ def is_utf8_text(text: str) -> bool:
     except UnicodeEncodeError:
         return False
     return True
+
+
+def asks_for_object(query: str) -> bool:
+    """Whether `query` asks for an object (so that a program returning no object is no answer). Unsure
+    phrasings count as not asking: they are left to the program."""
+    return bool(_OBJECT_QUERY.match(query.strip()))
 
 
 def check_query(query: str) -> str:

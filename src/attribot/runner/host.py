@@ -441,7 +441,7 @@ class _Run:
             raise
         except AttribotError as e:
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, str(e), line, shown, ms)
+            return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable)
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
             text = _scrub(str(e))
@@ -461,12 +461,21 @@ class _Run:
         return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def _refuse(
-        self, name: str, message: str, line: int | None, shown: list[Any], ms: float = 0.0
+        self,
+        name: str,
+        message: str,
+        line: int | None,
+        shown: list[Any],
+        ms: float = 0.0,
+        recoverable: bool = False,
     ) -> dict[str, Any]:
+        """The reply to a failed call: a stop, or with `recoverable` (an action that failed in the world)
+        the `ActionFailed` the program may catch. Either way the trace records the failed call."""
         # a host error may quote a program's text, lone surrogates and all, or a host object's repr
         message = _text(_HOST_REPR.sub(r"<\1>", message))
         self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
-        return {KIND: Kind.API_ERROR, Key.CATEGORY: "api", Key.MESSAGE: message}
+        kind = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
+        return {KIND: kind, Key.CATEGORY: "api", Key.MESSAGE: message}
 
     def add_output(self, text: Any) -> None:
         if not isinstance(text, str):

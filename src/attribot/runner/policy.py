@@ -103,6 +103,8 @@ _ALLOWED: tuple[type[ast.AST], ...] = (
     ast.Assert,
     ast.Import,
     ast.ImportFrom,
+    ast.Try,
+    ast.ExceptHandler,
     ast.Expr,
     ast.Pass,
     ast.Break,
@@ -150,7 +152,6 @@ _REFUSED: dict[type[ast.AST], str] = {
     ast.AsyncWith: "async with is not allowed",
     ast.Await: "await is not allowed",
     ast.With: "with statements are not allowed",
-    ast.Try: "try/except is not allowed: let errors propagate, the runner reports them",
     ast.Global: "global is not allowed: return values from functions instead",
     ast.Nonlocal: "nonlocal is not allowed: return values from functions instead",
     ast.Yield: "yield is not allowed: build and return a list instead",
@@ -158,7 +159,32 @@ _REFUSED: dict[type[ast.AST], str] = {
     ast.Match: "match statements are not allowed: use if/elif",
 }
 if hasattr(ast, "TryStar"):  # Python 3.11+
-    _REFUSED[ast.TryStar] = "try/except* is not allowed: let errors propagate, the runner reports them"
+    _REFUSED[ast.TryStar] = "try/except* is not allowed: write `except ActionFailed as error:`"
+
+CATCHABLE = "ActionFailed"
+"""The one error a program may catch: an action or measurement that ran and failed in the world."""
+_CATCH_ONLY = (
+    "catch only ActionFailed, the error of a robot action or measurement that failed in the world "
+    "(`except ActionFailed as error:` then go on with the next object); other errors are the program's "
+    "to fix, and the runner reports them"
+)
+# what to write instead of a refused builtin
+_INSTEAD: dict[str, str] = {
+    "format": 'use an f-string, e.g. f"{value:.2f}"',
+    "getattr": "read the attribute by its name, e.g. patch.horizontal_center",
+    "hasattr": "the API's attributes are listed in its reference; read them by name",
+    "setattr": "keep values in variables or dicts",
+    "type": "use isinstance(value, ImagePatch) (or int, float, str, list, ...)",
+    "dir": "the API's attributes and methods are listed in its reference",
+    "vars": "keep values in variables or dicts",
+    "open": "programs cannot read or write files; return the answer instead",
+    "input": "programs cannot read input; everything they need comes from image and robot",
+    "eval": "write the code itself",
+    "exec": "write the code itself",
+    "compile": "write the code itself",
+    "exit": "return from execute_command instead",
+    "quit": "return from execute_command instead",
+}
 
 
 class _Refusal(Exception):
@@ -192,16 +218,98 @@ def _bound_names(tree: ast.AST) -> set[str]:
             bound.add(node.arg)
         elif isinstance(node, ast.alias):
             bound.add((node.asname or node.name).split(".")[0])
+        elif isinstance(node, ast.ExceptHandler) and node.name:
+            bound.add(node.name)
     return bound
+
+
+def _binding_of(tree: ast.AST, name: str) -> ast.AST | None:
+    """The first node that binds `name` (for the line of a refusal)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and not isinstance(node.ctx, ast.Load):
+            names = {node.id}
+        elif isinstance(node, ast.alias):
+            names = {(node.asname or node.name).split(".")[0]}
+        else:
+            names = {str(getattr(node, "name", "")), str(getattr(node, "arg", ""))}
+        if name in names:
+            return node
+    return None
 
 
 def _check_name(node: ast.AST, name: str, what: str) -> None:
     if name.startswith("_") and name != "_":
-        raise _Refusal(node, f"{what} {name!r}: names starting with '_' are not allowed")
+        raise _Refusal(
+            node,
+            f"{what} {name!r}: names starting with '_' are not allowed; rename it "
+            f"(e.g. {name.strip('_') or 'value'!r})",
+        )
+
+
+def _is_main_block(node: ast.stmt) -> bool:
+    """`if __name__ == "__main__":` (either way round), which never runs when the runner loads a program."""
+    if not isinstance(node, ast.If) or not isinstance(node.test, ast.Compare):
+        return False
+    test = node.test
+    if len(test.ops) != 1 or not isinstance(test.ops[0], ast.Eq):
+        return False
+    sides = [test.left, test.comparators[0]]
+    names = [s for s in sides if isinstance(s, ast.Name) and s.id == "__name__"]
+    mains = [s for s in sides if isinstance(s, ast.Constant) and s.value == "__main__"]
+    return len(names) == 1 and len(mains) == 1
+
+
+def _check_try(node: ast.Try) -> None:
+    """A try/except is allowed around API calls only to catch ActionFailed, with no `finally` (which
+    could end a stop) and no other exception type."""
+    if node.finalbody:
+        raise _Refusal(node, f"try/finally is not allowed: {_CATCH_ONLY}")
+    for handler in node.handlers:
+        caught = handler.type
+        names = caught.elts if isinstance(caught, ast.Tuple) else [caught]
+        for name in names:
+            if not (isinstance(name, ast.Name) and name.id == CATCHABLE):
+                what = f"`except {ast.unparse(caught)}:`" if caught is not None else "a bare `except:`"
+                raise _Refusal(handler, f"{what} is not allowed: {_CATCH_ONLY}")
+        if handler.name is not None:
+            _check_name(handler, handler.name, "name")
+
+
+def _check_import(node: ast.Import | ast.ImportFrom) -> None:
+    """`import math` and, as annotations only, `typing` and `from __future__ import annotations`."""
+    if isinstance(node, ast.Import):
+        for alias in node.names:
+            if alias.name not in ("math", "typing"):
+                raise _Refusal(node, f"import {alias.name}: {_IMPORTS}")
+            if alias.asname:
+                _check_name(node, alias.asname, "name")
+        return
+    module = node.module or ""
+    if node.level or module not in ("math", "typing", "__future__"):
+        raise _Refusal(node, f"from {'.' * node.level}{module} import ...: {_IMPORTS}")
+    for alias in node.names:
+        if alias.name == "*":
+            raise _Refusal(node, f"from {module} import *: name what you need")
+        if module == "__future__" and alias.name != "annotations":
+            raise _Refusal(node, f"from __future__ import {alias.name}: only annotations is allowed")
+        _check_name(node, alias.name, "name")
+        if alias.asname:
+            _check_name(node, alias.asname, "name")
+
+
+_IMPORTS = (
+    "only `import math` is allowed (and typing, for annotations); compute with math and the built-ins "
+    "(sum, min, max, sorted, abs, round)"
+)
 
 
 def _check_tree(tree: ast.Module) -> None:
     bound = _bound_names(tree)
+    if CATCHABLE in bound:  # `ActionFailed = Exception` would make `except ActionFailed` catch anything
+        raise _Refusal(
+            _binding_of(tree, CATCHABLE),
+            f"{CATCHABLE} is the API's error and cannot be rebound: give the variable another name",
+        )
     for node in ast.walk(tree):
         kind = type(node)
         if kind in _REFUSED:
@@ -211,11 +319,19 @@ def _check_tree(tree: ast.Module) -> None:
         if isinstance(node, ast.Name):
             _check_name(node, node.id, "name")
             if node.id in DENIED_BUILTINS and node.id not in bound:
-                raise _Refusal(node, f"{node.id}() is not available in programs")
+                instead = _INSTEAD.get(node.id)
+                raise _Refusal(
+                    node, f"{node.id}() is not available in programs" + (f": {instead}" if instead else "")
+                )
         elif isinstance(node, ast.Attribute):
             _check_name(node, node.attr, "attribute")
             if node.attr in DENIED_ATTRIBUTES or _INTROSPECTION.match(node.attr):
-                raise _Refusal(node, f"the attribute .{node.attr} is not allowed in programs")
+                instead = _INSTEAD["format"] if node.attr in ("format", "format_map") else None
+                raise _Refusal(
+                    node,
+                    f"the attribute .{node.attr} is not allowed in programs"
+                    + (f": {instead}" if instead else ""),
+                )
             if not isinstance(node.ctx, ast.Load):
                 raise _Refusal(node, "attributes are read-only in programs: keep values in variables")
         elif isinstance(node, ast.FunctionDef):
@@ -228,25 +344,10 @@ def _check_tree(tree: ast.Module) -> None:
             _check_name(node, node.arg, "keyword argument")
         elif isinstance(node, ast.comprehension) and node.is_async:
             raise _Refusal(node.target, "async comprehensions are not allowed")
-        elif isinstance(node, ast.Import):
-            for alias in node.names:
-                if alias.name != "math":
-                    raise _Refusal(node, f"import {alias.name}: only `import math` is allowed")
-                if alias.asname:
-                    _check_name(node, alias.asname, "name")
-        elif isinstance(node, ast.ImportFrom):
-            if node.module != "math" or node.level:
-                raise _Refusal(
-                    node,
-                    f"from {'.' * node.level}{node.module or ''} import ...: only the math "
-                    "module may be imported",
-                )
-            for alias in node.names:
-                if alias.name == "*":
-                    raise _Refusal(node, "from math import *: name the functions you need")
-                _check_name(node, alias.name, "name")
-                if alias.asname:
-                    _check_name(node, alias.asname, "name")
+        elif isinstance(node, ast.Import | ast.ImportFrom):
+            _check_import(node)
+        elif isinstance(node, ast.Try):
+            _check_try(node)
         elif isinstance(node, ast.Delete):
             for target in node.targets:
                 if isinstance(target, ast.Attribute):
@@ -355,6 +456,8 @@ def _parse(source: str, entry: str, limits: Limits) -> ast.Module:
     except (ValueError, RecursionError, MemoryError) as e:  # null bytes, absurd nesting
         msg = "the program is nested too deeply" if not isinstance(e, ValueError) else str(e)
         raise _Refusal(None, msg, "syntax") from None
+    # the block never runs when the runner loads the program (its __name__ is not "__main__"), as in Python
+    tree.body = [node for node in tree.body if not _is_main_block(node)]
     _check_tree(tree)
     if not any(isinstance(n, ast.FunctionDef) and n.name == entry for n in tree.body):
         raise _Refusal(None, f"the program must define `def {entry}(...)` at the top level", "syntax")

@@ -6,8 +6,9 @@ site-packages), and its names are the only spelling of the wire's keys and kinds
 
 A run: the worker sends READY when started; the host sends RUN (the compiled program, entry point,
 arguments, limits and API classes); the worker answers GO when its clocks start, then any number of CALL
-(each answered by the host with RETURN or API_ERROR, or STOP when the host ends the run) and OUT (printed
-text, not answered), and ends with DONE (the entry point's value) or FAILED (a structured error).
+(each answered by the host with RETURN, ACTION_FAILED or API_ERROR, or STOP when the host ends the run)
+and OUT (printed text, not answered), and ends with DONE (the entry point's value) or FAILED (a
+structured error).
 """
 
 __all__ = [
@@ -39,6 +40,9 @@ class Kind:
     RUN = "run"  # CODE, ENTRY, ARGS, LIMITS, CLASSES, CONSTRUCTORS
     RETURN = "ret"  # the call's VALUE
     API_ERROR = "err"  # the call failed: CATEGORY, MESSAGE (raised in the program as a stop)
+    # the action or measurement ran and failed in the world: MESSAGE (raised in the program as the
+    # catchable `ActionFailed`)
+    ACTION_FAILED = "fail"
     STOP = "stop"  # the host ends the run: CATEGORY, MESSAGE
 
 

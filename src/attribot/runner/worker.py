@@ -102,6 +102,12 @@ SAFE_BUILTIN_NAMES = (
 )
 
 
+class ActionFailed(Exception):
+    """An action or measurement that ran and failed in the world (a grasp that closed on nothing, a
+    rangefinder that saw nothing in range): the one error a program may catch (`except ActionFailed as
+    error:`) to go on with the next object. It holds the host's message only."""
+
+
 class SandboxStop(BaseException):
     """A stop the program cannot catch: a limit, a time-out, a refused or failed API call."""
 
@@ -126,7 +132,10 @@ class _State:
         self.stubs = {}
         self.classes = {}
         self.stub_types = {}
+        self.constructors = {}  # class name -> (the session's object that builds it, the host method)
         self.math = None
+        self.typing = None
+        self.future = None
 
 
 STATE = _State()
@@ -306,16 +315,19 @@ def rpc(stub, method, args, kwargs):
     kind = answer.get(KIND)
     if kind == Kind.RETURN:
         return decode(answer[Key.VALUE])
+    if kind == Kind.ACTION_FAILED:
+        raise ActionFailed(str(answer.get(Key.MESSAGE, "the action failed")))
     stop(answer.get(Key.CATEGORY, "api"), answer.get(Key.MESSAGE, "the API call failed"))
 
 
-def make_constructor(stub, method):
-    """`ClassName(...)` in a program: the host's `method` on the session's object of that class."""
-
-    def construct(*args, **kwargs):
-        return rpc(stub, method, args, kwargs)
-
-    return construct
+def construct(cls, *args, **kwargs):
+    """`ClassName(...)` in a program: the host's constructor method on the session's object of that class
+    (the paper's dialect: `ImagePatch(image)`, `Robot(sensors=[...])`)."""
+    name = cls._sb_class
+    found = STATE.constructors.get(name)
+    if found is None:
+        raise TypeError(f"{name} objects come from the API: use the `image` and `robot` execute_command gets")
+    return rpc(found[0], found[1], args, kwargs)
 
 
 def call_entry(fn, args, entry):
@@ -343,8 +355,14 @@ def make_method(cls_name, method):
     return call
 
 
+def no_init(self, *args, **kwargs):
+    pass
+
+
 def stub_class(cls_name, methods):
-    namespace = {"__slots__": (), "_sb_class": cls_name}
+    """The program's class `cls_name`: its objects are the host's, `isinstance(x, cls_name)` works, and
+    calling it is the paper dialect's constructor."""
+    namespace = {"__slots__": (), "_sb_class": cls_name, "__new__": construct, "__init__": no_init}
     for m in methods:
         namespace[m] = make_method(cls_name, m)
     return type(cls_name, (Stub,), namespace)
@@ -542,10 +560,52 @@ def make_math():
     return mod
 
 
+class TypeHint:
+    """What a `typing` name is in a program: annotations are never evaluated, so it only needs to survive
+    being subscripted (`List[ImagePatch]`) where an annotation is written as a value."""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name):
+        self.name = name
+
+    def __getitem__(self, item):
+        return self
+
+    def __or__(self, other):
+        return self
+
+    __ror__ = __or__
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError(f"typing.{self.name} is for annotations only in programs")
+
+    def __repr__(self):
+        return f"typing.{self.name}"
+
+
+def make_typing():
+    """A stand-in for `typing` (and `__future__`): every public name an inert `TypeHint`, `cast` the
+    identity, TYPE_CHECKING False. The real module is never reachable from a program."""
+    mod = type(math)("typing")
+
+    def hint(name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return TypeHint(name)
+
+    mod.__getattr__ = hint
+    mod.TYPE_CHECKING = False
+    mod.cast = lambda kind, value: value
+    future = type(math)("__future__")
+    future.annotations = None
+    return mod, future
+
+
 def safe_import(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (import protocol)
-    if name != "math" or level:
-        stop("policy", f"import {name}: only `import math` is allowed")
-    return STATE.math
+    if level or name not in ("math", "typing", "__future__"):
+        stop("policy", f"import {name}: only `import math` is allowed (and typing, for annotations)")
+    return {"math": STATE.math, "typing": STATE.typing, "__future__": STATE.future}[name]
 
 
 def build_globals():
@@ -555,6 +615,10 @@ def build_globals():
     safe["round"] = safe_round
     safe["__import__"] = safe_import
     STATE.math = make_math()
+    STATE.typing, STATE.future = make_typing()
+    safe["ActionFailed"] = ActionFailed
+    for name, cls in STATE.stub_types.items():  # isinstance(x, ImagePatch); ImagePatch(image)
+        safe[name] = cls
     return {
         "__builtins__": safe,
         "__name__": "program",
@@ -586,6 +650,8 @@ def error_line(exc):
 def describe(exc, limits):
     if isinstance(exc, SandboxStop):
         return exc.category, exc.message
+    if type(exc) is ActionFailed:  # not caught: the API's error, as a stop would have reported it
+        return "api", str(exc)
     if isinstance(exc, MemoryError):
         return "limit", f"memory limit reached: the program may use about {limits.memory_mb} MB"
     if isinstance(exc, RecursionError):
@@ -632,7 +698,7 @@ def run(request):
     g = build_globals()
     args = [decode(a) for a in request[Key.ARGS]]
     for cls_name, (wire, method) in (request.get(Key.CONSTRUCTORS) or {}).items():
-        g[cls_name] = make_constructor(decode(wire), method)
+        STATE.constructors[cls_name] = (decode(wire), method)
     entry = request[Key.ENTRY]
     sys.setrecursionlimit(len_stack() + limits.max_recursion + 10)
     apply_limits(limits)
@@ -642,6 +708,8 @@ def run(request):
         if not callable(fn):
             raise TypeError(f"{entry} is not a function")
         value = call_entry(fn, args, entry)
+        if STATE.stopped is not None:
+            raise STATE.stopped
         try:
             msg = dumps({KIND: Kind.DONE, Key.VALUE: encode(value)})
         except Unsupported as e:

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from attribot.planning.base import PLANNERS, Attempt, Plan, PlanRequest
-from attribot.planning.rules import rules_program
+from attribot.planning.rules import parse_query, write_program
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -21,7 +21,9 @@ class RulesPlanner:
     max_tries = 1
 
     def plan(self, request: PlanRequest, feedback: Sequence[Attempt] = ()) -> Plan:
-        return Plan(program=rules_program(request.query, request.sensors, request.embodied))
+        # the request's query was checked on its way here (`PlanRequest`): it is read as it is
+        parsed = parse_query(request.query, checked=True)
+        return Plan(program=write_program(parsed, request.query, request.sensors, request.embodied))
 
 
 @PLANNERS.register("rules")

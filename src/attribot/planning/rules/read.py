@@ -62,12 +62,13 @@ _WHICH_X_IS_NTH = re.compile(
 _ADJECTIVE_ONE = re.compile(r"\b(" + _WEIGHT_WORDS + "|" + _DIST_WORDS + r")\s+ones?$")
 
 
-def parse_query(query: str) -> ParsedQuery:
+def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text).
+    `checked`: the query has passed `check_query` already (a planner's request), and is not checked again.
 
     The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
     narrowing such as "of the two closest"), then the families read what is left."""
-    original = check_query(query)
+    original = query if checked else check_query(query)
     normalized = _normalize(original)
     if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")

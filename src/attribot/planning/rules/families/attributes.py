@@ -179,15 +179,36 @@ def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
     cues = list(_CUE.finditer(text))
     if not cues:
         return None
-    attributes = {_attribute(c["adj"]) for c in cues}
     if len(cues) > 1:
         raise UnsupportedQuery(
             original, f"it asks about {' and '.join(repr(c.group(0)) for c in cues)} at once; ask one thing"
         )
     cue = cues[0]
-    attribute = attributes.pop()
+    attribute = _attribute(cue["adj"])
+    objects, named = _candidates(
+        text[: cue.start()] + " " + text[cue.end() :], attribute, cue["adj"], original
+    )
+    rank, from_end = _ordinal(cue["ord"]) if cue["ord"] else (1, False)
+    if attribute == "size":
+        if named:
+            raise UnsupportedQuery(original, "it compares the size of named objects, which it does not read")
+        return _size_query(objects[0], cue["adj"], cue["deg"], rank, from_end)
+    if rank != 1 and named:
+        raise UnsupportedQuery(original, f"it asks for a rank ({cue['ord']!r}) among named objects")
     adjective, degree = cue["adj"], cue["deg"]
-    rest = text[: cue.start()] + " " + text[cue.end() :]
+    if attribute == "weight":
+        heavy = adjective in _WEIGHT_HEAVY
+        if degree in ("least", "less") and adjective in ("heavy", "light", "lightweight"):
+            heavy = not heavy
+        return WeightQuery(objects=objects, heaviest=heavy != from_end, named=named, rank=rank)
+    return DistanceQuery(objects=objects, nearest=(adjective in _NEAR) != from_end, named=named, rank=rank)
+
+
+def _candidates(
+    rest: str, attribute: str, adjective: str, original: str
+) -> tuple[tuple[ObjectSpec, ...], bool]:
+    """What the query is about, once its attribute word and frame are taken away: the named objects it
+    compares (and True), or the one kind of object it chooses among (and False)."""
     rest = _POLITE.sub("", rest.strip())
     distance_from_me = _ME_ANYWHERE.search(rest) is not None
     rest = _PLACE.sub(" ", _ME_ANYWHERE.sub(" ", _THAN_THE_REST.sub(" ", rest)))
@@ -199,42 +220,32 @@ def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
         )
     if rx(r"(?:,|\band\b|\bor\b|\bthan\b)").search(rest):
         objects = _split_names(rx(r"\s+than\s+").sub(" or ", rest))
-        named = True
         if objects is None or len(objects) < 2:
             raise UnsupportedQuery(
                 original,
                 f"found the {attribute} word {adjective!r} but could not read {rest!r} as names to compare",
             )
-    else:
-        single = _object(rest)
-        if single is None:
-            raise UnsupportedQuery(
-                original, f"found the {attribute} word {adjective!r} but could not place {rest!r}"
-            )
-        objects, named = (single,), False
-    rank, from_end = _ordinal(cue["ord"]) if cue["ord"] else (1, False)
-    if attribute == "size":
-        if named:
-            raise UnsupportedQuery(original, "it compares the size of named objects, which it does not read")
-        base = _SUPERLATIVE.get(adjective) or _COMPARATIVE.get(adjective) or adjective
-        measure, largest = _SIZE[base]
-        if degree in ("least", "less"):
-            largest = not largest
-        return SizeQuery(
-            obj=objects[0],
-            adjective=" ".join(w for w in (degree, adjective) if w),
-            measure=measure,  # type: ignore[arg-type]
-            largest=largest != from_end,
-            rank=rank,
+        return tuple(objects), True
+    single = _object(rest)
+    if single is None:
+        raise UnsupportedQuery(
+            original, f"found the {attribute} word {adjective!r} but could not place {rest!r}"
         )
-    if rank != 1 and named:
-        raise UnsupportedQuery(original, f"it asks for a rank ({cue['ord']!r}) among named objects")
-    if attribute == "weight":
-        heavy = adjective in _WEIGHT_HEAVY
-        if degree in ("least", "less") and adjective in ("heavy", "light", "lightweight"):
-            heavy = not heavy
-        return WeightQuery(objects=objects, heaviest=heavy != from_end, named=named, rank=rank)
-    return DistanceQuery(objects=objects, nearest=(adjective in _NEAR) != from_end, named=named, rank=rank)
+    return (single,), False
+
+
+def _size_query(obj: ObjectSpec, adjective: str, degree: str | None, rank: int, from_end: bool) -> SizeQuery:
+    base = _SUPERLATIVE.get(adjective) or _COMPARATIVE.get(adjective) or adjective
+    measure, largest = _SIZE[base]
+    if degree in ("least", "less"):
+        largest = not largest
+    return SizeQuery(
+        obj=obj,
+        adjective=" ".join(w for w in (degree, adjective) if w),
+        measure=measure,  # type: ignore[arg-type]
+        largest=largest != from_end,
+        rank=rank,
+    )
 
 
 def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
@@ -272,16 +283,7 @@ def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -
 def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: bool) -> None:
     word = "heaviest" if q.heaviest else "lightest"
     if "force" in sensors and embodied:
-        _find_all(w, q.objects)
-        w.line("# weigh each one: the force sensor reads only what the gripper holds,")
-        w.line("# so go to the object, pick it up, weigh it and put it back down")
-        w.line("weights = []")
-        w.line("for patch in candidates:")
-        w.line("    robot.go_to_object(patch)")
-        w.line("    robot.pick_up(patch)")
-        w.line("    weights.append(robot.measure_weight(patch))")
-        w.line("    robot.put_down()")
-        _write_extreme_loop(w, "weights", q.heaviest, q.rank)
+        _write_weighed(w, q)
         return
     if q.rank > 1 and (q.named or q.objects[0].generic):
         raise InputError(
@@ -292,55 +294,81 @@ def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: 
     w.line(
         "# no force sensor: weight cannot be measured, so it is reasoned about (the paper's VQA + LLM chain)"
     )
-    if q.named:
-        names = [o.phrase for o in q.objects]
-        # longest names first, so that "remote control" is matched before "remote"
-        w.line(f"names = {json.dumps(sorted(names, key=len, reverse=True))}")
-        question = (
-            f"Out of these items: {', '.join(names)}, which one is more likely to be the {word} one? "
-            "Answer with the name of one item only."
-        )
-        w.line(f"answer = image.language_query({_q(question)}).lower()")
-        w.line("# map the answer back to one of the named objects (whole words only: a pen is no pencil)")
-        w.line('words = " " + " ".join(answer.replace(".", " ").replace(",", " ").split()) + " "')
-        w.line("for name in names:")
-        w.line('    if " " + name + " " in words:')
-        w.line("        matches = image.find(name)")
-        w.line("        if len(matches) > 0:")
-        w.line("            return matches[0]")
-        w.line('raise ValueError("the language model answered " + answer + ", none of the named objects")')
-        return
     obj = q.objects[0]
-    if obj.generic and not obj.colors and w.frame is None:
-        w.line('items = image.visual_query("What are the items in this image?")')
-        w.line('question = "Out of these items: " + items')
-        w.line(f'question = question + ", which one is more likely to be the {word} one?"')
-        w.line('answer = image.language_query(question + " Answer with the name of one item only.")')
-        w.line('name = answer.strip().strip(".").lower()')
-        w.line('if name.startswith("the "):')
-        w.line("    name = name[4:]")
-        w.line('if name == "" or name == "unknown":')
-        w.line(f'    raise ValueError("the language model could not tell which item is the {word} one")')
-        w.line("matches = image.find(name)")
-        w.line("if len(matches) > 0:")
-        w.line("    return matches[0]")
-        w.line("return name")
-        return
-    if obj.generic:
-        # "the heaviest red item": name each candidate with VQA, then ask the language model
-        _find(w, obj)
-        w.line("# name each candidate with VQA, then ask the language model which is usually " + word)
-        w.line("names = []")
-        w.line("for patch in candidates:")
-        w.line('    names.append(patch.visual_query("What is this?").strip().lower())')
-        w.line('question = "Out of these items: " + ", ".join(names)')
-        w.line(f'question = question + ", which one is more likely to be the {word} one?"')
-        w.line('answer = image.language_query(question + " Answer with the name of one item only.").lower()')
-        w.line("for index in range(len(names)):")
-        w.line("    if names[index] in answer:")
-        w.line("        return candidates[index]")
-        w.line('raise ValueError("the language model answered " + answer + ", none of the items seen")')
-        return
+    if q.named:
+        _write_weight_of_names(w, [o.phrase for o in q.objects], word)
+    elif obj.generic and not obj.colors and w.frame is None:
+        _write_weight_of_items(w, word)
+    elif obj.generic:
+        _write_weight_of_candidates(w, obj, word)
+    else:
+        _write_weight_by_size(w, q, obj, word)
+
+
+def _write_weighed(w: _Writer, q: WeightQuery) -> None:
+    _find_all(w, q.objects)
+    w.line("# weigh each one: the force sensor reads only what the gripper holds,")
+    w.line("# so go to the object, pick it up, weigh it and put it back down")
+    w.line("weights = []")
+    w.line("for patch in candidates:")
+    w.line("    robot.go_to_object(patch)")
+    w.line("    robot.pick_up(patch)")
+    w.line("    weights.append(robot.measure_weight(patch))")
+    w.line("    robot.put_down()")
+    _write_extreme_loop(w, "weights", q.heaviest, q.rank)
+
+
+def _write_weight_of_names(w: _Writer, names: list[str], word: str) -> None:
+    # longest names first, so that "remote control" is matched before "remote"
+    w.line(f"names = {json.dumps(sorted(names, key=len, reverse=True))}")
+    question = (
+        f"Out of these items: {', '.join(names)}, which one is more likely to be the {word} one? "
+        "Answer with the name of one item only."
+    )
+    w.line(f"answer = image.language_query({_q(question)}).lower()")
+    w.line("# map the answer back to one of the named objects (whole words only: a pen is no pencil)")
+    w.line('words = " " + " ".join(answer.replace(".", " ").replace(",", " ").split()) + " "')
+    w.line("for name in names:")
+    w.line('    if " " + name + " " in words:')
+    w.line("        matches = image.find(name)")
+    w.line("        if len(matches) > 0:")
+    w.line("            return matches[0]")
+    w.line('raise ValueError("the language model answered " + answer + ", none of the named objects")')
+
+
+def _write_weight_of_items(w: _Writer, word: str) -> None:
+    w.line('items = image.visual_query("What are the items in this image?")')
+    w.line('question = "Out of these items: " + items')
+    w.line(f'question = question + ", which one is more likely to be the {word} one?"')
+    w.line('answer = image.language_query(question + " Answer with the name of one item only.")')
+    w.line('name = answer.strip().strip(".").lower()')
+    w.line('if name.startswith("the "):')
+    w.line("    name = name[4:]")
+    w.line('if name == "" or name == "unknown":')
+    w.line(f'    raise ValueError("the language model could not tell which item is the {word} one")')
+    w.line("matches = image.find(name)")
+    w.line("if len(matches) > 0:")
+    w.line("    return matches[0]")
+    w.line("return name")
+
+
+def _write_weight_of_candidates(w: _Writer, obj: ObjectSpec, word: str) -> None:
+    # "the heaviest red item": name each candidate with VQA, then ask the language model
+    _find(w, obj)
+    w.line("# name each candidate with VQA, then ask the language model which is usually " + word)
+    w.line("names = []")
+    w.line("for patch in candidates:")
+    w.line('    names.append(patch.visual_query("What is this?").strip().lower())')
+    w.line('question = "Out of these items: " + ", ".join(names)')
+    w.line(f'question = question + ", which one is more likely to be the {word} one?"')
+    w.line('answer = image.language_query(question + " Answer with the name of one item only.").lower()')
+    w.line("for index in range(len(names)):")
+    w.line("    if names[index] in answer:")
+    w.line("        return candidates[index]")
+    w.line('raise ValueError("the language model answered " + answer + ", none of the items seen")')
+
+
+def _write_weight_by_size(w: _Writer, q: WeightQuery, obj: ObjectSpec, word: str) -> None:
     # several objects of one kind: language knowledge cannot tell them apart, so size stands in for weight
     _find(w, obj)
     w.line("# objects of one kind: with no force sensor, the biggest box is taken as the heaviest")

@@ -75,8 +75,17 @@ def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: b
     w.line("first = firsts[0]  # find lists the best match first")
     w.line("second = seconds[0]")
     sensor, unit, more_word, less_word = _YES_NO_TERMS[q.attribute]
-    measured = sensor == "camera" or (embodied and sensor in sensors)
-    if q.attribute == "weight" and measured:
+    if sensor == "camera" or (embodied and sensor in sensors):
+        _write_measured_values(w, q.attribute)
+    else:
+        _write_estimated_values(w, q)
+        unit = ""
+    _write_verdict(w, q, unit, more_word, less_word)
+
+
+def _write_measured_values(w: _Writer, attribute: str) -> None:
+    """`values`: the two objects' attribute, measured with the sensor (or read from the picture)."""
+    if attribute == "weight":
         w.line("# weigh both: the force sensor reads only what the gripper holds")
         w.line("values = []")
         w.line("for patch in [first, second]:")
@@ -84,21 +93,25 @@ def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: b
         w.line("    robot.pick_up(patch)")
         w.line("    values.append(robot.measure_weight(patch))")
         w.line("    robot.put_down()")
-    elif q.attribute == "distance" and measured:
+    elif attribute == "distance":
         w.line("values = []")
         w.line("for patch in [first, second]:")
         w.line("    robot.focus_on_patch(patch)")
         w.line("    values.append(robot.measure_distance(patch))")
-    elif q.attribute == "size" and measured:
+    elif attribute == "size":
         w.line("# sizes in metres: each box's pixels times its measured distance over the focal length")
         w.line("values = []")
         w.line("for patch in [first, second]:")
         w.line("    width, height = patch.size_at(robot.measure_distance(patch))")
         w.line("    values.append(max(width, height))")
-    elif q.attribute == "position":
+    else:  # position
         w.line("# left and right in the picture: the centres of the boxes, in pixels from the left edge")
         w.line("values = [first.horizontal_center, second.horizontal_center]")
-    elif q.attribute == "weight":
+
+
+def _write_estimated_values(w: _Writer, q: YesNoQuery) -> None:
+    """`values` with no sensor for the attribute: reasoned about or a visual proxy, in no unit."""
+    if q.attribute == "weight":
         w.line("# no force sensor: weight is reasoned about (the paper's VQA + LLM chain), not measured")
         names = [q.first.phrase, q.second.phrase]
         question = (
@@ -112,18 +125,19 @@ def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: b
         w.line("    values = [1, 0]")
         w.line("else:")
         w.line('    raise ValueError("the language model could not tell which is heavier: " + answer)')
-        unit = ""
     elif q.attribute == "distance":
         w.line(
             "# no distance sensor: a visual proxy, not a measurement; on one floor or table, the box whose"
         )
         w.line("# bottom edge is higher in the picture is farther (y grows upward)")
         w.line("values = [first.lower, second.lower]")
-        unit = ""
     else:
         w.line("# no distance sensor: the box areas in pixels (a visual proxy; a near object looks bigger)")
         w.line("values = [first.area, second.area]")
-        unit = ""
+
+
+def _write_verdict(w: _Writer, q: YesNoQuery, unit: str, more_word: str, less_word: str) -> None:
+    """The yes or no, the object that is more (or less), and a sentence with both values."""
     op = ">" if q.more else "<"
     w.line(f"yes = values[0] {op} values[1]")
     w.line(f"# the one that is {more_word if q.more else less_word}, with the values of both")

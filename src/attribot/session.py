@@ -1,0 +1,598 @@
+"""One query, end to end: the composition root that wires a world (or an image), its controller, the
+episode recorder, the perception backends and the sandboxed runner, then hands planning to a planner.
+
+`ask` plans the program (rules or an LLM) and runs it, retrying with feedback; `run_program` runs a given
+one; `replay` runs a `--save` folder again exactly as it was saved. All three share the same set-up,
+answer assembly and saving, so that `attribot exec SAVED_DIR` replays exactly what `attribot ask` ran.
+Planners only plan: everything that touches the world is here.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from attribot.config import WORLD_CONFIGS, Settings, WorldConfig, load_settings
+from attribot.errors import ConfigError, InputError
+from attribot.files import check_regular_file, check_writable, write_whole
+from attribot.frame import load_image
+from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
+from attribot.planning.query import asks_for_object, check_query, is_utf8_text
+
+__all__ = [
+    "Scene",
+    "Session",
+    "ask",
+    "run_program",
+    "replay",
+    "save_answer",
+    "check_save_dir",
+    "SAVED_FILES",
+    "RUN_FILE",
+]
+
+SAVED_FILES = ("answer.json", "program.py", "settings.json", "run.json", "answer.png", "episode.mp4")
+"""What `save_answer` writes into its folder (and `input` + the image's suffix for a still image)."""
+RUN_FILE = "run.json"
+"""The saved run's scene, query and planner: with settings.json, all that `replay` needs."""
+
+
+@dataclass
+class Scene:
+    """Where a query runs: a world built from its typed `config` (`SceneConfig` for mujoco, `BridgeConfig`,
+    `Ai2ThorConfig`), or a still image file (`image`).
+
+    `world` None: the world whose config `config` is (mujoco without one). Neither config nor image: the
+    default MuJoCo scene. `sensors` None: every sensor the world has (the camera alone for an image).
+    `controller` None: the world's own (servo in MuJoCo); "privileged" reads the simulator's state.
+    `still`: the first camera image is all a program sees (the robot does not look around)."""
+
+    config: WorldConfig | None = None
+    image: Path | str | None = None
+    world: str | None = None
+    sensors: Sequence[str] | None = None
+    controller: str | None = None
+    still: bool = False
+
+    def __post_init__(self) -> None:
+        if self.image is not None and (self.config is not None or self.world is not None):
+            raise InputError(
+                "a query runs either on an image or in a world, not both",
+                "drop the image, or drop the world and its options (layout, seed, objects, ...)",
+            )
+        self._check_sensors()
+        if self.image is not None:  # a missing file, a folder, a FIFO or /dev/zero is named before any work
+            self.image = Path(self.image)
+            check_regular_file(self.image, "the image", "give the path of a PNG or JPEG file")
+            return
+        self.world = self._world_name()
+        if self.config is None:
+            self.config = _default_config(self.world)
+
+    def _check_sensors(self) -> None:
+        if self.sensors is None:
+            return
+        if isinstance(self.sensors, str):
+            self.sensors = [s.strip() for s in self.sensors.split(",") if s.strip()]
+        if not list(self.sensors):
+            raise InputError("no sensor named: the sensors are empty", "name at least one, e.g. camera")
+        if self.image is not None and set(self.sensors) - {"camera"}:
+            others = ", ".join(sorted(set(self.sensors) - {"camera"}))
+            raise InputError(
+                f"a still image has a camera only, not {others}",
+                "name the camera alone (or no sensors), or ask in a world instead of on an image",
+            )
+
+    def _world_name(self) -> str:
+        """The world's registered name: the one given (checked against its config), or the config's."""
+        if self.world is not None:
+            name = self.world
+            kind = WORLD_CONFIGS.get(name)  # an unknown world lists the known ones
+            if self.config is not None and not isinstance(self.config, kind):
+                raise InputError(
+                    f"the {name} world is configured by a {kind.__name__}, not a "
+                    f"{type(self.config).__name__}",
+                    f"give config={kind.__name__}(...), or the world the config is for",
+                )
+            return next(n for n, c in WORLD_CONFIGS.items() if c is kind)
+        if self.config is None:
+            return "mujoco"
+        for name, kind in WORLD_CONFIGS.items():
+            if isinstance(self.config, kind):
+                return name
+        raise InputError(
+            f"{type(self.config).__name__} is no world's config",
+            f"give one of: {', '.join(c.__name__ for _, c in WORLD_CONFIGS.items())}",
+        )
+
+    def describe(self) -> dict[str, Any]:
+        """What answers record under `world`: the image file, or the world and the config's own fields."""
+        if self.image is not None:
+            return {"image": str(self.image)}
+        assert self.config is not None
+        return {"world": self.world, **self.config.describe()}
+
+    def saved(self, image_name: str | None = None) -> dict[str, Any]:
+        """Everything needed to build this scene again (`Scene.from_saved`); the image under `image_name`."""
+        return {
+            "world": self.world,
+            "config": self.config.model_dump(mode="json") if self.config is not None else None,
+            "image": image_name if self.image is not None else None,
+            "sensors": list(self.sensors) if self.sensors is not None else None,
+            "controller": self.controller,
+            "still": self.still,
+        }
+
+    @classmethod
+    def from_saved(cls, data: dict[str, Any], folder: Path) -> Scene:
+        """The scene `saved()` described, its image file in `folder`."""
+        if data.get("image"):
+            return cls(image=folder / str(data["image"]), sensors=data.get("sensors"))
+        world = str(data.get("world") or "mujoco")
+        kind: Any = WORLD_CONFIGS.get(world)
+        config = kind.model_validate(data["config"]) if data.get("config") is not None else None
+        return cls(
+            config=config,
+            world=world,
+            sensors=data.get("sensors"),
+            controller=data.get("controller"),
+            still=bool(data.get("still", False)),
+        )
+
+    def render(self) -> Any:
+        """The camera's first image of this scene, an RGB uint8 array (H, W, 3): to look at in a notebook."""
+        if self.image is not None:
+            return load_image(Path(self.image))
+        with self._built() as world:
+            return world.observe().rgb
+
+    def truth(self) -> Any:
+        """The simulated scene's ground truth (`SceneInfo`: each object's id, category, mass, distance and
+        box; the robot), to score an experiment's answers against the world's own state. Only a simulator
+        knows it: a robot or a still image raises `UnsupportedAction`."""
+        from attribot.errors import UnsupportedAction
+
+        if self.image is None:
+            with self._built() as world:
+                if hasattr(world, "scene_info"):
+                    return world.scene_info()
+        raise UnsupportedAction(
+            f"the {self.world or 'still image'} scene has no ground truth to read",
+            "score against the embedded MuJoCo world, or keep the truth of your own scene",
+        )
+
+    def _built(self) -> Any:
+        from attribot.embodiments.base import EMBODIMENTS
+
+        world_cls: Any = EMBODIMENTS.get(str(self.world))
+        return world_cls(self.config)
+
+
+def _default_config(world: str) -> Any:
+    kind: Any = WORLD_CONFIGS.get(world)
+    try:
+        return kind()
+    except ValueError:  # pydantic's ValidationError: the world needs settings it has no default for
+        fields = [n for n, f in kind.model_fields.items() if f.is_required()]
+        raise InputError(
+            f"the {world} world needs {', '.join(fields)}",
+            f"give config={kind.__name__}({', '.join(f'{n}=...' for n in fields)})",
+        ) from None
+
+
+@dataclass
+class _Parts:
+    """What a session builds, so that `close` frees what was built when a later part fails."""
+
+    world: Any = None
+    runner: Any = None
+    recorder: Any = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class Session:
+    """The world (or image), the API objects and the runner for one query; closes all of them.
+
+    `record`: film an episode video of the world (robot camera, room camera, the API call)."""
+
+    def __init__(self, scene: Scene, settings: Settings, record: bool = False) -> None:
+        from attribot.api.perception import Perception
+        from attribot.api.safeguards import Safeguards, parse_checks
+
+        self.scene = scene
+        self.settings = settings
+        self.safeguards = Safeguards(parse_checks(settings.checks))
+        self.start: Any = None  # the robot's state when the first try started, for the next tries
+        self.first_image: Any = None
+        self.runs = 0
+        self.world_started: float | None = None
+        self.parts = _Parts()
+        try:
+            if scene.image is not None:
+                _check_image_detector(settings)
+                rgb = load_image(Path(scene.image))  # a bad file fails before any model is loaded
+                self.perception = Perception.from_settings(settings)
+                self._still_image(rgb)
+            else:
+                self.perception = Perception.from_settings(settings)
+                self._world(record)
+            from attribot.api.patch import ImagePatch
+            from attribot.api.robot import Robot
+            from attribot.runner import ProgramRunner
+
+            self.parts.runner = ProgramRunner(classes=[ImagePatch, Robot])
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def world(self) -> Any:
+        return self.parts.world
+
+    def _still_image(self, rgb: Any) -> None:
+        from attribot.api.patch import ImagePatch
+        from attribot.api.robot import Robot
+
+        self.sensors = list(self.scene.sensors or ["camera"])
+        self.robot = Robot(sensors=self.sensors)
+        self.image = ImagePatch.from_image(rgb, self.perception)
+        if self.safeguards.on("look_again"):  # a still image is looked at again within itself
+            self.image.safeguards = self.safeguards
+
+    def _world(self, record: bool) -> None:
+        from attribot.api.robot import Robot
+        from attribot.control.base import build_controller
+        from attribot.embodiments.base import EMBODIMENTS
+
+        world_cls: Any = EMBODIMENTS.get(str(self.scene.world))
+        world = self.parts.world = world_cls(self.scene.config)
+        self.world_started = world.world_time()
+        have = {str(c) for c in world.capabilities()}
+        self.sensors = list(self.scene.sensors or [s for s in ("camera", "distance", "force") if s in have])
+        controller = build_controller(world, self.scene.controller)
+        self.robot = Robot(
+            sensors=self.sensors, world=world, controller=controller, safeguards=self.safeguards
+        )
+        if record and hasattr(world, "sim"):  # a simulated world can be filmed from outside
+            from attribot.embodiments.episode import EpisodeRecorder
+
+            robot = self.robot
+            self.parts.recorder = EpisodeRecorder(
+                world,
+                caption=lambda: robot.activity,
+                tracked=lambda: getattr(robot.controller, "tracked", None),
+            )
+        self.image = self.robot.look(self.perception, survey=not self.scene.still)
+        self.first_image = self.image
+        if self.safeguards.on("reset"):
+            self.start = self.robot.snapshot()
+
+    def findable(self) -> str:
+        """What `image.find` can find here, in words for the prompt."""
+        return self.perception.findable(self.image.frame)
+
+    def run(self, program: str) -> Any:
+        """Run `program` on this session's image and robot; from the second run on, the robot first goes
+        back to where the first run started (or, in a world that cannot put it back, empties its hands)."""
+        if self.runs and self.world is not None:
+            self._reset()
+        self.runs += 1
+        return self.parts.runner.run(program, args=[self.image, self.robot])
+
+    def _reset(self) -> None:
+        # a failed try may have moved the robot or left an object in its gripper
+        if self.robot.held is not None:
+            self.robot.put_down()
+        try_name = f"try {self.runs + 1}"
+        if self.start is not None:  # back to where the first try started, with its first image
+            self.robot.restore(self.start, self.first_image)
+            self.image = self.first_image
+            self.safeguards.note(
+                "reset", try_name, "caught", "the robot was put back where the first try started"
+            )
+        else:  # a world that cannot put its robot back: start with empty hands from what it sees now
+            self.image = self.robot.look(self.perception, survey=not self.scene.still)
+            if self.safeguards.on("reset"):
+                self.safeguards.note("reset", try_name, "unsettled", "this world cannot put the robot back")
+
+    def _doubt(self, result: Any) -> str | None:
+        """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
+        the sentence saying it cannot tell, with both values, when it is still unsettled."""
+        chosen = answer_patch(result.value_object) if result is not None and result.error is None else None
+        if chosen is None or self.world is None:
+            return None
+        try:
+            return self.robot.settle(chosen)
+        except Exception as exc:  # noqa: BLE001 (measuring again failed: keep the program's own answer)
+            self.safeguards.note("confidence", "answer", "unsettled", f"measuring again failed: {exc}")
+            return None
+
+    def backends(self) -> dict[str, str]:
+        names = self.perception.names()
+        names["robot"] = self.robot.backend_name()
+        return names
+
+    def finish(self, query: str, planner: str, solved: Any, save_dir: Path | None) -> Answer:
+        """The answer to `query` from the last run (`solved`: program, result, attempts, error); saved in
+        `save_dir` with the video of the episode when one was filmed."""
+        answer = build_answer(
+            doubt=self._doubt(solved.result),
+            error=solved.error,
+            query=query,
+            planner=planner,
+            program=solved.program,
+            result=solved.result,
+            attempts=len(solved.attempts),
+            backends=self.backends(),
+            measurements=list(self.robot.measurements),
+            world=self.scene.describe(),
+            frame=self.image.frame,
+        )
+        answer.checks = [e.model_dump() for e in self.safeguards.events]
+        if self.world_started is not None:
+            answer.sim_s = round(self.world.world_time() - self.world_started, 3)
+        if save_dir is not None:
+            video = self.parts.recorder.finish() if self.parts.recorder is not None else None
+            save_answer(
+                answer,
+                save_dir,
+                rgb=self.image.frame.rgb,
+                settings=self.settings,
+                video=video,
+                scene=self.scene,
+            )
+        return answer
+
+    def close(self) -> None:
+        if self.parts.runner is not None:
+            self.parts.runner.close()
+        if self.parts.world is not None:
+            self.parts.world.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _check_image_detector(settings: Settings) -> None:
+    from attribot.models.base import parse_spec
+
+    if parse_spec(settings.detector)[0] == "oracle":  # noisy or not, it reads simulator truth
+        raise ConfigError(
+            "a still image needs a real detector: the default 'oracle' detector reads simulator ground "
+            "truth, which a still image does not have",
+            "set the detector to hf:google/owlv2-base-patch16-ensemble (pip install -e '.[models]') or "
+            "remote:URL (--detector, or ATTRIBOT_DETECTOR); `attribot backends` lists the configuration",
+        )
+
+
+# ---- the library's entry points ---------------------------------------------------------------------
+
+
+def _scene_of(world: Scene | WorldConfig | str | None) -> Scene:
+    if isinstance(world, Scene):
+        return world
+    if world is None:
+        return Scene()
+    if isinstance(world, str):
+        return Scene(world=world)
+    if isinstance(world, BaseModel):
+        return Scene(config=world)
+    raise InputError(
+        f"world={world!r} is no world",
+        "give a world name ('mujoco'), a world config (SceneConfig(seed=3)) or a Scene",
+    )
+
+
+def _settings_of(settings: Settings | None, overrides: dict[str, Any]) -> Settings:
+    if settings is None:
+        return load_settings(**overrides)
+    if not overrides:
+        return settings
+    return load_settings(**{**settings.model_dump(), **overrides})
+
+
+def ask(
+    query: str,
+    world: Scene | WorldConfig | str | None = None,
+    settings: Settings | None = None,
+    *,
+    save_dir: Path | str | None = None,
+    **overrides: Any,
+) -> Answer:
+    """Answer `query` in `world` with the planner of the settings, and return the typed `Answer`.
+
+    `world`: a `Scene`, a world config (`SceneConfig(layout="triplet", seed=3)`), a world name, or None for
+    the default scene. `settings`: None reads attribot.toml and ATTRIBOT_* variables; `overrides` are
+    settings fields that win over both (`planner="llm"`, `detector="oracle?noise=realistic"`).
+    `save_dir`: keep the answer, program, settings, scene and image there, for `replay`."""
+    text = check_query(query)  # the one check of the query on its way to the planner
+    scene = _scene_of(world)
+    settings = _settings_of(settings, overrides)
+    save = Path(save_dir) if save_dir is not None else None
+    check_save_dir(save)
+    from attribot.planning import PlanRequest, build_planner, solve
+
+    planner = build_planner(settings.planner, settings)
+    with Session(scene, settings, record=save is not None) as session:
+        request = PlanRequest(
+            query=text,
+            sensors=session.sensors,
+            embodied=session.world is not None,
+            findable=session.findable(),
+            same_start=session.start is not None,
+        )
+        wants_object = asks_for_object(text)
+        # solve() stops by itself when a planner repeats a program (the rules planner always does)
+        solved = solve(
+            planner,
+            request,
+            session.run,
+            max_tries=settings.llm_max_tries,
+            check=lambda result: result_problem(result, wants_object),
+        )
+        return session.finish(text, planner.name, solved, save)
+
+
+@dataclass(frozen=True)
+class _OneRun:
+    """A given program's single run, in the shape `Session.finish` reads from a planner's `SolveResult`."""
+
+    program: str
+    result: Any
+    attempts: tuple[Any, ...] = (None,)
+    error: Any = None
+
+
+def run_program(
+    program: str,
+    world: Scene | WorldConfig | str | None = None,
+    settings: Settings | None = None,
+    *,
+    query: str = "",
+    save_dir: Path | str | None = None,
+    planner: str = "file",
+    **overrides: Any,
+) -> Answer:
+    """Run a program written the way the prompt asks (`def execute_command(image, robot)`) in `world` and
+    return its `Answer`; `query` is recorded only. `world`, `settings`, `overrides` and `save_dir` as for
+    `ask`."""
+    if not isinstance(program, str):
+        raise InputError(f"the program must be text, not {type(program).__name__}", "pass the source")
+    program = program.removeprefix("\ufeff")  # a byte-order mark, which Python itself accepts in a file
+    if not program.strip():
+        raise InputError("the program is empty", "give a file that defines execute_command(image, robot)")
+    if not is_utf8_text(program) or not is_utf8_text(query):
+        raise InputError("the program or the query is not valid UTF-8 text", "save it as UTF-8")
+    scene = _scene_of(world)
+    settings = _settings_of(settings, overrides)
+    save = Path(save_dir) if save_dir is not None else None
+    check_save_dir(save)
+    with Session(scene, settings, record=save is not None) as session:
+        return session.finish(query, planner, _OneRun(program, session.run(program)), save)
+
+
+def replay(folder: Path | str, *, save_dir: Path | str | None = None) -> Answer:
+    """Run the program of a `save_dir` folder again, in its saved scene with its saved settings (secrets
+    come from the environment, as they were never saved): the same answer and the same trace."""
+    folder = Path(folder)
+    program, scene, settings, query = load_saved(folder)
+    return run_program(program, scene, settings, query=query, save_dir=save_dir, planner="replay")
+
+
+def load_saved(folder: Path) -> tuple[str, Scene, Settings, str]:
+    """The program, scene, settings and query of a saved folder; a folder that lacks one says which."""
+    if not folder.is_dir():
+        raise InputError(f"{str(folder)!r} is not a folder", "give the folder that --save wrote")
+    missing = [name for name in ("program.py", RUN_FILE, "settings.json") if not (folder / name).is_file()]
+    if missing:
+        what = (
+            "no program (program.py): its run never produced one"
+            if "program.py" in missing
+            else f"no {' or '.join(missing)}"
+        )
+        raise InputError(
+            f"the folder {str(folder)!r} holds {what}, so it cannot be replayed",
+            "give a folder written by `attribot ask --save` whose answer has a program, or a .py file",
+        )
+    try:
+        program = (folder / "program.py").read_text(encoding="utf-8-sig")
+        run = json.loads((folder / RUN_FILE).read_text(encoding="utf-8"))
+        saved = json.loads((folder / "settings.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(
+            f"the saved run in {str(folder)!r} cannot be read ({exc.__class__.__name__}: {exc})",
+            "give a folder written by `attribot ask --save`, unchanged",
+        ) from None
+    secrets = {"llm_api_key", "remote_token"}
+    kept = {k: v for k, v in saved.items() if k not in secrets and v is not None}
+    return program, Scene.from_saved(run["scene"], folder), load_settings(**kept), str(run.get("query", ""))
+
+
+# ---- saving -----------------------------------------------------------------------------------------
+
+
+def check_save_dir(directory: Path | None) -> None:
+    """Refuse, before any work, a save folder that cannot take the answer: a file (or something under
+    one), a place that cannot be written (/dev/null, /proc/self), or a folder that already holds an
+    earlier answer (never overwritten silently)."""
+    if directory is None:
+        return
+    fix = "give the answer a new folder (it is created), e.g. runs/mug-1"
+    path = Path(directory)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"the save folder {str(path)!r} is a file, not a folder", fix)
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"the save folder {str(path)!r} lies under {str(existing)!r}, which is a file", fix)
+    earlier = [name for name in SAVED_FILES if (path / name).exists()]
+    if earlier:
+        raise InputError(
+            f"the save folder {str(path)!r} already holds {', '.join(earlier)} of an earlier answer",
+            "give a new folder, or remove the old answer first",
+        )
+    check_writable(existing, f"the save folder {str(path)!r}", fix)
+
+
+def save_answer(
+    answer: Answer,
+    directory: Path,
+    rgb: Any = None,
+    settings: Settings | None = None,
+    video: bytes | None = None,
+    scene: Scene | None = None,
+) -> list[Path]:
+    """Write answer.json, program.py, settings.json, (with `scene`) run.json and a copy of its image,
+    (with `rgb`) answer.png with the chosen box drawn, and (with `video`, MP4 bytes) episode.mp4.
+
+    Each file is written beside its place and renamed into it, so that a file is whole or absent."""
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    def put(name: str, data: bytes) -> None:
+        write_whole(directory / name, data)
+        written.append(directory / name)
+
+    put("answer.json", answer.model_dump_json(indent=2).encode("utf-8"))
+    if answer.program:
+        put("program.py", answer.program.encode("utf-8"))
+    if settings is not None:
+        put("settings.json", json.dumps(settings.public_dict(), indent=2, default=str).encode("utf-8"))
+    if scene is not None:
+        image_name = None
+        if scene.image is not None:  # the replay needs the picture, wherever the original lives later
+            image_name = "input" + Path(scene.image).suffix.lower()
+            shutil.copyfile(scene.image, directory / image_name)
+            written.append(directory / image_name)
+        run = {"query": answer.query, "planner": answer.planner, "scene": scene.saved(image_name)}
+        put(RUN_FILE, json.dumps(run, indent=2).encode("utf-8"))
+    if rgb is not None:
+        put("answer.png", _drawn_answer(answer, rgb))
+    if video:
+        put("episode.mp4", video)
+    return written
+
+
+def _drawn_answer(answer: Answer, rgb: Any) -> bytes:
+    import io
+
+    from PIL import Image
+
+    from attribot.draw import draw_boxes
+
+    boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
+    buf = io.BytesIO()
+    Image.fromarray(draw_boxes(rgb, boxes)).save(buf, format="PNG")
+    return buf.getvalue()

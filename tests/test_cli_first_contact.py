@@ -1,0 +1,98 @@
+"""What a new user meets first (issue 21): help that shows no value type on plain flags and answers -h,
+a missing image said as such, `dataset show` writing where it is asked; and the worlds and their options
+coming from the registered configs (issue 19)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from attribot.cli import app
+from attribot.config import WORLD_CONFIGS
+from conftest import cli
+
+
+def _invoke(args: list[str]):
+    return CliRunner().invoke(app, args)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        [],
+        ["ask"],
+        ["exec"],
+        ["scene", "render"],
+        ["scene"],
+        ["dataset", "show"],
+        ["eval"],
+        ["bridge", "serve"],
+    ],
+)
+def test_help_answers_dash_h_and_shows_no_type_on_plain_flags(args):
+    short, long = _invoke([*args, "-h"]), _invoke([*args, "--help"])
+    assert short.exit_code == long.exit_code == 0 and short.output == long.output
+    assert "<bool>" not in short.output and "<list[str]>" not in short.output
+    assert "-h" in short.output
+
+
+def test_ask_help_lists_the_registered_worlds_and_one_copy_of_each_flag():
+    text = _invoke(["ask", "-h"]).output
+    assert f"World to ask in: {', '.join(WORLD_CONFIGS.names())}" in " ".join(text.split())
+    flags = [line.split()[1] for line in text.splitlines() if line.startswith("│ --")]  # the first column
+    assert len(flags) == len(set(flags)) and {
+        "--seed",
+        "--world",
+        "--detector",
+        "--planner",
+        "--json",
+    } <= set(flags)
+
+
+def test_a_missing_image_is_said_as_such_with_its_path(tmp_path, empty_settings):
+    missing = tmp_path / "missing.png"
+    done = _invoke(["ask", "Where is the mug?", "--image", str(missing)])  # the default detector, oracle
+    assert done.exit_code == 2
+    said = " ".join(done.output.split())
+    assert f"no such file: '{missing}'" in said and "detector" not in said
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--world", "bridge"], "--world bridge needs --bridge-url"),
+        (
+            ["--world", "bridge", "--bridge-url", "tcp://h:1", "--seed", "3"],
+            "--seed does not apply to --world bridge",
+        ),
+        (["--world", "bridge", "--bridge-url", "nowhere"], "bridge setting url (--bridge-url) = 'nowhere'"),
+        (["--world", "ai2thor", "--option", "floor=7"], "--option floor does not apply to --world ai2thor"),
+        (["--world", "ai2thor", "--option", "fov_deg=400"], "fov_deg (--option fov_deg=) = 400"),
+        (["--world", "moon"], "--world 'moon' is not a world here"),
+        (["--seed", "-4"], "seed (--seed) = -4 is not valid"),
+    ],
+)
+def test_world_options_are_built_from_the_world_configs(args, words, empty_settings):
+    done = _invoke(["ask", "Where is the mug?", *args])
+    assert done.exit_code == 2 and words in " ".join(done.output.split()), done.output
+
+
+def test_dataset_show_writes_where_it_is_asked_and_says_where(tmp_path):
+    data = tmp_path / "data"
+    built = cli("dataset", "build", "--tasks", "weight_image", "--limit", "1", "--out", str(data))
+    assert built.returncode == 0, built.stderr
+    item = "weight_image-000"
+    here = tmp_path / "cwd"
+    here.mkdir()
+    default = cli("dataset", "show", str(data), item, cwd=here)
+    assert default.returncode == 0, default.stderr
+    assert json.loads(default.stdout)["id"] == item and list(here.iterdir()) == []  # nothing in the cwd
+    assert (data / "shown" / f"{item}.png").is_file() and str(
+        data / "shown" / f"{item}.png"
+    ) in default.stderr
+    folder = cli("dataset", "show", str(data), item, "--out", str(tmp_path / "pictures"))
+    assert folder.returncode == 0 and (tmp_path / "pictures" / f"{item}.png").is_file()
+    jpeg = cli("dataset", "show", str(data), item, "--out", str(tmp_path / "x.jpg"))
+    assert jpeg.returncode == 2 and "the image is a PNG" in jpeg.stderr
