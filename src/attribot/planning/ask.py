@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,7 +20,17 @@ from attribot.frame import load_image
 from attribot.planning.answer import Answer, AnswerError, AnswerObject
 from attribot.planning.base import is_utf8_text
 
-__all__ = ["Scene", "ask", "execute", "build_answer", "save_answer", "check_save_dir", "SAVED_FILES"]
+__all__ = [
+    "Scene",
+    "Watch",
+    "ask",
+    "execute",
+    "build_answer",
+    "save_answer",
+    "check_save_dir",
+    "SAVED_FILES",
+    "answer_image",
+]
 
 SAVED_FILES = ("answer.json", "program.py", "settings.json", "answer.png", "episode.mp4")
 """What `save_answer` writes into its folder."""
@@ -69,15 +79,27 @@ class Scene:
         return {"world": self.world, **self.config.describe()}
 
 
-def ask(query: str, scene: Scene, settings: Settings, save_dir: Path | None = None) -> Answer:
+@dataclass
+class Watch:
+    """Callbacks that see a query while it runs (the live demo), each called on the thread that runs it."""
+
+    program: Callable[[str], None] | None = None  # each program, as its try starts
+    call: Callable[[Any], None] | None = None  # each API call's TraceRecord, as the call ends
+    frame: Callable[[Any, Any], None] | None = None  # each episode frame: robot camera, room camera (RGB)
+
+
+def ask(
+    query: str, scene: Scene, settings: Settings, save_dir: Path | None = None, watch: Watch | None = None
+) -> Answer:
     """Answer `query` in `scene` with the planner named in `settings.planner`; `save_dir` keeps the
-    answer JSON, the program, the resolved settings and the camera frame with the chosen box drawn."""
+    answer JSON, the program, the resolved settings, the camera frame with the chosen box drawn and (in a
+    simulated world) the episode video, whose frames `watch.frame` sees as they are taken."""
     from attribot.planning import PlanRequest, build_planner, check_query, solve
 
     text = check_query(query)
     check_save_dir(save_dir)
     planner = build_planner(settings.planner, settings)
-    with _Session(scene, settings, record=save_dir is not None) as session:
+    with _Session(scene, settings, record=save_dir is not None, watch=watch, title=text) as session:
         request = PlanRequest(query=text, sensors=session.sensors, embodied=session.world is not None)
         # solve() stops by itself when a planner repeats a program (the rules planner always does)
         solved = solve(planner, request, session.run, max_tries=settings.llm_max_tries)
@@ -110,8 +132,16 @@ def execute(
 class _Session:
     """The world (or image), the API objects and the runner for one query; closes all of them."""
 
-    def __init__(self, scene: Scene, settings: Settings, record: bool = False) -> None:
-        """`record`: film an episode video of the world (robot camera, room camera, the API call)."""
+    def __init__(
+        self,
+        scene: Scene,
+        settings: Settings,
+        record: bool = False,
+        watch: Watch | None = None,
+        title: str = "",
+    ) -> None:
+        """`record`: film an episode video of the world (robot camera, room camera, the API call), which
+        opens with a card showing `title` (the query)."""
         from attribot.api.patch import ImagePatch
         from attribot.api.perception import Perception
         from attribot.api.robot import Robot
@@ -127,6 +157,7 @@ class _Session:
         self.world_started: float | None = None
         self.runner: Any = None
         self.recorder: Any = None
+        self.watch = watch or Watch()
         try:
             if scene.image is not None:
                 from attribot.models.base import parse_spec
@@ -170,7 +201,11 @@ class _Session:
                     self.recorder = EpisodeRecorder(
                         self.world,
                         caption=lambda: robot.activity,
+                        readings=lambda: [m.describe() for m in robot.measurements],
                         tracked=lambda: getattr(robot.controller, "tracked", None),
+                        target=lambda: (robot.acting_on, robot.acting_on_id),
+                        title=title,
+                        on_frame=self.watch.frame,
                     )
                 self.image = self.robot.look(self.perception, survey=not scene.still)
                 self.first_image = self.image
@@ -202,7 +237,9 @@ class _Session:
                         "reset", f"try {self.runs + 1}", "unsettled", "this world cannot put the robot back"
                     )
         self.runs += 1
-        return self.runner.run(program, args=[self.image, self.robot])
+        if self.watch.program is not None:
+            self.watch.program(program)
+        return self.runner.run(program, args=[self.image, self.robot], on_call=self.watch.call)
 
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
@@ -250,7 +287,10 @@ class _Session:
         if self.world_started is not None:
             answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:
-            video = self.recorder.finish() if self.recorder is not None else None
+            video = None
+            if self.recorder is not None:
+                lines = [answer.answer, *(m.describe() for m in self.robot.measurements)]
+                video = self.recorder.finish(lines, answer_image(answer, self.image.frame.rgb))
             save_answer(answer, save_dir, rgb=self.image.frame.rgb, settings=settings, video=video)
         return answer
 
@@ -320,7 +360,7 @@ def build_answer(
         text = f"the {name}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
         if measured is None:
             return Answer(answer=text, object=obj, **common)
-        text += f", measured {_format_measurement(measured)}"
+        text += f", measured {measured.reading()}"
         return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
     value = result.value
     raw = result.value_object
@@ -422,12 +462,6 @@ def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
     return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
 
 
-def _format_measurement(m: Any) -> str:
-    if m.unit == "kg" and m.newtons is not None:
-        return f"{m.value:.3f} kg ({m.newtons:.2f} N)"
-    return f"{m.value:.3f} {m.unit}"
-
-
 def check_save_dir(directory: Path | None) -> None:
     """Refuse, before any work, a `--save` folder that cannot take the answer: a file (or something under
     one), a place that cannot be written (/dev/null, /proc/self), or a folder that already holds an
@@ -452,6 +486,14 @@ def check_save_dir(directory: Path | None) -> None:
             "give a new folder, or remove the old answer first",
         )
     check_writable(existing, f"--save {str(path)!r}", fix)
+
+
+def answer_image(answer: Answer, rgb: Any) -> Any:
+    """A copy of `rgb` (the robot's first image) with the answer's box drawn and named, if it has one."""
+    from attribot.draw import draw_boxes
+
+    boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
+    return draw_boxes(rgb, boxes)
 
 
 def save_answer(
@@ -482,11 +524,8 @@ def save_answer(
 
         from PIL import Image
 
-        from attribot.draw import draw_boxes
-
-        boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
         buf = io.BytesIO()
-        Image.fromarray(draw_boxes(rgb, boxes)).save(buf, format="PNG")
+        Image.fromarray(answer_image(answer, rgb)).save(buf, format="PNG")
         put("answer.png", buf.getvalue())
     if video:
         put("episode.mp4", video)
