@@ -37,7 +37,7 @@ LEVELS: list[set[str]] = [
     {"runner"},
     {"planning"},
     {"eval", "server"},
-    {"cli"},
+    {"cli", "demo"},  # the command line and the web demo: two faces of the same API
 ]
 LEVEL_OF = {name: i for i, names in enumerate(LEVELS) for name in names}
 
