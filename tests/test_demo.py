@@ -256,3 +256,44 @@ def test_the_page_says_a_refused_query_and_asks_again_afterwards(demo, browser):
     # a 400 reply is logged by the browser as a failed resource; nothing else may be
     errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE" and "400" not in e["message"]]
     assert not errors, errors
+
+
+def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_llm(tmp_path, httpserver):
+    """The planner an `attribot demo --planner llm` runs with: a scripted OpenAI-compatible endpoint on
+    127.0.0.1 whose first program fails, so that the page sees the second try too."""
+
+    def completion(program: str) -> dict:
+        content = f"```python\n{program}```"
+        return {
+            "id": "chatcmpl-1",
+            "object": "chat.completion",
+            "created": 0,
+            "model": "test-model",
+            "choices": [
+                {"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}
+            ],
+            "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2},
+        }
+
+    wrong = "def execute_command(image, robot):\n    return image.find('object')[99]\n"
+    right = "def execute_command(image, robot):\n    return image.find('object')[0]\n"
+    path = "/v1/chat/completions"
+    httpserver.expect_ordered_request(path, method="POST").respond_with_json(completion(wrong))
+    httpserver.expect_ordered_request(path, method="POST").respond_with_json(completion(right))
+    settings = load_settings(
+        planner="llm",
+        llm_base_url=httpserver.url_for("/v1"),
+        llm_model="test-model",
+        cache_dir=tmp_path / "c",
+    )
+    app = create_app(DemoConfig(settings=settings, runs_dir=tmp_path / "runs"))
+    with ServerThread(app) as server:
+        client = _client(server)
+        assert client.get("/api/options").json()["llm_model"] == "test-model"
+        started = client.post("/api/runs", json={"query": "Which object is the first one?"})
+        events = _events(client, started.json()["events"])
+    programs = [e for e in events if e["type"] == "program"]
+    assert [p["text"] for p in programs] == [wrong, right] and [p["attempt"] for p in programs] == [1, 2]
+    answer = next(e for e in events if e["type"] == "answer")["answer"]
+    assert answer["planner"] == "llm" and answer["attempts"] == 2 and answer["error"] is None
+    assert answer["object"]["id"]
