@@ -125,7 +125,7 @@ def execute(
     if not is_utf8_text(program) or not is_utf8_text(query):
         raise InputError("the program or the query is not valid UTF-8 text", "save it as UTF-8")
     check_save_dir(save_dir)
-    with _Session(scene, settings, record=save_dir is not None) as session:
+    with _Session(scene, settings, record=save_dir is not None, title=query) as session:
         return session.finish(query, "file", program, session.run(program), 1, save_dir, settings)
 
 
