@@ -252,6 +252,22 @@ def test_the_page_says_a_refused_query_and_asks_again_afterwards(demo, browser):
     wait.until(lambda d: d.find_element(By.ID, "status").text.startswith("error:"))
     assert "'grid' is not KEY=VALUE" in browser.find_element(By.ID, "status").text
     assert browser.find_element(By.ID, "ask").is_enabled()
+    # fixed, the same page asks again, twice: each answer replaces the last one's calls
+    browser.find_element(By.ID, "options").clear()
+    answers = []
+    for text in ("Which object is the closest?", "Which object is the farthest?"):
+        query = browser.find_element(By.ID, "query")
+        query.clear()
+        query.send_keys(text)
+        browser.find_element(By.ID, "ask").click()
+        WebDriverWait(browser, 240).until(lambda d: d.find_element(By.ID, "status").text == "answered")
+        answers.append(browser.find_element(By.ID, "answer-text").text)
+        page_json = json.loads(
+            browser.execute_script("return document.getElementById('answer-json').textContent")
+        )
+        assert page_json["query"] == text
+        assert len(browser.find_elements(By.CSS_SELECTOR, "#calls li")) == len(page_json["trace"])
+    assert answers[0] != answers[1]
     time.sleep(0.2)
     # a 400 reply is logged by the browser as a failed resource; nothing else may be
     errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE" and "400" not in e["message"]]
