@@ -313,3 +313,43 @@ def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_ll
     answer = next(e for e in events if e["type"] == "answer")["answer"]
     assert answer["planner"] == "llm" and answer["attempts"] == 2 and answer["error"] is None
     assert answer["object"]["id"]
+
+
+def test_an_uploaded_image_is_answered_by_the_configured_detector(tmp_path, browser):
+    """The page's other way in: an image file chosen in the page, with `--detector hf:...` (a tiny random
+    OWLv2 saved to disk, loaded by path). What random weights find is arbitrary, so the answer is an
+    object or the program's own error, shown as the answer; never a crash, and no episode video."""
+    pytest.importorskip("transformers", reason="needs the models extra")
+    from PIL import Image
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    from attribot.models.hf_random import save_random
+
+    save_random("owlv2-tiny", tmp_path / "owl")
+    photo = tmp_path / "photo.png"
+    Image.new("RGB", (320, 240), (90, 120, 160)).save(photo)
+    settings = load_settings(detector=f"hf:{tmp_path / 'owl'}")
+    app = create_app(DemoConfig(settings=settings, runs_dir=tmp_path / "runs"))
+    with ServerThread(app) as server:
+        browser.get(server.url + "/")
+        wait = WebDriverWait(browser, 240)
+        wait.until(lambda d: d.find_elements(By.CSS_SELECTOR, "#layout option"))
+        browser.find_element(By.CSS_SELECTOR, "input[name=where][value=image]").click()
+        assert not browser.find_element(By.ID, "layout").is_displayed()
+        browser.find_element(By.ID, "image").send_keys(str(photo))
+        query = browser.find_element(By.ID, "query")
+        query.clear()
+        query.send_keys("the leftmost item")
+        browser.find_element(By.ID, "ask").click()
+        wait.until(lambda d: d.find_element(By.ID, "status").text in ("answered", "no answer"))
+        page_json = json.loads(
+            browser.execute_script("return document.getElementById('answer-json').textContent")
+        )
+        assert page_json["backends"]["detector"].startswith("hf:")
+        assert page_json["world"]["image"].endswith("upload.png")
+        assert page_json["trace"] and page_json["trace"][0]["call"].startswith("ImagePatch.")
+        assert not browser.find_element(By.ID, "download-video").is_displayed()  # a still image has none
+        assert browser.find_element(By.ID, "download-run").is_displayed()
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        assert not errors, errors
