@@ -212,6 +212,7 @@ class _Demo:
         finally:
             with run.cond:
                 run.done = True
+                run.frame = None  # the page has the last one; a kept run need not hold two images
                 run.events.append({"type": "done"})
                 run.cond.notify_all()
 

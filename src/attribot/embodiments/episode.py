@@ -145,7 +145,8 @@ class EpisodeRecorder:
         if self.on_frame is not None:
             self.on_frame(left, right)
         for panel, name in ((left, "robot camera"), (right, "room camera")):
-            _text(panel, [(name, 18, (255, 255, 255))], 10, 8)
+            panel[:32, :150] = panel[:32, :150] // 3  # a dark patch: the label stays readable on a light wall
+            _text(panel, [(name, 18, (255, 255, 255))], 10, 7)
         bar = np.full((_BAR_H, 2 * w, 3), _BACKGROUND, np.uint8)
         caption = self.caption() or "looking at the scene"
         values = "   ".join(self.readings())
