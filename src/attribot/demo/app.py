@@ -107,6 +107,10 @@ def _jpeg(rgb: np.ndarray, quality: int = 80) -> str:
     return "data:image/jpeg;base64," + base64.b64encode(data.tobytes()).decode("ascii")
 
 
+class _Busy(InputError):
+    """This visitor's earlier query has not finished (HTTP 409)."""
+
+
 class _Demo:
     """The runs and the worker thread that answers them in order."""
 
@@ -124,7 +128,7 @@ class _Demo:
         with self.lock:
             busy = [r for r in self.runs.values() if r.visitor == visitor and not r.done]
             if busy:
-                raise InputError(
+                raise _Busy(
                     "your earlier query is still running", "wait for its answer, then ask the next one"
                 )
             run_id = f"{next(self.counter):04d}-{secrets.token_hex(4)}"
@@ -133,12 +137,8 @@ class _Demo:
             path = None
             if image is not None:
                 name, data = image
-                suffix = (
-                    Path(name).suffix.lower()
-                    if Path(name).suffix.lower() in (".png", ".jpg", ".jpeg")
-                    else ""
-                )
-                path = folder / f"upload{suffix or '.png'}"
+                suffix = Path(name).suffix.lower()  # the name is the visitor's: only its known suffixes
+                path = folder / ("upload" + (suffix if suffix in (".png", ".jpg", ".jpeg") else ".png"))
                 path.write_bytes(data)
             run = _Run(run_id, visitor, query, config, path, folder / "run")
             self.runs[run_id] = run
@@ -408,8 +408,7 @@ def create_app(config: DemoConfig) -> Any:
             scene = None if image is not None else _scene_config(fields)
             run = demo.start(visitor, query, scene, image)
         except AttribotError as exc:
-            busy = "still running" in exc.message
-            return problem(409 if busy else 400, exc.message, exc.fix)
+            return problem(409 if isinstance(exc, _Busy) else 400, exc.message, exc.fix)
         return {"id": run.id, "events": f"/api/runs/{run.id}/events"}
 
     def find(run_id: str, request: Request) -> _Run | None:
