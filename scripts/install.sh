@@ -28,6 +28,11 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 PY=${PYTHON:-python3}
+if ! "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null; then
+  echo "error: attribot needs Python 3.11 or newer; $PY is $("$PY" --version 2>&1 || echo missing)" >&2
+  echo "fix: install python3.11 (or newer) and run PYTHON=python3.11 scripts/install.sh" >&2
+  exit 2
+fi
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 pip=(.venv/bin/python -m pip install -q --disable-pip-version-check --no-warn-script-location)
 if [ $want_test = 1 ]; then
