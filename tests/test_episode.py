@@ -17,8 +17,20 @@ from attribot.video import VideoWriter
 
 
 def _decode(path) -> list[np.ndarray]:
+    """The frames as a viewer sees them, one per frame time: a held frame (encoded once, with a longer
+    duration) repeated for as long as it is shown."""
     with av.open(str(path)) as container:
-        return [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+        return _shown(container)
+
+
+def _shown(container) -> list[np.ndarray]:
+    stream = container.streams.video[0]
+    tick = 1 / (float(stream.time_base) * float(stream.base_rate))  # pts per frame time (the writer's fps)
+    frames = [(f.pts, f.to_ndarray(format="rgb24")) for f in container.decode(video=0)]
+    out = []
+    for (pts, rgb), (after, _) in zip(frames, frames[1:] + [(frames[-1][0] + tick, None)], strict=True):
+        out += [rgb] * max(1, round((after - pts) / tick))
+    return out
 
 
 def test_video_writer_round_trip():
@@ -33,11 +45,31 @@ def test_video_writer_round_trip():
     assert VideoWriter().finish() == b""
 
 
+def test_a_held_frame_is_encoded_once_and_shown_for_its_repeats():
+    writer = VideoWriter(fps=10)
+    writer.add(np.full((48, 64, 3), (200, 30, 30), np.uint8), repeat=25)  # a card, 2.5 s
+    writer.add(np.full((48, 64, 3), (30, 200, 30), np.uint8))
+    writer.add(np.full((48, 64, 3), (30, 30, 200), np.uint8), repeat=40)  # the closing card, 4 s
+    data = writer.finish()
+    import io
+
+    with av.open(io.BytesIO(data)) as container:
+        encoded = sum(1 for _ in container.decode(video=0))
+    with av.open(io.BytesIO(data)) as container:
+        shown = _shown(container)
+    assert encoded <= 4 and writer.frames == 66
+    # the last frame is shown for its whole time too (one more frame ends it)
+    assert 64 <= len(shown) <= 67
+    reds = sum(1 for f in shown if f[..., 0].mean() > 150)
+    blues = sum(1 for f in shown if f[..., 2].mean() > 150)
+    assert reds == 25 and 39 <= blues <= 41
+
+
 def _decode_bytes(data: bytes) -> list[np.ndarray]:
     import io
 
     with av.open(io.BytesIO(data)) as container:
-        return [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+        return _shown(container)
 
 
 def test_ask_with_save_films_the_episode(tmp_path):

@@ -98,7 +98,6 @@ class EpisodeRecorder:
         self.writer = VideoWriter(fps=1.0 / period_s)
         self.size = (2 * view[0], view[1] + _BAR_H)  # width, height of every frame
         self._shown = ""  # the caption of the last frame: a new one is held for `hold` frames
-        self._last: np.ndarray | None = None
         if title:
             self._card(self._title_card(title), 2.5)
         self._next = float(self.sim.data.time)
@@ -112,8 +111,7 @@ class EpisodeRecorder:
                 self._next += self.period_s
 
     def _card(self, rgb: np.ndarray, seconds: float) -> None:
-        for _ in range(max(1, round(seconds / self.period_s))):
-            self.writer.add(rgb)
+        self.writer.add(rgb, repeat=max(1, round(seconds / self.period_s)))
 
     def _blank(self) -> np.ndarray:
         w, h = self.size
@@ -158,9 +156,7 @@ class EpisodeRecorder:
         frame = np.vstack([np.hstack([left, right]), bar])
         repeat = self.hold if caption != self._shown else 1
         self._shown = caption
-        for _ in range(repeat):
-            self.writer.add(frame)
-        self._last = frame
+        self.writer.add(frame, repeat=repeat)
 
     def _closing_card(self, answer: Sequence[str], still: np.ndarray | None) -> np.ndarray:
         card = self._blank()
