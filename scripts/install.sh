@@ -28,17 +28,26 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 PY=${PYTHON:-python3}
+if ! "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null; then
+  echo "error: attribot needs Python 3.11 or newer; $PY is $("$PY" --version 2>&1 || echo missing)" >&2
+  echo "fix: install python3.11 (or newer) and run PYTHON=python3.11 scripts/install.sh" >&2
+  exit 2
+fi
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 pip=(.venv/bin/python -m pip install -q --disable-pip-version-check --no-warn-script-location)
 if [ $want_test = 1 ]; then
-  # The evaluation report's test opens it in headless Chromium (Debian's package, not a downloaded build).
-  if ! command -v chromium >/dev/null; then
+  # The browser tests (the evaluation report, the live demo driven by selenium) use headless Chromium and
+  # its WebDriver: Debian's packages, not a downloaded build.
+  browser=()
+  command -v chromium >/dev/null || browser+=(chromium)
+  command -v chromedriver >/dev/null || browser+=(chromium-driver)
+  if [ ${#browser[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
-      echo "installing Chromium for the report test"
+      echo "installing ${browser[*]} for the browser tests"
       apt-get update -qq >/dev/null
-      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${browser[@]}" >/dev/null
     else
-      echo "warning: no chromium; the report's browser test will be skipped (sudo apt-get install chromium)" >&2
+      echo "warning: no ${browser[*]}; the browser tests will be skipped (sudo apt-get install ${browser[*]})" >&2
     fi
   fi
   # The CPU build of torch keeps the test install small; any torch>=2.4 works for the package.

@@ -37,7 +37,7 @@ LEVELS: list[set[str]] = [
     {"planning"},
     {"session"},  # the composition root: wires world, controller, recorder, backends and runner
     {"eval", "server"},
-    {"cli", "__init__"},  # the package's own names (ask, run_program, Scene) load the session lazily
+    {"cli", "demo", "__init__"},  # the command line, the web demo and the package's own names (ask, ...)
 ]
 LEVEL_OF = {name: i for i, names in enumerate(LEVELS) for name in names}
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import shutil
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +28,7 @@ from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 __all__ = [
     "Scene",
     "Session",
+    "Watch",
     "ask",
     "run_program",
     "replay",
@@ -196,12 +197,29 @@ class _Parts:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+@dataclass
+class Watch:
+    """Callbacks that see a query while it runs (the live demo), each called on the thread that runs it."""
+
+    program: Callable[[str], None] | None = None  # each program, as its try starts
+    call: Callable[[Any], None] | None = None  # each API call's TraceRecord, as the call ends
+    frame: Callable[[Any, Any], None] | None = None  # each episode frame: robot camera, room camera (RGB)
+
+
 class Session:
     """The world (or image), the API objects and the runner for one query; closes all of them.
 
-    `record`: film an episode video of the world (robot camera, room camera, the API call)."""
+    `record`: film an episode video of the world (robot camera, room camera, the API call), which opens
+    with a card showing `title` (the query); `watch` sees the programs, calls and frames as they happen."""
 
-    def __init__(self, scene: Scene, settings: Settings, record: bool = False) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        settings: Settings,
+        record: bool = False,
+        watch: Watch | None = None,
+        title: str = "",
+    ) -> None:
         from attribot.api.perception import Perception
         from attribot.api.safeguards import Safeguards, parse_checks
 
@@ -213,6 +231,8 @@ class Session:
         self.runs = 0
         self.world_started: float | None = None
         self.parts = _Parts()
+        self.watch = watch or Watch()
+        self.title = title
         try:
             if scene.image is not None:
                 _check_image_detector(settings)
@@ -266,7 +286,11 @@ class Session:
             self.parts.recorder = EpisodeRecorder(
                 world,
                 caption=lambda: robot.activity,
+                readings=lambda: [m.describe() for m in robot.measurements],
                 tracked=lambda: getattr(robot.controller, "tracked", None),
+                target=lambda: (robot.acting_on, robot.acting_on_id),
+                title=self.title,
+                on_frame=self.watch.frame,
             )
         self.image = self.robot.look(self.perception, survey=not self.scene.still)
         self.first_image = self.image
@@ -283,7 +307,9 @@ class Session:
         if self.runs and self.world is not None:
             self._reset()
         self.runs += 1
-        return self.parts.runner.run(program, args=[self.image, self.robot])
+        if self.watch.program is not None:
+            self.watch.program(program)
+        return self.parts.runner.run(program, args=[self.image, self.robot], on_call=self.watch.call)
 
     def _reset(self) -> None:
         # a failed try may have moved the robot or left an object in its gripper
@@ -338,7 +364,10 @@ class Session:
         if self.world_started is not None:
             answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:
-            video = self.parts.recorder.finish() if self.parts.recorder is not None else None
+            video = None
+            if self.parts.recorder is not None:
+                lines = [answer.answer, *(m.describe() for m in self.robot.measurements)]
+                video = self.parts.recorder.finish(lines, answer_image(answer, self.image.frame.rgb))
             save_answer(
                 answer,
                 save_dir,
@@ -406,6 +435,7 @@ def ask(
     settings: Settings | None = None,
     *,
     save_dir: Path | str | None = None,
+    watch: Watch | None = None,
     **overrides: Any,
 ) -> Answer:
     """Answer `query` in `world` with the planner of the settings, and return the typed `Answer`.
@@ -413,7 +443,8 @@ def ask(
     `world`: a `Scene`, a world config (`SceneConfig(layout="triplet", seed=3)`), a world name, or None for
     the default scene. `settings`: None reads attribot.toml and ATTRIBOT_* variables; `overrides` are
     settings fields that win over both (`planner="llm"`, `detector="oracle?noise=realistic"`).
-    `save_dir`: keep the answer, program, settings, scene and image there, for `replay`."""
+    `save_dir`: keep the answer, program, settings, scene and image there, for `replay`. `watch`: callbacks
+    that see each program, API call and episode frame as it happens (the live demo)."""
     text = check_query(query)  # the one check of the query on its way to the planner
     scene = _scene_of(world)
     settings = _settings_of(settings, overrides)
@@ -422,7 +453,7 @@ def ask(
     from attribot.planning import PlanRequest, build_planner, solve
 
     planner = build_planner(settings.planner, settings)
-    with Session(scene, settings, record=save is not None) as session:
+    with Session(scene, settings, record=save is not None, watch=watch, title=text) as session:
         request = PlanRequest(
             query=text,
             sensors=session.sensors,
@@ -476,7 +507,7 @@ def run_program(
     settings = _settings_of(settings, overrides)
     save = Path(save_dir) if save_dir is not None else None
     check_save_dir(save)
-    with Session(scene, settings, record=save is not None) as session:
+    with Session(scene, settings, record=save is not None, title=query) as session:
         return session.finish(query, planner, _OneRun(program, session.run(program)), save)
 
 
@@ -579,20 +610,25 @@ def save_answer(
         run = {"query": answer.query, "planner": answer.planner, "scene": scene.saved(image_name)}
         put(RUN_FILE, json.dumps(run, indent=2).encode("utf-8"))
     if rgb is not None:
-        put("answer.png", _drawn_answer(answer, rgb))
+        put("answer.png", _png(answer_image(answer, rgb)))
     if video:
         put("episode.mp4", video)
     return written
 
 
-def _drawn_answer(answer: Answer, rgb: Any) -> bytes:
+def answer_image(answer: Answer, rgb: Any) -> Any:
+    """A copy of `rgb` (the robot's first image) with the answer's box drawn and named, if it has one."""
+    from attribot.draw import draw_boxes
+
+    boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
+    return draw_boxes(rgb, boxes)
+
+
+def _png(rgb: Any) -> bytes:
     import io
 
     from PIL import Image
 
-    from attribot.draw import draw_boxes
-
-    boxes = [] if answer.object is None else [(answer.object.box, answer.object.category or "answer")]
     buf = io.BytesIO()
-    Image.fromarray(draw_boxes(rgb, boxes)).save(buf, format="PNG")
+    Image.fromarray(rgb).save(buf, format="PNG")
     return buf.getvalue()

@@ -26,33 +26,48 @@ class VideoWriter:
         self._container = av.open(self._buffer, mode="w", format="mp4")
         self._stream: Any = None  # av's stream, made at the first frame (its size comes from it)
         self._fps = fps
-        self.frames = 0
+        self.frames = 0  # frame times so far (a held frame counts its repeats)
+        self._held: tuple[np.ndarray, int] = (np.zeros((0, 0, 3), np.uint8), 0)
 
-    def add(self, rgb: np.ndarray) -> None:
-        import av
+    def add(self, rgb: np.ndarray, repeat: int = 1) -> None:
+        """Append `rgb`, shown for `repeat` frame times: a held frame is encoded once, with a longer
+        duration (the file's frame times are its own; players show it for as long)."""
 
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
             raise InputError(f"a video frame must be RGB uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
+        if repeat < 1:
+            raise InputError(f"a video frame is shown at least once, got repeat={repeat}")
         h, w = rgb.shape[:2]
         if self._stream is None:
             from fractions import Fraction
 
-            self._stream = self._container.add_stream(
-                "libx264", rate=Fraction(self._fps).limit_denominator(1000)
-            )
+            rate = Fraction(self._fps).limit_denominator(1000)
+            self._stream = self._container.add_stream("libx264", rate=rate)
+            self._stream.codec_context.time_base = 1 / rate  # one tick per frame time
             self._stream.width, self._stream.height = w - w % 2, h - h % 2  # yuv420p wants even sides
             self._stream.pix_fmt = "yuv420p"
             self._stream.options = {"crf": "28", "preset": "veryfast"}
         rgb = np.ascontiguousarray(rgb[: self._stream.height, : self._stream.width])
-        for packet in self._stream.encode(av.VideoFrame.from_ndarray(rgb, format="rgb24")):
+        self._encode(rgb, self.frames)
+        self.frames += repeat
+        self._held = (rgb, repeat)
+
+    def _encode(self, rgb: np.ndarray, pts: int) -> None:
+        import av
+
+        frame = av.VideoFrame.from_ndarray(rgb, format="rgb24")
+        frame.pts = pts
+        for packet in self._stream.encode(frame):
             self._container.mux(packet)
-        self.frames += 1
 
     def finish(self) -> bytes:
         """Flush the encoder and return the MP4 file's bytes (empty when no frame was added)."""
         if self._stream is None:
             self._container.close()
             return b""
+        rgb, repeat = self._held
+        if repeat > 1:  # the last frame's duration is the gap to the next: one more frame ends it
+            self._encode(rgb, self.frames - 1)
         for packet in self._stream.encode():
             self._container.mux(packet)
         self._container.close()

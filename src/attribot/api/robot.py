@@ -98,6 +98,35 @@ class Measurement(BaseModel):
     samples: int = 1
     uncertainty: float = 0.0  # one standard deviation, in `unit`
 
+    def reading(self) -> str:
+        """The value as a person reads it: "0.308 kg (3.02 N)", "1.211 m"."""
+        if self.unit == "kg" and self.newtons is not None:
+            return f"{self.value:.3f} kg ({self.newtons:.2f} N)"
+        return f"{self.value:.3f} {self.unit}"
+
+    def describe(self) -> str:
+        """The object and its value: "mug 0: 0.308 kg (3.02 N)"."""
+        return f"{object_name(self.object_id, self.label)}: {self.reading()}"
+
+
+def object_name(object_id: str | None, label: str | None) -> str:
+    """What a caption calls an object: its detector id made readable ("computer mouse 1"), else its label."""
+    if object_id:
+        return object_id.replace("_", " ")
+    return label or "the object"
+
+
+_DOING = {
+    "focus_on_patch": "turning the camera to",
+    "measure_distance": "measuring the distance to",
+    "measure_weight": "weighing",
+    "go_to_object": "driving to",
+    "pick_up": "picking up",
+    "put_on": "putting the held object on",
+    "push": "pushing",
+}
+"""What an episode video's caption says a robot method is doing, before the object's name."""
+
 
 class Robot:
     """The robot that carries the camera. It can move, act on objects, and measure what a camera cannot
@@ -131,6 +160,8 @@ class Robot:
         "measurements",
         "capture",
         "activity",
+        "acting_on",
+        "acting_on_id",
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
@@ -194,7 +225,9 @@ class Robot:
         self._near: ImagePatch | None = None
         self._captures = 0
         self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
-        self.activity = ""  # the action under way, as a program wrote it (episode videos show it)
+        self.activity = ""  # the action under way, naming its object ("weighing mug 0"): videos show it
+        self.acting_on = ""  # the name of the object of that action
+        self.acting_on_id: str | None = None  # and its detector id, when the detector gives one
         self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
 
     @property
@@ -393,7 +426,8 @@ class Robot:
         if isinstance(patch, str):
             patch = self._named(patch, method)
         p = check_patch(patch, ImagePatch, "patch", method)
-        self.activity = f"robot.{method}({p.label or 'patch'})"
+        self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
+        self.activity = f"{_DOING.get(method, method)} {self.acting_on}"
         if p.label and (not self._acted_on or self._acted_on[-1] is not p):
             self._acted_on.append(p)
         target = p.target()
@@ -783,7 +817,9 @@ class Robot:
         >>>     robot.put_down()
         >>>     return melon
         """
-        self.activity = "robot.put_down()"
+        self.activity = "putting down " + (
+            object_name(self.held.object_id, self.held.label) if self.held is not None else "nothing"
+        )
         if self.held is None:
             raise PreconditionError(
                 "robot.put_down() needs an object in the gripper, and it is empty",

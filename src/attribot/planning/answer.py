@@ -179,7 +179,7 @@ def _chosen_answer(
     text = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
     measured = _last_measurement(chosen, measurements)
     if measured is not None:
-        text += f", measured {_format_measurement(measured)}"
+        text += f", measured {measured.reading()}"
         return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
     beside = _number_beside(returned)
     if beside is not None:
@@ -274,8 +274,3 @@ def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
         return None
     return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
 
-
-def _format_measurement(m: Any) -> str:
-    if m.unit == "kg" and m.newtons is not None:
-        return f"{m.value:.3f} kg ({m.newtons:.2f} N)"
-    return f"{m.value:.3f} {m.unit}"

@@ -19,7 +19,7 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -273,9 +273,12 @@ def _kill_worker(box: list[_Worker | None]) -> None:
 class _Run:
     """The state of one run on the host: handles, trace, output, the first stop the host decided."""
 
-    def __init__(self, runner: ProgramRunner, source: str) -> None:
+    def __init__(
+        self, runner: ProgramRunner, source: str, on_call: Callable[[TraceRecord], None] | None = None
+    ) -> None:
         self.runner = runner
         self.source = source
+        self.on_call = on_call
         self.objects: dict[int, Any] = {}
         self.ids: dict[int, int] = {}
         self.trace: list[TraceRecord] = []
@@ -433,7 +436,7 @@ class _Run:
                 cutter.in_call = False
         except _CallTimeout:
             ms = (time.perf_counter() - t0) * 1000
-            self.trace.append(
+            self.record(
                 TraceRecord(
                     call=name, args=shown, result=None, ms=ms, line=line, error="cut at the run's time limit"
                 )
@@ -455,10 +458,14 @@ class _Run:
             return self._refuse(
                 name, f"{name} returned {e}, which cannot be passed to a program", line, shown, ms
             )
-        self.trace.append(
-            TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line)
-        )
+        self.record(TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line))
         return {KIND: Kind.RETURN, Key.VALUE: wire}
+
+    def record(self, record: TraceRecord) -> None:
+        """Keep one call in the trace, and show it to the run's observer (a live view) as it happens."""
+        self.trace.append(record)
+        if self.on_call is not None:
+            self.on_call(record)
 
     def _refuse(
         self,
@@ -473,7 +480,7 @@ class _Run:
         the `ActionFailed` the program may catch. Either way the trace records the failed call."""
         # a host error may quote a program's text, lone surrogates and all, or a host object's repr
         message = _text(_HOST_REPR.sub(r"<\1>", message))
-        self.trace.append(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
+        self.record(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
         kind = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
         return {KIND: kind, Key.CATEGORY: "api", Key.MESSAGE: message}
 
@@ -595,8 +602,16 @@ class ProgramRunner:
         return out
 
     # ---- running ------------------------------------------------------------------------------------
-    def run(self, source: str, args: Sequence[Any] = (), *, entry: str | None = None) -> RunResult:
-        """Check, then run `source` in a fresh worker: calls `entry(*args)` and returns what it gave."""
+    def run(
+        self,
+        source: str,
+        args: Sequence[Any] = (),
+        *,
+        entry: str | None = None,
+        on_call: Callable[[TraceRecord], None] | None = None,
+    ) -> RunResult:
+        """Check, then run `source` in a fresh worker: calls `entry(*args)` and returns what it gave.
+        `on_call` sees each trace record as its call ends (on the host thread that serves the run)."""
         if self._closed:
             raise InputError("this ProgramRunner is closed", "make a new one")
         entry = entry or self.entry
@@ -605,7 +620,7 @@ class ProgramRunner:
         if error is not None:
             return RunResult(ok=False, error=error, wall_ms=(time.perf_counter() - t0) * 1000)
         with self._lock:
-            state = _Run(self, source)
+            state = _Run(self, source, on_call)
             try:
                 wire_args = [state.encode(a) for a in args]
                 constructors = {
