@@ -539,16 +539,17 @@ def _writable_folder(folder: Path, flag: str) -> None:
 
 def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     from attribot.errors import InputError
-    from attribot.eval.datasets import TASKS
+    from attribot.eval.suite import task_names
 
+    known = task_names()
     if suite != "paper":
         raise InputError(f"unknown suite {suite!r}", "use --suite paper")
-    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else list(TASKS)
+    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else known
     if not chosen:
-        raise InputError("--tasks names no task", f"choose from: {', '.join(TASKS)}")
-    unknown = [t for t in chosen if t not in TASKS]
+        raise InputError("--tasks names no task", f"choose from: {', '.join(known)}")
+    unknown = [t for t in chosen if t not in known]
     if unknown:
-        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(TASKS)}")
+        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(known)}")
     return chosen
 
 
