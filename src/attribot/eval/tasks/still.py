@@ -114,11 +114,17 @@ def _absolute_of(q: PaperQuery, size: list[PaperQuery]) -> str:
 # ---- truth from the arrangement's rows and columns ------------------------------------------------------
 
 
+def _line_kind(line: str) -> str:
+    """"row" or "column", of "row 1", "column -1", "middle row"."""
+    words = line.split()
+    return words[-1] if words[0] == "middle" else words[0]
+
+
 def _line_of(line: str, group: list[ObjectInfo]) -> list[ObjectInfo] | None:
     """The objects of one row or column ("row 1", "column -1", "middle row"); None where it is not one."""
     words = line.split()
     middle = words[0] == "middle"
-    key = "row" if words[-1 if middle else 0] == "row" else "col"
+    key = "row" if _line_kind(line) == "row" else "col"
     lines = sorted({int(getattr(o, key)) for o in group})
     if middle:
         if len(lines) % 2 == 0:
@@ -154,8 +160,8 @@ def place_truth(place: Place, objects: list[ObjectInfo]) -> ObjectInfo | None:
     if place.pick == "centre":
         return _centre(group)
     if place.pick == "middle":
-        along = place.line is not None and place.line.split()[-1] == "column"
-        key = "row" if along else "col"
+        # the middle along the line: down a column, across a row (or across the whole arrangement)
+        key = "row" if place.line is not None and _line_kind(place.line) == "column" else "col"
         if len(group) % 2 == 0 or len({getattr(o, key) for o in group}) != len(group):
             return None
         return sorted(group, key=lambda o: getattr(o, key))[len(group) // 2]
