@@ -19,7 +19,7 @@ __all__ = ["Bar", "Group", "bar_figure"]
 
 PALETTE = ("#2e7d32", "#f9a825", "#1e88e5", "#8e24aa", "#d84315", "#00897b", "#6d4c41")
 PAPER_COLOUR = "#9e9e9e"
-FONT = 14  # px in the SVG; doubled in the PNG
+FONT = 16  # px in the SVG; doubled in the PNG
 
 
 @dataclass(frozen=True)
@@ -70,7 +70,7 @@ class _Text:
 
 Shape = _Rect | _Line | _Text
 
-_BAR, _GAP, _GROUP_GAP, _LEFT, _TOP, _PLOT_H = 34.0, 6.0, 36.0, 64.0, 52.0, 240.0
+_BAR, _GAP, _GROUP_GAP, _LEFT, _TOP, _PLOT_H = 46.0, 6.0, 48.0, 72.0, 60.0, 300.0
 
 
 def _colours(groups: list[Group]) -> dict[str, str]:
@@ -104,32 +104,44 @@ def _bar(x: float, bar: Bar, colour: str) -> list[Shape]:
         shapes += [_Line(mid - 6, y, mid + 6, y, "#000000", 1.5) for y in (y0, y1)]
     label_y = min(top, base - (bar.high or 0) * _PLOT_H) - 8
     shapes.append(_Text(x + _BAR / 2, label_y, f"{bar.value:.2f}", FONT - 3))
-    shapes.append(_Text(x + _BAR / 2, base + 16, "paper" if bar.n is None else f"n={bar.n}", FONT - 4))
+    shapes.append(_Text(x + _BAR / 2, base + 18, "paper" if bar.n is None else f"n={bar.n}", FONT - 4))
     return shapes
+
+
+def _legend_label(series: str) -> str:
+    return "paper (other models, another world)" if series == "paper" else f"ours, {series}"
+
+
+def _legend_width(label: str) -> float:
+    return 36 + 0.6 * (FONT - 2) * len(label)  # a swatch, and about 0.6 em a character
 
 
 def _legend(colours: dict[str, str], y: float) -> list[Shape]:
     shapes: list[Shape] = []
     x = _LEFT
     for series, colour in colours.items():
-        label = "paper (other models, another world)" if series == "paper" else f"ours, {series}"
-        shapes += [_Rect(x, y - 11, 14, 14, colour), _Text(x + 20, y, label, FONT - 2, "start")]
-        x += 34 + 7.2 * len(label)
+        label = _legend_label(series)
+        shapes += [_Rect(x, y - 12, 15, 15, colour), _Text(x + 21, y, label, FONT - 2, "start")]
+        x += _legend_width(label)
     return shapes
 
 
 def _shapes(title: str, groups: list[Group]) -> tuple[list[Shape], float, float]:
     colours = _colours(groups)
     widths = [len(g.bars) * (_BAR + _GAP) - _GAP for g in groups]
-    legend_w = _LEFT + sum(34 + 7.2 * len(s if s == "paper" else f"ours, {s}") for s in colours) + 200
-    width = max(_LEFT + sum(widths) + _GROUP_GAP * (len(groups) + 1) + 16, legend_w, 8.0 * len(title) + 80)
-    height = _TOP + _PLOT_H + 80
+    legend_w = _LEFT + sum(_legend_width(_legend_label(s)) for s in colours) + 16
+    width = max(
+        _LEFT + sum(widths) + _GROUP_GAP * (len(groups) + 1) + 16,
+        legend_w,
+        0.6 * (FONT + 2) * len(title) + 90,
+    )
+    height = _TOP + _PLOT_H + 92
     shapes = _axes(width, title)
     x = _LEFT + _GROUP_GAP
     for group, w in zip(groups, widths, strict=True):
         for i, bar in enumerate(group.bars):
             shapes += _bar(x + i * (_BAR + _GAP), bar, colours[bar.series])
-        shapes.append(_Text(x + w / 2, _TOP + _PLOT_H + 36, group.label, FONT))
+        shapes.append(_Text(x + w / 2, _TOP + _PLOT_H + 42, group.label, FONT))
         x += w + _GROUP_GAP
     shapes += _legend(colours, height - 12)
     return shapes, width, height
