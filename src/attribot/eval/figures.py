@@ -9,6 +9,7 @@ needed); the SVG is plain text that a browser and LaTeX tools read.
 from __future__ import annotations
 
 import io
+import math
 from dataclasses import dataclass
 from functools import cache
 from html import escape
@@ -135,7 +136,7 @@ def _shapes(title: str, groups: list[Group]) -> tuple[list[Shape], float, float]
         legend_w,
         0.6 * (FONT + 2) * len(title) + 90,
     )
-    height = _TOP + _PLOT_H + 92
+    width, height = float(math.ceil(width)), _TOP + _PLOT_H + 92  # whole pixels: the PNG is exactly 2x
     shapes = _axes(width, title)
     x = _LEFT + _GROUP_GAP
     for group, w in zip(groups, widths, strict=True):
