@@ -268,6 +268,7 @@ def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "c
     out = out or run_dir / "report.html"
     out.parent.mkdir(parents=True, exist_ok=True)
     rows = summarize(records)
+    ran = [r for r in records if r.status != "not run"]
     latex = table_one_latex(rows, tagged("embodied"))
     write_whole(out.parent / f"{out.stem}-table1.tex", latex.encode())
     not_run = sorted({(r["method"], r["not_run_reason"]) for r in rows if r["accuracy"] is None})
@@ -296,7 +297,7 @@ def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "c
             not_run=not_run,
             gallery_noise=gallery_noise,
             gallery=_gallery(records, run_dir, gallery_noise),
-            legend=[(m, _method_colour(m)) for m in METHODS.names() if any(r.method == m for r in records)],
+            legend=[(m, _method_colour(m)) for m in METHODS.names() if any(r.method == m for r in ran)],
             summary=json.dumps(rows).replace("</", "<\\/"),
         )
     )
