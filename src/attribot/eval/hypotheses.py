@@ -66,6 +66,12 @@ def _beats(
                 outcome = compare(_acc(ran[ours]), _acc(row))
                 outcomes.append(outcome)
                 evidence.append(f"{task} ({noise}): {_show(ran[ours])} vs {_show(row)}: {outcome}")
+    if outcomes:
+        evidence.insert(
+            0,
+            f"{ours} stands above in {outcomes.count('above')} of {len(outcomes)} comparisons, "
+            f"below in {outcomes.count('below')}, within the other's interval in {outcomes.count('within')}",
+        )
     return _verdict(outcomes), evidence
 
 
