@@ -186,11 +186,16 @@ def _image(path: Path, item_records: list[Record]) -> str:
     d = ImageDraw.Draw(img)
     if item_records[0].true_box:
         d.rectangle(item_records[0].true_box, outline=(0, 200, 0), width=5)
-    for k, r in enumerate(item_records):
-        if r.box:
-            colour = _method_colour(r.method)
-            d.rectangle(r.box, outline=colour, width=2)
-            d.text((r.box[0] + 3, r.box[1] + 3 + 16 * k), r.method, fill=colour, font_size=15)
+    boxed = [(r.method, r.box) for r in item_records if r.box]
+    for k, (method, box) in enumerate(boxed):
+        colour = _method_colour(method)
+        d.rectangle(box, outline=colour, width=2)
+        # the names stacked above the box (inside it at the image's top), white on the method's colour
+        y = box[1] - 19 * (len(boxed) - k)
+        y = y if y >= 0 else box[1] + 2 + 19 * k
+        left, top, right, bottom = d.textbbox((box[0], y), method, font_size=15)
+        d.rectangle((left - 2, top - 2, right + 2, bottom + 2), fill=colour)
+        d.text((box[0], y), method, fill="white", font_size=15)
     buf = io.BytesIO()
     img.save(buf, "JPEG", quality=80)
     return "data:image/jpeg;base64," + base64.b64encode(buf.getvalue()).decode()
