@@ -711,7 +711,7 @@ def report(
     run: Path = typer.Argument(..., help="A run folder written by attribot eval."),
     out: Path | None = typer.Option(None, "--out", help="The HTML file (default: RUN/report.html)."),
 ) -> None:
-    """Write the run's report: one self-contained HTML file; its figures (SVG, PNG) and Table I in LaTeX beside it."""
+    """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
     from attribot.eval.report import write_report
 
