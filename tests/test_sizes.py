@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "attribot"
-LIMITED = ["control", "planning"]
+LIMITED = ["control", "planning", "eval"]
 MAX_FUNCTION, MAX_CLASS = 60, 400
 
 

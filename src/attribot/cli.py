@@ -679,16 +679,17 @@ def _writable_folder(folder: Path, flag: str) -> None:
 
 def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     from attribot.errors import InputError
-    from attribot.eval.datasets import TASKS
+    from attribot.eval.suite import task_names
 
+    known = task_names()
     if suite != "paper":
         raise InputError(f"unknown suite {suite!r}", "use --suite paper")
-    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else list(TASKS)
+    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else known
     if not chosen:
-        raise InputError("--tasks names no task", f"choose from: {', '.join(TASKS)}")
-    unknown = [t for t in chosen if t not in TASKS]
+        raise InputError("--tasks names no task", f"choose from: {', '.join(known)}")
+    unknown = [t for t in chosen if t not in known]
     if unknown:
-        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(TASKS)}")
+        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(known)}")
     return chosen
 
 
@@ -859,7 +860,7 @@ def report(
     run: Path = typer.Argument(..., help="A run folder written by attribot eval."),
     out: Path | None = typer.Option(None, "--out", help="The HTML file (default: RUN/report.html)."),
 ) -> None:
-    """Write the run's report: one self-contained HTML file, and PNG plots beside it."""
+    """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
     from attribot.eval.report import write_report
 

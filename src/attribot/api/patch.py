@@ -37,6 +37,7 @@ class ImagePatch:
     `vertical_center` is higher in the image; `left` < `right` as usual).
     """
 
+    API_KIND: ClassVar[str] = "perception"  # what a failing call of this class counts as
     API_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
         "left",
         "lower",

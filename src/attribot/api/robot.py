@@ -133,6 +133,7 @@ class Robot:
     see. Its methods take ImagePatch objects returned by image.find(...).
     """
 
+    API_KIND: ClassVar[str] = "action"  # what a failing call of this class counts as
     API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("sensors",)
     API_METHODS: ClassVar[tuple[str, ...]] = (
         "focus_on_patch",

@@ -1,6 +1,7 @@
 """The queries released with the seed paper (Mavrogiannis et al., ICRA 2025), shipped as package data.
 
-One JSON object a line: `task` (location, size, weight_image, weight_triplet_items_seen_by_vqa,
+One JSON object a line: `task` (the release's name for the query family, which is not one of the suite's
+tasks: location, size, weight_image, weight_triplet_items_seen_by_vqa,
 ai2thor_distance, ai2thor_weight_scene_items), `form` (superlative/absolute for size), `query`, and
 task-specific fields. The O3 images they were written for are not released; use them as real phrasings.
 """
@@ -13,16 +14,7 @@ from importlib import resources
 
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["PaperQuery", "paper_queries", "TASKS"]
-
-TASKS = (
-    "location",
-    "size",
-    "weight_image",
-    "weight_triplet_items_seen_by_vqa",
-    "ai2thor_distance",
-    "ai2thor_weight_scene_items",
-)
+__all__ = ["PaperQuery", "paper_queries", "released_families"]
 
 
 class PaperQuery(BaseModel):
@@ -42,8 +34,13 @@ def _all() -> tuple[PaperQuery, ...]:
     return tuple(PaperQuery.model_validate(json.loads(line)) for line in text.splitlines() if line.strip())
 
 
+def released_families() -> list[str]:
+    """The query families of the release (its `task` field, not the suite's tasks), in file order."""
+    return list(dict.fromkeys(q.task for q in _all()))
+
+
 def paper_queries(task: str | None = None) -> list[PaperQuery]:
-    """The released queries, all of them or those of one task (a ValueError names the tasks)."""
-    if task is not None and task not in TASKS:
-        raise ValueError(f"unknown paper task {task!r}; choose one of: {', '.join(TASKS)}")
+    """The released queries, all of them or those of one family (a ValueError names the families)."""
+    if task is not None and task not in released_families():
+        raise ValueError(f"unknown paper family {task!r}; choose one of: {', '.join(released_families())}")
     return [q for q in _all() if task is None or q.task == task]

@@ -9,9 +9,11 @@
 - `attr-api`: a program over ImagePatch only (camera alone, no robot actions): the attribute API.
 - `pa-api`: a program over the whole perception-action API with the item's sensors.
 
+Each is a `Method` record registered in `attribot.eval.suite.METHODS` at the bottom of this module.
 `run_method` returns one `Record`: the box and object chosen, whether it is right (box IoU >= 0.5 with the
 true object, and the same object id where the world gives ids), the program and trace, measured values,
-the error and its category (planner, runner, perception, action), and wall seconds.
+the error and its category (planner, runner, perception, action, uncertain: for a program, the kind of
+the API call that failed as its trace records it), and wall seconds.
 """
 
 from __future__ import annotations
@@ -27,31 +29,19 @@ from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
 from attribot.eval.datasets import Item
+from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.noise import NOISE_PRESETS, world_noise
 
 __all__ = [
-    "METHODS",
-    "PAPER_METHODS",
     "Record",
     "run_method",
     "noisy_settings",
     "check_condition",
     "PROGRAM_METHODS",
     "ablations",
+    "paper_methods",
 ]
 
-METHODS = ("ovd", "vqa", "vqa+llm", "vlm", "attr-api", "pa-api")
-PROGRAM_METHODS = ("attr-api", "pa-api")
-"""The methods that run a program through the API: the ones with error-catching mechanisms to ablate."""
-PAPER_METHODS = {
-    "location": ("ovd", "attr-api", "vlm", "pa-api"),
-    "size": ("ovd", "attr-api", "vlm", "pa-api"),
-    "weight_image": ("ovd", "vqa", "vqa+llm", "attr-api", "vlm"),
-    "distance_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
-    "weight_embodied": ("ovd", "vqa", "attr-api", "vlm", "pa-api"),
-}
-"""Which methods the paper compares on each task (the default of `attribot eval`); pa-api is added on
-location and size, where the robot can look again."""
 NOISE_LEVELS = tuple(NOISE_PRESETS)
 _WITHOUT = "-no-"
 
@@ -83,6 +73,7 @@ class Record(BaseModel):
     method: str
     noise: str
     query: str
+    form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
     iou: float | None = None
@@ -97,7 +88,7 @@ class Record(BaseModel):
     trace: list[dict[str, Any]] = []
     measured: list[dict[str, Any]] = []
     error: str | None = None
-    error_category: str | None = None  # planner | runner | perception | action | uncertain
+    error_category: str | None = None  # planner | runner | perception | action | uncertain (see `_category`)
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
     wall_s: float = 0.0
     sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
@@ -131,6 +122,7 @@ def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
         method=method,
         noise=noise,
         query=item.query,
+        form=item.form,
         status=status,
         right=right,
         iou=overlap,
@@ -198,99 +190,125 @@ def _first_name(text: str) -> str:
 
 
 def run_method(item: Item, method: str, settings: Settings, noise: str = "clean") -> Record:
-    """Run `method` on `item` with `settings` (and the noise level on the oracle backends)."""
-    from attribot.api import Perception
-    from attribot.session import Scene, ask
-
+    """Run `method` on `item` with `settings` (and the noise level on the oracle backends); a crash of the
+    method is that item's failure, recorded with its category."""
     started = time.perf_counter()
-    settings = noisy_settings(settings, noise, item.seed)
+    runner = METHODS.get(method)
     try:
-        if method in PROGRAM_METHODS:
-            sensors = item.sensors if method == "pa-api" else ["camera"]
-            scene = item.scene().model_copy(
-                update={"noise": world_noise(check_condition(noise)[0], item.seed)}
-            )
-            # attr-api: one image and no robot (looking again happens within that image)
-            answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
-            trace = answer.trace
-            failing = next((t["call"] for t in reversed(trace) if t.get("error")), "")
-            category = None
-            if answer.error is not None:
-                if answer.error.category == "planner" or answer.program is None:
-                    category = "planner"
-                elif answer.error.category == "uncertain":
-                    category = "uncertain"
-                elif failing.startswith("Robot."):
-                    category = "action"
-                elif failing:
-                    category = "perception"
-                else:
-                    category = "runner"
-            measured = [
-                {
-                    "call": t["call"],
-                    "object_id": (t["args"] or [{}])[0].get("object_id")
-                    if t["args"] and isinstance(t["args"][0], dict)
-                    else None,
-                    "value": t["result"],
-                }
-                for t in trace
-                if t["call"] in ("Robot.measure_weight", "Robot.measure_distance") and t.get("error") is None
-            ]
-            record = _record(
-                item,
-                method,
-                noise,
-                box=list(answer.object.box) if answer.object else None,
-                chosen_id=answer.object.id if answer.object else None,
-                answer=answer.answer,
-                value=answer.value,
-                unit=answer.unit,
-                program=answer.program,
-                trace=trace,
-                measured=measured,
-                error=answer.error.message if answer.error else None,
-                error_category=category,
-                sim_s=answer.sim_s,
-                checks=answer.checks,
-            )
-        elif method == "vlm" and not _vlm_configured(settings):
-            record = _vlm(item, noise, settings, None)  # not run: no world to build for it
-        else:
-            perception = Perception.from_settings(settings)
-            frame = _world_frame(item)
-            if method == "ovd":
-                best = _best(perception.detector.detect(frame, [item.query]))
-                record = (
-                    _record(
-                        item, method, noise, box=list(best.box), chosen_id=best.object_id, answer=best.label
-                    )
-                    if best is not None
-                    else _record(
-                        item, method, noise, error="the detector found nothing", error_category="perception"
-                    )
-                )
-            elif method == "vqa":
-                said = perception.vqa.answer(frame, item.query)
-                record = _grounded(item, method, noise, perception, frame, _first_name(said), answer=said)
-            elif method == "vqa+llm":
-                items = perception.vqa.answer(frame, "What are the items in this image?")
-                choice = perception.language.complete(
-                    f"Out of these items: {items}; which one is {item.query}?"
-                )
-                record = _grounded(item, method, noise, perception, frame, _first_name(choice), answer=choice)
-            elif method == "vlm":
-                record = _vlm(item, noise, settings, frame)
-            else:
-                raise ValueError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+        record = runner.run(item, noisy_settings(settings, noise, item.seed), noise)
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
         record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
     record.wall_s = time.perf_counter() - started
     return record
 
 
-def _vlm(item: Item, noise: str, settings: Settings, frame: Any) -> Record:
-    """An end-to-end vision-chat model asked for the box; not run without one."""
+def paper_methods(task: str) -> tuple[str, ...]:
+    """The methods the paper compares on `task` (the default of `attribot eval`)."""
+    return TASKS.get(task).methods
+
+
+# ---- programs through the API (attr-api, pa-api) ---------------------------------------------------------
+
+
+def _category(answer: Any) -> str | None:
+    """What failed, from the answer's error and the trace: the planner (no program), a doubt the program
+    stated, the kind of the API call that failed (its class says: perception or action), else the runner."""
+    if answer.error is None:
+        return None
+    if answer.error.category == "planner" or answer.program is None:
+        return "planner"
+    if answer.error.category == "uncertain":
+        return "uncertain"
+    failing = next((t for t in reversed(answer.trace) if t.get("error")), None)
+    if failing is None:
+        return "runner"
+    return str(failing.get("kind") or "runner")
+
+
+def _measured(trace: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The robot's measurements in a trace: the call, the object it was of, the value."""
+    out = []
+    for t in trace:
+        if t["call"] not in ("Robot.measure_weight", "Robot.measure_distance") or t.get("error") is not None:
+            continue
+        first = t["args"][0] if t["args"] else None
+        out.append(
+            {
+                "call": t["call"],
+                "object_id": first.get("object_id") if isinstance(first, dict) else None,
+                "value": t["result"],
+            }
+        )
+    return out
+
+
+def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
+    """A program over the API written by the planner; attr-api has one image and no robot (looking again
+    happens within that image), pa-api the item's sensors and a robot that acts."""
+    from attribot.session import Scene, ask
+
+    sensors = item.sensors if method == "pa-api" else ["camera"]
+    scene = item.scene().model_copy(update={"noise": world_noise(check_condition(noise)[0], item.seed)})
+    answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
+    return _record(
+        item,
+        method,
+        noise,
+        box=list(answer.object.box) if answer.object else None,
+        chosen_id=answer.object.id if answer.object else None,
+        answer=answer.answer,
+        value=answer.value,
+        unit=answer.unit,
+        program=answer.program,
+        trace=answer.trace,
+        measured=_measured(answer.trace),
+        error=answer.error.message if answer.error else None,
+        error_category=_category(answer),
+        sim_s=answer.sim_s,
+        checks=answer.checks,
+    )
+
+
+def _attr_api(item: Item, settings: Settings, noise: str) -> Record:
+    return _program(item, "attr-api", settings, noise)
+
+
+def _pa_api(item: Item, settings: Settings, noise: str) -> Record:
+    return _program(item, "pa-api", settings, noise)
+
+
+# ---- models asked directly (ovd, vqa, vqa+llm, vlm) -------------------------------------------------------
+
+
+def _perception(settings: Settings) -> Any:
+    from attribot.api import Perception
+
+    return Perception.from_settings(settings)
+
+
+def _ovd(item: Item, settings: Settings, noise: str) -> Record:
+    frame = _world_frame(item)
+    best = _best(_perception(settings).detector.detect(frame, [item.query]))
+    if best is None:
+        return _record(item, "ovd", noise, error="the detector found nothing", error_category="perception")
+    return _record(item, "ovd", noise, box=list(best.box), chosen_id=best.object_id, answer=best.label)
+
+
+def _vqa(item: Item, settings: Settings, noise: str) -> Record:
+    perception, frame = _perception(settings), _world_frame(item)
+    said = perception.vqa.answer(frame, item.query)
+    return _grounded(item, "vqa", noise, perception, frame, _first_name(said), answer=said)
+
+
+def _vqa_llm(item: Item, settings: Settings, noise: str) -> Record:
+    perception, frame = _perception(settings), _world_frame(item)
+    items = perception.vqa.answer(frame, "What are the items in this image?")
+    choice = perception.language.complete(f"Out of these items: {items}; which one is {item.query}?")
+    return _grounded(item, "vqa+llm", noise, perception, frame, _first_name(choice), answer=choice)
+
+
+def _vlm(item: Item, settings: Settings, noise: str) -> Record:
+    """An end-to-end vision-chat model asked for the box; not run without one (and no world built)."""
     if not _vlm_configured(settings):
         return _record(
             item,
@@ -299,10 +317,8 @@ def _vlm(item: Item, noise: str, settings: Settings, frame: Any) -> Record:
             status="not run",
             error="no vision-chat backend is configured (the vlm row needs one: --vqa openai:MODEL)",
         )
-    from attribot.api import Perception
-
-    vqa = Perception.from_settings(settings).vqa
-    said = vqa.answer(
+    frame = _world_frame(item)
+    said = _perception(settings).vqa.answer(
         frame,
         f"{item.query} Answer only with the bounding box of that object in pixels as x0,y0,x1,y1 "
         f"(image {frame.width}x{frame.height}, origin top-left).",
@@ -318,3 +334,59 @@ def _vlm(item: Item, noise: str, settings: Settings, frame: Any) -> Record:
             error_category="perception",
         )
     return _record(item, "vlm", noise, box=numbers, answer=said)
+
+
+# the paper's rows, in the order of its tables
+register_method(
+    Method(
+        "ovd",
+        _ovd,
+        why="The offline oracle detector matches object names, not attributes: given a whole query it "
+        "returns its best-scoring named object, so it is right only when that object happens to be the "
+        "answer.",
+    )
+)
+register_method(
+    Method(
+        "vqa",
+        _vqa,
+        why="The offline oracle VQA answers templated questions from the scene's metadata and says 'unknown' "
+        "to weight and distance, so its row is near zero by design; a real VQA model guesses.",
+    )
+)
+register_method(
+    Method(
+        "vqa+llm",
+        _vqa_llm,
+        why="The offline language model reads the catalog's masses: with the items named it compares them "
+        "reliably, which a real LLM does from common sense.",
+    )
+)
+register_method(
+    Method(
+        "vlm",
+        _vlm,
+        why="An end-to-end vision-chat model; not run without a configured backend (--vqa openai:MODEL).",
+    )
+)
+register_method(
+    Method(
+        "attr-api",
+        _attr_api,
+        program=True,
+        why="Programs over the camera alone: weight from the catalog by name, distance from visual "
+        "proxies (the paper's attribute API hard-coded distance from the image centre, hence its 0.22).",
+    )
+)
+register_method(
+    Method(
+        "pa-api",
+        _pa_api,
+        program=True,
+        why="Programs that measure: the rangefinder after visual servoing, the wrist force sensor after "
+        "driving, grasping and lifting by perception.",
+    )
+)
+
+PROGRAM_METHODS = tuple(name for name, m in METHODS.items() if m.program)
+"""The methods that run a program through the API: the ones with error-catching mechanisms to ablate."""

@@ -18,7 +18,7 @@ import os
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -27,7 +27,6 @@ from attribot.config import Settings
 from attribot.errors import ConfigError, InputError
 from attribot.eval.datasets import (
     DATASET_VERSION,
-    TASKS,
     Item,
     build_items,
     item_count,
@@ -35,13 +34,13 @@ from attribot.eval.datasets import (
     write_dataset,
 )
 from attribot.eval.methods import (
-    METHODS,
-    PAPER_METHODS,
     PROGRAM_METHODS,
     Record,
     check_condition,
+    paper_methods,
     run_method,
 )
+from attribot.eval.suite import METHODS, task_names
 from attribot.files import write_whole
 from attribot.shutdown import die_with_parent
 
@@ -54,7 +53,7 @@ Job = tuple[Item, str, str]  # item, method, noise
 class EvalPlan:
     """What to run: tasks, methods (None: the paper's per task), noise levels, at most `limit` per task."""
 
-    tasks: tuple[str, ...] = TASKS
+    tasks: tuple[str, ...] = field(default_factory=lambda: tuple(task_names()))
     methods: tuple[str, ...] | None = None
     noise: tuple[str, ...] = ("clean",)
     limit: int | None = None
@@ -63,8 +62,8 @@ class EvalPlan:
         for condition in self.noise:
             check_condition(condition)
         for name, given, known in (
-            ("task", self.tasks, TASKS),
-            ("method", self.methods or (), METHODS),
+            ("task", self.tasks, task_names()),
+            ("method", self.methods or (), METHODS.names()),
         ):
             unknown = [g for g in given if g not in known]
             if unknown:
@@ -73,7 +72,7 @@ class EvalPlan:
             raise InputError(f"--limit {self.limit} runs nothing", "give a limit of 1 or more")
 
     def methods_for(self, task: str) -> tuple[str, ...]:
-        return self.methods if self.methods is not None else PAPER_METHODS[task]
+        return self.methods if self.methods is not None else paper_methods(task)
 
 
 @dataclass(frozen=True)
@@ -264,27 +263,38 @@ def _dataset(
         items += built
         missing += [i for i in built if i.id not in have]
     if missing:
-        (folder / "images").mkdir(parents=True, exist_ok=True)
-        if given is not None and source is not None:
-            for item in missing:
-                name = f"{item.id}.png"
-                write_whole(folder / "images" / name, (source / "images" / name).read_bytes())
-        else:
-            rendered = _counter(progress, "rendering images", len(missing))
-            write_dataset(missing, folder / "new", images=True, on_image=rendered)
-            for image in (folder / "new" / "images").glob("*.png"):
-                image.replace(folder / "images" / image.name)
-        merged = {**have, **{i.id: i for i in missing}}
-        write_dataset(
-            sorted(merged.values(), key=lambda i: (TASKS.index(i.task), i.id)), folder, images=False
-        )
-        for leftover in (folder / "new").rglob("*"):
-            if leftover.is_file():
-                leftover.unlink()
-        for sub in (folder / "new" / "images", folder / "new"):
-            if sub.is_dir():
-                sub.rmdir()
+        _add_to_dataset(folder, have, missing, progress, source if given is not None else None)
     return items
+
+
+def _add_to_dataset(
+    folder: Path,
+    have: dict[str, Item],
+    missing: list[Item],
+    progress: Callable[[str], None],
+    source: Path | None,
+) -> None:
+    """Add `missing` to the run's dataset at `folder`: their images copied from the built dataset at
+    `source`, or rendered; the manifest rewritten with every item, in the suite's order."""
+    (folder / "images").mkdir(parents=True, exist_ok=True)
+    if source is not None:
+        for item in missing:
+            name = f"{item.id}.png"
+            write_whole(folder / "images" / name, (source / "images" / name).read_bytes())
+    else:
+        rendered = _counter(progress, "rendering images", len(missing))
+        write_dataset(missing, folder / "new", images=True, on_image=rendered)
+        for image in (folder / "new" / "images").glob("*.png"):
+            image.replace(folder / "images" / image.name)
+    merged = {**have, **{i.id: i for i in missing}}
+    order = task_names()
+    write_dataset(sorted(merged.values(), key=lambda i: (order.index(i.task), i.id)), folder, images=False)
+    for leftover in (folder / "new").rglob("*"):
+        if leftover.is_file():
+            leftover.unlink()
+    for sub in (folder / "new" / "images", folder / "new"):
+        if sub.is_dir():
+            sub.rmdir()
 
 
 def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], int]:

@@ -273,4 +273,3 @@ def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
     if patch.object_id is None:
         return None
     return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
-

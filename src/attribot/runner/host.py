@@ -409,6 +409,7 @@ class _Run:
         cls = self.runner._class_of(obj)
         constructor = isinstance(method, str) and method == getattr(cls, "PROGRAM_CONSTRUCTOR", None)
         name = cls.__name__ if constructor else f"{cls.__name__}.{method}"
+        kind = getattr(cls, "API_KIND", None)
         shown = _cut([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
         if not isinstance(method, str) or not (constructor or method in cls.API_METHODS):
             return self._refuse(
@@ -416,6 +417,7 @@ class _Run:
                 f"{cls.__name__} has no method {method!r}; its methods are: {', '.join(cls.API_METHODS)}",
                 line,
                 shown,
+                kind=kind,
             )
         fn = getattr(obj, method)
         signature = self.runner._signature(cls, method, fn)
@@ -423,7 +425,7 @@ class _Run:
             try:
                 signature.bind(*args, **kwargs)
             except TypeError as e:
-                return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown)
+                return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown, kind=kind)
         t0 = time.perf_counter()
         cutter = self.cutter
         try:
@@ -438,27 +440,45 @@ class _Run:
             ms = (time.perf_counter() - t0) * 1000
             self.record(
                 TraceRecord(
-                    call=name, args=shown, result=None, ms=ms, line=line, error="cut at the run's time limit"
+                    call=name,
+                    args=shown,
+                    result=None,
+                    ms=ms,
+                    line=line,
+                    error="cut at the run's time limit",
+                    kind=kind,
                 )
             )
             raise
         except AttribotError as e:
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable)
+            return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind)
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
             text = _scrub(str(e))
             return self._refuse(
-                name, f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""), line, shown, ms
+                name,
+                f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""),
+                line,
+                shown,
+                ms,
+                kind=kind,
             )
         ms = (time.perf_counter() - t0) * 1000
         try:
             wire = self.encode(result)
         except (TypeError, RecursionError) as e:
             return self._refuse(
-                name, f"{name} returned {e}, which cannot be passed to a program", line, shown, ms
+                name,
+                f"{name} returned {e}, which cannot be passed to a program",
+                line,
+                shown,
+                ms,
+                kind=kind,
             )
-        self.record(TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line))
+        self.record(
+            TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line, kind=kind)
+        )
         return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def record(self, record: TraceRecord) -> None:
@@ -475,14 +495,17 @@ class _Run:
         shown: list[Any],
         ms: float = 0.0,
         recoverable: bool = False,
+        kind: str | None = None,
     ) -> dict[str, Any]:
         """The reply to a failed call: a stop, or with `recoverable` (an action that failed in the world)
         the `ActionFailed` the program may catch. Either way the trace records the failed call."""
         # a host error may quote a program's text, lone surrogates and all, or a host object's repr
         message = _text(_HOST_REPR.sub(r"<\1>", message))
-        self.record(TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message))
-        kind = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
-        return {KIND: kind, Key.CATEGORY: "api", Key.MESSAGE: message}
+        self.record(
+            TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message, kind=kind)
+        )
+        reply = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
+        return {KIND: reply, Key.CATEGORY: "api", Key.MESSAGE: message}
 
     def add_output(self, text: Any) -> None:
         if not isinstance(text, str):

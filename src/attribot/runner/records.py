@@ -46,7 +46,8 @@ class RunError(BaseModel):
 
 class TraceRecord(BaseModel):
     """One API call the program made: `call` like "ImagePatch.find", JSON-ready arguments and result
-    (host objects appear as summary dicts), and the host's time for it."""
+    (host objects appear as summary dicts), the host's time for it, and the kind of call its class declares
+    (so that a failure is counted as perception or action by what failed, not by its name)."""
 
     model_config = ConfigDict(frozen=True)
 
@@ -56,6 +57,7 @@ class TraceRecord(BaseModel):
     ms: float
     line: int | None = None  # the line of the program that made the call
     error: str | None = None  # the API error, when the call failed
+    kind: str | None = None  # what the call does, as its class declares (`API_KIND`): perception | action
 
 
 class RunResult(BaseModel):

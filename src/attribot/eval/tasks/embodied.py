@@ -1,0 +1,134 @@
+"""The paper's embodied tasks (its Table I): which named object is closer, which is the most lightweight, in
+household scenes, with the rangefinder or the wrist force sensor. The truth is the world's distance from the
+camera and the objects' masses."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from attribot.config import SceneConfig
+from attribot.errors import InputError
+from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
+from attribot.eval.suite import Task, register_task
+from attribot.sim.world import ObjectInfo, SceneInfo
+
+__all__: list[str] = []
+
+
+def _visible(info: SceneInfo) -> list[ObjectInfo]:
+    return [o for o in info.objects if o.box is not None and o.visible_pixels >= 40]
+
+
+def _named(objects: list[ObjectInfo]) -> str:
+    names = [f"the {o.category}" for o in objects]
+    return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 2 else f"{names[0]} and {names[1]}"
+
+
+def _candidates(seed: int, pickable: bool) -> list[ObjectInfo] | None:
+    """Up to three visible objects of the household scene of `seed`, one per category (so that a name picks
+    one object); None where the scene has too few, or no room for its objects."""
+    config = SceneConfig(layout="household", seed=seed, width=WIDTH, height=HEIGHT)
+    try:
+        info = scene_info(config)
+    except InputError:
+        return None  # the layout found no room for this seed's objects
+    seen = [o for o in _visible(info) if o.pickable or not pickable]
+    if len({o.category for o in seen}) != len(seen) or len(seen) < 2:
+        return None
+    return seen[:3]
+
+
+def _distance_query(made: int, chosen: list[ObjectInfo]) -> tuple[str, list[ObjectInfo]] | None:
+    """The query and its candidates; None when two candidates stand within 15 cm of the same distance."""
+    gaps = sorted(o.distance_m for o in chosen)
+    if min(b - a for a, b in zip(gaps, gaps[1:], strict=False)) < 0.15:
+        return None
+    if made % 2 == 0:  # the paper's AI2-THOR form
+        pair = sorted(chosen[:2], key=lambda o: o.id)
+        return f"Is the {pair[0].category} or the {pair[1].category} closer to me?", pair
+    # the paper's prompt template
+    return f"Out of {_named(chosen)}, which one is closer to me?", chosen
+
+
+def _embodied_items(task: str, n: int, start_seed: int) -> Iterator[Item]:
+    distance = task == "distance_embodied"
+    made, seed = 0, start_seed
+    while made < n:
+        seed += 1
+        chosen = _candidates(seed, pickable=not distance)
+        if chosen is None:
+            continue
+        if distance:
+            asked = _distance_query(made, chosen)
+            if asked is None:
+                continue
+            query, chosen = asked
+            truth = min(chosen, key=lambda o: o.distance_m)
+            sensors = ["camera", "distance"]
+        else:
+            query = f"Out of {_named(chosen)}, which one is the most lightweight?"
+            truth = min(chosen, key=lambda o: o.mass_kg)
+            sensors = ["camera", "force"]
+        yield Item(
+            id=f"{task}-{made:03d}",
+            task=task,
+            query=query,
+            form="comparative",
+            phrasing="paper",
+            layout="household",
+            seed=seed,
+            sensors=sensors,
+            embodied=True,
+            true_id=truth.id,
+            true_box=truth.box or [],
+            candidates=[o.id for o in chosen],
+        )
+        made += 1
+
+
+def _distance_items(n: int, start_seed: int) -> Iterator[Item]:
+    return _embodied_items("distance_embodied", n, start_seed)
+
+
+def _weight_items(n: int, start_seed: int) -> Iterator[Item]:
+    return _embodied_items("weight_embodied", n, start_seed)
+
+
+register_task(
+    Task(
+        name="distance_embodied",
+        size=50,
+        seed_base=40_000,
+        build=_distance_items,
+        methods=("ovd", "vqa", "attr-api", "vlm", "pa-api"),
+        paper={
+            "ovd": (("OVD", 0.64),),
+            "vqa": (("VQA", 0.56),),
+            "attr-api": (("attribute API", 0.22),),
+            "vlm": (("GPT-4o", 0.70),),
+            "pa-api": (("perception-action API", 0.94),),
+        },
+        why='"Is the X or the Y closer to me?" and "Out of the ..., which one is closer to me?" in a '
+        "household scene, with the rangefinder. The truth is the world's distance from the camera.",
+        tags=frozenset({"embodied"}),
+    )
+)
+register_task(
+    Task(
+        name="weight_embodied",
+        size=50,
+        seed_base=50_000,
+        build=_weight_items,
+        methods=("ovd", "vqa", "attr-api", "vlm", "pa-api"),
+        paper={
+            "ovd": (("OVD", 0.14),),
+            "vqa": (("VQA", 0.64),),
+            "attr-api": (("attribute API", 0.90),),
+            "vlm": (("GPT-4o", 0.88),),
+            "pa-api": (("perception-action API", 0.96),),
+        },
+        why='"Out of the ..., which one is the most lightweight?" in a household scene, with the wrist force '
+        "sensor. The truth is the objects' masses.",
+        tags=frozenset({"embodied"}),
+    )
+)
