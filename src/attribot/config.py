@@ -74,6 +74,8 @@ class Settings(BaseSettings):
     hf_device: str = "auto"
     hf_dtype: str = "auto"
     detector_threshold: float = Field(0.1, ge=0, le=1, allow_inf_nan=False)
+    # the coco detector's files (`attribot fetch coco`); None: inside the Python environment
+    coco_dir: Path | None = None
 
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
