@@ -17,6 +17,7 @@ open-vocabulary detector. OpenCV 5 dropped the Darknet reader, hence the extra's
 from __future__ import annotations
 
 import hashlib
+import math
 import subprocess
 import sys
 import tarfile
@@ -267,6 +268,7 @@ class CocoDetector:
         threshold: float = 0.1,
         nms_iou: float = 0.45,
         input_size: int = 608,
+        tiles: int = 2,
     ) -> None:
         if not 0.0 <= threshold <= 1.0:
             raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
@@ -292,6 +294,9 @@ class CocoDetector:
         self.threshold = float(threshold)
         self.nms_iou = float(nms_iou)
         self.input_size = int(input_size)
+        if not 1 <= tiles <= 4:
+            raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) or 2")
+        self.tiles = int(tiles)
 
     def wanted(self, queries: Sequence[str]) -> dict[str, str]:
         """COCO class -> the first phrase that asked for it; refuses a phrase that names no class."""
@@ -316,7 +321,7 @@ class CocoDetector:
     def detect_batch(
         self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
     ) -> list[list[Detection]]:
-        """Detections for each frame and its own queries, in one forward pass."""
+        """Detections for each frame and its own queries, in one forward pass over every view."""
         cv2 = _cv2()
         if len(frames) != len(queries):
             raise InputError(
@@ -326,34 +331,61 @@ class CocoDetector:
         if not frames:
             return []
         images = [_rgb_of(f) for f in frames]
+        views = [self._views(img.shape[1], img.shape[0]) for img in images]
+        crops = [img[y0:y1, x0:x1] for img, vs in zip(images, views, strict=True) for x0, y0, x1, y1 in vs]
         side = self.input_size
-        blob = cv2.dnn.blobFromImages(images, 1 / 255.0, (side, side), swapRB=False, crop=False)
+        blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
         self.net.setInput(blob)
         outs = self.net.forward(self._outputs)
-        return [
-            self._decode([o[i] if o.ndim == 3 else o for o in outs], img.shape[1], img.shape[0], want)
-            for i, (img, want) in enumerate(zip(images, wanted, strict=True))
-        ]
+        rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
+        found, at = [], 0
+        for img, vs, want in zip(images, views, wanted, strict=True):
+            boxes = [self._boxes(rows[at + k], v) for k, v in enumerate(vs)]
+            at += len(vs)
+            xyxy = np.concatenate([b for b, _ in boxes])
+            scores = np.concatenate([s for _, s in boxes])
+            found.append(self._select(xyxy, scores, img.shape[1], img.shape[0], want))
+        return found
 
-    def _decode(
-        self, outs: list[np.ndarray], width: int, height: int, want: dict[str, str]
+    def _views(self, width: int, height: int) -> list[tuple[int, int, int, int]]:
+        """The whole image, then (with `tiles` > 1) a grid of overlapping tiles, each shown to the network
+        at its full input size: small objects grow by about `tiles` times, where YOLOv3-tiny sees them."""
+        views = [(0, 0, width, height)]
+        n = self.tiles
+        if n > 1:
+            tw, th = math.ceil(width / n * 1.25), math.ceil(height / n * 1.25)
+            for i in range(n):
+                for j in range(n):
+                    x0 = round(j * (width - tw) / (n - 1))
+                    y0 = round(i * (height - th) / (n - 1))
+                    views.append((x0, y0, x0 + tw, y0 + th))
+        return views
+
+    @staticmethod
+    def _boxes(rows: np.ndarray, view: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """A view's boxes in the image's pixels, and their class scores (rows, classes)."""
+        x0, y0, x1, y1 = view
+        w, h = x1 - x0, y1 - y0
+        cx, cy, bw, bh = (rows[:, k] for k in range(4))
+        xyxy = np.stack(
+            [x0 + (cx - bw / 2) * w, y0 + (cy - bh / 2) * h, x0 + (cx + bw / 2) * w, y0 + (cy + bh / 2) * h],
+            1,
+        )
+        return xyxy, rows[:, 5:]
+
+    def _select(
+        self, xyxy: np.ndarray, scores: np.ndarray, width: int, height: int, want: dict[str, str]
     ) -> list[Detection]:
-        rows = np.concatenate([o.reshape(-1, o.shape[-1]) for o in outs], axis=0)
         index = {name: i for i, name in enumerate(self.classes)}
         found: list[Detection] = []
         for name, label in want.items():
-            scores = rows[:, 5 + index[name]]
-            keep = scores >= max(self.threshold, 1e-6)
+            cls = scores[:, index[name]]
+            keep = cls >= max(self.threshold, 1e-6)
             if not keep.any():
                 continue
-            cx, cy, w, h = (rows[keep, k] for k in range(4))
-            xyxy = np.stack(
-                [(cx - w / 2) * width, (cy - h / 2) * height, (cx + w / 2) * width, (cy + h / 2) * height], 1
-            )
-            xyxy = boxmath.clip(xyxy, width, height)
-            s = scores[keep]
-            for i in boxmath.nms(xyxy, s, self.nms_iou):
-                box = tuple(float(v) for v in xyxy[i])
+            boxes, s = boxmath.clip(xyxy[keep], width, height), cls[keep]
+            for i in boxmath.nms(boxes, s, self.nms_iou):
+                box = tuple(float(v) for v in boxes[i])
                 if box[2] > box[0] and box[3] > box[1]:
                     found.append(Detection(box=box, score=float(min(s[i], 1.0)), label=label))
         found.sort(key=lambda d: (-d.score, d.box[0]))
