@@ -220,7 +220,7 @@ def _keys(rng: np.random.Generator, n: int = 256) -> np.ndarray:
         for j in range(cols):
             y0, x0 = 6 + i * (n - 12) // rows, 4 + j * (n - 8) // cols
             img[y0 + 3 : y0 + (n - 12) // rows - 3, x0 + 2 : x0 + (n - 8) // cols - 2] = 0.85
-    return img
+    return img.transpose(1, 0, 2)  # rows of keys across a box's x (depth), keys along its y (width)
 
 
 def _pages(rng: np.random.Generator, n: int = 64) -> np.ndarray:
@@ -414,10 +414,10 @@ def _orange(s: float, v: int) -> list[Look]:
 def _banana(s: float, v: int) -> list[Look]:
     t = np.linspace(-1.0, 1.0, 17)
     bend = (0.16, 0.2, 0.12)[v]
-    r = s * 0.085
+    r = s * 0.1
     path = np.stack([0.45 * s * t, 0.05 * s - bend * s * (1 - t**2) + 0.1 * s * 0, r + 0.25 * r * t**2], 1)
     path[:, 1] -= path[:, 1].mean() - 0.0
-    radii = r * np.clip(1.0 - 0.8 * np.abs(t) ** 3, 0.25, 1.0)
+    radii = r * np.clip(1.0 - 0.6 * np.abs(t) ** 3, 0.35, 1.0)
     tip = np.stack([path[-1], path[-1] + (path[-1] - path[-2]) * 1.2])
     stem = np.stack([path[0], path[0] + (path[0] - path[1]) * 2.0])
     return [
@@ -430,52 +430,38 @@ def _banana(s: float, v: int) -> list[Look]:
 @LOOKS.register("laptop")
 def _laptop(s: float, v: int) -> list[Look]:
     d, w, t = s * 0.68, s, 0.012
-    ang = 0.35
+    ang = 0.35  # the screen leans back by 20 degrees, its face towards -x (the viewer)
     tilt = quat_axis_angle((0, 1, 0), ang)
     cx, cz = d / 2 + math.sin(ang) * d / 2, 2 * t + math.cos(ang) * d / 2
-    off = t * 0.6 + 0.0012
+
+    def on_lid(off: float) -> tuple[float, float, float]:
+        return (cx - off * math.cos(ang), 0.0, cz + off * math.sin(ang))
+
     return [
         Look("box", (d / 2, w / 2, t), (0, 0, t), material="brushed"),
         Look(
             "box",
-            (d * 0.26, w * 0.44, 0.0008),
-            (-d * 0.12, 0, 2 * t + 0.0008),
+            (d * 0.24, w * 0.44, 0.0008),
+            (d * 0.14, 0, 2 * t + 0.0008),
             color=(1, 1, 1),
             material="keys",
-            quat=quat_axis_angle((0, 0, 1), math.pi / 2),
         ),  # fmt: skip
         Look(
-            "box", (d * 0.1, w * 0.14, 0.0006), (d * 0.3, 0, 2 * t + 0.0006), color="gray", material="matte"
+            "box", (d * 0.1, w * 0.14, 0.0006), (-d * 0.3, 0, 2 * t + 0.0006), color="gray", material="matte"
         ),
         Look("box", (t * 0.6, w / 2, d / 2), (cx, 0, cz), tilt, material="brushed"),
         Look(
-            "box",
-            (0.001, w * 0.47, d * 0.46),
-            (cx - off * math.cos(ang), 0, cz + off * math.sin(ang)),
-            tilt,
-            color="dark",
-            material="glossy",
-        ),  # fmt: skip
+            "box", (0.001, w * 0.48, d * 0.47), on_lid(t * 0.6 + 0.001), tilt, color="dark", material="glossy"
+        ),
         Look(
             "box",
-            (0.001, w * 0.43, d * 0.4),
-            (cx - (off + 0.001) * math.cos(ang), 0, cz + (off + 0.001) * math.sin(ang)),
-            _compose(tilt, quat_axis_angle((1, 0, 0), math.pi / 2)),
+            (0.001, w * 0.44, d * 0.41),
+            on_lid(t * 0.6 + 0.002),
+            tilt,
             color=(1, 1, 1),
             material="screen",
         ),  # fmt: skip
     ]
-
-
-def _compose(a: Quat, b: Quat) -> Quat:
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return (
-        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-    )
 
 
 @LOOKS.register("book")
