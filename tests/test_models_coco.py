@@ -160,3 +160,14 @@ def test_default_folder_is_inside_the_environment():
     import sys
 
     assert Path(sys.prefix) in default_folder().parents
+
+
+def test_spec_options_choose_the_views_and_the_input_size(empty_settings):
+    settings = load_settings()
+    det = build_backend("detector", "coco?tiles=1&size=416", settings)
+    assert (det.tiles, det.input_size) == (1, 416)
+    assert len(det._views(640, 480)) == 1
+    assert len(build_backend("detector", "coco", settings)._views(640, 480)) == 1 + 3 * 3
+    with pytest.raises(ConfigError, match="tiles=N"):
+        build_backend("detector", "coco?zoom=2", settings)
+    assert probe_backend("detector", "coco?zoom=2", settings).available is False

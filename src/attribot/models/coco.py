@@ -7,7 +7,8 @@ which `scripts/install.sh --test` runs) downloads the sdist with pip at install 
 and copies the three files, each checked by its own hash, into a folder this backend reads; nothing is
 downloaded when a detector is built.
 
-Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`. The
+Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`, with
+options `?tiles=N` and `?size=S` (see `build_coco_detector`). The
 detector is closed-set: a noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a
 cup, a cactus a potted plant, a basketball a sports ball), generic words ("object", "item") to every class
 of a thing one could pick up, and a name with no class is refused with an error that names an
@@ -34,6 +35,7 @@ from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
 from attribot.models.base import DETECTORS, Detection
+from attribot.models.noise import split_options
 from attribot.sim.catalog import find_category
 
 if TYPE_CHECKING:
@@ -63,6 +65,10 @@ FILES: dict[str, str] = {
 """The files this backend reads and their SHA-256."""
 
 OPEN_VOCABULARY_EXAMPLE = "hf:google/owlv2-base-patch16-ensemble"
+DEFAULT_TILES = 3
+"""Besides the whole image, a 3x3 grid of overlapping tiles: household objects 2-3 m away are 20-40 pixels
+tall in a 640x480 frame, and YOLOv3-tiny finds about a third of them this way against a twentieth from the
+whole image alone (`benchmarks/bench_coco.py`), at ten forward passes a frame."""
 _PURPOSE = "the coco detector (YOLOv3-tiny on OpenCV's DNN module)"
 _INSTALL = "pip install 'attribot[coco]' && attribot fetch coco"
 
@@ -268,7 +274,7 @@ class CocoDetector:
         threshold: float = 0.1,
         nms_iou: float = 0.45,
         input_size: int = 608,
-        tiles: int = 2,
+        tiles: int = DEFAULT_TILES,
     ) -> None:
         if not 0.0 <= threshold <= 1.0:
             raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
@@ -295,7 +301,7 @@ class CocoDetector:
         self.nms_iou = float(nms_iou)
         self.input_size = int(input_size)
         if not 1 <= tiles <= 4:
-            raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) or 2")
+            raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) to 4")
         self.tiles = int(tiles)
 
     def wanted(self, queries: Sequence[str]) -> dict[str, str]:
@@ -400,11 +406,24 @@ def _rgb_of(frame: Frame) -> np.ndarray:
     return np.ascontiguousarray(frame.rgb)
 
 
-def _folder_of(arg: str | None, settings: Settings) -> Path:
-    if arg:
-        return Path(arg).expanduser()
+_OPTIONS = ("tiles", "size")
+
+
+def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
+    """The folder and the options (`tiles`, `size`) of a `coco[:FOLDER][?tiles=N&size=S]` spec."""
+    head, raw = split_options(arg)
+    options: dict[str, int] = {}
+    for key, text in raw.items():
+        if key not in _OPTIONS or not text.isdigit():
+            raise ConfigError(
+                f"coco option {key}={text!r} is not known",
+                "write coco?tiles=N (1 to 4) or coco?size=S (e.g. 416)",
+            )
+        options[key] = int(text)
+    if head:
+        return Path(head).expanduser(), options
     configured = getattr(settings, "coco_dir", None)
-    return Path(configured).expanduser() if configured else default_folder()
+    return (Path(configured).expanduser() if configured else default_folder()), options
 
 
 def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
@@ -413,15 +432,26 @@ def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
         _cv2()
     except (ConfigError, ImportError) as exc:
         return False, str(exc)
-    folder = _folder_of(arg, settings)
+    try:
+        folder, _ = _parse(arg, settings)
+    except ConfigError as exc:
+        return False, str(exc)
     if not weights_present(folder):
         return False, f"no YOLOv3-tiny files in {folder} (fetch them: attribot fetch coco)"
     return True, f"YOLOv3-tiny (COCO, 80 classes) on OpenCV's DNN, CPU; files in {folder}"
 
 
 def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
-    """`coco` (the files in the default folder, or the `coco_dir` setting) or `coco:FOLDER`."""
-    return CocoDetector(_folder_of(arg, settings), threshold=settings.detector_threshold)
+    """`coco` (the files in the default folder, or the `coco_dir` setting) or `coco:FOLDER`, with options
+    `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest) and `?size=S`
+    (the network's input side, a multiple of 32)."""
+    folder, options = _parse(arg, settings)
+    return CocoDetector(
+        folder,
+        threshold=settings.detector_threshold,
+        tiles=options.get("tiles", DEFAULT_TILES),
+        input_size=options.get("size", 608),
+    )
 
 
 build_coco_detector.probe = probe_coco  # type: ignore[attr-defined]

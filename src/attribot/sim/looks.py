@@ -28,7 +28,7 @@ import numpy as np
 from attribot.config import OBJECT_LOOKS
 from attribot.registry import Registry
 from attribot.sim.catalog import COLORS
-from attribot.sim.shapes import MATERIALS, Shape, quat_axis_angle
+from attribot.sim.shapes import MATERIALS, Shape, compose_quat, quat_axis_angle
 
 __all__ = [
     "Look",
@@ -145,6 +145,39 @@ def tube(path: np.ndarray, radii: np.ndarray | float, segments: int = 10, caps: 
                 a, b = base + j, base + (j + 1) % segments
                 faces.append((centre, b, a) if flip else (centre, a, b))
     return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
+
+
+def extrude(profile: list[tuple[float, float]], length: float) -> Mesh:
+    """A prism: the convex (x, z) polygon `profile` (counter-clockwise seen from -y) extruded along y over
+    `length`, centred on y = 0, with both ends closed."""
+    prof = np.asarray(profile, float)
+    n = len(prof)
+    ys = (-length / 2, length / 2)
+    verts = [(x, y, z) for y in ys for x, z in prof]
+    per = np.r_[0.0, np.cumsum(np.hypot(*np.diff(np.vstack([prof, prof[:1]]), axis=0).T))]
+    tex = [(per[i] / per[-1], float(k)) for k in (0, 1) for i in range(n)]
+    faces = []
+    for i in range(n):
+        a, b = i, (i + 1) % n
+        faces += [(a, a + n, b + n), (a, b + n, b)]
+    for k, flip in ((0, False), (1, True)):
+        centre = len(verts)
+        cx, cz = prof.mean(axis=0)
+        verts.append((cx, ys[k], cz))
+        tex.append((0.5, 0.5))
+        for i in range(n):
+            a, b = k * n + i, k * n + (i + 1) % n
+            faces.append((centre, b, a) if flip else (centre, a, b))
+    return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
+
+
+def _rounded_rect(half_x: float, height: float, radius: float, n: int = 5) -> list[tuple[float, float]]:
+    """A rectangle of width 2 `half_x` from z = 0 to `height` with its top corners rounded, as (x, z)."""
+    pts = [(-half_x, 0.0), (half_x, 0.0)]
+    for cx, a0 in ((half_x - radius, 0.0), (-half_x + radius, math.pi / 2)):
+        for t in np.linspace(a0, a0 + math.pi / 2, n):
+            pts.append((cx + radius * math.cos(t), height - radius + radius * math.sin(t)))
+    return pts
 
 
 def _arc(centre: tuple[float, float, float], radii: tuple[float, float], t0: float, t1: float, plane: str,
@@ -520,19 +553,73 @@ def _keyboard(s: float, v: int) -> list[Look]:
 
 @LOOKS.register("cactus")
 def _cactus(s: float, v: int) -> list[Look]:
+    """A columnar cactus with arms, or (variants 1 and 2) a leafy succulent: both in a terracotta pot."""
     pr, ph = s * 0.22, s * 0.32
     trunk = s * 0.1
     pot = [(0.0, 0.0), (pr * 0.75, 0.0), (pr * 0.95, ph * 0.85), (pr, ph * 0.85), (pr, ph), (pr * 0.9, ph),
            (0.0, ph * 0.96)]  # fmt: skip
-    arm_l = np.array([[0, trunk * 0.8, ph + s * 0.22], [0, trunk + s * 0.08, ph + s * 0.24],
-                      [0, trunk + s * 0.1, ph + s * 0.32], [0, trunk + s * 0.1, ph + s * 0.44]])  # fmt: skip
-    arm_r = arm_l * np.array([1, -1, 1]) - np.array([0, 0, s * 0.06])
-    return [
+    looks = [
         _mesh(lathe(pot, 20), color="terracotta", material="matte"),
-        Look("capsule", (trunk, s * 0.22), (0, 0, ph + s * 0.28), material="ribs"),
-        _mesh(tube(arm_l, trunk * 0.6, 8), material="ribs"),
-        _mesh(tube(arm_r, trunk * 0.6, 8), material="ribs"),
         Look("cylinder", (pr * 0.9, 0.002), (0, 0, ph * 0.96), color="soil", material="matte"),
+    ]
+    if v == 0:
+        heights = (0.22, 0.24, 0.32, 0.44)
+        reach = (trunk * 0.8, trunk + s * 0.08, trunk + s * 0.1, trunk + s * 0.1)
+        arm_l = np.array([[0.0, y, ph + s * z] for y, z in zip(reach, heights, strict=True)])
+        arm_r = arm_l * np.array([1, -1, 1]) - np.array([0, 0, s * 0.06])
+        return [
+            *looks,
+            Look("capsule", (trunk, s * 0.22), (0, 0, ph + s * 0.28), material="ribs"),
+            _mesh(tube(arm_l, trunk * 0.6, 8), material="ribs"),
+            _mesh(tube(arm_r, trunk * 0.6, 8), material="ribs"),
+        ]
+    leaf = s * (0.2 if v == 1 else 0.16)
+    for ring, (count, tilt, lift) in enumerate(((9, 0.95, 0.02), (7, 0.55, 0.06), (5, 0.2, 0.1))):
+        for k in range(count):
+            yaw = 2 * math.pi * (k + 0.5 * ring) / count
+            q = compose_quat(quat_axis_angle((0, 0, 1), yaw), quat_axis_angle((0, 1, 0), -math.pi / 2 + tilt))
+            reach = leaf * math.sin(tilt) * 0.9
+            pos = (reach * math.cos(yaw), reach * math.sin(yaw), ph + s * lift + leaf * math.cos(tilt) * 0.9)
+            shade = (0.2 + 0.05 * ring, 0.5 + 0.08 * ring, 0.18)
+            looks.append(Look("ellipsoid", (leaf, leaf * 0.32, leaf * 0.08), pos, q, shade, "matte"))
+    return looks
+
+
+@LOOKS.register("toaster")
+def _toaster(s: float, v: int) -> list[Look]:
+    """A rounded body with two slots, toast in them, a lever at one end and a dial at the front."""
+    d, w, h = s * 0.55, s, s * 0.65
+    body = extrude(_rounded_rect(d / 2, h, d * (0.3, 0.45, 0.2)[v]), w)
+    toast = (0.8, 0.56, 0.28)
+    return [
+        _mesh(body, material="brushed"),
+        Look(
+            "box", (d / 2 * 1.01, w / 2 * 1.005, h * 0.05), (0, 0, h * 0.05), color="dark", material="plastic"
+        ),
+        *(
+            Look("box", (d * 0.09, w * 0.36, 0.002), (x, 0, h + 0.0005), color="dark")
+            for x in (-d * 0.18, d * 0.18)
+        ),
+        *(
+            Look("box", (d * 0.07, w * 0.3, h * 0.1), (x, 0, h + h * 0.02), color=toast, material="matte")
+            for x in (-d * 0.18, d * 0.18)
+        ),  # fmt: skip
+        Look(
+            "box",
+            (s * 0.03, s * 0.02, s * 0.03),
+            (0, w / 2 + s * 0.02, h * 0.72),
+            color="dark",
+            material="plastic",
+        ),
+        Look("box", (s * 0.006, s * 0.012, h * 0.3), (0, w / 2 + 0.003, h * 0.55), color="dark"),
+        Look(
+            "cylinder",
+            (s * 0.035, s * 0.008),
+            (-d / 2 - s * 0.006, w * 0.32, h * 0.3),
+            _ALONG_X,
+            color="dark",
+            material="plastic",
+        ),  # fmt: skip
     ]
 
 
