@@ -68,7 +68,8 @@ OPEN_VOCABULARY_EXAMPLE = "hf:google/owlv2-base-patch16-ensemble"
 DEFAULT_TILES = 3
 """Besides the whole image, a 3x3 grid of overlapping tiles: household objects 2-3 m away are 20-40 pixels
 tall in a 640x480 frame, and YOLOv3-tiny finds about a third of them this way against a twentieth from the
-whole image alone (`benchmarks/bench_coco.py`), at ten forward passes a frame."""
+whole image alone (`benchmarks/bench_coco.py`). The nine tiles are looked at only when the whole image
+leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass."""
 _PURPOSE = "the coco detector (YOLOv3-tiny on OpenCV's DNN module)"
 _INSTALL = "pip install 'attribot[coco]' && attribot fetch coco"
 
@@ -262,7 +263,8 @@ class CocoDetector:
     first, each labelled with the phrase that asked for it (with the class name for a generic word such as
     "object"); scores are the network's class confidence,
     at least `threshold`; per class, boxes overlapping a better one by more than `nms_iou` are dropped.
-    `detect_batch` runs many frames in one forward pass. `input_size` is the side the network sees:
+    `detect_batch` runs many frames in one forward pass, then (`tiles` > 1) the tiles of those frames
+    where some wanted class was not found with a score of `SURE` in a second pass. `input_size` is the side the network sees:
     608 rather than Darknet's default 416, because household objects a few metres away are 20-40 pixels
     tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416.
     """
@@ -327,8 +329,8 @@ class CocoDetector:
     def detect_batch(
         self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
     ) -> list[list[Detection]]:
-        """Detections for each frame and its own queries, in one forward pass over every view."""
-        cv2 = _cv2()
+        """Detections for each frame and its own queries: one forward pass over the whole images, then one
+        over the tiles of the frames where a wanted class is not yet found with a score of `SURE`."""
         if len(frames) != len(queries):
             raise InputError(
                 f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame"
@@ -337,21 +339,30 @@ class CocoDetector:
         if not frames:
             return []
         images = [_rgb_of(f) for f in frames]
-        views = [self._views(img.shape[1], img.shape[0]) for img in images]
-        crops = [img[y0:y1, x0:x1] for img, vs in zip(images, views, strict=True) for x0, y0, x1, y1 in vs]
+        whole = [(0, 0, img.shape[1], img.shape[0]) for img in images]
+        rows = self._forward([(img, v) for img, v in zip(images, whole, strict=True)])
+        boxes = [[self._boxes(r, v)] for r, v in zip(rows, whole, strict=True)]
+        found = [self._select(*_stack(b), img.shape[1], img.shape[0], want)
+                 for b, img, want in zip(boxes, images, wanted, strict=True)]  # fmt: skip
+        again = [i for i, (f, want) in enumerate(zip(found, wanted, strict=True)) if not _sure(f, want)]
+        tiles = [(i, v) for i in again for v in self._views(images[i].shape[1], images[i].shape[0])[1:]]
+        if tiles:
+            for (i, view), r in zip(tiles, self._forward([(images[i], v) for i, v in tiles]), strict=True):
+                boxes[i].append(self._boxes(r, view))
+            for i in again:
+                found[i] = self._select(*_stack(boxes[i]), images[i].shape[1], images[i].shape[0], wanted[i])
+        return found
+
+    def _forward(self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]]) -> list[np.ndarray]:
+        """The network's output rows (boxes, classes) for each (image, view) given, in one pass."""
+        cv2 = _cv2()
+        crops = [img[y0:y1, x0:x1] for img, (x0, y0, x1, y1) in views]
         side = self.input_size
         blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
         self.net.setInput(blob)
         outs = self.net.forward(self._outputs)
         rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
-        found, at = [], 0
-        for img, vs, want in zip(images, views, wanted, strict=True):
-            boxes = [self._boxes(rows[at + k], v) for k, v in enumerate(vs)]
-            at += len(vs)
-            xyxy = np.concatenate([b for b, _ in boxes])
-            scores = np.concatenate([s for _, s in boxes])
-            found.append(self._select(xyxy, scores, img.shape[1], img.shape[0], want))
-        return found
+        return list(rows)
 
     def _views(self, width: int, height: int) -> list[tuple[int, int, int, int]]:
         """The whole image, then (with `tiles` > 1) a grid of overlapping tiles, each shown to the network
@@ -396,6 +407,21 @@ class CocoDetector:
                     found.append(Detection(box=box, score=float(min(s[i], 1.0)), label=label))
         found.sort(key=lambda d: (-d.score, d.box[0]))
         return found
+
+
+SURE = 0.25
+"""A wanted class found with at least this score in the whole image is not looked for again in tiles."""
+
+
+def _sure(found: list[Detection], want: dict[str, str]) -> bool:
+    """True when every wanted class has a detection of at least `SURE` (a generic word wants dozens of
+    classes, so it always looks at the tiles)."""
+    labels = {d.label for d in found if d.score >= SURE}
+    return all(label in labels for label in want.values())
+
+
+def _stack(boxes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    return np.concatenate([b for b, _ in boxes]), np.concatenate([s for _, s in boxes])
 
 
 def _rgb_of(frame: Frame) -> np.ndarray:
