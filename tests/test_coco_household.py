@@ -37,8 +37,9 @@ def _truth(config: SceneConfig) -> dict[str, dict]:
         ),
     ],
 )
-def test_the_real_detector_answers_embodied_queries_in_the_household(empty_settings, task, query, sensors, key,
-                                                                      pick):  # fmt: skip
+def test_the_real_detector_answers_embodied_queries_in_the_household(
+    empty_settings, task, query, sensors, key, pick
+):
     config = SCENES[task]
     truth = _truth(config)
     scene = Scene(config, sensors=sensors)
