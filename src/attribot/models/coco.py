@@ -264,8 +264,9 @@ class CocoDetector:
     "object"); scores are the network's class confidence, at least `threshold`; per class, boxes
     overlapping a better one by more than `nms_iou` are dropped. `detect_batch` runs many frames in one
     forward pass, then (`tiles` > 1) the tiles of those frames where some wanted class was not found with a
-    score of `SURE` in a second pass. `input_size` is the side the network sees: 608 rather than Darknet's default 416, because household objects a few metres away are 20-40 pixels
-    tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416.
+    score of `SURE` in a second pass. `input_size` is the side the network sees: 608 rather than Darknet's
+    default 416, because household objects a few metres away are 20-40 pixels tall in a 640x480 frame and
+    YOLOv3-tiny misses most of them at 416.
     """
 
     def __init__(
