@@ -80,7 +80,7 @@ def _version() -> str:
         # the scenes, their images and their truth (boxes, distances, masses)
         *(
             ("attribot.sim", f)
-            for f in ("scene.py", "catalog.py", "shapes.py", "robot.py", "world.py", "render.py")
+            for f in ("scene.py", "catalog.py", "shapes.py", "looks.py", "robot.py", "world.py", "render.py")
         ),
         # the location and size truth is the parser's meaning of the released phrasing, in its vocabulary
         *_package_files("attribot.planning.rules"),
