@@ -47,10 +47,10 @@ MAX_SEED = 2**32 - 1
 MAX_TIME_S = 86_400.0
 """The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
+"""fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 OBJECT_LOOKS = ("detailed", "primitive")
 """detailed: objects that look like their category; primitive: their body primitives (see
 `attribot.sim.looks`)."""
-"""fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 
 
 class Settings(BaseSettings):

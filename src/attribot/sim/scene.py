@@ -757,7 +757,8 @@ def _add_object(
         g.contype = g.conaffinity = 0
     if looks != "primitive":
         variant = variant_of(o.id, 3)
-        add_looks(spec, body, look_of(o.category.shape, o.shape, o.size_m, variant), main, meshes or set())
+        shared = meshes if meshes is not None else set()
+        add_looks(spec, body, look_of(o.category.shape, o.shape, o.size_m, variant), main, shared)
     lo, hi = np.asarray(o.shape.lo), np.asarray(o.shape.hi)
     hull = body.add_geom(
         name=f"hull:{o.id}",

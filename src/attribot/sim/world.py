@@ -57,9 +57,10 @@ _ROBOT_JOINTS = (
     "finger_r",
 )
 # what rays hit (rangefinder, view checks, tops): the room, furniture, robot and objects' body parts, drawn
-# (group 0) or under their looks (BODY_GROUP); not the looks, so sensing is the same whatever objects look
-# like
-_RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP) and g != LOOK_GROUP) for g in range(6)], np.uint8)
+# (group 0) or under their looks (BODY_GROUP); never the looks (LOOK_GROUP), so that sensing is the same
+# whatever objects look like
+_RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP)) for g in range(6)], np.uint8)
+assert _RAY_GROUPS[LOOK_GROUP] == 0
 MIN_VISIBLE_PIXELS = 20  # fewer visible pixels than this and an object counts as not in view
 GRAVITY = 9.81
 
@@ -533,7 +534,7 @@ class SimWorld:
         direction /= np.linalg.norm(direction)
         geom = np.zeros(1, np.int32)
         body = int(self.model.site_bodyid[site])
-        visible = _RAY_GROUPS  # what renders (collision-only groups do not)
+        visible = _RAY_GROUPS  # bodies, furniture, room, robot: not collision boxes, not looks
         r = mujoco.mj_ray(self.model, self.data, origin, direction, visible, 1, body, geom)
         return float(r)
 
