@@ -578,8 +578,8 @@ def _cactus(s: float, v: int) -> list[Look]:
         for k in range(count):
             yaw = 2 * math.pi * (k + 0.5 * ring) / count
             q = compose_quat(quat_axis_angle((0, 0, 1), yaw), quat_axis_angle((0, 1, 0), -math.pi / 2 + tilt))
-            reach = leaf * math.sin(tilt) * 0.9
-            pos = (reach * math.cos(yaw), reach * math.sin(yaw), ph + s * lift + leaf * math.cos(tilt) * 0.9)
+            out = leaf * math.sin(tilt) * 0.9
+            pos = (out * math.cos(yaw), out * math.sin(yaw), ph + s * lift + leaf * math.cos(tilt) * 0.9)
             shade = (0.2 + 0.05 * ring, 0.5 + 0.08 * ring, 0.18)
             looks.append(Look("ellipsoid", (leaf, leaf * 0.32, leaf * 0.08), pos, q, shade, "matte"))
     return looks
