@@ -448,8 +448,8 @@ def _banana(s: float, v: int) -> list[Look]:
     t = np.linspace(-1.0, 1.0, 17)
     bend = (0.16, 0.2, 0.12)[v]
     r = s * 0.1
-    path = np.stack([0.45 * s * t, 0.05 * s - bend * s * (1 - t**2) + 0.1 * s * 0, r + 0.25 * r * t**2], 1)
-    path[:, 1] -= path[:, 1].mean() - 0.0
+    path = np.stack([0.45 * s * t, -bend * s * (1 - t**2), r + 0.25 * r * t**2], 1)
+    path[:, 1] -= path[:, 1].mean()  # the curve centred on the body
     radii = r * np.clip(1.0 - 0.6 * np.abs(t) ** 3, 0.35, 1.0)
     tip = np.stack([path[-1], path[-1] + (path[-1] - path[-2]) * 1.2])
     stem = np.stack([path[0], path[0] + (path[0] - path[1]) * 2.0])
