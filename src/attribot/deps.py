@@ -20,6 +20,7 @@ _EXTRA_OF = {
     "matplotlib": "plots",
     "ai2thor": "ai2thor",
     "ray": "ray",
+    "cv2": "coco",
 }
 
 

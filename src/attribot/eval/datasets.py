@@ -65,7 +65,7 @@ def _version() -> str:
         # the scenes, their images and their truth (boxes, distances, masses)
         *(
             ("attribot.sim", f)
-            for f in ("scene.py", "catalog.py", "shapes.py", "robot.py", "world.py", "render.py")
+            for f in ("scene.py", "catalog.py", "shapes.py", "looks.py", "robot.py", "world.py", "render.py")
         ),
     ):
         digest.update(resources.files(package).joinpath(name).read_bytes())

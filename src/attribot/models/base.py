@@ -119,6 +119,7 @@ _BACKEND_MODULES = (
     "attribot.models.oracle",
     "attribot.models.catalog",
     "attribot.models.hf",
+    "attribot.models.coco",
     "attribot.models.openai_chat",
     "attribot.models.remote",
 )

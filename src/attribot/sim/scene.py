@@ -32,6 +32,7 @@ from attribot.config import MAX_OBJECTS, MAX_SEED
 from attribot.errors import InputError
 from attribot.registry import Registry
 from attribot.sim.catalog import COLORS, Category, categories, get_category
+from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, add_materials, look_of, variant_of
 from attribot.sim.robot import GEOMETRY, add_robot
 from attribot.sim.shapes import MATERIALS, Shape, build_shape
 
@@ -681,14 +682,17 @@ def _add_room(spec: mujoco.MjSpec) -> None:
     )
 
 
-def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
+def _add_furniture(spec: mujoco.MjSpec, f: Furniture, looks: str = "detailed") -> None:
     body = spec.worldbody.add_body(name=f"furniture:{f.name}", pos=[f.x, f.y, 0])
+    wood = looks != "primitive" and f.kind != "counter"  # grain on wooden tops and boards (drawn only)
     dx, dy, h = f.size[0] / 2, f.size[1] / 2, f.size[2]
     rgba = list(f.rgba)
     dark = [f.rgba[0] * 0.6, f.rgba[1] * 0.6, f.rgba[2] * 0.6, 1.0]
 
     def box(half: tuple[float, float, float], pos: tuple[float, float, float], color: list[float]) -> None:
         g = body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=list(half), pos=list(pos), rgba=color)
+        if wood:
+            g.material = "look_wood"
         g.contype = g.conaffinity = 1
         g.friction = [1.0, 0.01, 0.001]
 
@@ -716,12 +720,16 @@ def _add_furniture(spec: mujoco.MjSpec, f: Furniture) -> None:
             box((dx, 0.015, h / 2), (0, sy * (dy - 0.015), h / 2), dark)
 
 
-def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
-    """The object's visible parts (which carry its mass) and one invisible collision box around them.
+def _add_object(
+    spec: mujoco.MjSpec, o: PlacedObject, looks: str = "detailed", meshes: set[str] | None = None
+) -> None:
+    """The object's body parts (which carry its mass), its look, and one invisible collision box.
 
     Contacts are made by the box alone: it rests flat and steady on any surface, collides cheaply, and
     keeps visible parts from overlapping another object's. Being fully transparent, it is ignored by the
-    rangefinder and by rendering, so both see the visible shape.
+    rangefinder and by rendering. With `looks="detailed"` the body parts move to `BODY_GROUP` (cast
+    against, not drawn) and the look (`attribot.sim.looks`) is drawn over them without mass or contacts;
+    with `looks="primitive"` the body parts are what is drawn.
     """
     main = COLORS[o.color]
     body = spec.worldbody.add_body(
@@ -745,8 +753,12 @@ def _add_object(spec: mujoco.MjSpec, o: PlacedObject) -> None:
         size = list(p.size) + [0.0] * (3 - len(p.size))
         g = body.add_geom(type=types[p.kind], size=size, pos=list(p.pos), quat=list(p.quat), rgba=_rgba(rgb))
         g.mass = (o.mass_kg - hull_mass) * p.volume() / vol
-        g.group = 0
+        g.group = 0 if looks == "primitive" else BODY_GROUP
         g.contype = g.conaffinity = 0
+    if looks != "primitive":
+        variant = variant_of(o.id, 3)
+        shared = meshes if meshes is not None else set()
+        add_looks(spec, body, look_of(o.category.shape, o.shape, o.size_m, variant), main, shared)
     lo, hi = np.asarray(o.shape.lo), np.asarray(o.shape.hi)
     hull = body.add_geom(
         name=f"hull:{o.id}",
@@ -783,8 +795,13 @@ def _add_room_camera(spec: mujoco.MjSpec, robot: tuple[float, float, float]) -> 
     )
 
 
-def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
-    """Compile the plan into a model: room, furniture, objects, robot, sensors, a weld per pickable object."""
+def build_model(plan: ScenePlan, *, timestep: float = 0.004, looks: str = "detailed") -> mujoco.MjModel:
+    """Compile the plan into a model: room, furniture, objects, robot, sensors, a weld per pickable object.
+
+    `looks`: "detailed" (objects that look like their category, `attribot.sim.looks`) or "primitive" (the
+    objects' body primitives, as earlier releases drew them); physics and sensing are the same."""
+    if looks not in LOOK_STYLES:
+        raise InputError(f"unknown object looks {looks!r}", f"choose one of: {', '.join(LOOK_STYLES)}")
     spec = mujoco.MjSpec()
     spec.modelname = f"attribot_{plan.layout}_{plan.seed}"
     spec.compiler.degree = False  # every angle here is in radians (joint ranges included)
@@ -804,10 +821,13 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004) -> mujoco.MjModel:
     spec.stat.extent = 3.0  # clip planes scale with it: near 1.5 cm, far 15 m
     spec.stat.center = [0, 0, 0.8]
     _add_room(spec)
+    if looks != "primitive":
+        add_materials(spec)
     for f in plan.furniture:
-        _add_furniture(spec, f)
+        _add_furniture(spec, f, looks)
+    meshes: set[str] = set()
     for o in plan.objects:
-        _add_object(spec, o)
+        _add_object(spec, o, looks, meshes)
     add_robot(spec)
     _add_room_camera(spec, plan.robot)
     for o in plan.objects:

@@ -19,7 +19,7 @@ import numpy as np
 
 from attribot.registry import Registry
 
-__all__ = ["Part", "Shape", "SHAPES", "build_shape", "MATERIALS", "quat_axis_angle"]
+__all__ = ["Part", "Shape", "SHAPES", "build_shape", "MATERIALS", "quat_axis_angle", "compose_quat"]
 
 # fixed colours of the non-"main" roles (RGB, 0..1)
 MATERIALS: dict[str, tuple[float, float, float]] = {
@@ -211,7 +211,7 @@ def _banana(s: float) -> list[Part]:
                 "capsule",
                 (r, seg),
                 (x, -y + 0.05 * s, r),
-                _compose(quat_axis_angle((0, 0, 1), ang), _ALONG_X),
+                compose_quat(quat_axis_angle((0, 0, 1), ang), _ALONG_X),
             )
         )
     parts.append(Part("box", (s * 0.35, r * 0.5, 0.002), (0, 0, 0.002), role="dark", hidden=True))
@@ -221,7 +221,7 @@ def _banana(s: float) -> list[Part]:
     return parts
 
 
-def _compose(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
+def compose_quat(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
     """Quaternion product a*b (apply b, then a)."""
     w1, x1, y1, z1 = a
     w2, x2, y2, z2 = b

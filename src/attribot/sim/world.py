@@ -29,6 +29,7 @@ from pydantic import BaseModel
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
+from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
 from attribot.sim.render import SceneRenderer
 from attribot.sim.robot import GEOMETRY
 from attribot.sim.scene import (
@@ -55,6 +56,11 @@ _ROBOT_JOINTS = (
     "finger_l",
     "finger_r",
 )
+# what rays hit (rangefinder, view checks, tops): the room, furniture, robot and objects' body parts, drawn
+# (group 0) or under their looks (BODY_GROUP); never the looks (LOOK_GROUP), so that sensing is the same
+# whatever objects look like
+_RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP)) for g in range(6)], np.uint8)
+assert _RAY_GROUPS[LOOK_GROUP] == 0
 MIN_VISIBLE_PIXELS = 20  # fewer visible pixels than this and an object counts as not in view
 GRAVITY = 9.81
 
@@ -144,7 +150,7 @@ class SimWorld:
                 error = exc
                 continue
             self.plan.width, self.plan.height = self.width, self.height
-            self.model = build_model(self.plan)
+            self.model = build_model(self.plan, looks=config.looks)
             self.data = mujoco.MjData(self.model)
             self._index()
             self._start()
@@ -198,7 +204,7 @@ class SimWorld:
             and margin * info.height <= v <= (1 - margin) * info.height
         ):
             return False
-        groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+        groups = _RAY_GROUPS
         head = _name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "head_tilt")
         seen = 0
         for target in (centre, top):
@@ -232,7 +238,8 @@ class SimWorld:
             b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"obj:{o.id}")
             self.body_of[o.key] = b
             gs = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
-            self.geoms_of[o.key] = [g for g in gs if m.geom_group[g] < 3]
+            # the body parts (drawn or not), never the look drawn over them nor the collision box
+            self.geoms_of[o.key] = [g for g in gs if m.geom_group[g] in (0, BODY_GROUP)]
             self.geom_key[gs] = o.key
             if o.category.pickable:
                 self.weld_of[o.key] = _name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp:{o.id}")
@@ -527,7 +534,7 @@ class SimWorld:
         direction /= np.linalg.norm(direction)
         geom = np.zeros(1, np.int32)
         body = int(self.model.site_bodyid[site])
-        visible = np.array([1, 1, 1, 0, 0, 0], np.uint8)  # what renders (collision-only groups do not)
+        visible = _RAY_GROUPS  # bodies, furniture, room, robot: not collision boxes, not looks
         r = mujoco.mj_ray(self.model, self.data, origin, direction, visible, 1, body, geom)
         return float(r)
 
@@ -643,7 +650,7 @@ class SimWorld:
 
     def top_of(self, key: int, x: float, y: float) -> float | None:
         """Height of the object's upper surface at world (x, y) by a ray cast downward, or None if missed."""
-        groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+        groups = _RAY_GROUPS
         lo, hi = self.object_bounds(key)
         start = np.array([x, y, hi[2] + 0.05])
         geom = np.array([-1], np.int32)

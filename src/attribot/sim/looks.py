@@ -1,0 +1,734 @@
+"""How objects look: visual models that a detector trained on photographs recognises, over unchanged physics.
+
+An object's `Shape` (`attribot.sim.shapes`) is its body: primitives that carry its mass, that the
+rangefinder, the view checks and the truth's bounds read, inside one collision box. Its look is drawn over
+that body: meshes generated here (surfaces of revolution, tubes swept along curves) and primitives with
+procedural materials (wood grain, fabric, brushed metal, printed labels, screens, keys, pages), with the
+parts that define the category: a mug's hollow and handle, a kettle's spout, lid and arched handle, a
+banana's curve, a laptop's lit screen and keyboard, a backpack's straps and pocket, a book's pages and
+spine. A look carries no mass and never collides, so physics, sensing and the seeds' scenes are the same
+with either look; only pixels change. Within a category, looks vary with the object (`variant`, drawn
+from its id, never from the scene's generator).
+
+`LOOKS` maps a shape name to its look builder; a shape without one is drawn with its body's primitives
+(with the materials of their roles). `SceneConfig.looks = "primitive"` draws every object as its body, the
+look of earlier releases, to compare with.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from attribot.config import OBJECT_LOOKS
+from attribot.registry import Registry
+from attribot.sim.catalog import COLORS
+from attribot.sim.shapes import MATERIALS, Shape, compose_quat, quat_axis_angle
+
+__all__ = [
+    "Look",
+    "Mesh",
+    "LOOKS",
+    "LOOK_STYLES",
+    "look_of",
+    "variant_of",
+    "add_materials",
+    "lathe",
+    "tube",
+    "BODY_GROUP",
+    "LOOK_GROUP",
+]
+
+LOOK_STYLES = OBJECT_LOOKS
+"""`detailed`: the looks of this module; `primitive`: objects drawn as their bodies."""
+LOOK_GROUP = 2
+"""Geom group of the looks: drawn, never cast against (rays read bodies)."""
+BODY_GROUP = 4
+"""Geom group of an object's body parts when a look is drawn over them: not drawn, still cast against."""
+
+Quat = tuple[float, float, float, float]
+_UP: Quat = (1.0, 0.0, 0.0, 0.0)
+_ALONG_X = quat_axis_angle((0, 1, 0), math.pi / 2)
+_ALONG_Y = quat_axis_angle((1, 0, 0), math.pi / 2)
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A triangle mesh in the object frame: vertices (N, 3), faces (M, 3), texture coordinates (N, 2)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    texcoords: np.ndarray
+
+    def key(self) -> str:
+        digest = hashlib.sha1(np.round(self.vertices, 5).tobytes() + self.faces.tobytes())
+        return digest.hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Look:
+    """One visual part: a primitive (MuJoCo half-sizes) or a mesh, its pose, colour and material.
+
+    `color` is "main" (the object's colour), a name of `shapes.MATERIALS`, or an RGB triple; `material`
+    is one of `TEXTURES` (or "" for a plain shaded surface) and modulates the colour."""
+
+    kind: str
+    size: tuple[float, ...] = (0.0,)
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    quat: Quat = _UP
+    color: str | tuple[float, float, float] = "main"
+    material: str = ""
+    mesh: Mesh | None = None
+
+
+# ---- meshes generated in code ----------------------------------------------------------------------------
+
+
+def lathe(profile: list[tuple[float, float]], segments: int = 24) -> Mesh:
+    """The surface swept by the (radius, height) polyline `profile` turning about z (a point at radius 0
+    closes the surface there). Texture u goes round, v along the profile."""
+    prof = np.asarray(profile, float)
+    n = len(prof)
+    ang = np.linspace(0.0, 2 * math.pi, segments + 1)[:-1]
+    c, s = np.cos(ang), np.sin(ang)
+    verts = np.stack(
+        [np.outer(prof[:, 0], c).ravel(), np.outer(prof[:, 0], s).ravel(), np.repeat(prof[:, 1], segments)],
+        axis=1,
+    )
+    seg_len = np.r_[0.0, np.cumsum(np.hypot(*np.diff(prof, axis=0).T))]
+    v = seg_len / max(seg_len[-1], 1e-9)
+    tex = np.stack([np.tile(ang / (2 * math.pi), n), np.repeat(v, segments)], axis=1)
+    faces = []
+    for i in range(n - 1):
+        for j in range(segments):
+            a, b = i * segments + j, i * segments + (j + 1) % segments
+            cc, d = a + segments, b + segments
+            faces += [(a, b, d), (a, d, cc)]
+    return Mesh(verts, np.asarray(faces, np.int32), tex)
+
+
+def tube(path: np.ndarray, radii: np.ndarray | float, segments: int = 10, caps: bool = True) -> Mesh:
+    """A tube of circular cross-section swept along the polyline `path` (N, 3) with radius per point."""
+    p = np.asarray(path, float)
+    n = len(p)
+    r = np.broadcast_to(np.asarray(radii, float), (n,))
+    tangents = np.gradient(p, axis=0)
+    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+    ref = np.array([0.0, 0.0, 1.0]) if abs(tangents[0, 2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    ang = np.linspace(0.0, 2 * math.pi, segments + 1)[:-1]
+    verts, tex = [], []
+    normal = np.cross(tangents[0], ref)
+    for i in range(n):
+        normal = normal - tangents[i] * (normal @ tangents[i])  # parallel transport: no twist
+        normal /= np.linalg.norm(normal)
+        binormal = np.cross(tangents[i], normal)
+        for k, a in enumerate(ang):
+            verts.append(p[i] + r[i] * (math.cos(a) * normal + math.sin(a) * binormal))
+            tex.append((k / segments, i / max(n - 1, 1)))
+    faces = []
+    for i in range(n - 1):
+        for j in range(segments):
+            a, b = i * segments + j, i * segments + (j + 1) % segments
+            faces += [(a, b, b + segments), (a, b + segments, a + segments)]  # outward, as in `lathe`
+    if caps:
+        for end, flip in ((0, True), (n - 1, False)):
+            centre = len(verts)
+            verts.append(p[end])
+            tex.append((0.5, float(end > 0)))
+            base = end * segments
+            for j in range(segments):
+                a, b = base + j, base + (j + 1) % segments
+                faces.append((centre, b, a) if flip else (centre, a, b))
+    return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
+
+
+def extrude(profile: list[tuple[float, float]], length: float) -> Mesh:
+    """A prism: the convex (x, z) polygon `profile` (counter-clockwise seen from -y) extruded along y over
+    `length`, centred on y = 0, with both ends closed."""
+    prof = np.asarray(profile, float)
+    n = len(prof)
+    ys = (-length / 2, length / 2)
+    verts = [(x, y, z) for y in ys for x, z in prof]
+    per = np.r_[0.0, np.cumsum(np.hypot(*np.diff(np.vstack([prof, prof[:1]]), axis=0).T))]
+    tex = [(per[i] / per[-1], float(k)) for k in (0, 1) for i in range(n)]
+    faces = []
+    for i in range(n):
+        a, b = i, (i + 1) % n
+        faces += [(a, a + n, b + n), (a, b + n, b)]
+    for k, flip in ((0, False), (1, True)):
+        centre = len(verts)
+        cx, cz = prof.mean(axis=0)
+        verts.append((cx, ys[k], cz))
+        tex.append((0.5, 0.5))
+        for i in range(n):
+            a, b = k * n + i, k * n + (i + 1) % n
+            faces.append((centre, b, a) if flip else (centre, a, b))
+    return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
+
+
+def _rounded_rect(half_x: float, height: float, radius: float, n: int = 5) -> list[tuple[float, float]]:
+    """A rectangle of width 2 `half_x` from z = 0 to `height` with its top corners rounded, as (x, z)."""
+    pts = [(-half_x, 0.0), (half_x, 0.0)]
+    for cx, a0 in ((half_x - radius, 0.0), (-half_x + radius, math.pi / 2)):
+        for t in np.linspace(a0, a0 + math.pi / 2, n):
+            pts.append((cx + radius * math.cos(t), height - radius + radius * math.sin(t)))
+    return pts
+
+
+def _arc(centre: tuple[float, float, float], radii: tuple[float, float], t0: float, t1: float, plane: str,
+         n: int = 14) -> np.ndarray:  # fmt: skip
+    """Points of an elliptical arc about `centre` in the plane "yz" or "xz" (angles in radians)."""
+    t = np.linspace(t0, t1, n)
+    a, b = radii[0] * np.cos(t), radii[1] * np.sin(t)
+    cx, cy, cz = centre
+    if plane == "yz":
+        return np.stack([np.full(n, cx), cy + a, cz + b], axis=1)
+    return np.stack([cx + a, np.full(n, cy), cz + b], axis=1)
+
+
+# ---- procedural textures ---------------------------------------------------------------------------------
+
+
+def _wood(rng: np.random.Generator, n: int = 256) -> np.ndarray:
+    y, x = np.mgrid[0:n, 0:n] / n
+    warp = (
+        0.05 * np.sin(2 * math.pi * (3 * y + rng.uniform()))
+        + 0.02 * rng.standard_normal((n, n)).cumsum(0) / 8
+    )
+    rings = 0.5 + 0.5 * np.sin(2 * math.pi * 18 * (x + warp))
+    grain = 0.78 + 0.14 * rings + 0.05 * rng.standard_normal((n, n))
+    return np.clip(grain, 0, 1)[..., None] * np.array([1.0, 0.93, 0.85])
+
+
+def _fabric(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    y, x = np.mgrid[0:n, 0:n]
+    weave = 0.85 + 0.1 * ((x // 2 + y // 2) % 2) + 0.05 * rng.standard_normal((n, n))
+    return np.clip(weave, 0, 1)[..., None] * np.ones(3)
+
+
+def _brushed(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    streaks = rng.standard_normal((1, n)).repeat(n, 0) * 0.04 + rng.standard_normal((n, n)) * 0.015
+    return np.clip(0.9 + streaks, 0, 1)[..., None] * np.ones(3)
+
+
+def _label(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    img = np.ones((n, n, 3)) * np.array([0.95, 0.93, 0.85])
+    img[n // 3 : n // 3 + 10] = (0.85, 0.15, 0.12)
+    for k in range(5):  # lines of print
+        row = n // 2 + 8 * k
+        img[row : row + 3, 20 : n - 20 - 9 * k] = 0.15
+    return img
+
+
+def _screen(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    y, x = np.mgrid[0:n, 0:n] / n
+    img = np.stack([0.15 + 0.35 * y, 0.35 + 0.35 * y, 0.75 + 0.2 * x], axis=-1)  # a desktop's sky
+    img[int(0.15 * n) : int(0.6 * n), int(0.1 * n) : int(0.6 * n)] = 0.95  # a window
+    img[int(0.15 * n) : int(0.22 * n), int(0.1 * n) : int(0.6 * n)] = (0.3, 0.3, 0.35)
+    img[int(0.9 * n) :, :] = (0.12, 0.12, 0.14)  # the task bar
+    for k in range(4):
+        img[int(0.9 * n) + 3 : n - 3, 10 + 14 * k : 20 + 14 * k] = (0.8, 0.6, 0.2)
+    return img
+
+
+def _phone_screen(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    img = np.ones((n, n, 3)) * np.array([0.2, 0.35, 0.6])
+    palette = [(0.9, 0.3, 0.3), (0.3, 0.8, 0.4), (0.95, 0.75, 0.2), (0.9, 0.9, 0.9), (0.4, 0.6, 0.95)]
+    for i in range(5):
+        for j in range(4):
+            x0, y0 = 12 + 28 * j, 10 + 22 * i
+            img[x0 : x0 + 16, y0 : y0 + 14] = palette[(i + j) % len(palette)]
+    return img
+
+
+def _keys(rng: np.random.Generator, n: int = 256) -> np.ndarray:
+    img = np.ones((n, n, 3)) * 0.22
+    rows, cols = 5, 14
+    for i in range(rows):
+        for j in range(cols):
+            y0, x0 = 6 + i * (n - 12) // rows, 4 + j * (n - 8) // cols
+            img[y0 + 3 : y0 + (n - 12) // rows - 3, x0 + 2 : x0 + (n - 8) // cols - 2] = 0.85
+    return img.transpose(1, 0, 2)  # rows of keys across a box's x (depth), keys along its y (width)
+
+
+def _pages(rng: np.random.Generator, n: int = 64) -> np.ndarray:
+    y = np.arange(n)
+    lines = 0.92 - 0.12 * (y % 4 == 0)
+    return np.repeat(lines[:, None], n, 1)[..., None] * np.array([1.0, 0.97, 0.88])
+
+
+def _cover(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    img = np.ones((n, n, 3)) * 0.92
+    img[:, : n // 12] = 0.55  # the spine's shadow
+    img[n // 5 : n // 5 + 14, n // 5 : n - n // 6] = 1.0  # a title band
+    img[n // 5 + 4 : n // 5 + 10, n // 4 : n - n // 4] = 0.3
+    img[n - n // 4 : n - n // 4 + 6, n // 3 : n - n // 3] = 0.5
+    return img
+
+
+def _peel(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    bumps = 0.9 + 0.1 * rng.random((n // 4, n // 4)).repeat(4, 0).repeat(4, 1)
+    return bumps[..., None] * np.ones(3)
+
+
+def _leather(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    dots = 0.85 + 0.15 * (rng.random((n, n)) > 0.5)
+    return dots[..., None] * np.ones(3)
+
+
+def _ribs(rng: np.random.Generator, n: int = 64) -> np.ndarray:
+    x = np.arange(n)
+    ribs = 0.75 + 0.25 * np.abs(np.sin(math.pi * 8 * x / n))
+    return np.repeat(ribs[None, :], n, 0)[..., None] * np.ones(3)
+
+
+def _strings(rng: np.random.Generator, n: int = 64) -> np.ndarray:
+    y, x = np.mgrid[0:n, 0:n]
+    grid = ((x % 6) < 1) | ((y % 6) < 1)
+    return np.where(grid, 0.95, 0.18)[..., None] * np.ones(3)
+
+
+TEXTURES: dict[str, tuple[Callable[[np.random.Generator], np.ndarray], float, float, int]] = {
+    # name: (image maker, specular, shininess, texture repeat)
+    "wood": (_wood, 0.15, 0.3, 1),
+    "fabric": (_fabric, 0.02, 0.05, 4),
+    "brushed": (_brushed, 0.6, 0.7, 1),
+    "label": (_label, 0.1, 0.2, 1),
+    "screen": (_screen, 0.3, 0.8, 1),
+    "phone": (_phone_screen, 0.3, 0.8, 1),
+    "keys": (_keys, 0.1, 0.3, 1),
+    "pages": (_pages, 0.0, 0.1, 1),
+    "cover": (_cover, 0.15, 0.3, 1),
+    "peel": (_peel, 0.25, 0.4, 3),
+    "leather": (_leather, 0.1, 0.2, 6),
+    "ribs": (_ribs, 0.1, 0.2, 1),
+    "strings": (_strings, 0.0, 0.1, 1),
+}
+"""Procedural textures (grey or coloured images that modulate a look's colour), with their shading."""
+_GLOSS = {"glossy": (0.5, 0.6), "matte": (0.05, 0.1), "plastic": (0.3, 0.4)}
+"""Plain materials without an image: (specular, shininess)."""
+
+
+def add_materials(spec: mujoco.MjSpec) -> None:
+    """Add every texture and material a look can name to `spec` (once per model; a few hundred KB)."""
+    rng = np.random.default_rng(20250)
+    for name, (make, specular, shininess, repeat) in TEXTURES.items():
+        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
+        h, w = img.shape[:2]
+        tex = spec.add_texture(name=f"look_{name}", type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h)
+        tex.nchannel = 3
+        tex.data = img.tobytes()
+        mat = spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
+        mat.texrepeat = [repeat, repeat]
+        mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = f"look_{name}"
+    for name, (specular, shininess) in _GLOSS.items():
+        spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
+
+
+def variant_of(object_id: str, n: int) -> int:
+    """Which of `n` variants of its category an object wears: from its id, so that the scene's random
+    draws (and so every seed's scene) stay as they were."""
+    return int(hashlib.sha1(object_id.encode()).hexdigest()[:8], 16) % n
+
+
+# ---- the looks ------------------------------------------------------------------------------------------
+
+LookBuilder = Callable[[float, int], list[Look]]
+LOOKS: Registry[LookBuilder] = Registry("look")
+
+
+def look_of(shape_name: str, shape: Shape, size: float, variant: int) -> list[Look]:
+    """The visual parts of an object: its category's look, or its body's primitives with role materials."""
+    if shape_name in LOOKS:
+        return LOOKS.get(shape_name)(size, variant)
+    role_material = {"metal": "brushed", "wood": "wood", "screen": "screen"}
+    return [
+        Look(p.kind, p.size, p.pos, p.quat, p.role, role_material.get(p.role, "plastic"))
+        for p in shape.parts
+        if not p.hidden
+    ]
+
+
+def _mesh(m: Mesh, color: str | tuple[float, float, float] = "main", material: str = "glossy") -> Look:
+    return Look("mesh", color=color, material=material, mesh=m)
+
+
+@LOOKS.register("mug")
+def _mug(s: float, v: int) -> list[Look]:
+    r = s * 0.4
+    flare = (1.0, 1.06, 0.94)[v]  # straight, flared or tapered
+    rim = r * flare
+    profile = [(0.0, 0.0), (r * 0.9, 0.0), (r, s * 0.04), (rim, s * 0.97), (rim * 0.99, s), (rim * 0.9, s),
+               (rim * 0.9 - (rim - r) * 0.5, s * 0.12), (0.0, s * 0.1)]  # fmt: skip
+    handle = _arc((0.0, r * 0.92, s * 0.5), (s * 0.2, s * 0.27), -math.pi / 2, math.pi / 2, "yz")
+    return [_mesh(lathe(profile, 28)), _mesh(tube(handle, s * 0.045, 10))]
+
+
+@LOOKS.register("bowl")
+def _bowl(s: float, v: int) -> list[Look]:
+    r, h = s / 2, s * 0.36 + 0.002
+    t = np.linspace(0, math.pi / 2, 9)
+    outer = [(r * 0.5, 0.0)] + [(r * 0.55 + r * 0.45 * math.sin(a), h * (1 - math.cos(a))) for a in t[1:]]
+    inner = [(r * 0.93 * math.sin(a), h * 0.12 + (h * 0.86) * (1 - math.cos(a))) for a in t[::-1]]
+    return [_mesh(lathe([(0.0, 0.0), *outer, *inner], 28))]
+
+
+@LOOKS.register("bottle")
+def _bottle(s: float, v: int) -> list[Look]:
+    r = s * 0.17
+    neck = r * (0.38, 0.45, 0.34)[v]
+    profile = [(0.0, 0.0), (r * 0.95, 0.0), (r, s * 0.02), (r, s * 0.52), (r * 0.85, s * 0.64),
+               (neck * 1.1, s * 0.76), (neck, s * 0.8), (neck, s * 0.9)]  # fmt: skip
+    label = [(r * 1.012, s * 0.18), (r * 1.012, s * 0.46)]
+    cap = [(neck * 1.15, s * 0.88), (neck * 1.15, s), (0.0, s)]
+    return [
+        _mesh(lathe(profile, 24), material="glossy"),
+        _mesh(lathe(label, 24), color=(1.0, 1.0, 1.0), material="label"),
+        _mesh(lathe([(0.0, s * 0.88), *cap], 16), color=("white", "dark", "white")[v], material="plastic"),
+    ]
+
+
+@LOOKS.register("vase")
+def _vase(s: float, v: int) -> list[Look]:
+    r = s * 0.28
+    belly = (1.0, 0.85, 0.95)[v]
+    profile = [(0.0, 0.0), (r * 0.6, 0.0), (r * 0.62, s * 0.05), (r * belly, s * 0.32), (r * 0.9, s * 0.55),
+               (r * 0.45, s * 0.75), (r * 0.42, s * 0.88), (r * 0.6, s * 0.99), (r * 0.5, s * 0.99),
+               (r * 0.35, s * 0.8), (0.0, s * 0.78)]  # fmt: skip
+    return [_mesh(lathe(profile, 28), material="glossy")]
+
+
+def _round_fruit(s: float, squash: float, dimple: float) -> Mesh:
+    r = s / 2
+    t = np.linspace(0, math.pi, 15)
+    prof = [(r * math.sin(a), r * squash * (1 - math.cos(a))) for a in t]
+    prof[-1] = (0.0, 2 * r * squash - dimple)
+    prof[0] = (0.0, dimple * 0.5)
+    return lathe(prof, 24)
+
+
+@LOOKS.register("apple")
+def _apple(s: float, v: int) -> list[Look]:
+    r = s / 2
+    top = s * 0.92 - s * 0.06
+    return [
+        _mesh(_round_fruit(s, 0.92, s * 0.06), material="glossy"),
+        _mesh(
+            tube(np.array([[0, 0, top], [0.002, 0, top + r * 0.3], [0.006, 0, top + r * 0.45]]), r * 0.06, 6),
+            color="stem",
+            material="matte",
+        ),  # fmt: skip
+        Look(
+            "ellipsoid",
+            (r * 0.32, r * 0.13, r * 0.03),
+            (r * 0.25, 0, top + r * 0.3),
+            color="leaf",
+            material="matte",
+            quat=quat_axis_angle((0, 1, 0), -0.5),
+        ),  # fmt: skip
+    ]
+
+
+@LOOKS.register("orange")
+def _orange(s: float, v: int) -> list[Look]:
+    r = s / 2
+    return [
+        Look("ellipsoid", (r, r, r * 0.97), (0, 0, r * 0.97), material="peel"),
+        Look("cylinder", (r * 0.08, r * 0.04), (0, 0, r * 1.95), color="leaf", material="matte"),
+    ]
+
+
+@LOOKS.register("banana")
+def _banana(s: float, v: int) -> list[Look]:
+    t = np.linspace(-1.0, 1.0, 17)
+    bend = (0.16, 0.2, 0.12)[v]
+    r = s * 0.1
+    path = np.stack([0.45 * s * t, -bend * s * (1 - t**2), r + 0.25 * r * t**2], 1)
+    path[:, 1] -= path[:, 1].mean()  # the curve centred on the body
+    radii = r * np.clip(1.0 - 0.6 * np.abs(t) ** 3, 0.35, 1.0)
+    tip = np.stack([path[-1], path[-1] + (path[-1] - path[-2]) * 1.2])
+    stem = np.stack([path[0], path[0] + (path[0] - path[1]) * 2.0])
+    return [
+        _mesh(tube(path, radii, 7), material="glossy"),
+        _mesh(tube(tip, r * 0.2, 6), color="stem", material="matte"),
+        _mesh(tube(stem, r * 0.22, 6), color=(0.45, 0.5, 0.2), material="matte"),
+    ]
+
+
+@LOOKS.register("laptop")
+def _laptop(s: float, v: int) -> list[Look]:
+    d, w, t = s * 0.68, s, 0.012
+    ang = 0.35  # the screen leans back by 20 degrees, its face towards -x (the viewer)
+    tilt = quat_axis_angle((0, 1, 0), ang)
+    cx, cz = d / 2 + math.sin(ang) * d / 2, 2 * t + math.cos(ang) * d / 2
+
+    def on_lid(off: float) -> tuple[float, float, float]:
+        return (cx - off * math.cos(ang), 0.0, cz + off * math.sin(ang))
+
+    return [
+        Look("box", (d / 2, w / 2, t), (0, 0, t), material="brushed"),
+        Look(
+            "box",
+            (d * 0.24, w * 0.44, 0.0008),
+            (d * 0.14, 0, 2 * t + 0.0008),
+            color=(1, 1, 1),
+            material="keys",
+        ),  # fmt: skip
+        Look(
+            "box", (d * 0.1, w * 0.14, 0.0006), (-d * 0.3, 0, 2 * t + 0.0006), color="gray", material="matte"
+        ),
+        Look("box", (t * 0.6, w / 2, d / 2), (cx, 0, cz), tilt, material="brushed"),
+        Look(
+            "box", (0.001, w * 0.48, d * 0.47), on_lid(t * 0.6 + 0.001), tilt, color="dark", material="glossy"
+        ),
+        Look(
+            "box",
+            (0.001, w * 0.44, d * 0.41),
+            on_lid(t * 0.6 + 0.002),
+            tilt,
+            color=(1, 1, 1),
+            material="screen",
+        ),  # fmt: skip
+    ]
+
+
+@LOOKS.register("book")
+def _book(s: float, v: int) -> list[Look]:
+    d, w, t = s * 0.72, s, s * 0.14
+    return [
+        Look("box", (d / 2, w / 2, t * 0.08), (0, 0, t * 0.08), material="plastic"),
+        Look(
+            "box",
+            (d / 2 * 0.96, w / 2 * 0.97, t * 0.42),
+            (0.006, 0, t * 0.5),
+            color=(1, 1, 1),
+            material="pages",
+        ),
+        Look("box", (d / 2, w / 2, t * 0.08), (0, 0, t * 0.92), color="main", material="cover"),
+        Look("box", (0.006, w / 2, t / 2), (-d / 2, 0, t / 2), material="plastic"),
+        Look(
+            "box",
+            (0.0065, w * 0.3, t * 0.12),
+            (-d / 2, 0, t / 2),
+            color=((0.95, 0.95, 0.9), (0.85, 0.7, 0.3), (0.1, 0.1, 0.1))[v],
+        ),
+    ]
+
+
+@LOOKS.register("phone")
+def _phone(s: float, v: int) -> list[Look]:
+    return [
+        Look("box", (s / 2, s * 0.24, s * 0.03), (0, 0, s * 0.03), material="glossy"),
+        Look(
+            "box",
+            (s * 0.46, s * 0.22, 0.0006),
+            (0, 0, s * 0.06 + 0.0006),
+            color=(1, 1, 1),
+            material="phone",
+            quat=quat_axis_angle((0, 0, 1), math.pi / 2),
+        ),  # fmt: skip
+    ]
+
+
+@LOOKS.register("keyboard")
+def _keyboard(s: float, v: int) -> list[Look]:
+    d = s * 0.35
+    return [
+        Look("box", (d / 2, s / 2, 0.012), (0, 0, 0.012), material="plastic"),
+        Look(
+            "box",
+            (d * 0.45, s * 0.48, 0.002),
+            (0, 0, 0.026),
+            color=(1, 1, 1),
+            material="keys",
+            quat=quat_axis_angle((0, 0, 1), math.pi / 2),
+        ),  # fmt: skip
+    ]
+
+
+@LOOKS.register("cactus")
+def _cactus(s: float, v: int) -> list[Look]:
+    """A columnar cactus with arms, or (variants 1 and 2) a leafy succulent: both in a terracotta pot."""
+    pr, ph = s * 0.22, s * 0.32
+    trunk = s * 0.1
+    pot = [(0.0, 0.0), (pr * 0.75, 0.0), (pr * 0.95, ph * 0.85), (pr, ph * 0.85), (pr, ph), (pr * 0.9, ph),
+           (0.0, ph * 0.96)]  # fmt: skip
+    looks = [
+        _mesh(lathe(pot, 20), color="terracotta", material="matte"),
+        Look("cylinder", (pr * 0.9, 0.002), (0, 0, ph * 0.96), color="soil", material="matte"),
+    ]
+    if v == 0:
+        heights = (0.22, 0.24, 0.32, 0.44)
+        reach = (trunk * 0.8, trunk + s * 0.08, trunk + s * 0.1, trunk + s * 0.1)
+        arm_l = np.array([[0.0, y, ph + s * z] for y, z in zip(reach, heights, strict=True)])
+        arm_r = arm_l * np.array([1, -1, 1]) - np.array([0, 0, s * 0.06])
+        return [
+            *looks,
+            Look("capsule", (trunk, s * 0.22), (0, 0, ph + s * 0.28), material="ribs"),
+            _mesh(tube(arm_l, trunk * 0.6, 8), material="ribs"),
+            _mesh(tube(arm_r, trunk * 0.6, 8), material="ribs"),
+        ]
+    leaf = s * (0.2 if v == 1 else 0.16)
+    for ring, (count, tilt, lift) in enumerate(((9, 0.95, 0.02), (7, 0.55, 0.06), (5, 0.2, 0.1))):
+        for k in range(count):
+            yaw = 2 * math.pi * (k + 0.5 * ring) / count
+            q = compose_quat(quat_axis_angle((0, 0, 1), yaw), quat_axis_angle((0, 1, 0), -math.pi / 2 + tilt))
+            out = leaf * math.sin(tilt) * 0.9
+            pos = (out * math.cos(yaw), out * math.sin(yaw), ph + s * lift + leaf * math.cos(tilt) * 0.9)
+            shade = (0.2 + 0.05 * ring, 0.5 + 0.08 * ring, 0.18)
+            looks.append(Look("ellipsoid", (leaf, leaf * 0.32, leaf * 0.08), pos, q, shade, "matte"))
+    return looks
+
+
+@LOOKS.register("toaster")
+def _toaster(s: float, v: int) -> list[Look]:
+    """A rounded body with two slots, toast in them, a lever at one end and a dial at the front."""
+    d, w, h = s * 0.55, s, s * 0.65
+    body = extrude(_rounded_rect(d / 2, h, d * (0.3, 0.45, 0.2)[v]), w)
+    toast = (0.8, 0.56, 0.28)
+    return [
+        _mesh(body, material="brushed"),
+        Look(
+            "box", (d / 2 * 1.01, w / 2 * 1.005, h * 0.05), (0, 0, h * 0.05), color="dark", material="plastic"
+        ),
+        *(
+            Look("box", (d * 0.09, w * 0.36, 0.002), (x, 0, h + 0.0005), color="dark")
+            for x in (-d * 0.18, d * 0.18)
+        ),
+        *(
+            Look("box", (d * 0.07, w * 0.3, h * 0.1), (x, 0, h + h * 0.02), color=toast, material="matte")
+            for x in (-d * 0.18, d * 0.18)
+        ),  # fmt: skip
+        Look(
+            "box",
+            (s * 0.03, s * 0.02, s * 0.03),
+            (0, w / 2 + s * 0.02, h * 0.72),
+            color="dark",
+            material="plastic",
+        ),
+        Look("box", (s * 0.006, s * 0.012, h * 0.3), (0, w / 2 + 0.003, h * 0.55), color="dark"),
+        Look(
+            "cylinder",
+            (s * 0.035, s * 0.008),
+            (-d / 2 - s * 0.006, w * 0.32, h * 0.3),
+            _ALONG_X,
+            color="dark",
+            material="plastic",
+        ),  # fmt: skip
+    ]
+
+
+@LOOKS.register("kettle")
+def _kettle(s: float, v: int) -> list[Look]:
+    r, h = s * 0.3, s * 0.75
+    body = [(0.0, 0.0), (r * 0.95, 0.0), (r, s * 0.03), (r * (0.98, 0.9, 1.0)[v], h * 0.7), (r * 0.7, h),
+            (0.0, h)]  # fmt: skip
+    lid = [(r * 0.55, h), (r * 0.5, h + s * 0.03), (r * 0.12, h + s * 0.04), (0.0, h + s * 0.04)]
+    spout = np.array([[0, -r * 0.8, h * 0.35], [0, -r * 1.1, h * 0.6], [0, -r * 1.3, h * 0.9]])
+    handle = _arc((0.0, 0.0, h), (s * 0.2, s * 0.17), 0.0, math.pi, "yz")
+    return [
+        _mesh(lathe(body, 28), material="brushed" if v != 1 else "glossy"),
+        _mesh(lathe(lid, 20), color="dark", material="plastic"),
+        Look("sphere", (s * 0.03,), (0, 0, h + s * 0.05), color="dark", material="plastic"),
+        _mesh(tube(spout, np.array([s * 0.05, s * 0.035, s * 0.025]), 10), material="brushed"),
+        _mesh(tube(handle, s * 0.025, 8), color="dark", material="plastic"),
+    ]
+
+
+@LOOKS.register("backpack")
+def _backpack(s: float, v: int) -> list[Look]:
+    d, w, h = s * 0.4, s * 0.7, s * 0.85
+    straps = []
+    for side in (-1, 1):
+        path = _arc((d / 2, side * w * 0.25, h * 0.55), (d * 0.18, h * 0.42), -math.pi / 2, math.pi / 2, "xz")
+        straps.append(_mesh(tube(path, s * 0.02, 6), color="dark", material="fabric"))
+    loop = _arc((0.0, 0.0, h + s * 0.08), (s * 0.06, s * 0.05), 0.0, math.pi, "yz", n=8)
+    return [
+        Look("box", (d / 2, w / 2, h / 2 * 0.92), (0, 0, h / 2 * 0.92), material="fabric"),
+        Look("ellipsoid", (d / 2, w / 2, s * 0.1), (0, 0, h * 0.9), material="fabric"),
+        Look("box", (d * 0.2, w * 0.38, h * 0.22), (-d / 2 - d * 0.13, 0, h * 0.3), material="fabric"),
+        Look("box", (d * 0.21, w * 0.36, 0.004), (-d / 2 - d * 0.13, 0, h * 0.52), color="dark"),
+        Look("box", (0.004, w * 0.4, 0.004), (-d / 2 - 0.002, 0, h * 0.68), color="dark"),
+        *straps,
+        _mesh(tube(loop, s * 0.012, 6), color="dark", material="fabric"),
+    ]
+
+
+@LOOKS.register("basketball")
+def _basketball(s: float, v: int) -> list[Look]:
+    r = s / 2
+    return [
+        Look("sphere", (r,), (0, 0, r), material="leather"),
+        Look("cylinder", (r * 1.004, 0.002), (0, 0, r), color="dark"),
+        Look("cylinder", (r * 1.004, 0.002), (0, 0, r), _ALONG_X, color="dark"),
+        Look("cylinder", (r * 1.004, 0.002), (0, 0, r), _ALONG_Y, color="dark"),
+    ]
+
+
+@LOOKS.register("racket")
+def _racket(s: float, v: int) -> list[Look]:
+    t = np.linspace(0.0, 2 * math.pi, 29)
+    frame = np.stack([s * 0.3 + s * 0.17 * np.cos(t), s * 0.13 * np.sin(t), np.full(t.shape, 0.014)], 1)
+    return [
+        _mesh(tube(frame, 0.009, 8, caps=False), material="glossy"),
+        Look(
+            "ellipsoid", (s * 0.17, s * 0.13, 0.002), (s * 0.3, 0, 0.014), color=(1, 1, 1), material="strings"
+        ),  # fmt: skip
+        Look("box", (s * 0.2, 0.01, 0.01), (-s * 0.02, 0, 0.014), material="glossy"),
+        Look("capsule", (0.016, s * 0.11), (-s * 0.35, 0, 0.016), _ALONG_X, color="dark", material="fabric"),
+    ]
+
+
+# ---- into the model --------------------------------------------------------------------------------------
+
+_TYPES = {
+    "box": mujoco.mjtGeom.mjGEOM_BOX,
+    "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+    "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+}
+
+
+def color_rgb(color: str | tuple[float, float, float], main: tuple[float, float, float]) -> list[float]:
+    if isinstance(color, tuple):
+        return list(color)
+    if color == "main":
+        return list(main)
+    if color in MATERIALS:
+        return list(MATERIALS[color])
+    return list(COLORS[color])
+
+
+def add_looks(spec: mujoco.MjSpec, body: mujoco.MjsBody, looks: list[Look], main: tuple[float, float, float],
+              meshes: set[str]) -> None:  # fmt: skip
+    """Add `looks` to `body` as massless, non-colliding geoms of `LOOK_GROUP`; `meshes` holds the names of
+    the meshes `spec` has already (identical meshes are shared)."""
+    for look in looks:
+        rgba = [*color_rgb(look.color, main), 1.0]
+        if look.kind == "mesh":
+            assert look.mesh is not None
+            name = f"look_mesh_{look.mesh.key()}"
+            if name not in meshes:
+                mesh = spec.add_mesh(name=name)
+                mesh.uservert = look.mesh.vertices.astype(np.float32).ravel().tolist()
+                mesh.userface = look.mesh.faces.ravel().tolist()
+                mesh.usertexcoord = look.mesh.texcoords.astype(np.float32).ravel().tolist()
+                mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+                meshes.add(name)
+            g = body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, rgba=rgba)
+        else:
+            size = list(look.size) + [0.0] * (3 - len(look.size))
+            g = body.add_geom(type=_TYPES[look.kind], size=size, pos=list(look.pos), quat=list(look.quat),
+                              rgba=rgba)  # fmt: skip
+        if look.material:
+            g.material = f"look_{look.material}"
+        g.group = LOOK_GROUP
+        g.contype = g.conaffinity = 0
+        g.density = 0.0
+        g.mass = 0.0

