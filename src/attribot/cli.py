@@ -908,7 +908,7 @@ def backends(
         raise typer.Exit(1)
 
 
-@app.command()
+@app.command(cls=_Command)
 def fetch(
     what: str = typer.Argument(..., help="What to fetch: coco (the YOLOv3-tiny files of --detector coco)."),
     folder: Path | None = typer.Option(
