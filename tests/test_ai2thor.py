@@ -207,7 +207,7 @@ def test_without_the_package_the_error_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "ai2thor", None)
     with pytest.raises(MissingDependency, match="ai2thor package") as info:
         Ai2ThorWorld()
-    assert "attribot[ai2thor]" in (info.value.fix or "")
+    assert "pip install -e '.[ai2thor]'" in (info.value.fix or "")
 
 
 def test_an_embodied_query_runs_in_the_ai2thor_world(monkeypatch):

@@ -13,7 +13,7 @@ import pytest
 
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.planning.ask import Scene, ask
+from attribot.session import Scene, ask
 
 SCENE = SceneConfig(layout="household", seed=3, categories=("bottle", "vase"), objects=2)
 

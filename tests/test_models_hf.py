@@ -307,7 +307,7 @@ def test_bad_inputs_are_input_errors(models):
 
 def test_missing_extra_names_the_pip_line(models, monkeypatch):
     monkeypatch.setitem(sys.modules, "transformers", None)  # import fails as if not installed
-    with pytest.raises(MissingDependency, match=r"pip install 'attribot\[models\]'"):
+    with pytest.raises(MissingDependency, match=r"pip install -e '\.\[models\]' in the attribot clone"):
         build_backend("detector", f"hf:{models['owl']}", Settings())
 
 
@@ -323,7 +323,7 @@ def test_probe_reports_folder_extra_and_cache(models, monkeypatch, tmp_path):
     real_find_spec = hf.importlib.util.find_spec
     monkeypatch.setattr(hf.importlib.util, "find_spec", lambda m: None if m == "torch" else real_find_spec(m))
     gone = probe_backend("detector", f"hf:{models['owl']}", s)
-    assert gone.available is False and "pip install 'attribot[models]'" in gone.detail
+    assert gone.available is False and "pip install -e '.[models]'" in gone.detail
 
 
 def test_random_model_catalog_builds_real_size_configs_without_weights():

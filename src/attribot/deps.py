@@ -7,7 +7,7 @@ from types import ModuleType
 
 from attribot.errors import MissingDependency
 
-__all__ = ["require"]
+__all__ = ["require", "install_line"]
 
 # module name -> the extra of attribot that installs it
 _EXTRA_OF = {
@@ -24,6 +24,12 @@ _EXTRA_OF = {
 }
 
 
+def install_line(extra: str) -> str:
+    """The pip line that installs an extra of attribot: from a clone, since attribot is not on a package
+    index (`pip install 'attribot[X]'` would fail)."""
+    return f"pip install -e '.[{extra}]' in the attribot clone"
+
+
 def require(module: str, purpose: str) -> ModuleType:
     """Import `module` or raise `MissingDependency` naming what needs it and the pip line to fix it."""
     try:
@@ -31,7 +37,7 @@ def require(module: str, purpose: str) -> ModuleType:
     except ImportError as exc:
         top = module.split(".")[0]
         extra = _EXTRA_OF.get(top)
-        fix = f"pip install 'attribot[{extra}]'" if extra else f"pip install {top}"
+        fix = install_line(extra) if extra else f"pip install {top}"
         raise MissingDependency(
             f"{purpose} needs the Python package {top!r}, which is not installed", fix
         ) from exc

@@ -23,6 +23,7 @@ import numpy as np
 from attribot.config import Ai2ThorConfig
 from attribot.control.base import CONTROLLERS, ControlError, Target, not_available
 from attribot.control.pointing import PointingController
+from attribot.deps import install_line
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.errors import AttribotError, MissingDependency, UnsupportedAction
 from attribot.frame import CameraInfo, Frame, ObjectTruth
@@ -67,7 +68,7 @@ class Ai2ThorWorld(Embodiment):
             except ImportError:
                 raise MissingDependency(
                     "the ai2thor world needs the ai2thor package",
-                    "pip install 'attribot[ai2thor]' (its first run downloads a Unity build, about 500 MB)",
+                    f"{install_line('ai2thor')} (its first run downloads a Unity build, about 500 MB)",
                 ) from None
             controller = Controller(
                 scene=self.config.scene,

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from attribot import boxes as boxmath
-from attribot.deps import require
+from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
@@ -71,7 +71,7 @@ tall in a 640x480 frame, and YOLOv3-tiny finds about a third of them this way ag
 whole image alone (`benchmarks/bench_coco.py`). The nine tiles are looked at only when the whole image
 leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass."""
 _PURPOSE = "the coco detector (YOLOv3-tiny on OpenCV's DNN module)"
-_INSTALL = "pip install 'attribot[coco]' && attribot fetch coco"
+_INSTALL = f"{install_line('coco')}, then attribot fetch coco"
 
 COCO_CLASS_OF: dict[str, str] = {
     "apple": "apple",

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from attribot import boxes as boxmath
-from attribot.deps import require
+from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame
 from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
@@ -168,7 +168,7 @@ def _load(model: str, family: str, model_class: str, device: str, dtype: str) ->
     if cls is None:
         raise ConfigError(
             f"this transformers ({transformers.__version__}) has no {model_class} for {family} models",
-            "pip install -U 'attribot[models]'",
+            "pip install -U -e '.[models]' in the attribot clone",
         )
     dev = resolve_device(device)
     dt = resolve_dtype(dtype, dev)
@@ -627,7 +627,7 @@ def probe_hf(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
     """Whether an `hf:` backend can load here, without importing torch: extra installed, model present."""
     missing = [m for m in ("torch", "transformers") if importlib.util.find_spec(m) is None]
     if missing:
-        return False, f"{', '.join(missing)} not installed: pip install 'attribot[models]'"
+        return False, f"{', '.join(missing)} not installed: {install_line('models')}"
     if not arg:
         return False, "no model given: write hf:MODEL_ID_OR_PATH"
     if _looks_like_path(arg):
