@@ -83,9 +83,10 @@ class _Run:
     done: bool = False
     cond: threading.Condition = field(default_factory=threading.Condition)
 
-    def emit(self, kind: str, **data: Any) -> None:
+    def emit(self, event_type: str, /, **data: Any) -> None:
+        # positional-only: an event's data may hold its own "kind" (a trace record's call kind)
         with self.cond:
-            self.events.append({"type": kind, **data})
+            self.events.append({**data, "type": event_type})
             self.cond.notify_all()
 
     def on_frame(self, robot: np.ndarray, room: np.ndarray) -> None:
