@@ -20,6 +20,7 @@ from attribot.config import load_settings
 from attribot.demo import DemoConfig, create_app, serve_demo
 from attribot.errors import ConfigError
 from attribot.server.run import ServerThread
+from fakes.chat import serve_chat_replies
 
 QUERY = "Which object is the closest to me?"
 
@@ -278,24 +279,9 @@ def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_ll
     """The planner an `attribot demo --planner llm` runs with: a scripted OpenAI-compatible endpoint on
     127.0.0.1 whose first program fails, so that the page sees the second try too."""
 
-    def completion(program: str) -> dict:
-        content = f"```python\n{program}```"
-        return {
-            "id": "chatcmpl-1",
-            "object": "chat.completion",
-            "created": 0,
-            "model": "test-model",
-            "choices": [
-                {"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}
-            ],
-            "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2},
-        }
-
     wrong = "def execute_command(image, robot):\n    return image.find('object')[99]\n"
     right = "def execute_command(image, robot):\n    return image.find('object')[0]\n"
-    path = "/v1/chat/completions"
-    httpserver.expect_ordered_request(path, method="POST").respond_with_json(completion(wrong))
-    httpserver.expect_ordered_request(path, method="POST").respond_with_json(completion(right))
+    requests = serve_chat_replies(httpserver, [f"```python\n{wrong}```", f"```python\n{right}```"])
     settings = load_settings(
         planner="llm",
         llm_base_url=httpserver.url_for("/v1"),
@@ -312,7 +298,7 @@ def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_ll
     assert [p["text"] for p in programs] == [wrong, right] and [p["attempt"] for p in programs] == [1, 2]
     answer = next(e for e in events if e["type"] == "answer")["answer"]
     assert answer["planner"] == "llm" and answer["attempts"] == 2 and answer["error"] is None
-    assert answer["object"]["id"]
+    assert answer["object"]["id"] and len(requests) == 2
 
 
 def test_an_uploaded_image_is_answered_by_the_configured_detector(tmp_path, browser):
