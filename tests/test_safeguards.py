@@ -508,3 +508,45 @@ def test_a_stated_answer_is_held_to_its_measurements_too():
         assert answer.error.category == "uncertain"
     else:
         assert answer.object is not None and answer.object.id == heavier.id
+
+
+class _OtherViewsConfuse:
+    """Wraps a detector that sees `name` right in the first frame only; in every later frame it misses it
+    and, once, calls `other`'s object by that name, surer of it than the first frame was of the right one:
+    from the other views nothing confirms either."""
+
+    def __init__(self, inner: object, name: str, other: str) -> None:
+        self.inner, self.target, self.other, self.name = inner, name, other, "other-views-confuse"
+        self.first: bytes | None = None
+        self.confused = False
+
+    def detect(self, frame: Frame, queries: list[str]) -> list[Detection]:
+        found = self.inner.detect(frame, queries)  # type: ignore[attr-defined]
+        digest = frame.rgb.tobytes()
+        self.first = self.first or digest
+        whole = frame.rgb.shape[:2] == (H, W)
+        if digest == self.first or not whole or list(queries) != [self.target]:
+            return found  # the first image, or crops of it
+        if self.confused:
+            return []
+        self.confused = True
+        return [
+            Detection(box=d.box, score=0.99, label=self.target, object_id=d.object_id)
+            for d in self.inner.detect(frame, [self.other])  # type: ignore[attr-defined]
+        ]
+
+
+def test_with_nothing_confirmed_find_keeps_the_first_image_box_not_one_another_name_settled_on(perception):
+    """No other view confirms the second name's object, and one of them takes the first name's object for
+    it: find gives what the first image showed, says it is unconfirmed, and never hands back the object an
+    earlier find settled on under another name."""
+    with world() as w:
+        first, second = [o for o in w.scene_info().objects if o.box is not None][:2]
+        detector = _OtherViewsConfuse(perception.detector, second.category, first.category)
+        guards = Safeguards()
+        confusing = dataclasses.replace(perception, detector=detector)
+        image = Robot(["camera"], world=w, safeguards=guards).look(confusing)
+        assert [p.object_id for p in image.find(first.category)] == [first.id]
+        found = image.find(second.category)
+        assert detector.confused and [p.object_id for p in found] == [second.id]
+        assert guards.events[-1].outcome == "unsettled" and "kept unconfirmed" in guards.events[-1].detail

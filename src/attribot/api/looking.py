@@ -54,6 +54,7 @@ class LookAgainReport:
     dropped: int  # boxes of the first image no other view confirmed
     added: int  # objects the first image missed, seen from the other views
     conflicts: int = 0  # boxes found before under another name, left out
+    unconfirmed: int = 0  # kept though no other view confirmed it: nothing was, so one image's answer
     how: str = "head poses"  # what the other views were
 
     def describe(self) -> str:
@@ -61,7 +62,9 @@ class LookAgainReport:
             f"looked again from {self.views - 1} other {self.how}: {self.first} in the first image, "
             f"{self.kept} confirmed, {self.dropped} dropped, {self.added} added"
         )
-        return text + (f", {self.conflicts} found before under another name" if self.conflicts else "")
+        text += f", {self.conflicts} found before under another name" if self.conflicts else ""
+        text += f", {self.unconfirmed} kept unconfirmed (no view confirmed any)" if self.unconfirmed else ""
+        return text
 
 
 @dataclass
@@ -127,14 +130,19 @@ class Survey:
         # two calls disagree: a box found, as well or better, under another name before is not this one
         disputed = {
             id(g)
-            for g in confirmed
+            for g in groups
             if any(n != name and iou(g.box, b) >= 0.5 and s >= support[id(g)] for n, b, s in self.claims)
         }
-        conflicts = len(disputed)
+        conflicts = sum(1 for g in confirmed if id(g) in disputed)
         confirmed = [g for g in confirmed if id(g) not in disputed]
+        fallback: _Group | None = None
         if not confirmed and groups:
-            # nothing confirmed: the detector's best single sighting, as one image would have given
-            confirmed = [max(groups, key=lambda g: max(m.det.score for m in g.members.values()))]
+            # nothing confirmed: what one image would have given, the first image's best box (the best
+            # sighting elsewhere where it saw none), passing over what another name settled on before
+            undisputed = [g for g in groups if id(g) not in disputed] or groups
+            in_first_image = [g for g in undisputed if 0 in g.members] or undisputed
+            fallback = max(in_first_image, key=lambda g: max(m.det.score for m in g.members.values()))
+            confirmed = [fallback]
         kept: list[Detection] = []
         added = 0
         in_first = [g.members[0].box for g in confirmed if 0 in g.members]
@@ -155,6 +163,11 @@ class Survey:
         # the detector's order, best match first, as find promises
         result = sorted(kept, key=lambda d: -d.score)
         kept_first = sum(1 for d in result if any(d is f for f in first))
+        # a box kept for want of better is neither confirmed nor added (nor dropped)
+        unconfirmed = int(fallback is not None)
+        fallback_in_first = fallback is not None and 0 in fallback.members
+        kept_first -= int(fallback_in_first)
+        added -= unconfirmed - int(fallback_in_first)
         settled = max(
             (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
         )
@@ -165,9 +178,10 @@ class Survey:
                 views=len(views),
                 first=len(first),
                 kept=kept_first,
-                dropped=len(first) - kept_first,
+                dropped=len(first) - kept_first - int(fallback_in_first),
                 added=added,
                 conflicts=conflicts,
+                unconfirmed=unconfirmed,
             )
         )
         return result

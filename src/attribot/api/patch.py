@@ -282,10 +282,11 @@ class ImagePatch:
                 detections = self.survey.fuse(self.perception.detector, name, detections)
                 reports.append(self.survey.reports[-1])
             changed = any(r.dropped or r.added or r.conflicts for r in reports)
+            doubtful = any(r.unconfirmed for r in reports)
             self.safeguards.note(
                 "look_again",
                 f"find({name!r})",
-                "caught" if changed else "confirmed",
+                "caught" if changed else "unsettled" if doubtful else "confirmed",
                 "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
             )
         dx = pixels.origin[0] - self.frame.origin[0]
