@@ -155,7 +155,10 @@ def test_the_error_category_is_the_kind_of_the_failing_call_in_the_trace():
     missed = {"call": "ImagePatch.find", "error": "nothing", "kind": "perception"}
     assert _category(answer(looked, robot)) == "action"
     assert _category(answer(robot | {"error": None}, missed)) == "perception"
-    assert _category(answer(looked)) == "runner"  # the program failed on its own
+    assert _category(answer(looked | {"result": [{"label": "mug"}]})) == "runner"  # failed on its own
+    # a program that raised because a find came back empty failed for what was not perceived
+    assert _category(answer(robot | {"error": None}, looked | {"result": []})) == "perception"
+    assert _category(answer(looked | {"result": []}, robot | {"error": None})) == "runner"
     assert _category(answer(category="uncertain")) == "uncertain"
     assert _category(SimpleNamespace(error=None)) is None
 

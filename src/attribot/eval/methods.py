@@ -212,7 +212,8 @@ def paper_methods(task: str) -> tuple[str, ...]:
 
 def _category(answer: Any) -> str | None:
     """What failed, from the answer's error and the trace: the planner (no program), a doubt the program
-    stated, the kind of the API call that failed (its class says: perception or action), else the runner."""
+    stated, the kind of the API call that failed (its class says: perception or action), a perception call
+    that came back empty just before the program gave up, else the runner."""
     if answer.error is None:
         return None
     if answer.error.category == "planner" or answer.program is None:
@@ -221,6 +222,11 @@ def _category(answer: Any) -> str | None:
         return "uncertain"
     failing = next((t for t in reversed(answer.trace) if t.get("error")), None)
     if failing is None:
+        # a program that gave up right after a call that came back empty-handed (a find that found
+        # nothing) failed for what that call did not perceive, not on its own
+        last = answer.trace[-1] if answer.trace else None
+        if last is not None and last.get("result") in ([], None) and last.get("kind") == "perception":
+            return "perception"
         return "runner"
     return str(failing.get("kind") or "runner")
 

@@ -347,9 +347,8 @@ def _write_weight_of_items(w: _Writer, word: str) -> None:
     w.line('if name == "" or name == "unknown":')
     w.line(f'    raise ValueError("the language model could not tell which item is the {word} one")')
     w.line("matches = image.find(name)")
-    w.line("if len(matches) > 0:")
-    w.line("    return matches[0]")
-    w.line("return name")
+    w.fail("len(matches) == 0", '"the language model chose " + name + ", which the detector does not find"')
+    w.line("return matches[0]")
 
 
 def _write_weight_of_candidates(w: _Writer, obj: ObjectSpec, word: str) -> None:
