@@ -188,3 +188,22 @@ def test_a_narrowing_by_weight_measures_distances_before_the_robot_moves():
     assert answer.error is None, answer.error
     assert answer.object is not None
     assert answer.object.id == min(pool[:2], key=lambda o: o.distance_m).id
+
+
+def test_a_row_scopes_a_measured_choice_in_the_world():
+    """ "the closest mug in the top row" on a grid: measured with the rangefinder among the mugs of the row
+    that the world's layout puts highest in the picture (the closest mug overall stands in another row)."""
+    options = {"pattern": "grid"}
+    config = SceneConfig(layout="arrangement", seed=5, categories=("mug",), objects=6, options=options)
+    with MujocoWorld(config) as world:
+        seen = [o for o in world.scene_info().objects if o.box is not None and o.row is not None]
+    rows: dict[int, list] = {}
+    for o in seen:
+        rows.setdefault(o.row, []).append(o)
+    top = min(rows.values(), key=lambda row: sum(o.box[1] for o in row) / len(row))  # image y grows down
+    assert min(seen, key=lambda o: o.distance_m) not in top
+    scene = Scene(config, sensors=["camera", "distance"])
+    answer = ask("the closest mug in the top row", scene, load_settings())
+    assert answer.error is None, answer.error
+    assert answer.object is not None and answer.object.id == min(top, key=lambda o: o.distance_m).id
+    assert answer.unit == "m"

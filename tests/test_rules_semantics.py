@@ -406,3 +406,44 @@ def test_a_measurement_without_its_sensor_is_refused_before_running(query, senso
     with pytest.raises(InputError, match=match) as info:
         rules_program(query, sensors, embodied)
     assert "--sensors camera," in info.value.fix and "comparison" in info.value.fix
+
+
+# ---- a side, row or column around any family ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("query", "expected"),
+    [
+        ("the heaviest item on the left side", "left_heavy"),
+        ("which thing on the right is the heaviest?", "right_heavy"),
+        ("which object in the top row is the lightest?", "top_light"),
+        ("the heaviest object in the bottom row", "left_heavy"),
+        ("the lightest mug in the second column from the right", "top_mid"),
+    ],
+)
+def test_a_side_row_or_column_scopes_the_choice(query, expected):
+    # two rows of three (y up: the top row has the larger vertical centre); the heaviest of all is on the
+    # right in the top row, so a scope that is not applied picks it instead
+    patches = {
+        "top_light": FakePatch("mug", (100, 600, 160, 660), kg=0.1),
+        "top_mid": FakePatch("mug", (400, 600, 460, 660), kg=0.2),
+        "right_heavy": FakePatch("mug", (700, 600, 760, 660), kg=9.0),
+        "left_heavy": FakePatch("mug", (100, 300, 160, 360), kg=5.0),
+        "mid_low": FakePatch("mug", (400, 300, 460, 360), kg=0.3),
+        "right_low": FakePatch("mug", (700, 300, 760, 360), kg=0.4),
+    }
+    image = scene(*patches.values())
+    chosen = run(query, image, sensors=("camera", "force"), embodied=True)
+    assert chosen is patches[expected]
+
+
+def test_a_side_of_a_named_surface_is_that_side_of_the_surface():
+    # a table on the right half of the picture: "on the left side of the table" is left of its middle
+    table = FakePatch("table", (500, 200, 900, 400))
+    inner_left = FakePatch("cup", (560, 380, 600, 420), kg=1.0)
+    inner_right = FakePatch("cup", (800, 380, 840, 420), kg=2.0)
+    picture_left = FakePatch("cup", (100, 50, 140, 90), kg=3.0)  # on the floor, left of the picture
+    image = scene(table, inner_left, inner_right, picture_left)
+    query = "which is the heaviest cup on the left side of the table?"
+    chosen = run(query, image, sensors=("camera", "force"), embodied=True)
+    assert chosen is inner_left

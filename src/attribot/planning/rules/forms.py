@@ -146,12 +146,27 @@ class Among:
 
 
 @dataclass(frozen=True)
+class Region:
+    """A part of the view a choice is scoped to: a side ("on the left side", "in the right half") or a row or
+    column ("in the top row", "in the second column")."""
+
+    side: Side | None = None
+    line: LineSpec | None = None
+
+    @property
+    def words(self) -> str:
+        """How a side is said, for comments and messages ("on the left side")."""
+        return f"on the {self.side} side"
+
+
+@dataclass(frozen=True)
 class Request:
     """A reading with a frame around it: a surface it is scoped to ("on the table"), a narrowing ("of the
     two closest"), an action on the chosen object ("bring me", "put ... on the counter")."""
 
     inner: LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | OddQuery
     scope: str | None = None  # a surface kind of `attribot.lexicon.SURFACE_WORDS`
+    region: Region | None = None  # a side, row or column of the view (of the surface, with a scope)
     among: Among | None = None
     action: Literal["pick", "put"] | None = None
     target: str | None = None  # what "put" puts the object on: a surface kind or an object's name

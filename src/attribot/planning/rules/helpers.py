@@ -19,6 +19,7 @@ __all__ = [
     "size_outlier",
     "on_surface",
     "on_any",
+    "on_side",
     "bring",
     "put_it_on",
     "source",
@@ -118,6 +119,18 @@ def on_any(patch: Patch, surfaces: Sequence[Patch]) -> bool:
         if on_surface(patch, surface):
             return True
     return False
+
+
+def on_side(patch: Patch, side: str, whole: Patch) -> bool:
+    """True when the patch's centre lies in that half ("left", "right", "top" or "bottom") of `whole`: the
+    picture, or the surface it stands on (y grows upward)."""
+    if side == "left":
+        return patch.horizontal_center < whole.horizontal_center
+    if side == "right":
+        return patch.horizontal_center > whole.horizontal_center
+    if side == "top":
+        return patch.vertical_center > whole.vertical_center
+    return patch.vertical_center < whole.vertical_center
 
 
 def bring(robot: Robot, patch: Patch) -> Patch:

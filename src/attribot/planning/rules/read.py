@@ -13,15 +13,19 @@ from attribot.lexicon import (
 )
 from attribot.planning.query import check_query
 from attribot.planning.rules.families import Reading, readers
+from attribot.planning.rules.families.location import read_line
 from attribot.planning.rules.families.yesno import _parse_yes_no
 from attribot.planning.rules.forms import (
     Among,
     DistanceQuery,
     GroundingQuery,
+    LocationQuery,
     MeasureQuery,
     ObjectSpec,
     ParsedQuery,
+    Region,
     Request,
+    Side,
     SizeQuery,
     UnsupportedQuery,
     WeightQuery,
@@ -31,6 +35,7 @@ from attribot.planning.rules.normalise import (
     _DIST_WORDS,
     _ME,
     _ORD,
+    _SIDES,
     _SIZE_WORDS,
     _STOP,
     _WEIGHT_WORDS,
@@ -56,6 +61,15 @@ _WHICH_X_IS_NTH = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are)\s+(?:the\s+)?"
     r"(?P<ord>" + _ORD + r"|last)\s+(?P<rest>(?:from|in|on)\s+.+)"
 )
+
+
+_WHICH_X_IS_AT = re.compile(
+    r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are|sits|stands|lies)\s+"
+    r"(?P<rest>(?:on|at|to|in|towards)\s+(?:the\s+)?(?:far\s+)?(?:left|right|top|bottom|middle|centre|center)"
+    r"(?:\s+(?:side|part|edge))?)"
+)
+# "the mug that is second from the left" asks "which mug is second from the left"
+_X_THAT_IS = re.compile(r"^(?:the\s+)?(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:that|which)\s+(?:is|are)\s+")
 
 
 # "the lightest one" is "the lightest": "one" stands for the object, not for an object called "one"
@@ -87,19 +101,34 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         return yes_no
     scope, text = _take_scope(text)
     among, text = _take_among(text)
+    region: Region | None = None
     if scope is not None and _ONLY_FRAME.fullmatch(text):
         inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
     else:
-        inner = _parse_family(
-            text, opened, original, normalized[0] if scope is None and among is None else text
-        )
-    if scope is None and among is None and action is None:
+        try:
+            inner = _parse_family(
+                text, opened, original, normalized[0] if scope is None and among is None else text
+            )
+        except UnsupportedQuery as refused:
+            # a side, row or column around a choice ("the heaviest mug in the top row"), read only where
+            # the text does not read without it, so that no position the families read is taken from them
+            region, rest, surface = _take_region(text)
+            if region is None or (surface is not None and scope is not None):
+                raise refused from None
+            scope = scope or surface
+            try:
+                inner = _parse_family(rest, opened, original, rest)
+            except UnsupportedQuery:
+                raise refused from None
+    if scope is None and among is None and action is None and region is None:
         return inner
     if isinstance(inner, Request | YesNoQuery | MeasureQuery):
         raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
     if among is not None and not isinstance(inner, WeightQuery | DistanceQuery | SizeQuery):
         raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")
-    return Request(inner, scope=scope, among=among, action=action, target=target)  # type: ignore[arg-type]
+    if region is not None and isinstance(inner, LocationQuery):
+        raise UnsupportedQuery(original, "it places the object twice; say its place once")
+    return Request(inner, scope=scope, among=among, action=action, target=target, region=region)  # type: ignore[arg-type]
 
 
 def _parse_family(text: str, opened: bool, original: str, whole: str) -> ParsedQuery:
@@ -107,6 +136,7 @@ def _parse_family(text: str, opened: bool, original: str, whole: str) -> ParsedQ
     reading accounts for the whole text; refused, naming the words none placed, when there is none."""
     if text.endswith((" one", " ones")):
         text = _ADJECTIVE_ONE.sub(r"\1", text)
+    text = _which_for_that(text)
     reading = Reading(text, _plain(text), opened, whole, original)
     for reader in readers():
         parsed = reader(reading)
@@ -119,6 +149,7 @@ def _plain(text: str) -> str:
     """The text as the position and superlative readers read it: "which is the second dog" is "the second
     dog", "which cup is the tallest" is "the tallest cup"."""
     text = _strip_article(rx(r"^(?:which|what)\s+(?:one\s+)?(?:is|are)\s+").sub("", text))
+    text = _which_for_that(text)
     if not text.startswith(("which ", "what ")):
         return text
     # "which cup is the tallest" asks for "the tallest cup"
@@ -129,11 +160,23 @@ def _plain(text: str) -> str:
     extreme = _WHICH_X_IS_EXTREME.fullmatch(text) if text.startswith(("which ", "what ")) else None
     if extreme is not None and _object(extreme["noun"]) is not None:
         text = f"{extreme['adj']} {extreme['noun']}"
+    # "which thing is on the right side" asks for "the thing on the right side"
+    at = _WHICH_X_IS_AT.fullmatch(text) if text.startswith(("which ", "what ")) else None
+    if at is not None and _object(at["noun"]) is not None:
+        text = f"{at['noun']} {at['rest']}"
     # "which cup is second from the left" asks for "the second cup from the left"
     place = _WHICH_X_IS_NTH.fullmatch(text) if text.startswith(("which ", "what ")) else None
     if place is not None and _object(place["noun"]) is not None:
         text = f"{place['ord']} {place['noun']} {place['rest']}"
     return text
+
+
+def _which_for_that(text: str) -> str:
+    """ "the mug that is second from the left" said as "which mug is second from the left"."""
+    relative = _X_THAT_IS.match(text)
+    if relative is None or _object(relative["noun"]) is None:
+        return text
+    return f"which {relative['noun']} is {text[relative.end():]}"
 
 
 def _unplaced(text: str) -> str:
@@ -206,6 +249,39 @@ def _take_scope(text: str) -> tuple[str | None, str]:
         return None, text
     rest = " ".join((text[: match.start()] + " " + text[match.end() :]).split()).strip(" ,")
     return SURFACE_WORDS[match["surface"]], rest
+
+
+# "on the left side (of the table)", "in the right half", "on the left": a side of the view or of a surface
+_SIDE_REGION = re.compile(
+    r"\s*\b(?:(?:that|which)\s+(?:is|are)\s+|(?:is|are)\s+)?(?:(?:sitting|standing|lying|placed)\s+)?"
+    r"(?:on|at|to|in|towards)\s+(?:the\s+)?(?:far\s+)?(?P<side>left|right)(?:[\s-]+hand)?"
+    r"(?:\s+(?:side|half|part|end))?(?:\s+of\s+(?:the\s+)?(?P<surface>" + _SURFACE + r"))?\b"
+    r"|\s*\b(?:in|on)\s+the\s+(?P<half>top|bottom|upper|lower)\s+(?:half|part)\b"
+)
+# "in the top row", "in the second column from the right", "of the middle row"
+_LINE_REGION = re.compile(
+    r"\s*\b(?:(?:that|which)\s+(?:is|are)\s+|(?:is|are)\s+)?(?:in|on|of|along|within|from)\s+(?:the\s+)?"
+    r"(?P<line>[a-z]+(?:\s+to\s+last)?\s+(?:rows?|columns?|cols?)(?:\s+from\s+(?:the\s+)?"
+    r"(?:top|bottom|left|right))?)\b"
+)
+
+
+def _take_region(text: str) -> tuple[Region | None, str, str | None]:
+    """A side, row or column a choice is scoped to, the text without it, and the surface a side is of."""
+    for pattern in (_LINE_REGION, _SIDE_REGION):
+        match = pattern.search(text)
+        if match is None:
+            continue
+        rest = " ".join((text[: match.start()] + " " + text[match.end() :]).split()).strip(" ,")
+        if pattern is _LINE_REGION:
+            line = read_line(match["line"])
+            if line is None:
+                continue
+            return Region(line=line), rest, None
+        side: Side = _SIDES[match["side"] or match["half"]]
+        surface = SURFACE_WORDS[match["surface"]] if match["surface"] else None
+        return Region(side=side), rest, surface
+    return None, text, None
 
 
 _NUMBER_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "2": 2, "3": 3, "4": 4, "5": 5}

@@ -13,8 +13,10 @@ from attribot.planning.rules.families import FAMILY_REGISTRY
 from attribot.planning.rules.forms import (
     Among,
     DistanceQuery,
+    LineSpec,
     ObjectSpec,
     ParsedQuery,
+    Region,
     Request,
 )
 from attribot.planning.rules.helpers import source as helper_source
@@ -102,6 +104,8 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     frame = w.frame
     if frame is not None and frame.scope is not None:
         _write_scope(w, var, frame.scope, obj)
+    if frame is not None and frame.region is not None:
+        _write_region(w, var, frame.region, obj, frame.scope)
     if frame is not None and frame.among is not None and var == "candidates":
         _write_among(w, frame.among)
 
@@ -127,6 +131,63 @@ def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
         w.line("        kept.append(patch)")
     w.line(f"{var} = kept")
     w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found on the {scope}"))
+
+
+def _write_region(w: _Writer, var: str, region: Region, obj: ObjectSpec, scope: str | None) -> None:
+    """Keep the patches of `var` in a side of the picture (of the surface they stand on, with a scope), or
+    in one of the rows or columns they form."""
+    if region.line is not None:
+        kept = write_line(w, region.line, obj.phrase, var)
+        w.line(f"{var} = {kept}")
+        return
+    w.helper("on_side")
+    side = str(region.side)
+    if scope is not None and scope != "floor":
+        w.line(f"# {region.words} of the {scope}: that side of the middle of the {scope} it stands on")
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    for surface in surfaces:")
+        w.line(f"        if on_surface(patch, surface) and on_side(patch, {_q(side)}, surface):")
+        w.line("            kept.append(patch)")
+        w.line("            break")
+    else:
+        w.line(f"# {region.words}: that side of the middle of the picture")
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line(f"    if on_side(patch, {_q(side)}, image):")
+        w.line("        kept.append(patch)")
+    w.line(f"{var} = kept")
+    where = f"{region.words} of the {scope}" if scope not in (None, "floor") else region.words
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found {where}"))
+
+
+def write_line(w: _Writer, line: LineSpec, phrase: str, var: str = "candidates") -> str:
+    """The rows or columns the patches of `var` form, and the one asked for taken; returns the name of the
+    variable it is kept in."""
+    w.helper("group_into_lines")
+    kind, plural = line.kind, line.kind + "s"
+    first = "top" if kind == "row" else "left"
+    last = "bottom" if kind == "row" else "right"
+    w.line(f"{plural} = group_into_lines({var}, {_q(kind)})")
+    if line.middle:
+        w.line(f"# the middle {kind}; with an even number of {plural}, the one just past the centre")
+        w.line(f"{kind} = {plural}[len({plural}) // 2]")
+        return kind
+    k = line.index
+    side = last if line.from_end else first
+    if k > 1:
+        w.fail(
+            f"len({plural}) < {k}",
+            _count_message(
+                f"asked for the {_nth(k)} {kind} from the {side}, but the {phrase}s form only ",
+                f"len({plural})",
+                f" {kind}(s)",
+            ),
+        )
+    index = f"len({plural}) - {k}" if line.from_end else str(k - 1)
+    w.line(f"# the {_nth(k)} {kind} from the {side}")
+    w.line(f"{kind} = {plural}[{index}]")
+    return kind
 
 
 def _write_among(w: _Writer, among: Among) -> None:

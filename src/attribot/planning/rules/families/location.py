@@ -24,9 +24,9 @@ from attribot.planning.rules.write import (
     _count_message,
     _find,
     _nth,
-    _q,
     _sorted,
     _Writer,
+    write_line,
 )
 
 
@@ -78,6 +78,15 @@ def _take_line(text: str) -> tuple[LineSpec | None, bool, str]:
     if _k_invalid(line):
         raise _NoReading()
     return line, match["mid"] is not None, text
+
+
+def read_line(text: str) -> LineSpec | None:
+    """The row or column `text` names as a whole ("top row", "second column from the right"), or None."""
+    try:
+        line, middle_of, rest = _take_line(text)
+    except _NoReading:
+        return None
+    return line if line is not None and not middle_of and not rest.strip() else None
 
 
 def _line_of(kind: Literal["row", "column"], word: str, side: str | None) -> LineSpec:
@@ -245,7 +254,7 @@ _SORT_KEYS = {
 
 def _write_location(w: _Writer, q: LocationQuery) -> None:
     _find(w, q.obj)
-    group = _write_line(w, q) if q.line is not None else "candidates"
+    group = write_line(w, q.line, q.obj.phrase) if q.line is not None else "candidates"
     pick = q.pick
     if pick.kind == "ordinal":
         _write_ordinal(w, q, group)
@@ -267,35 +276,6 @@ def _write_location(w: _Writer, q: LocationQuery) -> None:
             ),
         )
         w.line(f"return {group}[0]")
-
-
-def _write_line(w: _Writer, q: LocationQuery) -> str:
-    """The lines grouped and the one asked for taken; returns the name of the group it is kept in."""
-    assert q.line is not None
-    w.helper("group_into_lines")
-    kind, plural = q.line.kind, q.line.kind + "s"
-    first = "top" if kind == "row" else "left"
-    last = "bottom" if kind == "row" else "right"
-    w.line(f"{plural} = group_into_lines(candidates, {_q(kind)})")
-    if q.line.middle:
-        w.line(f"# the middle {kind}; with an even number of {plural}, the one just past the centre")
-        w.line(f"{kind} = {plural}[len({plural}) // 2]")
-        return kind
-    k = q.line.index
-    side = last if q.line.from_end else first
-    if k > 1:
-        w.fail(
-            f"len({plural}) < {k}",
-            _count_message(
-                f"asked for the {_nth(k)} {kind} from the {side}, but the {q.obj.phrase}s form only ",
-                f"len({plural})",
-                f" {kind}(s)",
-            ),
-        )
-    index = f"len({plural}) - {k}" if q.line.from_end else str(k - 1)
-    w.line(f"# the {_nth(k)} {kind} from the {side}")
-    w.line(f"{kind} = {plural}[{index}]")
-    return kind
 
 
 def _write_ordinal(w: _Writer, q: LocationQuery, group: str) -> None:
