@@ -299,9 +299,8 @@ class Robot:
                 rival = close[0]
                 unit = "kg" if kind == "weight" else "m"
                 text = (
-                    f"cannot tell the {chosen.label or 'chosen object'} ({me[0]:.3f} +/- {me[1]:.3f} "
-                    f"{unit}) from the {rival[2].label or 'other object'} ({rival[0]:.3f} +/- "
-                    f"{rival[1]:.3f} {unit}): "
+                    f"cannot tell {_named(chosen)} ({me[0]:.3f} +/- {me[1]:.3f} {unit}) from "
+                    f"{_named(rival[2])} ({rival[0]:.3f} +/- {rival[1]:.3f} {unit}): "
                     "the difference lies inside the measurements' uncertainty"
                 )
                 self.safeguards.note("confidence", call, "unsettled", text)
@@ -658,7 +657,9 @@ class Robot:
             while True:
                 for _ in range(self.FORCE_SAMPLES):
                     self.world.step(self.FORCE_SAMPLE_S)
-                    readings.append(abs(float(self.world.read_force()[2])))
+                    # signed: a held load pulls down (world -z); folding each noisy reading about zero
+                    # would bias a light object upward by as much as the noise
+                    readings.append(-float(self.world.read_force()[2]))
                 mean = sum(readings) / len(readings)
                 error = _std(readings) / math.sqrt(len(readings))
                 small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
@@ -668,7 +669,8 @@ class Robot:
                 guards.note("remeasure", call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
             empty = self._gripper_empty()
             if not guards.on("verify_actions") or (mean > 0.05 and not empty) or attempt == 1:
-                return mean, max(error, self.FORCE_RESOLUTION_N), len(readings)
+                # a weight is never negative: a mean below zero is zero within its error
+                return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
             why = "the gripper has closed on nothing" if empty else f"no load ({mean:.3f} N)"
             guards.note("verify_actions", call, "caught", f"{why}: it slipped; lifting it again")
             self.put_down()
@@ -924,6 +926,14 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
 
 _RETRYABLE = ("target lost", "not reachable", "did not converge", "blocked")
 """Approach failures another try from where the robot now stands can mend (a new view, another path)."""
+
+
+def _named(patch: ImagePatch) -> str:
+    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
+    objects found under one word, "object", are told apart by where they are)."""
+    ident = f" ({patch.object_id})" if patch.object_id else ""
+    box = ", ".join(str(round(v)) for v in patch.box)
+    return f"the {patch.label or 'object'}{ident} at [{box}]"
 
 
 def _neighbours(
