@@ -103,16 +103,19 @@ class Driver:
             if look_at is not None:
                 world.set_head(*head_towards(look_at, (x, y, yaw), body))
             world.step(dt)
-            self._check_progress(progress, dist, pose)
+            if self._check_progress(progress, dist, pose) and last:
+                return  # stalled at the goal: as near as the base gets (odometry drifts)
 
-    def _check_progress(self, progress: _Progress, dist: float, pose: tuple[float, float, float]) -> None:
+    def _check_progress(self, progress: _Progress, dist: float, pose: tuple[float, float, float]) -> bool:
         """Count one control step; fail when the base has stalled for `stall_s` away from its waypoint, or
-        when the drive's time is up."""
+        when the drive's time is up. True when it has stalled within `stall_arrive_m` of the waypoint."""
         t = self.plant.tuning
         progress.budget -= 1
         progress.stall_steps += 1
         if progress.stall_steps * t.control_s >= t.stall_s:
             now = self.plant.pose()
+            if not moved(now, progress.stall_from, 0.01, 0.02) and dist <= t.stall_arrive_m:
+                return True
             if not moved(now, progress.stall_from, 0.01, 0.02) and dist > 0.05:
                 self.stop()
                 raise ControlError(
@@ -128,6 +131,7 @@ class Driver:
                 f"{t.drive_timeout_s:.0f} s",
                 "something blocks the way; choose another target",
             )
+        return False
 
     def straight(self, metres: float) -> None:
         """Drive straight forward (or back) by `metres` on odometry, whatever is in the way; the head stays

@@ -33,7 +33,9 @@ class ServoTuning:
     Driving (`Driver`): drive_speed: the base's top speed, m/s; drive_kp / drive_ki: the PID per axis on
     the odometry position error (m/s per metre); yaw_kp / yaw_ki / max_yaw_rate: the heading's PID (rad/s
     per radian); waypoint_tol: how near an intermediate waypoint counts as passed; yaw_tol: the heading
-    tolerance at the goal; stall_s: how long the base may not move before it is blocked; drive_timeout_s:
+    tolerance at the goal; stall_s: how long the base may not move before it is blocked (a base stalled
+    within stall_arrive_m of its goal has come as near as it can, against what stands there, and has
+    arrived: the perception that follows corrects the rest); drive_timeout_s:
     the longest drive; straight_speed: the speed of straight drives (pushes, backing off); stop_s: the wait
     for the base to stop.
 
@@ -79,6 +81,7 @@ class ServoTuning:
     waypoint_tol: float = 0.08
     yaw_tol: float = 0.01
     stall_s: float = 1.5
+    stall_arrive_m: float = 0.03
     drive_timeout_s: float = 60.0
     straight_speed: float = 0.2
     stop_s: float = 0.3
