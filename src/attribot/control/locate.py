@@ -71,9 +71,7 @@ class Locator:
     def range_estimate(self, box: Box, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
         """The object at the image centre by the rangefinder, sized by its box at that range (with a
         camera on an arm: by the beam at the gripper, `beam_range`)."""
-        metres = float(self.plant.world.read_distance())
-        if not math.isfinite(metres):
-            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
+        metres = self.read_range()
         if body.arm is not None:
             return self.beam_range(metres, camera, body)
         view = self.plant.view(body)
@@ -81,6 +79,20 @@ class Locator:
         w = (box[2] - box[0]) / camera.fx * metres
         h = (box[3] - box[1]) / camera.fy * metres
         return ObjectEstimate((float(p[0]), float(p[1]), float(p[2])), p[2] - h / 2, p[2] + h / 2, w / 2, 1)
+
+    def read_range(self) -> float:
+        """The rangefinder's reading: the median of a few, a dropout (nothing in range) left out."""
+        t, world = self.plant.tuning, self.plant.world
+        readings = []
+        for k in range(t.range_readings):
+            if k:
+                world.step(t.range_step_s)
+            r = float(world.read_distance())
+            if math.isfinite(r):
+                readings.append(r)
+        if not readings:
+            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
+        return float(np.median(readings))
 
     def beam_range(self, metres: float, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
         """The object the last focus centred, its front `metres` ahead of the beam at the gripper, its

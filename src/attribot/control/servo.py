@@ -96,6 +96,11 @@ class ServoController(PointingController):
             self.tracked = None
         body = self.plant.geometry()
         if body is not None and body.arm is not None:
+            # the beam runs between the fingers: a gripper left closed (a grasp that closed on nothing)
+            # would be all it sees
+            gripper = self.plant.world.joint_states().get("gripper")
+            if self.holding is None and gripper is not None and gripper < body.finger_open / 2:
+                self.plant.world.release()
             self.locator.aim_beam(self.plant.world.camera_info(), body)
 
     def _centre(self, target: Target) -> None:
