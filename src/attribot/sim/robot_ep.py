@@ -21,13 +21,21 @@ from __future__ import annotations
 import math
 
 import mujoco
-import numpy as np
 
 from attribot.bridge.robomaster_body import EP_BODY, EP_CAMERA_HFOV_DEG, EP_RANGE_MAX_M
 from attribot.control.body import BodyGeometry, TwoLinkArm
 from attribot.sim.robot import camera_quat
 
-__all__ = ["EP", "EP_JOINTS", "CAMERA", "add_ep_robot", "arm_targets", "arm_joint_states", "RANGE_MAX"]
+__all__ = [
+    "EP",
+    "EP_JOINTS",
+    "CAMERA",
+    "RANGE_MAX",
+    "add_ep_robot",
+    "arm_targets",
+    "arm_joint_states",
+    "camera_tilt",
+]
 
 EP = BodyGeometry.from_dict(EP_BODY)
 EP_JOINTS = ("base_x", "base_y", "base_yaw", "upper_arm", "elbow", "wrist", "finger_l", "finger_r")
@@ -234,4 +242,4 @@ def arm_joint_states(q: dict[str, float]) -> dict[str, float]:
 
 def camera_tilt(q: dict[str, float]) -> float:
     """The camera's pitch now (it has no pan)."""
-    return float(np.float64(q["upper_arm"] + q["elbow"] + _arm().camera_pitch))
+    return float(q["upper_arm"] + q["elbow"] + _arm().camera_pitch)
