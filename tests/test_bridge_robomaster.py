@@ -17,9 +17,33 @@ TOKEN = "ep-secret"
 _RESOLUTIONS = {"360p": (640, 360), "540p": (960, 540), "720p": (1280, 720)}
 
 
-class _Chassis:
+class _Subscriptions:
     def __init__(self) -> None:
+        self.callbacks: dict[str, Any] = {}
+
+    def _sub(self, what: str, freq: int, callback: Any) -> bool:
+        assert freq in (1, 5, 10, 20, 50)
+        self.callbacks[what] = callback
+        return True
+
+
+class _Chassis(_Subscriptions):
+    def __init__(self) -> None:
+        super().__init__()
         self.speeds: list[dict[str, Any]] = []
+
+    def sub_position(self, cs: int = 0, freq: int = 5, callback: Any = None, *args: Any, **kw: Any) -> bool:
+        assert cs in (0, 1)
+        return self._sub("position", freq, callback)  # (x forward, y right, z) metres
+
+    def unsub_position(self) -> bool:
+        return self.callbacks.pop("position", None) is not None
+
+    def sub_attitude(self, freq: int = 5, callback: Any = None, *args: Any, **kw: Any) -> bool:
+        return self._sub("attitude", freq, callback)  # (yaw, pitch, roll) degrees, yaw clockwise
+
+    def unsub_attitude(self) -> bool:
+        return self.callbacks.pop("attitude", None) is not None
 
     def drive_speed(
         self, x: float = 0.0, y: float = 0.0, z: float = 0.0, timeout: float | None = None
@@ -50,16 +74,6 @@ class _Camera:
         bgr = np.zeros((h, w, 3), np.uint8)
         bgr[:, :, 2] = 220  # red in BGR order
         return bgr
-
-
-class _Subscriptions:
-    def __init__(self) -> None:
-        self.callbacks: dict[str, Any] = {}
-
-    def _sub(self, what: str, freq: int, callback: Any) -> bool:
-        assert freq in (1, 5, 10, 20, 50)
-        self.callbacks[what] = callback
-        return True
 
 
 class _Sensor(_Subscriptions):
@@ -145,6 +159,7 @@ def test_without_a_load_cell_the_force_capability_is_left_out():
     assert "force" not in _driver(ep).capabilities()
     assert "force" in _driver(FakeEP(), load_cell=LoadCell(0.02)).capabilities()
     assert ep.camera.streaming == "360p" and set(ep.sensor.callbacks) == {"distance"}
+    assert set(ep.chassis.callbacks) == {"position", "attitude"}
 
 
 def test_the_ep_over_the_bridge_in_the_sdks_units():
@@ -178,8 +193,15 @@ def test_the_ep_over_the_bridge_in_the_sdks_units():
             ep.sensor.callbacks["distance"]([0, 0, 0, 0])
             assert world.read_distance() == math.inf
 
-            world.set_arm(0.05, 0.12)
-            assert ep.robotic_arm.moves[-1] == pytest.approx((120.0, 50.0))  # x forward, y up, mm
+            # the arm's rest pose is the SDK's zero pose: both servos at 0, the forearm's tip 109.6 mm ahead
+            # of the shoulder and 62.7 mm above it (two 0.12 m links at 88.0 and -28.5 degrees: the
+            # forward kinematics of the RoboMaster simulator, jeguzzi/robomaster_sim src/robot/arm.cpp)
+            zero = (120 * (math.cos(1.5359) - math.cos(2.6442)), 120 * (math.sin(1.5359) - math.sin(2.6442)))
+            world.set_arm(*world.body().rest)
+            assert ep.robotic_arm.moves[-1] == pytest.approx(zero, abs=0.5)  # x forward, y up, mm
+            world.set_arm(0.05, 0.03)  # down to 5 cm from 17.87 cm, 3 cm further out: the end point too
+            lowered = (zero[0] + 30, zero[1] - (178.7 - 50))
+            assert ep.robotic_arm.moves[-1] == pytest.approx(lowered, abs=0.5)
 
             assert world.grasp() is False  # the fingers closed fully: nothing between them
             ep.gripper.object_between_fingers = True
@@ -192,12 +214,12 @@ def test_the_ep_over_the_bridge_in_the_sdks_units():
 
             world.stop()  # base zero, arm held where it is
             assert ep.chassis.speeds[-1] == {"x": 0.0, "y": 0.0, "z": 0.0, "timeout": None}
-            assert ep.robotic_arm.moves[-1] == pytest.approx((120.0, 50.0))
+            assert ep.robotic_arm.moves[-1] == pytest.approx(lowered, abs=0.5)
     finally:
         server.close()
         thread.join(timeout=10)
         driver.close()
-    assert ep.closed and ep.camera.streaming is None and not ep.sensor.callbacks
+    assert ep.closed and ep.camera.streaming is None and not ep.sensor.callbacks and not ep.chassis.callbacks
 
 
 def test_robomaster_options_parse_and_refuse_unknown_keys():
@@ -211,3 +233,43 @@ def test_robomaster_options_parse_and_refuse_unknown_keys():
         driver_options({"load_cell_zero": "3"})
     with pytest.raises(ValueError, match="check the wiring"):
         LoadCell.calibrate(500, 500, 0.1)
+
+
+def test_the_ep_states_its_body_and_reports_its_pose_and_arm_in_the_bridges_frames():
+    ep = FakeEP()
+    driver = _driver(ep)
+    server = RobotServer(driver, TOKEN, limits=Limits(watchdog_s=5.0))
+    import threading
+
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        with BridgeWorld(url=f"tcp://127.0.0.1:{server.address[1]}", token=TOKEN) as world:
+            body = world.body()  # no longer refused: the servo controller can drive and grasp by it
+            assert body.arm is not None and body.arm.links == (0.12, 0.12)
+            assert body.base_half == (0.16, 0.12)  # the EP's 320 x 240 mm chassis
+            assert body.finger_open == pytest.approx(0.05)  # the gripper opens about 10 cm
+            # 220 mm of horizontal travel, 150 mm of vertical: the box the controller uses lies inside
+            assert (
+                body.arm_range[1] - body.arm_range[0] < 0.22
+                and body.lift_range[1] - body.lift_range[0] < 0.25
+            )
+            assert {Capability.POSE, Capability.ARM, Capability.DISTANCE} <= world.capabilities()
+            ep.chassis.callbacks["position"]((1.5, 0.25, 0.0))  # 1.5 m forward, 0.25 m to the right
+            ep.chassis.callbacks["attitude"]((30.0, 0.0, 0.0))  # turned 30 degrees clockwise
+            pose = world.base_pose()
+            assert (pose.x, pose.y, pose.yaw) == pytest.approx((1.5, -0.25, -math.radians(30)))
+            ep.robotic_arm.callbacks["position"]((110, 63))  # the zero pose, as the EP reports it
+            joints = world.joint_states()
+            assert (joints["lift"], joints["arm"]) == pytest.approx(body.rest, abs=0.002)
+            assert joints["gripper"] == pytest.approx(0.05)
+            ep.robotic_arm.callbacks["position"]((150, 2**32 - 80))  # 80 mm below the shoulder
+            assert world.joint_states()["lift"] == pytest.approx(0.156 - 0.08 - 0.04, abs=0.002)
+            # the camera rides on the arm: lowering the arm lowers it and tilts it down
+            high = body.camera_pose({"lift": body.rest[0], "arm": body.rest[1]})
+            low = body.camera_pose(world.joint_states())
+            assert low.xyz[2] < high.xyz[2] - 0.05 and low.tilt < high.tilt - 0.3 and low.pan == 0.0
+    finally:
+        server.close()
+        thread.join(timeout=10)
+        driver.close()

@@ -38,7 +38,7 @@ def _ray_cast(head: tuple[float, float], base: tuple[float, float, float], boxes
     intersection: the scene is known, so the estimates can be checked to the millimetre."""
     v, u = np.mgrid[0 : CAMERA.height, 0 : CAMERA.width] + 0.5
     d = np.ones_like(u)
-    rays = base_points(d.astype(np.float32), CAMERA, head, BODY) - np.asarray(BODY.camera_xyz)
+    rays = base_points(d.astype(np.float32), CAMERA, BODY.head_view(head)) - np.asarray(BODY.camera_xyz)
     origin = to_world(np.asarray(BODY.camera_xyz), base)
     dirs = to_world(rays, (0.0, 0.0, base[2]))  # rotate only
     best = np.full(len(dirs), np.inf)
@@ -79,7 +79,7 @@ def test_a_range_along_the_aimed_axis_lands_on_the_point():
     target = np.array([1.8, 0.9, 0.5])
     head = head_towards(target, pose, BODY)
     rng = float(np.linalg.norm(to_base(target, pose) - np.asarray(BODY.camera_xyz)))
-    p = to_world(point_from_range(rng, CAMERA, head, BODY, CAMERA.cx, CAMERA.cy), pose)
+    p = to_world(point_from_range(rng, CAMERA, BODY.head_view(head), CAMERA.cx, CAMERA.cy), pose)
     assert np.allclose(p, target, atol=1e-9)
 
 
@@ -95,7 +95,7 @@ def test_an_object_on_a_table_is_located_from_its_depth_pixels(head):
     corners = np.array([[x, y, z] for x in (1.25, 1.33) for y in (0.05, 0.13) for z in (0.45, 0.57)])
     uv = np.array([_project(c, head, base) for c in corners])
     box = (uv[:, 0].min() - 2, uv[:, 1].min() - 2, uv[:, 0].max() + 2, uv[:, 1].max() + 2)
-    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, box)
     assert est is not None
     assert est.support_z == pytest.approx(0.45, abs=0.01)
     assert est.top_z == pytest.approx(0.57, abs=0.015)
@@ -114,7 +114,7 @@ def test_a_board_above_a_gap_is_not_part_of_the_object_under_it():
     corners = [(1.1, -0.15, 0.42), (1.1, 0.05, 0.42), (1.1, -0.15, 0.9), (1.3, 0.05, 0.6)]
     uv = np.array([_project(np.array(c), head, base) for c in corners])
     pixels = (uv[:, 0].min(), max(uv[:, 1].min(), 0.0), uv[:, 0].max(), uv[:, 1].max())
-    est = estimate_object(depth, CAMERA, head, base, BODY, pixels)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, pixels)
     assert est is not None and est.top_z == pytest.approx(0.6, abs=0.015)
 
 
@@ -127,7 +127,7 @@ def test_the_grip_of_a_thin_bent_thing_lands_on_it_not_in_the_empty_middle():
     depth = _ray_cast(head, base, [table, *bars])
     uv = np.array([_project(np.array(c), head, base) for c in [(1.2, 0.0, 0.45), (1.45, 0.25, 0.47)]])
     box = (uv[:, 0].min() - 1, uv[:, 1].min() - 1, uv[:, 0].max() + 1, uv[:, 1].max() + 1)
-    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, box)
     assert est is not None
     x, y = est.centre[:2]
     on_a_bar = (1.2 <= x <= 1.45 and -0.01 <= y <= 0.03) or (1.19 <= x <= 1.23 and 0.0 <= y <= 0.25)
@@ -144,7 +144,7 @@ def test_an_open_laptop_is_gripped_by_its_base_not_the_middle_of_its_screen():
     corners = [(1.2, -0.17, 0.75), (1.46, 0.17, 0.98), (1.2, 0.17, 0.75), (1.46, -0.17, 0.98)]
     uv = np.array([_project(np.array(c), head, base) for c in corners])
     box = (uv[:, 0].min() - 1, uv[:, 1].min() - 1, uv[:, 0].max() + 1, uv[:, 1].max() + 1)
-    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, box)
     assert est is not None and est.top_z == pytest.approx(0.98, abs=0.015)
     assert est.grip_z == pytest.approx(0.76, abs=0.015)
 
@@ -157,7 +157,7 @@ def test_a_thin_object_in_front_of_a_wall_is_not_taken_for_the_wall():
     depth = _ray_cast(head, base, [wall, pole])
     top, bottom = (_project(np.array([1.51, -0.08, z]), head, base)[1] for z in (1.4, 0.0))
     box = (CAMERA.cx - 6, max(top - 2, 0.0), CAMERA.cx + 6, min(bottom + 2, CAMERA.height))  # a loose box
-    est = estimate_object(depth, CAMERA, head, base, BODY, box)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, box)
     assert est is not None and abs(est.centre[0] - 1.51) < 0.05
 
 
@@ -170,13 +170,13 @@ def test_ignored_points_are_left_out_of_the_estimate():
     depth = _ray_cast(head, base, [table, plate, held])
     uv = np.array([_project(np.array(c), head, base) for c in [(1.2, -0.15, 0.45), (1.4, 0.05, 0.47)]])
     box = (uv[:, 0].min() - 15, uv[:, 1].min() - 15, uv[:, 0].max() + 15, uv[:, 1].max() + 15)
-    fooled = estimate_object(depth, CAMERA, head, base, BODY, box)
+    fooled = estimate_object(depth, CAMERA, BODY.head_view(head), base, box)
     assert fooled is not None and fooled.top_z > 0.55  # what the held object does to it
 
     def is_held(points: np.ndarray) -> np.ndarray:
         return points[:, 2] > 0.49
 
-    est = estimate_object(depth, CAMERA, head, base, BODY, box, ignore=is_held)
+    est = estimate_object(depth, CAMERA, BODY.head_view(head), base, box, ignore=is_held)
     assert est is not None and est.top_z == pytest.approx(0.47, abs=0.01)
 
 

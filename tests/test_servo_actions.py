@@ -130,7 +130,7 @@ def _free_floor_pixel(world: MujocoWorld, capture: Capture) -> tuple[float, floa
     body = world.body()
     for v in range(H - 5, H // 2, -10):
         for u in range(10, W, 20):
-            p = base_points(capture.depth, capture.camera, capture.head, body, (u, v, u + 1, v + 1))
+            p = base_points(capture.depth, capture.camera, body.head_view(capture.head), (u, v, u + 1, v + 1))
             if len(p) == 0 or abs(p[0][2]) > 0.005:
                 continue
             xy = to_world(p[0], capture.base)[:2]

@@ -147,6 +147,9 @@ SCENE_FLAGS = (
     _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and acting in "
           "the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or KEY=VALUE pairs, e.g. "
           "realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
+    _flag("robot", str | None, "--robot", metavar="NAME", help="The simulated robot: mast (default; a "
+          "pan-tilt head and a telescoping arm) or ep (RoboMaster-EP-like: its camera on its arm, objects on "
+          "the floor)."),
 )  # fmt: skip
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
@@ -277,7 +280,8 @@ def _scene_fields(given: Any) -> dict[str, Any]:
             "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
         )
     fields = {
-        name: _given(given, name) for name in ("layout", "seed", "objects", "width", "height", "profile")
+        name: _given(given, name)
+        for name in ("layout", "seed", "objects", "width", "height", "profile", "robot")
     }
     fields["categories"] = names
     if _given(given, "world_noise") is not None:
@@ -307,7 +311,7 @@ def _scene_world(config: Any) -> Any:
 
 
 @scene_app.command("render", cls=_Command)
-@_with_flags(SCENE_FLAGS[:8])
+@_with_flags((*SCENE_FLAGS[:8], SCENE_FLAGS[9]))
 def scene_render(
     out: Path = typer.Option(..., "--out", metavar="FILE", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
@@ -344,7 +348,7 @@ def scene_render(
 
 
 @scene_app.command("info", cls=_Command)
-@_with_flags(SCENE_FLAGS[:7])
+@_with_flags((*SCENE_FLAGS[:7], SCENE_FLAGS[9]))
 def scene_info(given: Any = None) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
     with _scene_world(_scene_config(given)) as world:
@@ -1062,7 +1066,7 @@ app.add_typer(bridge_app, name="bridge")
 
 
 @bridge_app.command("serve", cls=_Command)
-@_with_flags(tuple(SCENE_FLAGS[i] for i in (0, 1, 4, 5, 6)))
+@_with_flags(tuple(SCENE_FLAGS[i] for i in (0, 1, 4, 5, 6, 9)))
 def bridge_serve(
     driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
     token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),

@@ -49,6 +49,7 @@ __all__ = [
     "MAX_SEED",
     "MAX_TIME_S",
     "RENDER_PROFILES",
+    "ROBOTS",
 ]
 
 MAX_QUERY_CHARS = 500
@@ -61,6 +62,10 @@ MAX_TIME_S = 86_400.0
 """The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
+ROBOTS = ("mast", "ep")
+"""mast: the default mobile manipulator (a pan-tilt head on a mast, a telescoping arm on a lift); ep: a
+RoboMaster-EP-like robot (its camera on a two-link arm, a gripper that reaches the floor, no depth camera;
+see `attribot.sim.robot_ep`)."""
 OBJECT_LOOKS = ("detailed", "primitive")
 """detailed: objects that look like their category; primitive: their body primitives (see
 `attribot.sim.looks`)."""
@@ -225,7 +230,8 @@ class SceneConfig(BaseModel):
     options (e.g. {"pattern": "grid", "odd": "size"}); width, height: camera pixels; profile: "fast" or
     "pretty"; looks: "detailed" or "primitive" (how objects are drawn; physics and sensing are the same);
     force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
-    world's seeded imperfections of sensing and acting (`attribot.noise.WorldNoise`, presets by name).
+    world's seeded imperfections of sensing and acting (`attribot.noise.WorldNoise`, presets by name);
+    robot: "mast" (the default) or "ep" (RoboMaster-EP-like: its scenes put the objects on the floor).
     Build it with `SceneConfig.create(...)` to get an `InputError` that names the bad field.
     """
 
@@ -242,6 +248,14 @@ class SceneConfig(BaseModel):
     force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     noise: WorldNoise = Field(default_factory=WorldNoise)
     looks: str = "detailed"
+    robot: str = "mast"
+
+    @field_validator("robot")
+    @classmethod
+    def _known_robot(cls, value: str) -> str:
+        if value not in ROBOTS:
+            raise ValueError(f"unknown robot; choose one of: {', '.join(ROBOTS)}")
+        return value
 
     @field_validator("looks")
     @classmethod
@@ -339,6 +353,7 @@ _FIXES: dict[str, Callable[[FieldNaming], str]] = {
     "width": lambda n: "give a width and height from 16 to 4096 pixels",
     "height": lambda n: "give a width and height from 16 to 4096 pixels",
     "profile": lambda n: f"choose one of: {', '.join(RENDER_PROFILES)}",
+    "robot": lambda n: f"choose one of: {', '.join(ROBOTS)}, e.g. {n.example('robot', 'ep')}",
     "force_noise_std": lambda n: "give a finite standard deviation >= 0 N",
     "options": lambda n: f"write layout options as KEY=VALUE, e.g. {n.example('options', 'pattern=grid')}",
     "noise": lambda n: (

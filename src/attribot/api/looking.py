@@ -26,6 +26,7 @@ from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
 from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
 from attribot.embodiments.base import Embodiment
+from attribot.errors import UnsupportedAction
 from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, Detector
 
@@ -196,10 +197,11 @@ class Survey:
             return None
         x0, y0, x1, y1 = box
         qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
-        inner = base_points(cap.depth, cap.camera, cap.head, self.body, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
+        pose = self.body.head_view(cap.head)
+        inner = base_points(cap.depth, cap.camera, pose, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
         if len(inner) == 0:
             return None
-        rng = np.linalg.norm(inner - np.asarray(self.body.camera_xyz), axis=1)
+        rng = np.linalg.norm(inner - np.asarray(pose.xyz), axis=1)
         near = np.quantile(rng, 0.2)
         surface = inner[rng <= near + 0.08]  # the object, not what shows behind it around its edges
         points = to_world(surface, cap.base)
@@ -208,7 +210,7 @@ class Survey:
     def _visible(self, point: np.ndarray, view: View) -> bool:
         cap = view.capture
         assert cap.camera is not None and cap.head is not None and cap.base is not None
-        uv, front = project(to_base(point[None, :], cap.base), cap.camera, cap.head, self.body)
+        uv, front = project(to_base(point[None, :], cap.base), cap.camera, self.body.head_view(cap.head))
         u, v = uv[0]
         margin = 0.04 * cap.camera.width
         inside = margin <= u <= cap.camera.width - margin and margin <= v <= cap.camera.height - margin
@@ -244,11 +246,14 @@ class Survey:
         cx, cy, rx, ry = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2
         rim = np.array(
             [
-                point_from_range(metres, seen.camera, seen.head, self.body, cx + rx * c, cy + ry * s)
+                point_from_range(
+                    metres, seen.camera, self.body.head_view(seen.head), cx + rx * c, cy + ry * s
+                )
                 for c, s in zip(np.cos(angles), np.sin(angles), strict=True)
             ]
         )
-        uv, front = project(to_base(to_world(rim, seen.base), cap.base), cap.camera, cap.head, self.body)
+        rim_here = to_base(to_world(rim, seen.base), cap.base)
+        uv, front = project(rim_here, cap.camera, self.body.head_view(cap.head))
         if not front.all():
             return None
         w, h = cap.camera.width, cap.camera.height
@@ -409,15 +414,24 @@ def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
     return answers[best], sum(1 for n in names[1:] if n != names[0])
 
 
-def capture_now(world: Embodiment, frame: Frame, index: int, camera: CameraInfo) -> Capture:
-    """What is known of `frame`, taken just now: the head's angles and the base's odometry pose."""
+def capture_now(world: Embodiment, frame: Frame, index: int, camera: CameraInfo | None) -> Capture:
+    """What is known of `frame`, taken just now: the head's angles (on a head), the base's odometry pose,
+    where the camera was (where the robot states its body) and the arm's pose (a camera may ride on it)."""
     js, pose = world.joint_states(), world.base_pose()
+    head = (float(js["head_pan"]), float(js["head_tilt"])) if "head_pan" in js and "head_tilt" in js else None
+    arm = (float(js["lift"]), float(js["arm"])) if "lift" in js and "arm" in js else None
+    try:
+        view = world.body().camera_pose(js)
+    except UnsupportedAction:  # a robot that does not state where its camera sits
+        view = None
     return Capture(
         index=index,
         camera=camera,
-        head=(float(js["head_pan"]), float(js["head_tilt"])),
+        head=head,
         base=(float(pose.x), float(pose.y), float(pose.yaw)),
         depth=frame.depth,
+        view=view,
+        arm=arm,
     )
 
 

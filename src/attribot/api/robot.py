@@ -248,15 +248,11 @@ class Robot:
             )
         frame = self.world.observe()
         caps = {str(c) for c in self.world.capabilities()}
-        head = base = None
-        if "pose" in caps:
-            js = self.world.joint_states()
-            if "head_pan" in js and "head_tilt" in js:
-                head = (float(js["head_pan"]), float(js["head_tilt"]))
-            pose = self.world.base_pose()
-            base = (float(pose.x), float(pose.y), float(pose.yaw))
         camera = frame.camera if frame.camera is not None else _camera_info(self.world)
-        self.capture = Capture(index=self._captures, camera=camera, head=head, base=base, depth=frame.depth)
+        if "pose" in caps:
+            self.capture = capture_now(self.world, frame, self._captures, camera)
+        else:
+            self.capture = Capture(index=self._captures, camera=camera, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
         if self.safeguards.on("look_again"):
@@ -452,7 +448,11 @@ class Robot:
             if cam is None:
                 return  # no intrinsics to check the aim against: keep the geometric aim
             u, v = seen.center
-            if math.hypot(u - cam.cx, v - cam.cy) <= self.FOCUS_TOL_PX:
+            # without a camera head only the base turns it: left-right is all a focus can centre
+            assert self.world is not None  # _target checked it
+            headless = "head" not in {str(c) for c in self.world.capabilities()}
+            off = abs(u - cam.cx) if headless else math.hypot(u - cam.cx, v - cam.cy)
+            if off <= self.FOCUS_TOL_PX:
                 return
             self.controller.focus_on(seen)
 

@@ -8,8 +8,12 @@ Calls and units (SDK 0.1.1, `src/robomaster/*.py` of dji-sdk/RoboMaster-SDK):
 - `camera.start_video_stream(display=False, resolution=...)` and `camera.read_cv2_image(strategy="newest")`:
   BGR frames, encoded to JPEG here with OpenCV (the SDK's own dependency).
 - `sensor.sub_distance(freq, callback)`: the callback gets the four ToF readings in millimetres.
-- `robotic_arm.moveto(x, y)`: absolute end-effector position in millimetres, x forward, y up, relative to
-  the arm's recentred pose; `robotic_arm.sub_position(freq, callback)` reports (x, y) in millimetres.
+- `robotic_arm.moveto(x, y)`: absolute end-point position in millimetres, x forward, y up;
+  `robotic_arm.sub_position(freq, callback)` reports (x, y) in millimetres. The bridge's `arm` request
+  (the grip point's height above the floor and its extension) is turned into these by the EP's body
+  (`attribot.bridge.robomaster_body`: the end point is the forearm's tip, measured from the shoulder).
+- `chassis.sub_position(cs=1, freq, callback)`: odometry (x forward, y right, metres) from where the EP
+  was switched on; `chassis.sub_attitude(freq, callback)`: (yaw, pitch, roll) in degrees, yaw clockwise.
 - `gripper.open(power)` / `gripper.close(power)` and `gripper.sub_status(freq, callback)` ("opened",
   "closed", "normal"; "normal" after closing means the fingers stopped on something).
 - `sensor_adaptor.get_adc(id, port)`: 10-bit ADC value (0 to 1023) of a sensor adaptor port.
@@ -17,6 +21,11 @@ Calls and units (SDK 0.1.1, `src/robomaster/*.py` of dji-sdk/RoboMaster-SDK):
 The EP has no force sensor. Weight comes from an optional load cell on the gripper, read through the sensor
 adaptor's ADC; its wiring and calibration are in docs/bridge-protocol.md ("RoboMaster EP load cell"). With
 no `LoadCell` configured the driver leaves the force capability out and the planner never asks for weight.
+
+The driver states the EP's body in its hello (`body()`, from `attribot.bridge.robomaster_body`): where the
+camera on the arm is for each pose of the arm, how far the gripper reaches, the chassis's size. With it and
+the pose capability (odometry and the arm's position), the host's servo controller drives to objects,
+picks them up and puts them back by perception (docs/bridge-protocol.md, "The RoboMaster EP's body").
 """
 
 from __future__ import annotations
@@ -26,11 +35,19 @@ import threading
 import time
 from typing import Any
 
+from attribot.bridge.robomaster_body import EP_BODY, from_sdk_mm, to_sdk_mm
 from attribot.bridge.server import CameraFrame, Driver
 
 __all__ = ["LoadCell", "RoboMasterDriver"]
 
 _GRAVITY = 9.80665
+
+
+def _signed(value: Any) -> float:
+    """A reported arm coordinate as a signed number: the SDK unpacks them as unsigned 32-bit integers
+    (`struct.unpack('<II', ...)` in robotic_arm.py), so a point below the shoulder comes out near 2**32."""
+    v = float(value)
+    return v - 2.0**32 if v >= 2.0**31 else v
 
 
 class LoadCell:
@@ -99,12 +116,16 @@ class RoboMasterDriver(Driver):
         self.gripper_settle_s = gripper_settle_s
         self._lock = threading.Lock()
         self._tof_mm: float | None = None
-        self._arm_mm = (0.0, 0.0)
+        self._arm_mm = to_sdk_mm(*EP_BODY["rest"])  # the zero pose, until the arm reports
         self._gripper = "opened"
+        self._position = (0.0, 0.0)  # odometry, the SDK's frame: x forward, y right, metres
+        self._yaw_deg = 0.0  # clockwise
         robot.camera.start_video_stream(display=False, resolution=resolution)
         robot.sensor.sub_distance(freq=20, callback=self._on_distance)
         robot.robotic_arm.sub_position(freq=20, callback=self._on_arm)
         robot.gripper.sub_status(freq=20, callback=self._on_gripper)
+        robot.chassis.sub_position(cs=1, freq=20, callback=self._on_position)
+        robot.chassis.sub_attitude(freq=20, callback=self._on_attitude)
 
     @classmethod
     def connect(cls, conn_type: str = "ap", **options: Any) -> RoboMasterDriver:
@@ -122,15 +143,23 @@ class RoboMasterDriver(Driver):
 
     def _on_arm(self, position: Any) -> None:
         with self._lock:
-            self._arm_mm = (float(position[0]), float(position[1]))
+            self._arm_mm = (_signed(position[0]), _signed(position[1]))
 
     def _on_gripper(self, status: Any) -> None:
         with self._lock:
             self._gripper = str(status)
 
+    def _on_position(self, position: Any) -> None:
+        with self._lock:
+            self._position = (float(position[0]), float(position[1]))
+
+    def _on_attitude(self, attitude: Any) -> None:
+        with self._lock:
+            self._yaw_deg = float(attitude[0])
+
     # --- Driver -----------------------------------------------------------------------------------
     def capabilities(self) -> list[str]:
-        caps = ["camera", "base", "arm", "gripper", "distance"]
+        caps = ["camera", "base", "arm", "gripper", "distance", "pose"]
         if self.load_cell is not None:
             caps.append("force")
         return caps
@@ -168,9 +197,31 @@ class RoboMasterDriver(Driver):
             x, y = self._arm_mm
         self.robot.robotic_arm.moveto(x=x, y=y)  # hold the arm where it is
 
+    def body(self) -> dict[str, Any]:
+        return dict(EP_BODY)
+
     def set_arm(self, lift: float, extension: float) -> None:
-        """Lift and extension in metres -> the arm's y (up) and x (forward) in millimetres."""
-        self.robot.robotic_arm.moveto(x=float(extension) * 1000.0, y=float(lift) * 1000.0)
+        """The grip point's height and extension in metres -> the arm's end point, x forward and y up in
+        millimetres."""
+        x, y = to_sdk_mm(float(lift), float(extension))
+        self.robot.robotic_arm.moveto(x=x, y=y)
+
+    def pose(self) -> list[float]:
+        """Odometry as the bridge speaks it: x forward and y left in metres, yaw counter-clockwise in
+        radians, from where the EP was switched on."""
+        with self._lock:
+            (x, y), yaw = self._position, self._yaw_deg
+        return [x, -y, math.remainder(-math.radians(yaw), math.tau)]
+
+    def joints(self) -> dict[str, float]:
+        """The arm's grip point (lift, arm: metres) from its reported end point, and the gripper's opening:
+        open, closed, or stopped on something (half open) as its status says."""
+        with self._lock:
+            arm_mm, status = self._arm_mm, self._gripper
+        lift, extension = from_sdk_mm(*arm_mm)
+        open_ = float(EP_BODY["finger_open"])
+        opening = {"opened": open_, "closed": 0.0}.get(status, open_ / 2)
+        return {"lift": lift, "arm": extension, "gripper": opening}
 
     def grasp(self) -> bool:
         self.robot.gripper.close(power=self.gripper_power)
@@ -215,6 +266,8 @@ class RoboMasterDriver(Driver):
             self.robot.sensor.unsub_distance,
             self.robot.robotic_arm.unsub_position,
             self.robot.gripper.unsub_status,
+            self.robot.chassis.unsub_position,
+            self.robot.chassis.unsub_attitude,
             self.robot.camera.stop_video_stream,
             self.robot.close,
         ):

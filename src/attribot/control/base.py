@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
+from attribot.control.body import CameraPose
 from attribot.errors import AttribotError, UnsupportedAction
 from attribot.frame import CameraInfo
 from attribot.registry import Registry
@@ -47,8 +48,10 @@ class Capture:
     """What was known when one camera image was taken, so that a box in it can be acted on later.
 
     index: a counter of captures of one robot (0, 1, ...). camera: the pinhole intrinsics, or None for a
-    still image with unknown optics. head: `(pan, tilt)` radians at capture, or None. base: `(x, y, yaw)`
-    world pose of the base at capture, metres and radians, or None.
+    still image with unknown optics. head: `(pan, tilt)` radians of the camera head at capture, or None
+    (no head). base: `(x, y, yaw)` world pose of the base at capture, metres and radians, or None. view:
+    where the camera was and looked in the base frame, or None where the robot does not state its body.
+    arm: the arm's `(lift, extension)` at capture, or None: where a camera riding on the arm was put.
     """
 
     index: int
@@ -57,6 +60,8 @@ class Capture:
     base: tuple[float, float, float] | None = None
     depth: Any = field(default=None, compare=False, repr=False)
     """The frame's depth image (float32 metres along the optical axis), or None: where a box's object is."""
+    view: CameraPose | None = None
+    arm: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)

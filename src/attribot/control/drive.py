@@ -100,7 +100,7 @@ class Driver:
             world.command_base(
                 pids[0].update(fx, 0.0, dt), pids[1].update(fy, 0.0, dt), pids[2].update(eyaw, 0.0, dt)
             )
-            if look_at is not None:
+            if look_at is not None and not self.plant.headless:
                 world.set_head(*head_towards(look_at, (x, y, yaw), body))
             world.step(dt)
             if self._check_progress(progress, dist, pose) and last:

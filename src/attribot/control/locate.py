@@ -1,7 +1,9 @@
 """Locating objects by perception: from the depth of the image a target was seen in, by the rangefinder
-after centring on it, or by looking where it should be and finding it again with the detector (turning the
-head a little, then a third of the view aside, then backing off, when the detector misses it). Also the
-floor map built from depth images and the floor point under a pixel."""
+after centring on it (along the optical axis, or, on a camera riding on an arm, by the beam at the gripper:
+`attribot.control.ranging`), or by looking where it should be and finding it again with the detector
+(turning the camera a little, then a third of the view aside, then backing off, when the detector misses
+it). A camera without a pan-tilt head is turned by turning the base, and raised or lowered with the arm
+that carries it. Also the floor map built from depth images and the floor point under a pixel."""
 
 from __future__ import annotations
 
@@ -13,9 +15,10 @@ from typing import Any
 import numpy as np
 
 from attribot.control.base import Capture, ControlError, Target, not_available
-from attribot.control.body import BodyGeometry
+from attribot.control.body import BodyGeometry, CameraPose
 from attribot.control.drive import Driver
 from attribot.control.plant import Hold, Plant
+from attribot.control.ranging import beam_estimate, beam_lift
 from attribot.control.sighting import Box, by_centre, nearest_to_centre
 from attribot.control.spatial import (
     FloorMap,
@@ -24,11 +27,12 @@ from attribot.control.spatial import (
     estimate_object,
     head_towards,
     point_from_range,
+    to_base,
     to_world,
 )
 from attribot.frame import CameraInfo, Frame
 
-__all__ = ["Locator"]
+__all__ = ["Locator", "view_of"]
 
 Accept = Callable[[Frame, Box], ObjectEstimate | None]
 
@@ -36,20 +40,23 @@ Accept = Callable[[Frame, Box], ObjectEstimate | None]
 @dataclass
 class Locator:
     """Finds where targets are (see the module docstring). focus: centres the camera on a target (the
-    controller's focus_on); wait_still: steps the world until the head stops after a command."""
+    controller's focus_on); wait_still: steps the world until the head stops after a command; sighting:
+    the box the last focus centred and the camera's pose it was seen from (None when there is none)."""
 
     plant: Plant
     driver: Driver
     focus: Callable[[Target], None]
     wait_still: Callable[[Target], Any]
+    sighting: Callable[[], tuple[Box, CameraPose] | None] = lambda: None
 
     def locate(self, target: Target, action: str) -> ObjectEstimate:
         """Where the target is, from the depth of the image it was seen in; without one, by centring the
         camera on it and reading the rangefinder (which needs the view unchanged since that image)."""
         body = self.plant.body(action)
         cap = target.capture
-        if cap.depth is not None and cap.camera is not None and cap.head is not None and cap.base is not None:
-            est = estimate_object(cap.depth, cap.camera, cap.head, cap.base, body, target.box)
+        view = view_of(cap, body)
+        if cap.depth is not None and cap.camera is not None and view is not None and cap.base is not None:
+            est = estimate_object(cap.depth, cap.camera, view, cap.base, target.box)
             if est is not None:
                 return est
         if cap.camera is None:
@@ -62,15 +69,58 @@ class Locator:
         return self.range_estimate(target.box, cap.camera, body)
 
     def range_estimate(self, box: Box, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
-        """The object at the image centre by the rangefinder, sized by its box at that range."""
-        metres = float(self.plant.world.read_distance())
-        if not math.isfinite(metres):
-            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
-        head = self.plant.head()
-        p = to_world(point_from_range(metres, camera, head, body, camera.cx, camera.cy), self.plant.pose())
+        """The object at the image centre by the rangefinder, sized by its box at that range (with a
+        camera on an arm: by the beam at the gripper, `beam_range`)."""
+        metres = self.read_range()
+        if body.arm is not None:
+            return self.beam_range(metres, camera, body)
+        view = self.plant.view(body)
+        p = to_world(point_from_range(metres, camera, view, camera.cx, camera.cy), self.plant.pose())
         w = (box[2] - box[0]) / camera.fx * metres
         h = (box[3] - box[1]) / camera.fy * metres
         return ObjectEstimate((float(p[0]), float(p[1]), float(p[2])), p[2] - h / 2, p[2] + h / 2, w / 2, 1)
+
+    def read_range(self) -> float:
+        """The rangefinder's reading: the median of a few, a dropout (nothing in range) left out."""
+        t, world = self.plant.tuning, self.plant.world
+        readings = []
+        for k in range(t.range_readings):
+            if k:
+                world.step(t.range_step_s)
+            r = float(world.read_distance())
+            if math.isfinite(r):
+                readings.append(r)
+        if not readings:
+            raise ControlError("the distance sensor sees nothing where the object is", "come closer first")
+        return float(np.median(readings))
+
+    def beam_range(self, metres: float, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
+        """The object the last focus centred, its front `metres` ahead of the beam at the gripper, its
+        height and width from its box in the view it was centred in."""
+        sighted = self.sighting()
+        beam = body.range_pose(self.plant.world.joint_states())
+        est = None
+        if sighted is not None:
+            est = beam_estimate(metres, beam, sighted[0], camera, sighted[1], self.plant.pose())
+        if est is None:
+            raise ControlError(
+                "the camera's last view of the object does not reach where the distance sensor finds it",
+                "focus on the object (image.find it again) and retry",
+            )
+        return est
+
+    def aim_beam(self, camera: CameraInfo, body: BodyGeometry) -> None:
+        """With the rangefinder on an arm's gripper: raise or lower the arm so that the level beam meets the
+        middle of the object the last focus centred (supposing it stands on the floor)."""
+        sighted = self.sighting()
+        if body.arm is None or sighted is None or not self.plant.has("distance"):
+            return
+        lift = beam_lift(sighted[0], camera, sighted[1], body)
+        arm = self.plant.arm()
+        if lift is None or arm is None:
+            return
+        self.plant.world.set_arm(lift, arm[1])
+        self.plant.settle(self.plant.tuning.arm_move_s)
 
     def near(
         self, est: ObjectEstimate, camera: CameraInfo, body: BodyGeometry, holding: Hold | None
@@ -85,7 +135,7 @@ class Locator:
             if frame.depth is None:
                 return est
             pose = self.plant.pose()
-            new = estimate_object(frame.depth, camera, self.plant.head(), pose, body, box, ignore)
+            new = estimate_object(frame.depth, camera, self.plant.view(body), pose, box, ignore)
             near = new is not None and float(np.linalg.norm(new.xy() - est.xy())) <= reach
             return new if near else None
 
@@ -102,15 +152,15 @@ class Locator:
         """Look at where `est` should be, find the target there with the detector, centre it with the servo
         loop and locate it again from the new view."""
         body = self.plant.body(action)
-        self.aim(np.array(est.centre), body, target)
+        self.aim(np.array(est.centre), body, target, holding)
         camera = self.plant.world.camera_info()
         where = self.near(est, camera, body, holding)
         frame, box = self.look_again(target, camera, search, where)
         if box is None and self.plant.has("base") and self.plant.tuning.back_off_m > 0:
-            # missed from here at every turn of the head (a viewpoint the detector fails from): step back
-            # and look again from farther away, before giving it up
+            # missed from here at every turn of the camera (a viewpoint the detector fails from): step
+            # back and look again from farther away, before giving it up
             self.driver.straight(-self.plant.tuning.back_off_m)
-            self.aim(np.array(est.centre), body, target)
+            self.aim(np.array(est.centre), body, target, holding)
             frame, box = self.look_again(target, camera, search, where)
         if box is None:
             raise ControlError(
@@ -119,7 +169,7 @@ class Locator:
                 "find the object again in a new image and retry",
             )
         located = where(frame, box)
-        self.focus(Target(box, self.capture(frame, camera), label=target.label, find=target.find))
+        self.focus(Target(box, self.capture(frame, camera, body), label=target.label, find=target.find))
         frame = self.plant.world.observe()
         found = target.find(frame) if target.find else []
         if frame.depth is None:
@@ -141,15 +191,14 @@ class Locator:
         little each time, then a third of the view to either side (the same view would often be missed,
         or mistaken, the same way)."""
         t, world = self.plant.tuning, self.plant.world
-        pan, tilt = self.plant.head()
+        home = self.plant.pose() if self.plant.headless else self.plant.head()
 
         def first(frame: Frame, boxes: list[Box]) -> Box | None:
             return next((b for b in boxes if accept is None or accept(frame, b) is not None), None)
 
         for k in range(t.max_misses + 1 if target.find is not None else 1):
             if k:  # a nudge to one side, then the other, then further
-                world.set_head(pan + (1 if k % 2 else -1) * t.nudge_rad * ((k + 1) // 2), tilt)
-                self.plant.settle(t.nudge_settle_s)
+                self.turn(home, (1 if k % 2 else -1) * t.nudge_rad * ((k + 1) // 2), t.nudge_settle_s)
             frame = world.observe()
             box = first(frame, by_centre(target.find(frame) if target.find else [], camera, search))
             if box is not None:
@@ -159,8 +208,7 @@ class Locator:
         # a detector that misses an object from one viewpoint may not from another: turn a third of the
         # view to each side, where the object sits elsewhere in the image, and look for it where it must be
         for turn in (camera.hfov / 3.0, -camera.hfov / 3.0):
-            world.set_head(pan + turn, tilt)
-            self.plant.settle(t.side_look_settle_s)
+            self.turn(home, turn, t.side_look_settle_s)
             frame = world.observe()
             shift = camera.fx * math.tan(turn)  # where the old line of sight now is, from the centre
             moved = by_centre(
@@ -169,9 +217,19 @@ class Locator:
             box = first(frame, [(b[0] + shift, b[1], b[2] + shift, b[3]) for b in moved])
             if box is not None:
                 return frame, box
-        world.set_head(pan, tilt)
-        self.plant.settle(t.look_back_settle_s)
+        self.turn(home, 0.0, t.look_back_settle_s)
         return frame, None
+
+    def turn(self, home: tuple[float, ...], offset: float, settle_s: float) -> None:
+        """Turn the camera `offset` radians left of where it looked from `home`: the head's (pan, tilt), or,
+        without a head, the base's pose (the base turns on the spot)."""
+        if self.plant.headless:
+            x, y, yaw = home
+            self.driver.drive_to((x, y, yaw + offset), None, "focus_on_patch")
+            return
+        pan, tilt = home
+        self.plant.world.set_head(pan + offset, tilt)
+        self.plant.settle(settle_s)
 
     def held_points(self, hold: Hold, body: BodyGeometry) -> Callable[[np.ndarray], np.ndarray]:
         """A mask of world points on the arm and on what it holds: a cylinder around the grip point and a
@@ -196,38 +254,57 @@ class Locator:
 
         return held
 
-    def capture(self, frame: Frame, camera: CameraInfo) -> Capture:
+    def capture(self, frame: Frame, camera: CameraInfo, body: BodyGeometry) -> Capture:
         """What is known of `frame`, taken just now."""
-        return Capture(-1, camera, self.plant.head(), self.plant.pose(), depth=frame.depth)
+        head = None if self.plant.headless else self.plant.head()
+        return Capture(
+            -1,
+            camera,
+            head,
+            self.plant.pose(),
+            depth=frame.depth,
+            view=self.plant.view(body),
+            arm=self.plant.arm(),
+        )
 
-    def aim(self, point: np.ndarray, body: BodyGeometry, target: Target) -> None:
-        """Turn the head onto a world point and wait until it stops."""
-        pan, tilt = head_towards(point, self.plant.pose(), body)
-        self.plant.world.set_head(pan, tilt)
-        self.wait_still(target)
+    def aim(self, point: np.ndarray, body: BodyGeometry, target: Target, holding: Hold | None = None) -> None:
+        """Turn the camera onto a world point and wait until it stops: the head; without a head, the base
+        on the spot, and the arm that carries the camera up or down (unless it holds something)."""
+        if not self.plant.headless:
+            pan, tilt = head_towards(point, self.plant.pose(), body)
+            self.plant.world.set_head(pan, tilt)
+            self.wait_still(target)
+            return
+        x, y, _ = self.plant.pose()
+        self.driver.drive_to((x, y, math.atan2(point[1] - y, point[0] - x)), None, "focus_on_patch")
+        if body.arm is not None and holding is None:
+            local = to_base(np.asarray(point, float), self.plant.pose())
+            self.plant.world.set_arm(*body.look_pose((float(local[0]), float(local[1]), float(local[2]))))
+            self.plant.settle(self.plant.tuning.arm_move_s)
 
     def floor_point(self, target: Target, body: BodyGeometry) -> np.ndarray:
         """The floor point under pixel `target.center` of its image: depth when the image has it, else the
         ray's crossing with the floor."""
         cap = target.capture
-        if cap.camera is None or cap.head is None or cap.base is None:
+        view = view_of(cap, body)
+        if cap.camera is None or view is None or cap.base is None:
             raise not_available(
                 "go_to_coords", self.plant.world_name, "the image has no known intrinsics or pose"
             )
         u, v = target.center
         if cap.depth is not None:
             r, c = min(int(v), cap.depth.shape[0] - 1), min(int(u), cap.depth.shape[1] - 1)
-            p = base_points(cap.depth, cap.camera, cap.head, body, (c, r, c + 1, r + 1))
+            p = base_points(cap.depth, cap.camera, view, (c, r, c + 1, r + 1))
             if len(p):
                 return to_world(p[0], cap.base)[:2]
-        ray = point_from_range(1.0, cap.camera, cap.head, body, u, v) - np.asarray(body.camera_xyz)
+        ray = point_from_range(1.0, cap.camera, view, u, v) - np.asarray(view.xyz)
         if ray[2] >= -1e-6:
             raise ControlError(
                 f"go_to_coords: pixel ({u:.0f}, {v:.0f}) looks at or above the horizon, not at the floor",
                 "pass a point on the floor, lower in the image",
             )
-        t = body.camera_xyz[2] / -ray[2]
-        return to_world(np.asarray(body.camera_xyz) + ray * t, cap.base)[:2]
+        t = view.xyz[2] / -ray[2]
+        return to_world(np.asarray(view.xyz) + ray * t, cap.base)[:2]
 
     def floor_map(self, targets: list[Target], holding: Hold | None = None) -> FloorMap:
         """A floor map from the current view and the depth images the targets were seen in."""
@@ -238,13 +315,14 @@ class Locator:
         frame = self.plant.world.observe()
         if frame.depth is not None:
             camera = frame.camera or self.plant.world.camera_info()
-            views.append((frame.depth, camera, self.plant.head(), here))
+            views.append((frame.depth, camera, self.plant.view(body), here))
         for t in targets:
             c = t.capture
-            if c.depth is not None and c.camera is not None and c.head is not None and c.base is not None:
-                views.append((c.depth, c.camera, c.head, c.base))
-        for depth, camera, head, base in views:
-            pts = base_points(depth, camera, head, body, stride=3)
+            view = view_of(c, body)
+            if c.depth is not None and c.camera is not None and view is not None and c.base is not None:
+                views.append((c.depth, c.camera, view, c.base))
+        for depth, camera, view, base in views:
+            pts = base_points(depth, camera, view, stride=3)
             # not the robot itself, nor what its gripper holds
             pts = pts[np.hypot(pts[:, 0], pts[:, 1]) > body.radius + 0.05]
             floor.add(to_world(pts, base))
@@ -252,3 +330,12 @@ class Locator:
             grip = to_world(np.array([body.reach_x(holding.extension), body.arm_xy[1], 0.0]), here)
             floor.clear_disc(grip[:2], 0.15)
         return floor
+
+
+def view_of(capture: Capture, body: BodyGeometry) -> CameraPose | None:
+    """Where the camera was when `capture` was taken: as recorded, or from its head angles on a head."""
+    if capture.view is not None:
+        return capture.view
+    if capture.head is not None and body.arm is None:
+        return body.head_view(capture.head)
+    return None

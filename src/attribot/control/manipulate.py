@@ -154,7 +154,7 @@ class Manipulator:
         if frame.depth is None:
             return clear
         camera = frame.camera or self.plant.world.camera_info()
-        pts = base_points(frame.depth, camera, self.plant.head(), body, stride=2)
+        pts = base_points(frame.depth, camera, self.plant.view(body), stride=2)
         pts = to_world(pts, self.plant.pose())
         over = pts[
             (np.hypot(pts[:, 0] - est.centre[0], pts[:, 1] - est.centre[1]) < est.radius + 0.03)
@@ -193,11 +193,11 @@ class Manipulator:
         self.retract(z + t.lift_clear)
 
     def retract(self, z: float) -> None:
-        """Pull the arm in at `z`, then lower it to its resting height."""
+        """Pull the arm in at `z`, then bring it to its resting pose."""
         t = self.plant.tuning
         self.plant.world.set_arm(z, 0.0)
         self.plant.settle(t.arm_move_s)
-        self.plant.world.set_arm(0.2, 0.0)
+        self.plant.world.set_arm(*self.plant.body("pick_up").rest)
         self.plant.settle(t.arm_move_s)
 
     def check_rests(self, hold: Hold, receptacle: ObjectEstimate, target: Target) -> None:
@@ -215,7 +215,7 @@ class Manipulator:
                     "it may have fallen; find it again in a new image",
                 )
             return
-        placed = estimate_object(frame.depth, camera, self.plant.head(), self.plant.pose(), body, box)
+        placed = estimate_object(frame.depth, camera, self.plant.view(body), self.plant.pose(), box)
         if placed is None:
             return
         off = float(np.linalg.norm(placed.xy() - receptacle.xy()))

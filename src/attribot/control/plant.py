@@ -10,10 +10,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from attribot.control.base import not_available
-from attribot.control.body import BodyGeometry
+from attribot.control.body import BodyGeometry, CameraPose
 from attribot.control.spatial import ObjectEstimate
 from attribot.control.tuning import ServoTuning
 from attribot.control.world import ServoWorld, head_angles
+from attribot.errors import UnsupportedAction
 
 __all__ = ["Plant", "Reach", "Hold", "moved"]
 
@@ -43,6 +44,22 @@ class Plant:
         """The lift's height now, metres."""
         return float(self.world.joint_states().get("lift", 0.2))
 
+    @property
+    def headless(self) -> bool:
+        """The camera has no pan-tilt head of its own: the base turns it left and right."""
+        return not self.has("head")
+
+    def view(self, body: BodyGeometry) -> CameraPose:
+        """Where the camera is and looks now, in the base frame."""
+        return body.camera_pose(self.world.joint_states())
+
+    def arm(self) -> tuple[float, float] | None:
+        """The arm's `(lift, extension)` now, or None where the world does not report it."""
+        js = self.world.joint_states()
+        if "lift" not in js or "arm" not in js:
+            return None
+        return float(js["lift"]), float(js["arm"])
+
     def body(self, action: str) -> BodyGeometry:
         """The robot's body geometry, or `UnsupportedAction` for `action` when it does not state it or has
         no base or pose to act with."""
@@ -53,6 +70,16 @@ class Plant:
             if not self.has(need):
                 raise not_available(action, self.world_name, f"it has no {need} capability")
         return body()
+
+    def geometry(self) -> BodyGeometry | None:
+        """The robot's body geometry, or None where it does not state it."""
+        body = getattr(self.world, "body", None)
+        if body is None:
+            return None
+        try:
+            return body()
+        except UnsupportedAction:
+            return None
 
     def settle(self, seconds: float) -> None:
         """Let a commanded motion complete."""

@@ -1,5 +1,9 @@
 """Reaching: drive to where the arm's line passes through an object within the arm's range, coming from
-the side it was seen from, and correct the base at the goal until the line passes close enough."""
+the side it was seen from, and correct the base at the goal until the line passes close enough.
+
+Without depth, with the rangefinder on the gripper (the RoboMaster EP), the gripper cannot measure an
+object it already surrounds: the base lines up a little short of the grasp (the beam still sees the
+object's front), then drives the rest of the way straight, on odometry, as the paper's robot did."""
 
 from __future__ import annotations
 
@@ -45,12 +49,16 @@ class Reacher:
         floor = self.locator.floor_map([target], holding)
         seen_from = target.capture.base or self.plant.pose()
         lost: ControlError | None = None
-        for tried, (pose, path) in enumerate(self.standing_poses(est, body, floor, seen_from)):
+        # without depth the floor map does not see the object: the base must stop short of its front
+        blind = target.capture.depth is None
+        short = est.radius + 0.05 if blind and body.arm is not None else 0.0
+        poses = self.standing_poses(est, body, floor, seen_from, blind, short)
+        for tried, (pose, path) in enumerate(poses):
             if tried == self.plant.tuning.stand_tries:
                 break
             self.driver.follow(path, pose, np.array(est.centre), action)
             try:
-                return self.line_up(est, target, action, body, holding, tol)
+                return self.line_up(est, target, action, body, holding, tol, short)
             except ControlError as e:
                 if not str(e).startswith("target lost"):
                     raise
@@ -71,20 +79,23 @@ class Reacher:
         body: BodyGeometry,
         holding: Hold | None,
         tol: float | None,
+        short: float = 0.0,
     ) -> Reach:
         """Find the object again from here and correct the base until the arm's line passes within `tol`
-        (default `arrive_tol`) of it."""
+        (default `arrive_tol`) of it, `short` metres short of the grasp; then drive those straight."""
         tuning = self.plant.tuning
         tol = tuning.arrive_tol if tol is None else tol
         side = ext = math.nan
         for _ in range(tuning.align_tries):
             est = self.locator.refind(est, target, action, holding=holding)
             local = to_base(np.array(est.centre), self.plant.pose())
-            ext = float(local[0] - body.reach_x(0.0))
+            ext = float(local[0] - body.reach_x(0.0) - short)
             side = float(local[1] - body.arm_xy[1])
             lo, hi = body.arm_range
             # a centimetre beyond the telescope's ends still closes the fingers on the object
             if abs(side) <= tol and lo - 0.015 <= ext <= hi + 0.015:
+                if short:
+                    self.driver.straight(short)
                 return Reach(target.label, est, float(np.clip(ext, lo, hi)))
             fix = ext - float(np.clip(ext, lo + 0.03, hi - 0.03))
             x, y, yaw = self.plant.pose()
@@ -103,10 +114,13 @@ class Reacher:
         body: BodyGeometry,
         floor: FloorMap,
         seen_from: tuple[float, float, float],
+        blind: bool = False,
+        short: float = 0.0,
     ) -> Iterator[tuple[tuple[float, float, float], list[np.ndarray]]]:
-        """Base poses facing the object with the grip point on it at the shortest free extension, and paths
-        to them: first along the line it was seen along (that side has a view of it), then turned more and
-        more from it."""
+        """Base poses facing the object with the grip point on it at the shortest free extension (`short`
+        metres short of it), and paths to them: first along the line it was seen along (that side has a
+        view of it), then turned more and more from it. `blind`: the map does not show the object, so the
+        base's front must stay short of it."""
         here = self.plant.pose()
         centre = est.xy()
         bearing = math.atan2(centre[1] - seen_from[1], centre[0] - seen_from[0])
@@ -114,8 +128,15 @@ class Reacher:
             yaw = bearing + turn
             c, s = math.cos(yaw), math.sin(yaw)
             # a few centimetres of extension to spare either way, for the corrections at the goal
-            for ext in np.arange(body.arm_range[0] + 0.05, body.arm_range[1] - 0.03, 0.02):
+            lo, hi = body.arm_range
+            spare = min(0.05, (hi - lo) / 3), min(0.03, (hi - lo) / 3)
+            exts = np.arange(lo + spare[0], hi - spare[1], 0.02)
+            # blind, the base may need the whole reach to stay short of a wide object
+            for ext in np.append(exts, hi) if blind else exts:
                 lx, ly = body.reach_x(float(ext)), body.arm_xy[1]
+                if blind and lx - est.radius < body.base_half[0] + 0.01:
+                    continue
+                lx += short
                 pose = (centre[0] - (c * lx - s * ly), centre[1] - (s * lx + c * ly), yaw)
                 if floor.footprint_free(pose, body.base_half, 0.04):
                     path = floor.path(np.array(here[:2]), np.array(pose[:2]), body.radius + 0.02)

@@ -9,7 +9,9 @@ drives the head with a PID per axis on the box centre's angular error until the 
 It steps the world one control period at a time (sim time in the simulator, wall time on a robot: no
 sleeps) and uses only what a real robot has: frames (RGB), intrinsics, head joint angles and its base
 pose; never the simulator's object poses, ids or segmentation. A robot without a camera head (the paper's
-RoboMaster) centres left-right by turning its base with a PID on the same error, from the unchanged view.
+RoboMaster) centres left-right by turning its base with a PID on the same error, from the view the image
+was taken in (it drives back there, and puts back the arm its camera rides on, when it has moved since);
+with its rangefinder on the gripper it then raises or lowers the arm so that the beam meets the object.
 
 The other actions act on what depth and odometry say, never on the simulator's state: an object is
 located from the depth pixels in its box (or the rangefinder when there is no depth image); a floor map
@@ -28,14 +30,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from attribot.control.base import CONTROLLERS, ControlError, Target, not_available
+from attribot.control.body import CameraPose
 from attribot.control.drive import Driver
 from attribot.control.focus import FocusLoop, FocusReport
 from attribot.control.locate import Locator
 from attribot.control.manipulate import Manipulator
-from attribot.control.plant import Hold, Plant, Reach
+from attribot.control.plant import Hold, Plant, Reach, moved
 from attribot.control.pointing import PointingController
 from attribot.control.reach import Reacher
-from attribot.control.sighting import Box, nearest_to_centre
+from attribot.control.sighting import Box, nearest_to, nearest_to_centre
 from attribot.control.tuning import ServoTuning
 from attribot.control.world import ServoWorld
 from attribot.frame import CameraInfo, Frame
@@ -53,8 +56,9 @@ class ServoController(PointingController):
     track the target's box from the current view at once, which must not have changed since the capture
     (False: the paper's robot, and the only way without intrinsics one trusts). A robot without a camera
     head is centred left-right only, by turning its base, and always from the unchanged view.
-    last: how the last focus went; tracked: the box being centred, while it is; approached: where
-    go_to_object brought the arm, for pick_up.
+    last: how the last focus went; tracked: the box being centred, while it is; sighted: the box the last
+    focus centred and where the camera was then; approached: where go_to_object brought the arm, for
+    pick_up.
     """
 
     name: str = "servo"
@@ -62,6 +66,7 @@ class ServoController(PointingController):
     preaim: bool = True
     last: FocusReport | None = None
     tracked: Box | None = None
+    sighted: tuple[Box, CameraPose] | None = None
     approached: Reach | None = field(default=None, repr=False)
     plant: Plant = field(init=False, repr=False)
     driver: Driver = field(init=False, repr=False)
@@ -74,7 +79,7 @@ class ServoController(PointingController):
         world: ServoWorld = self.world
         self.plant = Plant(world, self.tuning, self._world_name)
         self.driver = Driver(self.plant)
-        self.locator = Locator(self.plant, self.driver, self.focus_on, self._wait_still)
+        self.locator = Locator(self.plant, self.driver, self.focus_on, self._wait_still, lambda: self.sighted)
         self.reacher = Reacher(self.plant, self.driver, self.locator)
         self.manipulator = Manipulator(self.plant, self.driver, self.locator, self.reacher)
 
@@ -84,10 +89,19 @@ class ServoController(PointingController):
         return self.manipulator.holding
 
     def focus_on(self, target: Target) -> None:
+        self.sighted = None
         try:
             self._centre(target)
         finally:
             self.tracked = None
+        body = self.plant.geometry()
+        if body is not None and body.arm is not None:
+            # the beam runs between the fingers: a gripper left closed (a grasp that closed on nothing)
+            # would be all it sees
+            gripper = self.plant.world.joint_states().get("gripper")
+            if self.holding is None and gripper is not None and gripper < body.finger_open / 2:
+                self.plant.world.release()
+            self.locator.aim_beam(self.plant.world.camera_info(), body)
 
     def _centre(self, target: Target) -> None:
         world = self.plant.world
@@ -104,6 +118,8 @@ class ServoController(PointingController):
             return
         loop = FocusLoop(self.plant, target, camera, *start, headless=headless, show=self._show)
         loop.run()
+        body = self.plant.geometry()
+        self.sighted = None if body is None else (loop.box, self.plant.view(body))
         seconds = self.waited_s + loop.steps * self.tuning.control_s
         self.last = FocusReport(loop.steps, seconds, loop.error, loop.redetections)
 
@@ -121,8 +137,32 @@ class ServoController(PointingController):
             box = nearest_to_centre(target.find(frame), camera)
             return None if box is None else (frame, box)
         # the paper's way: the view has not changed since the capture, so its box is tracked as it is
-        self._check_base(target.capture.base, caps)
-        return world.observe(), target.box
+        went_back = self._back_to_capture(target, caps)
+        frame = world.observe()
+        if went_back and target.find is not None:  # back by odometry: where it is seen again
+            return frame, nearest_to(target.find(frame), target.box) or target.box
+        return frame, target.box
+
+    def _back_to_capture(self, target: Target, caps: set[str]) -> bool:
+        """Put the camera back where the target's image was taken: the base by odometry, and the arm it
+        rides on; whether the base moved. A robot that does not state its body refuses when it has moved."""
+        cap, body = target.capture, self.plant.geometry()
+        if body is None or cap.base is None or not {"base", "pose"} <= caps:
+            self._check_base(cap.base, caps)
+            return False
+        went = moved(self.plant.pose(), cap.base, self.base_tol, self.base_tol)
+        if went:
+            self.driver.drive_to(cap.base, None, "focus_on_patch")
+        arm = self.plant.arm()
+        if (
+            self.holding is None
+            and cap.arm is not None
+            and arm is not None
+            and max(abs(a - b) for a, b in zip(arm, cap.arm, strict=True)) > 0.005
+        ):
+            self.plant.world.set_arm(*cap.arm)
+            self.plant.settle(self.tuning.arm_move_s)
+        return went
 
     def _show(self, box: Box) -> None:
         self.tracked = box

@@ -1,11 +1,12 @@
 """Where things are, from a depth image: back-projection, object estimates, a perceived floor map, paths.
 
 Everything here comes from what a robot with a depth camera (or a rangefinder) and odometry has: depth
-along the optical axis, the pinhole intrinsics, the head's pan and tilt, the base pose from odometry and
-the body geometry. Nothing reads a simulator's object poses or segmentation.
+along the optical axis, the pinhole intrinsics, the camera's pose in the base frame (a `CameraPose`, from
+its head's or arm's joints), the base pose from odometry and the body geometry. Nothing reads a
+simulator's object poses or segmentation.
 
-Frames: camera (forward, left, up) before the head's rotation; base (x forward, y left, z up, on the floor
-at the base's centre); world (the odometry frame of `base_pose`).
+Frames: camera (forward, left, up) before the camera's pan and tilt; base (x forward, y left, z up, on the
+floor at the base's centre); world (the odometry frame of `base_pose`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attribot.control.body import BodyGeometry
+from attribot.control.body import BodyGeometry, CameraPose
 from attribot.frame import CameraInfo
 from attribot.gridpath import Cell, astar, shortcut
 
@@ -28,7 +29,9 @@ __all__ = [
     "to_base",
     "estimate_object",
     "point_from_range",
+    "ray_through",
     "head_towards",
+    "project",
 ]
 
 Pose = tuple[float, float, float]
@@ -46,8 +49,7 @@ def _rotate_head(fwd: np.ndarray, left: np.ndarray, up: np.ndarray, head: tuple[
 def base_points(
     depth: np.ndarray,
     camera: CameraInfo,
-    head: tuple[float, float],
-    body: BodyGeometry,
+    view: CameraPose,
     box: tuple[float, float, float, float] | None = None,
     stride: int = 1,
 ) -> np.ndarray:
@@ -62,20 +64,24 @@ def base_points(
     d = depth[rows, cols].astype(np.float64)
     ok = np.isfinite(d) & (d > 0.05) & (d < 20.0)
     d, u, v = d[ok], cols[ok] + 0.5, rows[ok] + 0.5
-    pts = _rotate_head(d, -(u - camera.cx) / camera.fx * d, -(v - camera.cy) / camera.fy * d, head)
-    return pts + np.asarray(body.camera_xyz)
+    pts = _rotate_head(d, -(u - camera.cx) / camera.fx * d, -(v - camera.cy) / camera.fy * d, view.angles)
+    return pts + np.asarray(view.xyz)
 
 
-def point_from_range(
-    metres: float, camera: CameraInfo, head: tuple[float, float], body: BodyGeometry, u: float, v: float
-) -> np.ndarray:
-    """Base-frame point at range `metres` along the ray through pixel (u, v) (a rangefinder's reading)."""
+def point_from_range(metres: float, camera: CameraInfo, view: CameraPose, u: float, v: float) -> np.ndarray:
+    """Base-frame point at range `metres` along the ray through pixel (u, v) of a camera at `view` (a
+    rangefinder's reading along its optical axis)."""
     ray = np.array([1.0, -(u - camera.cx) / camera.fx, -(v - camera.cy) / camera.fy])
     ray /= np.linalg.norm(ray)
     p = _rotate_head(
-        np.array([ray[0] * metres]), np.array([ray[1] * metres]), np.array([ray[2] * metres]), head
+        np.array([ray[0] * metres]), np.array([ray[1] * metres]), np.array([ray[2] * metres]), view.angles
     )[0]
-    return p + np.asarray(body.camera_xyz)
+    return p + np.asarray(view.xyz)
+
+
+def ray_through(camera: CameraInfo, view: CameraPose, u: float, v: float) -> np.ndarray:
+    """Unit direction, in the base frame, of the ray from a camera at `view` through pixel (u, v)."""
+    return point_from_range(1.0, camera, view, u, v) - np.asarray(view.xyz)
 
 
 def to_world(points: np.ndarray, base: Pose) -> np.ndarray:
@@ -133,9 +139,8 @@ class ObjectEstimate:
 def estimate_object(
     depth: np.ndarray,
     camera: CameraInfo,
-    head: tuple[float, float],
+    view: CameraPose,
     base: Pose,
-    body: BodyGeometry,
     box: tuple[float, float, float, float],
     ignore: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> ObjectEstimate | None:
@@ -145,10 +150,10 @@ def estimate_object(
     depth."""
     x0, y0, x1, y1 = box
     mx, my = (x1 - x0) * 0.3, (y1 - y0) * 0.3
-    cam = np.asarray(body.camera_xyz)
+    cam = np.asarray(view.xyz)
 
     def kept(b: tuple[float, float, float, float]) -> np.ndarray:
-        p = base_points(depth, camera, head, body, b)
+        p = base_points(depth, camera, view, b)
         return p[~ignore(to_world(p, base))] if ignore is not None and len(p) else p
 
     pts = kept(box)
@@ -306,13 +311,11 @@ def _dilate(grid: np.ndarray, cells: int) -> np.ndarray:
     return out
 
 
-def project(
-    points_base: np.ndarray, camera: CameraInfo, head: tuple[float, float], body: BodyGeometry
-) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels `(u, v)` (y down) of base-frame points (N, 3) in a camera at `head`, and a mask of the
+def project(points_base: np.ndarray, camera: CameraInfo, view: CameraPose) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels `(u, v)` (y down) of base-frame points (N, 3) in a camera at `view`, and a mask of the
     points in front of it: the inverse of `base_points`."""
-    p = np.atleast_2d(np.asarray(points_base, float)) - np.asarray(body.camera_xyz)
-    pan, tilt = head
+    p = np.atleast_2d(np.asarray(points_base, float)) - np.asarray(view.xyz)
+    pan, tilt = view.angles
     cp, sp, ct, st = math.cos(pan), math.sin(pan), math.cos(tilt), math.sin(tilt)
     # undo the pan (about up), then the tilt (about left)
     f1, left, up1 = cp * p[:, 0] + sp * p[:, 1], -sp * p[:, 0] + cp * p[:, 1], p[:, 2]

@@ -39,6 +39,9 @@ class ServoTuning:
     the longest drive; straight_speed: the speed of straight drives (pushes, backing off); stop_s: the wait
     for the base to stop.
 
+    Ranging (`Locator`): range_readings / range_step_s: rangefinder readings taken to locate an object
+    without depth and the time between them (the median of those it got counts; a dropout is not one).
+
     Reaching (`Reacher`): arrive_tol: how close (metres) the arm's line must pass to the object;
     align_tries: base corrections at the goal; stand_tries: places to stand tried when the camera loses the
     object at one.
@@ -71,6 +74,9 @@ class ServoTuning:
     side_look_settle_s: float = 0.4
     look_back_settle_s: float = 0.3
     back_off_m: float = 0.3
+
+    range_readings: int = 5
+    range_step_s: float = 0.02
 
     drive_speed: float = 0.5
     drive_kp: float = 2.0

@@ -84,7 +84,8 @@ class ServoWorld(Protocol):
         ...
 
     def joint_states(self) -> dict[str, float]:
-        """Joint positions by name: head_pan, head_tilt, lift, arm, gripper."""
+        """Joint positions by name: head_pan and head_tilt (a head), lift and arm (the grip point's height
+        and extension), upper_arm and forearm (an arm that carries the camera), gripper."""
         ...
 
     def base_pose(self) -> BasePose:
@@ -92,7 +93,7 @@ class ServoWorld(Protocol):
         ...
 
     def body(self) -> BodyGeometry:
-        """Where the camera sits and how far the arm reaches."""
+        """Where the camera is for each pose of the joints and how far the arm reaches."""
         ...
 
 

@@ -89,7 +89,8 @@ class Embodiment:
         raise self._unsupported(Capability.HEAD, "move a camera head")
 
     def set_arm(self, lift: float, extension: float) -> None:
-        """Lift height and arm extension targets, in metres."""
+        """Arm targets in metres: the grip point's height above the floor (the lift's) and its extension
+        beyond where `body().reach_x(0)` puts it."""
         raise self._unsupported(Capability.ARM, "move an arm")
 
     def grasp(self) -> bool:

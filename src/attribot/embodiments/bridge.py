@@ -52,9 +52,8 @@ def _parse_url(url: str) -> tuple[str, int]:
 def _body_geometry(fields: dict[str, Any]) -> BodyGeometry:
     """The hello's `body` as a BodyGeometry (JSON lists become tuples); a malformed one is the robot's bug."""
     try:
-        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else float(v) for k, v in fields.items()}
-        return BodyGeometry(**values)
-    except (TypeError, ValueError) as exc:
+        return BodyGeometry.from_dict(fields)
+    except (TypeError, ValueError, AttributeError) as exc:
         raise BridgeError(
             f"the robot's hello gives a body geometry this client cannot read ({exc})",
             "check the robot driver's body(): the fields of attribot.control.body.BodyGeometry",

@@ -4,6 +4,11 @@
 controller or the API may use: camera frames with depth, segmentation and object truth, base velocity,
 head, arm, gripper, time, the rangefinder, the wrist force sensor and poses. The privileged scripted
 manipulation of `attribot.sim.scripted` takes a `MujocoWorld` too.
+
+With the RoboMaster-EP-like robot (`SceneConfig(robot="ep")`) the world has what a real EP has: no camera
+head and no depth camera (frames are RGB, with the simulator's segmentation for the oracle detector), the
+ToF sensor on the gripper, and a force sensor standing for the EP's load cell; it states the EP's body as
+the EP's bridge driver does.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from attribot.embodiments import mujoco_control  # noqa: F401  (registers this w
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
 from attribot.sim.robot import GEOMETRY
+from attribot.sim.robot_ep import EP
 from attribot.sim.world import SceneInfo, SimWorld
 
 __all__ = ["MujocoWorld"]
@@ -37,11 +43,13 @@ class MujocoWorld(Embodiment):
         self.seed = self.sim.plan.seed
 
     def capabilities(self) -> frozenset[Capability]:
+        if self.sim.robot == "ep":
+            return frozenset(Capability) - {Capability.HEAD, Capability.DEPTH}
         return frozenset(Capability)
 
     # camera
     def observe(self) -> Frame:
-        return self.sim.observe()
+        return self.sim.observe(depth=Capability.DEPTH in self.capabilities())
 
     def camera_info(self) -> CameraInfo:
         return self.sim.camera_info()
@@ -57,6 +65,7 @@ class MujocoWorld(Embodiment):
         self.sim.command_base(vx, vy, wz)
 
     def set_head(self, pan: float, tilt: float) -> None:
+        self.require(Capability.HEAD, "move a camera head")
         self.sim.set_head(pan, tilt)
 
     def set_arm(self, lift: float, extension: float) -> None:
@@ -79,6 +88,8 @@ class MujocoWorld(Embodiment):
         return self.sim.read_force()
 
     def body(self) -> BodyGeometry:
+        if self.sim.robot == "ep":
+            return EP
         g = GEOMETRY
         return BodyGeometry(
             camera_xyz=(g.mast_xy[0], g.mast_xy[1], g.head_height),

@@ -39,6 +39,13 @@ class SimController(PointingController):
     name: str = "sim-privileged"
 
     def _object_id(self, target: Target, action: str) -> str:
+        if getattr(getattr(self.world, "sim", None), "robot", "mast") != "mast":
+            raise not_available(
+                action,
+                self._world_name,
+                "the privileged scripts move the mast robot only; the EP-like robot acts by perception "
+                "(--controller servo, its default)",
+            )
         if not target.object_id:
             raise UnsupportedAction(
                 f"robot action {action!r} in the simulator needs the world's id of {target.describe()}, "

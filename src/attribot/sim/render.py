@@ -250,9 +250,10 @@ class SceneRenderer:
         self._ids = np.empty((self.height, self.width, 3), np.uint8)
         self._zbuf = np.empty((self.height, self.width), np.float32)
 
-    def _update(self, data: mujoco.MjData, camera: int) -> None:
+    def _update(self, data: mujoco.MjData, camera: int, rays: bool) -> None:
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
         self._camera.fixedcamid = camera
+        self._option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = rays
         mujoco.mjv_updateScene(
             self.model, data, self._option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
@@ -265,12 +266,14 @@ class SceneRenderer:
         rgb: bool = True,
         depth: bool = False,
         segmentation: bool = False,
+        rays: bool = True,
     ) -> RenderOutput:
-        """Render camera `camera` (model camera id) of `data`: the layers asked for, in two passes at most."""
+        """Render camera `camera` (model camera id) of `data`: the layers asked for, in two passes at most.
+        `rays`: draw the rangefinders' beams (a camera that is not the beam's own must not see them)."""
         if self._mjr is None:
             raise RuntimeError("render called after close")
         self._ctx.make_current()
-        self._update(data, camera)
+        self._update(data, camera, rays)
         out = RenderOutput()
         if rgb:
             mujoco.mjr_render(self._rect, self._scene, self._mjr)

@@ -14,6 +14,12 @@ Layouts (the stand-ins for the paper's experiments):
 - `household`: a room with two or three pieces of furniture and 2 to 6 candidate objects at different
   distances from the robot, all in the robot camera's first view.
 
+The robot is the mast robot (`attribot.sim.robot`) unless the request names the RoboMaster-EP-like one
+(`attribot.sim.robot_ep`, `SceneRequest.robot == "ep"`): its gripper reaches only the floor, so its
+`household` and `triplet` scenes put the candidates on the floor, ones its gripper can hold, where it can
+drive straight to each (it has no depth camera to see its way), and the `arrangement` layout (a grid seen
+from above) is refused.
+
 Objects rest on their surface: each is placed with its lowest point on the surface, without overlapping
 another object's footprint, and the world lets them settle before the first frame.
 """
@@ -34,6 +40,7 @@ from attribot.registry import Registry
 from attribot.sim.catalog import COLORS, Category, categories, get_category
 from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, add_materials, look_of, variant_of
 from attribot.sim.robot import GEOMETRY, add_robot
+from attribot.sim.robot_ep import EP, add_ep_robot
 from attribot.sim.shapes import MATERIALS, Shape, build_shape
 
 __all__ = [
@@ -130,15 +137,18 @@ class ScenePlan:
     arm: tuple[float, float] = (0.2, 0.0)  # lift, extension: low and retracted, out of the camera's way
     width: int = 640
     height: int = 480
+    robot_kind: str = "mast"  # which robot (set by plan_scene from the request): "mast" or "ep"
 
 
 @dataclass(frozen=True)
 class SceneRequest:
-    """What the caller asked for: object count, categories (None: the layout chooses), layout options."""
+    """What the caller asked for: object count, categories (None: the layout chooses), layout options, and
+    the robot ("mast" or "ep")."""
 
     n_objects: int | None = None
     categories: tuple[Category, ...] | None = None
     options: dict[str, Any] = field(default_factory=dict)
+    robot: str = "mast"
 
     def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
         value = self.options.get(name, default)
@@ -422,7 +432,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
                     "choose categories of clearly different weight",
                 )
     else:
-        pool = sorted(_pool(SceneRequest(), _triplet_ok), key=lambda c: c.typical_mass_kg)
+        ok = _triplet_ok if request.robot != "ep" else (lambda c: _triplet_ok(c) and _ep_graspable(c))
+        pool = sorted(_pool(SceneRequest(), ok), key=lambda c: c.typical_mass_kg)
         for _ in range(1000):
             first = pool[int(rng.integers(len(pool)))]
             chosen = [first]
@@ -450,6 +461,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         o = _make_object(rng, slot, chosen[int(idx)])
         o.extras.update(weight_rank=int(idx))
         objs.append(o)
+    if request.robot == "ep":
+        return _ep_triplet(rng, objs)
     return _row_plan(rng, "triplet", objs, 1, 3)
 
 
@@ -460,6 +473,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
 def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     """A room with 2-3 pieces of furniture and 2-6 candidate objects (up to 12 on request) at distances
     from the robot that differ by at least `min_gap` metres (option, default 0.15)."""
+    if request.robot == "ep":
+        return _ep_household(rng, request)
     n = _count(request, int(rng.integers(2, 7)), 1, 12, "a household scene")
     min_gap = float(request.option("min_gap", 0.15))
     robot = (
@@ -559,6 +574,125 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     return ScenePlan("household", furniture, objs, robot, (pan, tilt))
 
 
+# --- the RoboMaster-EP-like robot: candidates on the floor, where its gripper reaches ------------------
+
+_EP_CORRIDOR = EP.base_half[1] + 0.06  # half the width the base sweeps driving straight, with a margin
+
+
+def _ep_graspable(c: Category) -> bool:
+    """What the EP's gripper (about 10 cm open) can hold and its beam (at least 3 cm up) can find: pickable,
+    at most 9 cm from its centre to its farthest edge at its largest, at least 3.5 cm tall at its smallest."""
+    if not c.pickable:
+        return False
+    lo, hi = c.size_range_m
+    small, big = build_shape(c.shape, lo), build_shape(c.shape, hi)
+    return big.footprint_radius <= 0.09 and small.hi[2] - small.lo[2] >= 0.035
+
+
+def _ep_camera(robot: tuple[float, float, float]) -> np.ndarray:
+    """World position of the EP-like robot's camera with its arm at rest, for a base pose."""
+    x, y, yaw = robot
+    cx, cy, cz = EP.camera_xyz
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([x + c * cx - s * cy, y + s * cx + c * cy, cz])
+
+
+def _off_line(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Distance from point p to the segment a-b."""
+    ab = np.subtract(b, a)
+    t = float(np.clip(np.dot(np.subtract(p, a), ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+    return float(np.hypot(*(np.subtract(p, a) - t * ab)))
+
+
+def _ep_triplet(rng: np.random.Generator, objs: list[PlacedObject]) -> ScenePlan:
+    """Three objects on the floor 0.8 m before the robot, 26 degrees apart (left to right in their order):
+    the way to each passes clear of the others."""
+    robot = (0.0, 0.0, 0.0)
+    cam = _ep_camera(robot)
+    for o, bearing in zip(objs, (0.45, 0.0, -0.45), strict=True):
+        o.x, o.y, o.z, o.surface = 0.8 * math.cos(bearing), 0.8 * math.sin(bearing), 0.0, "floor"
+        _face(o, (cam[0], cam[1]), rng, 0.25)
+    return ScenePlan("triplet", [], objs, robot, (0.0, 0.0))
+
+
+def _ep_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
+    """A room with a table to one side and a counter or shelf at the back, and 2 to 4 candidates (up to 6
+    on request) on the floor between them and the robot, at distances that differ by at least `min_gap`,
+    each with a straight way to it that passes clear of the others."""
+    n = _count(request, int(rng.integers(2, 5)), 1, 6, "a household scene for the EP-like robot")
+    min_gap = float(request.option("min_gap", 0.15))
+    robot = (
+        -2.0 + float(rng.uniform(-0.2, 0.2)),
+        float(rng.uniform(-0.3, 0.3)),
+        float(rng.uniform(-0.12, 0.12)),
+    )
+    rx, ry, _ = robot
+    back = str(rng.choice(["counter", "shelf"]))
+    side = float(rng.choice([-1.0, 1.0]))
+    table_xy = rx + float(rng.uniform(1.5, 1.8)), ry + side * float(rng.uniform(1.1, 1.3))
+    back_xy = rx + float(rng.uniform(2.6, 2.8)), ry + float(rng.uniform(-0.4, 0.4))
+    furniture = [
+        _table("table_0", *table_xy, (0.7, 0.9, 0.75)),
+        _table(f"{back}_1", *back_xy, (0.45, 1.2, 0.9), back),
+    ]
+    pool = _pool(request, _ep_graspable)
+    order = rng.permutation(len(pool)).tolist()
+    picks = [
+        pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))] for i in range(n)
+    ]
+    objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
+    cam = _ep_camera(robot)
+    placed: list[tuple[float, float, float]] = []
+    dists: list[float] = []
+    for o in objs:
+        r = o.shape.footprint_radius
+        for _ in range(400):
+            x = rx + float(rng.uniform(0.7, 1.9))
+            y = ry + float(rng.uniform(-1.0, 1.0)) * (x - rx) * 0.45
+            if not _ep_spot_free(x, y, r, furniture, placed, (rx, ry)):
+                continue
+            o.x, o.y, o.z, o.surface = x, y, 0.0, "floor"
+            _face(o, (cam[0], cam[1]), rng, 0.4)
+            d = float(np.linalg.norm(object_center(o) - cam))
+            if any(abs(d - e) < min_gap for e in dists):
+                continue
+            placed.append((x, y, r))
+            dists.append(d)
+            break
+        else:
+            raise InputError(
+                f"cannot place {n} objects on the floor for the EP-like robot with distances {min_gap} m "
+                f"apart and a clear way to each (object {o.key}, a {o.category.name}, found no free spot)",
+                "ask for fewer objects, or a smaller min_gap",
+            )
+    return ScenePlan("household", furniture, objs, robot, (0.0, 0.0))
+
+
+def _ep_spot_free(
+    x: float,
+    y: float,
+    r: float,
+    furniture: list[Furniture],
+    placed: list[tuple[float, float, float]],
+    start: tuple[float, float],
+) -> bool:
+    """Whether an object of radius r at (x, y) keeps off the furniture and the others, off the ways to
+    them, and leaves its own way clear of them."""
+    for f in furniture:
+        x0, y0, x1, y1 = f.footprint(0.45 + r)
+        if x0 < x < x1 and y0 < y < y1:
+            return False
+    for px, py, pr in placed:
+        if math.hypot(x - px, y - py) < r + pr + 0.2:
+            return False
+        if (
+            _off_line((x, y), start, (px, py)) < _EP_CORRIDOR + r
+            or _off_line((px, py), start, (x, y)) < _EP_CORRIDOR + pr
+        ):
+            return False
+    return True
+
+
 LAYOUT_OPTIONS: dict[str, tuple[str, ...]] = {
     "arrangement": ("pattern", "odd", "size_variation"),
     "triplet": (),
@@ -589,9 +723,23 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
             f"the {fn.__name__} layout has no option {', '.join(unknown)} (it would be ignored)",
             f"its options are: {', '.join(known)}" if known else "it takes no --option",
         )
+    if req.robot == "ep":
+        if fn.__name__ not in ("household", "triplet"):
+            raise InputError(
+                f"the {fn.__name__} layout is not made for the EP-like robot (its grid is seen from above, "
+                "on a table the EP's gripper does not reach)",
+                "use the household or triplet layout with the EP-like robot",
+            )
+        unfit = [c.name for c in req.categories or () if not _ep_graspable(c)]
+        if unfit:
+            raise InputError(
+                f"the EP-like robot's gripper (about 10 cm open) cannot hold {', '.join(unfit)}",
+                "choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
+            )
     rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
     plan = fn(rng, req)
     plan.seed = int(seed)
+    plan.robot_kind = req.robot
     return plan
 
 
@@ -828,7 +976,10 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004, looks: str = "detai
     meshes: set[str] = set()
     for o in plan.objects:
         _add_object(spec, o, looks, meshes)
-    add_robot(spec)
+    if plan.robot_kind == "ep":
+        add_ep_robot(spec, plan.width, plan.height)
+    else:
+        add_robot(spec)
     _add_room_camera(spec, plan.robot)
     for o in plan.objects:
         if o.category.pickable:

@@ -29,6 +29,7 @@ from pydantic import BaseModel
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
+from attribot.sim import robot_ep
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
 from attribot.sim.render import SceneRenderer
 from attribot.sim.robot import GEOMETRY
@@ -132,7 +133,12 @@ class SimWorld:
             raise TypeError("give a SceneConfig or its fields, not both")
         self.config = config
         layout, seed, width, height = config.layout, config.seed, config.width, config.height
-        request = SceneRequest(config.objects, resolve_categories(config.categories), dict(config.options))
+        self.robot = config.robot
+        self._joints = robot_ep.EP_JOINTS if self.robot == "ep" else _ROBOT_JOINTS
+        self.finger_open = robot_ep.EP.finger_open if self.robot == "ep" else GEOMETRY.finger_range[1]
+        request = SceneRequest(
+            config.objects, resolve_categories(config.categories), dict(config.options), config.robot
+        )
         self.width, self.height, self.profile = width, height, config.profile
         self.force_noise_std = config.force_noise_std
         self.noise = config.noise
@@ -205,7 +211,7 @@ class SimWorld:
         ):
             return False
         groups = _RAY_GROUPS
-        head = _name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "head_tilt")
+        head = int(self.model.cam_bodyid[self.camera_id])  # the camera's own housing is not in the way
         seen = 0
         for target in (centre, top):
             vec = target - cam
@@ -218,10 +224,11 @@ class SimWorld:
         m = self.model
         J = mujoco.mjtObj.mjOBJ_JOINT
         A = mujoco.mjtObj.mjOBJ_ACTUATOR
-        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in _ROBOT_JOINTS}
+        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in self._joints}
         self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
-        self._act = {n: _name2id(m, A, n) for n in _ROBOT_JOINTS}
-        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "head_camera")
+        self._act = {n: _name2id(m, A, n) for n in self._joints}
+        camera = robot_ep.CAMERA if self.robot == "ep" else "head_camera"
+        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, camera)
         self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
         self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
         self._ft_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "ft_site")
@@ -259,31 +266,24 @@ class SimWorld:
     def _start(self) -> None:
         d, q = self.data, self._qadr
         x, y, yaw = self.plan.robot
-        pan, tilt = self.plan.head
-        lift, ext = self.plan.arm
-        open_ = GEOMETRY.finger_range[1]
-        for name, value in (
-            ("base_x", x),
-            ("base_y", y),
-            ("base_yaw", yaw),
-            ("head_pan", pan),
-            ("head_tilt", tilt),
-            ("lift", lift),
-            ("arm", ext),
-            ("finger_l", open_),
-            ("finger_r", open_),
-        ):
+        open_ = self.finger_open
+        if self.robot == "ep":  # the arm in its zero pose, the camera on it looking ahead
+            self._targets = {**robot_ep.arm_targets(*robot_ep.EP.rest), "finger_l": open_, "finger_r": open_}
+        else:
+            pan, tilt = self.plan.head
+            lift, ext = self.plan.arm
+            self._targets = {
+                "head_pan": pan,
+                "head_tilt": tilt,
+                "lift": lift,
+                "arm": ext,
+                "finger_l": open_,
+                "finger_r": open_,
+            }
+        for name, value in (("base_x", x), ("base_y", y), ("base_yaw", yaw), *self._targets.items()):
             d.qpos[q[name]] = value
         for name in ("base_x", "base_y", "base_yaw"):
             d.ctrl[self._act[name]] = 0.0
-        self._targets = {
-            "head_pan": pan,
-            "head_tilt": tilt,
-            "lift": lift,
-            "arm": ext,
-            "finger_l": open_,
-            "finger_r": open_,
-        }
         for name, v in self._targets.items():
             d.ctrl[self._act[name]] = v
         self._base_cmd = (0.0, 0.0, 0.0)
@@ -404,11 +404,20 @@ class SimWorld:
 
     def set_head(self, pan: float, tilt: float) -> None:
         """Head targets (radians, clipped to the joint ranges): pan left positive, tilt up positive."""
+        if self.robot == "ep":
+            raise InputError("the EP-like robot has no camera head", "turn the base, or move the arm")
         self._target("head_pan", math.remainder(float(pan), math.tau))
         self._target("head_tilt", float(tilt))
 
     def set_arm(self, lift: float, extension: float) -> None:
-        """Lift height of the carriage and arm extension targets, metres (clipped to the joint ranges)."""
+        """Lift height of the carriage and arm extension targets, metres (clipped to the joint ranges); on
+        the EP-like robot, the grip point's height and reach (as near as its two links reach)."""
+        if self.robot == "ep":
+            if not (math.isfinite(lift) and math.isfinite(extension)):
+                raise InputError(f"arm target {(lift, extension)} is not finite", "give finite numbers")
+            for name, value in robot_ep.arm_targets(float(lift), float(extension)).items():
+                self._target(name, value)
+            return
         self._target("lift", float(lift))
         self._target("arm", float(extension))
 
@@ -497,7 +506,7 @@ class SimWorld:
             self.data.eq_active[self.weld_of[self._held]] = 0
             self._held = None
         self._slip_at = None
-        self.set_gripper(GEOMETRY.finger_range[1])
+        self.set_gripper(self.finger_open)
         self.step(0.3)
 
     @property
@@ -515,7 +524,8 @@ class SimWorld:
             r = self._beam(math.radians(n.beam_deg))
         else:
             r = float(self.data.sensordata[self._range_adr])
-        range_max = min(GEOMETRY.range_max, n.range_max or math.inf)
+        own = robot_ep.RANGE_MAX if self.robot == "ep" else GEOMETRY.range_max
+        range_max = min(own, n.range_max or math.inf)
         if r < 0 or r > range_max:
             return math.inf
         if n.range_dropout and rng.random() < n.range_dropout:
@@ -565,8 +575,13 @@ class SimWorld:
         return f
 
     def joint_states(self) -> dict[str, float]:
+        """Joint positions by name; the EP-like robot's arm as its links' elevations (upper_arm, forearm)
+        and where its grip point is (lift, arm), as the EP reports its arm."""
         q = self.data.qpos
         out = {n: float(q[a]) for n, a in self._qadr.items() if not n.startswith("finger")}
+        if self.robot == "ep":
+            arm = robot_ep.arm_joint_states(out)
+            out = {n: v for n, v in out.items() if n.startswith("base")} | arm
         out["gripper"] = float((q[self._qadr["finger_l"]] + q[self._qadr["finger_r"]]) / 2)
         return out
 
@@ -579,7 +594,11 @@ class SimWorld:
         )
 
     def head(self) -> tuple[float, float]:
+        """The camera's pan and tilt: the head's joints; on the EP-like robot, the camera's pitch on the
+        arm (it has no pan)."""
         q = self.data.qpos
+        if self.robot == "ep":
+            return 0.0, robot_ep.camera_tilt({n: float(q[a]) for n, a in self._qadr.items()})
         return float(q[self._qadr["head_pan"]]), float(q[self._qadr["head_tilt"]])
 
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -614,8 +633,11 @@ class SimWorld:
     def observe(self, *, depth: bool = True, segmentation: bool = True) -> Frame:
         """The head camera's frame: RGB, and depth and segmentation (object keys, -1 elsewhere) with truth."""
         mujoco.mj_forward(self.model, self.data)
+        # the EP's camera must not see its ToF's beam; the mast robot's beam runs along its optical axis
+        # and shows as nothing (drawn as ever, so that its frames stay as they were)
+        rays = self.robot != "ep"
         out = self.renderer.render(
-            self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation
+            self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation, rays=rays
         )
         seg = surfaces = None
         if out.geom_ids is not None:
