@@ -156,7 +156,8 @@ WORLD_FLAGS = (
     _flag("image", Path | None, "--image", metavar="FILE", help="Answer about this image file instead of a "
           "world."),
     _flag("sensors", str | None, "--sensors", metavar="A,B", help="Comma-separated robot sensors: "
-          "camera,distance,force (default: all the world has)."),
+          "camera, distance, force, temperature (infrared thermometer), grip (a gripper that feels how hard "
+          "it squeezes), a registered sensor's name or the paper's names (default: all the world has)."),
     _flag("controller", str | None, "--controller", metavar="NAME", help="Robot controller: the world's own "
           "(default; in MuJoCo 'servo', which acts on what the camera and sensors perceive) or 'privileged' "
           "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
