@@ -64,11 +64,12 @@ STATES = {
 }
 """A state word: (the attribute, its threshold, whether the state is at or above it)."""
 MIXED = {
-    "temperature": ("kettle", "mug", "can"),
-    "stiffness": ("ball", "apple", "foam ball"),
-    "fullness": ("bottle", "mug", "jar"),
+    "temperature": ("kettle", "mug", "can", "mug", "can"),
+    "stiffness": ("ball", "apple", "foam ball", "ball", "tennis ball"),
+    "fullness": ("bottle", "mug", "jar", "bottle", "mug"),
 }
-"""The objects of a scene for a phrasing about any object ("the hottest thing on the table")."""
+"""The objects of a scene for a phrasing about any object ("the hottest thing on the table"); with a scope,
+all five, so that some stand on the surface named; three otherwise."""
 UNITS = {"temperature": "°C", "stiffness": "N/mm", "fullness": "full"}
 
 
@@ -100,8 +101,8 @@ def _config(row: dict[str, Any], seed: int) -> SceneConfig:
         named = tuple(row["named"])
     elif kind in ("state", "measure"):
         named = (noun,)
-    elif noun == "object":
-        named = MIXED[attr]
+    elif noun in ("object", "thing", "item"):
+        named = MIXED[attr] if "scope" in row else MIXED[attr][:3]
     else:
         named = (noun,) * (2 if noun in ("kettle", "teapot") else 3)
     return SceneConfig(layout="household", seed=seed, categories=named, objects=len(named))

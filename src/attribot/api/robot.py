@@ -35,7 +35,7 @@ from attribot.sensors import (
     sensor_names,
     sensor_of_method,
 )
-from attribot.sim.catalog import find_category
+from attribot.sim.catalog import categories, find_category
 
 __all__ = ["Robot", "Measurement", "GRAVITY", "check_sensors", "sensor_names"]
 
@@ -698,7 +698,7 @@ class Robot(metaclass=_RobotApi):
         p, target = self._target(patch, "measure_fullness")
         kind = find_category(p.label or "")
         if kind is None or not kind.container or kind.empty_kg is None:
-            known = ", ".join(c for c in _CONTAINERS)
+            known = ", ".join(c.name for c in categories() if c.container)
             raise ApiArgumentError(
                 f"robot.measure_fullness() knows how much an empty {known} weighs, and not a "
                 f"{p.label or 'patch without a name'}",
@@ -1038,10 +1038,6 @@ def _through_view(name: str) -> Any:
 
 for _name in Robot.OWN_METHODS:
     setattr(_RobotWithSensors, _name, _through_view(_name))
-
-
-_CONTAINERS = ("bottle", "mug", "jar")
-"""The containers whose empty mass the catalog knows (named in a refusal)."""
 
 
 def _sensor_method(sensor: Sensor) -> Callable[..., float]:

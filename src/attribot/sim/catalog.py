@@ -14,8 +14,9 @@ Beyond weight, objects carry states no camera sees, drawn per scene (`attribot.s
 (`temperatures`: a kettle hot or cold, a mug of coffee hot, a can from the fridge cold; anything not listed
 is at the room's temperature), a stiffness (`stiffness`, newtons per millimetre of gripper closure: a foam
 ball soft, a tennis ball firm, an apple hard; `RIGID_N_PER_MM` when not listed) and, for containers, how
-full they are (`fill_states`, with the empty container's mass `empty_kg` and the mass of the contents when
-full `capacity_kg`, within the category's mass range). Categories with `drawn=False` appear only where a
+full they are (`fill_states`, with the empty container's mass `empty_kg`, within the category's mass range,
+and the mass of the contents when full `capacity_kg`, which may take a full one past that range: a mug of
+coffee is heavier than any empty mug). Categories with `drawn=False` appear only where a
 scene names them (the layouts never draw them), so that adding one leaves every existing scene as it was.
 """
 
@@ -130,8 +131,8 @@ def _c(
     if variants:
         mass = (min(v[1][0] for v in variants), max(v[1][1] for v in variants))
     empty, capacity = contents if contents is not None else (None, 0.0)
-    if empty is not None and not (mass[0] <= empty[0] and empty[1] + capacity <= mass[1] + 1e-9):
-        raise ValueError(f"{name}: empty {empty} plus contents {capacity} kg leave its mass range {mass}")
+    if empty is not None and not mass[0] <= empty[0] <= empty[1] <= mass[1]:
+        raise ValueError(f"{name}: its empty mass {empty} lies outside its mass range {mass}")
     return Category(
         name,
         synonyms,
@@ -184,7 +185,7 @@ _DATA: tuple[Category, ...] = (
         ("white", "red", "blue", "yellow", "green"),
         (0.25, 0.40),
         temperatures=_HOT_DRINK,
-        contents=((0.25, 0.27), 0.13),  # a small mug of coffee
+        contents=((0.25, 0.40), 0.25),  # a mug of coffee weighs its own mass and a quarter of a kilogram more
     ),
     _c("bowl", (), "bowl", (0.14, 0.20), ("white", "blue", "red", "beige"), (0.25, 0.50)),
     _c("plate", ("dish",), "plate", (0.20, 0.27), ("white", "blue", "beige"), (0.35, 0.60)),
@@ -368,6 +369,7 @@ _DATA: tuple[Category, ...] = (
         ("brown", "beige"),
         (0.2, 6.0),
         variants=(("empty", (0.2, 0.4)), ("full", (4.0, 6.0))),
+        contents=((0.2, 0.4), 4.7),  # how full it is is its mass variant
     ),
     _c(
         "ball",
@@ -408,6 +410,7 @@ _DATA: tuple[Category, ...] = (
         (0.5, 8.0),
         variants=(("empty", (0.5, 0.9)), ("full", (5.0, 8.0))),
         placement="floor",
+        contents=((0.5, 0.9), 5.8),
     ),
     # only where a scene names them (the softness examples): drawing them unasked would change every scene
     _c(

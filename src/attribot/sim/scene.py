@@ -240,6 +240,8 @@ def _draw_hidden_states(plan: ScenePlan, seed: int, attempt: int) -> None:
             o.fill = 1.0 if o.variant == "full" else 0.0
             continue
         _, o.fill = _pick(rng, cat.fill_states)
+        if plan.layout == "triplet":  # its weights rise with the category by construction: kept empty
+            o.fill = 0.0
         lo, hi = cat.empty_kg
         o.mass_kg = round(lo + (hi - lo) * o.mass_share + o.fill * cat.capacity_kg, 4)
 

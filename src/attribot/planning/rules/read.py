@@ -22,6 +22,7 @@ from attribot.planning.rules.forms import (
     ObjectSpec,
     ParsedQuery,
     Request,
+    SenseQuery,
     SizeQuery,
     UnsupportedQuery,
     WeightQuery,
@@ -95,7 +96,9 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         )
     if scope is None and among is None and action is None:
         return inner
-    if isinstance(inner, Request | YesNoQuery | MeasureQuery):
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
+        isinstance(inner, SenseQuery) and (inner.ask != "which" or inner.named)
+    ):
         raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
     if among is not None and not isinstance(inner, WeightQuery | DistanceQuery | SizeQuery):
         raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")
