@@ -659,8 +659,12 @@ dataset_app = typer.Typer(
     no_args_is_help=True,
 )
 app.add_typer(dataset_app, name="dataset")
-_SUITE = typer.Option("paper", "--suite", help="The suite: paper (the paper's five tasks).")
-_TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all five).")
+_SUITE = typer.Option(
+    "paper",
+    "--suite",
+    help="The suite: paper (the paper's five tasks) or senses (temperature, softness, fullness).",
+)
+_TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all of the suite's).")
 _LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")
 
 
@@ -680,11 +684,11 @@ def _writable_folder(folder: Path, flag: str) -> None:
 
 def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     from attribot.errors import InputError
-    from attribot.eval.suite import task_names
+    from attribot.eval.suite import suite_names, task_names
 
-    known = task_names()
-    if suite != "paper":
-        raise InputError(f"unknown suite {suite!r}", "use --suite paper")
+    if suite not in suite_names():
+        raise InputError(f"unknown suite {suite!r}", f"use --suite with one of: {', '.join(suite_names())}")
+    known = task_names(suite)
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else known
     if not chosen:
         raise InputError("--tasks names no task", f"choose from: {', '.join(known)}")
