@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Iterator
 
 import numpy as np
@@ -122,6 +123,53 @@ def test_the_cli_takes_the_sensor_in_sensors(spectrometer, empty_settings, tmp_p
     assert refused.exit_code == 1
     error = json.loads(refused.output)["error"]["message"]
     assert "needs the 'spectrometer' sensor" in error and "--sensors camera,spectrometer" in error
+
+
+PLUGIN = '''
+"""A lab's spectrometer: its record, and the MuJoCo world taught to read it."""
+import math
+
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.sensors import Need, Sensor, register_sensor
+
+register_sensor(Sensor(
+    name="spectrometer", measures="the sugar content of the fruit centred", quantity="sugar content",
+    unit="°Bx", needs=Need.AIM, method="measure_sugar",
+))
+BRIX = {"banana": 20.0, "apple": 12.0, "tomato": 4.0}
+plain_sensors, plain_read = MujocoWorld.sensors, MujocoWorld.read_sensor
+
+
+def read(self, name):
+    if name != "spectrometer":
+        return plain_read(self, name)
+    frame = self.observe()
+    h, w = frame.segmentation.shape
+    key = int(frame.segmentation[h // 2, w // 2])
+    return BRIX.get(frame.objects[key].category, math.nan) if key >= 0 else math.nan
+
+
+MujocoWorld.sensors = lambda self: plain_sensors(self) | {"spectrometer"}
+MujocoWorld.read_sensor = read
+'''
+
+
+def test_the_real_command_takes_a_labs_sensor_from_a_plugin_module(tmp_path, monkeypatch):
+    from conftest import cli
+
+    (tmp_path / "lab_spectrometer.py").write_text(PLUGIN)
+    (tmp_path / "sweetest.py").write_text(SWEETEST)
+    monkeypatch.setenv("PYTHONPATH", f"{tmp_path}:{os.environ.get('PYTHONPATH', '')}")
+    monkeypatch.setenv("ATTRIBOT_PLUGINS", "lab_spectrometer")
+    scene = ["--layout", "household", "--seed", "4", "--categories", "apple,banana,tomato", "--objects", "3"]
+    done = cli("exec", str(tmp_path / "sweetest.py"), *scene, "--sensors", "camera,spectrometer", "--json")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["object"]["category"] == "banana"
+    monkeypatch.setenv("ATTRIBOT_PLUGINS", "no_such_lab_module")
+    missing = cli("exec", str(tmp_path / "sweetest.py"), *scene)
+    assert (
+        missing.returncode == 2 and "ATTRIBOT_PLUGINS names the module 'no_such_lab_module'" in missing.stderr
+    )
 
 
 def test_a_robot_without_the_sensor_refuses_naming_it_and_the_fix(spectrometer):

@@ -2,7 +2,8 @@
 
 Commands import their layers lazily so that `attribot --help` stays fast. Every `AttribotError` ends the
 command with its message and fix on stderr and exit code 2 (in `_Commands.invoke`, the one place that
-converts them); nothing prints a traceback at a user.
+converts them); nothing prints a traceback at a user. The modules named in `ATTRIBOT_PLUGINS` are imported
+before any command runs: a lab's own sensors, worlds or layouts register themselves there.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class _Commands(_PlainFlags, TyperGroup):
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
         with termination_as_exit():
             try:
+                _load_plugins()
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
@@ -73,6 +75,28 @@ class _Commands(_PlainFlags, TyperGroup):
                         "input", exc.format_message(), "", "rules" if args[0] == "ask" else "file"
                     )
                 raise
+
+
+PLUGINS_ENV = "ATTRIBOT_PLUGINS"
+"""Comma-separated modules to import before a command runs (a lab's sensors, worlds, layouts)."""
+
+
+def _load_plugins() -> None:
+    import importlib
+    import os
+
+    from attribot.errors import ConfigError
+
+    for name in (m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",")):
+        if not name:
+            continue
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            raise ConfigError(
+                f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+            ) from None
 
 
 _USAGE_ERROR: type[typer.BadParameter] = typer.BadParameter.__mro__[1]
