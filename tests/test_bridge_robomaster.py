@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from attribot.bridge.robomaster import LoadCell, RoboMasterDriver, driver_options
+from attribot.bridge.robomaster import AnalogThermometer, LoadCell, RoboMasterDriver, driver_options
 from attribot.bridge.server import Limits, RobotServer
 from attribot.embodiments.base import Capability
 from attribot.embodiments.bridge import BridgeWorld
@@ -273,3 +273,31 @@ def test_the_ep_states_its_body_and_reports_its_pose_and_arm_in_the_bridges_fram
         server.close()
         thread.join(timeout=10)
         driver.close()
+
+
+def test_an_analog_thermometer_on_a_sensor_adaptor_is_stated_in_hello_and_read_over_the_bridge():
+    ep = FakeEP()
+    probe = AnalogThermometer.calibrate(
+        adc_a=100, celsius_a=0.0, adc_b=600, celsius_b=100.0
+    )  # 0.2 degC a count
+    assert _driver(FakeEP()).sensors() == []  # none fitted: the hello states none
+    driver = _driver(ep, thermometer=probe)
+    assert driver.sensors() == ["temperature"]
+    ep.sensor_adaptor.adc[(1, 2)] = 400  # port 2 of adaptor 1, the thermometer's by default
+    server = RobotServer(driver, TOKEN, limits=Limits(watchdog_s=5.0))
+    import threading
+
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        with BridgeWorld(url=f"tcp://127.0.0.1:{server.address[1]}", token=TOKEN) as world:
+            assert "temperature" in world.sensors() and "grip" not in world.sensors()
+            assert world.read_sensor("temperature") == pytest.approx(60.0)
+    finally:
+        server.close()
+        thread.join(timeout=10)
+        driver.close()
+    kwargs = driver_options({"thermometer_celsius_per_count": "0.2", "thermometer_offset": "-20"})
+    assert kwargs["thermometer"].celsius_per_count == 0.2 and kwargs["thermometer"].port == 2
+    with pytest.raises(ValueError, match="needs thermometer_celsius_per_count"):
+        driver_options({"thermometer_offset": "3"})

@@ -3,6 +3,8 @@ same way and keeps the same promises (determinism, finite outputs, protocol shap
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from attribot.models.base import ROLES, BackendStatus, LanguageModel, VisualQA, 
 from attribot.models.base import Detector as DetectorProtocol
 from attribot.planning import PLANNERS, PlanRequest, build_planner
 from attribot.runner import check_program
+from attribot.sensors import SENSORS, Need, check_sensors, sensor_method_doc
 from attribot.sim.scene import LAYOUTS
 
 SMALL = {"width": 160, "height": 120}
@@ -124,3 +127,27 @@ def test_every_world_offers_what_the_servo_controller_uses(name):
     if name == "mujoco":
         with world_cls(**SMALL) as world:
             assert isinstance(world, ServoWorld)
+
+
+@pytest.mark.parametrize("name", SENSORS.names())
+def test_every_sensor_answers_to_its_names_and_the_mujoco_world_reads_it_or_says_why(name):
+    """Every registered sensor: its aliases resolve to it, its method (if any) is documented with an example
+    and its preconditions, and where the embedded world offers it a reading is a number, or NaN where the
+    reading needs a grasp and nothing is held."""
+    sensor = SENSORS.get(name)
+    assert check_sensors([name]) == ["camera"] + ([name] if name != "camera" else [])
+    for alias in sensor.aliases:
+        assert name in check_sensors([alias])
+    if sensor.method is not None:
+        doc = sensor_method_doc(sensor)
+        assert ">>> def execute_command(image, robot):" in doc and f"robot.{sensor.method}(" in doc
+        if sensor.needs is Need.AIM:
+            assert "focus_on_patch" in doc
+        if sensor.needs is Need.GRASP:
+            assert "pick_up" in doc
+    world_cls = EMBODIMENTS.get("mujoco")
+    with world_cls(layout="triplet", seed=3, **SMALL) as world:
+        if name not in world.sensors() or sensor.capability is not None:
+            return
+        value = world.read_sensor(name)
+        assert math.isfinite(value) or (math.isnan(value) and sensor.needs is Need.GRASP)

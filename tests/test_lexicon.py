@@ -73,6 +73,14 @@ PARAPHRASE_EXAMPLES = [
     "which item is hardest to lift",
     "which object is easiest to carry",
     "how many metres away is the lamp",
+    "which kettle has just boiled",
+    "the can that came out of the fridge",
+    "a bottle from the fridge",
+    "which jar has nothing in it",
+    "which bottle needs refilling",
+    "which ball gives the most when you squeeze it",
+    "which ball gives the least when squeezed",
+    "how much is left in the bottle",
 ]
 
 
@@ -86,6 +94,10 @@ PARAPHRASE_EXAMPLES = [
         ("which object is the most to the left?", "which object is leftmost?"),
         ("which thing is furthest from me?", "which thing is furthest from me?"),  # a distance stays one
         ("which item would be hardest to lift?", "which item would be heaviest?"),
+        ("which ball is the hardest?", "which ball is the hardest?"),  # hard to squeeze is no weight
+        ("which can came out of the fridge?", "which can is cold?"),
+        ("which jar has nothing in it", "which jar is empty"),
+        ("how much is left in the bottle?", "how full is the bottle?"),
     ],
 )
 def test_left_and_right_are_positions_and_lifting_is_weight(text, meaning):

@@ -15,7 +15,15 @@ from attribot.api.prompt import _environment, api_reference, build_prompt, offer
 from attribot.errors import InputError, UnsupportedAction
 from conftest import BALLS, BallController, BallWorld, perception_for, world_perception
 
-ALL = ["camera", "distance", "force"]
+ALL = ["camera", "distance", "force", "temperature", "grip"]
+"""Every built-in sensor: what the ball world offers (a sensor a test registers is not among them)."""
+
+
+def offered_to_all(cls: type) -> list[str]:
+    """The API methods of `cls` a robot with ALL may call, in order."""
+    if cls is not Robot:
+        return list(cls.API_METHODS)
+    return [m for m in cls.API_METHODS if Robot.REQUIRES.get(m, "camera") in ALL]
 
 
 def python_block(prompt: str) -> str:
@@ -65,9 +73,9 @@ def test_every_public_method_is_in_the_full_prompt():
         node = classes[cls.__name__]
         methods = [n.name for n in node.body if isinstance(n, ast.FunctionDef)]
         attributes = [n.target.id for n in node.body if isinstance(n, ast.AnnAssign)]
-        assert methods == list(cls.API_METHODS)
+        assert methods == offered_to_all(cls)
         assert attributes == list(cls.API_ATTRIBUTES)
-        for name in cls.API_METHODS:
+        for name in offered_to_all(cls):
             assert ">>> def execute_command(image, robot):" in inspect.getdoc(getattr(cls, name)), name
 
 
@@ -81,7 +89,17 @@ def test_robot_methods_offered_follow_the_sensors():
     )
     assert "This robot's sensors:\n- camera: colour images" in prompt and "- distance:" not in prompt
     offered, missing = offered_robot_methods(["distance"])
-    assert "measure_distance" in offered and missing == {"measure_weight": "force"}
+    assert "measure_distance" in offered
+    assert {"measure_weight": "force", "measure_temperature": "temperature"}.items() <= missing.items()
+    # a sensor's methods and its line in the prompt come with the sensor, and only with it
+    hot = build_prompt("which mug is hot?", ["camera", "infrared thermometer"])
+    robot = [n.name for n in classes_in(hot)["Robot"].body if isinstance(n, ast.FunctionDef)]
+    assert "measure_temperature" in robot and "measure_stiffness" not in robot
+    assert (
+        "- temperature: an infrared thermometer" in hot and "robot.measure_stiffness (needs the grip" in hot
+    )
+    # the docstring teaches the precondition
+    assert "call robot.focus_on_patch(patch) first" in " ".join(hot.split())
     still = build_prompt("the leftmost cup", ALL, embodied=False)
     assert [n for n in classes_in(still)["Robot"].body if isinstance(n, ast.FunctionDef)] == []
     assert "still image" in still and "robot.measure_distance(patch)" not in still
@@ -129,7 +147,7 @@ def example_programs(cls: type, name: str) -> list[str]:
 ALL_EXAMPLES = [
     (cls, name, prog)
     for cls in (ImagePatch, Robot)
-    for name in cls.API_METHODS
+    for name in offered_to_all(cls)
     for prog in example_programs(cls, name)
 ]
 

@@ -120,12 +120,14 @@ def test_every_listed_example_reads_as_its_family():
         MeasureQuery,
         OddQuery,
         Request,
+        SenseQuery,
         SizeQuery,
         WeightQuery,
         YesNoQuery,
     )
 
     kinds = {
+        "senses": SenseQuery,
         "odd one out": OddQuery,
         "location": LocationQuery,
         "size": SizeQuery,

@@ -25,7 +25,7 @@ from attribot.planning.rules import (
 )
 from attribot.session import Scene, ask
 
-ALL = ["camera", "distance", "force"]
+ALL = ["camera", "distance", "force", "temperature", "grip"]
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,8 @@
 
 Commands import their layers lazily so that `attribot --help` stays fast. Every `AttribotError` ends the
 command with its message and fix on stderr and exit code 2 (in `_Commands.invoke`, the one place that
-converts them); nothing prints a traceback at a user.
+converts them); nothing prints a traceback at a user. The modules named in `ATTRIBOT_PLUGINS` are imported
+before any command runs: a lab's own sensors, worlds or layouts register themselves there.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class _Commands(_PlainFlags, TyperGroup):
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
         with termination_as_exit():
             try:
+                _load_plugins()
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
@@ -73,6 +75,28 @@ class _Commands(_PlainFlags, TyperGroup):
                         "input", exc.format_message(), "", "rules" if args[0] == "ask" else "file"
                     )
                 raise
+
+
+PLUGINS_ENV = "ATTRIBOT_PLUGINS"
+"""Comma-separated modules to import before a command runs (a lab's sensors, worlds, layouts)."""
+
+
+def _load_plugins() -> None:
+    import importlib
+    import os
+
+    from attribot.errors import ConfigError
+
+    for name in (m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",")):
+        if not name:
+            continue
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            raise ConfigError(
+                f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+            ) from None
 
 
 _USAGE_ERROR: type[typer.BadParameter] = typer.BadParameter.__mro__[1]
@@ -159,7 +183,8 @@ WORLD_FLAGS = (
     _flag("image", Path | None, "--image", metavar="FILE", help="Answer about this image file instead of a "
           "world."),
     _flag("sensors", str | None, "--sensors", metavar="A,B", help="Comma-separated robot sensors: "
-          "camera,distance,force (default: all the world has)."),
+          "camera, distance, force, temperature (infrared thermometer), grip (a gripper that feels how hard "
+          "it squeezes), a registered sensor's name or the paper's names (default: all the world has)."),
     _flag("controller", str | None, "--controller", metavar="NAME", help="Robot controller: the world's own "
           "(default; in MuJoCo 'servo', which acts on what the camera and sensors perceive) or 'privileged' "
           "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
@@ -662,8 +687,12 @@ dataset_app = typer.Typer(
     no_args_is_help=True,
 )
 app.add_typer(dataset_app, name="dataset")
-_SUITE = typer.Option("paper", "--suite", help="The suite: paper (the paper's five tasks).")
-_TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all five).")
+_SUITE = typer.Option(
+    "paper",
+    "--suite",
+    help="The suite: paper (the paper's five tasks) or senses (temperature, softness, fullness).",
+)
+_TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all of the suite's).")
 _LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")
 
 
@@ -683,11 +712,11 @@ def _writable_folder(folder: Path, flag: str) -> None:
 
 def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     from attribot.errors import InputError
-    from attribot.eval.suite import task_names
+    from attribot.eval.suite import suite_names, task_names
 
-    known = task_names()
-    if suite != "paper":
-        raise InputError(f"unknown suite {suite!r}", "use --suite paper")
+    if suite not in suite_names():
+        raise InputError(f"unknown suite {suite!r}", f"use --suite with one of: {', '.join(suite_names())}")
+    known = task_names(suite)
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else known
     if not chosen:
         raise InputError("--tasks names no task", f"choose from: {', '.join(known)}")

@@ -28,6 +28,7 @@ __all__ = [
     "SIZE_COMPARATIVES",
     "WEIGHT_PHRASES",
     "SURFACE_WORDS",
+    "SENSE_WORDS",
     "surface_kind",
     "paraphrased",
     "words",
@@ -125,6 +126,46 @@ SIZE_COMPARATIVES: dict[str, str] = {
 }  # fmt: skip
 
 
+def _sense(
+    attribute: str, more: bool, absolute: str, comparative: str, superlative: str
+) -> dict[str, tuple[str, bool, str]]:
+    return {
+        absolute: (attribute, more, "absolute"),
+        comparative: (attribute, more, "comparative"),
+        superlative: (attribute, more, "superlative"),
+        f"more {absolute}": (attribute, more, "comparative"),
+        f"most {absolute}": (attribute, more, "superlative"),
+        f"less {absolute}": (attribute, not more, "comparative"),
+        f"least {absolute}": (attribute, not more, "superlative"),
+    }
+
+
+SENSE_WORDS: dict[str, tuple[str, bool, str]] = {
+    **_sense("temperature", True, "hot", "hotter", "hottest"),
+    **_sense("temperature", True, "warm", "warmer", "warmest"),
+    **_sense("temperature", False, "cold", "colder", "coldest"),
+    **_sense("temperature", False, "cool", "cooler", "coolest"),
+    "chilled": ("temperature", False, "absolute"),
+    "boiling": ("temperature", True, "absolute"),
+    **_sense("stiffness", True, "hard", "harder", "hardest"),
+    **_sense("stiffness", True, "firm", "firmer", "firmest"),
+    **_sense("stiffness", True, "stiff", "stiffer", "stiffest"),
+    "rigid": ("stiffness", True, "absolute"),
+    "more rigid": ("stiffness", True, "comparative"),
+    "most rigid": ("stiffness", True, "superlative"),
+    **_sense("stiffness", False, "soft", "softer", "softest"),
+    **_sense("stiffness", False, "squishy", "squishier", "squishiest"),
+    **_sense("stiffness", False, "squashy", "squashier", "squashiest"),
+    "spongy": ("stiffness", False, "absolute"),
+    **_sense("fullness", True, "full", "fuller", "fullest"),
+    "filled": ("fullness", True, "absolute"),
+    **_sense("fullness", False, "empty", "emptier", "emptiest"),
+}
+"""The words of the senses beyond the paper's, each with (its attribute: temperature, stiffness or
+fullness; whether it asks for more of it; its form: absolute "hot", comparative "hotter", superlative
+"hottest"). "Less" and "least" turn the direction round ("the least warm" is the coldest); softness is less
+stiffness."""
+
 ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
     # verb phrases of weight, to the adjective they mean
     (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest"),
@@ -161,6 +202,15 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
     (r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b", "how far away"),
     # distance: "farthest away", "closest by" mean the adjective alone
     (r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b", r"\1"),
+    # what the senses' states are said with: a drink from the fridge is cold, a jar with nothing in it empty
+    (r"\b(?:has|have)\s+(?:just\s+)?(?:been\s+)?boiled\b", "is hot"),
+    (r"\b(?:came|come|comes|is|are|was|were|just)\s+(?:out\s+of|from)\s+the\s+fridge\b", "is cold"),
+    (r"\b(?:from|out\s+of)\s+the\s+fridge\b", "cold"),
+    (r"\b(?:has|have)\s+nothing\s+(?:left\s+)?in\s+(?:it|them)\b", "is empty"),
+    (r"\b(?:needs?|needing)\s+(?:a\s+)?(?:refilling|refill|filling\s+up)\b", "is empty"),
+    (r"\bgives?\s+the\s+most\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the softest"),
+    (r"\bgives?\s+the\s+least\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the hardest"),
+    (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is"),
     # contractions
     (r"\bwhat's\b", "what is"),
     (r"\bwhich's\b", "which is"),
@@ -184,7 +234,8 @@ def paraphrased(text: str) -> str:
 
 
 ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = (
-    "weigh", "mass", "weight", "away", " by", "'s", " size", "left", "right", "lift", "carry",
+    "weigh", "mass", "weight", "away", " by", "'s", " size", "left", "right", "lift", "carry", "boiled",
+    "fridge", "nothing", "refill", "filling", "squeeze",
 )  # fmt: skip
 """Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
 without any can skip the patterns."""

@@ -7,7 +7,8 @@ A preset names one level of imperfection for each part a query goes through:
   viewpoints, a pair of objects confused again and again from there);
 - sensing (the world, `WorldNoise`): rangefinder noise that grows with range, dropouts, a maximum range and
   a beam that hits whatever lies on its true line (an edge, the wall behind a thin object); wrist force
-  noise, a bias and a slow drift since the last tare;
+  noise, a bias and a slow drift since the last tare; infrared thermometer noise, a bias and a field of view
+  that takes in what lies around the object; the gripper's force and closure noise when it squeezes;
 - acting (the world, `WorldNoise`): grasps that fail or slip while lifting, odometry that drifts with the
   distance travelled.
 
@@ -36,9 +37,14 @@ class WorldNoise(BaseModel):
     sensor's own); beam_deg: standard deviation of the beam's pointing error, degrees (it then reads what
     it really hits); force_std: newtons of noise per force reading; force_bias: newtons, the standard
     deviation of an offset drawn once per world (a tare removes it); force_drift: newtons per second, the
-    standard deviation of the drift rate since the last tare; grasp_fail: the chance that a grasp closes on
-    nothing; slip: the chance that a grasped object slips out as the lift starts; odom_drift: metres of
-    odometry error (standard deviation) per metre travelled; seed: the draws' seed.
+    standard deviation of the drift rate since the last tare; temp_std: degrees Celsius of noise per
+    thermometer reading; temp_bias: degrees, the standard deviation of an offset drawn once per world (its
+    calibration); temp_spot_deg: the half-angle of the thermometer's field of view, degrees (0: a point; it
+    then averages what the spot covers, the background round a small object too); grip_std: newtons of
+    noise per gripper force reading; closure_std: metres of noise per gripper closure reading; grasp_fail:
+    the chance that a grasp closes on nothing; slip: the chance that a grasped object slips out as the lift
+    starts; odom_drift: metres of odometry error (standard deviation) per metre travelled; seed: the draws'
+    seed.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -50,6 +56,11 @@ class WorldNoise(BaseModel):
     force_std: float = Field(0.0, ge=0.0, le=100.0, allow_inf_nan=False)
     force_bias: float = Field(0.0, ge=0.0, le=100.0, allow_inf_nan=False)
     force_drift: float = Field(0.0, ge=0.0, le=10.0, allow_inf_nan=False)
+    temp_std: float = Field(0.0, ge=0.0, le=50.0, allow_inf_nan=False)
+    temp_bias: float = Field(0.0, ge=0.0, le=50.0, allow_inf_nan=False)
+    temp_spot_deg: float = Field(0.0, ge=0.0, le=30.0, allow_inf_nan=False)
+    grip_std: float = Field(0.0, ge=0.0, le=10.0, allow_inf_nan=False)
+    closure_std: float = Field(0.0, ge=0.0, le=0.01, allow_inf_nan=False)
     grasp_fail: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
     slip: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
     odom_drift: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
@@ -71,7 +82,9 @@ _PERCEPTION = {
     "confuse_view": 0.03,
     "wrong": 0.1,
 }
-# a hobby-grade ToF ranger and load cell, a gripper without tactile sensing, wheel odometry
+# a hobby-grade ToF ranger and load cell, a gripper without tactile sensing, wheel odometry; an infrared
+# thermometer of the MLX90614 kind (0.5 degC accuracy, a 2-degree field of view), a gripper servo's
+# current and encoder
 _SENSING = {
     "range_std": 0.01,
     "range_dropout": 0.1,
@@ -80,6 +93,11 @@ _SENSING = {
     "force_std": 0.3,
     "force_bias": 1.0,
     "force_drift": 0.005,
+    "temp_std": 0.3,
+    "temp_bias": 0.5,
+    "temp_spot_deg": 1.0,
+    "grip_std": 0.05,
+    "closure_std": 0.00005,
 }
 _ACTING = {"grasp_fail": 0.1, "slip": 0.05, "odom_drift": 0.01}
 

@@ -48,6 +48,17 @@ class Registry(Generic[T]):
 
         return add
 
+    def unregister(self, name: str) -> T:
+        """Remove the plug-in `name` and its aliases (a plug-in registered for a while: a test's); returns
+        it. An unknown name raises `UnknownName`."""
+        self._load()
+        if name not in self._entries:
+            raise UnknownName(
+                f"no {self.kind} {name!r} is registered", f"registered: {', '.join(self.names())}"
+            )
+        self._aliases = {a: n for a, n in self._aliases.items() if n != name}
+        return self._entries.pop(name)
+
     def _load(self) -> None:
         if not self._loaded:
             self._loaded = True

@@ -269,12 +269,13 @@ class Session:
         from attribot.api.robot import Robot
         from attribot.control.base import build_controller
         from attribot.embodiments.base import EMBODIMENTS
+        from attribot.sensors import sensor_names
 
         world_cls: Any = EMBODIMENTS.get(str(self.scene.world))
         world = self.parts.world = world_cls(self.scene.config)
         self.world_started = world.world_time()
-        have = {str(c) for c in world.capabilities()}
-        self.sensors = list(self.scene.sensors or [s for s in ("camera", "distance", "force") if s in have])
+        have = world.sensors()
+        self.sensors = list(self.scene.sensors or [s for s in sensor_names() if s in have])
         controller = build_controller(world, self.scene.controller)
         self.robot = Robot(
             sensors=self.sensors, world=world, controller=controller, safeguards=self.safeguards

@@ -2,7 +2,9 @@
 
 The world is an honest miniature: spheres at known 3D positions, a pinhole camera on a pan/tilt head that
 moves with first-order dynamics and stops at its limits, a rangefinder that intersects the optical axis
-with the spheres, and a force sensor that feels what the gripper holds. Its detector projects the spheres
+with the spheres, a force sensor that feels what the gripper holds, an infrared thermometer along the optical
+axis that reads the temperature of the sphere it hits (the room's when it hits none) and a gripper that
+reads the stiffness of the sphere it holds. Its detector projects the spheres
 through the camera as it was when the frame was taken, so boxes and distances agree the way they would on
 a robot. tests/test_api_fakes.py checks the fakes themselves."""
 
@@ -41,10 +43,13 @@ class Ball:
     center: tuple[float, float, float]  # world metres
     radius: float
     mass: float  # kg
+    celsius: float = 21.0  # its surface temperature
+    n_per_mm: float = 30.0  # its stiffness under the gripper
 
 
 CAM = CameraInfo(width=320, height=240, fx=200.0, fy=200.0, cx=160.0, cy=120.0)
 CAM_HEIGHT = 1.0
+ROOM_C = 21.0
 
 
 def _rot_head_to_world(pan: float, tilt: float, v: np.ndarray) -> np.ndarray:
@@ -94,6 +99,17 @@ class BallWorld(Embodiment):
         c = Capability
         return frozenset({c.CAMERA, c.HEAD, c.POSE, c.DISTANCE, c.FORCE, c.GRIPPER, c.BASE})
 
+    def sensors(self) -> frozenset[str]:
+        return super().sensors() | {"temperature", "grip"}
+
+    def read_sensor(self, name: str) -> float:
+        if name == "temperature":
+            hit = self._on_axis()
+            return hit.celsius if hit is not None else ROOM_C
+        if name == "grip":
+            return self.balls[self.held].n_per_mm if self.held else math.nan
+        return super().read_sensor(name)
+
     def camera_position(self) -> np.ndarray:
         axes = np.array([self.base.x, self.base.y, CAM_HEIGHT])
         return axes + _rot_head_to_world(self.pan, self.tilt, self.cam_offset)
@@ -138,17 +154,22 @@ class BallWorld(Embodiment):
         return self.base
 
     def read_distance(self) -> float:
-        o, d = self.camera_position(), _rot_head_to_world(self.pan, self.tilt, np.array([1.0, 0.0, 0.0]))
-        best = math.inf
-        for b in self.balls.values():
-            oc = o - np.asarray(b.center)
-            half_b = float(d @ oc)
-            disc = half_b**2 - (float(oc @ oc) - b.radius**2)
-            if disc >= 0:
-                t = -half_b - math.sqrt(disc)
-                if 0 < t < best:
-                    best = t
+        hit = self._on_axis()
+        best = self._hit_at(hit) if hit is not None else math.inf
         return best if best < 8.0 else math.inf
+
+    def _hit_at(self, b: Ball) -> float:
+        o, d = self.camera_position(), _rot_head_to_world(self.pan, self.tilt, np.array([1.0, 0.0, 0.0]))
+        oc = o - np.asarray(b.center)
+        half_b = float(d @ oc)
+        disc = half_b**2 - (float(oc @ oc) - b.radius**2)
+        return -half_b - math.sqrt(disc) if disc >= 0 else math.inf
+
+    def _on_axis(self) -> Ball | None:
+        """The first sphere the optical axis meets, or None."""
+        hits = [(self._hit_at(b), b.id) for b in self.balls.values()]
+        near = [(t, i) for t, i in hits if 0 < t < math.inf]
+        return self.balls[min(near)[1]] if near else None
 
     def tare_force(self) -> None:
         self.tare = self._raw_force()

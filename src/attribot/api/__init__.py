@@ -10,14 +10,14 @@ or, for a still image: image = ImagePatch.from_image(path, perception); robot = 
 from attribot.api.errors import ActionFailed, ApiArgumentError, ApiError, MissingSensor, PreconditionError
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
-from attribot.api.robot import SENSORS, Measurement, Robot
+from attribot.api.robot import Measurement, Robot, sensor_names
 
 __all__ = [
     "ImagePatch",
     "Robot",
     "Perception",
     "Measurement",
-    "SENSORS",
+    "sensor_names",
     "ApiError",
     "ApiArgumentError",
     "MissingSensor",

@@ -23,9 +23,10 @@ from typing import Any
 import jinja2
 
 from attribot.api.patch import ImagePatch
-from attribot.api.robot import SENSOR_MEANINGS, SENSORS, Robot, check_sensors
+from attribot.api.robot import Robot
 from attribot.config import MAX_QUERY_CHARS
 from attribot.errors import InputError
+from attribot.sensors import SENSORS, check_sensors, sensor_names
 
 __all__ = ["build_prompt", "api_reference", "offered_robot_methods", "MAX_QUERY_CHARS", "ENTRY_POINT"]
 
@@ -128,7 +129,8 @@ def _load_template(name: str) -> str:
 
 
 def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True, findable: str = "") -> str:
-    """The whole prompt for `query` and a robot with `sensors` (names from SENSORS).
+    """The whole prompt for `query` and a robot with `sensors` (names or aliases of the sensors registered in
+    `attribot.sensors.SENSORS`).
 
     embodied=False says the query runs on a still image: no robot action is offered. `findable` says what
     the detector can find in this world (`Perception.findable`); empty: the prompt says nothing of it.
@@ -149,8 +151,8 @@ def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True, f
             api=api_reference(have, embodied),
             entry_point=ENTRY_POINT,
             sensors=have,
-            known_sensors=SENSORS,
-            measures=SENSOR_MEANINGS,
+            known_sensors=sensor_names(),
+            measures={name: SENSORS.get(name).measures for name in have},
             findable=findable,
             embodied=embodied,
             offered=offered,

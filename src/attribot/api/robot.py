@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import inspect
 import math
-from collections.abc import Sequence
-from typing import Any, ClassVar, Literal
+from collections.abc import Callable, Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -23,65 +23,24 @@ from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
 from attribot.control.base import Capture, ControlError, Controller, Target, build_controller
-from attribot.embodiments.base import Capability, Embodiment
-from attribot.errors import InputError, UnsupportedAction
+from attribot.embodiments.base import Embodiment
+from attribot.errors import ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo
+from attribot.sensors import (
+    SENSORS,
+    Need,
+    Sensor,
+    check_sensors,
+    sensor_method_doc,
+    sensor_names,
+    sensor_of_method,
+)
+from attribot.sim.catalog import categories, find_category
 
-__all__ = ["Robot", "Measurement", "SENSORS", "SENSOR_MEANINGS", "SENSOR_ALIASES", "GRAVITY", "check_sensors"]
-
-SENSORS: tuple[str, ...] = ("camera", "distance", "force")
-"""The sensor names a robot can be given, as `--sensors` takes them."""
-
-SENSOR_MEANINGS: dict[str, str] = {
-    "camera": "colour images (and depth where the world has it): what image.find and visual_query look at",
-    "distance": "an infrared rangefinder: the distance in metres from the robot to the object centred in "
-    "front of it (robot.measure_distance)",
-    "force": "a force sensor at the wrist: the weight of the object held in the gripper, in kilograms "
-    "(robot.measure_weight)",
-}
-"""What each sensor measures, in the prompt's words."""
-
-SENSOR_ALIASES: dict[str, tuple[str, ...]] = {
-    **dict.fromkeys(("rgb camera", "color camera", "colour camera", "rgb"), ("camera",)),
-    **dict.fromkeys(
-        (
-            "distance sensor",
-            "proximity sensor",
-            "range sensor",
-            "rangefinder",
-            "range finder",
-            "infrared sensor",
-            "infrared distance sensor",
-            "ir sensor",
-            "tof sensor",
-            "time of flight sensor",
-            "depth sensor",
-        ),
-        ("distance",),
-    ),
-    # a depth camera sees and measures how far what it sees is: both our camera and rangefinder
-    **dict.fromkeys(("depth camera", "rgb-d camera", "rgbd camera"), ("camera", "distance")),
-    **dict.fromkeys(
-        (
-            "force sensor",
-            "force/torque sensor",
-            "force torque sensor",
-            "force-torque sensor",
-            "f/t sensor",
-            "ft sensor",
-            "wrist force sensor",
-            "load cell",
-            "weight sensor",
-        ),
-        ("force",),
-    ),
-}
-"""Other names of the sensors, the paper's among them ("distance sensor", "force/torque sensor")."""
+__all__ = ["Robot", "Measurement", "GRAVITY", "check_sensors", "sensor_names"]
 
 GRAVITY = 9.81
 """m/s^2, as MuJoCo's default gravity; converts the measured weight (newtons) to mass (kilograms)."""
-
-_CAPABILITY_OF = {"camera": Capability.CAMERA, "distance": Capability.DISTANCE, "force": Capability.FORCE}
 
 
 class Measurement(BaseModel):
@@ -89,19 +48,26 @@ class Measurement(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    kind: Literal["distance", "weight"]
+    kind: str  # the quantity: distance, weight, temperature, stiffness, fullness, or a plug-in sensor's
     object_id: str | None
     label: str
-    value: float  # metres or kilograms
-    unit: Literal["m", "kg"]
+    value: float  # in `unit`
+    unit: str  # m, kg, °C, N/mm, "full" (a share of the container's capacity), or a plug-in sensor's
     newtons: float | None = None  # the weight as the force sensor measured it
     samples: int = 1
     uncertainty: float = 0.0  # one standard deviation, in `unit`
+    method: str = ""  # the Robot method that measured it: how `settle` measures again
 
     def reading(self) -> str:
-        """The value as a person reads it: "0.308 kg (3.02 N)", "1.211 m"."""
+        """The value as a person reads it: "0.308 kg (3.02 N)", "1.211 m", "84.6 °C", "95% full"."""
         if self.unit == "kg" and self.newtons is not None:
             return f"{self.value:.3f} kg ({self.newtons:.2f} N)"
+        if self.unit == FULL:
+            return f"{100 * self.value:.0f}% full"
+        if self.unit == "°C":
+            return f"{self.value:.1f} °C"
+        if self.unit == "N/mm":
+            return f"{self.value:.2f} N/mm"
         return f"{self.value:.3f} {self.unit}"
 
     def describe(self) -> str:
@@ -116,10 +82,16 @@ def object_name(object_id: str | None, label: str | None) -> str:
     return label or "the object"
 
 
+FULL = "full"
+"""The unit of a fullness: the share of a container's capacity its contents fill (0 empty, 1 full)."""
+
 _DOING = {
     "focus_on_patch": "turning the camera to",
     "measure_distance": "measuring the distance to",
     "measure_weight": "weighing",
+    "measure_fullness": "weighing",
+    "measure_temperature": "taking the temperature of",
+    "measure_stiffness": "squeezing",
     "go_to_object": "driving to",
     "pick_up": "picking up",
     "put_on": "putting the held object on",
@@ -128,17 +100,39 @@ _DOING = {
 """What an episode video's caption says a robot method is doing, before the object's name."""
 
 
-class Robot:
+class _RobotApi(type):
+    """The metaclass of `Robot`: a program's Robot methods are its own (`OWN_METHODS`) and one per registered
+    sensor that names a method (`attribot.sensors.Sensor.method`), read from the registry whenever they are
+    asked for, so that a sensor registered later (a lab's own) is offered like the built-in ones."""
+
+    @property
+    def API_METHODS(cls) -> tuple[str, ...]:
+        """The methods a program may call, in the prompt's order: the sensors' methods after the
+        measurements of the robot's own."""
+        own = Robot.OWN_METHODS
+        at = own.index("uncertainty")
+        return (*own[:at], *_install_sensor_methods(), *own[at:])
+
+    @property
+    def REQUIRES(cls) -> dict[str, str]:
+        """The sensor each method needs (methods not listed need none); the prompt offers a method only
+        when the robot has its sensor."""
+        sensors = {m: s.name for m in _install_sensor_methods() if (s := sensor_of_method(m)) is not None}
+        return {**Robot.OWN_REQUIRES, **sensors}
+
+
+class Robot(metaclass=_RobotApi):
     """The robot that carries the camera. It can move, act on objects, and measure what a camera cannot
     see. Its methods take ImagePatch objects returned by image.find(...).
     """
 
     API_KIND: ClassVar[str] = "action"  # what a failing call of this class counts as
     API_ATTRIBUTES: ClassVar[tuple[str, ...]] = ("sensors",)
-    API_METHODS: ClassVar[tuple[str, ...]] = (
+    OWN_METHODS: ClassVar[tuple[str, ...]] = (
         "focus_on_patch",
         "measure_distance",
         "measure_weight",
+        "measure_fullness",
         "uncertainty",
         "go_to_coords",
         "go_to_object",
@@ -147,13 +141,13 @@ class Robot:
         "put_on",
         "push",
     )
-    REQUIRES: ClassVar[dict[str, str]] = {
+    """The methods the class defines itself; `API_METHODS` adds the sensors' (see `_RobotApi`)."""
+    OWN_REQUIRES: ClassVar[dict[str, str]] = {
         "focus_on_patch": "camera",
         "measure_distance": "distance",
         "measure_weight": "force",
+        "measure_fullness": "force",
     }
-    """The sensor each method needs (methods not listed need none); the prompt offers a method only when
-    the robot has its sensor."""
     HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
         "world",
         "controller",
@@ -201,6 +195,7 @@ class Robot:
         """Host side: a robot with `sensors` in `world` (None: a still image, every action refused), acting
         through `controller` (default: the one registered for the world, see attribot.control.base), with
         the error-catching mechanisms of `safeguards` (default: all on)."""
+        _install_sensor_methods()  # the methods of sensors registered since the class was last asked
         self._sensors: list[str] = check_sensors(sensors)
         self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
         if world is not None and not isinstance(world, Embodiment):
@@ -208,9 +203,9 @@ class Robot:
                 f"Robot needs an attribot.embodiments.base.Embodiment, got {type(world).__name__}"
             )
         if world is not None:
-            have = {str(c) for c in world.capabilities()}
+            have = world.sensors()
             for sensor in self.sensors:
-                if str(_CAPABILITY_OF[sensor]) not in have:
+                if sensor not in have:
                     raise UnsupportedAction(
                         f"the world {world.name!r} has no {sensor} sensor",
                         f"leave {sensor!r} out of --sensors; this world offers: "
@@ -224,6 +219,7 @@ class Robot:
         self._measured: list[tuple[Measurement, ImagePatch]] = []
         self.capture: Capture | None = None
         self._near: ImagePatch | None = None
+        self._aimed: ImagePatch | None = None  # what the camera was last centred on, since the robot moved
         self._captures = 0
         self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
         self.activity = ""  # the action under way, naming its object ("weighing mug 0"): videos show it
@@ -265,6 +261,7 @@ class Robot:
                 if body is not None:
                     self._image.survey = Survey.take(self.world, View(frame, self.capture), body)
         self._acted_on = []
+        self._aimed = None
         return self._image
 
     def settle(self, chosen: ImagePatch) -> str | None:
@@ -278,7 +275,8 @@ class Robot:
         mine = [(m, p) for m, p in self._measured if p.same_object(chosen) or p is chosen]
         if not mine:
             return None
-        kind = mine[-1][0].kind
+        last = mine[-1][0]
+        kind, unit = last.kind, last.unit
         for round_ in range(self.SETTLE_ROUNDS + 1):
             values = self._combined(kind)
             me = next((v for v in values if v[2].same_object(chosen) or v[2] is chosen), None)
@@ -293,7 +291,6 @@ class Robot:
                 return None
             if round_ == self.SETTLE_ROUNDS:
                 rival = close[0]
-                unit = "kg" if kind == "weight" else "m"
                 text = (
                     f"cannot tell {_named(chosen)} ({me[0]:.3f} +/- {me[1]:.3f} {unit}) from "
                     f"{_named(rival[2])} ({rival[0]:.3f} +/- {rival[1]:.3f} {unit}): "
@@ -302,7 +299,7 @@ class Robot:
                 self.safeguards.note("confidence", call, "unsettled", text)
                 return text
             for _value, _error, patch in [me, *close]:
-                self._measure_again(kind, patch)
+                self._measure_again(last.method or _METHOD_OF_KIND.get(kind, ""), patch)
         return None
 
     def _combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
@@ -323,16 +320,24 @@ class Robot:
             out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
         return out
 
-    def _measure_again(self, kind: str, patch: ImagePatch) -> None:
-        if kind == "distance":
-            self.measure_distance(patch)
-            return
-        if self.held is not None:
+    def _measure_again(self, method: str, patch: ImagePatch) -> None:
+        """Measure `patch` again with `method`, arranging first what its reading needs."""
+        sensor = sensor_of_method(method)
+        needs = sensor.needs if sensor is not None else _NEEDS.get(method, Need.NOTHING)
+        measure = getattr(self, method)
+        if needs is Need.GRASP:
+            if self.held is not None:
+                self.put_down()
+            self.go_to_object(patch)
+            self.pick_up(patch)
+            measure(patch)
             self.put_down()
-        self.go_to_object(patch)
-        self.pick_up(patch)
-        self.measure_weight(patch)
-        self.put_down()
+            return
+        if needs is Need.REACH:
+            self.go_to_object(patch)
+        elif needs is Need.AIM and method != "measure_distance":  # which centres the camera itself
+            self.focus_on_patch(patch)
+        measure(patch)
 
     def snapshot(self) -> Any:
         """Host side: the robot's state now (pose, head, arm, gripper), or None where the world cannot
@@ -346,6 +351,7 @@ class Robot:
         self.world.restore(snapshot)
         self.held = None
         self._near = None
+        self._aimed = None
         self._image = image
         self.capture = image.capture
         self._acted_on = []
@@ -372,7 +378,7 @@ class Robot:
         return str(getattr(self.controller, "name", type(self.controller).__name__))
 
     def _need(self, method: str) -> None:
-        sensor = self.REQUIRES.get(method)
+        sensor = type(self).REQUIRES.get(method)
         if sensor is not None and sensor not in self.sensors:
             if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
                 wanted = [*self.sensors, sensor]
@@ -440,6 +446,7 @@ class Robot:
         centre and correct up to FOCUS_CORRECTIONS times: this absorbs what the controller's geometry
         ignores (the camera's offset from the head axes, head tracking error)."""
         self.controller.focus_on(target)
+        self._aimed = patch
         for _ in range(self.FOCUS_CORRECTIONS):
             seen = self._reacquire(patch)
             if seen is None:
@@ -517,7 +524,15 @@ class Robot:
         self._focus(p, target)
         assert self.world is not None  # _target checked it
         metres, spread, samples = self._read_range(p)
-        self._record(p, kind="distance", value=metres, unit="m", samples=samples, uncertainty=spread)
+        self._record(
+            p,
+            kind="distance",
+            value=metres,
+            unit="m",
+            samples=samples,
+            uncertainty=spread,
+            method="measure_distance",
+        )
         return metres
 
     def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
@@ -641,8 +656,133 @@ class Robot:
             newtons=newtons,
             samples=samples,
             uncertainty=error / GRAVITY,
+            method="measure_weight",
         )
         return kg
+
+    def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
+        """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call."""
+        if self.held is not None and self.held.same_object(p):
+            return
+        holding = (
+            f"the robot holds {self.held.label or 'another object'}"
+            if self.held
+            else "the robot holds nothing"
+        )
+        raise PreconditionError(
+            f"robot.{method}() needs {target.describe()} in the gripper, and {holding}",
+            ("call robot.put_down() first, then " if self.held else "call ")
+            + f"robot.go_to_object(patch) and robot.pick_up(patch) before robot.{method}(patch)",
+        )
+
+    def measure_fullness(self, patch: ImagePatch) -> float:
+        """Returns how full the container in `patch` is, from 0 (empty) to 1 (full), found by weighing it with
+        the force sensor and taking away the mass of such a container when empty (a bottle, a mug, a jar).
+        An empty and a full bottle look the same: only weighing tells. The container must be held: call
+        robot.go_to_object(patch) and robot.pick_up(patch) first, and robot.put_down() afterwards.
+
+        >>> # which bottle is empty?
+        >>> def execute_command(image, robot):
+        >>>     emptiest, emptiest_fill = None, 0.0
+        >>>     for bottle in image.find("bottle"):
+        >>>         robot.go_to_object(bottle)
+        >>>         robot.pick_up(bottle)
+        >>>         fill = robot.measure_fullness(bottle)
+        >>>         robot.put_down()
+        >>>         if emptiest is None or fill < emptiest_fill:
+        >>>             emptiest, emptiest_fill = bottle, fill
+        >>>     return emptiest
+        """
+        self._need("measure_fullness")
+        p, target = self._target(patch, "measure_fullness")
+        kind = find_category(p.label or "")
+        if kind is None or not kind.container or kind.empty_kg is None:
+            known = ", ".join(c.name for c in categories() if c.container)
+            raise ApiArgumentError(
+                f"robot.measure_fullness() knows how much an empty {known} weighs, and not a "
+                f"{p.label or 'patch without a name'}",
+                "weigh it with robot.measure_weight(patch) and compare it with others of its kind",
+            )
+        self._held_for(p, target, "measure_fullness")
+        newtons, error, samples = self._weigh(p)
+        lo, hi = kind.empty_kg
+        empty_sd = (hi - lo) / math.sqrt(12.0)  # the empty mass of one such container, uniform in its range
+        fill = (newtons / GRAVITY - (lo + hi) / 2.0) / kind.capacity_kg
+        spread = math.hypot(error / GRAVITY, empty_sd) / kind.capacity_kg
+        value = min(max(fill, 0.0), 1.0)
+        self._record(
+            p,
+            kind="fullness",
+            value=value,
+            unit=FULL,
+            newtons=newtons,
+            samples=samples,
+            uncertainty=spread,
+            method="measure_fullness",
+        )
+        return value
+
+    def _sense(self, sensor: Sensor, patch: ImagePatch) -> float:
+        """A reading of a registered sensor through its method: checks the sensor, the object and what the
+        reading needs, then reads (several readings with `remeasure`) and records the measurement."""
+        method = str(sensor.method)
+        self._need(method)
+        p, target = self._target(patch, method)
+        assert self.world is not None  # _target checked it
+        if sensor.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
+            raise PreconditionError(
+                f"robot.{method}() reads whatever the camera is centred on, and it is not centred on "
+                f"{target.describe()}",
+                f"call robot.focus_on_patch(patch) right before robot.{method}(patch)",
+            )
+        if sensor.needs is Need.REACH and (self._near is None or not self._near.same_object(p)):
+            raise PreconditionError(
+                f"robot.{method}() needs the robot next to {target.describe()}",
+                f"call robot.go_to_object(patch) right before robot.{method}(patch)",
+            )
+        if sensor.needs is Need.GRASP:
+            self._held_for(p, target, method)
+        value, spread, count = self._read_sensor(sensor, p)
+        self._record(
+            p,
+            kind=sensor.quantity,
+            value=value,
+            unit=sensor.unit,
+            samples=count,
+            uncertainty=spread,
+            method=method,
+        )
+        return value
+
+    def _read_sensor(self, sensor: Sensor, p: ImagePatch) -> tuple[float, float, int]:
+        """The sensor's reading of `p`: (value, one standard deviation, readings used). With `remeasure`,
+        `sensor.readings` readings are combined (the ones that read nothing left out)."""
+        assert self.world is not None
+        guards = self.safeguards
+        count = sensor.readings if guards.on("remeasure") else 1
+        call = f"{sensor.method}({p.label or 'patch'})"
+        readings = []
+        for i in range(count):
+            value = float(self.world.read_sensor(sensor.name))
+            if math.isfinite(value):
+                readings.append(value)
+            if count > 1 and i + 1 < count and sensor.needs is not Need.GRASP:
+                self.world.step(0.02)
+        if count > 1:
+            empty = count - len(readings)
+            guards.note(
+                "remeasure", call, "caught" if empty else "confirmed", f"{count} readings, {empty} empty"
+            )
+        if not readings:
+            raise ActionFailed(
+                f"the {sensor.name} sensor read nothing from {p.label or 'the object'}",
+                "check what the reading needs ("
+                + str(sensor.needs)
+                + "), or compare the objects another way",
+            )
+        mean = sum(readings) / len(readings)
+        spread = _std(readings) / math.sqrt(len(readings)) if len(readings) > 1 else 0.0
+        return mean, max(spread, sensor.resolution, sensor.relative * abs(mean)), len(readings)
 
     def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
         """The held load in newtons, its standard error and the readings used. A short window is averaged
@@ -727,7 +867,7 @@ class Robot:
             )
         v = (h - fy) if h is not None else -fy  # y upward -> pixel row
         self.controller.go_to_coords(Target(box=(fx, v, fx, v), capture=self.capture, label="point"))
-        self._near = None
+        self._near = self._aimed = None
 
     def go_to_object(self, patch: ImagePatch) -> None:
         """Drives the robot next to the object in `patch`, close enough to pick it up.
@@ -754,6 +894,7 @@ class Robot:
                 self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying {how}")
                 target = fresh
         self._near = p
+        self._aimed = None
 
     def _seen_from_here(self, p: ImagePatch, target: Target) -> Target:
         """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
@@ -808,6 +949,7 @@ class Robot:
                 target = self._seen_from_here(p, target)  # a failed grasp may have moved it
                 self.controller.approach(target)
         self.held = p
+        self._aimed = None
 
     def put_down(self) -> None:
         """Puts the held object back down where it was picked up.
@@ -829,7 +971,7 @@ class Robot:
                 "call robot.pick_up(patch) before robot.put_down()",
             )
         self.controller.put_down()
-        self.held = None
+        self.held = self._aimed = None
 
     def put_on(self, patch: ImagePatch) -> None:
         """Places the held object on top of the object in `patch`.
@@ -850,7 +992,7 @@ class Robot:
                 "call robot.go_to_object(obj) and robot.pick_up(obj) first",
             )
         self.controller.put_on(target)
-        self.held = None
+        self.held = self._aimed = None
 
     def push(self, patch: ImagePatch) -> None:
         """Pushes the object in `patch` away from the robot.
@@ -863,7 +1005,7 @@ class Robot:
         """
         _, target = self._target(patch, "push")
         self.controller.push(target)
-        self._near = None
+        self._near = self._aimed = None
 
 
 class _RobotWithSensors(Robot):
@@ -896,33 +1038,59 @@ def _through_view(name: str) -> Any:
     return method
 
 
-for _name in Robot.API_METHODS:
+for _name in Robot.OWN_METHODS:
     setattr(_RobotWithSensors, _name, _through_view(_name))
 
 
-def check_sensors(sensors: Sequence[str]) -> list[str]:
-    """Sensor names lower-cased, deduplicated, "camera" first (always present); unknown names raise."""
-    if not isinstance(sensors, list | tuple) or not all(isinstance(s, str) for s in sensors):
-        raise InputError(
-            f"sensors must be a list of names, got {sensors!r}",
-            f"e.g. Robot(sensors=['camera', 'distance']); known: {', '.join(SENSORS)}",
-        )
-    out: list[str] = []
-    for s in sensors:
-        name = " ".join(s.strip().lower().replace("_", " ").split())
-        if name not in SENSORS and name not in SENSOR_ALIASES:
-            raise InputError(
-                f"unknown sensor {s!r}: this robot has no such sensor",
-                f"choose from: {', '.join(SENSORS)} (e.g. --sensors camera,distance); the paper's names "
-                "work too: 'distance sensor', 'force/torque sensor', 'depth camera'",
-            )
-        for sensor in SENSOR_ALIASES.get(name, (name,)):
-            if sensor not in out:
-                out.append(sensor)
-    if "camera" not in out:
-        out.insert(0, "camera")  # every robot here sees through its camera: the image is the program's input
-    return out
+def _sensor_method(sensor: Sensor) -> Callable[..., float]:
+    """The Robot method a program calls to read `sensor` (`robot.measure_temperature(patch)`), documented
+    by the sensor's own docstring; what it does is `Robot._sense`."""
 
+    def method(self: Robot, patch: ImagePatch) -> float:
+        return self._sense(sensor, patch)
+
+    method.__name__ = method.__qualname__ = str(sensor.method)
+    method.__doc__ = sensor_method_doc(sensor)
+    method.__annotations__ = {"patch": "ImagePatch", "return": "float"}
+    method.sensor_name = sensor.name  # type: ignore[attr-defined]
+    return method
+
+
+def _install_sensor_methods() -> list[str]:
+    """Give Robot (and the view a program's `Robot(sensors=...)` makes) a method for each registered sensor
+    that names one, once; the names, in the registry's order."""
+    names = []
+    for cls in (Robot, _RobotWithSensors):  # a sensor taken out of the registry takes its method along
+        for name, value in list(vars(cls).items()):
+            owner = getattr(value, "sensor_name", None)
+            if owner is not None and (owner not in SENSORS or SENSORS.get(owner).method != name):
+                delattr(cls, name)
+    for _, sensor in SENSORS.items():
+        if sensor.method is None:
+            continue
+        have = Robot.__dict__.get(sensor.method)
+        if have is None:
+            setattr(Robot, sensor.method, _sensor_method(sensor))
+            view = _through_view(sensor.method)
+            view.sensor_name = sensor.name
+            setattr(_RobotWithSensors, sensor.method, view)
+        elif getattr(have, "sensor_name", None) != sensor.name:
+            raise ConfigError(
+                f"the {sensor.name} sensor names its method robot.{sensor.method}, which Robot has already",
+                "give the sensor another method name (Sensor(method=...))",
+            )
+        names.append(sensor.method)
+    return names
+
+
+_METHOD_OF_KIND = {"distance": "measure_distance", "weight": "measure_weight", "fullness": "measure_fullness"}
+"""The method behind a measurement of the robot's own kinds (for measurements recorded without one)."""
+_NEEDS = {
+    "measure_distance": Need.AIM,
+    "measure_weight": Need.GRASP,
+    "measure_fullness": Need.GRASP,
+}
+"""What the robot's own measurements need (a sensor's method says it in its record)."""
 
 _RETRYABLE = ("target lost", "not reachable", "did not converge", "blocked")
 """Approach failures another try from where the robot now stands can mend (a new view, another path)."""

@@ -26,6 +26,17 @@ The driver states the EP's body in its hello (`body()`, from `attribot.bridge.ro
 camera on the arm is for each pose of the arm, how far the gripper reaches, the chassis's size. With it and
 the pose capability (odometry and the arm's position), the host's servo controller drives to objects,
 picks them up and puts them back by perception (docs/bridge-protocol.md, "The RoboMaster EP's body").
+
+Optional sensors (`sensors()` in the hello, read with `read`), through the sensor adaptor's ADC as well
+(docs/bridge-protocol.md, "RoboMaster EP optional sensors"):
+- `temperature`: an infrared thermometer with an analog output (a thermopile module, e.g. a Melexis
+  MLX90614 in its PWM/analog mode behind an RC filter, or an MLX90614-to-voltage board), mounted beside
+  the ToF sensor between the fingers and aimed along its beam, on an adaptor port: celsius = offset +
+  adc * slope (`AnalogThermometer`, calibrated against two known temperatures).
+- `grip` (not driven here): a squeeze needs the fingers' force and their closure. The EP's gripper reports
+  only opened / closed / stalled, so it would take a force-sensing resistor on a finger pad on one ADC port
+  and a linear potentiometer on the finger linkage on the other port of the same adaptor, closed step by
+  step with `gripper.close(power)`; the driver states no `grip` sensor until both are fitted.
 """
 
 from __future__ import annotations
@@ -38,7 +49,7 @@ from typing import Any
 from attribot.bridge.robomaster_body import EP_BODY, from_sdk_mm, to_sdk_mm
 from attribot.bridge.server import CameraFrame, Driver
 
-__all__ = ["LoadCell", "RoboMasterDriver"]
+__all__ = ["LoadCell", "AnalogThermometer", "RoboMasterDriver"]
 
 _GRAVITY = 9.80665
 
@@ -80,6 +91,32 @@ class LoadCell:
         return LoadCell(mass_kg * _GRAVITY / (loaded_adc - zero_adc), zero_adc, board_id, port)
 
 
+class AnalogThermometer:
+    """An infrared thermometer with an analog output on a sensor adaptor ADC port: celsius = offset_c +
+    adc * celsius_per_count (`calibrate` from two readings at known temperatures)."""
+
+    def __init__(
+        self, celsius_per_count: float, offset_c: float = 0.0, board_id: int = 1, port: int = 2
+    ) -> None:
+        if not (celsius_per_count != 0 and math.isfinite(celsius_per_count) and math.isfinite(offset_c)):
+            raise ValueError("celsius_per_count must be a non-zero number (calibrate at two temperatures)")
+        self.celsius_per_count = float(celsius_per_count)
+        self.offset_c = float(offset_c)
+        self.board_id = int(board_id)
+        self.port = int(port)
+
+    @staticmethod
+    def calibrate(
+        adc_a: float, celsius_a: float, adc_b: float, celsius_b: float, board_id: int = 1, port: int = 2
+    ) -> AnalogThermometer:
+        """The thermometer that read `adc_a` aimed at something at `celsius_a` and `adc_b` at `celsius_b`
+        (e.g. iced water and boiled water in matt black mugs)."""
+        if adc_a == adc_b:
+            raise ValueError("both readings are equal: check the wiring and the two temperatures")
+        slope = (celsius_b - celsius_a) / (adc_b - adc_a)
+        return AnalogThermometer(slope, celsius_a - adc_a * slope, board_id, port)
+
+
 class RoboMasterDriver(Driver):
     """A RoboMaster EP (engineering version: chassis, arm, gripper, camera, ToF) behind the bridge."""
 
@@ -91,6 +128,7 @@ class RoboMasterDriver(Driver):
         robot: Any,
         *,
         load_cell: LoadCell | None = None,
+        thermometer: AnalogThermometer | None = None,
         resolution: str = "360p",
         hfov_deg: float = 96.0,
         tof_index: int = 0,
@@ -106,6 +144,7 @@ class RoboMasterDriver(Driver):
             raise ValueError(f"resolution must be one of {sorted(sizes)}, got {resolution!r}")
         self.robot = robot
         self.load_cell = load_cell
+        self.thermometer = thermometer
         self.resolution = resolution
         self.width, self.height = sizes[resolution]
         self.fx = (self.width / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
@@ -238,14 +277,26 @@ class RoboMasterDriver(Driver):
             mm = self._tof_mm
         return math.inf if mm is None or mm <= 0 else mm / 1000.0
 
-    def _adc(self) -> float:
-        cell = self.load_cell
-        if cell is None:
-            raise RuntimeError("no load cell is configured")
-        value = self.robot.sensor_adaptor.get_adc(id=cell.board_id, port=cell.port)
+    def _adc(self, board_id: int | None = None, port: int | None = None) -> float:
+        """An ADC reading of a sensor adaptor port (the load cell's, unless another is named)."""
+        if board_id is None or port is None:
+            cell = self.load_cell
+            if cell is None:
+                raise RuntimeError("no load cell is configured")
+            board_id, port = cell.board_id, cell.port
+        value = self.robot.sensor_adaptor.get_adc(id=board_id, port=port)
         if value is None:
-            raise RuntimeError(f"sensor adaptor {cell.board_id} port {cell.port} gave no ADC reading")
+            raise RuntimeError(f"sensor adaptor {board_id} port {port} gave no ADC reading")
         return float(value)
+
+    def sensors(self) -> list[str]:
+        return ["temperature"] if self.thermometer is not None else []
+
+    def read_sensor(self, name: str) -> float:
+        probe = self.thermometer
+        if name != "temperature" or probe is None:
+            raise RuntimeError(f"no {name} sensor is configured")
+        return probe.offset_c + self._adc(probe.board_id, probe.port) * probe.celsius_per_count
 
     def tare_force(self) -> None:
         cell = self.load_cell
@@ -285,6 +336,10 @@ OPTIONS = {
     "load_cell_zero": "load cell ADC reading with nothing held (default 0; tare_force re-zeroes it)",
     "load_cell_board": "sensor adaptor id of the load cell, 1 to 8 (default 1)",
     "load_cell_port": "sensor adaptor port of the load cell, 1 or 2 (default 1)",
+    "thermometer_celsius_per_count": "degC per ADC count of an analog infrared thermometer; none: leave out",
+    "thermometer_offset": "degC at ADC count 0, from the thermometer's two-point calibration (default 0)",
+    "thermometer_board": "sensor adaptor id of the thermometer, 1 to 8 (default 1)",
+    "thermometer_port": "sensor adaptor port of the thermometer, 1 or 2 (default 2)",
 }
 
 
@@ -309,4 +364,13 @@ def driver_options(options: dict[str, Any]) -> dict[str, Any]:
         )
     elif any(k.startswith("load_cell_") for k in options):
         raise ValueError("a load cell needs load_cell_newtons_per_count (see docs/bridge-protocol.md)")
+    if "thermometer_celsius_per_count" in options:
+        out["thermometer"] = AnalogThermometer(
+            float(options["thermometer_celsius_per_count"]),
+            float(options.get("thermometer_offset", 0.0)),
+            int(options.get("thermometer_board", 1)),
+            int(options.get("thermometer_port", 2)),
+        )
+    elif any(k.startswith("thermometer_") for k in options):
+        raise ValueError("a thermometer needs thermometer_celsius_per_count (see docs/bridge-protocol.md)")
     return out

@@ -52,7 +52,10 @@ class Driver:
 
     `realtime` drivers run on the wall clock (`step` waits); simulated ones advance their clock in `step`.
     A driver lists what it can do in `capabilities()` (the names of `attribot.embodiments.base.Capability`)
-    and overrides those calls; `stop()` must halt the base and hold the arm where it is.
+    and overrides those calls; `stop()` must halt the base and hold the arm where it is. Sensors beyond the
+    camera, the rangefinder and the force sensor (an infrared thermometer, a gripper that measures how hard
+    it squeezes, a lab's own: the names of `attribot.sensors`) are listed in `sensors()` and read with
+    `read_sensor(name)`; a driver with none lists none, as drivers written before them do.
     """
 
     name = "driver"
@@ -105,6 +108,14 @@ class Driver:
         raise NotImplementedError
 
     def pose(self) -> list[float]:
+        raise NotImplementedError
+
+    def sensors(self) -> list[str]:
+        """The names of the optional sensors this robot reads with `read_sensor` (stated in its hello)."""
+        return []
+
+    def read_sensor(self, name: str) -> float:
+        """One reading of the optional sensor `name`, in its unit (NaN: it read nothing)."""
         raise NotImplementedError
 
     def joints(self) -> dict[str, float]:
@@ -441,6 +452,9 @@ class RobotServer:
         body = self.driver.body()
         if body is not None:
             reply["body"] = dict(body)
+        sensors = [str(s) for s in self.driver.sensors()]
+        if sensors:  # optional: a robot that states none keeps the hello of earlier releases
+            reply["sensors"] = sensors
         return reply
 
     def _need(self, capability: str, op: str) -> None:
@@ -506,6 +520,17 @@ class RobotServer:
             if op == "force":
                 self._need("force", "measure force")
                 return {"newtons": [float(v) for v in d.force()]}, b""
+            if op == "read":
+                name = h.get("sensor")
+                offered = [str(s) for s in d.sensors()]
+                if not isinstance(name, str) or name not in offered:
+                    raise _Refused(
+                        "unsupported",
+                        f"{d.name} has no {name!r} sensor",
+                        "its sensors: {}".format(", ".join(offered) or "none beyond its capabilities"),
+                    )
+                value = float(d.read_sensor(name))
+                return {"value": value if math.isfinite(value) else None}, b""
             if op == "pose":
                 self._need("pose", "report its pose")
                 x, y, yaw = d.pose()

@@ -17,6 +17,7 @@ from attribot.control.body import BodyGeometry
 from attribot.errors import UnsupportedAction
 from attribot.frame import CameraInfo, Frame
 from attribot.registry import Registry
+from attribot.sensors import SENSORS
 
 __all__ = ["Capability", "Pose2D", "Embodiment", "EMBODIMENTS", "UnsupportedAction"]
 
@@ -50,6 +51,15 @@ class Embodiment:
 
     def capabilities(self) -> frozenset[Capability]:
         return frozenset()
+
+    def sensors(self) -> frozenset[str]:
+        """The names of the sensors (`attribot.sensors.SENSORS`) this world offers a robot: by default those
+        read through a capability it has (camera, distance, force); a world with more reads them in
+        `read_sensor` and lists them here."""
+        caps = {str(c) for c in self.capabilities()}
+        return frozenset(
+            name for name, s in SENSORS.items() if s.capability is not None and s.capability in caps
+        )
 
     def _unsupported(self, capability: Capability, what: str) -> UnsupportedAction:
         return UnsupportedAction(
@@ -112,6 +122,15 @@ class Embodiment:
     def read_force(self) -> np.ndarray:
         """Wrist force in newtons, (3,) in the world frame, relative to the last tare."""
         raise self._unsupported(Capability.FORCE, "measure force")
+
+    def read_sensor(self, name: str) -> float:
+        """One reading of the sensor `name` (one `sensors()` lists beyond the camera, rangefinder and force
+        sensor), in the sensor's unit; what the reading needs (the camera centred on the object, the object
+        in the gripper) is the caller's to arrange."""
+        raise UnsupportedAction(
+            f"{self.name} cannot read a {name} sensor: it has none",
+            f"its sensors: {', '.join(sorted(self.sensors())) or 'none'}",
+        )
 
     def body(self) -> BodyGeometry:
         """Where the camera sits and how far the arm reaches: what a perception-driven controller needs to

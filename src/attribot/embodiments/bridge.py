@@ -28,6 +28,7 @@ from attribot.control.servo import ServoController
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.errors import AttribotError, ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo, Frame, ObjectTruth
+from attribot.sensors import SENSORS
 
 __all__ = ["BridgeError", "BridgeWorld", "EmbodimentDriver", "TOKEN_ENV", "URL_ENV"]
 
@@ -117,6 +118,11 @@ class BridgeWorld(Embodiment):
         )
         body = hello.get("body")
         self._body = None if body is None else _body_geometry(body)
+        # optional sensors the robot reads (absent from the hello of robots without any); one this side does
+        # not know cannot be asked for, so it is left out
+        stated = hello.get("sensors", [])
+        named = stated if isinstance(stated, list) else []
+        self._sensors = frozenset(s for s in named if isinstance(s, str) and s in SENSORS)
         self.last_timestamp: float | None = None
 
     # --- transport --------------------------------------------------------------------------------
@@ -147,6 +153,15 @@ class BridgeWorld(Embodiment):
     # --- Embodiment -------------------------------------------------------------------------------
     def capabilities(self) -> frozenset[Capability]:
         return self._caps
+
+    def sensors(self) -> frozenset[str]:
+        return super().sensors() | self._sensors
+
+    def read_sensor(self, name: str) -> float:
+        if name not in self._sensors:
+            return super().read_sensor(name)
+        value = self._call({"op": "read", "sensor": name})[0].get("value")
+        return float("nan") if value is None else float(value)
 
     def camera_info(self) -> CameraInfo:
         if self._camera is None:
@@ -332,6 +347,13 @@ class EmbodimentDriver(Driver):
 
     def joints(self) -> dict[str, float]:
         return self.world.joint_states()
+
+    def sensors(self) -> list[str]:
+        # the sensors read through `read_sensor`: those no capability's own call reads
+        return sorted(s for s in self.world.sensors() if s in SENSORS and SENSORS.get(s).capability is None)
+
+    def read_sensor(self, name: str) -> float:
+        return self.world.read_sensor(name)
 
     def close(self) -> None:
         self.world.close()

@@ -2,7 +2,8 @@
 
 `MujocoWorld` wraps `attribot.sim.world.SimWorld` (scene, physics, sensors, truth) and exposes what a
 controller or the API may use: camera frames with depth, segmentation and object truth, base velocity,
-head, arm, gripper, time, the rangefinder, the wrist force sensor and poses. The privileged scripted
+head, arm, gripper, time, the rangefinder, the wrist force sensor, the infrared thermometer, the gripper's
+squeeze (`attribot.sim.senses`) and poses. The privileged scripted
 manipulation of `attribot.sim.scripted` takes a `MujocoWorld` too.
 
 With the RoboMaster-EP-like robot (`SceneConfig(robot="ep")`) the world has what a real EP has: no camera
@@ -13,6 +14,7 @@ the EP's bridge driver does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -27,6 +29,12 @@ from attribot.sim.robot_ep import EP
 from attribot.sim.world import SceneInfo, SimWorld
 
 __all__ = ["MujocoWorld"]
+
+_READINGS: dict[str, Callable[[SimWorld], float]] = {
+    "temperature": SimWorld.read_temperature,
+    "grip": SimWorld.squeeze,  # needs the object held: NaN (nothing read) with an empty gripper
+}
+"""The sensors this world reads beyond its capabilities' own calls, by `attribot.sensors` name."""
 
 
 @EMBODIMENTS.register("mujoco", aliases=("sim",))
@@ -46,6 +54,15 @@ class MujocoWorld(Embodiment):
         if self.sim.robot == "ep":
             return frozenset(Capability) - {Capability.HEAD, Capability.DEPTH}
         return frozenset(Capability)
+
+    def sensors(self) -> frozenset[str]:
+        return super().sensors() | set(_READINGS)
+
+    def read_sensor(self, name: str) -> float:
+        reading = _READINGS.get(name)
+        if reading is None:
+            return super().read_sensor(name)
+        return reading(self.sim)
 
     # camera
     def observe(self) -> Frame:

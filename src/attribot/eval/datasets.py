@@ -135,7 +135,7 @@ def build_items(
     chosen = task_names() if tasks is None else tasks
     unknown = [t for t in chosen if t not in TASKS]
     if unknown:
-        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(task_names())}")
+        raise InputError(f"unknown task {', '.join(unknown)}", f"choose from: {', '.join(task_names(None))}")
     items: list[Item] = []
     for name in chosen:
         task = TASKS.get(name)

@@ -235,7 +235,7 @@ def _measured(trace: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The robot's measurements in a trace: the call, the object it was of, the value."""
     out = []
     for t in trace:
-        if t["call"] not in ("Robot.measure_weight", "Robot.measure_distance") or t.get("error") is not None:
+        if not str(t["call"]).startswith("Robot.measure_") or t.get("error") is not None:
             continue
         first = t["args"][0] if t["args"] else None
         out.append(
@@ -255,7 +255,10 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
 
     sensors = item.sensors if method == "pa-api" else ["camera"]
     scene = item.scene().model_copy(update={"noise": world_noise(check_condition(noise)[0], item.seed)})
-    answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
+    try:
+        answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
+    except InputError as exc:  # the planner refused it: what the camera alone cannot settle, say
+        return _record(item, method, noise, error=str(exc), error_category="planner")
     return _record(
         item,
         method,

@@ -58,7 +58,7 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
     groups: dict[tuple[str, str, str], list[Record]] = defaultdict(list)
     for r in records:
         groups[(r.task, r.method, r.noise)].append(r)
-    tasks, methods = task_names(), METHODS.names()
+    tasks, methods = task_names(None), METHODS.names()
     rows = []
     for (task, method, noise), rs in sorted(
         groups.items(), key=lambda kv: (_order(tasks, kv[0][0]), _order(methods, kv[0][1]), kv[0][2])
@@ -142,7 +142,7 @@ def _task_row(task: str, r: dict[str, Any]) -> dict[str, Any]:
 def _task_sections(rows: list[dict[str, Any]], out: Path) -> list[dict[str, Any]]:
     """Each task's figure (written beside the report as SVG and PNG), table and notes."""
     sections = []
-    for task in task_names():
+    for task in task_names(None):
         task_rows = [r for r in rows if r["task"] == task]
         if not task_rows:
             continue
@@ -285,6 +285,7 @@ def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "c
             run_dir=str(run_dir),
             settings=_settings(run_dir),
             table_one=table_one(rows, tagged("embodied")),
+            senses_table=table_one(rows, tagged("senses")),
             latex=latex,
             latex_file=f"{out.stem}-table1.tex",
             tasks=_task_sections(rows, out),

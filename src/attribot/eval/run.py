@@ -62,7 +62,7 @@ class EvalPlan:
         for condition in self.noise:
             check_condition(condition)
         for name, given, known in (
-            ("task", self.tasks, task_names()),
+            ("task", self.tasks, task_names(None)),
             ("method", self.methods or (), METHODS.names()),
         ):
             unknown = [g for g in given if g not in known]
@@ -287,7 +287,7 @@ def _add_to_dataset(
         for image in (folder / "new" / "images").glob("*.png"):
             image.replace(folder / "images" / image.name)
     merged = {**have, **{i.id: i for i in missing}}
-    order = task_names()
+    order = task_names(None)
     write_dataset(sorted(merged.values(), key=lambda i: (order.index(i.task), i.id)), folder, images=False)
     for leftover in (folder / "new").rglob("*"):
         if leftover.is_file():

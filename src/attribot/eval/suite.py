@@ -6,6 +6,8 @@ compares on it, the paper's published accuracies, why our rows differ from them,
 tagged task registry is the model: `tagged("embodied")` lists the embodied tasks). A `Method` says how one
 of the paper's rows runs on an item. Tasks register themselves in the modules of `attribot.eval.tasks`,
 methods in `attribot.eval.methods`; adding a task is one `register_task(Task(...))` in one of those modules.
+A task belongs to a suite (`attribot eval --suite NAME`): `paper`, the paper's five experiments, or
+`senses`, the senses the paper proposed adding (temperature, softness, fullness).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ __all__ = [
     "register_method",
     "tagged",
     "task_names",
+    "suite_names",
     "paper_numbers",
 ]
 
@@ -53,6 +56,7 @@ class Task:
     why: str = ""  # what the task measures, and what its rows show offline
     tags: frozenset[str] = frozenset()  # e.g. "embodied" (Table I), "image" (the bar figures)
     forms: tuple[str, ...] = ("n/a",)  # each query is asked in each form (size: superlative and absolute)
+    suite: str = "paper"  # the suite it belongs to: paper (the paper's experiments) or senses
 
     def item_count(self, limit: int | None = None) -> int:
         """Items built for at most `limit` queries (every query gives one item per form)."""
@@ -70,8 +74,8 @@ class Method:
 
 
 TASKS: Registry[Task] = Registry(
-    "task", ("attribot.eval.tasks.still", "attribot.eval.tasks.embodied")
-)  # still-image tasks first: the order of the paper, the datasets and the report
+    "task", ("attribot.eval.tasks.still", "attribot.eval.tasks.embodied", "attribot.eval.tasks.senses")
+)  # still-image tasks first: the order of the paper, the datasets and the report; then the senses
 METHODS: Registry[Method] = Registry("method", ("attribot.eval.methods",))
 
 
@@ -85,13 +89,18 @@ def register_method(method: Method) -> Method:
     return METHODS.register(method.name)(method)
 
 
-def task_names() -> list[str]:
-    """Every task, in the suite's order."""
-    return TASKS.names()
+def task_names(suite: str | None = "paper") -> list[str]:
+    """The tasks of `suite` (None: of every suite), in the suite's order."""
+    return [name for name, task in TASKS.items() if suite is None or task.suite == suite]
+
+
+def suite_names() -> list[str]:
+    """The suites, in the order of their first task."""
+    return list(dict.fromkeys(task.suite for _, task in TASKS.items()))
 
 
 def tagged(*tags: str) -> list[str]:
-    """The tasks that carry every one of `tags`, in the suite's order."""
+    """The tasks (of any suite) that carry every one of `tags`, in the suite's order."""
     return [name for name, task in TASKS.items() if set(tags) <= task.tags]
 
 

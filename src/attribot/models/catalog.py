@@ -14,6 +14,12 @@ Phrasings it reads (case and punctuation free):
   "Which is heavier: X or Y?" -> the item, as the question names it (articles dropped);
 - "Is a basketball heavier than an egg?", "Is X smaller than Y?", "Does X weigh more than Y?" -> "yes" / "no".
 Lists may be "apple, book, laptop" or "an apple, a book and a laptop" (what a VQA model lists).
+
+The senses beyond the paper's are guessed the same way, from priors: which is hotter or colder from the
+temperatures a category can be at (a kettle may be boiling or cold, a can from the fridge or at room
+temperature, the rest at room temperature), softer or harder from its stiffness states, fuller or emptier
+only for containers (any of them may be either). A prior that the hidden states could swing is "unknown";
+objects of one kind cannot be told apart by any prior, and the first is named.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from typing import TYPE_CHECKING
 
 from attribot.errors import ConfigError, InputError
 from attribot.lexicon import (
+    SENSE_WORDS,
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
@@ -37,7 +44,7 @@ from attribot.lexicon import (
     words,
 )
 from attribot.models.base import LANGUAGE_MODELS, UNKNOWN
-from attribot.sim.catalog import Category, categories, find_category
+from attribot.sim.catalog import RIGID_N_PER_MM, ROOM_TEMPERATURE_C, Category, categories, find_category
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -65,7 +72,16 @@ _SIZE_WORDS = [
     )
     for direction in (True, False)
 ]
-_ANY_KEYWORD = "|".join([WEIGHT_PHRASES] + [p for p, _ in _WEIGHT_WORDS + _SIZE_WORDS])
+_SENSES = {
+    attribute: [
+        (_alternatives(w for w, (a, more, _) in SENSE_WORDS.items() if a == attribute and more == up), sign)
+        for up, sign in ((True, +1), (False, -1))
+    ]
+    for attribute in ("temperature", "stiffness", "fullness")
+}
+_ANY_KEYWORD = "|".join(
+    [WEIGHT_PHRASES] + [p for p, _ in _WEIGHT_WORDS + _SIZE_WORDS + [x for t in _SENSES.values() for x in t]]
+)
 
 _LEADING = re.compile(
     r"^(?:(?:a|an|the|some|these|those|this|that|my|two|three|four|a pair of|pair of|a couple of|one|both"
@@ -140,7 +156,7 @@ def _property(text: str) -> tuple[str, int] | None:
         return None  # "lighter in colour" is not a weight
     found: set[tuple[str, int]] = set()
     rest = paraphrased(text)
-    for prop, table in (("mass", _WEIGHT_WORDS), ("size", _SIZE_WORDS)):
+    for prop, table in (("mass", _WEIGHT_WORDS), ("size", _SIZE_WORDS), *_SENSES.items()):
         for pattern, direction in table:
             if re.search(rf"\b(?:{pattern})\b", rest):
                 found.add((prop, direction))
@@ -218,9 +234,17 @@ def resolve_item(item: str) -> Category | None:
     return None
 
 
-def _interval(cat: Category, prop: str) -> tuple[float, float]:
-    """What is known of one object: a point (its typical value) or, when its look hides its weight, the
-    whole range its hidden states span."""
+def _interval(cat: Category, prop: str) -> tuple[float, float] | None:
+    """What is known of one object: a point (its typical value) or, when its look hides its weight (or its
+    temperature, stiffness, contents), the whole range its hidden states span; None when the property does
+    not apply (how full a thing that holds nothing is)."""
+    if prop in ("temperature", "stiffness"):
+        states = cat.temperatures if prop == "temperature" else cat.stiffness
+        default = ROOM_TEMPERATURE_C if prop == "temperature" else (RIGID_N_PER_MM, RIGID_N_PER_MM)
+        spans = [span or ROOM_TEMPERATURE_C for _, span in states] or [default]
+        return min(lo for lo, _ in spans), max(hi for _, hi in spans)
+    if prop == "fullness":
+        return (0.0, 1.0) if cat.container else None
     if prop == "size":
         mid = (cat.size_range_m[0] + cat.size_range_m[1]) / 2.0
         return mid, mid
@@ -256,7 +280,10 @@ class CatalogLanguageModel:
         if any(c is None for c in cats):
             return UNKNOWN
         known = [c for c in cats if c is not None]
-        spans = [_interval(c, parsed.prop) for c in known]
+        found = [_interval(c, parsed.prop) for c in known]
+        spans = [s for s in found if s is not None]
+        if len(spans) < len(found):
+            return UNKNOWN
         if parsed.yes_no:
             (alo, ahi), (blo, bhi) = spans
             if parsed.direction < 0:  # "is A lighter than B" is "is B heavier than A"

@@ -9,6 +9,15 @@ Deceptive categories are the point of the paper: a closed cardboard box may be e
 be hollow or solid, and they look the same. Their `mass_variants` list the hidden states; a scene draws
 one of them, and only a measurement settles which. This module is plain data with no MuJoCo import, so
 language backends can read it cheaply.
+
+Beyond weight, objects carry states no camera sees, drawn per scene (`attribot.sim.scene`): a temperature
+(`temperatures`: a kettle hot or cold, a mug of coffee hot, a can from the fridge cold; anything not listed
+is at the room's temperature), a stiffness (`stiffness`, newtons per millimetre of gripper closure: a foam
+ball soft, a tennis ball firm, an apple hard; `RIGID_N_PER_MM` when not listed) and, for containers, how
+full they are (`fill_states`, with the empty container's mass `empty_kg`, within the category's mass range,
+and the mass of the contents when full `capacity_kg`, which may take a full one past that range: a mug of
+coffee is heavier than any empty mug). Categories with `drawn=False` appear only where a
+scene names them (the layouts never draw them), so that adding one leaves every existing scene as it was.
 """
 
 from __future__ import annotations
@@ -20,7 +29,24 @@ from functools import cache
 from attribot.errors import UnknownName
 from attribot.lexicon import singular_forms
 
-__all__ = ["COLORS", "Category", "categories", "get_category", "find_category", "category_names"]
+__all__ = [
+    "COLORS",
+    "Category",
+    "categories",
+    "get_category",
+    "find_category",
+    "category_names",
+    "RIGID_N_PER_MM",
+    "ROOM_TEMPERATURE_C",
+]
+
+RIGID_N_PER_MM = 30.0
+"""The stiffness of an object whose category states none: it does not give under the gripper."""
+ROOM_TEMPERATURE_C = (19.0, 24.0)
+"""The range a scene's room temperature is drawn from (degrees Celsius); objects with no thermal state of
+their own are at it."""
+
+Range = tuple[float, float]
 
 # Colour names (each in attribot.lexicon.COLOR_WORDS) and their linear RGB; the colour name of an object is
 # what VQA answers and detectors filter on.
@@ -61,6 +87,17 @@ class Category:
     deceptive: bool = False
     mass_variants: tuple[tuple[str, tuple[float, float]], ...] = ()
     placement: str = "surface"
+    temperatures: tuple[tuple[str, Range | None], ...] = ()  # hidden thermal states (None: room temperature)
+    stiffness: tuple[tuple[str, Range], ...] = ()  # hidden softness states, N/mm; () is RIGID_N_PER_MM
+    empty_kg: Range | None = None  # a container's own mass, empty
+    capacity_kg: float = 0.0  # the mass of its contents when full (0: not a container)
+    fill_states: tuple[tuple[str, float], ...] = ()  # hidden fullness states: (name, share of capacity)
+    drawn: bool = True  # layouts draw it unasked (False: only where a scene names it)
+
+    @property
+    def container(self) -> bool:
+        """Whether it holds contents whose mass a weighing against `empty_kg` reveals."""
+        return self.capacity_kg > 0 and self.empty_kg is not None
 
     @property
     def typical_mass_kg(self) -> float:
@@ -85,21 +122,61 @@ def _c(
     pickable: bool = True,
     variants: tuple[tuple[str, tuple[float, float]], ...] = (),
     placement: str = "surface",
+    temperatures: tuple[tuple[str, Range | None], ...] = (),
+    stiffness: tuple[tuple[str, Range], ...] = (),
+    contents: tuple[Range, float] | None = None,
+    fill: tuple[tuple[str, float], ...] = (("empty", 0.0), ("full", 1.0)),
+    drawn: bool = True,
 ) -> Category:
     if variants:
         mass = (min(v[1][0] for v in variants), max(v[1][1] for v in variants))
-    return Category(name, synonyms, shape, size, colors, mass, pickable, bool(variants), variants, placement)
+    empty, capacity = contents if contents is not None else (None, 0.0)
+    if empty is not None and not mass[0] <= empty[0] <= empty[1] <= mass[1]:
+        raise ValueError(f"{name}: its empty mass {empty} lies outside its mass range {mass}")
+    return Category(
+        name,
+        synonyms,
+        shape,
+        size,
+        colors,
+        mass,
+        pickable,
+        bool(variants),
+        variants,
+        placement,
+        temperatures,
+        stiffness,
+        empty,
+        capacity,
+        fill if contents is not None else (),
+        drawn,
+    )
+
+
+_HOT_DRINK = (("hot", (55.0, 70.0)), ("room", None))
+_FROM_THE_FRIDGE = (("cold", (3.0, 7.0)), ("room", None))
+_SOFT, _FIRM, _HARD = (0.15, 0.4), (2.0, 4.0), (10.0, 18.0)
 
 
 _DATA: tuple[Category, ...] = (
     # kitchen
-    _c("apple", ("fruit",), "apple", (0.07, 0.09), ("red", "green", "yellow"), (0.15, 0.25)),
-    _c("tomato", (), "tomato", (0.06, 0.08), ("red",), (0.10, 0.18)),
+    _c(
+        "apple",
+        ("fruit",),
+        "apple",
+        (0.07, 0.09),
+        ("red", "green", "yellow"),
+        (0.15, 0.25),
+        stiffness=(("hard", _HARD),),
+    ),
+    _c("tomato", (), "tomato", (0.06, 0.08), ("red",), (0.10, 0.18), stiffness=(("firm", (1.0, 2.0)),)),
     _c("potato", (), "potato", (0.08, 0.12), ("beige", "brown"), (0.15, 0.30)),
     _c("carrot", (), "carrot", (0.15, 0.20), ("orange",), (0.05, 0.10)),
     _c("egg", (), "egg", (0.05, 0.06), ("white", "beige"), (0.05, 0.065)),
-    _c("banana", (), "banana", (0.17, 0.21), ("yellow",), (0.10, 0.15)),
-    _c("orange", ("citrus",), "orange", (0.07, 0.09), ("orange",), (0.14, 0.22)),
+    _c("banana", (), "banana", (0.17, 0.21), ("yellow",), (0.10, 0.15), stiffness=(("firm", _FIRM),)),
+    _c(
+        "orange", ("citrus",), "orange", (0.07, 0.09), ("orange",), (0.14, 0.22), stiffness=(("firm", _FIRM),)
+    ),
     _c(
         "mug",
         ("cup", "coffee mug", "coffee cup"),
@@ -107,6 +184,8 @@ _DATA: tuple[Category, ...] = (
         (0.09, 0.11),
         ("white", "red", "blue", "yellow", "green"),
         (0.25, 0.40),
+        temperatures=_HOT_DRINK,
+        contents=((0.25, 0.40), 0.25),  # a mug of coffee weighs its own mass and a quarter of a kilogram more
     ),
     _c("bowl", (), "bowl", (0.14, 0.20), ("white", "blue", "red", "beige"), (0.25, 0.50)),
     _c("plate", ("dish",), "plate", (0.20, 0.27), ("white", "blue", "beige"), (0.35, 0.60)),
@@ -124,9 +203,34 @@ _DATA: tuple[Category, ...] = (
     _c("spoon", ("teaspoon", "tablespoon"), "spoon", (0.15, 0.19), ("silver",), (0.02, 0.05)),
     _c("ladle", (), "ladle", (0.28, 0.34), ("silver", "black"), (0.10, 0.20)),
     _c("toaster", (), "toaster", (0.25, 0.30), ("silver", "red", "black", "white"), (1.5, 2.5)),
-    _c("teapot", ("tea pot",), "teapot", (0.18, 0.24), ("white", "blue", "brown", "red"), (0.6, 1.1)),
-    _c("kettle", ("electric kettle",), "kettle", (0.22, 0.26), ("silver", "black", "white"), (0.9, 1.4)),
-    _c("bottle", ("water bottle",), "bottle", (0.20, 0.28), ("green", "blue", "teal", "white"), (0.4, 0.9)),
+    _c(
+        "teapot",
+        ("tea pot",),
+        "teapot",
+        (0.18, 0.24),
+        ("white", "blue", "brown", "red"),
+        (0.6, 1.1),
+        temperatures=(("hot", (60.0, 85.0)), ("room", None)),
+    ),
+    _c(
+        "kettle",
+        ("electric kettle",),
+        "kettle",
+        (0.22, 0.26),
+        ("silver", "black", "white"),
+        (0.9, 1.4),
+        temperatures=(("hot", (80.0, 95.0)), ("cold", None)),  # just boiled, or not switched on
+    ),
+    _c(
+        "bottle",
+        ("water bottle",),
+        "bottle",
+        (0.20, 0.28),
+        ("green", "blue", "teal", "white"),
+        (0.4, 0.9),
+        temperatures=_FROM_THE_FRIDGE,
+        contents=((0.40, 0.45), 0.45),  # a glass bottle, and what it holds when full
+    ),
     _c(
         "can",
         ("soda can", "tin", "tin can"),
@@ -134,6 +238,7 @@ _DATA: tuple[Category, ...] = (
         (0.11, 0.13),
         ("red", "silver", "blue", "green"),
         (0.33, 0.40),
+        temperatures=_FROM_THE_FRIDGE,
     ),
     _c(
         "jar",
@@ -143,6 +248,7 @@ _DATA: tuple[Category, ...] = (
         ("white", "brown", "red"),
         (0.1, 1.2),
         variants=(("empty", (0.10, 0.20)), ("full", (0.8, 1.2))),
+        contents=((0.10, 0.20), 0.85),  # how full it is is its mass variant (the state it was drawn in)
     ),
     _c("cutting board", ("chopping board",), "cutting_board", (0.30, 0.40), ("brown", "beige"), (0.6, 1.2)),
     # living room and office
@@ -214,6 +320,7 @@ _DATA: tuple[Category, ...] = (
         ("white", "blue", "yellow", "red", "green", "beige"),
         (0.3, 0.8),
         placement="floor",
+        stiffness=(("soft", (0.1, 0.3)),),
     ),
     _c("basketball", ("ball",), "basketball", (0.24, 0.24), ("orange",), (0.57, 0.65), placement="floor"),
     _c(
@@ -235,7 +342,15 @@ _DATA: tuple[Category, ...] = (
         (2.0, 5.0),
     ),
     _c("hammer", (), "hammer", (0.28, 0.33), ("black", "red", "yellow"), (0.45, 0.75)),
-    _c("sponge", (), "sponge", (0.09, 0.12), ("yellow", "green", "blue", "pink"), (0.01, 0.03)),
+    _c(
+        "sponge",
+        (),
+        "sponge",
+        (0.09, 0.12),
+        ("yellow", "green", "blue", "pink"),
+        (0.01, 0.03),
+        stiffness=(("soft", (0.08, 0.2)),),
+    ),
     _c("feather", (), "feather", (0.15, 0.25), ("white", "gray", "teal"), (0.001, 0.004)),
     _c(
         "tissue box",
@@ -254,6 +369,7 @@ _DATA: tuple[Category, ...] = (
         ("brown", "beige"),
         (0.2, 6.0),
         variants=(("empty", (0.2, 0.4)), ("full", (4.0, 6.0))),
+        contents=((0.2, 0.4), 4.7),  # how full it is is its mass variant
     ),
     _c(
         "ball",
@@ -263,6 +379,7 @@ _DATA: tuple[Category, ...] = (
         ("red", "blue", "green", "yellow"),
         (0.05, 2.5),
         variants=(("hollow", (0.05, 0.08)), ("solid", (1.8, 2.5))),
+        stiffness=(("soft", _SOFT), ("firm", _FIRM), ("hard", _HARD)),  # foam, rubber or plastic: unseen
     ),
     _c(
         "toy block",
@@ -293,6 +410,28 @@ _DATA: tuple[Category, ...] = (
         (0.5, 8.0),
         variants=(("empty", (0.5, 0.9)), ("full", (5.0, 8.0))),
         placement="floor",
+        contents=((0.5, 0.9), 5.8),
+    ),
+    # only where a scene names them (the softness examples): drawing them unasked would change every scene
+    _c(
+        "foam ball",
+        ("sponge ball", "stress ball"),
+        "ball",
+        (0.07, 0.09),
+        ("yellow", "orange", "pink", "blue"),
+        (0.01, 0.03),
+        stiffness=(("soft", _SOFT),),
+        drawn=False,
+    ),
+    _c(
+        "tennis ball",
+        (),
+        "ball",
+        (0.065, 0.068),
+        ("yellow",),
+        (0.056, 0.059),
+        stiffness=(("firm", _FIRM),),
+        drawn=False,
     ),
 )
 

@@ -22,6 +22,11 @@ from above) is refused.
 
 Objects rest on their surface: each is placed with its lowest point on the surface, without overlapping
 another object's footprint, and the world lets them settle before the first frame.
+
+What no camera sees is drawn after the layout, from a generator of its own (so that a layout's draws, and
+every scene planned before these states existed, stay as they were): the room's temperature and each
+object's temperature, stiffness and, for a container, how full it is (its mass is then its empty mass plus
+its contents). See `attribot.sim.catalog` for the states each category can be in.
 """
 
 from __future__ import annotations
@@ -37,7 +42,14 @@ import numpy as np
 from attribot.config import MAX_OBJECTS, MAX_SEED
 from attribot.errors import InputError
 from attribot.registry import Registry
-from attribot.sim.catalog import COLORS, Category, categories, get_category
+from attribot.sim.catalog import (
+    COLORS,
+    RIGID_N_PER_MM,
+    ROOM_TEMPERATURE_C,
+    Category,
+    categories,
+    get_category,
+)
 from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, add_materials, look_of, variant_of
 from attribot.sim.robot import GEOMETRY, add_robot
 from attribot.sim.robot_ep import EP, add_ep_robot
@@ -122,6 +134,12 @@ class PlacedObject:
     yaw: float = 0.0
     surface: str = ""
     extras: dict[str, Any] = field(default_factory=dict)
+    mass_share: float = 0.5  # where in its (variant's) mass range the mass was drawn, 0 to 1
+    temperature_c: float = 21.0  # what an infrared thermometer reads on its surface
+    thermal: str = "room"  # its thermal state ("hot", "cold", "room")
+    stiffness_n_per_mm: float = RIGID_N_PER_MM  # force per millimetre of gripper closure
+    softness: str = "rigid"  # its softness state ("soft", "firm", "hard", "rigid")
+    fill: float | None = None  # a container's contents, as a share of its capacity (None: no container)
 
 
 @dataclass
@@ -138,6 +156,7 @@ class ScenePlan:
     width: int = 640
     height: int = 480
     robot_kind: str = "mast"  # which robot (set by plan_scene from the request): "mast" or "ep"
+    room_temperature_c: float = 21.0
 
 
 @dataclass(frozen=True)
@@ -194,7 +213,47 @@ def _make_object(
     u = 0.6 * frac + 0.4 * float(rng.uniform())
     mass = round(mlo + (mhi - mlo) * u, 4)
     obj_id = f"{cat.name.replace(' ', '_')}_{key}"
-    return PlacedObject(key, obj_id, cat, color, round(size, 4), mass, variant, build_shape(cat.shape, size))
+    placed = PlacedObject(
+        key, obj_id, cat, color, round(size, 4), mass, variant, build_shape(cat.shape, size)
+    )
+    placed.mass_share = u
+    return placed
+
+
+def _pick(rng: np.random.Generator, states: Sequence[tuple[str, Any]]) -> tuple[str, Any]:
+    """One of `states`, equally likely; one draw whatever their number."""
+    u = float(rng.uniform())
+    return states[min(int(u * len(states)), len(states) - 1)]
+
+
+def _draw_hidden_states(plan: ScenePlan, seed: int, attempt: int) -> None:
+    """The room's temperature, and each object's temperature, stiffness and fill (see the module docstring),
+    from generators of their own: one for the room, one per object, so that an object's states do not
+    depend on the others'."""
+    room = float(np.random.default_rng([seed, attempt, 0x7E3]).uniform(*ROOM_TEMPERATURE_C))
+    plan.room_temperature_c = round(room, 2)
+    for o in plan.objects:
+        rng = np.random.default_rng([seed, attempt, o.key, 0x7E3])
+        cat = o.category
+        thermal, span = _pick(rng, cat.temperatures) if cat.temperatures else ("room", None)
+        near_room = room + float(rng.normal(0.0, 0.3))  # drawn always: the next draws keep their place
+        o.thermal = thermal
+        o.temperature_c = round(float(rng.uniform(*span)) if span is not None else near_room, 2)
+        o.softness, stiff = _pick(rng, cat.stiffness) if cat.stiffness else ("rigid", None)
+        share = float(rng.uniform())
+        o.stiffness_n_per_mm = (
+            RIGID_N_PER_MM if stiff is None else round(stiff[0] + (stiff[1] - stiff[0]) * share, 3)
+        )
+        if not cat.container or cat.empty_kg is None:
+            continue
+        if cat.mass_variants:  # its mass variant is how full it is (a jar drawn "full")
+            o.fill = 1.0 if o.variant == "full" else 0.0
+            continue
+        _, o.fill = _pick(rng, cat.fill_states)
+        if plan.layout == "triplet":  # its weights rise with the category by construction: kept empty
+            o.fill = 0.0
+        lo, hi = cat.empty_kg
+        o.mass_kg = round(lo + (hi - lo) * o.mass_share + o.fill * cat.capacity_kg, 4)
 
 
 def _face(obj: PlacedObject, towards: tuple[float, float], rng: np.random.Generator, jitter: float) -> None:
@@ -215,7 +274,10 @@ def _fits(
 
 
 def _pool(request: SceneRequest, predicate: Callable[[Category], bool]) -> list[Category]:
-    pool = list(request.categories) if request.categories else [c for c in categories() if predicate(c)]
+    if request.categories:
+        pool = list(request.categories)
+    else:
+        pool = [c for c in categories() if c.drawn and predicate(c)]
     if not pool:
         raise InputError("no object category fits this layout", "choose other categories")
     return pool
@@ -740,6 +802,7 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
     plan = fn(rng, req)
     plan.seed = int(seed)
     plan.robot_kind = req.robot
+    _draw_hidden_states(plan, int(seed), int(attempt))
     return plan
 
 

@@ -29,7 +29,7 @@ from pydantic import BaseModel
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
-from attribot.sim import robot_ep
+from attribot.sim import robot_ep, senses
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
 from attribot.sim.render import SceneRenderer
 from attribot.sim.robot import GEOMETRY
@@ -88,6 +88,13 @@ class ObjectInfo(BaseModel):
     odd_one_out: bool | None = None
     odd_kind: str | None = None
     weight_rank: int | None = None
+    # what no camera sees (`attribot.sim.catalog`): the world's own state, which the new senses read
+    temperature_c: float | None = None  # its surface temperature
+    thermal: str = ""  # hot, cold, room
+    stiffness_n_per_mm: float | None = None  # force per millimetre of gripper closure
+    softness: str = ""  # soft, firm, hard, rigid
+    fill: float | None = None  # a container's contents as a share of its capacity (None: no container)
+    contents_kg: float | None = None  # the mass of those contents
 
 
 class RobotInfo(BaseModel):
@@ -105,6 +112,7 @@ class SceneInfo(BaseModel):
     objects: list[ObjectInfo]
     robot: RobotInfo
     furniture: list[str]
+    room_temperature_c: float | None = None
 
 
 def box_from_mask(mask: np.ndarray) -> tuple[float, float, float, float] | None:
@@ -144,6 +152,12 @@ class SimWorld:
         self.noise = config.noise
         self._rng = np.random.default_rng([int(seed), 1])
         self._noise_rng = np.random.default_rng([int(config.noise.seed), int(seed), 7])
+        # the thermometer's and the gripper's draws come from a generator of their own, so that reading them
+        # leaves every other draw (rangefinder, force sensor, grasps, odometry) where it was
+        self.sense_rng = np.random.default_rng([int(config.noise.seed), int(seed), 11])
+        self.temp_bias = (
+            float(self.sense_rng.normal(0.0, config.noise.temp_bias)) if config.noise.temp_bias else 0.0
+        )
         self._renderer: SceneRenderer | None = None
         # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
         error: InputError | None = None
@@ -234,6 +248,12 @@ class SimWorld:
         self._ft_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "ft_site")
         self._probe = _name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "grip_probe")
         self._pads = [_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{n}_pad") for n in ("finger_l", "finger_r")]
+        self.pads = np.array(self._pads)
+        # when the pads squeeze an object, its contact parameters alone say how it gives (`sim.senses`)
+        m.geom_solmix[self.pads] = 0.0
+        m.geom_solimp[self.pads] = [senses.SQUEEZE_IMPEDANCE, senses.SQUEEZE_IMPEDANCE, 0.001, 0.5, 2.0]
+        self.range_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "range_site")
+        self.ray_groups = _RAY_GROUPS
         self.wrist_body = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, "wrist")
         # objects: key -> body id, geoms; geom id -> object key (-1 for everything else)
         self.objects = {o.key: o for o in self.plan.objects}
@@ -258,6 +278,7 @@ class SimWorld:
             b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"furniture:{f.name}")
             self.geom_surface[m.geom_bodyid == b] = i
         self.geom_surface[_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")] = len(self.plan.furniture)
+        senses.set_softness(self)  # how each object gives when squeezed: contact parameters of its parts
         self.truth = {
             o.key: ObjectTruth(id=o.id, category=o.category.name, color=o.color, synonyms=o.category.synonyms)
             for o in self.plan.objects
@@ -426,6 +447,17 @@ class SimWorld:
         self._target("finger_l", float(opening))
         self._target("finger_r", float(opening))
 
+    def set_finger(self, name: str, opening: float) -> None:
+        """One finger's target ("finger_l" or "finger_r"), metres from the centre line."""
+        self._target(name, float(opening))
+
+    def finger_target(self, name: str) -> float:
+        return float(self._targets[name])
+
+    def finger_state(self, name: str) -> tuple[float, float]:
+        """What a finger's servo reports: its effort (newtons along its opening axis) and its position."""
+        return float(self.data.actuator_force[self._act[name]]), float(self.data.qpos[self._qadr[name]])
+
     # --- grasping ------------------------------------------------------------------------------------
     def _geom_distance(self, g1: int, g2: int, cap: float = 0.2) -> float:
         fromto = np.zeros(6)
@@ -547,6 +579,15 @@ class SimWorld:
         visible = _RAY_GROUPS  # bodies, furniture, room, robot: not collision boxes, not looks
         r = mujoco.mj_ray(self.model, self.data, origin, direction, visible, 1, body, geom)
         return float(r)
+
+    def read_temperature(self) -> float:
+        """The infrared thermometer along the optical axis, degrees Celsius (`attribot.sim.senses`)."""
+        return senses.read_temperature(self)
+
+    def squeeze(self) -> float:
+        """Squeeze the held object: newtons per millimetre of closure, NaN with nothing held
+        (`attribot.sim.senses`)."""
+        return senses.squeeze(self)
 
     def _raw_force(self) -> np.ndarray:
         mujoco.mj_rnePostConstraint(self.model, self.data)
@@ -708,6 +749,12 @@ class SimWorld:
                     deceptive=o.category.deceptive,
                     distance_m=round(float(np.linalg.norm(pos - cam)), 4),
                     surface=o.surface,
+                    temperature_c=o.temperature_c,
+                    thermal=o.thermal,
+                    stiffness_n_per_mm=o.stiffness_n_per_mm,
+                    softness=o.softness,
+                    fill=o.fill,
+                    contents_kg=None if o.fill is None else round(o.fill * o.category.capacity_kg, 4),
                     **extras,
                 )
             )
@@ -723,6 +770,7 @@ class SimWorld:
                 head=[round(v, 4) for v in self.head()],
             ),
             furniture=[f.name for f in self.plan.furniture],
+            room_temperature_c=self.plan.room_temperature_c,
         )
 
     def close(self) -> None:

@@ -21,7 +21,8 @@ class UnsupportedQuery(InputError):
         why = f": {reason}" if reason else ""
         super().__init__(
             f"the rules planner cannot read the query {query!r}{why}",
-            "ask within the supported families (location, size, weight, distance, odd one out, measurement), "
+            "ask within the supported families (location, size, weight, distance, odd one out, measurement, "
+            "temperature, softness, fullness), "
             "e.g. 'the heaviest mug on the table', or use the llm planner (--planner llm)",
         )
         self.query = query
@@ -137,6 +138,25 @@ class YesNoQuery:
 
 
 @dataclass(frozen=True)
+class SenseQuery:
+    """A question about what only a sense beyond the camera settles: temperature (an infrared
+    thermometer), stiffness (a squeeze; softness is less of it) or fullness (weighing a container).
+
+    ask: "which" chooses among `objects` (one kind, or the named ones) the one at the end asked ("which mug
+    is hot?", "the softest ball"); "whether" answers yes or no, about one object's state ("is the kettle
+    hot?": `word` is the state) or about two named objects ("is the kettle hotter than the mug?"); "how"
+    measures one named object ("how hot is the kettle?")."""
+
+    objects: tuple[ObjectSpec, ...]
+    attribute: Literal["temperature", "stiffness", "fullness"]
+    more: bool  # the end asked: hotter, harder (stiffer), fuller
+    ask: Literal["which", "whether", "how"]
+    word: str  # as written: "hot", "softest", "hotter"
+    named: bool = False  # the candidates were listed by name
+    rank: int = 1  # "the second coldest can": 2
+
+
+@dataclass(frozen=True)
 class Among:
     """The candidates narrowed to the k at one end of another attribute: "of the two closest"."""
 
@@ -164,7 +184,7 @@ class Request:
     """A reading with a frame around it: a surface it is scoped to ("on the table"), a narrowing ("of the
     two closest"), an action on the chosen object ("bring me", "put ... on the counter")."""
 
-    inner: LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | OddQuery
+    inner: LocationQuery | SizeQuery | WeightQuery | DistanceQuery | GroundingQuery | OddQuery | SenseQuery
     scope: str | None = None  # a surface kind of `attribot.lexicon.SURFACE_WORDS`
     region: Region | None = None  # a side, row or column of the view (of the surface, with a scope)
     among: Among | None = None
@@ -181,5 +201,6 @@ ParsedQuery = (
     | MeasureQuery
     | OddQuery
     | YesNoQuery
+    | SenseQuery
     | Request
 )

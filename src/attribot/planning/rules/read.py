@@ -25,6 +25,7 @@ from attribot.planning.rules.forms import (
     ParsedQuery,
     Region,
     Request,
+    SenseQuery,
     Side,
     SizeQuery,
     UnsupportedQuery,
@@ -122,7 +123,9 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
                 raise refused from None
     if scope is None and among is None and action is None and region is None:
         return inner
-    if isinstance(inner, Request | YesNoQuery | MeasureQuery):
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
+        isinstance(inner, SenseQuery) and (inner.ask != "which" or inner.named)
+    ):
         raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
     if among is not None and not isinstance(inner, WeightQuery | DistanceQuery | SizeQuery):
         raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")

@@ -45,7 +45,17 @@ FAMILY_REGISTRY: Registry[Family] = Registry(
     "query family",
     tuple(
         f"attribot.planning.rules.families.{m}"
-        for m in ("location", "size", "attributes", "measure", "odd", "grounding", "yesno", "frames")
+        for m in (
+            "location",
+            "size",
+            "attributes",
+            "measure",
+            "odd",
+            "grounding",
+            "yesno",
+            "frames",
+            "senses",
+        )
     ),
 )
 
