@@ -1,6 +1,7 @@
 """The coco detector's recall in the embedded world, objects drawn with their old and their new looks.
 
-Run: `MUJOCO_GL=egl .venv/bin/python benchmarks/bench_coco.py [--seeds 30] [--quick]`
+Run: `MUJOCO_GL=egl .venv/bin/python benchmarks/bench_coco.py [--seeds 30] [--quick] [--tiles N]
+[--threshold T]`
 
 For each household and triplet seed, the robot camera's first frame (640x480, fast profile) is rendered
 twice, the objects drawn as their body primitives (`looks=primitive`, as earlier releases drew them) and
@@ -8,7 +9,8 @@ with their looks (`looks=detailed`); physics and placement are the same in both.
 world: every object whose category has a COCO class and that shows at least `MIN_PIXELS` pixels, boxed by
 the segmentation. An object is found when a detection of its class overlaps its box with IoU >= 0.5 (each
 detection matches one object at most). Prints one line per layout and look, the total per look, and the
-ratio of the new recall to the old (acceptance: new recall >= 0.5).
+ratio of the new recall to the old (acceptance: new recall >= 0.5). The detector is the one `--detector coco`
+builds (its default tiles and threshold); `--tiles` and `--threshold` try others.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from collections import defaultdict
 import numpy as np
 
 from attribot import boxes as boxmath
-from attribot.models.coco import COCO_CLASS_OF, CocoDetector
+from attribot.models.coco import COCO_CLASS_OF, DEFAULT_TILES, CocoDetector
 from attribot.models.oracle import visible_objects
 from attribot.sim.world import SimWorld
 
@@ -62,9 +64,11 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=30, help="seeds per layout (0 .. N-1)")
     ap.add_argument("--quick", action="store_true", help="5 seeds per layout (a smoke run)")
     ap.add_argument("--verbose", action="store_true", help="one line per frame")
+    ap.add_argument("--tiles", type=int, default=DEFAULT_TILES, help="views per side besides the whole image")
+    ap.add_argument("--threshold", type=float, default=0.1, help="the detector's score threshold")
     args = ap.parse_args()
     seeds = range(5 if args.quick else args.seeds)
-    detector = CocoDetector()
+    detector = CocoDetector(tiles=args.tiles, threshold=args.threshold)
     tally: dict[tuple[str, str], list[int]] = defaultdict(lambda: [0, 0])
     for layout in ("household", "triplet"):
         for seed in seeds:

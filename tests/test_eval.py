@@ -40,6 +40,13 @@ def test_every_task_is_built_with_its_truth_from_the_world(small_items):
         objects = {o.id: o for o in info.objects}
         truth = objects[item.true_id]
         assert truth.box == item.true_box and item.version == DATASET_VERSION
+        # what a closed-set detector must find: the true object's category and those it is chosen among
+        assert truth.category in item.object_categories
+        assert set(item.object_categories) <= {o.category for o in info.objects}
+        if item.candidates:
+            assert item.object_categories == sorted({objects[i].category for i in item.candidates})
+        if item.task == "weight_image":
+            assert item.object_categories == sorted({o.category for o in info.objects})
         if item.task == "weight_embodied":
             named = [objects[i] for i in item.candidates]
             assert truth.mass_kg == min(o.mass_kg for o in named) and item.sensors == ["camera", "force"]

@@ -23,6 +23,7 @@ from attribot.models.coco import (
     fetch_weights,
     weights_present,
 )
+from attribot.models.oracle import visible_objects
 from attribot.sim.catalog import get_category
 
 CLASSES = [ln.strip() for ln in (default_folder() / "coco.names").read_text().splitlines() if ln.strip()]
@@ -171,3 +172,50 @@ def test_spec_options_choose_the_views_and_the_input_size(empty_settings):
     with pytest.raises(ConfigError, match="tiles=N"):
         build_backend("detector", "coco?zoom=2", settings)
     assert probe_backend("detector", "coco?zoom=2", settings).available is False
+
+
+# ---- the network as the weights need it ------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def remote_frame():
+    """A triplet whose remote control only the small-object layer finds (its truth box from the world)."""
+    from attribot.sim.world import SimWorld
+
+    world = SimWorld(layout="triplet", seed=20, width=640, height=480)
+    try:
+        frame = world.observe()
+        key = next(k for k, o in world.objects.items() if o.category.name == "remote control")
+        return frame, next(v.box for v in visible_objects(frame) if v.key == key)
+    finally:
+        world.close()
+
+
+def test_a_small_objects_box_fits_it(remote_frame):
+    # read with the cfg's mask = 0,1,2 (not what the weights were trained with) this box had IoU 0.39: about
+    # half the remote's height and two thirds of its width
+    frame, truth = remote_frame
+    found = CocoDetector(tiles=1).detect(frame, ["remote control"])
+    assert found and boxmath.iou(found[0].box, truth) >= 0.6
+
+
+def test_a_threshold_under_opencvs_own_keeps_the_lower_scores(remote_frame):
+    frame, _ = remote_frame
+    low = CocoDetector(threshold=0.03, tiles=1).detect(frame, ["object"])
+    assert any(0.03 <= d.score < 0.2 for d in low)  # OpenCV's reader alone zeroes all of these
+    assert all(d.score >= 0.2 for d in CocoDetector(threshold=0.2, tiles=1).detect(frame, ["object"]))
+
+
+def test_another_network_file_is_refused_naming_the_fix(tmp_path):
+    for name in FILES:
+        shutil.copy(default_folder() / name, tmp_path / name)
+    cfg = tmp_path / "yolov3-tiny.cfg"
+    cfg.write_text(cfg.read_text().replace("mask = 0,1,2", "mask = 1,2,3"))
+    with pytest.raises(ConfigError, match="attribot fetch coco"):
+        CocoDetector(tmp_path)
+
+
+def test_it_says_what_it_can_find(detector):
+    assert len(detector.vocabulary) == 80 and "cup" in detector.vocabulary
+    assert detector.can_find("the red mug") and detector.can_find("object")
+    assert not detector.can_find("kettle") and not detector.can_find("")

@@ -190,7 +190,7 @@ WORLD_FLAGS = (
           "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
 )  # fmt: skip
 BACKEND_FLAGS = (
-    _flag("detector", str | None, "--detector", metavar="SPEC", help="Detector backend spec (oracle, "
+    _flag("detector", str | None, "--detector", metavar="SPEC", help="Detector backend spec (oracle, coco, "
           "hf:MODEL, remote:URL)."),
     _flag("vqa", str | None, "--vqa", metavar="SPEC", help="VQA backend spec (oracle, hf:MODEL, "
           "openai:MODEL, remote:URL)."),
@@ -840,6 +840,13 @@ def evaluate(
         help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
         "generating them.",
     ),
+    findable_by: str | None = typer.Option(
+        None,
+        "--findable-by",
+        metavar="SPEC",
+        help="Keep only the items whose objects this closed-set detector can find (default: the run's own "
+        "--detector; an open-vocabulary one keeps every item), e.g. --detector oracle --findable-by coco.",
+    ),
     given: Any = None,
 ) -> None:
     """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
@@ -853,6 +860,7 @@ def evaluate(
         methods=tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else None,
         noise=tuple(n.strip() for n in noise.split(",") if n.strip()) + (ablations() if ablation else ()),
         limit=limit,
+        findable_by=findable_by,
     )
     settings = _settings(given)
     with Progress(
@@ -880,6 +888,7 @@ def evaluate(
             progress=lambda msg: bar.update(job, description=msg),
             on_record=on_record,
             dataset=dataset,
+            note=lambda line: bar.console.print(line, highlight=False),
         )
     console.print(
         f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
@@ -890,18 +899,24 @@ def evaluate(
 
 @app.command("report", cls=_Command)
 def report(
-    run: Path = typer.Argument(..., help="A run folder written by attribot eval."),
-    out: Path | None = typer.Option(None, "--out", help="The HTML file (default: RUN/report.html)."),
+    runs: list[Path] = typer.Argument(
+        ...,
+        help="A run folder written by attribot eval, or several made with different detectors, reported side "
+        "by side on the items they share.",
+    ),
+    out: Path | None = typer.Option(
+        None, "--out", help="The HTML file (default: RUN/report.html; FIRST_RUN/compared.html for several)."
+    ),
 ) -> None:
     """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
-    from attribot.eval.report import write_report
+    from attribot.eval.report import default_out, write_report
 
-    if not (run / "records").is_dir():
-        raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
-    if out is not None:
-        _writable_folder(out.parent, "--out")
-    path = write_report(run, out)
+    for run in runs:
+        if not (run / "records").is_dir():
+            raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
+    _writable_folder((out or default_out(runs)).parent, "--out")
+    path = write_report(runs, out)
     console.print(f"report -> {path}", highlight=False)
 
 

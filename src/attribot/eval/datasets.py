@@ -7,6 +7,9 @@ box) read from the world's truth. A dataset is a manifest (`manifest.jsonl`, one
 `dataset.json` with the version) and the rendered images. The tasks that build items are registered
 records (`attribot.eval.suite`, `attribot.eval.tasks`).
 
+Each item names the categories of the objects its query chooses among (`object_categories`): a run
+with a closed-set detector keeps the items whose categories it can find (`attribot.eval.subset`).
+
 `DATASET_VERSION` is a digest of the code and data that generate items and their truth (this module, the
 suite and its tasks, the released queries and their written meanings, the simulator's scenes, catalog,
 rendering and truth): it changes whenever generation may change, and a run refuses to mix items of two
@@ -95,6 +98,9 @@ class Item(BaseModel):
     true_id: str
     true_box: list[float]
     candidates: list[str] = []  # the named objects' ids, where the query names them
+    # the categories of the objects the query chooses among (the true object's among them), from the world's
+    # truth: what a detector must be able to find for the item to be fair to it
+    object_categories: list[str] = []
     version: str = DATASET_VERSION
 
     def scene(self) -> SceneConfig:

@@ -2,7 +2,8 @@
 
 A comparison counts only when the two Wilson 95% intervals do not overlap (`stats.compare`); where they
 do, the records cannot tell the two apart and the verdict says so. Verdicts are read on each plain noise
-level of the run (not the ablations), with the clean one first.
+level of the run (not the ablations), with the clean one first, and on each detector of a report that sets
+several side by side (methods are compared within one detector, never across).
 """
 
 from __future__ import annotations
@@ -10,8 +11,9 @@ from __future__ import annotations
 from collections import defaultdict
 from typing import Any
 
-from attribot.eval.methods import NOISE_LEVELS, Record
+from attribot.eval.methods import Record
 from attribot.eval.stats import compare, wilson
+from attribot.eval.tables import levels, series_label
 
 __all__ = ["hypotheses"]
 
@@ -27,16 +29,12 @@ def _show(row: Row) -> str:
     return f"{row['method']} {row['accuracy']:.2f} [{row['low']:.2f}, {row['high']:.2f}] (n={row['n']})"
 
 
-def _levels(rows: list[Row]) -> list[str]:
-    present = {r["noise"] for r in rows}
-    return [n for n in NOISE_LEVELS if n in present]
-
-
-def _ran(rows: list[Row], task: str, noise: str) -> dict[str, Row]:
+def _ran(rows: list[Row], task: str, series: str) -> dict[str, Row]:
+    """The methods that ran on `task` in one series (a noise level, with its detector where several)."""
     return {
         r["method"]: r
         for r in rows
-        if r["task"] == task and r["noise"] == noise and r["accuracy"] is not None
+        if r["task"] == task and r["series"] == series and r["accuracy"] is not None
     }
 
 
@@ -55,7 +53,7 @@ def _beats(
 ) -> tuple[str, list[str]]:
     """Whether `ours` stands above every other method (or those of `others`) on `tasks`."""
     outcomes, evidence = [], []
-    for noise in _levels(rows):
+    for noise in levels(rows):
         for task in tasks:
             ran = _ran(rows, task, noise)
             if ours not in ran:
@@ -77,7 +75,7 @@ def _beats(
 
 def _h2(rows: list[Row]) -> tuple[str, list[str]]:
     outcomes, evidence = [], []
-    for noise in _levels(rows):
+    for noise in levels(rows):
         for task in ("weight_image", "weight_embodied"):
             for method, row in _ran(rows, task, noise).items():
                 if method not in ("vqa", "vqa+llm", "vlm"):
@@ -92,10 +90,11 @@ def _h2(rows: list[Row]) -> tuple[str, list[str]]:
 
 def _forms(records: list[Record]) -> list[dict[str, Any]]:
     """Per task, method and noise with items in both forms: the superlative's accuracy and the absolute's."""
+    several = len({r.detector for r in records}) > 1
     counts: dict[tuple[str, str, str, str], list[bool]] = defaultdict(list)
     for r in records:
         if r.form in ("superlative", "absolute") and r.status != "not run":
-            counts[(r.task, r.method, r.noise, r.form)].append(r.right)
+            counts[(r.task, r.method, series_label(r.noise, r.detector, several), r.form)].append(r.right)
     out = []
     for (task, method, noise, form), rights in sorted(counts.items()):
         other = counts.get((task, method, noise, "absolute"))

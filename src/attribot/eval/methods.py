@@ -73,6 +73,7 @@ class Record(BaseModel):
     method: str
     noise: str
     query: str
+    detector: str | None = None  # the run's detector spec (its noise aside); None in records made before
     form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
@@ -199,6 +200,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
         record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
     record.wall_s = time.perf_counter() - started
+    record.detector = str(settings.detector)
     return record
 
 
@@ -296,8 +298,12 @@ def _perception(settings: Settings) -> Any:
 
 
 def _ovd(item: Item, settings: Settings, noise: str) -> Record:
-    frame = _world_frame(item)
-    best = _best(_perception(settings).detector.detect(frame, [item.query]))
+    frame, detector = _world_frame(item), _perception(settings).detector
+    try:
+        best = _best(detector.detect(frame, [item.query]))
+    except InputError as exc:  # a closed-set detector that finds no class in the query refuses it
+        return _record(item, "ovd", noise, error=f"the detector refused the query: {exc}",
+                       error_category="perception")  # fmt: skip
     if best is None:
         return _record(item, "ovd", noise, error="the detector found nothing", error_category="perception")
     return _record(item, "ovd", noise, box=list(best.box), chosen_id=best.object_id, answer=best.label)

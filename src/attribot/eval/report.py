@@ -15,25 +15,35 @@ import base64
 import io
 import json
 from collections import Counter, defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import jinja2
 from PIL import Image, ImageDraw
 
 from attribot.api.safeguards import MECHANISMS
+from attribot.eval.compare import Runs, read_runs
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.hypotheses import hypotheses
 from attribot.eval.methods import NOISE_LEVELS, PROGRAM_METHODS, Record
-from attribot.eval.run import read_records
 from attribot.eval.stats import wilson
 from attribot.eval.suite import METHODS, TASKS, paper_numbers, tagged, task_names
-from attribot.eval.tables import FAILURE_KINDS, ablation_table, checks_table, table_one, table_one_latex
+from attribot.eval.tables import (
+    FAILURE_KINDS,
+    ablation_table,
+    checks_table,
+    series_label,
+    table_one,
+    table_one_latex,
+)
 from attribot.files import write_whole
 from attribot.noise import NOISE_PRESETS
 
-__all__ = ["wilson", "summarize", "write_report", "paper_numbers"]
+__all__ = ["wilson", "summarize", "write_report", "default_out", "paper_numbers"]
 
+T = TypeVar("T")
 _REALISTIC = NOISE_PRESETS["realistic"]
 NOISY_WHY = (
     f"Under the realistic preset a detection may be missed ({_REALISTIC['miss']:.0%} per frame, "
@@ -45,24 +55,32 @@ NOISY_WHY = (
     "catch what they can; the table of checks below says which caught what, and the ablation what each is "
     "worth."
 )
-_BOX_COLOURS = ("#2196f3", "#f44336", "#9c27b0", "#ff9800", "#009688", "#795548")
+_BOX_COLOURS = (
+    "#2196f3", "#f44336", "#9c27b0", "#ff9800", "#009688", "#795548",
+    "#3f51b5", "#e91e63", "#673ab7", "#cddc39", "#00bcd4", "#607d8b",
+)  # fmt: skip
 
 
-def _order(names: list[str], name: str) -> int:
+def _order(names: list[T], name: T) -> int:
     return names.index(name) if name in names else len(names)
 
 
 def summarize(records: list[Record]) -> list[dict[str, Any]]:
-    """One row per (task, method, noise): items, right, accuracy, Wilson interval, failures by category,
-    and the reason when the method was not run."""
-    groups: dict[tuple[str, str, str], list[Record]] = defaultdict(list)
+    """One row per (task, method, noise, detector): items, right, accuracy, Wilson interval, failures by
+    category, and the reason when the method was not run. `series` names the row's condition: its noise
+    level, with its detector when the records hold several (detectors in the order the records meet them)."""
+    groups: dict[tuple[str, str, str, str], list[Record]] = defaultdict(list)
     for r in records:
-        groups[(r.task, r.method, r.noise)].append(r)
+        groups[(r.task, r.method, r.noise, r.detector or "oracle")].append(r)
     tasks, methods = task_names(None), METHODS.names()
+    detectors = list(dict.fromkeys(d for *_, d in groups))
+    several = len(detectors) > 1
     rows = []
-    for (task, method, noise), rs in sorted(
-        groups.items(), key=lambda kv: (_order(tasks, kv[0][0]), _order(methods, kv[0][1]), kv[0][2])
-    ):
+
+    def place(key: tuple[str, str, str, str]) -> tuple[int, int, str, int]:
+        return (_order(tasks, key[0]), _order(methods, key[1]), key[2], detectors.index(key[3]))
+
+    for (task, method, noise, detector), rs in sorted(groups.items(), key=lambda kv: place(kv[0])):
         ran = [r for r in rs if r.status != "not run"]
         right = sum(r.right for r in ran)
         lo, hi = wilson(right, len(ran))
@@ -72,6 +90,8 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "task": task,
                 "method": method,
                 "noise": noise,
+                "detector": detector,
+                "series": series_label(noise, detector, several),
                 "n": len(ran),
                 "right": right,
                 "accuracy": right / len(ran) if ran else None,
@@ -112,8 +132,8 @@ def _figure_groups(task: str, rows: list[dict[str, Any]]) -> list[Group]:
         ]
         if not ran:
             continue  # not run: no empty slot
-        ran.sort(key=lambda r: _order(list(NOISE_LEVELS), r["noise"]))
-        bars = [Bar(r["noise"], r["accuracy"], r["low"], r["high"], r["n"]) for r in ran]
+        ran.sort(key=lambda r: _order(list(NOISE_LEVELS), r["noise"]))  # stable: detectors stay in order
+        bars = [Bar(r["series"], r["accuracy"], r["low"], r["high"], r["n"]) for r in ran]
         published = [v for _, v in paper_numbers(task, method)]
         if published:
             bars.append(Bar("paper", max(published)))
@@ -130,8 +150,8 @@ def _task_row(task: str, r: dict[str, Any]) -> dict[str, Any]:
         seconds += f" / {r['sim_s']:.1f}"
     return {
         "method": r["method"],
-        "noise": r["noise"],
-        "key": f"{task}|{r['method']}|{r['noise']}",
+        "noise": r["series"],
+        "key": f"{task}|{r['method']}|{r['series']}",
         "accuracy": fmt(r),
         "failures": failures,
         "seconds": seconds,
@@ -150,7 +170,7 @@ def _task_sections(rows: list[dict[str, Any]], out: Path) -> list[dict[str, Any]
         write_whole(out.parent / f"{out.stem}-{task}.svg", svg.encode())
         write_whole(out.parent / f"{out.stem}-{task}.png", png)
         notes = [
-            f"{r['method']} ({r['noise']}) differs from the paper's by more than 0.25: "
+            f"{r['method']} ({r['series']}) differs from the paper's by more than 0.25: "
             f"{METHODS.get(r['method']).why}" + (f" {NOISY_WHY}" if r["noise"] != "clean" else "")
             for r in task_rows
             if r["accuracy"] is not None
@@ -173,29 +193,60 @@ def _task_sections(rows: list[dict[str, Any]], out: Path) -> list[dict[str, Any]
 # ---- the gallery ---------------------------------------------------------------------------------------
 
 
-def _method_colour(method: str) -> str:
-    return _BOX_COLOURS[_order(METHODS.names(), method) % len(_BOX_COLOURS)]
+Who = tuple[str, str]  # (method, detector)
 
 
-def _image(path: Path, item_records: list[Record]) -> str:
+def _who(r: Record) -> Who:
+    return (r.method, r.detector or "oracle")
+
+
+@dataclass(frozen=True)
+class _Legend:
+    """Who drew each box in the gallery: a method, and its detector when the report sets several side by
+    side; each with its colour and a key without spaces for the page's filter."""
+
+    several: bool
+    entries: tuple[Who, ...]  # in the methods' order, detectors within
+
+    @staticmethod
+    def of(records: list[Record]) -> _Legend:
+        ran = {_who(r) for r in records if r.status != "not run"}
+        detectors = list(dict.fromkeys(d for _, d in map(_who, records)))
+        order = [(m, d) for m in METHODS.names() for d in detectors if (m, d) in ran]
+        return _Legend(len(detectors) > 1, tuple(order))
+
+    def label(self, who: Who) -> str:
+        return f"{who[0]} ({who[1]})" if self.several else who[0]
+
+    def key(self, who: Who) -> str:
+        return "|".join(who) if self.several else who[0]
+
+    def colour(self, who: Who) -> str:
+        return _BOX_COLOURS[_order(list(self.entries), who) % len(_BOX_COLOURS)]
+
+    def rows(self) -> list[tuple[str, str, str]]:
+        """(key, label, colour) for the page's legend and filter."""
+        return [(self.key(w), self.label(w), self.colour(w)) for w in self.entries]
+
+
+def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> str:
     """The item's image at full size with the true box (thick, green) and each method's box (its colour,
     named), as a JPEG data URI; "" when the run holds no image of it."""
-    if not path.is_file():
+    if path is None:
         return ""
     img = Image.open(path).convert("RGB")
     d = ImageDraw.Draw(img)
     if item_records[0].true_box:
         d.rectangle(item_records[0].true_box, outline=(0, 200, 0), width=5)
-    boxed = [(r.method, r.box) for r in item_records if r.box]
-    for k, (method, box) in enumerate(boxed):
-        colour = _method_colour(method)
+    boxed = [(legend.label(_who(r)), legend.colour(_who(r)), r.box) for r in item_records if r.box]
+    for k, (name, colour, box) in enumerate(boxed):
         d.rectangle(box, outline=colour, width=2)
         # the names stacked above the box (inside it at the image's top), white on the method's colour
         y = box[1] - 19 * (len(boxed) - k)
         y = y if y >= 0 else box[1] + 2 + 19 * k
-        left, top, right, bottom = d.textbbox((box[0], y), method, font_size=15)
+        left, top, right, bottom = d.textbbox((box[0], y), name, font_size=15)
         d.rectangle((left - 2, top - 2, right + 2, bottom + 2), fill=colour)
-        d.text((box[0], y), method, fill="white", font_size=15)
+        d.text((box[0], y), name, fill="white", font_size=15)
     buf = io.BytesIO()
     img.save(buf, "JPEG", quality=80)
     return "data:image/jpeg;base64," + base64.b64encode(buf.getvalue()).decode()
@@ -206,53 +257,50 @@ def _trace_line(call: dict[str, Any]) -> str:
     return f"{call.get('call')}({args}) -> {str(call.get('result'))[:60]}"
 
 
-def _gallery(records: list[Record], run_dir: Path, noise: str) -> list[dict[str, Any]]:
+def _image_path(run_dirs: tuple[Path, ...], item_id: str) -> Path | None:
+    """The item's image in the first run folder that holds it (runs reported together share items)."""
+    paths = (d / "dataset" / "images" / f"{item_id}.png" for d in run_dirs)
+    return next((p for p in paths if p.is_file()), None)
+
+
+def _result(r: Record, legend: _Legend) -> dict[str, Any]:
+    return {
+        "method": legend.label(_who(r)),
+        "colour": legend.colour(_who(r)),
+        "status": r.status,
+        "answer": r.answer[:200],
+        "error": (f"{r.error_category}: " if r.error_category else "") + (r.error or "")[:300],
+        "program": r.program,
+        "trace": "\n".join(_trace_line(t) for t in r.trace),
+    }
+
+
+def _gallery(
+    records: list[Record], run_dirs: tuple[Path, ...], noise: str, legend: _Legend
+) -> list[dict[str, Any]]:
     by_item: dict[str, list[Record]] = defaultdict(list)
     for record in records:
         if record.noise == noise:
             by_item[record.id].append(record)
-    methods = METHODS.names()
+    order = list(legend.entries)
     cards = []
     for item_id, rs in sorted(by_item.items()):
-        rs.sort(key=lambda rec: _order(methods, rec.method))
+        rs.sort(key=lambda rec: _order(order, _who(rec)))
         ran = [r for r in rs if r.status != "not run"]
-        failed = " ".join(r.method for r in ran if not r.right)
         cards.append(
             {
                 "id": item_id,
                 "query": rs[0].query,
-                "image": _image(run_dir / "dataset" / "images" / f"{item_id}.png", ran or rs),
-                "failed": failed,
-                "results": [
-                    {
-                        "method": r.method,
-                        "colour": _method_colour(r.method),
-                        "status": r.status,
-                        "answer": r.answer[:200],
-                        "error": (f"{r.error_category}: " if r.error_category else "")
-                        + (r.error or "")[:300],
-                        "program": r.program,
-                        "trace": "\n".join(_trace_line(t) for t in r.trace),
-                    }
-                    for r in ran
-                ],
-                "not_run": sorted({r.method for r in rs if r.status == "not run"}),
+                "image": _image(_image_path(run_dirs, item_id), ran or rs, legend),
+                "failed": " ".join(legend.key(_who(r)) for r in ran if not r.right),
+                "results": [_result(r, legend) for r in ran],
+                "not_run": sorted({legend.label(_who(r)) for r in rs if r.status == "not run"}),
             }
         )
     return cards
 
 
 # ---- the whole report ------------------------------------------------------------------------------------
-
-
-def _settings(run_dir: Path) -> list[tuple[str, str]]:
-    """The run's settings as (name, value) rows."""
-    path = run_dir / "run.json"
-    if not path.is_file():
-        return []
-    return [
-        (k, "-" if v is None else str(v)) for k, v in json.loads(path.read_text(encoding="utf-8")).items()
-    ]
 
 
 def _environment() -> jinja2.Environment:
@@ -265,47 +313,59 @@ def _environment() -> jinja2.Environment:
     )
 
 
-def write_report(run_dir: Path, out: Path | None = None, gallery_noise: str = "clean") -> Path:
-    """Write the report of the run in `run_dir` to `out` (default `run_dir/report.html`), its figures
-    beside it (`<stem>-<task>.svg` and `.png`) and Table I as LaTeX (`<stem>-table1.tex`); returns the
-    HTML path."""
-    records = read_records(run_dir)
-    out = out or run_dir / "report.html"
+def default_out(run_dirs: Sequence[Path]) -> Path:
+    """Where a report goes unless told: `RUN/report.html` for one run, `FIRST/compared.html` for several
+    (so that no run's own report is overwritten)."""
+    return run_dirs[0] / ("report.html" if len(run_dirs) == 1 else "compared.html")
+
+
+def write_report(
+    run_dir: Path | Sequence[Path], out: Path | None = None, gallery_noise: str = "clean"
+) -> Path:
+    """Write the report of the run in `run_dir` (or of several runs side by side, see
+    `attribot.eval.compare`) to `out` (default: `default_out`), its figures beside it (`<stem>-<task>.svg`
+    and `.png`) and Table I as LaTeX (`<stem>-table1.tex`); returns the HTML path."""
+    dirs = [run_dir] if isinstance(run_dir, Path) else list(run_dir)
+    runs = read_runs(dirs)
+    out = out or default_out(runs.dirs)
     out.parent.mkdir(parents=True, exist_ok=True)
-    rows = summarize(records)
-    ran = [r for r in records if r.status != "not run"]
+    rows = summarize(runs.records)
     latex = table_one_latex(rows, tagged("embodied"))
     write_whole(out.parent / f"{out.stem}-table1.tex", latex.encode())
-    not_run = sorted({(r["method"], r["not_run_reason"]) for r in rows if r["accuracy"] is None})
     page = (
         _environment()
         .get_template("report.html.jinja")
-        .render(
-            records=len(records),
-            run_dir=str(run_dir),
-            settings=_settings(run_dir),
-            table_one=table_one(rows, tagged("embodied")),
-            senses_table=table_one(rows, tagged("senses")),
-            latex=latex,
-            latex_file=f"{out.stem}-table1.tex",
-            tasks=_task_sections(rows, out),
-            failure_kinds=FAILURE_KINDS,
-            failures=[
-                (r, [r["failures"].get(k, 0) for k in FAILURE_KINDS])
-                for r in rows
-                if r["accuracy"] is not None
-            ],
-            checks=checks_table(records, PROGRAM_METHODS),
-            mechanisms=MECHANISMS,
-            ablation=ablation_table(rows, fmt),
-            hypotheses=hypotheses(rows, records),
-            why=[(name, m.why) for name, m in METHODS.items()],
-            not_run=not_run,
-            gallery_noise=gallery_noise,
-            gallery=_gallery(records, run_dir, gallery_noise),
-            legend=[(m, _method_colour(m)) for m in METHODS.names() if any(r.method == m for r in ran)],
-            summary=json.dumps(rows).replace("</", "<\\/"),
-        )
+        .render(**_page(runs, rows, out, gallery_noise), latex=latex, latex_file=f"{out.stem}-table1.tex")
     )
     write_whole(out, page.encode())
     return out
+
+
+def _page(runs: Runs, rows: list[dict[str, Any]], out: Path, gallery_noise: str) -> dict[str, Any]:
+    """The template's variables (but Table I's LaTeX)."""
+    records = runs.records
+    legend = _Legend.of(records)
+    return {
+        "records": len(records),
+        "run_dir": ", ".join(str(d) for d in runs.dirs),
+        "runs": [str(d) for d in runs.dirs],
+        "settings": runs.settings,
+        "compared": runs.compared,
+        "table_one": table_one(rows, tagged("embodied")),
+        "senses_table": table_one(rows, tagged("senses")),
+        "tasks": _task_sections(rows, out),
+        "failure_kinds": FAILURE_KINDS,
+        "failures": [
+            (r, [r["failures"].get(k, 0) for k in FAILURE_KINDS]) for r in rows if r["accuracy"] is not None
+        ],
+        "checks": checks_table(records, PROGRAM_METHODS),
+        "mechanisms": MECHANISMS,
+        "ablation": ablation_table(rows, fmt),
+        "hypotheses": hypotheses(rows, records),
+        "why": [(name, m.why) for name, m in METHODS.items()],
+        "not_run": sorted({(r["method"], r["not_run_reason"]) for r in rows if r["accuracy"] is None}),
+        "gallery_noise": gallery_noise,
+        "gallery": _gallery(records, runs.dirs, gallery_noise, legend),
+        "legend": legend.rows(),
+        "summary": json.dumps(rows).replace("</", "<\\/"),
+    }

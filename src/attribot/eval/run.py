@@ -40,6 +40,7 @@ from attribot.eval.methods import (
     paper_methods,
     run_method,
 )
+from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
 from attribot.files import write_whole
 from attribot.shutdown import die_with_parent
@@ -51,12 +52,14 @@ Job = tuple[Item, str, str]  # item, method, noise
 
 @dataclass(frozen=True)
 class EvalPlan:
-    """What to run: tasks, methods (None: the paper's per task), noise levels, at most `limit` per task."""
+    """What to run: tasks, methods (None: the paper's per task), noise levels, at most `limit` per task,
+    and the detector whose classes choose the items (None: the run's own; see `attribot.eval.subset`)."""
 
     tasks: tuple[str, ...] = field(default_factory=lambda: tuple(task_names()))
     methods: tuple[str, ...] | None = None
     noise: tuple[str, ...] = ("clean",)
     limit: int | None = None
+    findable_by: str | None = None
 
     def __post_init__(self) -> None:
         for condition in self.noise:
@@ -81,10 +84,12 @@ class RunSummary:
     skipped: int  # finished before, not run again
     seconds: float
     out: Path
+    subset: Subset | None = None  # the items a closed-set detector kept, per task; None: every item
 
 
-def fingerprint(settings: Settings) -> dict[str, Any]:
-    """The settings a record depends on: a run refuses to mix records made with different ones."""
+def fingerprint(settings: Settings, subset: str | None = None) -> dict[str, Any]:
+    """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
+    the closed-set detector whose classes chose the items (None: every item)."""
     return {
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
@@ -94,6 +99,7 @@ def fingerprint(settings: Settings) -> dict[str, Any]:
         "checks": settings.checks,
         "llm_model": getattr(settings, "llm_model", None),
         "llm_base_url": getattr(settings, "llm_base_url", None),
+        "subset": subset,
     }
 
 
@@ -187,8 +193,8 @@ def _set_aside_torn(path: Path) -> str | None:
     return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
 
-def _check_run(out: Path, settings: Settings) -> None:
-    want = fingerprint(settings)
+def _check_run(out: Path, settings: Settings, subset: str | None) -> None:
+    want = fingerprint(settings, subset)
     path = out / "run.json"
     if path.is_file():
         have = json.loads(path.read_text(encoding="utf-8"))
@@ -347,9 +353,11 @@ def run_eval(
     progress: Callable[[str], None] | None = None,
     on_record: Callable[[Record, int, int], None] | None = None,
     dataset: Path | None = None,
+    note: Callable[[str], None] | None = None,
 ) -> RunSummary:
     """Run the plan into `out` (see the module docstring). `on_record(record, finished, total)` is called
-    as each record is written (the CLI's progress bar). `dataset`: a folder made by `attribot dataset
+    as each record is written (the CLI's progress bar); `note(line)` with what the run should say once
+    (the items a closed-set detector kept, per task). `dataset`: a folder made by `attribot dataset
     build`, whose items and images the run takes instead of generating them.
 
     The run holds a lock on `out` throughout: a second run into it is refused with an `InputError`."""
@@ -362,8 +370,36 @@ def run_eval(
     given = None if dataset is None else read_dataset(dataset)  # a wrong folder fails before any work
     say = progress or (lambda _msg: None)
     started = time.perf_counter()
+    # the detector whose classes choose the items, asked before any work (a bad spec fails here)
+    chooser = plan.findable_by or str(settings.detector)
+    closed = closed_set_detector(chooser, settings)
     with RunLock(out):
-        return _run_locked(plan, settings, out, workers, executor, say, on_record, dataset, given, started)
+        _check_run(out, settings, chooser if closed is not None else None)
+        summary = _run_locked(plan, settings, out, workers, executor, say, on_record, dataset, given, started,
+                              _Chooser(chooser, closed, note or say))  # fmt: skip
+    return summary
+
+
+@dataclass(frozen=True)
+class _Chooser:
+    """The closed-set detector that chooses a run's items (None: every item is kept), and where to say
+    what it kept."""
+
+    spec: str
+    detector: Any
+    note: Callable[[str], None]
+
+    def choose(self, out: Path, items: list[Item]) -> tuple[list[Item], Subset | None]:
+        if self.detector is None:
+            return items, None
+        kept, subset = findable_items(items, self.spec, self.detector)
+        path = out / "run.json"
+        about = json.loads(path.read_text(encoding="utf-8"))
+        write_whole(path, (json.dumps({**about, "items": subset.as_json()}, indent=2) + "\n").encode())
+        self.note(f"the detector {self.spec} is closed-set: {subset.rule}")
+        for line in subset.lines():
+            self.note(line)
+        return kept, subset
 
 
 def _run_locked(
@@ -377,13 +413,13 @@ def _run_locked(
     dataset: Path | None,
     given: list[Item] | None,
     started: float,
+    chooser: _Chooser,
 ) -> RunSummary:
-    _check_run(out, settings)
     for path in sorted((out / "records").glob("*.jsonl")):
         note = _set_aside_torn(path)
         if note is not None:
             say(note)
-    items = _dataset(out, plan, say, dataset, given)
+    items, subset = chooser.choose(out, _dataset(out, plan, say, dataset, given))
     jobs, skipped = _jobs(items, plan, out)
     total = len(jobs)
     handles: dict[Path, Any] = {}
@@ -406,7 +442,9 @@ def _run_locked(
     finally:
         for handle in handles.values():
             handle.close()
-    return RunSummary(done=finished, skipped=skipped, seconds=time.perf_counter() - started, out=out)
+    return RunSummary(
+        done=finished, skipped=skipped, seconds=time.perf_counter() - started, out=out, subset=subset
+    )
 
 
 def worker_pool(workers: int) -> ProcessPoolExecutor:

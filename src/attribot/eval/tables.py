@@ -11,7 +11,15 @@ from attribot.api.safeguards import MECHANISMS
 from attribot.eval.methods import NOISE_LEVELS, Record
 from attribot.eval.suite import METHODS, paper_numbers
 
-__all__ = ["FAILURE_KINDS", "table_one", "table_one_latex", "checks_table", "ablation_table"]
+__all__ = [
+    "FAILURE_KINDS",
+    "series_label",
+    "levels",
+    "table_one",
+    "table_one_latex",
+    "checks_table",
+    "ablation_table",
+]
 
 FAILURE_KINDS = ("planner", "runner", "perception", "action", "uncertain", "wrong answer")
 _LATEX_NAMES = {
@@ -24,24 +32,33 @@ _LATEX_NAMES = {
 }
 
 
-def _levels(rows: list[dict[str, Any]]) -> list[str]:
-    present = {r["noise"] for r in rows}
-    return [n for n in NOISE_LEVELS if n in present] or ["clean"]
+def series_label(noise: str, detector: str | None, several: bool) -> str:
+    """What a report calls one condition of a method: its noise level, and its detector when the report
+    sets several detectors side by side ("clean, coco")."""
+    return f"{noise}, {detector}" if several else noise
 
 
-def _row(rows: list[dict[str, Any]], task: str, method: str, noise: str) -> dict[str, Any] | None:
-    return next((r for r in rows if (r["task"], r["method"], r["noise"]) == (task, method, noise)), None)
+def levels(rows: list[dict[str, Any]]) -> list[str]:
+    """The series of `rows` on plain noise levels (ablations aside): the presets' order, and within one
+    level the detectors in the order of the rows."""
+    plain = [r for r in rows if r["noise"] in NOISE_LEVELS]
+    plain.sort(key=lambda r: NOISE_LEVELS.index(r["noise"]))
+    return list(dict.fromkeys(r["series"] for r in plain))
+
+
+def _row(rows: list[dict[str, Any]], task: str, method: str, series: str) -> dict[str, Any] | None:
+    return next((r for r in rows if (r["task"], r["method"], r["series"]) == (task, method, series)), None)
 
 
 def table_one(rows: list[dict[str, Any]], tasks: list[str]) -> dict[str, Any]:
     """Table I, compact: a row per method that ran on an embodied task, for each task a column per noise
     level (accuracy, its interval and n) and the paper's number."""
-    levels = _levels(rows)
+    series = levels(rows) or ["clean"]
     body = []
     for method in METHODS.names():
         cells: list[dict[str, Any]] = []
         for task in tasks:
-            for noise in levels:
+            for noise in series:
                 row = _row(rows, task, method, noise)
                 ran = row is not None and row["accuracy"] is not None
                 cells.append(
@@ -60,7 +77,7 @@ def table_one(rows: list[dict[str, Any]], tasks: list[str]) -> dict[str, Any]:
             )
         if any(c["value"] != "-" for c in cells if not c.get("paper")):
             body.append({"method": method, "cells": cells})
-    return {"tasks": tasks, "levels": levels, "rows": body}
+    return {"tasks": tasks, "levels": series, "rows": body}
 
 
 def table_one_latex(rows: list[dict[str, Any]], tasks: list[str]) -> str:
@@ -87,12 +104,14 @@ def table_one_latex(rows: list[dict[str, Any]], tasks: list[str]) -> str:
 
 
 def checks_table(records: list[Record], program_methods: tuple[str, ...]) -> list[dict[str, Any]]:
-    """Per task, method and noise: for each mechanism the items where it caught something and of those
-    the ones answered right, the items it left unsettled, and the failures where nothing was caught."""
+    """Per task, method, noise (and detector, when the records hold several): for each mechanism the items
+    where it caught something and of those the ones answered right, the items it left unsettled, and the
+    failures where nothing was caught."""
+    several = len({r.detector for r in records}) > 1
     groups: dict[tuple[str, str, str], list[Record]] = defaultdict(list)
     for r in records:
         if r.method in program_methods:
-            groups[(r.task, r.method, r.noise)].append(r)
+            groups[(r.task, r.method, series_label(r.noise, r.detector, several))].append(r)
     out = []
     for (task, method, noise), rs in sorted(groups.items()):
         cells = []
@@ -122,12 +141,24 @@ def checks_table(records: list[Record], program_methods: tuple[str, ...]) -> lis
 
 
 def ablation_table(rows: list[dict[str, Any]], fmt: Callable[[dict[str, Any] | None], str]) -> dict[str, Any]:
-    """Accuracy with each mechanism off in turn, beside the preset with all of them on."""
+    """Accuracy with each mechanism off in turn, beside the preset with all of them on (a row per task,
+    method and detector)."""
     ablated = sorted({r["noise"] for r in rows if "-no-" in r["noise"]})
     base = sorted({n.partition("-no-")[0] for n in ablated})
     columns = [*base, *ablated]
+
+    def cell(task: str, method: str, detector: str, noise: str) -> dict[str, Any] | None:
+        key = (task, method, detector, noise)
+        return next((r for r in rows if (r["task"], r["method"], r["detector"], r["noise"]) == key), None)
+
+    keys = sorted({(r["task"], r["method"], r["detector"]) for r in rows if r["noise"] in ablated})
+    several = len({r["detector"] for r in rows}) > 1
     body = [
-        {"task": task, "method": method, "cells": [fmt(_row(rows, task, method, c)) for c in columns]}
-        for task, method in sorted({(r["task"], r["method"]) for r in rows if r["noise"] in ablated})
+        {
+            "task": task,
+            "method": f"{method} ({detector})" if several else method,
+            "cells": [fmt(cell(task, method, detector, c)) for c in columns],
+        }
+        for task, method, detector in keys
     ]
     return {"columns": columns, "rows": body}

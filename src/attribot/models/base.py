@@ -34,6 +34,7 @@ __all__ = [
     "UNKNOWN",
     "detect_many",
     "answer_many",
+    "can_find",
     "BackendStatus",
     "probe_backend",
 ]
@@ -69,7 +70,11 @@ class Detection(BaseModel):
 
 @runtime_checkable
 class Detector(Protocol):
-    """Open-vocabulary detection: boxes for the noun phrases in `queries`, best first."""
+    """Open-vocabulary detection: boxes for the noun phrases in `queries`, best first.
+
+    A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt) and
+    `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup); `can_find` below
+    asks any detector."""
 
     name: str
 
@@ -110,6 +115,13 @@ def answer_many(vqa: VisualQA, frames: Sequence[Frame], questions: Sequence[str]
     if batch is not None:
         return batch(frames, questions)
     return [vqa.answer(f, q) for f, q in zip(frames, questions, strict=True)]
+
+
+def can_find(detector: Detector, name: str) -> bool:
+    """Whether `detector` can find objects called `name`: a closed-set detector answers with its own
+    `can_find`; an open-vocabulary one (no `can_find`) takes any name."""
+    ask = getattr(detector, "can_find", None)
+    return True if ask is None else bool(ask(name))
 
 
 Builder = Callable[[str | None, "Settings"], Any]

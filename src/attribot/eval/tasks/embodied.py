@@ -82,6 +82,7 @@ def _embodied_items(task: str, n: int, start_seed: int) -> Iterator[Item]:
             true_id=truth.id,
             true_box=truth.box or [],
             candidates=[o.id for o in chosen],
+            object_categories=sorted({o.category for o in chosen}),
         )
         made += 1
 

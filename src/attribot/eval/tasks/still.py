@@ -264,6 +264,7 @@ def _location_items(n: int, start_seed: int) -> Iterator[Item]:
             embodied=False,
             true_id=truth.id,
             true_box=truth.box,
+            object_categories=sorted({o.category for o in same}),
         )
         made += 1
 
@@ -333,6 +334,7 @@ def _size_items(n: int, start_seed: int) -> Iterator[Item]:
                 embodied=False,
                 true_id=truth.id,
                 true_box=truth.box or [],
+                object_categories=sorted({o.category for o in objects}),
             )
         made += 1
 
@@ -342,7 +344,8 @@ def _weight_image_items(n: int, start_seed: int) -> Iterator[Item]:
     for made in range(n):
         seed = start_seed + made
         config = SceneConfig(layout="triplet", seed=seed, width=WIDTH, height=HEIGHT)
-        truth = max(scene_info(config).objects, key=lambda o: o.mass_kg)
+        objects = scene_info(config).objects
+        truth = max(objects, key=lambda o: o.mass_kg)
         yield Item(
             id=f"weight_image-{made:03d}",
             task="weight_image",
@@ -355,6 +358,7 @@ def _weight_image_items(n: int, start_seed: int) -> Iterator[Item]:
             embodied=False,
             true_id=truth.id,
             true_box=truth.box or [],
+            object_categories=sorted({o.category for o in objects}),
         )
 
 
