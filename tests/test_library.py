@@ -149,3 +149,21 @@ def test_a_still_image_is_copied_into_the_save_folder_for_its_replay(tmp_path, e
     photo.unlink()  # the original is gone: the replay reads the copy
     program, scene, _, query = load_saved(tmp_path / "saved")
     assert program == "x = 1\n" and query == "q" and scene.image == tmp_path / "saved" / "input.png"
+
+
+def test_the_wall_clock_limit_of_a_program_is_a_setting(empty_settings):
+    """A real robot or a detector on a CPU needs longer than the simulator: `program_wall_s` (the
+    --program-wall-s flag, ATTRIBOT_PROGRAM_WALL_S) bounds one program, its API calls included."""
+    program = (
+        "def execute_command(image, robot):\n"
+        "    for name in ['object'] * 50:\n"
+        "        found = image.find(name)\n"
+        "    return found[0]\n"
+    )
+    scene = attribot.Scene(attribot.SceneConfig(layout="triplet", seed=3, width=160, height=120))
+    short = attribot.run_program(program, scene, program_wall_s=0.05)
+    assert short.error is not None and short.error.category == "timeout" and "0.05 s" in short.error.message
+    roomy = attribot.run_program(program, scene, program_wall_s=120)
+    assert roomy.error is None and roomy.object is not None
+    done = cli("exec", "--help")
+    assert "--program-wall-s" in done.stdout

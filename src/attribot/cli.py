@@ -199,6 +199,9 @@ BACKEND_FLAGS = (
     _flag("checks", str | None, "--checks", metavar="NAMES", help="Error-catching mechanisms: all (default), "
           "none, or names (look_again, verify_actions, remeasure, confidence, reset); all,-NAME leaves one "
           "out."),
+    _flag("program_wall_s", float | None, "--program-wall-s", metavar="SECONDS", help="Wall-clock seconds "
+          "one program may run, API calls and robot actions included (default 60; more on a real robot or "
+          "with a real detector on a CPU)."),
 )  # fmt: skip
 PLANNER_FLAGS = (
     _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
@@ -493,7 +496,7 @@ def _settings(given: Any) -> Any:
     """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
     from attribot.config import load_settings
 
-    names = ("detector", "vqa", "language", "planner", "llm_base_url", "llm_model")
+    names = ("detector", "vqa", "language", "program_wall_s", "planner", "llm_base_url", "llm_model")
     return load_settings(
         naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
     )
@@ -553,6 +556,8 @@ def _show(answer: Any, as_json: bool) -> None:
                 f"{escape(visible(answer.error.message))}",
                 highlight=False,
             )
+            if answer.error.category == "timeout":
+                out.print("[dim]fix: a program that needs longer may have it: --program-wall-s SECONDS[/]")
         if answer.output.strip():
             out.print(
                 f"[dim]the program printed:[/]\n{escape(visible(answer.output.rstrip()))}", highlight=False
@@ -809,7 +814,7 @@ def _shown_path(out: Path | None, dataset: Path, item_id: str) -> Path:
 
 
 @app.command("eval", cls=_Command)
-@_with_flags(PLANNER_FLAGS, BACKEND_FLAGS[:3])
+@_with_flags(PLANNER_FLAGS, (*BACKEND_FLAGS[:3], BACKEND_FLAGS[4]))
 def evaluate(
     out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
     suite: str = _SUITE,

@@ -105,6 +105,9 @@ class Settings(BaseSettings):
     # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
     # names, or "all,-look_again" to leave one out
     checks: str = "all"
+    # the wall-clock seconds one program may run, its API calls and the robot's actions included: a real
+    # robot, or a real detector on a CPU, needs more than the simulator with the oracle
+    program_wall_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     cache_dir: Path = Path(".attribot-cache")
 

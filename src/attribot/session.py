@@ -244,9 +244,10 @@ class Session:
                 self._world(record)
             from attribot.api.patch import ImagePatch
             from attribot.api.robot import Robot
-            from attribot.runner import ProgramRunner
+            from attribot.runner import Limits, ProgramRunner
 
-            self.parts.runner = ProgramRunner(classes=[ImagePatch, Robot])
+            limits = Limits(wall_s=settings.program_wall_s)
+            self.parts.runner = ProgramRunner(classes=[ImagePatch, Robot], limits=limits)
         except BaseException:
             self.close()
             raise
