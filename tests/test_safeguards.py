@@ -587,3 +587,54 @@ def execute_command(image, robot):
     sd = float(answer.returned["text"]) if isinstance(answer.returned, dict) else None
     assert answer.value is not None and sd is not None and 0 < sd < 0.2
     assert abs(answer.value - light.mass_kg) <= 3 * sd + 0.01, (answer.value, light.mass_kg, sd)
+
+
+class _ConfusedWhileOn:
+    """Wraps a detector: while `on`, the name of `meant` finds `other`'s box instead (a confusion that
+    repeats from the views of an approach)."""
+
+    def __init__(self, inner: object, meant: str, other: str) -> None:
+        self.inner, self.meant, self.other, self.on, self.name = inner, meant, other, False, "confused"
+
+    def detect(self, frame: Frame, queries: list[str]) -> list[Detection]:
+        found = self.inner.detect(frame, queries)  # type: ignore[attr-defined]
+        if not self.on or queries == ["object"]:
+            return found
+        others = [d for d in self.inner.detect(frame, ["object"]) if d.object_id == self.other]  # type: ignore[attr-defined]
+        return [
+            Detection(box=o.box, score=d.score, label=d.label, object_id=o.object_id)
+            for d in found
+            if d.object_id == self.meant
+            for o in others
+        ]
+
+
+@pytest.mark.parametrize("checks", ["all", "all,-verify_actions"])
+def test_lifting_another_object_than_the_one_meant_is_caught_put_back_and_tried_again(perception, checks):
+    # household 5: the computer mouse and the spoon stand 20 cm apart on one table
+    with MujocoWorld(SceneConfig(layout="household", seed=5, width=W, height=H)) as w:
+        confused = _ConfusedWhileOn(perception.detector, "computer_mouse_0", "spoon_1")
+        guards = Safeguards(checks)
+        robot = Robot(["camera", "force"], world=w, safeguards=guards)
+        mouse = robot.look(dataclasses.replace(perception, detector=confused)).find("computer mouse")[0]
+        assert mouse.object_id == "computer_mouse_0"
+        confused.on = True  # the approach's views take the spoon for the mouse: the robot reaches the spoon
+        robot.go_to_object(mouse)
+        grasp = robot.controller.pick_up
+
+        def grasp_then_see_right(target: object) -> None:
+            grasp(target)  # type: ignore[arg-type]
+            confused.on = False  # lifted, the objects are seen for what they are
+
+        robot.controller.pick_up = grasp_then_see_right  # type: ignore[method-assign]
+        spoon_at = w.sim.object_position(w.sim.key_of_id["spoon_1"]).copy()
+        robot.pick_up(mouse)
+        held = [e for e in guards.events if e.call == "pick_up(computer mouse)"]
+        if checks == "all":
+            assert w.held_object() == "computer_mouse_0"
+            assert [e.outcome for e in held] == ["caught", "confirmed"]
+            assert "another object" in held[0].detail
+            spoon_now = w.sim.object_position(w.sim.key_of_id["spoon_1"])
+            assert np.linalg.norm(spoon_now[:2] - spoon_at[:2]) < 0.05  # put back where it stood
+        else:  # switched off: the wrong object stays in the gripper, unchecked
+            assert w.held_object() == "spoon_1" and not held

@@ -290,3 +290,30 @@ def test_manipulation_programs_run_through_attribot_exec(tmp_path, program, scen
     made = [t["call"] for t in answer["trace"]]
     for call in calls:
         assert call in made and all(t["error"] is None for t in answer["trace"])
+
+
+@pytest.mark.parametrize("seed", [3, 5])
+def test_after_a_lift_the_camera_tells_the_object_meant_from_another(seed):
+    """The finder saw the nearest other object under the target's name while the robot approached: the
+    check after lifting sees the name standing where the image showed it, not in the gripper; lifting the
+    object meant, it sees the name rise with the gripper."""
+    with _world(seed) as world:
+        objects = [o for o in world.scene_info().objects if o.box is not None and o.pickable]
+        xy = {o.id: _position(world, o.id)[:2] for o in objects}
+        meant, other = min(
+            ((a, b) for a in objects for b in objects if a.id != b.id),
+            key=lambda ab: float(np.linalg.norm(xy[ab[0].id] - xy[ab[1].id])),
+        )
+        right, wrong = _target(world, meant.id), _target(world, other.id)
+        mistaken = Target(box=wrong.box, capture=wrong.capture, label=meant.category, find=wrong.find)
+        servo = ServoController(TruthBlindWorld(world))
+        servo.approach(mistaken)
+        servo.pick_up(mistaken)
+        assert world.held_object() == other.id
+        verdict, detail = servo.check_held(right, right)
+        assert verdict is False and meant.category in detail
+        servo.put_down()
+        servo.approach(right)
+        servo.pick_up(right)
+        assert world.held_object() == meant.id
+        assert servo.check_held(right, right)[0] is True

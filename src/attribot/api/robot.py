@@ -934,12 +934,14 @@ class Robot(metaclass=_RobotApi):
                 "call robot.go_to_object(patch) right before robot.pick_up(patch)",
             )
         tries = self.GRASP_TRIES if self.safeguards.on("verify_actions") else 1
+        seen_first = target
         for attempt in range(tries):
             if "force" in self.sensors:
                 assert self.world is not None
                 self.world.tare_force()  # zero with the gripper empty, so a later reading is the load alone
             try:
                 self.controller.pick_up(target)
+                self._check_held(p, target, seen_first)
                 break
             except ControlError as exc:
                 if attempt + 1 == tries or not str(exc.message).startswith("grasp failed"):
@@ -950,6 +952,25 @@ class Robot(metaclass=_RobotApi):
                 self.controller.approach(target)
         self.held = p
         self._aimed = None
+
+    def _check_held(self, p: ImagePatch, target: Target, seen_first: Target) -> None:
+        """With `verify_actions`, where the controller can look: the object lifted must be the one meant (its
+        name is seen rising with the gripper). When another object was lifted, it is put back and the grasp
+        counts as failed, to be tried again; when the camera cannot tell, the grasp stands."""
+        check = getattr(self.controller, "check_held", None)
+        if check is None or not self.safeguards.on("verify_actions"):
+            return
+        verdict, detail = check(target, seen_first)
+        call = f"pick_up({p.label or 'patch'})"
+        if verdict is True:
+            self.safeguards.note("verify_actions", call, "confirmed", detail)
+        if verdict is not False:
+            return
+        self.controller.put_down()
+        raise ControlError(
+            f"grasp failed: it lifted another object than {target.describe()} and put it back: {detail}",
+            "call robot.go_to_object(patch) again and retry",
+        )
 
     def put_down(self) -> None:
         """Puts the held object back down where it was picked up.

@@ -54,11 +54,9 @@ class Locator:
         camera on it and reading the rangefinder (which needs the view unchanged since that image)."""
         body = self.plant.body(action)
         cap = target.capture
-        view = view_of(cap, body)
-        if cap.depth is not None and cap.camera is not None and view is not None and cap.base is not None:
-            est = estimate_object(cap.depth, cap.camera, view, cap.base, target.box)
-            if est is not None:
-                return est
+        est = self.where_seen(target, body)
+        if est is not None:
+            return est
         if cap.camera is None:
             raise not_available(action, self.plant.world_name, "the image was taken without known intrinsics")
         if not self.plant.has("distance"):
@@ -67,6 +65,15 @@ class Locator:
             )
         self.focus(target)
         return self.range_estimate(target.box, cap.camera, body)
+
+    def where_seen(self, target: Target, body: BodyGeometry) -> ObjectEstimate | None:
+        """Where the target was when its image was taken, from that image's depth; None without depth (or
+        without a known camera pose), or when its box holds no valid depth."""
+        cap = target.capture
+        view = view_of(cap, body)
+        if cap.depth is None or cap.camera is None or view is None or cap.base is None:
+            return None
+        return estimate_object(cap.depth, cap.camera, view, cap.base, target.box)
 
     def range_estimate(self, box: Box, camera: CameraInfo, body: BodyGeometry) -> ObjectEstimate:
         """The object at the image centre by the rangefinder, sized by its box at that range (with a
@@ -237,7 +244,7 @@ class Locator:
         js = self.plant.world.joint_states()
         lift, ext = float(js.get("lift", hold.lift)), float(js.get("arm", hold.extension))
         pose = self.plant.pose()
-        grip = to_world(np.array([body.reach_x(ext), body.arm_xy[1], lift]), pose)
+        grip = self.grip_point(body, lift, ext)
         tips = to_world(np.array([body.reach_x(ext) + 0.05, body.arm_xy[1], lift]), pose)
         root = to_world(np.array([body.arm_xy[0], body.arm_xy[1], lift]), pose)
         r = hold.radius + 0.04
@@ -253,6 +260,18 @@ class Locator:
             return on | arm
 
         return held
+
+    def grip_point(
+        self,
+        body: BodyGeometry,
+        lift: float,
+        extension: float,
+        pose: tuple[float, float, float] | None = None,
+    ) -> np.ndarray:
+        """The world point between the fingertips with the arm at `lift` and `extension`, the base at
+        `pose` (where it stands now by default)."""
+        at = self.plant.pose() if pose is None else pose
+        return to_world(np.array([body.reach_x(extension), body.arm_xy[1], lift]), at)
 
     def capture(self, frame: Frame, camera: CameraInfo, body: BodyGeometry) -> Capture:
         """What is known of `frame`, taken just now."""

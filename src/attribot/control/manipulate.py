@@ -15,8 +15,9 @@ from attribot.control.drive import Driver
 from attribot.control.locate import Locator
 from attribot.control.plant import Hold, Plant, Reach, moved
 from attribot.control.reach import Reacher
-from attribot.control.sighting import nearest_to_centre
+from attribot.control.sighting import Box, nearest_to_centre
 from attribot.control.spatial import ObjectEstimate, base_points, estimate_object, to_world
+from attribot.frame import Frame
 
 __all__ = ["Manipulator"]
 
@@ -88,6 +89,58 @@ class Manipulator:
                 f"grasp failed: {felt} after lifting {target.describe()}",
                 "call robot.go_to_object(patch) again and retry",
             )
+
+    def check_held(self, target: Target, seen_first: Target) -> tuple[bool | None, str]:
+        """Whether the object lifted is the target, by what the camera sees: a detection of its name that
+        rose with the gripper (True); or detections of its name only elsewhere, nearer to where the image
+        the program chose it from (`seen_first`) put it than the grasp was, so that another object was lifted
+        (False). None when it cannot tell: no finder or depth, its name not seen at all, or seen only
+        farther away (another object of its kind, while the detector misses the held one)."""
+        hold = self.holding
+        body = self.plant.body("pick_up")
+        if hold is None or target.find is None or not self.plant.has("pose"):
+            return None, "nothing to look for"
+        js = self.plant.world.joint_states()
+        lift = float(js.get("lift", hold.lift))
+        grip = self.locator.grip_point(body, lift, float(js.get("arm", hold.extension)))
+        grasped = self.locator.grip_point(body, hold.lift, hold.extension, hold.pose)
+        self.locator.aim(grip, body, target, hold)
+        camera = self.plant.world.camera_info()
+        elsewhere: list[ObjectEstimate] = []
+
+        def in_gripper(frame: Frame, box: Box) -> ObjectEstimate | None:
+            if frame.depth is None:
+                return None
+            est = estimate_object(frame.depth, camera, self.plant.view(body), self.plant.pose(), box)
+            if est is None:
+                return None
+            if float(np.hypot(*(est.xy() - grip[:2]))) <= hold.radius + 0.06 and est.top_z > lift:
+                return est
+            elsewhere.append(est)
+            return None
+
+        _, box = self.locator.look_again(target, camera, 0.5, in_gripper)
+        if box is not None:
+            return True, f"the camera sees the {hold.label} rise with the gripper"
+        first = self.locator.where_seen(seen_first, body)
+        if first is None:
+            return None, f"the camera does not see the {hold.label} in the gripper"
+        if not elsewhere:  # look where the image showed it: still standing there, it was not lifted
+            self.locator.aim(np.array(first.centre), body, target, hold)
+            frame = self.plant.world.observe()
+            for seen in target.find(frame):
+                in_gripper(frame, seen)
+        if not elsewhere:
+            return None, f"the camera does not see the {hold.label} in the gripper"
+        other = min(elsewhere, key=lambda e: float(np.linalg.norm(e.xy() - first.xy())))
+        off_grasp = float(np.linalg.norm(grasped[:2] - first.xy()))
+        off_other = float(np.linalg.norm(other.xy() - first.xy()))
+        if off_other + max(0.03, hold.radius) >= off_grasp:  # as near: the same object, or as likely not
+            return None, f"the camera does not see the {hold.label} in the gripper"
+        return False, (
+            f"the camera sees the {hold.label} {off_other * 100:.0f} cm from where the image showed it, and "
+            f"not in the gripper, which closed {off_grasp * 100:.0f} cm from there"
+        )
 
     def put_down(self) -> None:
         """Put what is held back where it was picked up."""

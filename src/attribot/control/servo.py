@@ -185,6 +185,10 @@ class ServoController(PointingController):
         self.manipulator.pick_up(target, reach)
         self.approached = None
 
+    def check_held(self, target: Target, seen_first: Target) -> tuple[bool | None, str]:
+        """Whether what was just lifted is the target, by looking at it (`Manipulator.check_held`)."""
+        return self.manipulator.check_held(target, seen_first)
+
     def put_down(self) -> None:
         self.manipulator.put_down()
 

@@ -179,7 +179,7 @@ def _which_for_that(text: str) -> str:
     relative = _X_THAT_IS.match(text)
     if relative is None or _object(relative["noun"]) is None:
         return text
-    return f"which {relative['noun']} is {text[relative.end():]}"
+    return f"which {relative['noun']} is {text[relative.end() :]}"
 
 
 def _unplaced(text: str) -> str:
