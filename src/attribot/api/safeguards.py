@@ -4,8 +4,9 @@ Each is on by default, can be switched off on its own (for ablations: `--checks 
 writes what it did into the answer's `checks` log, beside the trace:
 
 - `look_again`: the first image is checked against views from other head poses (`attribot.api.looking`);
-- `verify_actions`: a grasp that closed on nothing or slipped is tried again; a distance reading is
-  checked against the depth inside the object's box (the beam may have hit an edge or the wall behind);
+- `verify_actions`: a grasp that closed on nothing, slipped or lifted another object than the one meant
+  is tried again; a distance reading is checked against the depth inside the object's box (the beam may
+  have hit an edge or the wall behind);
 - `remeasure`: readings are repeated and combined, each measurement with its uncertainty;
 - `confidence`: a choice made by comparing measurements whose margin lies inside their uncertainty is
   measured again, and if still unsettled the answer says it cannot tell, naming both values;
