@@ -257,6 +257,22 @@ def test_distance_is_measured_again_with_its_uncertainty(perception):
         assert truth.distance_m - truth.size_m / 2 - 0.05 <= metres <= truth.distance_m + 0.05
 
 
+def test_the_beam_check_takes_the_nearest_surface_so_a_thin_pole_is_measured(perception):
+    # household 5500 with a lamp alone: centred on its pole, most of the depth window is the wall behind
+    config = SceneConfig(
+        layout="household", seed=5500, categories=("lamp",), objects=1, options={"min_gap": 0.08}
+    )
+    with MujocoWorld(config) as w:
+        lamp = next(o for o in w.scene_info().objects if o.category == "lamp")
+        guards = Safeguards()
+        robot = Robot(["camera", "distance"], world=w, safeguards=guards)
+        patch = robot.look(perception).find("lamp")[0]
+        robot.focus_on_patch(patch)
+        metres = robot.measure_distance(patch)
+        assert lamp.distance_m - lamp.size_m / 2 - 0.05 <= metres <= lamp.distance_m + 0.05
+        assert not any(e.mechanism == "verify_actions" and e.outcome == "caught" for e in guards.events)
+
+
 HEAVIER = """
 def execute_command(image, robot):
     best, best_kg = None, -1.0
