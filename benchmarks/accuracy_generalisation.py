@@ -40,6 +40,7 @@ import random
 import re
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -237,35 +238,51 @@ def main() -> None:
     rows = [json.loads(line) for line in PARTS[args.part].read_text().splitlines()]
     if args.kind:
         rows = [r for r in rows if r["kind"] == args.kind]
+    score(rows, scene_for, judge, SENSORS, "kind", args.seed, f"# {args.part}")
+
+
+def score(
+    rows: list[dict[str, Any]],
+    scene_for: Callable[[dict[str, Any], int], tuple[SceneConfig, Any] | None],
+    judge: Callable[[dict[str, Any], Any, Any], str],
+    sensors: list[str],
+    group: str,
+    seed: int,
+    title: str,
+) -> None:
+    """Ask every phrasing in the scene drawn for it and print each one not answered right, a line per
+    group of rows (the row field `group`) and the total: the scoring loop of this benchmark and of
+    accuracy_senses.py."""
     settings = load_settings()
     tally: Counter[tuple[str, str]] = Counter()
     t0 = time.perf_counter()
     for i, row in enumerate(rows):
-        built = scene_for(row, args.seed * 10_000 + i)
+        built = scene_for(row, seed * 10_000 + i)
         if built is None:
-            tally[(row["kind"], "no scene")] += 1
+            tally[(row[group], "no scene")] += 1
             print(f"  no scene: {row['query']!r}", flush=True)
             continue
         config, truth = built
         try:
-            answer = ask(row["query"], Scene(config, sensors=SENSORS), settings)
+            answer = ask(row["query"], Scene(config, sensors=sensors), settings)
         except AttribotError as exc:  # the planner could not read it: a refusal
-            tally[(row["kind"], "refused")] += 1
+            tally[(row[group], "refused")] += 1
             print(f"  refused: {row['query']!r}: {exc}"[:260], flush=True)
             continue
         verdict = judge(row, truth, answer)
-        tally[(row["kind"], verdict)] += 1
+        tally[(row[group], verdict)] += 1
         if verdict != "right":
             got = answer.error.message if answer.error else answer.answer
             print(f"  {verdict}: {row['query']!r} seed {config.seed}: {got}"[:260], flush=True)
     asked = sum(v for (_, k), v in tally.items() if k != "no scene")
     right = sum(v for (_, k), v in tally.items() if k == "right")
     misread = sum(v for (_, k), v in tally.items() if k == "misread")
-    for kind in sorted({f for f, _ in tally}):
-        r, f, m, n = (tally[(kind, k)] for k in ("right", "refused", "misread", "no scene"))
-        print(f"{kind:8s} right {r:3d}  refused {f:3d}  misread {m:3d}  no scene {n:3d}")
+    width = max((len(g) for g, _ in tally), default=0)
+    for name in sorted({g for g, _ in tally}):
+        r, f, m, n = (tally[(name, k)] for k in ("right", "refused", "misread", "no scene"))
+        print(f"{name:{width}s} right {r:3d}  refused {f:3d}  misread {m:3d}  no scene {n:3d}")
     print(
-        f"# {args.part}: {right}/{asked} = {right / max(asked, 1):.3f} right, {misread} misread; "
+        f"{title}: {right}/{asked} = {right / max(asked, 1):.3f} right, {misread} misread; "
         f"{len(rows)} phrasings in {time.perf_counter() - t0:.0f} s"
     )
 

@@ -33,15 +33,13 @@ from __future__ import annotations
 import argparse
 import json
 import random
-import time
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from attribot.config import SceneConfig, load_settings
+from accuracy_generalisation import score
+from attribot.config import SceneConfig
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
-from attribot.session import Scene, ask
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 ALL = DATA / "generalisation_senses.jsonl"
@@ -179,37 +177,7 @@ def main() -> None:
         split()
         return
     rows = [json.loads(line) for line in PARTS[args.part].read_text().splitlines()]
-    settings = load_settings()
-    tally: Counter[tuple[str, str]] = Counter()
-    t0 = time.perf_counter()
-    for i, row in enumerate(rows):
-        built = scene_for(row, args.seed * 10_000 + i)
-        if built is None:
-            tally[(row["attr"], "no scene")] += 1
-            print(f"  no scene: {row['query']!r}", flush=True)
-            continue
-        config, truth = built
-        try:
-            answer = ask(row["query"], Scene(config, sensors=SENSORS), settings)
-        except AttribotError as exc:  # the planner could not read it: a refusal
-            tally[(row["attr"], "refused")] += 1
-            print(f"  refused: {row['query']!r}: {exc}"[:260], flush=True)
-            continue
-        verdict = judge(row, truth, answer)
-        tally[(row["attr"], verdict)] += 1
-        if verdict != "right":
-            got = answer.error.message if answer.error else answer.answer
-            print(f"  {verdict}: {row['query']!r} seed {config.seed}: {got}"[:260], flush=True)
-    asked = sum(v for (_, k), v in tally.items() if k != "no scene")
-    right = sum(v for (_, k), v in tally.items() if k == "right")
-    misread = sum(v for (_, k), v in tally.items() if k == "misread")
-    for attr in sorted({a for a, _ in tally}):
-        r, f, m, n = (tally[(attr, k)] for k in ("right", "refused", "misread", "no scene"))
-        print(f"{attr:12s} right {r:3d}  refused {f:3d}  misread {m:3d}  no scene {n:3d}")
-    print(
-        f"# senses {args.part}: {right}/{asked} = {right / max(asked, 1):.3f} right, {misread} misread; "
-        f"{len(rows)} phrasings in {time.perf_counter() - t0:.0f} s"
-    )
+    score(rows, scene_for, judge, SENSORS, "attr", args.seed, f"# senses {args.part}")
 
 
 if __name__ == "__main__":
