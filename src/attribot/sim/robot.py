@@ -23,7 +23,15 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-__all__ = ["RobotGeometry", "GEOMETRY", "add_robot", "JOINTS", "camera_quat"]
+__all__ = [
+    "RobotGeometry",
+    "GEOMETRY",
+    "add_robot",
+    "JOINTS",
+    "camera_quat",
+    "position_actuator",
+    "velocity_actuator",
+]
 
 
 @dataclass(frozen=True)
@@ -82,6 +90,26 @@ def _box(
     g.contype, g.conaffinity = (2, 1) if collide else (0, 0)
     g.group = 1
     return g
+
+
+def velocity_actuator(spec: mujoco.MjSpec, joint: str, kv: float, force: float) -> None:
+    """A velocity servo on `joint` with gain `kv`, its force limited to +/- `force`."""
+    a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    a.set_to_velocity(kv=kv)
+    a.forcelimited = True
+    a.forcerange = [-force, force]
+
+
+def position_actuator(
+    spec: mujoco.MjSpec, joint: str, kp: float, ctrl: tuple[float, float], force: float
+) -> None:
+    """A position servo on `joint` with gain `kp`, its target within `ctrl`, its force within +/- `force`."""
+    a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    a.set_to_position(kp=kp)
+    a.ctrllimited = True
+    a.ctrlrange = list(ctrl)
+    a.forcelimited = True
+    a.forcerange = [-force, force]
 
 
 def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
@@ -204,29 +232,15 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     probe.mass = 0.001
 
     # actuators
-    def velocity(joint: str, kv: float, force: float) -> None:
-        a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        a.set_to_velocity(kv=kv)
-        a.forcelimited = True
-        a.forcerange = [-force, force]
-
-    def position(joint: str, kp: float, ctrl: tuple[float, float], force: float) -> None:
-        a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        a.set_to_position(kp=kp)
-        a.ctrllimited = True
-        a.ctrlrange = list(ctrl)
-        a.forcelimited = True
-        a.forcerange = [-force, force]
-
-    velocity("base_x", 400.0, 400.0)
-    velocity("base_y", 400.0, 400.0)
-    velocity("base_yaw", 80.0, 150.0)
-    position("head_pan", 30.0, g.pan_range, 20.0)
-    position("head_tilt", 30.0, g.tilt_range, 20.0)
-    position("lift", 6000.0, g.lift_range, 600.0)
-    position("arm", 2500.0, g.arm_range, 300.0)
-    position("finger_l", 300.0, g.finger_range, 30.0)
-    position("finger_r", 300.0, g.finger_range, 30.0)
+    velocity_actuator(spec, "base_x", 400.0, 400.0)
+    velocity_actuator(spec, "base_y", 400.0, 400.0)
+    velocity_actuator(spec, "base_yaw", 80.0, 150.0)
+    position_actuator(spec, "head_pan", 30.0, g.pan_range, 20.0)
+    position_actuator(spec, "head_tilt", 30.0, g.tilt_range, 20.0)
+    position_actuator(spec, "lift", 6000.0, g.lift_range, 600.0)
+    position_actuator(spec, "arm", 2500.0, g.arm_range, 300.0)
+    position_actuator(spec, "finger_l", 300.0, g.finger_range, 30.0)
+    position_actuator(spec, "finger_r", 300.0, g.finger_range, 30.0)
 
     rf = spec.add_sensor(
         name="rangefinder",

@@ -24,7 +24,7 @@ import mujoco
 
 from attribot.bridge.robomaster_body import EP_BODY, EP_CAMERA_HFOV_DEG, EP_RANGE_MAX_M
 from attribot.control.body import BodyGeometry, TwoLinkArm
-from attribot.sim.robot import camera_quat
+from attribot.sim.robot import camera_quat, position_actuator, velocity_actuator
 
 __all__ = [
     "EP",
@@ -184,29 +184,15 @@ def add_ep_robot(spec: mujoco.MjSpec, width: int, height: int) -> None:
 
 
 def _add_actuators(spec: mujoco.MjSpec) -> None:
-    def velocity(joint: str, kv: float, force: float) -> None:
-        a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        a.set_to_velocity(kv=kv)
-        a.forcelimited = True
-        a.forcerange = [-force, force]
-
-    def position(joint: str, kp: float, ctrl: tuple[float, float], force: float) -> None:
-        a = spec.add_actuator(name=joint, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        a.set_to_position(kp=kp)
-        a.ctrllimited = True
-        a.ctrlrange = list(ctrl)
-        a.forcelimited = True
-        a.forcerange = [-force, force]
-
     arm = _arm()
-    velocity("base_x", 120.0, 150.0)
-    velocity("base_y", 120.0, 150.0)
-    velocity("base_yaw", 20.0, 40.0)
-    position("upper_arm", 400.0, arm.upper_range, 40.0)
-    position("elbow", 400.0, (-arm.bend_range[1], -arm.bend_range[0]), 40.0)
-    position("wrist", 200.0, (-arm.fore_range[1], -arm.fore_range[0]), 20.0)
-    position("finger_l", 300.0, (0.0, EP.finger_open), 30.0)
-    position("finger_r", 300.0, (0.0, EP.finger_open), 30.0)
+    velocity_actuator(spec, "base_x", 120.0, 150.0)
+    velocity_actuator(spec, "base_y", 120.0, 150.0)
+    velocity_actuator(spec, "base_yaw", 20.0, 40.0)
+    position_actuator(spec, "upper_arm", 400.0, arm.upper_range, 40.0)
+    position_actuator(spec, "elbow", 400.0, (-arm.bend_range[1], -arm.bend_range[0]), 40.0)
+    position_actuator(spec, "wrist", 200.0, (-arm.fore_range[1], -arm.fore_range[0]), 20.0)
+    position_actuator(spec, "finger_l", 300.0, (0.0, EP.finger_open), 30.0)
+    position_actuator(spec, "finger_r", 300.0, (0.0, EP.finger_open), 30.0)
 
 
 def _add_sensors(spec: mujoco.MjSpec) -> None:
