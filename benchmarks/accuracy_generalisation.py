@@ -58,15 +58,15 @@ SENSORS = ["camera", "distance", "force"]
 GAPS = {"weight": 0.05, "distance": 0.08, "size": 0.15, "x": 12.0}  # relative for weight and size
 
 
-def split() -> None:
-    """Deal the set into its two parts, half and half, with a fixed seed."""
-    rows = ALL.read_text().splitlines()
+def split(whole: Path = ALL, parts: dict[str, Path] = PARTS, seed: int = SPLIT_SEED) -> None:
+    """Deal the set `whole` into its two `parts`, half and half, with a fixed seed."""
+    rows = whole.read_text().splitlines()
     order = list(range(len(rows)))
-    random.Random(SPLIT_SEED).shuffle(order)
+    random.Random(seed).shuffle(order)
     half = len(rows) // 2
     for name, picked in (("tuning", order[:half]), ("test", order[half:])):
-        PARTS[name].write_text("".join(rows[i] + "\n" for i in sorted(picked)))
-        print(f"{name}: {len(picked)} phrasings -> {PARTS[name]}")
+        parts[name].write_text("".join(rows[i] + "\n" for i in sorted(picked)))
+        print(f"{name}: {len(picked)} phrasings -> {parts[name]}")
 
 
 def _surface_kind(surface: str) -> str:

@@ -32,11 +32,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import random
 from pathlib import Path
 from typing import Any
 
 from accuracy_generalisation import score
+from accuracy_generalisation import split as split_set
 from attribot.config import SceneConfig
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
@@ -72,14 +72,8 @@ UNITS = {"temperature": "°C", "stiffness": "N/mm", "fullness": "full"}
 
 
 def split() -> None:
-    """Deal the set into its two parts, half and half, with a fixed seed."""
-    rows = ALL.read_text().splitlines()
-    order = list(range(len(rows)))
-    random.Random(SPLIT_SEED).shuffle(order)
-    half = len(rows) // 2
-    for name, picked in (("tuning", order[:half]), ("test", order[half:])):
-        PARTS[name].write_text("".join(rows[i] + "\n" for i in sorted(picked)))
-        print(f"{name}: {len(picked)} phrasings -> {PARTS[name]}")
+    """Deal the senses' set into its two parts, half and half, with its fixed seed."""
+    split_set(ALL, PARTS, SPLIT_SEED)
 
 
 def _value(o: Any, attr: str) -> float | None:

@@ -92,6 +92,19 @@ def wait_for(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
     return predicate()
 
 
+def wait_listening(port: int, proc: subprocess.Popen[str], what: str, timeout: float = 120.0) -> None:
+    """Wait until the server process `proc` accepts connections on 127.0.0.1:`port`; fail, naming `what`,
+    if it exits first or `timeout` seconds pass."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            return
+        except OSError:
+            assert proc.poll() is None and time.monotonic() < deadline, f"{what} did not start"
+            time.sleep(0.2)
+
+
 def free_port() -> int:
     """A TCP port on 127.0.0.1 that nothing listens on (just now)."""
     with socket.socket() as s:
@@ -100,6 +113,7 @@ def free_port() -> int:
 
 
 __all__ = [
+    "wait_listening",
     "ARTIFACTS",
     "EMPTY_SETTINGS",
     "cli",

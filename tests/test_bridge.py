@@ -28,7 +28,7 @@ from attribot.embodiments.base import Capability
 from attribot.embodiments.bridge import BridgeError, BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import UnsupportedAction
-from conftest import EMPTY_SETTINGS
+from conftest import EMPTY_SETTINGS, wait_listening
 
 BRIDGE_DIR = Path(__file__).resolve().parents[1] / "src" / "attribot" / "bridge"
 TOKEN = "correct horse"
@@ -457,14 +457,7 @@ def _served_process() -> Iterator[int]:
         stderr=subprocess.PIPE, text=True, env=_env(),
     )  # fmt: skip
     try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", port), timeout=1).close()
-                break
-            except OSError:
-                assert proc.poll() is None and time.monotonic() < deadline, "bridge serve did not start"
-                time.sleep(0.2)
+        wait_listening(port, proc, "bridge serve")
         yield port
     finally:
         proc.send_signal(signal.SIGINT)

@@ -13,7 +13,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -36,7 +35,7 @@ from attribot.planning.answer import Answer
 from attribot.session import Scene, ask
 from attribot.sim.scene import _ep_graspable
 from attribot.sim.world import SceneInfo, SimWorld
-from conftest import EMPTY_SETTINGS
+from conftest import EMPTY_SETTINGS, wait_listening
 
 BODY = BodyGeometry.from_dict(EP_BODY)
 ARM = BODY.arm
@@ -254,14 +253,7 @@ def test_the_commands_serve_the_ep_body_and_ask_over_the_bridge_as_directly():
     query = ["ask", "Out of the potato and the cactus, which one is the most lightweight?"]
     flags = ["--sensors", "camera,distance,force", "--json"]
     try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", port), timeout=1).close()
-                break
-            except OSError:
-                assert serve.poll() is None and time.monotonic() < deadline, "bridge serve did not start"
-                time.sleep(0.2)
+        wait_listening(port, serve, "bridge serve")
         url = f"tcp://127.0.0.1:{port}"
         bridged = _cli(*query, "--world", "bridge", "--bridge-url", url, *flags)
         over = subprocess.run(bridged, capture_output=True, text=True, env=env, timeout=600)

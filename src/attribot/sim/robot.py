@@ -30,6 +30,7 @@ __all__ = [
     "JOINTS",
     "camera_quat",
     "position_actuator",
+    "rangefinder_sensor",
     "velocity_actuator",
 ]
 
@@ -110,6 +111,18 @@ def position_actuator(
     a.ctrlrange = list(ctrl)
     a.forcelimited = True
     a.forcerange = [-force, force]
+
+
+def rangefinder_sensor(spec: mujoco.MjSpec) -> None:
+    """The rangefinder along the site "range_site", reporting the distance it reads."""
+    rf = spec.add_sensor(
+        name="rangefinder",
+        type=mujoco.mjtSensor.mjSENS_RANGEFINDER,
+        objtype=mujoco.mjtObj.mjOBJ_SITE,
+        objname="range_site",
+    )
+    if hasattr(mujoco, "mjtRayDataField"):  # MuJoCo >= 3.4 asks which ray data to report: the distance
+        rf.intprm[0] = 1 << int(mujoco.mjtRayDataField.mjRAYDATA_DIST)
 
 
 def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
@@ -242,14 +255,7 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     position_actuator(spec, "finger_l", 300.0, g.finger_range, 30.0)
     position_actuator(spec, "finger_r", 300.0, g.finger_range, 30.0)
 
-    rf = spec.add_sensor(
-        name="rangefinder",
-        type=mujoco.mjtSensor.mjSENS_RANGEFINDER,
-        objtype=mujoco.mjtObj.mjOBJ_SITE,
-        objname="range_site",
-    )
-    if hasattr(mujoco, "mjtRayDataField"):  # MuJoCo >= 3.4 asks which ray data to report: the distance
-        rf.intprm[0] = 1 << int(mujoco.mjtRayDataField.mjRAYDATA_DIST)
+    rangefinder_sensor(spec)
     spec.add_sensor(
         name="wrist_force",
         type=mujoco.mjtSensor.mjSENS_FORCE,

@@ -24,7 +24,7 @@ import mujoco
 
 from attribot.bridge.robomaster_body import EP_BODY, EP_CAMERA_HFOV_DEG, EP_RANGE_MAX_M
 from attribot.control.body import BodyGeometry, TwoLinkArm
-from attribot.sim.robot import camera_quat, position_actuator, velocity_actuator
+from attribot.sim.robot import camera_quat, position_actuator, rangefinder_sensor, velocity_actuator
 
 __all__ = [
     "EP",
@@ -196,14 +196,7 @@ def _add_actuators(spec: mujoco.MjSpec) -> None:
 
 
 def _add_sensors(spec: mujoco.MjSpec) -> None:
-    rf = spec.add_sensor(
-        name="rangefinder",
-        type=mujoco.mjtSensor.mjSENS_RANGEFINDER,
-        objtype=mujoco.mjtObj.mjOBJ_SITE,
-        objname="range_site",
-    )
-    if hasattr(mujoco, "mjtRayDataField"):  # MuJoCo >= 3.4 asks which ray data to report: the distance
-        rf.intprm[0] = 1 << int(mujoco.mjtRayDataField.mjRAYDATA_DIST)
+    rangefinder_sensor(spec)
     for name, kind in (
         ("wrist_force", mujoco.mjtSensor.mjSENS_FORCE),
         ("wrist_torque", mujoco.mjtSensor.mjSENS_TORQUE),
