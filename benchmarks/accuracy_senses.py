@@ -35,8 +35,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from accuracy_generalisation import score
-from accuracy_generalisation import split as split_set
+from accuracy_generalisation import score, split
 from attribot.config import SceneConfig
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import AttribotError
@@ -69,11 +68,6 @@ MIXED = {
 """The objects of a scene for a phrasing about any object ("the hottest thing on the table"); with a scope,
 all five, so that some stand on the surface named; three otherwise."""
 UNITS = {"temperature": "°C", "stiffness": "N/mm", "fullness": "full"}
-
-
-def split() -> None:
-    """Deal the senses' set into its two parts, half and half, with its fixed seed."""
-    split_set(ALL, PARTS, SPLIT_SEED)
 
 
 def _value(o: Any, attr: str) -> float | None:
@@ -168,7 +162,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0, help="the draw of the scenes")
     args = parser.parse_args()
     if args.split:
-        split()
+        split(ALL, PARTS, SPLIT_SEED)
         return
     rows = [json.loads(line) for line in PARTS[args.part].read_text().splitlines()]
     score(rows, scene_for, judge, SENSORS, "attr", args.seed, f"# senses {args.part}")

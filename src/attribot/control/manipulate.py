@@ -122,21 +122,22 @@ class Manipulator:
         _, box = self.locator.look_again(target, camera, 0.5, in_gripper)
         if box is not None:
             return True, f"the camera sees the {hold.label} rise with the gripper"
+        unseen = f"the camera does not see the {hold.label} in the gripper"
         first = self.locator.where_seen(seen_first, body)
         if first is None:
-            return None, f"the camera does not see the {hold.label} in the gripper"
+            return None, unseen
         if not elsewhere:  # look where the image showed it: still standing there, it was not lifted
             self.locator.aim(np.array(first.centre), body, target, hold)
             frame = self.plant.world.observe()
             for seen in target.find(frame):
-                in_gripper(frame, seen)
+                in_gripper(frame, seen)  # sorts it: in the gripper, or into `elsewhere`
         if not elsewhere:
-            return None, f"the camera does not see the {hold.label} in the gripper"
+            return None, unseen
         other = min(elsewhere, key=lambda e: float(np.linalg.norm(e.xy() - first.xy())))
         off_grasp = float(np.linalg.norm(grasped[:2] - first.xy()))
         off_other = float(np.linalg.norm(other.xy() - first.xy()))
         if off_other + max(0.03, hold.radius) >= off_grasp:  # as near: the same object, or as likely not
-            return None, f"the camera does not see the {hold.label} in the gripper"
+            return None, unseen
         return False, (
             f"the camera sees the {hold.label} {off_other * 100:.0f} cm from where the image showed it, and "
             f"not in the gripper, which closed {off_grasp * 100:.0f} cm from there"
