@@ -130,14 +130,26 @@ def test_left_and_right_are_positions_and_lifting_is_weight(text, meaning):
 def test_every_paraphrase_the_lexicon_rewrites_holds_a_cue(text):
     import re
 
-    assert any(re.search(p, text) for p, _ in lexicon.ATTRIBUTE_PARAPHRASES), text
-    assert any(cue in text for cue in lexicon.ATTRIBUTE_PARAPHRASE_CUES), text
+    matching = [cues for p, _, cues in lexicon.ATTRIBUTE_PARAPHRASES if re.search(p, text)]
+    assert matching, text
+    # each pattern that matches runs only where one of its cues is: it must be here
+    assert all(any(cue in text for cue in cues) for cues in matching), text
+
+
+@pytest.mark.parametrize("text", PARAPHRASE_EXAMPLES)
+def test_running_only_the_cued_patterns_reads_as_running_them_all(text):
+    import re
+
+    every = text
+    for pattern, meaning, _ in lexicon.ATTRIBUTE_PARAPHRASES:
+        every = re.sub(pattern, meaning, every)
+    assert lexicon.paraphrased(text) == every
 
 
 def test_each_paraphrase_pattern_has_an_example():
     import re
 
-    for pattern, _ in lexicon.ATTRIBUTE_PARAPHRASES:
+    for pattern, _, _ in lexicon.ATTRIBUTE_PARAPHRASES:
         assert any(re.search(pattern, e) for e in PARAPHRASE_EXAMPLES), pattern
 
 

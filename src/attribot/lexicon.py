@@ -95,7 +95,7 @@ FUNCTION_WORDS: frozenset[str] = frozenset(
     my your our their his her its mine yours ours theirs
     i me you we us he she him they them it myself yourself
     what which who whom whose where when why how whichever
-    of in on at to from by with without for about into onto upon over under above below behind beside
+    of in on at to from by for about into onto upon over under above below behind beside
     between among amongst near next inside outside across along around through toward towards up down off
     out than like unlike via per
     and or but if so because then while whether though nor yet
@@ -106,13 +106,13 @@ FUNCTION_WORDS: frozenset[str] = frozenset(
     um uh er erm hmm hm ah oh hey hi hello ok okay alright well yeah yep nope huh wow sorry excuse pardon
     two three four five six seven eight nine ten eleven twelve
     looks look looking seems seem appears appear find show tell give get bring take pick grab go know think
-    wonder want need see say mind help check let make keep put sitting standing lying resting placed kept
-    located leave hold point guess reckon suppose
+    wonder want need see say mind help check let make keep put leave hold point guess reckon suppose
     many much more most less least few lot lots bit
     """.split()
 )
 """Words that never name an object, whatever the query: articles and possessives, pronouns, question words,
-prepositions, conjunctions, auxiliaries, fillers, the verbs of a request, and quantity words. A planner
+prepositions, conjunctions, auxiliaries, fillers, the verbs of a request, and quantity words; not "with" nor
+"standing", which a name may hold ("the box with shoes", "the standing lamp"). A planner
 that has such a word left over has not read the query, and refuses it rather than searching for it
 ("which one's" is no object called "'s", "the object looks" none called "object looks"). "can" is not here:
 it names a can."""
@@ -335,53 +335,88 @@ def temperature_state(celsius: float) -> str:
 _CONTENTS = r"(?:anything|something|stuff|water|coffee|tea|juice|milk|soda|liquid|drink)"
 """What a container holds, as a question names it."""
 
-ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
+ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     # verb phrases of weight, to the adjective they mean
-    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest"),
-    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?least\b", "is the lightest"),
-    (r"\b(?:weighs?|weighing)\s+more\b", "is heavier"),
-    (r"\b(?:weighs?|weighing)\s+less\b", "is lighter"),
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?least\b", "is the lightest", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+more\b", "is heavier", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+less\b", "is lighter", ("weigh",)),
     (
         r"\b(?:has|have|with)\s+(?:the\s+)?(?:greatest|highest|largest|biggest|most)\s+(?:mass|weight)\b",
         "is the heaviest",
+        ("mass", "weight"),
     ),
-    (r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b", "is the lightest"),
-    (r"\b(?:lowest|least|smallest)\s+in\s+(?:weight|mass)\b", "lightest"),
-    (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest"),
-    (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1"),
-    (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1"),
-    (r"\b(?:greatest|highest|largest|biggest|most|more)\s+(?:weight|mass)\b", "heaviest"),
-    (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest"),
-    (r"\bmost\s+massive\b", "heaviest"),
-    (r"\bleast\s+massive\b", "lightest"),
+    (
+        r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b",
+        "is the lightest",
+        ("mass", "weight"),
+    ),
+    (r"\b(?:lowest|least|smallest)\s+in\s+(?:weight|mass)\b", "lightest", ("mass", "weight")),
+    (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest", ("mass", "weight")),
+    (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1", ("mass", "weight")),
+    (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1", (" size",)),
+    (r"\b(?:greatest|highest|largest|biggest|most|more)\s+(?:weight|mass)\b", "heaviest", ("mass", "weight")),
+    (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest", ("mass", "weight")),
+    (r"\bmost\s+massive\b", "heaviest", ("mass",)),
+    (r"\bleast\s+massive\b", "lightest", ("mass",)),
     # left and right are positions in the picture, not distances: "furthest to the left", "far right",
     # "left-most" (hyphens are spaces by now), "on the very left" are the leftmost and the rightmost
     (
         r"\b(?:on|at|to|in)\s+the\s+(?:very|far|furthest|farthest|extreme)\s+(left|right)(?:\s+(?:side|end|edge))?\b",
         r"\1most",
+        ("left", "right"),
     ),
     (
         r"\b(?:the\s+)?(?:furthest|farthest|further|farther|most|far)\s+(?:to\s+(?:the\s+)?|on\s+the\s+)?(left|right)\b",
         r"\1most",
+        ("left", "right"),
     ),
-    (r"\b(left|right)\s+most\b", r"\1most"),
+    (r"\b(left|right)\s+most\b", r"\1most", ("left", "right")),
     # what weight does to a person: hard or easy to lift
-    (r"\b(?:hardest|heaviest)\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "heaviest"),
-    (r"\beasiest\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "lightest"),
-    (r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b", "how far away"),
+    (
+        r"\b(?:hardest|heaviest)\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b",
+        "heaviest",
+        ("lift", "carry", "pick"),
+    ),
+    (r"\beasiest\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "lightest", ("lift", "carry", "pick")),
+    (
+        r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b",
+        "how far away",
+        ("away",),
+    ),
     # "nearest the camera" is nearest to it
-    (r"\b(closest|nearest|closer|nearer)\s+(?=(?:me|you|us|the\s+robot|the\s+camera)\b)", r"\1 to "),
+    (
+        r"\b(closest|nearest|closer|nearer)\s+(?=(?:me|you|us|the\s+robot|the\s+camera)\b)",
+        r"\1 to ",
+        ("est me", "est you", "est us", "est the", "er me", "er you", "er us", "er the"),
+    ),
     # distance: "farthest away", "closest by" mean the adjective alone
-    (r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b", r"\1"),
+    (
+        r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b",
+        r"\1",
+        ("away", " by"),
+    ),
     # what the senses' states are said with: a drink from the fridge is cold, a jar with nothing in it empty
-    (r"\b(?:has|have)\s+(?:just\s+)?(?:been\s+)?boiled\b", "is hot"),
-    (r"\b(?:came|come|comes|is|are|was|were|just)\s+(?:out\s+of|from)\s+the\s+fridge\b", "is cold"),
-    (r"\b(?:from|out\s+of)\s+the\s+fridge\b", "cold"),
-    (r"\b(?:has|have)\s+nothing\s+(?:left\s+)?in\s+(?:it|them)\b", "is empty"),
-    (r"\b(?:needs?|needing)\s+(?:a\s+)?(?:refilling|refill|filling\s+up)\b", "is empty"),
-    (r"\bgives?\s+the\s+most\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the softest"),
-    (r"\bgives?\s+the\s+least\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the hardest"),
-    (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is"),
+    (r"\b(?:has|have)\s+(?:just\s+)?(?:been\s+)?boiled\b", "is hot", ("boiled",)),
+    (
+        r"\b(?:came|come|comes|is|are|was|were|just)\s+(?:out\s+of|from)\s+the\s+fridge\b",
+        "is cold",
+        ("fridge",),
+    ),
+    (r"\b(?:from|out\s+of)\s+the\s+fridge\b", "cold", ("fridge",)),
+    (r"\b(?:has|have)\s+nothing\s+(?:left\s+)?in\s+(?:it|them)\b", "is empty", ("nothing",)),
+    (
+        r"\b(?:needs?|needing)\s+(?:a\s+)?(?:refilling|refill|filling\s+up)\b",
+        "is empty",
+        ("refill", "filling"),
+    ),
+    (r"\bgives?\s+the\s+most\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the softest", ("squeeze",)),
+    (
+        r"\bgives?\s+the\s+least\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b",
+        "is the hardest",
+        ("squeeze",),
+    ),
+    (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is", ("left", "still")),
     # something in a container: it is not empty ("is there anything in the mug" asks whether it is full;
     # "water", "coffee" are what is in it, never the object asked about)
     (
@@ -389,52 +424,78 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
         + _CONTENTS
         + r"(?:\s+(?:in|inside)\s+(?:it|them))?$",
         r"is \1 full",
+        ("have", "hold", "contain"),
     ),
     (
         r"\b(?:has|have)\s+(?:got\s+)?" + _CONTENTS + r"\s+(?:left\s+)?(?:in|inside)\s+(?:it|them)\b",
         "is full",
+        ("has", "have"),
     ),
     (
         r"\bis\s+(?:there\s+)?" + _CONTENTS + r"\s+(?:left\s+)?(?:in|inside)\s+"
         r"((?:the|my|your|this|that)\s+[a-z]+(?:\s+[a-z]+)?)$",
         r"is \1 full",
+        (" in",),
     ),
     # weight in other words and units: "the weightiest", "how many kilos is the carrot"
-    (r"\b(?:most\s+weighty|weightiest)\b", "heaviest"),
-    (r"\b(?:least\s+weighty)\b", "lightest"),
-    (r"\bweightier\b", "heavier"),
+    (r"\b(?:most\s+weighty|weightiest)\b", "heaviest", ("weight",)),
+    (r"\b(?:least\s+weighty)\b", "lightest", ("weight",)),
+    (r"\bweightier\b", "heavier", ("weight",)),
     (
         r"\bhow\s+many\s+(?:kilos|kilograms?|kgs?|grams?|pounds|lbs?)\s+(?:is|are|does|do)\s+(.+?)(?:\s+weighs?)?$",
         r"how heavy is \1",
+        ("how many",),
     ),
     (
         r"\b(?:can|could)\s+(?:i|you|we)\s+(?:lift|carry|pick\s+up)\s+(?:the\s+)?most\s+easily\b",
         "is the lightest",
+        ("easily",),
     ),
     # temperature as a quantity: "the highest temperature" is the hottest, "how many degrees" asks it
-    (r"\b(?:has|have|with)\s+(?:the\s+)?(?:highest|greatest)\s+temperature\b", "is the hottest"),
-    (r"\b(?:has|have|with)\s+(?:the\s+)?lowest\s+temperature\b", "is the coldest"),
-    (r"\bhow\s+many\s+degrees(?:\s+(?:celsius|centigrade))?\s+(?=is\b|are\b)", "what temperature "),
+    (
+        r"\b(?:has|have|with)\s+(?:the\s+)?(?:highest|greatest)\s+temperature\b",
+        "is the hottest",
+        ("temperature",),
+    ),
+    (r"\b(?:has|have|with)\s+(?:the\s+)?lowest\s+temperature\b", "is the coldest", ("temperature",)),
+    (
+        r"\bhow\s+many\s+degrees(?:\s+(?:celsius|centigrade))?\s+(?=is\b|are\b)",
+        "what temperature ",
+        ("how many",),
+    ),
     # distances and sizes in units: "how many meters from you", "how many centimetres across"
     (
         r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters|cm)\s+(away|from)\b",
         r"how far \1",
+        ("how many",),
     ),
     (
         r"\bhow\s+many\s+(?:metres|meters|inches|centimetres|centimeters|cm|millimetres|mm)\s+across\b",
         "how big",
+        ("how many",),
     ),
     (
         r"\bhow\s+many\s+(?:metres|meters|inches|centimetres|centimeters|cm|millimetres|mm)\s+(wide|long|tall|high)\b",
         r"how \1",
+        ("how many",),
     ),
-    (r"\bhow\s+far\s+off\b", "how far away"),
+    (r"\bhow\s+far\s+off\b", "how far away", ("far off",)),
     # where something was left is where it is
-    (r"\bwhere\s+(?:did|have)\s+(?:i|we|you)\s+(?:leave|left|put|place|placed)\s+", "where is "),
-    (r"\bhow\s+far\s+(?:away\s+)?is\s+it\s+(?:from\s+(?:here|you|me)\s+)?to\b", "how far away is"),
+    (
+        r"\bwhere\s+(?:did|have)\s+(?:i|we|you)\s+(?:leave|left|put|place|placed)\s+",
+        "where is ",
+        ("where did", "where have"),
+    ),
+    (
+        r"\bhow\s+far\s+(?:away\s+)?is\s+it\s+(?:from\s+(?:here|you|me)\s+)?to\b",
+        "how far away is",
+        ("is it",),
+    ),
 )
-"""(pattern, replacement) pairs that turn paraphrases of an attribute into the words the planner reads
-("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text."""
+"""(pattern, replacement, cues) that turn paraphrases of an attribute into the words the planner reads
+("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text;
+every text a pattern matches holds one of its cues (a test checks it), so that a pattern runs only where one
+is: most texts skip most patterns."""
 
 
 def paraphrased(text: str) -> str:
@@ -445,20 +506,17 @@ def paraphrased(text: str) -> str:
     'which item is the heaviest?'
     """
     text = text.lower()
-    if any(cue in text for cue in ATTRIBUTE_PARAPHRASE_CUES):  # most texts have none: skip the patterns
-        for pattern, meaning in _COMPILED_PARAPHRASES:
-            text = pattern.sub(meaning, text)
+    cued = {i for cue in _CUE.findall(text) for i in _PATTERNS_OF_CUE[cue]}
+    for i in sorted(cued):  # in the table's order: a later pattern may read what an earlier one wrote
+        pattern, meaning = _COMPILED_PARAPHRASES[i]
+        text = pattern.sub(meaning, text)
     return text
 
 
-ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = (
-    "weigh", "mass", "weight", "away", " by", " size", "left", "right", "lift", "carry", "boiled",
-    "fridge", "nothing", "refill", "filling", "squeeze", "something", "anything", "stuff", "water", "coffee",
-    "tea", "juice", "milk", "soda", "liquid", "drink", "how many", "temperature", "far off", "far is it",
-    "where did", "where have", "near", "close",
-)  # fmt: skip
-"""Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
-without any can skip the patterns."""
+ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = tuple(
+    dict.fromkeys(cue for _, _, cues in ATTRIBUTE_PARAPHRASES for cue in cues)
+)
+"""Every cue of `ATTRIBUTE_PARAPHRASES`: a text with none of these is no paraphrase."""
 
 SURFACE_WORDS: dict[str, str] = {
     "table": "table", "tables": "table", "desk": "table", "dining table": "table",
@@ -524,4 +582,11 @@ def singular_forms(word: str) -> list[str]:
     return list(dict.fromkeys(forms))
 
 
-_COMPILED_PARAPHRASES = [(re.compile(p), meaning) for p, meaning in ATTRIBUTE_PARAPHRASES]
+_COMPILED_PARAPHRASES = [(re.compile(p), meaning) for p, meaning, _ in ATTRIBUTE_PARAPHRASES]
+_PATTERNS_OF_CUE = {
+    cue: [i for i, (_, _, cues) in enumerate(ATTRIBUTE_PARAPHRASES) if cue in cues]
+    for cue in ATTRIBUTE_PARAPHRASE_CUES
+}
+_CUE = re.compile(
+    "|".join(re.escape(cue) for cue in sorted(ATTRIBUTE_PARAPHRASE_CUES, key=len, reverse=True))
+)

@@ -290,7 +290,8 @@ def _drop_fillers(text: str) -> tuple[str, bool]:
     """The text without what carries no meaning for a reading: courtesy ("please", "for me", "thanks"),
     fillers and openings ("um", "ok so", "quick question", "I wonder", "do you know"), a first sentence about
     the speaker, a tag ("..., yes or no?", "isn't it?"), a unit asked for ("in kilograms"), a second verb on
-    the same object ("... and bring it here"); and whether a tag made it a question."""
+    the same object ("... and bring it here"); and whether a tag made it a question. Each pattern runs only
+    where a cheap test says it may match: this runs for every query."""
     text = " ".join(_COURTESY.sub(" ", text).split()).strip(" ,")
     tagged = False
     for _ in range(3):  # "ok so, um, which...": openings one after the other
@@ -298,21 +299,43 @@ def _drop_fillers(text: str) -> tuple[str, bool]:
         embedded = _EMBEDDED_QUESTION.match(text)
         if embedded is not None:
             text, tagged = text[embedded.end() :], True
-        text = _OPENER.sub("", text).strip(" ,")
-        match = _TAG.search(text)
-        if match is not None:
-            text, tagged = text[: match.start()], True
-        text = _TRAILING_WHICH.sub("", _TAIL.sub("", text)).strip(" ,")
-        context = _CONTEXT.match(text)
-        if context is not None and not _REFERS_BACK.search(text, context.end()):
-            text = text[context.end() :]
+        opener = _OPENER.match(text)
+        if opener is not None:
+            text = text[opener.end() :].strip(" ,")
+        last = text[text.rfind(" ") + 1 :]
+        if last in _TAG_ENDINGS:
+            match = _TAG.search(text)
+            if match is not None:
+                text, tagged = text[: match.start()], True
+        if last in _TAIL_ENDINGS or " in " in text:
+            text = _TAIL.sub("", text)
+        if text.endswith(("which", "which one", "is it")):
+            text = _TRAILING_WHICH.sub("", text)
+        text = text.strip(" ,")
+        if text.startswith(_CONTEXT_STARTS):
+            context = _CONTEXT.match(text)
+            if context is not None and not _REFERS_BACK.search(text, context.end()):
+                text = text[context.end() :]
         if text == before:
             break
-    antecedent = _ANTECEDENT.match(text)
-    if antecedent is not None:  # the question alone, with the name for "it"
-        text = f"{antecedent['before']}the {antecedent['name']}{antecedent['after']}"
-    text = _LOOKS.sub("is", _NEGATIVE_QUESTION.sub(r"\1 ", _WHO.sub("which ", text)))
+    if text.startswith(_ANTECEDENT_STARTS):
+        antecedent = _ANTECEDENT.match(text)
+        if antecedent is not None:  # the question alone, with the name for "it"
+            text = f"{antecedent['before']}the {antecedent['name']}{antecedent['after']}"
+    if text.startswith(("who ", "is not ", "are not ", "does not ", "do not ")):
+        text = _NEGATIVE_QUESTION.sub(r"\1 ", _WHO.sub("which ", text))
+    if "look" in text or "seem" in text or "appear" in text:
+        text = _LOOKS.sub("is", text)
     return " ".join(text.split()).strip(" ,"), tagged
+
+
+_TAG_ENDINGS = frozenset({"no", "not", "it", "they", "think", "know", "say", "right", "correct", "true"})
+_TAIL_ENDINGS = frozenset(
+    {"then", "you", "at", "roughly", "approximately", "about", "less", "exactly", "it", "them", "here",
+     "over", "back", "me"}
+)  # fmt: skip
+_CONTEXT_STARTS = ("i ", "we ", "my ", "our ")
+_ANTECEDENT_STARTS = ("there ", "can you", "do you", "you ", "i ")
 
 
 _NEXT_TO_SUPERLATIVE = re.compile(r"\bnext\s+to\s+(?:the\s+)?(?=[a-z]+est\b)")
@@ -321,7 +344,11 @@ _AUXILIARY_IS = re.compile(r"\b(?:would|will|might|could|does|do|did)\s+is\b")
 
 
 def _strip_article(text: str) -> str:
-    return rx(r"^(?:the|a|an|some|my|your|our|his|her|their)\s+").sub("", text.strip(" ,")).strip(" ,")
+    return (
+        rx(r"^(?:the|a|an|some|my|your|our|his|her|their|whichever|whatever)\s+")
+        .sub("", text.strip(" ,"))
+        .strip(" ,")
+    )
 
 
 def _ordinal(text: str) -> tuple[int, bool]:
