@@ -185,7 +185,7 @@ _STOP = FUNCTION_WORDS | {
 
 _LEAD = (
     r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at)|select|"
-    r"pick\s+up|pick|get|give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|"
+    r"pick\s+up|pick\s+out|pick|get|give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|"
     r"(?:i|we)\s+(?:am\s+|are\s+)?(?:looking\s+for|after)|(?:i|we)\s+(?:would\s+like|want|need)|"
     r"show\s+me\s+where|where\s+can\s+i\s+find|help\s+me\s+find)\s+"
 )
