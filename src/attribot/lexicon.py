@@ -10,6 +10,7 @@ with the catalog's data in `attribot.sim.catalog`, which folds plurals with `sin
 from __future__ import annotations
 
 import re
+from typing import Literal
 
 __all__ = [
     "COLOR_WORDS",
@@ -528,7 +529,7 @@ SURFACE_WORDS: dict[str, str] = {
 the oracle detector finds as furniture and what the planner reads as a scope ("on the table")."""
 
 
-SURFACE_LEVELS: dict[str, str] = {
+SURFACE_LEVELS: dict[str, Literal["top", "bottom"]] = {
     "top": "top", "upper": "top", "uppermost": "top", "highest": "top", "topmost": "top",
     "bottom": "bottom", "lower": "bottom", "lowest": "bottom", "bottommost": "bottom",
 }  # fmt: skip

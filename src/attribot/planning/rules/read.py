@@ -135,7 +135,7 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     if region is not None and isinstance(inner, LocationQuery):
         raise UnsupportedQuery(original, "it places the object twice; say its place once")
     return Request(
-        inner,  # type: ignore[arg-type]
+        inner,
         scope=scope,
         among=among,
         action=action,  # type: ignore[arg-type]
