@@ -9,6 +9,7 @@ with the catalog's data in `attribot.sim.catalog`, which folds plurals with `sin
 
 from __future__ import annotations
 
+import operator
 import re
 from typing import Literal
 
@@ -112,11 +113,11 @@ FUNCTION_WORDS: frozenset[str] = frozenset(
     """.split()
 )
 """Words that never name an object, whatever the query: articles and possessives, pronouns, question words,
-prepositions, conjunctions, auxiliaries, fillers, the verbs of a request, and quantity words; not "with" nor
-"standing", which a name may hold ("the box with shoes", "the standing lamp"). A planner
+prepositions, conjunctions, auxiliaries, fillers, the verbs of a request, number and quantity words. A planner
 that has such a word left over has not read the query, and refuses it rather than searching for it
-("which one's" is no object called "'s", "the object looks" none called "object looks"). "can" is not here:
-it names a can."""
+("which one's" is no object called "'s", "the object looks" none called "object looks"). Not here: "can",
+which names a can, and "with" or "standing", which a name may hold ("the box with shoes", "the standing
+lamp")."""
 
 PROPERTY_NOUNS: frozenset[str] = frozenset(
     {
@@ -148,9 +149,8 @@ _SUFFIXES = (
     (re.compile(r"([a-z])'ll\b"), r"\1 will"),
     (re.compile(r"([a-z])'d\b"), r"\1 would"),
     (re.compile(r"([a-z])'s\s+got\b"), r"\1 has"),
-    # "which ones heaviest": "one's" typed without its apostrophe, before a superlative
-    (re.compile(r"\bones\s+(?=(?:the\s+)?[a-z]+est\b)"), "one is "),
 )
+_ONES_IS = re.compile(r"\bones\s+(?=(?:the\s+)?[a-z]+est\b)")  # "which ones heaviest": "one's", unmarked
 _POSSESSIVE = re.compile(r"((?:[a-z]+\s+){0,2}[a-z]+)'s\s+(" + "|".join(sorted(PROPERTY_NOUNS)) + r")\b")
 _DETERMINERS = frozenset({"the", "a", "an", "my", "your", "our", "this", "that"})
 
@@ -191,9 +191,7 @@ def expand_contractions(text: str) -> str:
         text = re.sub(r"([a-z])'s\b", r"\1 is", text)
         text = re.sub(r"([a-z]s)'(?=\s|$)", r"\1", text)  # "the mugs' weights": the mugs
         text = text.replace("'", " ")
-    else:
-        text = _SUFFIXES[-1][0].sub(_SUFFIXES[-1][1], text)
-    return text
+    return _ONES_IS.sub("one is ", text) if "ones " in text else text
 
 
 # ---- the attributes: the words that name a weight, a distance or a size, and their direction ----------
@@ -303,12 +301,7 @@ SENSE_STATES: dict[str, tuple[float, str]] = {
 the sense's unit (°C, N/mm of squeeze, the share of a container's capacity). The one place these thresholds
 live: the planner's programs state them, and the simulator labels its objects' states with them."""
 
-_COMPARISONS = {
-    ">=": lambda a, b: a >= b,
-    ">": lambda a, b: a > b,
-    "<=": lambda a, b: a <= b,
-    "<": lambda a, b: a < b,
-}
+_COMPARISONS = {">=": operator.ge, ">": operator.gt, "<=": operator.le, "<": operator.lt}
 
 
 def state_holds(word: str, value: float) -> bool:

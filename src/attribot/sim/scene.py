@@ -137,9 +137,7 @@ class PlacedObject:
     extras: dict[str, Any] = field(default_factory=dict)
     mass_share: float = 0.5  # where in its (variant's) mass range the mass was drawn, 0 to 1
     temperature_c: float = 21.0  # what an infrared thermometer reads on its surface
-    thermal: str = (
-        "room"  # the word for its temperature: hot, warm, cold, cool or room (lexicon.SENSE_STATES)
-    )
+    thermal: str = "room"  # the word for its temperature (lexicon.temperature_state): hot, cold, room...
     stiffness_n_per_mm: float = RIGID_N_PER_MM  # force per millimetre of gripper closure
     softness: str = "rigid"  # its softness state ("soft", "firm", "hard", "rigid")
     fill: float | None = None  # a container's contents, as a share of its capacity (None: no container)
@@ -509,8 +507,10 @@ def _fitting_pattern(objs: list[PlacedObject], pattern: str, asked: bool) -> tup
     fitting = [p for p in _PATTERNS if p != pattern and _fits_table(objs, *_pattern_shape(p, len(objs)))]
     if fitting and not asked:
         return fitting[0], *_pattern_shape(fitting[0], len(objs))
+    what_fits = [f"--option pattern={p}" for p in fitting]
     fewer = [k for k in range(len(objs) - 1, 2, -1) if _fits_table(objs[:k], *_pattern_shape(pattern, k))]
-    what_fits = [f"--option pattern={p}" for p in fitting] + [f"--objects {fewer[0]}" for _ in fewer[:1]]
+    if fewer:
+        what_fits.append(f"--objects {fewer[0]}")
     rows, cols = _pattern_shape(pattern, len(objs))
     _, col_w, row_d = _grid(objs, rows, cols)
     raise InputError(
@@ -858,7 +858,7 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
 CROWDED_MIN_GAP = 0.08
 """The spacing of the candidates' distances (m) a household scene falls back to when none of its attempts
 places them at the default one: a crowded request of small objects ("three cans") fits only closer together,
-on the one table near enough for them to be seen. The benchmarks' scenes use it too."""
+on the one table near enough for them to be seen (the spacing the benchmarks' household scenes ask for)."""
 
 
 def scene_requests(layout: str, request: SceneRequest, attempts: int) -> Iterator[tuple[int, SceneRequest]]:
@@ -895,7 +895,9 @@ def what_fits(layout: str, seed: int, request: SceneRequest, attempts: int) -> s
                 plan_scene(layout, seed, fewer, attempt)
             except InputError:
                 continue
-            return f"at most {k} of these fit on seed {seed}: ask for {k} (--objects {k}) or smaller ones"
+            return (
+                f"at most {k} of these can be placed on seed {seed}: ask for {k} (--objects {k}) or smaller"
+            )
     return "none of these objects fits in view on a surface of this layout: choose smaller categories"
 
 

@@ -251,7 +251,7 @@ _OPENER = re.compile(
     r"|which|where|if|whether)\b)|i\s+(?:would\s+like|want|need)\s+to\s+know|(?:take|have)\s+a\s+look\s+and"
     r"|go(?:\s+and)?(?=\s+(?:find|get|grab|bring|fetch|pick|see|check|look|tell)\b))\s*,?(?:\s+|$)"
 )
-# a tag at the end that makes a statement a question, or asks for the reading in a unit or once more
+# a tag at the end that makes a statement a question: "..., yes or no?", "isn't it?", "..., right?"
 _TAG = re.compile(
     r",?\s+(?:yes\s+or\s+no|or\s+not|is\s+not\s+it|is\s+it\s+not|are\s+not\s+they|do\s+you\s+(?:think|know)"
     r"|would\s+you\s+say)$|,\s+(?:right|correct|true)$"  # "..., right?": not "furthest right"
@@ -261,6 +261,7 @@ _EMBEDDED_QUESTION = re.compile(
     r"^(?:(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|i\s+wonder"
     r"|do\s+you\s+know)\s+(?:if|whether)|is\s+it\s+true\s+that)\s+"
 )
+# what ends a query without adding to it: "then", "would you", a dangling "at", "roughly", a unit asked for
 _TAIL = re.compile(
     r",?\s+(?:then|(?:would|could|will|can)\s+you|at|roughly|approximately|about|more\s+or\s+less|exactly)$"
     r"|,?\s+in\s+(?:kilos|kilograms?|kgs?|grams?|metres|meters|centimetres|centimeters|cm|millimetres|mm"
@@ -345,9 +346,7 @@ _AUXILIARY_IS = re.compile(r"\b(?:would|will|might|could|does|do|did)\s+is\b")
 
 def _strip_article(text: str) -> str:
     return (
-        rx(r"^(?:the|a|an|some|my|your|our|his|her|their|whichever|whatever)\s+")
-        .sub("", text.strip(" ,"))
-        .strip(" ,")
+        rx(r"^(?:the|a|an|some|my|your|our|his|her|their|whichever)\s+").sub("", text.strip(" ,")).strip(" ,")
     )
 
 

@@ -61,8 +61,7 @@ def parse_sense(r: Reading) -> SenseQuery | None:
                                           "firm", "stiff", "squ", "spong", "rigid", "full", "fill",
                                           "empt", "temperature")):  # fmt: skip
         return None
-    found = _how(text) or _whether(text, r.question) or _named_choice(text) or _which(text)
-    return found
+    return _how(text) or _whether(text, r.question) or _named_choice(text) or _which(text)
 
 
 def _sense(word: str) -> tuple[str, bool, str]:
