@@ -1135,6 +1135,11 @@ def bridge_serve(
     from attribot.bridge.server import Limits, RobotServer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    if not token.strip():
+        raise fail(
+            "--token is blank",
+            "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
+        )
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
