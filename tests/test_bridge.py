@@ -73,6 +73,77 @@ def test_a_walrus_free_38_grammar_check_really_rejects_newer_syntax():
         ast.parse(src, feature_version=(3, 8))
 
 
+_ROBOT_38 = textwrap.dedent(
+    """
+    import sys
+    from attribot.bridge.server import Driver, Limits, RobotServer
+
+    class Wheels(Driver):
+        name = "wheels"
+
+        def capabilities(self):
+            return ["base"]
+
+        def drive(self, vx, vy, wz):
+            print("drive", vx, vy, wz, flush=True)
+
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)
+    server = RobotServer(Wheels(), sys.argv[1], limits=limits)
+    print("port", server.address[1], sys.version_info[0], sys.version_info[1], flush=True)
+    server.serve_forever()
+    """
+)
+
+
+def _python38() -> str | None:
+    """A Python 3.8 interpreter on this machine (the RoboMaster SDK's), if there is one."""
+    import glob
+    import shutil
+
+    candidates = [
+        shutil.which("python3.8"),
+        *sorted(glob.glob(os.path.expanduser("~/.pyenv/versions/3.8*/bin/python3.8"))),
+    ]
+    for exe in candidates:
+        if exe and subprocess.run([exe, "-c", "import sys; assert sys.version_info[:2] == (3, 8)"],
+                                  capture_output=True).returncode == 0:  # fmt: skip
+            return exe
+    return None
+
+
+def test_the_robot_side_serves_on_python_38_as_the_robots_computer_runs_it():
+    """Not only its grammar: the server itself on a real Python 3.8 (where `socket.timeout` is not yet a
+    `TimeoutError`, so that catching the latter ended accepting after the first idle 0.2 s)."""
+    exe = _python38()
+    if exe is None:
+        pytest.skip("no Python 3.8 interpreter on this machine")
+    src = str(BRIDGE_DIR.parents[1])
+    robot = subprocess.Popen(
+        [exe, "-c", _ROBOT_38, TOKEN], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": src},
+    )  # fmt: skip
+    try:
+        assert robot.stdout is not None
+        _, port, major, minor = robot.stdout.readline().split()
+        assert (major, minor) == ("3", "8")
+        time.sleep(1.0)  # idle for longer than the accept time-out
+        with BridgeWorld(url=f"tcp://127.0.0.1:{port}", token=TOKEN, timeout_s=10) as world:
+            world.command_base(0.1, 0.0, 0.0)
+            with pytest.raises(BridgeError, match="needs vx as a finite number"):
+                world.command_base(float("nan"), 0.0, 0.0)
+        with socket.create_connection(("127.0.0.1", int(port)), timeout=10) as sock:
+            assert _hello(sock)["ok"] is True
+            _raw(sock, b'{"op":"base","vx":' + b"[" * 20_000 + b"]" * 20_000 + b',"vy":0,"wz":0}')
+            assert recv_message(sock)[0]["code"] == "message"
+            _raw(sock, b'{"op":"base","vx":1' + b"0" * 4000 + b',"vy":0,"wz":0}')
+            assert recv_message(sock)[0]["code"] == "value"
+    finally:
+        robot.terminate()
+        out, err = robot.communicate(timeout=30)
+    assert "drive 0.1 0.0 0.0" in out and "drive 0.0 0.0 0.0" in out
+    assert "Traceback" not in err, err
+
+
 # --- a recording driver for the safety tests ---------------------------------------------------------
 
 
@@ -270,6 +341,29 @@ def test_a_hello_trickled_a_byte_at_a_time_is_cut_at_the_deadline():
                     closed = True
                 break
         assert closed  # the robot hung up long before the hello was whole
+
+
+def test_one_address_cannot_take_every_hello_slot():
+    import select
+
+    from attribot.bridge.server import MAX_GREETING_PER_ADDRESS
+
+    with serving(RecordingDriver) as (server, _):
+        idle = [socket.create_connection(server.address) for _ in range(MAX_GREETING_PER_ADDRESS + 2)]
+        try:
+            closed: list[socket.socket] = []
+            deadline = time.monotonic() + 1.5  # within the hello deadline: only those past the cap close
+            while len(closed) < 2 and time.monotonic() < deadline:
+                open_ = [s for s in idle if s not in closed]
+                readable, _, _ = select.select(open_, [], [], 0.1)
+                closed += [s for s in readable if s.recv(1) == b""]
+            assert len(closed) == 2
+            assert select.select([s for s in idle if s not in closed], [], [], 0)[0] == []
+        finally:
+            for s in idle:
+                s.close()
+        with BridgeWorld(url=url(server), token=TOKEN) as world:  # and once they are gone, a client is served
+            assert world.observe().rgb.shape == (2, 4, 3)
 
 
 def test_a_second_client_is_told_the_robot_is_busy():

@@ -21,9 +21,7 @@ import threading
 import time
 import zlib
 from collections.abc import Callable
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from attribot.bridge.protocol import (
     MAX_DEPTH,
@@ -33,6 +31,9 @@ from attribot.bridge.protocol import (
     recv_message,
     send_message,
 )
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["Driver", "Limits", "RobotServer", "CameraFrame", "serve_in_thread"]
 
@@ -199,6 +200,8 @@ HELLO_TIMEOUT_S = 2.0
 """How long a new connection has to send its hello: one that sends nothing must not hold the robot."""
 MAX_GREETING = 16
 """Connections in their hello at once; more are closed at once (a flood must not exhaust threads)."""
+MAX_GREETING_PER_ADDRESS = 4
+"""Connections in their hello at once from one address: one flooding machine cannot take every slot."""
 MAX_REQUEST_HEADER = 64 << 10
 """The largest request header the robot reads (the largest real one is under 200 bytes); requests carry no
 payload."""
@@ -330,14 +333,14 @@ class RobotServer:
         self._closing = threading.Event()
         self._slot = threading.Lock()  # guards `_client` and `_greeting`
         self._client: Any = None  # the peer being served, None when the robot is free
-        self._greeting = 0  # connections in their hello
+        self._greeting: dict[str, int] = {}  # connections in their hello, by the peer's address
         self._handoff = queue.Queue()  # type: queue.Queue[tuple[socket.socket, Any, dict[str, Any]]]
         # (monotonic time, why) of the latest safety stops: a flood of refused requests must not grow it
         self.stops = collections.deque(maxlen=1000)  # type: collections.deque[tuple[float, str]]
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._sock.bind((host, port))
-        self._sock.listen(1)
+        self._sock.listen(MAX_GREETING)  # a burst of connections is accepted, then sorted by the acceptor
         self._sock.settimeout(0.2)  # accept wakes up to notice close()
         self.address = self._sock.getsockname()[:2]
         self._watchdog = threading.Thread(target=self._watch, name="bridge-watchdog", daemon=True)
@@ -423,16 +426,20 @@ class RobotServer:
         while not self._closing.is_set():
             try:
                 conn, peer = self._sock.accept()
-            except TimeoutError:
+            except socket.timeout:  # noqa: UP041 (on Python 3.8 not a TimeoutError: it would end accepting)
                 continue
             except OSError:
                 break  # closed
             with self._slot:
-                crowded = self._greeting >= MAX_GREETING
+                address = str(peer[0])
+                crowded = (
+                    sum(self._greeting.values()) >= MAX_GREETING
+                    or self._greeting.get(address, 0) >= MAX_GREETING_PER_ADDRESS
+                )
                 if not crowded:
-                    self._greeting += 1
+                    self._greeting[address] = self._greeting.get(address, 0) + 1
             if crowded:
-                log.warning("bridge: refused %s: %d connections already in their hello", peer, MAX_GREETING)
+                log.warning("bridge: refused %s: too many connections in their hello", peer)
                 conn.close()
                 continue
             threading.Thread(target=self._greet, args=(conn, peer), name="bridge-hello", daemon=True).start()
@@ -480,7 +487,10 @@ class RobotServer:
         finally:
             cutoff.cancel()
             with self._slot:
-                self._greeting -= 1
+                address = str(peer[0])
+                self._greeting[address] -= 1
+                if not self._greeting[address]:
+                    del self._greeting[address]
             if not handed:
                 conn.close()
 
@@ -719,10 +729,14 @@ class RobotServer:
         parts = [("jpeg", frame.jpeg)]
         header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(self.driver.camera())}
         if frame.depth is not None:
+            import numpy as np  # only a robot with depth or segmentation needs it
+
             depth = np.ascontiguousarray(frame.depth, dtype="<f4")
             parts.append(("depth", depth.tobytes()))
             header["depth_shape"] = list(depth.shape)
         if frame.segmentation is not None:
+            import numpy as np
+
             seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
             parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
             header["segmentation_shape"] = list(seg.shape)
