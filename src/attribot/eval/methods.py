@@ -18,6 +18,7 @@ the API call that failed as its trace records it), and wall seconds.
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from typing import Any
@@ -28,7 +29,7 @@ from attribot.api.safeguards import MECHANISMS
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
-from attribot.eval.datasets import Item
+from attribot.eval.datasets import Box, Item, Name
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.noise import NOISE_PRESETS, world_noise
 
@@ -68,20 +69,20 @@ class Record(BaseModel):
 
     status: right | wrong | failed | not run."""
 
-    id: str
-    task: str
-    method: str
-    noise: str
+    id: Name
+    task: Name
+    method: Name
+    noise: Name
     query: str
     detector: str | None = None  # the run's detector spec (its noise aside); None in records made before
     form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
     iou: float | None = None
-    box: list[float] | None = None
+    box: Box | None = None
     chosen_id: str | None = None
     true_id: str
-    true_box: list[float]
+    true_box: Box
     answer: str = ""
     value: float | None = None
     unit: str | None = None
@@ -339,7 +340,7 @@ def _vlm(item: Item, settings: Settings, noise: str) -> Record:
         f"(image {frame.width}x{frame.height}, origin top-left).",
     )
     numbers = [float(n) for n in re.findall(r"-?\d+(?:\.\d+)?", said)[:4]]
-    if len(numbers) != 4:
+    if len(numbers) != 4 or not all(math.isfinite(n) for n in numbers):  # "9" * 400 reads as inf
         return _record(
             item,
             "vlm",

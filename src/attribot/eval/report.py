@@ -24,6 +24,7 @@ import jinja2
 from PIL import Image, ImageDraw
 
 from attribot.api.safeguards import MECHANISMS
+from attribot.errors import InputError
 from attribot.eval.compare import Runs, read_runs
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.hypotheses import hypotheses
@@ -38,7 +39,8 @@ from attribot.eval.tables import (
     table_one,
     table_one_latex,
 )
-from attribot.files import write_whole
+from attribot.files import inside, read_capped, write_whole
+from attribot.frame import MAX_IMAGE_PIXELS
 from attribot.noise import NOISE_PRESETS
 
 __all__ = ["wilson", "summarize", "write_report", "default_out", "paper_numbers"]
@@ -229,12 +231,30 @@ class _Legend:
         return [(self.key(w), self.label(w), self.colour(w)) for w in self.entries]
 
 
+_IMAGE_BYTES = 50 * 1024 * 1024
+"""The largest item image file a report reads (ours are PNGs of a few hundred kB)."""
+
+
 def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> str:
     """The item's image at full size with the true box (thick, green) and each method's box (its colour,
     named), as a JPEG data URI; "" when the run holds no image of it."""
     if path is None:
         return ""
-    img = Image.open(path).convert("RGB")
+    data = read_capped(path, "the item's image", _IMAGE_BYTES, "build the run's dataset again")
+    try:
+        opened = Image.open(io.BytesIO(data))
+        if opened.width * opened.height > MAX_IMAGE_PIXELS:  # said by the header, before any pixel is decoded
+            raise InputError(
+                f"the item's image {str(path)!r} is {opened.width}x{opened.height} pixels, more than a "
+                "report draws",
+                "build the run's dataset again with attribot dataset build",
+            )
+        img = opened.convert("RGB")
+    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
+        raise InputError(
+            f"the item's image {str(path)!r} cannot be read as an image ({exc.__class__.__name__})",
+            "build the run's dataset again with attribot dataset build",
+        ) from None
     d = ImageDraw.Draw(img)
     if item_records[0].true_box:
         d.rectangle(item_records[0].true_box, outline=(0, 200, 0), width=5)
@@ -252,15 +272,25 @@ def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> st
     return "data:image/jpeg;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
-def _trace_line(call: dict[str, Any]) -> str:
-    args = ", ".join(str(a)[:40] for a in call.get("args", []))
-    return f"{call.get('call')}({args}) -> {str(call.get('result'))[:60]}"
+_TRACE_LINES = 200
+"""The most calls of one record's trace a gallery card shows."""
+
+
+def _trace_line(call: Any) -> str:
+    if not isinstance(call, dict):
+        return str(call)[:100]
+    args = call.get("args")
+    args = ", ".join(str(a)[:40] for a in (args[:10] if isinstance(args, list) else []))
+    return f"{str(call.get('call'))[:60]}({args}) -> {str(call.get('result'))[:60]}"
 
 
 def _image_path(run_dirs: tuple[Path, ...], item_id: str) -> Path | None:
-    """The item's image in the first run folder that holds it (runs reported together share items)."""
-    paths = (d / "dataset" / "images" / f"{item_id}.png" for d in run_dirs)
-    return next((p for p in paths if p.is_file()), None)
+    """The item's image in the first run folder that holds it (runs reported together share items), never
+    a file outside that folder."""
+    name = f"dataset/images/{item_id}.png"
+    fix = "give run folders written by attribot eval, whose files are their own"
+    paths = (inside(d, name, "the item's image", fix) for d in run_dirs if (d / name).exists())
+    return next(paths, None)
 
 
 def _result(r: Record, legend: _Legend) -> dict[str, Any]:
@@ -271,7 +301,8 @@ def _result(r: Record, legend: _Legend) -> dict[str, Any]:
         "answer": r.answer[:200],
         "error": (f"{r.error_category}: " if r.error_category else "") + (r.error or "")[:300],
         "program": r.program,
-        "trace": "\n".join(_trace_line(t) for t in r.trace),
+        "trace": "\n".join(_trace_line(t) for t in r.trace[:_TRACE_LINES])
+        + (f"\n... ({len(r.trace)} calls)" if len(r.trace) > _TRACE_LINES else ""),
     }
 
 
@@ -367,5 +398,6 @@ def _page(runs: Runs, rows: list[dict[str, Any]], out: Path, gallery_noise: str)
         "gallery_noise": gallery_noise,
         "gallery": _gallery(records, runs.dirs, gallery_noise, legend),
         "legend": legend.rows(),
-        "summary": json.dumps(rows).replace("</", "<\\/"),
+        # inside <script>: no "<" at all, so that no "</script>" or "<!--" in a record's text can end it
+        "summary": json.dumps(rows).replace("<", "\\u003c"),
     }

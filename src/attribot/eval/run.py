@@ -31,6 +31,7 @@ from attribot.eval.datasets import (
     build_items,
     item_count,
     read_dataset,
+    read_jsonl,
     write_dataset,
 )
 from attribot.eval.methods import (
@@ -42,10 +43,24 @@ from attribot.eval.methods import (
 )
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
-from attribot.files import write_whole
+from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.shutdown import die_with_parent
 
-__all__ = ["EvalPlan", "RunSummary", "RunLock", "run_eval", "read_records", "records_path", "worker_pool"]
+__all__ = [
+    "EvalPlan",
+    "RunSummary",
+    "RunLock",
+    "run_eval",
+    "read_records",
+    "read_about",
+    "records_path",
+    "worker_pool",
+]
+_RUN_FIX = "give a run folder written by attribot eval, unchanged, or another --out"
+MAX_RECORD_BYTES = 16 * 1024 * 1024
+"""The longest records line looked for at the end of a records file (a record is a few kB)."""
+_IMAGE_BYTES = 50 * 1024 * 1024
+"""The largest dataset image copied into a run (ours are PNGs of a few hundred kB)."""
 
 Job = tuple[Item, str, str]  # item, method, noise
 
@@ -114,7 +129,7 @@ def read_records(out: Path) -> list[Record]:
     An item recorded twice for one method and noise level (two runs that wrote into one folder) is an
     `InputError`: counted twice, it would narrow every interval of the report."""
     records = []
-    for path in sorted((out / "records").glob("*.jsonl")):
+    for path in _records_files(out):
         seen: dict[str, int] = {}
         for record in _records_in(path):
             seen[record.id] = seen.get(record.id, 0) + 1
@@ -185,30 +200,71 @@ def _set_aside_torn(path: Path) -> str | None:
         f.seek(size - 1)
         if f.read(1) == b"\n":
             return None
-        f.seek(0)
-        data = f.read()
-        keep = data.rfind(b"\n") + 1
+        keep = size  # the end of the last whole line: looked for backwards, a block at a time
+        while keep > 0:
+            if size - keep > MAX_RECORD_BYTES:
+                raise InputError(
+                    f"the records file {str(path)!r} ends in more than {MAX_RECORD_BYTES:,} bytes that "
+                    "are no record (no line ends there)",
+                    _RUN_FIX,
+                )
+            start = max(0, keep - (1 << 16))
+            f.seek(start)
+            block = f.read(keep - start)
+            at = block.rfind(b"\n")
+            keep = start if at < 0 else start + at + 1
+            if at >= 0:
+                break
+        f.seek(keep)
+        fragment = f.read(min(size - keep, 1 << 20))  # a torn record is kept as far as the first MB
         with path.with_name(path.name + ".torn").open("ab") as torn:
-            torn.write(data[keep:] + b"\n")
+            torn.write(fragment + b"\n")
         f.truncate(keep)
     return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
 
+def read_about(out: Path) -> dict[str, Any]:
+    """The run folder's run.json (the settings its records were made with), read within bounds; {} when
+    there is none."""
+    if not (out / "run.json").exists():
+        return {}
+    about = read_json(inside(out, "run.json", "the run's settings", _RUN_FIX), "the run's settings", _RUN_FIX)
+    if not isinstance(about, dict):
+        raise InputError(f"the run's settings {str(out / 'run.json')!r} are not a table", _RUN_FIX)
+    return about
+
+
+def _records_files(out: Path) -> list[Path]:
+    """The records files of a run folder, each inside it (a link that leads out is refused)."""
+    folder = out / "records"
+    if not folder.is_dir():
+        return []
+    return [
+        inside(out, f"records/{p.name}", "the records file", _RUN_FIX) for p in sorted(folder.glob("*.jsonl"))
+    ]
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
 def _check_run(out: Path, settings: Settings, subset: str | None) -> None:
     want = fingerprint(settings, subset)
-    path = out / "run.json"
-    if path.is_file():
-        have = json.loads(path.read_text(encoding="utf-8"))
+    have = read_about(out)
+    if have:
         differ = [k for k in want if have.get(k) != want[k]]
         if differ:
-            detail = "; ".join(f"{k}: this run {want[k]!r}, the directory {have.get(k)!r}" for k in differ)
+            detail = "; ".join(
+                f"{k}: this run {_shown(want[k])}, the directory {_shown(have.get(k))}" for k in differ
+            )
             raise ConfigError(
                 f"{out} holds a run made with other settings ({detail})",
                 "run with the same settings to resume it, or give another --out",
             )
         return
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(want, indent=2) + "\n", encoding="utf-8")
+    write_whole(out / "run.json", (json.dumps(want, indent=2) + "\n").encode("utf-8"))
 
 
 def _counter(progress: Callable[[str], None], what: str, total: int) -> Callable[[Item], None]:
@@ -255,7 +311,7 @@ def _dataset(
                     f"the dataset at {source} holds {len(built)} {task} items, and this run needs {need}",
                     f"give a --limit it covers, or build it with more: attribot dataset build --tasks {task}",
                 )
-            absent = [i.id for i in built if not (source / "images" / f"{i.id}.png").is_file()]
+            absent = [i.id for i in built if not (source / "images" / f"{i.id}.png").exists()]
             if absent:
                 raise InputError(
                     f"the dataset at {source} has no image of {', '.join(absent[:3])}",
@@ -286,8 +342,13 @@ def _add_to_dataset(
     (folder / "images").mkdir(parents=True, exist_ok=True)
     if source is not None:
         for item in missing:
-            name = f"{item.id}.png"
-            write_whole(folder / "images" / name, (source / "images" / name).read_bytes())
+            name = f"images/{item.id}.png"
+            image = inside(
+                source, name, "the dataset image", "build the dataset again with attribot dataset build"
+            )
+            write_whole(
+                folder / name, read_capped(image, "the dataset image", _IMAGE_BYTES, "build it again")
+            )
     else:
         rendered = _counter(progress, "rendering images", len(missing))
         write_dataset(missing, folder / "new", images=True, on_image=rendered)
@@ -323,20 +384,19 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
 
 
 def _records_in(path: Path) -> Iterator[Record]:
-    if not path.is_file():
+    """The records of one file (an unfinished last line, from a crash mid-write, is left out; any other
+    line that is no record is an `InputError` naming it)."""
+    if not path.exists():
         return
-    for line in path.read_text(encoding="utf-8").splitlines():
-        try:
-            yield Record.model_validate_json(line)
-        except ValueError:
-            continue
+    for _, record in read_jsonl(path, Record, "the records file", _RUN_FIX):
+        yield record
 
 
-def _run_job(job_json: str, settings_json: str) -> str:
-    """One job in a worker process or Ray task: JSON in, the record's JSON out."""
+def _run_job(job_json: str, settings: Settings) -> str:
+    """One job in a worker process or Ray task: the job's JSON and the settings (pickled, secrets and all:
+    JSON would mask them) in, the record's JSON out."""
     job = json.loads(job_json)
     item = Item.model_validate(job["item"])
-    settings = Settings.model_validate_json(settings_json)
     return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
 
 
@@ -394,9 +454,10 @@ class _Chooser:
         if self.detector is None:
             return items, None
         kept, subset = findable_items(items, self.spec, self.detector)
-        path = out / "run.json"
-        about = json.loads(path.read_text(encoding="utf-8"))
-        write_whole(path, (json.dumps({**about, "items": subset.as_json()}, indent=2) + "\n").encode())
+        about = read_about(out)
+        write_whole(
+            out / "run.json", (json.dumps({**about, "items": subset.as_json()}, indent=2) + "\n").encode()
+        )
         self.note(f"the detector {self.spec} is closed-set: {subset.rule}")
         for line in subset.lines():
             self.note(line)
@@ -416,36 +477,64 @@ def _run_locked(
     started: float,
     chooser: _Chooser,
 ) -> RunSummary:
-    for path in sorted((out / "records").glob("*.jsonl")):
+    for path in _records_files(out):
         note = _set_aside_torn(path)
         if note is not None:
             say(note)
     items, subset = chooser.choose(out, _dataset(out, plan, say, dataset, given))
     jobs, skipped = _jobs(items, plan, out)
     total = len(jobs)
-    handles: dict[Path, Any] = {}
-
-    def write(record: Record) -> None:
-        path = records_path(out, record.task, record.method, record.noise)
-        if path not in handles:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            handles[path] = path.open("a", encoding="utf-8")
-        handles[path].write(record.model_dump_json() + "\n")
-        handles[path].flush()
-
     finished = 0
-    try:
+    with _RecordsWriter(out) as writer:
         for record in _execute(jobs, settings, workers, executor):
-            write(record)
+            writer.write(record, finished + skipped)
             finished += 1
             if on_record is not None:
                 on_record(record, finished, total)
-    finally:
-        for handle in handles.values():
-            handle.close()
     return RunSummary(
         done=finished, skipped=skipped, seconds=time.perf_counter() - started, out=out, subset=subset
     )
+
+
+class _RecordsWriter:
+    """Appends records to their files, a line each, written out at once with one system call, so that a
+    record is on disk before the next is run. A write that fails (the disk full) ends the run with an
+    `InputError` that says how many records are kept; the unfinished line, if any, is set aside when the
+    run resumes (`_set_aside_torn`), so that nothing written before is lost."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.fds: dict[Path, int] = {}
+
+    def write(self, record: Record, kept: int) -> None:
+        path = records_path(self.out, record.task, record.method, record.noise)
+        line = (record.model_dump_json() + "\n").encode("utf-8")
+        try:
+            if path not in self.fds:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                self.fds[path] = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+            view = memoryview(line)
+            while view:
+                view = view[os.write(self.fds[path], view) :]
+        except OSError as exc:
+            why = "the disk or your quota is full: " if disk_full(exc) else ""
+            raise InputError(
+                f"writing the records in {self.out} failed ({exc.strerror or exc}): the run stopped after "
+                f"{kept} records, which are kept in {self.out / 'records'}",
+                f"{why}free some space (or move the run folder to a disk with room) and run the same command "
+                "again: it resumes where it stopped",
+            ) from None
+
+    def close(self) -> None:
+        for fd in self.fds.values():
+            os.close(fd)
+        self.fds.clear()
+
+    def __enter__(self) -> _RecordsWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def worker_pool(workers: int) -> ProcessPoolExecutor:
@@ -462,26 +551,25 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
 def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -> Iterator[Record]:
     if not jobs:
         return
-    settings_json = settings.model_dump_json()
     if executor == "ray":
-        yield from _execute_ray(jobs, settings_json)
+        yield from _execute_ray(jobs, settings)
         return
     if workers == 1:
         for item, method, noise in jobs:
             yield run_method(item, method, settings, noise)
         return
     with worker_pool(workers) as pool:
-        pending = {pool.submit(_run_job, _job_json(j), settings_json) for j in jobs[: workers * 4]}
+        pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
         queued = jobs[workers * 4 :]
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
                 yield Record.model_validate_json(future.result())
                 if queued:
-                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings_json))
+                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
 
 
-def _execute_ray(jobs: list[Job], settings_json: str) -> Iterator[Record]:
+def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:
     from attribot.deps import require
 
     ray = require("ray", "the ray executor (--executor ray)")
@@ -491,7 +579,7 @@ def _execute_ray(jobs: list[Job], settings_json: str) -> Iterator[Record]:
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False, include_dashboard=False)
     try:
         remote = ray.remote(num_cpus=1)(_run_job)
-        pending = [remote.remote(_job_json(j), settings_json) for j in jobs]
+        pending = [remote.remote(_job_json(j), settings) for j in jobs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
