@@ -60,6 +60,12 @@ def run_with_plugin(tmp_path: Path, plugins: str, *args: str, **modules: str) ->
         ("lab_bundle", {"lab_bundle": SENSOR + "register_sensor(Sensor(name='depth camera', measures='x', "
                                                 "quantity='x', unit='x'))\n"},
          ["'depth camera' names several built-in sensors"]),
+        ("lab_method", {"lab_method": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
+                                                "quantity='x', unit='m', method='pick_up'))\n"},
+         ["robot.pick_up, which Robot has already"]),
+        ("lab_held", {"lab_held": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
+                                            "quantity='x', unit='m', method='held'))\n"},
+         ["robot.held, which Robot has already"]),
         ("lab_imports", {"lab_imports": "import no_such_dependency\n"},
          ["the plug-in module 'lab_imports' failed", "No module named 'no_such_dependency'"]),
         ("lab_deep", {"lab_deep": "def f(n):\n    return f(n + 1)\nf(0)\n"}, ["RecursionError"]),

@@ -337,6 +337,8 @@ def _rewrite_first_record(run: Path, **fields: object) -> None:
         ({"true_box": [1, 2, 3]}, "true_box"),
         ({"box": [0, 0, "nan", 1]}, "box"),
         ({"task": "weight_image/../../x"}, "task"),
+        ({"checks": [{}]}, "checks"),
+        ({"wall_s": float("nan")}, "wall_s"),
     ],
 )
 def test_a_report_refuses_records_attribot_did_not_write(a_run, tmp_path, fields, words, empty_settings):
@@ -443,3 +445,24 @@ def _records(path: Path) -> list:
     from attribot.eval.methods import Record
 
     return [Record.model_validate_json(line) for line in path.read_text().splitlines()]
+
+
+@pytest.mark.parametrize("link", [".lock", "records/weight_image__vqa__clean.jsonl"])
+def test_a_run_writes_nothing_through_a_link_out_of_its_folder(a_run, tmp_path, link, empty_settings):
+    from attribot.eval.run import EvalPlan, run_eval
+
+    run = _copy(a_run, tmp_path / "run")
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me\n")
+    (run / link).symlink_to(precious)
+    with pytest.raises(AttribotError):
+        run_eval(EvalPlan(tasks=("weight_image",), methods=("ovd", "vqa"), limit=2), load_settings(), run)
+    assert precious.read_text() == "keep me\n"
+
+
+def test_more_workers_than_the_machine_can_run_are_refused_before_any_work(tmp_path, empty_settings):
+    from attribot.eval.run import EvalPlan, run_eval
+
+    with pytest.raises(AttribotError, match="--workers 100000 starts more processes"):
+        run_eval(EvalPlan(tasks=("weight_image",), limit=1), load_settings(), tmp_path / "run", workers=10**5)
+    assert not (tmp_path / "run").exists()

@@ -139,8 +139,11 @@ def _load_plugins() -> None:
                 f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
     if names:
-        try:  # a plug-in that took a built-in's name is said now, not at some later look-up
+        try:  # a plug-in that took a built-in's name, or a method Robot has, is said now, not later
             Registry.load_all()
+            from attribot.api.robot import Robot
+
+            Robot.API_METHODS  # noqa: B018 (installs the plug-ins' sensor methods, refusing a clash)
         except AttribotError as exc:
             raise ConfigError(
                 f"a plug-in of {PLUGINS_ENV} ({', '.join(names)}) clashes with attribot's own: {exc.message}",

@@ -745,7 +745,7 @@ def replay_settings(saved: Any, folder: Path, trusted: bool = False) -> Settings
             f"set the {role} yourself (ATTRIBOT_{role.upper()} or attribot.toml) to replay with it, or, for "
             f"a folder you made, replay with {TRUST_SAVED} (Python: trust_saved_backends=True)",
         )
-    naming = FieldNaming(lambda field: f"{field} in {source}", lambda field, value: f"{field} = {value}")
+    naming = FieldNaming(lambda field: source, lambda field, value: f"{field} = {value}")
     return _settings_of(own, chosen, naming)
 
 

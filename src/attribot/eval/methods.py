@@ -23,9 +23,9 @@ import re
 import time
 from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, FiniteFloat, field_validator
 
-from attribot.api.safeguards import MECHANISMS
+from attribot.api.safeguards import MECHANISMS, CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
@@ -78,13 +78,13 @@ class Record(BaseModel):
     form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
-    iou: float | None = None
+    iou: FiniteFloat | None = None
     box: Box | None = None
     chosen_id: str | None = None
     true_id: str
     true_box: Box
     answer: str = ""
-    value: float | None = None
+    value: FiniteFloat | None = None
     unit: str | None = None
     program: str | None = None
     trace: list[dict[str, Any]] = []
@@ -92,8 +92,15 @@ class Record(BaseModel):
     error: str | None = None
     error_category: str | None = None  # planner | runner | perception | action | uncertain (see `_category`)
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
-    wall_s: float = 0.0
-    sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
+
+    @field_validator("checks")
+    @classmethod
+    def _events(cls, checks: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        # each one a mechanism's event, so that the report's tables can read its fields
+        return [CheckEvent.model_validate(c).model_dump() for c in checks]
+
+    wall_s: FiniteFloat = 0.0
+    sim_s: FiniteFloat | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:

@@ -154,7 +154,8 @@ class RunLock:
 
         try:
             out.mkdir(parents=True, exist_ok=True)
-            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+            # never through a link: a run folder from elsewhere could point .lock at a file to truncate
+            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
         except OSError as exc:
             raise InputError(
                 f"the run folder {out} cannot be written ({exc.strerror or exc})", "give a writable --out"
@@ -217,8 +218,13 @@ def _set_aside_torn(path: Path) -> str | None:
                 break
         f.seek(keep)
         fragment = f.read(min(size - keep, 1 << 20))  # a torn record is kept as far as the first MB
-        with path.with_name(path.name + ".torn").open("ab") as torn:
-            torn.write(fragment + b"\n")
+        torn = os.open(
+            path.with_name(path.name + ".torn"), os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW
+        )
+        try:
+            os.write(torn, fragment + b"\n")
+        finally:
+            os.close(torn)
         f.truncate(keep)
     return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
@@ -424,6 +430,12 @@ def run_eval(
     The run holds a lock on `out` throughout: a second run into it is refused with an `InputError`."""
     if workers < 1:
         raise InputError(f"--workers {workers} runs nothing", "give 1 or more workers")
+    most = 4 * (os.cpu_count() or 1)
+    if executor == "local" and workers > most:  # each is a process with its own simulator and renderer
+        raise InputError(
+            f"--workers {workers} starts more processes than this machine's {os.cpu_count()} CPUs can run",
+            f"give at most {most} (about one per CPU is fastest), or run on a cluster: --executor ray",
+        )
     if executor not in ("local", "ray"):
         raise InputError(f"unknown executor {executor!r}", "choose local or ray")
     if dataset is not None and (dataset / "dataset" / "manifest.jsonl").is_file():
@@ -509,10 +521,13 @@ class _RecordsWriter:
     def write(self, record: Record, kept: int) -> None:
         path = records_path(self.out, record.task, record.method, record.noise)
         line = (record.model_dump_json() + "\n").encode("utf-8")
+        if path not in self.fds:  # never through a link out of the run folder
+            path.parent.mkdir(parents=True, exist_ok=True)
+            inside(self.out, f"records/{path.name}", "the records file", _RUN_FIX)
         try:
             if path not in self.fds:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                self.fds[path] = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
+                flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+                self.fds[path] = os.open(path, flags, 0o644)
             view = memoryview(line)
             while view:
                 view = view[os.write(self.fds[path], view) :]

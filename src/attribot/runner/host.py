@@ -55,33 +55,40 @@ def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
     """A trace value cut to fit: long texts, long lists and dicts, deep nesting, and the whole within `room`
     (characters, counted down; `TRACE_PART_CHARS` when not given). A program can pass a 300 KB string, or
     a list of 190,000 names, to every call: the trace keeps what shows what the call was."""
-    room = [TRACE_PART_CHARS] if room is None else room
+    if room is None:
+        room = [TRACE_PART_CHARS]
     if isinstance(value, str):
         keep = max(0, min(TRACE_TEXT_CHARS, room[0]))
         text = value if len(value) <= keep else value[:keep] + f"... ({len(value)} characters)"
         room[0] -= len(text)
         return text
-    if not isinstance(value, list | dict):
-        room[0] -= 8
-        return value
-    if depth >= TRACE_DEPTH or room[0] <= 0:
-        room[0] -= 3
-        return "..."
-    pairs = iter(value.items()) if isinstance(value, dict) else enumerate(value)
-    kept: list[tuple[Any, Any]] = []
-    for key, item in pairs:
-        if len(kept) >= TRACE_ITEMS or room[0] <= 0:
-            break
-        room[0] -= 2
-        shown_key = _cut(key, room, depth + 1) if isinstance(value, dict) else key
-        kept.append((shown_key, _cut(item, room, depth + 1)))
-    more = len(value) - len(kept)
+    if isinstance(value, list):
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        items = []
+        for item in value:
+            if len(items) >= TRACE_ITEMS or room[0] <= 0:
+                items.append(f"... ({len(value)} items)")
+                break
+            room[0] -= 2
+            items.append(_cut(item, room, depth + 1))
+        return items
     if isinstance(value, dict):
-        out = dict(kept)
-        if more:
-            out["..."] = f"{more} more entries"
-        return out
-    return [item for _, item in kept] + ([f"... ({len(value)} items)"] if more else [])
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        entries = {}
+        for key, item in value.items():
+            if len(entries) >= TRACE_ITEMS or room[0] <= 0:
+                entries["..."] = f"{len(value) - len(entries)} more entries"
+                break
+            room[0] -= 2
+            entries[_cut(key, room, depth + 1)] = _cut(item, room, depth + 1)
+        return entries
+    # a number, true, false or None; a 4,000-digit int counts its digits
+    room[0] -= 8 + (value.bit_length() // 3 if isinstance(value, int) else 0)
+    return value
 
 
 # a default repr, "<attribot.api.robot._RobotWithSensors object at 0x7f...>": its class name is enough
