@@ -53,6 +53,8 @@ def test_the_install_fetched_the_real_files_with_their_hashes():
         ("remote control", ["remote"]),
         ("cell phones", ["cell phone"]),
         ("computer mouse", ["mouse"]),
+        ("the orange", ["orange"]),  # a colour word that is also a class names the class
+        ("oranges", ["orange"]),
     ],
 )
 def test_names_map_to_coco_classes_through_the_vocabulary(phrase, expected):

@@ -234,6 +234,8 @@ def coco_classes_for(phrase: str, classes: Sequence[str]) -> list[str]:
             what = "surface"
         else:
             what = " ".join(content)
+    elif tokens and tokens[-1] in known:  # a colour that is also a class: "the orange" is the fruit
+        return [tokens[-1]]
     elif tokens or words(phrase):  # colours only ("the red ones"): any thing, the colour unchecked
         return [c for c in classes if c not in _NOT_THINGS]
     else:
@@ -355,6 +357,15 @@ class CocoDetector:
         except InputError:
             return False
         return True
+
+    def class_of(self, name: str) -> str | None:
+        """The one class `name` reaches (a mug: "cup"); None when it reaches none, or every class of a
+        thing (a generic word)."""
+        try:
+            found = coco_classes_for(name, self.classes)
+        except InputError:
+            return None
+        return found[0] if len(found) == 1 else None
 
     def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
         return self.detect_batch([frame], [queries])[0]
