@@ -74,7 +74,8 @@ class Detector(Protocol):
 
     A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt) and
     `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup); `can_find` below
-    asks any detector."""
+    asks any detector. One whose answer depends on nothing but the frame's RGB pixels and the queries says
+    so with `pixels_only = True`, and is then asked once per view (`attribot.models.cache`)."""
 
     name: str
 
