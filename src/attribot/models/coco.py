@@ -382,8 +382,8 @@ class CocoDetector:
     ) -> list[list[Detection]]:
         """Detections for each frame and its own queries: the whole image first, then its tiles where a
         wanted class is not yet found with a score of `SURE`. The network's output for a view does not
-        depend on the query (it scores all 80 classes), so each view's output is kept (the last `keep` views) and
-        another query about the same pixels needs no forward pass."""
+        depend on the query (it scores all 80 classes), so each view's output is kept (the last `keep`
+        views) and another query about the same pixels needs no forward pass."""
         if len(frames) != len(queries):
             raise InputError(
                 f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame"
