@@ -76,7 +76,8 @@ class Detector(Protocol):
     A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt),
     `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup) and `class_of(name)
     -> str | None` (the one class a name reaches); `can_find` and `findable_categories` below ask any
-    detector."""
+    detector. One whose answer depends on nothing but the frame's RGB pixels and the queries says so with
+    `pixels_only = True`, and is then asked once per view (`attribot.models.cache`)."""
 
     name: str
 
