@@ -92,15 +92,15 @@ class Record(BaseModel):
     error: str | None = None
     error_category: str | None = None  # planner | runner | perception | action | uncertain (see `_category`)
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
+    wall_s: FiniteFloat = 0.0
+    sim_s: FiniteFloat | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
+    perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
 
     @field_validator("checks")
     @classmethod
     def _events(cls, checks: list[dict[str, Any]]) -> list[dict[str, Any]]:
         # each one a mechanism's event, so that the report's tables can read its fields
         return [CheckEvent.model_validate(c).model_dump() for c in checks]
-
-    wall_s: FiniteFloat = 0.0
-    sim_s: FiniteFloat | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
@@ -285,6 +285,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         error_category=_category(answer),
         sim_s=answer.sim_s,
         checks=answer.checks,
+        perception=answer.perception,
     )
 
 
