@@ -466,3 +466,28 @@ def test_more_workers_than_the_machine_can_run_are_refused_before_any_work(tmp_p
     with pytest.raises(AttribotError, match="--workers 100000 starts more processes"):
         run_eval(EvalPlan(tasks=("weight_image",), limit=1), load_settings(), tmp_path / "run", workers=10**5)
     assert not (tmp_path / "run").exists()
+
+
+def test_a_run_folder_whose_parts_are_files_is_refused_not_a_traceback(tmp_path, empty_settings):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "dataset").write_text("not a folder")
+    done = CliRunner().invoke(
+        app, ["eval", "--tasks", "weight_image", "--methods", "ovd", "--limit", "1", "--out", str(out)]
+    )
+    assert "Traceback" not in done.output and isinstance(done.exception, SystemExit | None)
+    refused(done, "dataset", "check that path")
+    assert (out / "dataset").read_text() == "not a folder"
+
+
+def test_dataset_show_draws_no_image_from_outside_the_dataset(a_run, tmp_path, empty_settings):
+    dataset = _copy(a_run / "dataset", tmp_path / "dataset")
+    image = next((dataset / "images").glob("*.png"))
+    shutil.copy(image, tmp_path / "private.png")
+    image.unlink()
+    image.symlink_to(tmp_path / "private.png")
+    done = CliRunner().invoke(
+        app, ["dataset", "show", str(dataset), image.stem, "--out", str(tmp_path / "o")]
+    )
+    refused(done, "leads outside")
+    assert not (tmp_path / "o").exists()

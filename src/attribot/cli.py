@@ -67,16 +67,16 @@ class _Commands(_PlainFlags, TyperGroup):
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
-            except OSError as exc:
+            except OSError as exc:  # the machine's, not the input's: a full disk, a folder that is a file
                 from attribot.files import disk_full
 
-                if not disk_full(exc):
-                    raise
-                # whatever was being written is whole or absent (files are written beside and renamed)
-                where = f" writing {exc.filename!r}" if exc.filename else ""
+                where = f" ({exc.filename})" if exc.filename else ""
                 raise fail(
-                    f"the disk is full{where} ({exc.strerror})",
-                    "free some space (or write elsewhere) and run the same command again",
+                    f"{exc.strerror or exc.__class__.__name__}{where}",
+                    "free some space (the disk or your quota is full) and run the same command again; what "
+                    "was written before is kept"
+                    if disk_full(exc)
+                    else "check that path and its permissions, or give another, and run the command again",
                 ) from None
             except _USAGE_ERROR as exc:
                 # a flag click could not parse: a script that asked for --json still gets the answer's shape
@@ -904,13 +904,17 @@ def dataset_show(
         )
     item = items[item_id]
     typer.echo(item.model_dump_json(indent=2))
-    image = folder / "images" / f"{item_id}.png"
-    if image.is_file():
+    if (folder / "images" / f"{item_id}.png").exists():
         from PIL import Image, ImageDraw
 
+        from attribot.files import inside
+        from attribot.frame import load_image
+
+        fix = "build the dataset again with attribot dataset build"
+        image = inside(folder, f"images/{item_id}.png", "the item's image", fix)  # never a file elsewhere
         target = _shown_path(out, folder, item_id)
         _writable_folder(target.parent, "--out")
-        img = Image.open(image).convert("RGB")
+        img = Image.fromarray(load_image(image))
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
         img.save(target)
         err_console.print(f"image with the true box -> {target}", highlight=False)

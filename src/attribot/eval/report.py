@@ -24,7 +24,6 @@ import jinja2
 from PIL import Image, ImageDraw
 
 from attribot.api.safeguards import MECHANISMS
-from attribot.errors import InputError
 from attribot.eval.compare import Runs, read_runs
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.hypotheses import hypotheses
@@ -39,8 +38,8 @@ from attribot.eval.tables import (
     table_one,
     table_one_latex,
 )
-from attribot.files import inside, read_capped, write_whole
-from attribot.frame import MAX_IMAGE_PIXELS
+from attribot.files import inside, write_whole
+from attribot.frame import load_image
 from attribot.noise import NOISE_PRESETS
 
 __all__ = ["wilson", "summarize", "write_report", "default_out", "paper_numbers"]
@@ -231,30 +230,13 @@ class _Legend:
         return [(self.key(w), self.label(w), self.colour(w)) for w in self.entries]
 
 
-_IMAGE_BYTES = 50 * 1024 * 1024
-"""The largest item image file a report reads (ours are PNGs of a few hundred kB)."""
-
-
 def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> str:
     """The item's image at full size with the true box (thick, green) and each method's box (its colour,
-    named), as a JPEG data URI; "" when the run holds no image of it."""
+    named), as a JPEG data URI; "" when the run holds no image of it. A file that is no image, or one too
+    large to decode, is an `InputError` (`load_image`)."""
     if path is None:
         return ""
-    data = read_capped(path, "the item's image", _IMAGE_BYTES, "build the run's dataset again")
-    try:
-        opened = Image.open(io.BytesIO(data))
-        if opened.width * opened.height > MAX_IMAGE_PIXELS:  # said by the header, before any pixel is decoded
-            raise InputError(
-                f"the item's image {str(path)!r} is {opened.width}x{opened.height} pixels, more than a "
-                "report draws",
-                "build the run's dataset again with attribot dataset build",
-            )
-        img = opened.convert("RGB")
-    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
-        raise InputError(
-            f"the item's image {str(path)!r} cannot be read as an image ({exc.__class__.__name__})",
-            "build the run's dataset again with attribot dataset build",
-        ) from None
+    img = Image.fromarray(load_image(path))
     d = ImageDraw.Draw(img)
     if item_records[0].true_box:
         d.rectangle(item_records[0].true_box, outline=(0, 200, 0), width=5)

@@ -554,11 +554,10 @@ class _RecordsWriter:
     def write(self, record: Record, kept: int) -> None:
         path = records_path(self.out, record.task, record.method, record.noise)
         line = (record.model_dump_json() + "\n").encode("utf-8")
-        if path not in self.fds:  # never through a link out of the run folder
-            path.parent.mkdir(parents=True, exist_ok=True)
-            inside(self.out, f"records/{path.name}", "the records file", _RUN_FIX)
         try:
-            if path not in self.fds:
+            if path not in self.fds:  # never through a link out of the run folder
+                path.parent.mkdir(parents=True, exist_ok=True)
+                inside(self.out, f"records/{path.name}", "the records file", _RUN_FIX)
                 flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
                 self.fds[path] = os.open(path, flags, 0o644)
             view = memoryview(line)

@@ -66,7 +66,7 @@ def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
         if depth >= TRACE_DEPTH or room[0] <= 0:
             room[0] -= 3
             return "..."
-        items = []
+        items: list[Any] = []
         for item in value:
             if len(items) >= TRACE_ITEMS or room[0] <= 0:
                 items.append(f"... ({len(value)} items)")
@@ -78,7 +78,7 @@ def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
         if depth >= TRACE_DEPTH or room[0] <= 0:
             room[0] -= 3
             return "..."
-        entries = {}
+        entries: dict[Any, Any] = {}
         for key, item in value.items():
             if len(entries) >= TRACE_ITEMS or room[0] <= 0:
                 entries["..."] = f"{len(value) - len(entries)} more entries"
