@@ -14,7 +14,7 @@ import attribot
 from attribot.cli import app
 from attribot.config import SceneConfig, Settings, load_settings
 from attribot.errors import AttribotError, ConfigError, InputError
-from attribot.session import Scene
+from attribot.session import Scene, Watch
 
 SECRET = "sk-live-do-not-echo-0123456789"
 SMALL = SceneConfig(layout="triplet", seed=1, width=64, height=48)
@@ -134,6 +134,7 @@ PROGRAM = "def execute_command(image, robot):\n    return 1\n"
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), "str"), "settings='str' is not"),
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), {"planner": "rules"}), "is not attribot's"),
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), watch="x"), "is not a Watch"),
+        (lambda: attribot.ask("Where is the mug?", Scene(SMALL), watch=Watch(call=5)), "is not a function"),
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), save_dir=3), "save_dir must be a path"),
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), program_wall_s=True), "not true or false"),
         (lambda: attribot.ask("Where is the mug?", Scene(SMALL), llm_api_key=12345678), "not text: int"),

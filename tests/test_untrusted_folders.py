@@ -336,6 +336,7 @@ def _rewrite_first_record(run: Path, **fields: object) -> None:
         ({"id": "../../../../etc/passwd"}, "line 1"),
         ({"true_box": [1, 2, 3]}, "true_box"),
         ({"box": [0, 0, "nan", 1]}, "box"),
+        ({"box": [30, 40, 10, 20]}, "x1 >= x0"),
         ({"task": "weight_image/../../x"}, "task"),
         ({"checks": [{}]}, "checks"),
         ({"wall_s": float("nan")}, "wall_s"),

@@ -507,6 +507,12 @@ def _check_watch(watch: Any) -> None:
         raise InputError(
             f"watch={_shown(watch)} is not a Watch", "give attribot.session.Watch(call=...) or leave it out"
         )
+    for name in ("program", "call", "frame"):
+        seen = getattr(watch, name, None)
+        if seen is not None and not callable(seen):
+            raise InputError(
+                f"Watch({name}={_shown(seen)}) is not a function", f"give {name}=a function, or None"
+            )
 
 
 def _save_path(save_dir: Any) -> Path | None:

@@ -30,7 +30,15 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, StringConstraints, ValidationError
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    FiniteFloat,
+    StringConstraints,
+    ValidationError,
+)
 
 from attribot.config import SceneConfig
 from attribot.errors import InputError
@@ -59,7 +67,15 @@ MAX_JSONL_BYTES = 256 * 1024 * 1024
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,199}$")]
 """An item's id, a task's, method's or noise level's name: each becomes part of a file name (an image, a
 records file), so it is letters, digits and `_.+-` only, never a path."""
-Box = Annotated[list[FiniteFloat], Field(min_length=4, max_length=4)]
+
+
+def _ordered(box: list[float]) -> list[float]:
+    if box[2] < box[0] or box[3] < box[1]:
+        raise ValueError("a box is x0, y0, x1, y1 with x1 >= x0 and y1 >= y0")
+    return box
+
+
+Box = Annotated[list[FiniteFloat], Field(min_length=4, max_length=4), AfterValidator(_ordered)]
 """A box in pixels, x0, y0, x1, y1."""
 
 

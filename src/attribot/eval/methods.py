@@ -357,7 +357,9 @@ def _vlm(item: Item, settings: Settings, noise: str) -> Record:
             error="the model's reply holds no box",
             error_category="perception",
         )
-    return _record(item, "vlm", noise, box=numbers, answer=said)
+    x0, y0, x1, y1 = numbers  # corners in another order still name a box
+    box = [min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)]
+    return _record(item, "vlm", noise, box=box, answer=said)
 
 
 # the paper's rows, in the order of its tables
