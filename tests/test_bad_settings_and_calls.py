@@ -248,3 +248,16 @@ def test_a_saved_answer_with_a_long_argument_keeps_the_trace_small(tmp_path, emp
     )
     assert result.exit_code == 0, result.output
     assert len(result.stdout) < 100_000 and "(190000 items)" in result.stdout
+
+
+def test_a_password_in_a_backend_url_is_never_saved_or_shown(empty_settings):
+    from attribot.api.perception import Perception
+    from attribot.eval.run import fingerprint
+
+    settings = load_settings(
+        detector=f"remote:http://lab:{SECRET}@127.0.0.1:9", llm_base_url=f"http://lab:{SECRET}@h/v1"
+    )
+    assert SECRET not in json.dumps(settings.public_dict())  # what a --save folder keeps
+    assert SECRET not in json.dumps(fingerprint(settings))  # what an eval run keeps
+    names = Perception.from_settings(settings).names()  # what every answer names
+    assert names["detector"] == "remote:http://***@127.0.0.1:9" and SECRET not in json.dumps(names)

@@ -226,8 +226,8 @@ class Settings(BaseSettings):
 
     def public_dict(self) -> dict[str, Any]:
         """The settings as JSON-ready data, with secrets left out: what a run saves."""
-        data = self.model_dump(mode="json")
-        for secret in SECRETS:
+        data = {k: shown_url(v) if isinstance(v, str) else v for k, v in self.model_dump(mode="json").items()}
+        for secret in SECRETS:  # and a password in a URL (remote:http://user:pw@host) is left out too
             data[secret] = None if data.get(secret) is None else "***"
         return data
 

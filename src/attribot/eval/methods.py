@@ -32,6 +32,7 @@ from attribot.errors import InputError
 from attribot.eval.datasets import Box, Item, Name
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.noise import NOISE_PRESETS, world_noise
+from attribot.text import shown_url
 
 __all__ = [
     "Record",
@@ -208,7 +209,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
         record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
     record.wall_s = time.perf_counter() - started
-    record.detector = str(settings.detector)
+    record.detector = shown_url(str(settings.detector))  # a password in its URL is not recorded
     return record
 
 

@@ -47,6 +47,7 @@ from attribot.eval.suite import METHODS, task_names
 from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
 from attribot.shutdown import die_with_parent
+from attribot.text import shown_url
 
 __all__ = [
     "EvalPlan",
@@ -110,16 +111,17 @@ def fingerprint(
     """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
     the closed-set detector whose classes chose the items (None: every item); `vocabulary`: the categories
     it can find, in which the embodied tasks' items are drawn (None: the catalog's)."""
-    return {
+    base_url = getattr(settings, "llm_base_url", None)
+    return {  # a password in a URL is not written down (shown_url)
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
-        "detector": str(settings.detector),
-        "vqa": str(settings.vqa),
-        "language": str(settings.language),
+        "detector": shown_url(str(settings.detector)),
+        "vqa": shown_url(str(settings.vqa)),
+        "language": shown_url(str(settings.language)),
         "checks": settings.checks,
         "program_wall_s": settings.program_wall_s,
         "llm_model": getattr(settings, "llm_model", None),
-        "llm_base_url": getattr(settings, "llm_base_url", None),
+        "llm_base_url": None if base_url is None else shown_url(base_url),
         "subset": subset,
         "vocabulary": None if vocabulary is None else list(vocabulary),
     }
