@@ -93,6 +93,12 @@ def test_a_saved_folder_does_not_send_the_remote_token_to_its_own_model_server(
     monkeypatch.setenv("ATTRIBOT_DETECTOR", f"remote:{httpserver.url_for('/')}")
     _, _, settings, _ = load_saved(folder)
     assert settings.detector == f"remote:{httpserver.url_for('/')}"
+    # and a folder saved with a password in that URL (which it does not keep) is yours with your password
+    mine = f"remote:http://lab:pw@127.0.0.1:{httpserver.port}/"
+    monkeypatch.setenv("ATTRIBOT_DETECTOR", mine)
+    saved = saved_folder(tmp_path / "with-password")
+    assert "pw@" not in (saved / "settings.json").read_text()
+    assert load_saved(saved)[2].detector == mine
 
 
 @pytest.mark.parametrize(

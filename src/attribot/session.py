@@ -730,12 +730,16 @@ def replay_settings(saved: Any, folder: Path, trusted: bool = False) -> Settings
     if unknown:
         raise InputError(f"{source} holds settings attribot has not: {', '.join(unknown)[:200]}", _SAVED_FIX)
     own = load_settings()
-    chosen = {
-        k: saved[k] for k in SAVED_CHOICES + (TRUSTED_CHOICES if trusted else ()) if saved.get(k) is not None
-    }
+
+    def yours(key: str) -> bool:  # the folder's value is your own (saved with a URL's password left out)
+        theirs, mine = saved.get(key), getattr(own, key)
+        return theirs is None or theirs == mine or (isinstance(mine, str) and theirs == shown_url(mine))
+
+    keys = SAVED_CHOICES + (TRUSTED_CHOICES if trusted else ())
+    chosen = {k: saved[k] for k in keys if not yours(k)}
     for role in ROLES:
         theirs, mine = saved.get(role), getattr(own, role)
-        if theirs is None or theirs == mine:
+        if yours(role):
             continue
         if not isinstance(theirs, str):
             raise InputError(f"{source}: {role} is not a backend spec", _SAVED_FIX)
