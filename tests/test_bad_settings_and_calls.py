@@ -148,6 +148,7 @@ PROGRAM = "def execute_command(image, robot):\n    return 1\n"
         (lambda: Scene(SMALL, controller=["servo"]), "given by its name"),
         (lambda: attribot.replay(None), "must be a path"),
         (lambda: attribot.replay(b"run"), "must be a path"),
+        (lambda: attribot.ask("Where is the mug?", Scene(SMALL), save_dir=""), "save_dir is empty"),
         (lambda: attribot.run_program(PROGRAM, Scene(SMALL), query=5), "the query must be text"),
         (lambda: attribot.run_program(PROGRAM, Scene(SMALL), query="q" * 10_000), "characters long"),
         (lambda: attribot.run_program(PROGRAM, Scene(SMALL), planner=5), "the planner must be text"),
@@ -232,6 +233,7 @@ def test_the_trace_of_one_run_is_bounded_however_many_calls_it_makes():
     assert len(result.trace) == 600  # every call is still recorded
     assert _trace_chars(result) < TRACE_RUN_CHARS + 600 * 200
     assert result.trace[-1].args == ["(not kept: the trace of this run is full)"]
+    assert result.trace[-1].result == "(not kept: the trace of this run is full)"
     assert result.trace[-1].call == "Taker.take"
 
 

@@ -158,7 +158,6 @@ class Settings(BaseSettings):
             super().__init__(**values)
         except ValidationError as exc:
             error = _setting_error(exc, values, KEYWORDS)
-            error.__cause__ = None
             error.validation = exc  # type: ignore[attr-defined]  # load_settings names it its own way
             raise error from None
 

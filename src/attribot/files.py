@@ -171,11 +171,11 @@ def parse_json(data: bytes | str, what: str, fix: str, max_depth: int = MAX_JSON
     except UnicodeDecodeError as exc:
         raise InputError(f"{what} is not UTF-8 text (byte {exc.start})", fix) from None
     except RecursionError:
-        raise InputError(f"{what} nests deeper than the {max_depth} levels it may", fix) from None
+        raise InputError(f"{what} nests deeper than the {max_depth} levels allowed", fix) from None
     except ValueError as exc:
         raise InputError(f"{what} is not valid JSON ({exc})", fix) from None
     if _depth(value, max_depth) > max_depth:
-        raise InputError(f"{what} nests deeper than the {max_depth} levels it may", fix)
+        raise InputError(f"{what} nests deeper than the {max_depth} levels allowed", fix)
     return value
 
 

@@ -84,7 +84,9 @@ class Scene:
                     f"give a name, e.g. Scene({name}={example!r}), or leave {name} out",
                 )
         if not isinstance(self.still, bool):
-            raise InputError(f"Scene(still={self.still!r}) is not True or False", "give still=True or False")
+            raise InputError(
+                f"Scene(still={_shown(self.still)}) is not True or False", "give still=True or False"
+            )
         if self.image is not None and (self.config is not None or self.world is not None):
             raise InputError(
                 "a query runs either on an image or in a world, not both",
@@ -497,6 +499,8 @@ def _path_of(value: Any, what: str, fix: str) -> Path:
         path = Path(value)
     except TypeError:  # an os.PathLike that gives bytes
         raise InputError(f"{what} must be a path given as text, not bytes", fix) from None
+    if isinstance(value, str) and not value.strip():  # Path("") would be the current folder
+        raise InputError(f"{what} is empty", fix)
     if "\x00" in str(path):
         raise InputError(f"{what} {str(path)!r} holds a NUL byte, which no file name can", fix)
     return path

@@ -526,7 +526,8 @@ class _Run:
         """What the trace keeps of one call's arguments or result: `_cut`, within what is left of the run's
         `TRACE_RUN_CHARS` (past them, a note that it was not kept)."""
         if self.trace_room[0] <= 0:
-            return ["(not kept: the trace of this run is full)"] if isinstance(value, list) else None
+            note = "(not kept: the trace of this run is full)"
+            return [note] if isinstance(value, list) else note
         room = [TRACE_PART_CHARS]
         kept = _cut(value, room)
         self.trace_room[0] -= TRACE_PART_CHARS - room[0]
