@@ -566,12 +566,15 @@ class _RecordsWriter:
             while view:
                 view = view[os.write(self.fds[path], view) :]
         except OSError as exc:
-            why = "the disk or your quota is full: " if disk_full(exc) else ""
+            mend = (
+                "free some space (the disk or your quota is full, or move the run folder to a disk with room)"
+                if disk_full(exc)
+                else f"make {path} a file that can be written"
+            )
             raise InputError(
                 f"writing the records in {self.out} failed ({exc.strerror or exc}): the run stopped after "
                 f"{kept} records, which are kept in {self.out / 'records'}",
-                f"{why}free some space (or move the run folder to a disk with room) and run the same command "
-                "again: it resumes where it stopped",
+                f"{mend} and run the same command again: it resumes where it stopped",
             ) from None
 
     def close(self) -> None:
