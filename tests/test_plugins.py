@@ -69,6 +69,7 @@ def run_with_plugin(tmp_path: Path, plugins: str, *args: str, **modules: str) ->
         ("lab_imports", {"lab_imports": "import no_such_dependency\n"},
          ["the plug-in module 'lab_imports' failed", "No module named 'no_such_dependency'"]),
         ("lab_deep", {"lab_deep": "def f(n):\n    return f(n + 1)\nf(0)\n"}, ["RecursionError"]),
+        ("lab_stops", {"lab_stops": "raise KeyboardInterrupt\n"}, ["lab_stops", "KeyboardInterrupt"]),
         ("lab_ok,lab_raises", {"lab_ok": "", "lab_raises": "raise ValueError('x' * 5000)\n"},
          ["lab_raises", "ValueError: xxx", "..."]),
     ],

@@ -132,8 +132,6 @@ def _load_plugins() -> None:
                 f"the plug-in module {name!r} called sys.exit({exc.code!r}) as it was imported"[:300],
                 f"a plug-in registers what it adds and returns; {fix}",
             ) from None
-        except KeyboardInterrupt:
-            raise
         except BaseException as exc:  # noqa: BLE001 (anything a module does as it is imported is its own)
             raise ConfigError(
                 f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
