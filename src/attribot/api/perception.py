@@ -11,6 +11,7 @@ from attribot.errors import ConfigError
 from attribot.lexicon import surface_kind
 from attribot.models.base import Detector, LanguageModel, VisualQA, build_backend
 from attribot.models.cache import CachedDetector, cacheable
+from attribot.text import shown_url
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -64,7 +65,8 @@ class Perception:
 
     def names(self) -> dict[str, str]:
         """Backend name per role, as answers and traces report them."""
-        return {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}
+        names = {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}
+        return {role: shown_url(name) for role, name in names.items()}  # no password in a URL shown
 
     def findable(self, frame: Frame) -> str:
         """What `image.find` can find in `frame`, in words for the prompt: the detector's closed vocabulary

@@ -579,4 +579,6 @@ def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
 
 
 build_coco_detector.probe = probe_coco  # type: ignore[attr-defined]
+# `coco` and `coco?tiles=N` read the files of the user's own coco_dir; `coco:FOLDER` names a folder
+build_coco_detector.reaches_out = lambda arg: bool(split_options(arg)[0])  # type: ignore[attr-defined]
 DETECTORS.register("coco")(build_coco_detector)

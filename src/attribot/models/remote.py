@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
+from attribot.config import revealed
 from attribot.deps import require
 from attribot.errors import AttribotError, BackendError, ConfigError, InputError
 from attribot.frame import Frame
@@ -363,7 +364,7 @@ class RemoteLanguageModel:
 
 
 def _client(arg: str | None, settings: Settings) -> RemoteClient:
-    return RemoteClient(arg or "", token=settings.remote_token, timeout_s=settings.remote_timeout_s)
+    return RemoteClient(arg or "", token=revealed(settings.remote_token), timeout_s=settings.remote_timeout_s)
 
 
 def build_remote_detector(arg: str | None, settings: Settings) -> RemoteDetector:
@@ -384,7 +385,7 @@ def probe_remote(
     """Whether the server at `arg` answers, serves `role`, and accepts our token; never raises."""
     token_note = "token accepted" if settings.remote_token else "no token set"
     try:
-        with RemoteClient(arg or "", token=settings.remote_token, timeout_s=timeout_s) as client:
+        with RemoteClient(arg or "", token=revealed(settings.remote_token), timeout_s=timeout_s) as client:
             url = client.url
             health = client.health(timeout_s=timeout_s)
             backend = health.roles.get(role)
