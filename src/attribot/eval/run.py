@@ -98,6 +98,7 @@ def fingerprint(settings: Settings, subset: str | None = None) -> dict[str, Any]
         "language": str(settings.language),
         "checks": settings.checks,
         "program_wall_s": settings.program_wall_s,
+        "prompt": settings.prompt,
         "llm_model": getattr(settings, "llm_model", None),
         "llm_base_url": getattr(settings, "llm_base_url", None),
         "subset": subset,
