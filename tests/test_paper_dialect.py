@@ -335,6 +335,28 @@ def test_an_ambiguous_habit_is_refused_saying_which_and_how_to_write_it(runner, 
     assert world.held is None and getattr(world, "approached", None) is None
 
 
+def test_a_name_right_after_looking_at_a_patch_means_that_patch(runner):
+    """The authors' go_to_object and put_on examples: a loop asks each patch a question, then names the
+    object, meaning the one it just looked at (the world has two balls: the name alone is ambiguous)."""
+    result, robot, world = _things(
+        runner,
+        """
+        def execute_command(image):
+            robot = Robot(sensors=["camera", "force/torque sensor"])
+            ball_patches = ImagePatch(image).find("ball")
+            rightmost = max(ball_patches, key=lambda ball: ball.horizontal_center)
+            for ball_patch in ball_patches:
+                said = ball_patch.visual_query("What is this?")
+                if ball_patch is rightmost:
+                    go_to_object("ball")
+                    pick_up("ball")
+                    return measure_weight("ball")
+        """,
+    )
+    assert result.ok, result.error
+    assert world.held == "b2" and result.value == pytest.approx(THINGS[3].mass, rel=0.02)
+
+
 def test_robots_made_alike_are_one_robot(runner):
     result, _, _ = _things(
         runner,
@@ -521,6 +543,26 @@ HABITS = [
         lambda answer, objects: (
             answer.value == pytest.approx(next(o for o in objects if o.color == "white").mass_kg, rel=0.05)
         ),
+    ),
+    (
+        "heaviest-of-look-alikes-named-after-a-question",  # the name alone is ambiguous: 3 jars
+        _mujoco("arrangement", 1),
+        """
+        import math
+
+        def execute_command(image):
+            robot = Robot(sensors=["camera", "F/T sensor"])
+            heaviest, most = None, -math.inf
+            for patch in ImagePatch(image).find("object"):
+                name = patch.visual_query("What is this object?")
+                robot.go_to_object(name)
+                robot.pick_up(name)
+                kg = robot.measure_weight(name)
+                if kg > most:
+                    heaviest, most = patch, kg
+            return heaviest
+        """,
+        lambda answer, objects: answer.object.id == max(objects, key=lambda o: o.mass_kg).id,
     ),
     (
         "closer-of-two-by-name-without-a-robot",

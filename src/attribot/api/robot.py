@@ -395,9 +395,14 @@ class Robot(metaclass=_RobotApi):
 
     def called_on(self, patch: ImagePatch) -> None:
         """Host side: the program called one of this robot's methods on `patch` (`book_patch.pick_up("book")`,
-        `apple_patch.measure_distance("desk")`): a name in that call stands for it when it answers to the name
-        (see `_named`), as for an object the program acted on."""
-        if isinstance(patch, ImagePatch) and patch.label:
+        `apple_patch.measure_distance("desk")`), or named an object right after looking at `patch` (a loop
+        over patches that asks each a question, then `go_to_object("object")`): a name in that call stands
+        for it when it answers to the name (see `_named`), as for the latest object the program acted on."""
+        if (
+            isinstance(patch, ImagePatch)
+            and patch.label
+            and (not self._acted_on or self._acted_on[-1] is not patch)
+        ):
             self._acted_on.append(patch)
 
     def backend_name(self) -> str:

@@ -603,7 +603,8 @@ class ProgramRunner:
         method names), those methods and whether each takes one object (one required argument: a patch
         given to `patch.method()` with no arguments), and for each class named in its
         `PROGRAM_FUNCTIONS_ON` the ones its objects take too (all but the names it has of its own). Such a
-        call tells the owner's host method named by `PROGRAM_CALLED_ON`, if any, which object it was on."""
+        call tells the owner's host method named by `PROGRAM_CALLED_ON`, if any, which object it was on (and a
+        call that names an object, which one the program looked at last)."""
         names = {cls.__name__: cls for cls in self.classes}
         out: dict[str, Any] = {}
         for cls in self.classes:

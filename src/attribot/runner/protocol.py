@@ -54,8 +54,9 @@ class Key:
     ARGS = "a"
     KWARGS = "k"
     LINE = "l"  # the program's line, or None
-    # the object a borrowed method was called on (`book_patch.measure_weight("book")`: the patch), told to
-    # the owner's host method named by its PROGRAM_CALLED_ON
+    # the object a borrowed method was called on (`book_patch.measure_weight("book")`: the patch), or, when a
+    # method of a class with bare functions is given an object's name, the object of a borrowing class the
+    # program last called a method of (what it looked at); told to the host method named by PROGRAM_CALLED_ON
     RECEIVER = "r"
     VALUE = "v"
     TEXT = "s"

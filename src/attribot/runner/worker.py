@@ -136,6 +136,8 @@ class _State:
         self.owners = {}  # class name -> {method: takes one object}: its methods that are bare functions too
         self.made = {}  # class name -> [(object, line)] the program's `ClassName(...)` made
         self.implicit = {}  # class name -> the object its bare functions act on when the program made none
+        self.borrowers = set()  # the classes whose objects take bare functions as methods too
+        self.looked_at = None  # the last object of those the program called a method of: what it looks at
         self.math = None
         self.typing = None
         self.future = None
@@ -295,6 +297,12 @@ class Stub:
 def rpc(stub, method, args, kwargs, receiver=None):
     line = program_line(sys._getframe(2))
     cls = type(stub)._sb_class
+    if cls in STATE.borrowers:
+        STATE.looked_at = stub
+    elif receiver is None and cls in STATE.owners and args and isinstance(args[0], str):
+        # an object named to a robot method (`go_to_object("object")` in a loop over patches, as the paper's
+        # prompt writes it): the host hears which object the program last looked at, which it may mean
+        receiver = STATE.looked_at
     try:
         msg = {
             KIND: Kind.CALL,
@@ -865,6 +873,7 @@ def run(request):
     STATE.stub_types = {
         name: stub_class(name, methods, borrowed.get(name, ())) for name, methods in STATE.classes.items()
     }
+    STATE.borrowers = set(borrowed)
     code = marshal.loads(binascii.a2b_base64(request[Key.CODE]))
     g = build_globals()
     args = [decode(a) for a in request[Key.ARGS]]
