@@ -467,6 +467,7 @@ HABITS = [
     (
         "weight-dictionary-of-a-find-list",  # the authors' measure_weight example, word for word but the book
         _mujoco("household", 4),
+        "How heavy is the tomato?",
         """
         def execute_command(image):
             robot = Robot(sensors=["camera", "force/torque sensor"])
@@ -482,6 +483,7 @@ HABITS = [
     (
         "distance-of-a-focused-find-list",  # the authors' measure_distance example
         _mujoco("household", 4),
+        "How far away is the bowl?",
         """
         def execute_command(image):
             robot = Robot(sensors=["camera", "distance sensor"])
@@ -496,6 +498,7 @@ HABITS = [
     (
         "lightest-by-names-no-put-down",
         _mujoco("triplet", 3),
+        "Out of these objects, which one is the most lightweight?",
         """
         def execute_command(image):
             robot = Robot(sensors=["camera", "force/torque sensor"])
@@ -514,6 +517,7 @@ HABITS = [
     (
         "farthest-of-look-alikes-with-a-depth-camera",
         _mujoco("arrangement", 1),
+        "Which jar is the farthest from me?",
         """
         def execute_command(image):
             robot = Robot(sensors=["depth camera"])
@@ -529,6 +533,7 @@ HABITS = [
     (
         "weight-of-the-one-that-answers-Yes",
         _mujoco("arrangement", 1),
+        "How heavy is the white jar?",
         """
         def execute_command(image):
             robot = Robot(sensors=["camera", "force sensor"])
@@ -547,6 +552,7 @@ HABITS = [
     (
         "heaviest-of-look-alikes-named-after-a-question",  # the name alone is ambiguous: 3 jars
         _mujoco("arrangement", 1),
+        "Which object is the heaviest?",
         """
         import math
 
@@ -567,6 +573,7 @@ HABITS = [
     (
         "closer-of-two-by-name-without-a-robot",
         _mujoco("triplet", 0),
+        "Which one is closer to me, the toaster or the bottle?",
         """
         def execute_command(image, robot):
             focus_on_patch(image.find("toaster")[0])
@@ -583,11 +590,37 @@ HABITS = [
 ]
 
 
-@pytest.mark.parametrize(("config", "program", "right"), [h[1:] for h in HABITS], ids=[h[0] for h in HABITS])
-def test_a_program_in_the_authors_habits_answers_right_in_mujoco(config, program, right, empty_settings):
-    answer = run_program(dedent(program), Scene(config), load_settings())
+@pytest.mark.parametrize(
+    ("config", "query", "program", "right"), [h[1:] for h in HABITS], ids=[h[0] for h in HABITS]
+)
+def test_a_program_in_the_authors_habits_answers_right_in_mujoco(
+    config, query, program, right, empty_settings
+):
+    answer = run_program(dedent(program), Scene(config), load_settings(), query=query)
     assert answer.error is None, answer.answer
     assert right(answer, _truth(config)), answer.answer
+
+
+@pytest.mark.slow  # the LLM path of each habit; test_paper_prompt.py runs it by default on two
+@pytest.mark.parametrize(
+    ("config", "query", "program", "right"), [h[1:] for h in HABITS], ids=[h[0] for h in HABITS]
+)
+def test_the_llm_planner_shown_the_paper_prompt_runs_a_reply_in_those_habits(
+    config, query, program, right, httpserver, tmp_path, empty_settings
+):
+    requests = serve_chat_replies(httpserver, [f"```python\n{dedent(program).strip()}\n```"])
+    settings = load_settings(
+        planner="llm", prompt="paper", llm_base_url=httpserver.url_for("/v1"), llm_model="scripted",
+        cache_dir=tmp_path / "cache",
+    )  # fmt: skip
+    answer = ask(query, Scene(config), settings)
+    assert answer.error is None and answer.attempts == 1 and answer.prompt == "paper", answer.answer
+    assert right(answer, _truth(config)), answer.answer
+    shown = requests[0]["messages"][0]["content"]  # every sensor the MuJoCo robot has, in the paper's words
+    assert (
+        "Instruction: The robot is equipped with a camera, a distance sensor, a force/torque sensor, a "
+        f"thermometer and a gripper force sensor. {query}"
+    ) in shown
 
 
 def test_put_on_a_receptacle_by_its_name_places_the_held_object_on_it(runner, empty_settings):
