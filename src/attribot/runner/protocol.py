@@ -32,7 +32,7 @@ class Kind:
     # worker -> host
     READY = "ready"  # started, waiting for the program
     GO = "go"  # has the program; its clocks run from now
-    CALL = "call"  # an API call: HANDLE, METHOD, ARGS, KWARGS, LINE, and RECEIVER for a borrowed method
+    CALL = "call"  # an API call: HANDLE, METHOD, ARGS, KWARGS, LINE, and at times RECEIVER
     OUT = "out"  # printed text: TEXT
     DONE = "done"  # the entry point returned VALUE
     FAILED = "error"  # the program failed: CATEGORY, MESSAGE, LINE

@@ -419,7 +419,7 @@ class Reading(float):
     __slots__ = ()
 
     def __getitem__(self, key):
-        if type(key) is str or type(key) is Text or isinstance(key, Stub):
+        if isinstance(key, str | Stub):
             return float(self)
         kind = type(key).__name__
         raise TypeError(
