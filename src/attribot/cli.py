@@ -280,7 +280,10 @@ PLANNER_FLAGS = (
     _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
     _flag("llm_base_url", str | None, "--llm-base-url", metavar="URL", help="OpenAI-compatible endpoint."),
     _flag("llm_model", str | None, "--llm-model", metavar="NAME", help="Model name at that endpoint."),
-)
+    _flag("prompt", str | None, "--prompt", metavar="NAME", help="The prompt the llm planner shows: "
+          "attribot (default; generated from the API) or paper (the structure of the paper authors' released "
+          "prompt)."),
+)  # fmt: skip
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
     _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "
@@ -593,7 +596,16 @@ def _settings(given: Any) -> Any:
     """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
     from attribot.config import load_settings
 
-    names = ("detector", "vqa", "language", "program_wall_s", "planner", "llm_base_url", "llm_model")
+    names = (
+        "detector",
+        "vqa",
+        "language",
+        "program_wall_s",
+        "planner",
+        "llm_base_url",
+        "llm_model",
+        "prompt",
+    )
     return load_settings(
         naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
     )
@@ -662,8 +674,9 @@ def _show(answer: Any, as_json: bool) -> None:
         if answer.checks:
             out.print(f"[dim]checks: {escape(_tally(answer.checks))}[/]", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
+        prompt = f" prompt={answer.prompt}" if answer.prompt else ""
         out.print(
-            f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
+            f"[dim]planner={answer.planner}{prompt} attempts={answer.attempts} {escape(backends)}; "
             f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]",
             highlight=False,
         )
@@ -1129,7 +1142,7 @@ def _planner_status(settings: Any, record: Any) -> Any:
         arg=settings.llm_model,
         registered=True,
         available=available,
-        detail=detail,
+        detail=f"{detail}; shows the {settings.prompt} prompt",
     )
 
 

@@ -375,6 +375,7 @@ def create_app(config: DemoConfig) -> Any:
             "layouts": sorted(LAYOUTS.names()),
             "planner": settings.planner,
             "llm_model": settings.llm_model if settings.planner == "llm" else None,
+            "prompt": settings.prompt if settings.planner == "llm" else None,
             "backends": {"detector": settings.detector, "vqa": settings.vqa, "language": settings.language},
             "max_query_chars": MAX_QUERY_CHARS,
             "max_image_mb": MAX_IMAGE_BYTES // (1024 * 1024),
