@@ -114,8 +114,6 @@ def test_the_paper_prompt_offers_a_registered_sensor_in_the_papers_words(spectro
     assert "- What find can detect here: objects by a short name." in prompt
 
 
-
-
 def test_the_paper_prompts_examples_run_in_the_paper_dialect():
     """Every example of the listing runs in the sandbox on a world of balls that answer to any name: the
     template teaches nothing the runtime refuses."""
