@@ -306,13 +306,15 @@ def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_ll
     app = create_app(DemoConfig(settings=settings, runs_dir=tmp_path / "runs"))
     with ServerThread(app) as server:
         client = _client(server)
-        assert client.get("/api/options").json()["llm_model"] == "test-model"
+        options = client.get("/api/options").json()
+        assert options["llm_model"] == "test-model" and options["prompt"] == "attribot"
         started = client.post("/api/runs", json={"query": "Which object is the first one?"})
         events = _events(client, started.json()["events"])
     programs = [e for e in events if e["type"] == "program"]
     assert [p["text"] for p in programs] == [wrong, right] and [p["attempt"] for p in programs] == [1, 2]
     answer = next(e for e in events if e["type"] == "answer")["answer"]
     assert answer["planner"] == "llm" and answer["attempts"] == 2 and answer["error"] is None
+    assert answer["prompt"] == "attribot"  # the answer names the prompt the model was shown
     assert answer["object"]["id"] and len(requests) == 2
 
 

@@ -361,6 +361,7 @@ def create_app(config: DemoConfig) -> Any:
             "layouts": sorted(LAYOUTS.names()),
             "planner": settings.planner,
             "llm_model": settings.llm_model if settings.planner == "llm" else None,
+            "prompt": settings.prompt if settings.planner == "llm" else None,
             "backends": {
                 role: demo.scrub.text(str(getattr(settings, role)))
                 for role in ("detector", "vqa", "language")

@@ -64,7 +64,8 @@ function showAnswer(event) {
       rows.push([what + " of " + short(t.args[0]), short(t.result) + " " + unit]);
     }
   }
-  rows.push(["planner", a.planner + (a.attempts > 1 ? ", " + a.attempts + " tries" : "")]);
+  const prompt = a.prompt ? ", " + a.prompt + " prompt" : "";
+  rows.push(["planner", a.planner + prompt + (a.attempts > 1 ? ", " + a.attempts + " tries" : "")]);
   rows.push(["backends", Object.entries(a.backends || {}).map(([k, v]) => k + "=" + v).join(", ")]);
   if (a.sim_s !== null && a.sim_s !== undefined) rows.push(["robot time", a.sim_s.toFixed(1) + " s (simulated)"]);
   const table = $("values");
@@ -195,7 +196,8 @@ async function loadOptions() {
     select.appendChild(opt);
   }
   $("query").maxLength = o.max_query_chars;
-  const planner = o.planner === "llm" ? "an LLM (" + (o.llm_model || "model not set") + ")" : "the offline rules";
+  const planner = o.planner === "llm"
+    ? "an LLM (" + (o.llm_model || "model not set") + ", shown the " + o.prompt + " prompt)" : "the offline rules";
   $("backends").textContent = "Programs are written by " + planner + "; detector " + o.backends.detector +
     ", VQA " + o.backends.vqa + ", language " + o.backends.language + ".";
 }
