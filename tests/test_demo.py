@@ -62,7 +62,13 @@ def test_a_query_streams_its_program_calls_frames_and_answer_and_saves_the_run(d
     # one query at a time per visitor: a second one while the first runs is refused, and says why
     again = client.post("/api/runs", json={"query": "Which object is the closest?"})
     assert again.status_code == 409 and "still running" in again.json()["message"]
-    events = _events(client, started.json()["events"])
+    events = []
+    with client.stream("GET", started.json()["events"], timeout=300) as reply:
+        for line in reply.iter_lines():
+            if line.startswith("data: "):
+                events.append(json.loads(line[6:]))
+                if events[-1]["type"] == "answer":  # a page fetches the answer's image as it arrives
+                    assert client.get(events[-1]["image"]).status_code == 200
     kinds = [e["type"] for e in events]
     assert kinds[-1] == "done" and "error" not in kinds
     # the program comes before its calls, the calls before the answer, and camera frames arrive meanwhile

@@ -155,11 +155,15 @@ class Run:
     # ---- the worker's side (another thread) ---------------------------------------------------------
     def emit(self, event_type: str, /, **data: Any) -> None:
         # positional-only: an event's data may hold its own "kind" (a trace record's call kind)
-        text = json.dumps({**data, "type": event_type}, allow_nan=False, default=str)
-        message = _sse(event_type, self.scrub.json_text(text, self.home))
+        message = self._encode(event_type, data)
         with self.lock:
             self.messages.append(message)
         self._wake()
+
+    def _encode(self, event_type: str, data: dict[str, Any]) -> str:
+        """An event as event-stream text, once for every page, with no folder of the server's in it."""
+        text = json.dumps({**data, "type": event_type}, allow_nan=False, default=str)
+        return _sse(event_type, self.scrub.json_text(text, self.home))
 
     def on_frame(self, robot: np.ndarray, room: np.ndarray) -> None:
         """A frame of the episode (the worker's thread): encoded only when a page watches and the last one
@@ -173,10 +177,15 @@ class Run:
             self.frame, self.frame_seq, self.frame_at = message, self.frame_seq + 1, now
         self._wake()
 
-    def finish(self) -> None:
+    def finish(self, last: tuple[str, dict[str, Any]] | None = None) -> None:
+        """The run is over: its `last` event (its answer), then "done", sent once it counts as finished
+        (a page that reads the answer may fetch its files at once)."""
+        message = None if last is None else self._encode(*last)
         with self.lock:
             self.done = True
             self.frame = None  # the page has the last one; a kept run need not hold it
+            if message is not None:
+                self.messages.append(message)
             self.messages.append(_sse("done", json.dumps({"type": "done"})))
         self._wake()
 
@@ -409,6 +418,7 @@ class Runs:
 
         run.emit("status", text="building the scene" if run.image is None else "reading the image")
         tries = 0
+        last = None
 
         def on_program(text: str) -> None:
             nonlocal tries
@@ -442,14 +452,16 @@ class Runs:
             run.emit("error", message=f"internal error: {type(exc).__name__}: {exc}", fix=None)
         else:
             saved = {name: (run.folder / name).is_file() for name in ("answer.png", "episode.mp4")}
-            run.emit(
+            last = (
                 "answer",
-                answer=json.loads(answer.model_dump_json()),
-                image=f"/api/runs/{run.id}/answer.png" if saved["answer.png"] else None,
-                video=f"/api/runs/{run.id}/episode.mp4" if saved["episode.mp4"] else None,
-                saved_run=f"/api/runs/{run.id}/run.zip",
+                {
+                    "answer": json.loads(answer.model_dump_json()),
+                    "image": f"/api/runs/{run.id}/answer.png" if saved["answer.png"] else None,
+                    "video": f"/api/runs/{run.id}/episode.mp4" if saved["episode.mp4"] else None,
+                    "saved_run": f"/api/runs/{run.id}/run.zip",
+                },
             )
         finally:
             if run.image is not None:  # the saved run keeps its own copy (input.png)
                 run.image.unlink(missing_ok=True)
-            run.finish()
+            run.finish(last)
