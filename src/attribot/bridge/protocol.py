@@ -25,6 +25,7 @@ __all__ = [
     "MAX_PAYLOAD",
     "MAX_DEPTH",
     "ProtocolError",
+    "ConnectionClosed",
     "MessageError",
     "send_message",
     "recv_message",
@@ -45,6 +46,10 @@ _LONGEST_INT = 18  # digits: longer integers are read as floats (an infinity pas
 class ProtocolError(Exception):
     """The peer sent something that is not a bridge message, or closed the connection: the connection
     cannot go on."""
+
+
+class ConnectionClosed(ProtocolError):
+    """The peer closed the connection (between messages, or in the middle of one)."""
 
 
 class MessageError(ProtocolError):
@@ -74,7 +79,9 @@ def _recv_exact(sock: socket.socket, n: int, deadline: float | None = None) -> b
                 raise
             raise ProtocolError("the rest of a message did not arrive in time") from None
         if not chunk:
-            raise ProtocolError("the connection closed in the middle of a message" if left < n else "closed")
+            if left < n:
+                raise ConnectionClosed("the connection closed in the middle of a message")
+            raise ConnectionClosed("closed")
         chunks.append(chunk)
         left -= len(chunk)
     return b"".join(chunks)

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from attribot.bridge.protocol import (
     MAX_DEPTH,
     PROTOCOL_VERSION,
+    ConnectionClosed,
     MessageError,
     ProtocolError,
     recv_message,
@@ -478,7 +479,7 @@ class RobotServer:
             _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX))
         except ProtocolError as exc:
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
-            if str(exc) != "closed":
+            if not isinstance(exc, ConnectionClosed):
                 _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX), last=True)
         except OSError as exc:  # a timeout is an OSError: no hello within the deadline
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
@@ -546,7 +547,7 @@ class RobotServer:
                 send_message(conn, body, data)
         except ProtocolError as exc:
             log.info("bridge: client %s gone (%s)", peer, exc)
-            if str(exc) != "closed":  # stopped and free first; then it may still read why
+            if not isinstance(exc, ConnectionClosed):  # stopped and free first; then it may still read why
                 self.safety_stop(f"client {peer} sent what cannot be read ({exc})")
                 authenticated = False
                 self._free(peer)
