@@ -1270,6 +1270,11 @@ def bridge_serve(
     from attribot.bridge.server import Limits, RobotServer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    if not token.strip():
+        raise fail(
+            "--token is blank",
+            "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
+        )
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
@@ -1318,6 +1323,13 @@ def demo(
         "--runs-dir",
         help="Keep each query's saved run here (default: a temporary folder, removed at exit).",
     ),
+    allow_host: list[str] | None = typer.Option(
+        None,
+        "--allow-host",
+        metavar="NAME",
+        help="Another name visitors reach the demo by (e.g. lab-pc.local); IP addresses and localhost "
+        "always work, other names are refused (DNS rebinding).",
+    ),
     given: Any = None,
 ) -> None:
     """Serve the live demo page: choose a scene, ask, watch the robot, get the answer and its video."""
@@ -1336,7 +1348,13 @@ def demo(
         err_console.print(f"attribot demo: open {url} ({kept}; Ctrl-C stops)", highlight=False)
 
     with tempfile.TemporaryDirectory(prefix="attribot-demo-") as scratch:
-        config = DemoConfig(settings=settings, runs_dir=runs_dir or Path(scratch), token=token)
+        config = DemoConfig(
+            settings=settings,
+            runs_dir=runs_dir or Path(scratch),
+            token=token,
+            hosts=tuple(allow_host or ()),
+            keep_runs=runs_dir is not None,
+        )
         _prefetch_rendering()
         serve_demo(config, host=host, port=port, announce=announce)
 

@@ -159,15 +159,24 @@ async function ask(event) {
   setStatus("sending", "busy");
   let reply;
   try {
+    // the page's own secret (the server wrote it into the page): another site cannot send it
+    const secret = document.querySelector("meta[name=attribot-secret]").content;
     reply = await fetch("/api/runs", {
-      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(request),
+      method: "POST",
+      headers: { "Content-Type": "application/json", "X-Attribot-Secret": secret },
+      body: JSON.stringify(request),
     });
   } catch (e) {
     setStatus("the demo server cannot be reached: " + e, "bad");
     $("ask").disabled = false;
     return;
   }
-  const body = await reply.json();
+  let body;
+  try {
+    body = await reply.json();
+  } catch (e) {
+    body = { message: "the demo answered " + reply.status + " " + reply.statusText, fix: null };
+  }
   if (!reply.ok) {
     setStatus("error: " + body.message + (body.fix ? " (fix: " + body.fix + ")" : ""), "bad");
     $("ask").disabled = false;
