@@ -67,6 +67,17 @@ class _Commands(_PlainFlags, TyperGroup):
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
+            except OSError as exc:  # the machine's, not the input's: a full disk, a folder that is a file
+                from attribot.files import disk_full
+
+                where = f" ({exc.filename})" if exc.filename else ""
+                raise fail(
+                    f"{exc.strerror or exc.__class__.__name__}{where}",
+                    "free some space (the disk or your quota is full) and run the same command again; what "
+                    "was written before is kept"
+                    if disk_full(exc)
+                    else "check that path and its permissions, or give another, and run the command again",
+                ) from None
             except _USAGE_ERROR as exc:
                 # a flag click could not parse: a script that asked for --json still gets the answer's shape
                 # on stdout (click prints its usage message to stderr and exits 2 as usual)
@@ -82,21 +93,80 @@ PLUGINS_ENV = "ATTRIBOT_PLUGINS"
 
 
 def _load_plugins() -> None:
+    """Import the modules named in ATTRIBOT_PLUGINS, then every registry's own plug-ins. Whatever a module
+    does wrong as it is imported (a name that is no module, an exception, a syntax error, `sys.exit`, a
+    name taken from attribot's own) is a `ConfigError` naming the module and what it did; what it prints
+    goes to stderr, so that --json output stays JSON."""
     import importlib
     import os
+    import sys
 
     from attribot.errors import ConfigError
+    from attribot.registry import Registry
 
-    for name in (m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",")):
-        if not name:
-            continue
-        try:
-            importlib.import_module(name)
-        except ImportError as exc:
+    names = [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
+    fix = f"fix the module, or take it out of {PLUGINS_ENV}"
+    for name in names:
+        if not all(part.isidentifier() for part in name.split(".")):
+            relative = (
+                " (a relative name: there is no package for it to be relative to)" if name[0] == "." else ""
+            )
             raise ConfigError(
-                f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
-                f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+                f"{PLUGINS_ENV} names {name[:100]!r}, which is no module name{relative}",
+                f"give absolute module names separated by commas, e.g. {PLUGINS_ENV}=lab_sensors,lab.worlds",
+            )
+        try:
+            with contextlib.redirect_stdout(sys.stderr):
+                importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name or name.startswith(f"{exc.name}."):  # the module itself, not one it imports
+                raise ConfigError(
+                    f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                    f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+                ) from None
+            raise ConfigError(
+                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
+        except SystemExit as exc:
+            raise ConfigError(
+                f"the plug-in module {name!r} called sys.exit({exc.code!r}) as it was imported"[:300],
+                f"a plug-in registers what it adds and returns; {fix}",
+            ) from None
+        except BaseException as exc:  # noqa: BLE001 (anything a module does as it is imported is its own)
+            raise ConfigError(
+                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+            ) from None
+    if names:
+        try:  # a plug-in that took a built-in's name, or a method Robot has, is said now, not later
+            Registry.load_all()
+            from attribot.api.robot import Robot
+
+            Robot.API_METHODS  # noqa: B018 (installs the plug-ins' sensor methods, refusing a clash)
+        except AttribotError as exc:
+            raise ConfigError(
+                f"a plug-in of {PLUGINS_ENV} ({', '.join(names)}) clashes with attribot's own: {exc.message}",
+                exc.fix or fix,
+            ) from None
+
+
+def _raised(exc: BaseException) -> str:
+    """What an exception raised in a plug-in says, and where in the plug-in (not inside attribot)."""
+    import traceback
+
+    where = ""
+    if isinstance(exc, SyntaxError) and exc.filename:
+        where = f" ({exc.filename}, line {exc.lineno})"
+    else:
+        own = str(Path(__file__).resolve().parent)
+        frames = [
+            f
+            for f in traceback.extract_tb(exc.__traceback__)
+            if not f.filename.startswith(("<frozen", own)) and "importlib" not in f.filename
+        ]
+        if frames:
+            where = f" ({frames[-1].filename}, line {frames[-1].lineno})"
+    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    return (text if len(text) <= 300 else text[:297] + "...") + where
 
 
 _USAGE_ERROR: type[typer.BadParameter] = typer.BadParameter.__mro__[1]
@@ -174,6 +244,9 @@ SCENE_FLAGS = (
     _flag("robot", str | None, "--robot", metavar="NAME", help="The simulated robot: mast (default; a "
           "pan-tilt head and a telescoping arm) or ep (RoboMaster-EP-like: its camera on its arm, objects on "
           "the floor)."),
+    _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the detector "
+          "SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it can find; an "
+          "open-vocabulary one finds them all)."),
 )  # fmt: skip
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
@@ -207,7 +280,10 @@ PLANNER_FLAGS = (
     _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
     _flag("llm_base_url", str | None, "--llm-base-url", metavar="URL", help="OpenAI-compatible endpoint."),
     _flag("llm_model", str | None, "--llm-model", metavar="NAME", help="Model name at that endpoint."),
-)
+    _flag("prompt", str | None, "--prompt", metavar="NAME", help="The prompt the llm planner shows: "
+          "attribot (default; generated from the API) or paper (the structure of the paper authors' released "
+          "prompt)."),
+)  # fmt: skip
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
     _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "
@@ -220,7 +296,9 @@ _FLAG_OF = {
     for group in (SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, PLANNER_FLAGS)
     for f in group
 }
-_FLAG_OF.update({"options": "--option", "noise": "--world-noise", "url": "--bridge-url"})
+_FLAG_OF.update(
+    {"options": "--option", "noise": "--world-noise", "url": "--bridge-url", "vocabulary": "--findable-by"}
+)
 
 
 def _flag_name(field: str) -> str:
@@ -312,11 +390,33 @@ def _scene_fields(given: Any) -> dict[str, Any]:
         for name in ("layout", "seed", "objects", "width", "height", "profile", "robot")
     }
     fields["categories"] = names
+    if _given(given, "findable_by") is not None:
+        fields["vocabulary"] = _vocabulary(given.findable_by)
+        if names and fields["vocabulary"] is not None:
+            from attribot.sim.catalog import find_category
+
+            unfound = [n for n in names if (c := find_category(n)) and c.name not in fields["vocabulary"]]
+            if unfound:
+                raise fail(
+                    f"--findable-by {given.findable_by} cannot find {', '.join(unfound)} (--categories)",
+                    f"name only categories it can find ({', '.join(fields['vocabulary'][:8])}, ...), "
+                    "or drop --findable-by",
+                )
     if _given(given, "world_noise") is not None:
         from attribot.noise import world_noise as parse_world_noise
 
         fields["noise"] = parse_world_noise(given.world_noise, _given(given, "seed") or 0)
     return {k: v for k, v in fields.items() if v is not None}
+
+
+def _vocabulary(spec: str) -> tuple[str, ...] | None:
+    """The categories the detector `spec` can find (`--findable-by`); None when it finds any."""
+    from attribot.config import load_settings
+    from attribot.eval.subset import closed_set_detector
+    from attribot.models.base import findable_categories
+
+    detector = closed_set_detector(spec, load_settings(naming=_naming()))
+    return None if detector is None else findable_categories(detector)
 
 
 def _scene_config(given: Any) -> Any:
@@ -339,7 +439,7 @@ def _scene_world(config: Any) -> Any:
 
 
 @scene_app.command("render", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:8], SCENE_FLAGS[9]))
+@_with_flags((*SCENE_FLAGS[:8], *SCENE_FLAGS[9:]))
 def scene_render(
     out: Path = typer.Option(..., "--out", metavar="FILE", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
@@ -376,7 +476,7 @@ def scene_render(
 
 
 @scene_app.command("info", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:7], SCENE_FLAGS[9]))
+@_with_flags((*SCENE_FLAGS[:7], *SCENE_FLAGS[9:]))
 def scene_info(given: Any = None) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
     with _scene_world(_scene_config(given)) as world:
@@ -496,7 +596,16 @@ def _settings(given: Any) -> Any:
     """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
     from attribot.config import load_settings
 
-    names = ("detector", "vqa", "language", "program_wall_s", "planner", "llm_base_url", "llm_model")
+    names = (
+        "detector",
+        "vqa",
+        "language",
+        "program_wall_s",
+        "planner",
+        "llm_base_url",
+        "llm_model",
+        "prompt",
+    )
     return load_settings(
         naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
     )
@@ -565,8 +674,9 @@ def _show(answer: Any, as_json: bool) -> None:
         if answer.checks:
             out.print(f"[dim]checks: {escape(_tally(answer.checks))}[/]", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
+        prompt = f" prompt={answer.prompt}" if answer.prompt else ""
         out.print(
-            f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
+            f"[dim]planner={answer.planner}{prompt} attempts={answer.attempts} {escape(backends)}; "
             f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]",
             highlight=False,
         )
@@ -618,6 +728,14 @@ def exec_program(
     query: str = typer.Option(
         "", "--query", metavar="TEXT", help="The question the program answers (recorded only)."
     ),  # fmt: skip
+    trust_saved: bool = typer.Option(
+        False,
+        "--trust-saved-backends",
+        help="Replay a saved folder with its own endpoints, models and world (remote:URL, openai: at its "
+        "llm_base_url, hf:MODEL, a robot bridge): its settings then decide where your ATTRIBOT_LLM_API_KEY, "
+        "ATTRIBOT_REMOTE_TOKEN, ATTRIBOT_BRIDGE_TOKEN and camera images go. Only for folders you made; "
+        "without it those come from your own settings.",
+    ),
     given: Any = None,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one. A
@@ -631,7 +749,8 @@ def exec_program(
         if program.is_dir():
             from attribot.session import load_saved
 
-            load_saved(program)  # a folder that is no saved run says what it lacks, before the flags
+            # a folder that is no saved run says what it lacks, before the flags
+            load_saved(program, trust_saved_backends=trust_saved)
             if flags:
                 shown = ", ".join(_flag_name(n) for n in flags)
                 raise fail(
@@ -641,46 +760,38 @@ def exec_program(
                 )
             from attribot.session import replay
 
-            answer = replay(program, save_dir=given.save)
+            answer = replay(program, save_dir=given.save, trust_saved_backends=trust_saved)
         elif not flags and (program.parent / RUN_FILE).is_file():
             err_console.print(
-                f"[dim]running in the scene saved beside it ({program.parent / RUN_FILE}); scene flags "
-                "run it elsewhere[/]",
+                f"[dim]running in the scene saved beside it ({escape(str(program.parent / RUN_FILE))}); "
+                "scene flags run it elsewhere[/]",
                 highlight=False,
             )
-            answer = _saved_scene_run(program, query, given.save)
+            answer = _saved_scene_run(program, query, given.save, trust_saved)
+        elif trust_saved:
+            raise fail(
+                "--trust-saved-backends replays a folder written by --save, and this program runs in the "
+                "world its flags describe",
+                "drop --trust-saved-backends, or give the saved folder",
+            )
         else:
             answer = _file_run(program, query, given)
     _show(answer, given.as_json)
 
 
-def _read_program(program: Path) -> str:
-    from attribot.errors import InputError
-    from attribot.files import check_regular_file
-
-    check_regular_file(program, "program file", "give the path of a .py file, or a folder written by --save")
-    try:
-        return program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(
-            f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
-            "save it as UTF-8",
-        ) from None
-
-
 def _file_run(program: Path, query: str, given: Any) -> Any:
     scene = _scene(given)
-    from attribot.session import run_program
+    from attribot.session import read_program, run_program
 
-    source = _read_program(program)
+    source = read_program(program)
     return run_program(source, scene, _settings(given), query=query, save_dir=given.save)
 
 
-def _saved_scene_run(program: Path, query: str, save: Path | None) -> Any:
-    from attribot.session import load_saved, run_program
+def _saved_scene_run(program: Path, query: str, save: Path | None, trusted: bool) -> Any:
+    from attribot.session import load_saved, read_program, run_program
 
-    _, scene, settings, saved_query = load_saved(program.parent)
-    source = _read_program(program)
+    _, scene, settings, saved_query = load_saved(program.parent, trust_saved_backends=trusted)
+    source = read_program(program)
     return run_program(source, scene, settings, query=query or saved_query, save_dir=save, planner="replay")
 
 
@@ -737,6 +848,13 @@ def dataset_build(
     suite: str = _SUITE,
     tasks: str | None = _TASKS,
     limit: int | None = _LIMIT,
+    findable_by: str | None = typer.Option(
+        None,
+        "--findable-by",
+        metavar="SPEC",
+        help="Draw the embodied tasks' scenes with only objects this closed-set detector can find, as "
+        "`attribot eval --detector SPEC` (or --findable-by SPEC) does, e.g. coco.",
+    ),
 ) -> None:
     """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -744,6 +862,7 @@ def dataset_build(
     from attribot.eval.datasets import DATASET_VERSION, build_items, item_count, write_dataset
 
     chosen = _suite_tasks(suite, tasks)
+    vocabulary = None if findable_by is None else _vocabulary(findable_by)
     _writable_folder(out, "--out")
     total = sum(item_count(task, limit) for task in chosen)
     # generation and rendering take minutes for the whole suite: say how far they are
@@ -755,9 +874,19 @@ def dataset_build(
         console=err_console,
     ) as bar:
         made = bar.add_task("generating items", total=total)
-        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made))
+        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made), vocabulary=vocabulary)
         drawn = bar.add_task("rendering images", total=len(items))
-        write_dataset(items, out, on_image=lambda _item: bar.advance(drawn))
+        write_dataset(
+            items,
+            out,
+            on_image=lambda _item: bar.advance(drawn),
+            drawn_for=findable_by if vocabulary is not None else None,
+        )
+    within = sorted({i.task for i in items if i.vocabulary is not None})
+    if within:
+        console.print(
+            f"{', '.join(within)}: drawn in scenes whose objects {findable_by} can all find", highlight=False
+        )
     console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
 
 
@@ -786,13 +915,17 @@ def dataset_show(
         )
     item = items[item_id]
     typer.echo(item.model_dump_json(indent=2))
-    image = folder / "images" / f"{item_id}.png"
-    if image.is_file():
+    if (folder / "images" / f"{item_id}.png").exists():
         from PIL import Image, ImageDraw
 
+        from attribot.files import inside
+        from attribot.frame import load_image
+
+        fix = "build the dataset again with attribot dataset build"
+        image = inside(folder, f"images/{item_id}.png", "the item's image", fix)  # never a file elsewhere
         target = _shown_path(out, folder, item_id)
         _writable_folder(target.parent, "--out")
-        img = Image.open(image).convert("RGB")
+        img = Image.fromarray(load_image(image))
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
         img.save(target)
         err_console.print(f"image with the true box -> {target}", highlight=False)
@@ -849,8 +982,10 @@ def evaluate(
         None,
         "--findable-by",
         metavar="SPEC",
-        help="Keep only the items whose objects this closed-set detector can find (default: the run's own "
-        "--detector; an open-vocabulary one keeps every item), e.g. --detector oracle --findable-by coco.",
+        help="Run on the items of this closed-set detector (default: the run's own --detector; an "
+        "open-vocabulary one keeps every item): the embodied tasks are drawn in scenes whose objects it can "
+        "all find, the other tasks keep the items whose objects it can find; e.g. --detector oracle "
+        "--findable-by coco runs the oracle on exactly the coco run's items.",
     ),
     given: Any = None,
 ) -> None:
@@ -1007,7 +1142,7 @@ def _planner_status(settings: Any, record: Any) -> Any:
         arg=settings.llm_model,
         registered=True,
         available=available,
-        detail=detail,
+        detail=f"{detail}; shows the {settings.prompt} prompt",
     )
 
 
@@ -1060,7 +1195,7 @@ def serve_models(
     """Serve the configured detector, VQA and language backends over HTTP with dynamic batching."""
     from pydantic import ValidationError
 
-    from attribot.config import load_settings
+    from attribot.config import load_settings, revealed
     from attribot.server import ServerConfig, build_served_backends, check_bind, listen_socket, served_specs
     from attribot.server import serve_models as run_server
 
@@ -1069,7 +1204,7 @@ def serve_models(
     settings = load_settings()
     try:
         config = ServerConfig(
-            token=token or settings.remote_token,
+            token=token or revealed(settings.remote_token),
             max_batch=max_batch,
             batch_window_ms=batch_window_ms,
             max_image_mb=max_image_mb,
@@ -1135,6 +1270,11 @@ def bridge_serve(
     from attribot.bridge.server import Limits, RobotServer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    if not token.strip():
+        raise fail(
+            "--token is blank",
+            "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
+        )
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
@@ -1183,6 +1323,13 @@ def demo(
         "--runs-dir",
         help="Keep each query's saved run here (default: a temporary folder, removed at exit).",
     ),
+    allow_host: list[str] | None = typer.Option(
+        None,
+        "--allow-host",
+        metavar="NAME",
+        help="Another name visitors reach the demo by (e.g. lab-pc.local); IP addresses and localhost "
+        "always work, other names are refused (DNS rebinding).",
+    ),
     given: Any = None,
 ) -> None:
     """Serve the live demo page: choose a scene, ask, watch the robot, get the answer and its video."""
@@ -1201,7 +1348,13 @@ def demo(
         err_console.print(f"attribot demo: open {url} ({kept}; Ctrl-C stops)", highlight=False)
 
     with tempfile.TemporaryDirectory(prefix="attribot-demo-") as scratch:
-        config = DemoConfig(settings=settings, runs_dir=runs_dir or Path(scratch), token=token)
+        config = DemoConfig(
+            settings=settings,
+            runs_dir=runs_dir or Path(scratch),
+            token=token,
+            hosts=tuple(allow_host or ()),
+            keep_runs=runs_dir is not None,
+        )
         _prefetch_rendering()
         serve_demo(config, host=host, port=port, announce=announce)
 

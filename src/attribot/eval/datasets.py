@@ -8,7 +8,10 @@ box) read from the world's truth. A dataset is a manifest (`manifest.jsonl`, one
 records (`attribot.eval.suite`, `attribot.eval.tasks`).
 
 Each item names the categories of the objects its query chooses among (`object_categories`): a run
-with a closed-set detector keeps the items whose categories it can find (`attribot.eval.subset`).
+with a closed-set detector keeps the items whose categories it can find (`attribot.eval.subset`). The items
+of a task that can be drawn in a vocabulary (the embodied ones) are drawn, for such a run, in scenes whose
+objects are all of the categories that detector can find; such an item records them (`vocabulary`), its
+scene is regenerated from them, and a run refuses items drawn in another vocabulary than its own.
 
 `DATASET_VERSION` is a digest of the code and data that generate items and their truth (this module, the
 suite and its tasks, the released queries and their written meanings, the simulator's scenes, catalog,
@@ -19,19 +22,28 @@ versions. No planner is digested: no planner takes part in generating an item or
 from __future__ import annotations
 
 import hashlib
+import io
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    FiniteFloat,
+    StringConstraints,
+    ValidationError,
+)
 
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.eval.suite import TASKS, task_names
-from attribot.files import write_whole
+from attribot.files import read_capped, write_whole
 from attribot.sim.world import SceneInfo
 
 __all__ = [
@@ -41,10 +53,30 @@ __all__ = [
     "item_count",
     "write_dataset",
     "read_dataset",
+    "read_jsonl",
     "scene_info",
+    "Name",
+    "Box",
+    "drawn_in",
 ]
 
 WIDTH, HEIGHT = 640, 480
+MAX_JSONL_BYTES = 256 * 1024 * 1024
+"""The largest manifest or records file read (a whole paper-suite run writes a few MB a file)."""
+
+Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,199}$")]
+"""An item's id, a task's, method's or noise level's name: each becomes part of a file name (an image, a
+records file), so it is letters, digits and `_.+-` only, never a path."""
+
+
+def _ordered(box: list[float]) -> list[float]:
+    if box[2] < box[0] or box[3] < box[1]:
+        raise ValueError("a box is x0, y0, x1, y1 with x1 >= x0 and y1 >= y0")
+    return box
+
+
+Box = Annotated[list[FiniteFloat], Field(min_length=4, max_length=4), AfterValidator(_ordered)]
+"""A box in pixels, x0, y0, x1, y1."""
 
 
 def _package_files(package: str) -> list[tuple[str, str]]:
@@ -83,8 +115,8 @@ class Item(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    id: str
-    task: str
+    id: Name
+    task: Name
     query: str
     form: str  # superlative | absolute | comparative | n/a
     phrasing: str  # paper | template
@@ -96,11 +128,13 @@ class Item(BaseModel):
     sensors: list[str]
     embodied: bool
     true_id: str
-    true_box: list[float]
+    true_box: Box
     candidates: list[str] = []  # the named objects' ids, where the query names them
     # the categories of the objects the query chooses among (the true object's among them), from the world's
     # truth: what a detector must be able to find for the item to be fair to it
     object_categories: list[str] = []
+    # the only categories its scene drew objects from (those a closed-set detector can find); None: any
+    vocabulary: list[str] | None = None
     version: str = DATASET_VERSION
 
     def scene(self) -> SceneConfig:
@@ -109,6 +143,7 @@ class Item(BaseModel):
             seed=self.seed,
             objects=self.objects,
             categories=tuple(self.categories) if self.categories else None,
+            vocabulary=None if self.vocabulary is None else tuple(self.vocabulary),
             options=self.options,
             width=WIDTH,
             height=HEIGHT,
@@ -131,13 +166,24 @@ def item_count(task: str, limit: int | None = None) -> int:
     return TASKS.get(task).item_count(limit)
 
 
+def drawn_in(task: str, vocabulary: tuple[str, ...] | None) -> list[str] | None:
+    """The vocabulary `task`'s items are drawn in when a run asks for `vocabulary` (None: the catalog's): the
+    vocabulary itself for a task that can be drawn in one, else None."""
+    if vocabulary is None or TASKS.get(task).build_in_vocabulary is None:
+        return None
+    return list(vocabulary)
+
+
 def build_items(
     tasks: list[str] | None = None,
     limit: int | None = None,
     on_item: Callable[[Item], None] | None = None,
+    vocabulary: tuple[str, ...] | None = None,
 ) -> list[Item]:
     """The suite's items, task by task (`limit`: at most that many queries per task). Deterministic.
-    `on_item` is called as each item is made (generation takes minutes: a progress bar)."""
+    `on_item` is called as each item is made (generation takes minutes: a progress bar). `vocabulary`: the
+    categories a closed-set detector can find; the tasks that can be drawn in it are (see the module
+    docstring), the others are built as always."""
     chosen = task_names() if tasks is None else tasks
     unknown = [t for t in chosen if t not in TASKS]
     if unknown:
@@ -146,7 +192,13 @@ def build_items(
     for name in chosen:
         task = TASKS.get(name)
         n = task.size if limit is None else min(limit, task.size)
-        for item in task.build(n, task.seed_base):
+        within = drawn_in(name, vocabulary)
+        built = (
+            task.build(n, task.seed_base)
+            if within is None or task.build_in_vocabulary is None
+            else task.build_in_vocabulary(n, task.seed_base, tuple(within))
+        )
+        for item in built:
             items.append(item)
             if on_item is not None:
                 on_item(item)
@@ -154,10 +206,15 @@ def build_items(
 
 
 def write_dataset(
-    items: list[Item], out: Path, images: bool = True, on_image: Callable[[Item], None] | None = None
+    items: list[Item],
+    out: Path,
+    images: bool = True,
+    on_image: Callable[[Item], None] | None = None,
+    drawn_for: str | None = None,
 ) -> None:
     """`out/manifest.jsonl`, `out/dataset.json` and, with `images`, `out/images/<id>.png` (the view the
-    item's query is asked on); `on_image` is called as each image is written."""
+    item's query is asked on); `on_image` is called as each image is written. `drawn_for`: the detector
+    whose vocabulary drew the items that can be drawn in one, said in `dataset.json`."""
     out.mkdir(parents=True, exist_ok=True)
     if images:
         from PIL import Image
@@ -168,33 +225,62 @@ def write_dataset(
         for item in items:
             with MujocoWorld(item.scene()) as world:
                 rgb = world.observe().rgb
-            path = out / "images" / f"{item.id}.png"
-            Image.fromarray(np.ascontiguousarray(rgb)).save(path)
+            png = io.BytesIO()
+            Image.fromarray(np.ascontiguousarray(rgb)).save(png, format="PNG")
+            write_whole(out / "images" / f"{item.id}.png", png.getvalue())  # whole, or absent (a full disk)
             if on_image is not None:
                 on_image(item)
     write_whole(out / "manifest.jsonl", "".join(i.model_dump_json() + "\n" for i in items).encode())
-    about = {"suite": "paper", "version": DATASET_VERSION, "items": len(items)}
+    about: dict[str, Any] = {"suite": "paper", "version": DATASET_VERSION, "items": len(items)}
+    drawn = list(dict.fromkeys(i.task for i in items if i.vocabulary is not None))
+    if drawn:  # which tasks' scenes draw only what a detector can find (each item lists the categories)
+        about["drawn_in_vocabulary"] = {"detector": drawn_for, "tasks": drawn}
     write_whole(out / "dataset.json", (json.dumps(about, indent=2) + "\n").encode())
 
 
 def read_dataset(path: Path) -> list[Item]:
-    """The items of a dataset directory; refuses a manifest of another dataset version."""
+    """The items of a dataset directory; refuses a manifest of another dataset version, and one that is no
+    manifest attribot wrote (too large, a line that is no item), naming the line."""
     manifest = path / "manifest.jsonl"
     if not manifest.is_file():
         raise InputError(
             f"{path} holds no dataset (no manifest.jsonl)",
             "build one: attribot dataset build --suite paper --out DIR",
         )
-    items = [
-        Item.model_validate_json(line)
-        for line in manifest.read_text(encoding="utf-8").splitlines()
-        if line.strip()
-    ]
+    fix = "build the dataset again with attribot dataset build"
+    items = [item for _, item in read_jsonl(manifest, Item, "the dataset manifest", fix, torn_last=False)]
     versions = {i.version for i in items}
     if versions - {DATASET_VERSION}:
         raise InputError(
-            f"the dataset at {path} was generated by version {', '.join(sorted(versions))}, this attribot "
-            f"generates {DATASET_VERSION}",
+            f"the dataset at {path} was generated by version {', '.join(sorted(versions))[:200]}, this "
+            f"attribot generates {DATASET_VERSION}",
             "rebuild it with attribot dataset build, so that its scenes and truth match this code",
         )
     return items
+
+
+def read_jsonl(
+    path: Path, model: type[BaseModel], what: str, fix: str, torn_last: bool = True
+) -> Iterator[tuple[int, Any]]:
+    """(line number, record) for each line of the JSON-lines file `path`, each validated as `model`. The
+    file is read within bounds (a regular file, at most `MAX_JSONL_BYTES`); a line that is no record is an
+    `InputError` naming it, but for an unfinished last line when `torn_last` (a crash mid-write), which is
+    left out."""
+    data = read_capped(path, what, MAX_JSONL_BYTES, fix)
+    lines = data.split(b"\n")
+    torn = torn_last and not data.endswith(b"\n")
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            yield number, model.model_validate_json(line)
+        except ValueError as exc:  # pydantic's ValidationError, bad JSON, nesting past its limit
+            if torn and number == len(lines):
+                return
+            first = exc.errors()[0] if isinstance(exc, ValidationError) else {"msg": str(exc), "loc": ()}
+            where = ".".join(str(p) for p in first.get("loc", ()))
+            raise InputError(
+                f"{what} {str(path)!r}, line {number}, is not one attribot wrote: "
+                f"{where + ': ' if where else ''}{str(first.get('msg', 'invalid'))[:200]}",
+                fix,
+            ) from None

@@ -59,6 +59,7 @@ class Answer(BaseModel):
     output: str = ""  # what the program printed (cut at the runner's output limit)
     program: str | None = None
     planner: str
+    prompt: str | None = None  # the prompt the planner showed a model (attribot, paper); None: no prompt
     backends: dict[str, str]
     attempts: int
     trace: list[dict[str, Any]] = []
@@ -66,6 +67,7 @@ class Answer(BaseModel):
     world: dict[str, Any] | None = None  # the world and its config, or the image file
     sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.api.safeguards)
+    perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
 
     @model_validator(mode="before")
     @classmethod
@@ -118,6 +120,7 @@ def build_answer(
     *,
     query: str,
     planner: str,
+    prompt: str | None = None,
     program: str | None,
     result: Any,
     attempts: int,
@@ -135,6 +138,7 @@ def build_answer(
         query=query,
         program=program,
         planner=planner,
+        prompt=prompt,
         backends=backends,
         attempts=attempts,
         trace=[t.model_dump(mode="json") for t in (result.trace if result is not None else [])],

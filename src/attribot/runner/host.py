@@ -40,16 +40,54 @@ _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
 """Longest text kept whole in a trace record; longer ones are cut and say how long they were."""
+TRACE_ITEMS = 50
+"""Most items of a list or dict kept in a trace record; the rest are counted."""
+TRACE_DEPTH = 8
+"""Deepest nesting kept in a trace record."""
+TRACE_PART_CHARS = 8000
+"""About the most characters the arguments, or the result, of one call keep in the trace."""
+TRACE_RUN_CHARS = 2_000_000
+"""About the most characters the trace of one run keeps: past them, a call's record keeps its name, line,
+time and error, and says that its arguments and result were not kept."""
 
 
-def _cut(value: Any) -> Any:
-    """A trace value with long texts cut (a program can pass a 300 KB string to every call)."""
-    if isinstance(value, str) and len(value) > TRACE_TEXT_CHARS:
-        return value[:TRACE_TEXT_CHARS] + f"... ({len(value)} characters)"
+def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
+    """A trace value cut to fit: long texts, long lists and dicts, deep nesting, and the whole within `room`
+    (characters, counted down; `TRACE_PART_CHARS` when not given). A program can pass a 300 KB string, or
+    a list of 190,000 names, to every call: the trace keeps what shows what the call was."""
+    if room is None:
+        room = [TRACE_PART_CHARS]
+    if isinstance(value, str):
+        keep = max(0, min(TRACE_TEXT_CHARS, room[0]))
+        text = value if len(value) <= keep else value[:keep] + f"... ({len(value)} characters)"
+        room[0] -= len(text)
+        return text
     if isinstance(value, list):
-        return [_cut(v) for v in value]
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        items: list[Any] = []
+        for item in value:
+            if len(items) >= TRACE_ITEMS or room[0] <= 0:
+                items.append(f"... ({len(value)} items)")
+                break
+            room[0] -= 2
+            items.append(_cut(item, room, depth + 1))
+        return items
     if isinstance(value, dict):
-        return {k: _cut(v) for k, v in value.items()}
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        entries: dict[Any, Any] = {}
+        for key, item in value.items():
+            if len(entries) >= TRACE_ITEMS or room[0] <= 0:
+                entries["..."] = f"{len(value) - len(entries)} more entries"
+                break
+            room[0] -= 2
+            entries[_cut(key, room, depth + 1)] = _cut(item, room, depth + 1)
+        return entries
+    # a number, true, false or None; a 4,000-digit int counts its digits
+    room[0] -= 8 + (value.bit_length() // 3 if isinstance(value, int) else 0)
     return value
 
 
@@ -74,6 +112,16 @@ def _params(signature: inspect.Signature) -> str:
             text = "**" + p.name
         out.append(text)
     return ", ".join(out)
+
+
+def _takes_one(method: Any) -> bool:
+    """Whether `method` (a function of a class) needs exactly one argument besides `self`."""
+    try:
+        parameters = list(inspect.signature(method).parameters.values())[1:]
+    except (TypeError, ValueError):
+        return False
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return sum(p.kind in positional and p.default is inspect.Parameter.empty for p in parameters) == 1
 
 
 class _CallTimeout(BaseException):
@@ -288,6 +336,7 @@ class _Run:
         self.last_line: int | None = None
         self.stop: tuple[str, str, int | None] | None = None
         self.cutter = runner._cutter
+        self.trace_room = [TRACE_RUN_CHARS]  # what the trace may still keep (see `_kept`)
 
     # ---- host objects <-> handles -------------------------------------------------------------------
     def handle(self, obj: Any) -> dict[str, Any]:
@@ -404,13 +453,15 @@ class _Run:
                 raise ValueError("a malformed call")
             args = [self.decode(a) for a in raw_args]
             kwargs = {str(k): self.decode(v) for k, v in raw_kwargs.items()}
+            has_receiver = Key.RECEIVER in msg
+            receiver = self.decode({proto.TAG_HANDLE: msg[Key.RECEIVER]}) if has_receiver else None
         except (ValueError, TypeError, RecursionError) as e:
             return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
         cls = self.runner._class_of(obj)
         constructor = isinstance(method, str) and method == getattr(cls, "PROGRAM_CONSTRUCTOR", None)
         name = cls.__name__ if constructor else f"{cls.__name__}.{method}"
         kind = getattr(cls, "API_KIND", None)
-        shown = _cut([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
+        shown = self._kept([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
         if not isinstance(method, str) or not (constructor or method in cls.API_METHODS):
             return self._refuse(
                 name,
@@ -426,6 +477,7 @@ class _Run:
                 signature.bind(*args, **kwargs)
             except TypeError as e:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown, kind=kind)
+        called_on = getattr(cls, "PROGRAM_CALLED_ON", None) if has_receiver else None
         t0 = time.perf_counter()
         cutter = self.cutter
         try:
@@ -433,6 +485,8 @@ class _Run:
             try:
                 if time.monotonic() >= deadline:
                     raise _CallTimeout()
+                if called_on is not None:  # `patch.method(...)`: the owner hears which patch
+                    getattr(obj, called_on)(receiver)
                 result = fn(*args, **kwargs)
             finally:
                 cutter.in_call = False
@@ -477,9 +531,22 @@ class _Run:
                 kind=kind,
             )
         self.record(
-            TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line, kind=kind)
+            TraceRecord(
+                call=name, args=shown, result=self._kept(self.summary(result)), ms=ms, line=line, kind=kind
+            )
         )
         return {KIND: Kind.RETURN, Key.VALUE: wire}
+
+    def _kept(self, value: Any) -> Any:
+        """What the trace keeps of one call's arguments or result: `_cut`, within what is left of the run's
+        `TRACE_RUN_CHARS` (past them, a note that it was not kept)."""
+        if self.trace_room[0] <= 0:
+            note = "(not kept: the trace of this run is full)"
+            return [note] if isinstance(value, list) else note
+        room = [TRACE_PART_CHARS]
+        kept = _cut(value, room)
+        self.trace_room[0] -= TRACE_PART_CHARS - room[0]
+        return kept
 
     def record(self, record: TraceRecord) -> None:
         """Keep one call in the trace, and show it to the run's observer (a live view) as it happens."""
@@ -571,6 +638,7 @@ class ProgramRunner:
                 raise ConfigError(f"two API classes are named {cls.__name__}")
             names.add(cls.__name__)
         self._wire_classes = {cls.__name__: list(cls.API_METHODS) for cls in self.classes}
+        self._wire_functions = self._functions()
         self._class_cache: dict[type, type | None] = {}
         self._signatures: dict[tuple[type, str], inspect.Signature | None] = {}
         self._lock = threading.Lock()
@@ -582,6 +650,37 @@ class ProgramRunner:
         self._box[0] = _Worker()
 
     # ---- host-side helpers --------------------------------------------------------------------------
+    def _functions(self) -> dict[str, Any]:
+        """What the worker offers as bare functions: for each class that declares `PROGRAM_FUNCTIONS` (API
+        method names), those methods and whether each takes one object (one required argument: a patch
+        given to `patch.method()` with no arguments), and for each class named in its
+        `PROGRAM_FUNCTIONS_ON` the ones its objects take too (all but the names it has of its own). Such a
+        call tells the owner's host method named by `PROGRAM_CALLED_ON`, if any, which object it was on (and a
+        call that names an object, which one the program looked at last)."""
+        names = {cls.__name__: cls for cls in self.classes}
+        out: dict[str, Any] = {}
+        for cls in self.classes:
+            methods = getattr(cls, "PROGRAM_FUNCTIONS", None)
+            if methods is None:
+                continue
+            unknown = [m for m in methods if m not in cls.API_METHODS]
+            if unknown:
+                raise ConfigError(f"{cls.__name__}.PROGRAM_FUNCTIONS names no API method: {unknown}")
+            on = tuple(getattr(cls, "PROGRAM_FUNCTIONS_ON", ()))
+            strangers = [c for c in on if c not in names]
+            if strangers:
+                raise ConfigError(
+                    f"{cls.__name__}.PROGRAM_FUNCTIONS_ON names no class of this runner: {strangers}"
+                )
+            out[cls.__name__] = {
+                Key.FN_METHODS: {m: _takes_one(getattr(cls, m)) for m in methods},
+                Key.FN_ON: {
+                    c: [m for m in methods if m not in (*names[c].API_METHODS, *names[c].API_ATTRIBUTES)]
+                    for c in on
+                },
+            }
+        return out
+
     def _class_of(self, obj: Any) -> Any:
         kind = type(obj)
         if kind not in self._class_cache:
@@ -663,6 +762,7 @@ class ProgramRunner:
                 Key.LIMITS: proto.WireLimits(**self.limits.model_dump()).to_wire(),
                 Key.CLASSES: self._wire_classes,
                 Key.CONSTRUCTORS: constructors,
+                Key.FUNCTIONS: self._wire_functions,
             }
             try:
                 result = self._serve(state, request, t0)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mujoco
@@ -162,13 +162,19 @@ class ScenePlan:
 
 @dataclass(frozen=True)
 class SceneRequest:
-    """What the caller asked for: object count, categories (None: the layout chooses), layout options, and
-    the robot ("mast" or "ep")."""
+    """What the caller asked for: object count, categories (None: the layout chooses), layout options, the
+    robot ("mast" or "ep"), and the vocabulary: the names of the only categories the layout may draw
+    from (None: every category it draws), its own rules (pickable, small enough) applied within them."""
 
     n_objects: int | None = None
     categories: tuple[Category, ...] | None = None
     options: dict[str, Any] = field(default_factory=dict)
     robot: str = "mast"
+    vocabulary: frozenset[str] | None = None
+
+    def drawable(self, cat: Category) -> bool:
+        """Whether the layout may draw `cat` unasked: a category layouts draw, within the vocabulary."""
+        return cat.drawn and (self.vocabulary is None or cat.name in self.vocabulary)
 
     def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
         value = self.options.get(name, default)
@@ -280,8 +286,15 @@ def _pool(request: SceneRequest, predicate: Callable[[Category], bool]) -> list[
     if request.categories:
         pool = list(request.categories)
     else:
-        pool = [c for c in categories() if c.drawn and predicate(c)]
+        pool = [c for c in categories() if request.drawable(c) and predicate(c)]
     if not pool:
+        if request.vocabulary is not None and not request.categories:
+            names = sorted(request.vocabulary)
+            raise InputError(
+                f"none of the {len(names)} categories this scene may draw from fits this layout "
+                f"({', '.join(names[:6])}{', ...' if len(names) > 6 else ''})",
+                "choose another layout, or draw from more categories",
+            )
         raise InputError("no object category fits this layout", "choose other categories")
     return pool
 
@@ -472,9 +485,18 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         if i == odd_index and odd_kind == "category":
             others = [
                 c
-                for c in (pool[1:] if request.categories and len(pool) > 1 else _pool(SceneRequest(), _small))
+                for c in (
+                    pool[1:]
+                    if request.categories and len(pool) > 1
+                    else _pool(SceneRequest(vocabulary=request.vocabulary), _small)
+                )
                 if c.name != main.name
             ]
+            if not others:
+                raise InputError(
+                    f"an arrangement with odd=category needs a second category besides {main.name}",
+                    "use --option odd=size or odd=color, or draw from more categories",
+                )
             cat = others[int(rng.integers(len(others)))]
             size = float(np.clip(common, *cat.size_range_m))
             col = str(cat.colors[int(rng.integers(len(cat.colors)))])
@@ -544,7 +566,7 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
                 )
     else:
         ok = _triplet_ok if request.robot != "ep" else (lambda c: _triplet_ok(c) and _ep_graspable(c))
-        pool = sorted(_pool(SceneRequest(), ok), key=lambda c: c.typical_mass_kg)
+        pool = sorted(_pool(SceneRequest(vocabulary=request.vocabulary), ok), key=lambda c: c.typical_mass_kg)
         for _ in range(1000):
             first = pool[int(rng.integers(len(pool)))]
             chosen = [first]
@@ -847,6 +869,13 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
                 f"the EP-like robot's gripper (about 10 cm open) cannot hold {', '.join(unfit)}",
                 "choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
             )
+    if req.vocabulary is not None:
+        outside = [c.name for c in req.categories or () if c.name not in req.vocabulary]
+        if outside:
+            raise InputError(
+                f"{', '.join(outside)} is not among the categories this scene may draw from",
+                "leave it out of the categories, or draw from a vocabulary that holds it",
+            )
     rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
     plan = fn(rng, req)
     plan.seed = int(seed)
@@ -868,12 +897,7 @@ def scene_requests(layout: str, request: SceneRequest, attempts: int) -> Iterato
     for attempt in range(attempts):
         yield attempt, request
     if LAYOUTS.get(layout) is LAYOUTS.get("household") and "min_gap" not in request.options:
-        crowded = SceneRequest(
-            request.n_objects,
-            request.categories,
-            {**request.options, "min_gap": CROWDED_MIN_GAP},
-            request.robot,
-        )
+        crowded = replace(request, options={**request.options, "min_gap": CROWDED_MIN_GAP})
         for attempt in range(attempts, 2 * attempts):
             yield attempt, crowded
 
@@ -884,11 +908,11 @@ def what_fits(layout: str, seed: int, request: SceneRequest, attempts: int) -> s
     n = request.n_objects or len(request.categories or ())
     spacing = request.options.get("min_gap", CROWDED_MIN_GAP)
     for k in range(n - 1, 0, -1):
-        fewer = SceneRequest(
-            k,
-            request.categories[:k] if request.categories else None,
-            {**request.options, "min_gap": spacing},
-            request.robot,
+        fewer = replace(
+            request,
+            n_objects=k,
+            categories=request.categories[:k] if request.categories else None,
+            options={**request.options, "min_gap": spacing},
         )
         for attempt in range(attempts):
             try:
