@@ -54,9 +54,17 @@ def test_a_pattern_asked_for_that_does_not_fit_says_what_fits():
     assert refused.value.fix is not None and "--objects 3" in refused.value.fix
 
 
-def _household(seed: int, categories: tuple[str, ...] | None = None, objects: int | None = None) -> list:
+def _household(
+    seed: int, categories: tuple[str, ...] | None = None, objects: int | None = None, robot: str = "mast"
+) -> list:
     config = SceneConfig(
-        layout="household", seed=seed, categories=categories, objects=objects, width=320, height=240
+        layout="household",
+        seed=seed,
+        categories=categories,
+        objects=objects,
+        width=320,
+        height=240,
+        robot=robot,
     )
     with SimWorld(config) as world:
         return world.scene_info().objects
@@ -73,6 +81,7 @@ def test_three_cans_fit_in_a_household_scene(seed):
 def test_default_and_crowded_household_scenes_over_many_seeds():
     for seed in range(60):
         assert _household(seed)
+        assert _household(seed, robot="ep")
     for seed in range(6, 30):
         assert len(_household(seed, ("can", "can", "can"), 3)) == 3
 
