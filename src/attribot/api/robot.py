@@ -997,7 +997,8 @@ class Robot(metaclass=_RobotApi):
         self.held = self._aimed = None
 
     def put_on(self, patch: ImagePatch) -> None:
-        """Places the held object on top of the object in `patch`.
+        """Places the held object on top of the object in `patch`; on a table, counter or shelf, at a
+        free spot near the robot.
 
         >>> # put the cup on the tray
         >>> def execute_command(image, robot):
