@@ -134,6 +134,22 @@ def test_a_top_the_wrist_never_feels_is_not_let_go_above(perception, monkeypatch
         assert world.held_object() is not None
 
 
+def test_a_failure_seen_after_letting_go_leaves_the_robot_holding_nothing(perception, monkeypatch):
+    """When the check after letting go fails (here made to), the robot's idea of what it holds follows the
+    world: nothing, so that a retry does not try to put down what is no longer in the gripper."""
+
+    def unseen(self, hold, spot, tops, target):
+        raise ControlError("put_on failed: after letting go, the camera sees nothing standing there", "look")
+
+    with _world(2, ("mug", "apple", "book")) as world:
+        robot = Robot(sensors=["camera", "force"], world=world, controller=build_controller(world))
+        image = robot.look(perception)
+        monkeypatch.setattr(manipulate.Manipulator, "check_on_top", unseen)
+        with pytest.raises(ControlError, match="after letting go"):
+            _carry(robot, image, "mug", "table", world)
+        assert world.held_object() is None and robot.held is None
+
+
 @pytest.mark.parametrize(
     ("query", "seed", "categories", "furniture"),
     [

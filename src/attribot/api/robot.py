@@ -1015,7 +1015,12 @@ class Robot(metaclass=_RobotApi):
                 "robot.put_on() needs an object in the gripper, and it is empty",
                 "call robot.go_to_object(obj) and robot.pick_up(obj) first",
             )
-        self.controller.put_on(target)
+        try:
+            self.controller.put_on(target)
+        except ControlError:
+            if getattr(self.controller, "holding", self.held) is None:  # let go before the failure showed
+                self.held = self._aimed = None
+            raise
         self.held = self._aimed = None
 
     def push(self, patch: ImagePatch) -> None:

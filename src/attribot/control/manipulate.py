@@ -161,11 +161,11 @@ class Manipulator:
         """Place what is held on top of the target object and check that it rests there."""
         hold = self.held("put_on")
         body = self.plant.body("put_on")
-        receptacle = self.locator.locate(target, "put_on")
         top = self.top_seen(target, body)
         if top is not None and top.area >= self.plant.tuning.large_top_m2:
             self.put_on_top(target, top, hold, body)
             return
+        receptacle = self.locator.locate(target, "put_on")
         place_z = receptacle.top_z + hold.below + 0.01
         self.check_lift(place_z, receptacle.top_z, target, body)
         self.out_from_under(hold, place_z + 0.06, target, body)
@@ -221,7 +221,7 @@ class Manipulator:
         self.plant.settle(t.extend_s)
         rested = self.lower_onto(place_z, reach.extension)
         if rested is False:
-            self.retract(place_z + 0.06)
+            self.carry_height(hold, place_z + 0.06)  # held up, clear of the top, to be put elsewhere
             raise ControlError(
                 f"put_on failed: lowering the {hold.label} onto {target.describe()}, the wrist never felt "
                 f"the top carry it (down to {place_z - hold.below - t.lower_below_m:.2f} m; the camera saw "
