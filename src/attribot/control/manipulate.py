@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from attribot.control.base import ControlError, Target
-from attribot.control.body import BodyGeometry
+from attribot.control.body import BodyGeometry, CameraPose
 from attribot.control.drive import Driver
 from attribot.control.locate import Locator, view_of
 from attribot.control.plant import Hold, Plant, Reach, moved
@@ -23,7 +23,7 @@ from attribot.control.reach import Reacher
 from attribot.control.sighting import Box, nearest_to_centre
 from attribot.control.spatial import ObjectEstimate, base_points, estimate_object, to_world
 from attribot.control.surface import TopSurface, find_top
-from attribot.frame import Frame
+from attribot.frame import CameraInfo, Frame
 
 __all__ = ["Manipulator"]
 
@@ -161,7 +161,7 @@ class Manipulator:
         """Place what is held on top of the target object and check that it rests there."""
         hold = self.held("put_on")
         body = self.plant.body("put_on")
-        top = self.top_seen(target, body)
+        top = self.top_seen(target, hold, body)
         if top is not None and top.area >= self.plant.tuning.large_top_m2:
             self.put_on_top(target, top, hold, body)
             return
@@ -188,14 +188,43 @@ class Manipulator:
             )
 
     # --- onto the top of a large receptacle -------------------------------------------------------
-    def top_seen(self, target: Target, body: BodyGeometry) -> TopSurface | None:
-        """The receptacle's top as the depth of the image it was seen in shows it; None without depth (or
-        without a known camera pose), or when its box holds no large horizontal surface."""
+    def top_seen(self, target: Target, hold: Hold, body: BodyGeometry) -> TopSurface | None:
+        """The receptacle's top as the depth of the image it was seen in shows it, or, where that image cut
+        it off at an edge (the board of a shelf above the view, a table's near half below it), as a fresh
+        look centred on it shows it; None without depth (or without a known camera pose), or when its box
+        holds no large horizontal surface."""
         cap = target.capture
         view = view_of(cap, body)
         if cap.depth is None or cap.camera is None or view is None or cap.base is None:
             return None
-        pts = to_world(base_points(cap.depth, cap.camera, view, target.box), cap.base)
+        top = self.top_in(cap.depth, cap.camera, view, cap.base, target.box, hold, body)
+        if not _cut_off(target.box, cap.camera) or target.find is None:
+            return top
+        est = self.locator.where_seen(target, body)
+        if est is None:
+            return top
+        self.locator.aim(np.array(est.centre), body, target, hold)
+        frame = self.plant.world.observe()
+        camera = frame.camera or self.plant.world.camera_info()
+        box = nearest_to_centre(target.find(frame), camera, 0.45)
+        if box is None or frame.depth is None:
+            return top
+        again = self.top_in(frame.depth, camera, self.plant.view(body), self.plant.pose(), box, hold, body)
+        return again if again is not None else top  # centred on it, the camera sees more of it
+
+    def top_in(
+        self,
+        depth: np.ndarray,
+        camera: CameraInfo,
+        view: CameraPose,
+        base: tuple[float, float, float],
+        box: Box,
+        hold: Hold,
+        body: BodyGeometry,
+    ) -> TopSurface | None:
+        """The top in a box of a depth image, the arm and what it holds left out."""
+        pts = to_world(base_points(depth, camera, view, box), base)
+        pts = pts[~self.locator.held_points(hold, body)(pts)]
         return find_top(pts, above=self.plant.tuning.top_clear_m)
 
     def put_on_top(self, target: Target, top: TopSurface, hold: Hold, body: BodyGeometry) -> None:
@@ -238,7 +267,7 @@ class Manipulator:
         """The free spot on the top nearest the robot from which a free place to stand is within the arm's
         reach, that place and the path to it."""
         t = self.plant.tuning
-        spots = top.free_spots(hold.radius + t.place_clear_m)
+        spots = self.free_spots(top, hold)
         name = f"the top of {target.describe()}"
         if len(spots) == 0:
             raise ControlError(
@@ -258,6 +287,12 @@ class Manipulator:
             f"nearest the robot ({min(len(spots), t.spot_tries)} tried)",
             "clear the way to it, or put the object on another receptacle",
         )
+
+    def free_spots(self, top: TopSurface, hold: Hold) -> np.ndarray:
+        """The top's free spots for what is held: with the clearance kept round it, or, where the top has
+        no room for that, with only a cell's worth round what stands there."""
+        spots = top.free_spots(hold.radius + self.plant.tuning.place_clear_m)
+        return spots if len(spots) else top.free_spots(hold.radius)
 
     @staticmethod
     def spot_estimate(xy: np.ndarray, top: TopSurface, hold: Hold) -> ObjectEstimate:
@@ -280,14 +315,14 @@ class Manipulator:
             pts = to_world(base_points(frame.depth, camera, self.plant.view(body)), self.plant.pose())
             pts = pts[~self.locator.held_points(hold, body)(pts)]
             pts = pts[np.hypot(pts[:, 0] - spot.centre[0], pts[:, 1] - spot.centre[1]) < 0.6]
-            local = find_top(pts, near=(spot.xy(), top.z), above=self.plant.tuning.top_clear_m)
-        clear = hold.radius + self.plant.tuning.place_clear_m
+            # what stands on the top has its foot there, below the held object carried over it
+            local = find_top(pts, near=(spot.xy(), top.z), above=self.plant.tuning.top_clear_m, up_to=0.05)
         if local is None:
             return spot, top  # no better look from here: keep the spot as seen before
-        if not local.blocked_near(spot.xy(), clear):
+        if not local.blocked_near(spot.xy(), hold.radius):
             # still free where the camera sees it; what the held object hides from here was free before
             return self.spot_estimate(spot.xy(), local, hold), local
-        spots = local.free_spots(clear)
+        spots = self.free_spots(local, hold)
         if len(spots) == 0:
             raise ControlError(
                 f"put_on failed: seen from near, the top of {target.describe()} has no free spot for the "
@@ -413,40 +448,59 @@ class Manipulator:
 
     def carry_height(self, hold: Hold, z: float) -> None:
         """Pull the arm in with what is held, then raise it to `z` (at least where it is), to drive with it:
-        in first, the way it came out, since a shelf's board may hang over where it was picked."""
+        in first, the way it came out, since a shelf's board may hang over where it was picked. Where the
+        lift stops short (the object still under the board), it goes down again and the base backs off a
+        little before the next try."""
         t = self.plant.tuning
         lift = self.plant.lift()
         self.plant.world.set_arm(lift, 0.0)
         self.plant.settle(t.arm_move_s)
-        if z > lift:
+        if z <= lift:
+            return
+        for _ in range(3):
             self.plant.world.set_arm(z, 0.0)
             self.plant.settle(t.arm_move_s)
+            stopped = self.plant.lift()
+            if stopped >= z - 0.03:  # a heavy load sags a centimetre or two
+                return
+            self.plant.world.set_arm(lift, 0.0)
+            self.plant.settle(t.arm_move_s)
+            if not self.plant.has("base"):
+                break
+            self.driver.straight(-0.1)
+        raise ControlError(
+            f"not reachable: raising the {hold.label} to {z:.2f} m, the lift stopped at {stopped:.2f} m: "
+            "something above holds it back",
+            "put it down with robot.put_down(), or put it on something lower",
+        )
 
     def out_from_under(self, hold: Hold, z: float, target: Target, body: BodyGeometry) -> None:
-        """Before what is held is raised to lift `z`: where depth sees something hang over it with the arm
+        """Before what is held is raised to lift `z`: while depth sees something hang over it with the arm
         pulled in (the board of a shelf it was picked from under), back the base off until it is out from
-        under it."""
+        under it (looking again after each step back: the object's far side is a guess from its front)."""
         lift = self.plant.lift()
         if z <= lift + 0.01 or not (self.plant.has("depth") and self.plant.has("base")):
             return
         grip_x, grip_y = body.reach_x(0.0), body.arm_xy[1]
-        self.locator.aim(self.locator.grip_point(body, lift + hold.above, 0.0), body, target, hold)
-        frame = self.plant.world.observe()
-        if frame.depth is None:
-            return
-        camera = frame.camera or self.plant.world.camera_info()
-        pts = base_points(frame.depth, camera, self.plant.view(body), stride=2)
-        pts = pts[~self.locator.held_points(hold, body)(to_world(pts, self.plant.pose()))]
         far = grip_x + hold.radius  # the held object's far side, forward of the base's centre
-        over = pts[
-            (np.abs(pts[:, 1] - grip_y) <= hold.radius + 0.03)
-            & (pts[:, 0] >= body.base_half[0] + 0.02)
-            & (pts[:, 0] <= far)
-            & (pts[:, 2] > lift + hold.above + 0.01)
-            & (pts[:, 2] < z + hold.above + 0.03)
-        ]
-        if len(over) >= 5:
-            self.driver.straight(-(far + 0.03 - float(over[:, 0].min())))
+        for _ in range(3):
+            self.locator.aim(self.locator.grip_point(body, lift + hold.above, 0.0), body, target, hold)
+            frame = self.plant.world.observe()
+            if frame.depth is None:
+                return
+            camera = frame.camera or self.plant.world.camera_info()
+            pts = base_points(frame.depth, camera, self.plant.view(body), stride=2)
+            # over the object's top nothing is the arm or the object itself
+            over = pts[
+                (np.abs(pts[:, 1] - grip_y) <= hold.radius + 0.03)
+                & (pts[:, 0] >= body.base_half[0] + 0.02)
+                & (pts[:, 0] <= far + 0.03)
+                & (pts[:, 2] > lift + hold.above + 0.01)
+                & (pts[:, 2] < z + hold.above + 0.03)
+            ]
+            if len(over) < 5:
+                return
+            self.driver.straight(-max(0.05, far + 0.05 - float(over[:, 0].min())))
 
     def place(self, hold: Hold, z: float, extension: float | None = None) -> None:
         """Lower what is held to `z`, let go, rise off it and pull the arm in."""
@@ -518,3 +572,8 @@ class Manipulator:
             readings.append(float(self.plant.world.read_force()[2]))
         self.load_spread = float(np.std(readings, ddof=1)) / math.sqrt(len(readings))
         return sum(readings) / len(readings)
+
+
+def _cut_off(box: Box, camera: CameraInfo) -> bool:
+    """Whether a box reaches an edge of the image (what it frames may go on beyond it)."""
+    return box[0] <= 2 or box[1] <= 2 or box[2] >= camera.width - 2 or box[3] >= camera.height - 2

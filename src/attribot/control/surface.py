@@ -84,6 +84,7 @@ def find_top(
     points: np.ndarray,
     near: tuple[np.ndarray, float] | None = None,
     above: float = 0.004,
+    up_to: float = 1.0,
     cell: float = 0.03,
     min_area: float = _MIN_AREA_M2,
 ) -> TopSurface | None:
@@ -91,7 +92,9 @@ def find_top(
     large horizontal layer, or, with `near` ((x, y), z), the layer nearest height z within 4 cm and its
     part nearest (x, y) (to see the same top again from elsewhere). Points more than `above` metres over
     the top stand on it (a knife lies 1.5 cm high, a fork 6 mm: what depth cannot tell from the top, it
-    takes for the top); it must exceed the depth's noise. None when no layer is large enough."""
+    takes for the top); it must exceed the depth's noise. What stands on the top is looked for up to
+    `up_to` metres over it (below what the robot itself holds over it). None when no layer is large
+    enough."""
     pts = np.asarray(points, float)
     pts = pts[np.isfinite(pts).all(axis=1) & (pts[:, 2] > 0.05)]
     if len(pts) < 20:
@@ -116,7 +119,7 @@ def find_top(
         # the top's height: the points of its cells in the layer, refined to their median
         on = part[ij[:, 0], ij[:, 1]] & (np.abs(pts[:, 2] - z) <= _LAYER_M)
         height = float(np.median(pts[on, 2]))
-        over = ij[(pts[:, 2] > height + above) & (pts[:, 2] < height + 1.0)]
+        over = ij[(pts[:, 2] > height + above) & (pts[:, 2] < height + up_to)]
         blocked = np.zeros(shape, bool)
         blocked[over[:, 0], over[:, 1]] = True
         # a cell next to something standing there is not free either: the points of its sides fall in
