@@ -723,6 +723,22 @@ class SimWorld:
             hi = np.maximum(hi, d.geom_xpos[g] + r)
         return np.stack([lo, hi])
 
+    def support_of(self, key: int, tol: float = 0.01) -> str | None:
+        """The name of the surface the object stands on now: a piece of furniture's top or board (as the
+        plan names its surfaces: "shelf_2", "shelf_2_low"), or "floor"; its lowest point within `tol` of
+        the surface's height and its middle over the furniture. None when it stands on none of them (held,
+        in the air, on another object)."""
+        lo, hi = self.object_bounds(key)
+        x, y = (lo[:2] + hi[:2]) / 2
+        for f in self.plan.furniture:
+            x0, y0, x1, y1 = f.footprint()
+            if not (x0 <= x <= x1 and y0 <= y <= y1):
+                continue
+            for surface in f.surfaces():
+                if abs(lo[2] - surface.z) <= tol:
+                    return surface.name
+        return "floor" if abs(lo[2]) <= tol else None
+
     def top_of(self, key: int, x: float, y: float) -> float | None:
         """Height of the object's upper surface at world (x, y) by a ray cast downward, or None if missed."""
         groups = _RAY_GROUPS
