@@ -174,6 +174,9 @@ SCENE_FLAGS = (
     _flag("robot", str | None, "--robot", metavar="NAME", help="The simulated robot: mast (default; a "
           "pan-tilt head and a telescoping arm) or ep (RoboMaster-EP-like: its camera on its arm, objects on "
           "the floor)."),
+    _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the detector "
+          "SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it can find; an "
+          "open-vocabulary one finds them all)."),
 )  # fmt: skip
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
@@ -220,7 +223,9 @@ _FLAG_OF = {
     for group in (SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, PLANNER_FLAGS)
     for f in group
 }
-_FLAG_OF.update({"options": "--option", "noise": "--world-noise", "url": "--bridge-url"})
+_FLAG_OF.update(
+    {"options": "--option", "noise": "--world-noise", "url": "--bridge-url", "vocabulary": "--findable-by"}
+)
 
 
 def _flag_name(field: str) -> str:
@@ -312,11 +317,33 @@ def _scene_fields(given: Any) -> dict[str, Any]:
         for name in ("layout", "seed", "objects", "width", "height", "profile", "robot")
     }
     fields["categories"] = names
+    if _given(given, "findable_by") is not None:
+        fields["vocabulary"] = _vocabulary(given.findable_by)
+        if names and fields["vocabulary"] is not None:
+            from attribot.sim.catalog import find_category
+
+            unfound = [n for n in names if (c := find_category(n)) and c.name not in fields["vocabulary"]]
+            if unfound:
+                raise fail(
+                    f"--findable-by {given.findable_by} cannot find {', '.join(unfound)} (--categories)",
+                    f"name only categories it can find ({', '.join(fields['vocabulary'][:8])}, ...), "
+                    "or drop --findable-by",
+                )
     if _given(given, "world_noise") is not None:
         from attribot.noise import world_noise as parse_world_noise
 
         fields["noise"] = parse_world_noise(given.world_noise, _given(given, "seed") or 0)
     return {k: v for k, v in fields.items() if v is not None}
+
+
+def _vocabulary(spec: str) -> tuple[str, ...] | None:
+    """The categories the detector `spec` can find (`--findable-by`); None when it finds any."""
+    from attribot.config import load_settings
+    from attribot.eval.subset import closed_set_detector
+    from attribot.models.base import findable_categories
+
+    detector = closed_set_detector(spec, load_settings(naming=_naming()))
+    return None if detector is None else findable_categories(detector)
 
 
 def _scene_config(given: Any) -> Any:
@@ -339,7 +366,7 @@ def _scene_world(config: Any) -> Any:
 
 
 @scene_app.command("render", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:8], SCENE_FLAGS[9]))
+@_with_flags((*SCENE_FLAGS[:8], *SCENE_FLAGS[9:]))
 def scene_render(
     out: Path = typer.Option(..., "--out", metavar="FILE", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
@@ -376,7 +403,7 @@ def scene_render(
 
 
 @scene_app.command("info", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:7], SCENE_FLAGS[9]))
+@_with_flags((*SCENE_FLAGS[:7], *SCENE_FLAGS[9:]))
 def scene_info(given: Any = None) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
     with _scene_world(_scene_config(given)) as world:
@@ -737,6 +764,13 @@ def dataset_build(
     suite: str = _SUITE,
     tasks: str | None = _TASKS,
     limit: int | None = _LIMIT,
+    findable_by: str | None = typer.Option(
+        None,
+        "--findable-by",
+        metavar="SPEC",
+        help="Draw the embodied tasks' scenes with only objects this closed-set detector can find, as "
+        "`attribot eval --detector SPEC` (or --findable-by SPEC) does, e.g. coco.",
+    ),
 ) -> None:
     """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -744,6 +778,7 @@ def dataset_build(
     from attribot.eval.datasets import DATASET_VERSION, build_items, item_count, write_dataset
 
     chosen = _suite_tasks(suite, tasks)
+    vocabulary = None if findable_by is None else _vocabulary(findable_by)
     _writable_folder(out, "--out")
     total = sum(item_count(task, limit) for task in chosen)
     # generation and rendering take minutes for the whole suite: say how far they are
@@ -755,9 +790,19 @@ def dataset_build(
         console=err_console,
     ) as bar:
         made = bar.add_task("generating items", total=total)
-        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made))
+        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made), vocabulary=vocabulary)
         drawn = bar.add_task("rendering images", total=len(items))
-        write_dataset(items, out, on_image=lambda _item: bar.advance(drawn))
+        write_dataset(
+            items,
+            out,
+            on_image=lambda _item: bar.advance(drawn),
+            drawn_for=findable_by if vocabulary is not None else None,
+        )
+    within = sorted({i.task for i in items if i.vocabulary is not None})
+    if within:
+        console.print(
+            f"{', '.join(within)}: drawn in scenes whose objects {findable_by} can all find", highlight=False
+        )
     console.print(f"{len(items)} items of dataset {DATASET_VERSION} -> {out}", highlight=False)
 
 
@@ -849,8 +894,10 @@ def evaluate(
         None,
         "--findable-by",
         metavar="SPEC",
-        help="Keep only the items whose objects this closed-set detector can find (default: the run's own "
-        "--detector; an open-vocabulary one keeps every item), e.g. --detector oracle --findable-by coco.",
+        help="Run on the items of this closed-set detector (default: the run's own --detector; an "
+        "open-vocabulary one keeps every item): the embodied tasks are drawn in scenes whose objects it can "
+        "all find, the other tasks keep the items whose objects it can find; e.g. --detector oracle "
+        "--findable-by coco runs the oracle on exactly the coco run's items.",
     ),
     given: Any = None,
 ) -> None:

@@ -229,7 +229,10 @@ class SceneConfig(BaseModel):
     """Where a query runs in the embedded world: the layout and seed, and what overrides the layout's choice.
 
     layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: the same seed gives
-    the same scene and pixels; objects / categories: override the layout's choice; options: layout
+    the same scene and pixels; objects / categories: override the layout's choice; vocabulary: the only
+    categories the layout may draw objects from (None: any of the catalog's), the layout's own rules
+    applied within them (a household scene in the categories a closed-set detector can find, see
+    `attribot.models.base.findable_categories`); options: layout
     options (e.g. {"pattern": "grid", "odd": "size"}); width, height: camera pixels; profile: "fast" or
     "pretty"; looks: "detailed" or "primitive" (how objects are drawn; physics and sensing are the same);
     force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
@@ -244,6 +247,7 @@ class SceneConfig(BaseModel):
     seed: int = Field(0, ge=0, le=MAX_SEED, strict=True)
     objects: int | None = Field(None, ge=1, strict=True)  # the upper bound is each layout's own
     categories: tuple[str, ...] | None = None
+    vocabulary: tuple[str, ...] | None = None
     options: dict[str, OptionValue] = Field(default_factory=dict)
     width: int = Field(640, ge=16, le=4096, strict=True)
     height: int = Field(480, ge=16, le=4096, strict=True)
@@ -365,6 +369,10 @@ _FIXES: dict[str, Callable[[FieldNaming], str]] = {
     "categories": lambda n: (
         "name categories from `attribot scene info` or the catalog, e.g. "
         + n.example("categories", "mug,apple")
+    ),
+    "vocabulary": lambda n: (
+        "give catalog category names, e.g. those a detector can find "
+        "(attribot.models.base.findable_categories)"
     ),
     "url": lambda n: f"give the robot's address, e.g. {n.example('url', 'tcp://192.168.2.1:7777')}",
     "timeout_s": lambda n: "give a time-out in seconds, more than 0",

@@ -363,6 +363,7 @@ class Session:
             frame=self.image.frame,
         )
         answer.checks = [e.model_dump() for e in self.safeguards.events]
+        answer.perception = self.perception.counts()
         if self.world_started is not None:
             answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:

@@ -23,8 +23,9 @@ from attribot.eval.suite import task_names
 
 __all__ = ["Runs", "read_runs", "SIDE_BY_SIDE"]
 
-SIDE_BY_SIDE = ("detector", "subset", "items")
-"""The entries of `run.json` in which runs reported together may differ."""
+SIDE_BY_SIDE = ("detector", "subset", "items", "vocabulary")
+"""The entries of `run.json` in which runs reported together may differ (an item of one id drawn in two
+vocabularies is not the same item, and is refused as such)."""
 
 
 @dataclass(frozen=True)
@@ -103,7 +104,8 @@ def _same_items(task: str, held: list[tuple[Path, list[Record]]], common: set[st
             if first[1] != key:
                 raise InputError(
                     f"{task} item {r.id} is not the same item in {first[0]} and {run}",
-                    "report side by side only runs made from one dataset",
+                    "report side by side only runs made from one dataset; to set the oracle beside a "
+                    "closed-set detector, run it on that detector's items: attribot eval --findable-by SPEC",
                 )
 
 

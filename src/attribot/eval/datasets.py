@@ -8,7 +8,10 @@ box) read from the world's truth. A dataset is a manifest (`manifest.jsonl`, one
 records (`attribot.eval.suite`, `attribot.eval.tasks`).
 
 Each item names the categories of the objects its query chooses among (`object_categories`): a run
-with a closed-set detector keeps the items whose categories it can find (`attribot.eval.subset`).
+with a closed-set detector keeps the items whose categories it can find (`attribot.eval.subset`). The items
+of a task that can be drawn in a vocabulary (the embodied ones) are drawn, for such a run, in scenes whose
+objects are all of the categories that detector can find; such an item records them (`vocabulary`), its
+scene is regenerated from them, and a run refuses items drawn in another vocabulary than its own.
 
 `DATASET_VERSION` is a digest of the code and data that generate items and their truth (this module, the
 suite and its tasks, the released queries and their written meanings, the simulator's scenes, catalog,
@@ -42,6 +45,7 @@ __all__ = [
     "write_dataset",
     "read_dataset",
     "scene_info",
+    "drawn_in",
 ]
 
 WIDTH, HEIGHT = 640, 480
@@ -101,6 +105,8 @@ class Item(BaseModel):
     # the categories of the objects the query chooses among (the true object's among them), from the world's
     # truth: what a detector must be able to find for the item to be fair to it
     object_categories: list[str] = []
+    # the only categories its scene drew objects from (those a closed-set detector can find); None: any
+    vocabulary: list[str] | None = None
     version: str = DATASET_VERSION
 
     def scene(self) -> SceneConfig:
@@ -109,6 +115,7 @@ class Item(BaseModel):
             seed=self.seed,
             objects=self.objects,
             categories=tuple(self.categories) if self.categories else None,
+            vocabulary=None if self.vocabulary is None else tuple(self.vocabulary),
             options=self.options,
             width=WIDTH,
             height=HEIGHT,
@@ -131,13 +138,24 @@ def item_count(task: str, limit: int | None = None) -> int:
     return TASKS.get(task).item_count(limit)
 
 
+def drawn_in(task: str, vocabulary: tuple[str, ...] | None) -> list[str] | None:
+    """The vocabulary `task`'s items are drawn in when a run asks for `vocabulary` (None: the catalog's): the
+    vocabulary itself for a task that can be drawn in one, else None."""
+    if vocabulary is None or TASKS.get(task).build_in_vocabulary is None:
+        return None
+    return list(vocabulary)
+
+
 def build_items(
     tasks: list[str] | None = None,
     limit: int | None = None,
     on_item: Callable[[Item], None] | None = None,
+    vocabulary: tuple[str, ...] | None = None,
 ) -> list[Item]:
     """The suite's items, task by task (`limit`: at most that many queries per task). Deterministic.
-    `on_item` is called as each item is made (generation takes minutes: a progress bar)."""
+    `on_item` is called as each item is made (generation takes minutes: a progress bar). `vocabulary`: the
+    categories a closed-set detector can find; the tasks that can be drawn in it are (see the module
+    docstring), the others are built as always."""
     chosen = task_names() if tasks is None else tasks
     unknown = [t for t in chosen if t not in TASKS]
     if unknown:
@@ -146,7 +164,13 @@ def build_items(
     for name in chosen:
         task = TASKS.get(name)
         n = task.size if limit is None else min(limit, task.size)
-        for item in task.build(n, task.seed_base):
+        within = drawn_in(name, vocabulary)
+        built = (
+            task.build(n, task.seed_base)
+            if within is None or task.build_in_vocabulary is None
+            else task.build_in_vocabulary(n, task.seed_base, tuple(within))
+        )
+        for item in built:
             items.append(item)
             if on_item is not None:
                 on_item(item)
@@ -154,10 +178,15 @@ def build_items(
 
 
 def write_dataset(
-    items: list[Item], out: Path, images: bool = True, on_image: Callable[[Item], None] | None = None
+    items: list[Item],
+    out: Path,
+    images: bool = True,
+    on_image: Callable[[Item], None] | None = None,
+    drawn_for: str | None = None,
 ) -> None:
     """`out/manifest.jsonl`, `out/dataset.json` and, with `images`, `out/images/<id>.png` (the view the
-    item's query is asked on); `on_image` is called as each image is written."""
+    item's query is asked on); `on_image` is called as each image is written. `drawn_for`: the detector
+    whose vocabulary drew the items that can be drawn in one, said in `dataset.json`."""
     out.mkdir(parents=True, exist_ok=True)
     if images:
         from PIL import Image
@@ -173,7 +202,10 @@ def write_dataset(
             if on_image is not None:
                 on_image(item)
     write_whole(out / "manifest.jsonl", "".join(i.model_dump_json() + "\n" for i in items).encode())
-    about = {"suite": "paper", "version": DATASET_VERSION, "items": len(items)}
+    about: dict[str, Any] = {"suite": "paper", "version": DATASET_VERSION, "items": len(items)}
+    drawn = list(dict.fromkeys(i.task for i in items if i.vocabulary is not None))
+    if drawn:  # which tasks' scenes draw only what a detector can find (each item lists the categories)
+        about["drawn_in_vocabulary"] = {"detector": drawn_for, "tasks": drawn}
     write_whole(out / "dataset.json", (json.dumps(about, indent=2) + "\n").encode())
 
 

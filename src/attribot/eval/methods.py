@@ -93,6 +93,7 @@ class Record(BaseModel):
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
     wall_s: float = 0.0
     sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
+    perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
@@ -277,6 +278,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         error_category=_category(answer),
         sim_s=answer.sim_s,
         checks=answer.checks,
+        perception=answer.perception,
     )
 
 

@@ -29,6 +29,7 @@ from attribot.eval.datasets import (
     DATASET_VERSION,
     Item,
     build_items,
+    drawn_in,
     item_count,
     read_dataset,
     write_dataset,
@@ -43,6 +44,7 @@ from attribot.eval.methods import (
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
 from attribot.files import write_whole
+from attribot.models.base import findable_categories
 from attribot.shutdown import die_with_parent
 
 __all__ = ["EvalPlan", "RunSummary", "RunLock", "run_eval", "read_records", "records_path", "worker_pool"]
@@ -87,9 +89,12 @@ class RunSummary:
     subset: Subset | None = None  # the items a closed-set detector kept, per task; None: every item
 
 
-def fingerprint(settings: Settings, subset: str | None = None) -> dict[str, Any]:
+def fingerprint(
+    settings: Settings, subset: str | None = None, vocabulary: tuple[str, ...] | None = None
+) -> dict[str, Any]:
     """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
-    the closed-set detector whose classes chose the items (None: every item)."""
+    the closed-set detector whose classes chose the items (None: every item); `vocabulary`: the categories
+    it can find, in which the embodied tasks' items are drawn (None: the catalog's)."""
     return {
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
@@ -101,6 +106,7 @@ def fingerprint(settings: Settings, subset: str | None = None) -> dict[str, Any]
         "llm_model": getattr(settings, "llm_model", None),
         "llm_base_url": getattr(settings, "llm_base_url", None),
         "subset": subset,
+        "vocabulary": None if vocabulary is None else list(vocabulary),
     }
 
 
@@ -194,8 +200,8 @@ def _set_aside_torn(path: Path) -> str | None:
     return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
 
-def _check_run(out: Path, settings: Settings, subset: str | None) -> None:
-    want = fingerprint(settings, subset)
+def _check_run(out: Path, settings: Settings, subset: str | None, vocabulary: tuple[str, ...] | None) -> None:
+    want = fingerprint(settings, subset, vocabulary)
     path = out / "run.json"
     if path.is_file():
         have = json.loads(path.read_text(encoding="utf-8"))
@@ -234,9 +240,11 @@ def _dataset(
     progress: Callable[[str], None],
     source: Path | None = None,
     source_items: list[Item] | None = None,
+    vocabulary: tuple[str, ...] | None = None,
 ) -> list[Item]:
     """The plan's items: from the run's dataset when it holds them, else taken from the built dataset at
-    `source` (`source_items`, with its images) or generated, and added to the run's dataset."""
+    `source` (`source_items`, with its images) or generated, and added to the run's dataset. `vocabulary`:
+    the categories the run's closed-set detector can find, in which the tasks that can be are drawn."""
     folder = out / "dataset"
     have = {i.id: i for i in read_dataset(folder)} if (folder / "manifest.jsonl").is_file() else {}
     given = None if source is None else {i.id: i for i in source_items or []}
@@ -244,8 +252,9 @@ def _dataset(
     missing: list[Item] = []
     for task in plan.tasks:
         need = item_count(task, plan.limit)
+        within = drawn_in(task, vocabulary)
         present = _first(have, task, need)
-        if len(present) == need:
+        if len(present) == need and all(i.vocabulary == within for i in present):
             items += present
             continue
         if given is not None and source is not None:
@@ -261,17 +270,39 @@ def _dataset(
                     f"the dataset at {source} has no image of {', '.join(absent[:3])}",
                     "build it again with attribot dataset build",
                 )
+            _same_vocabulary(task, built, within, source)
             progress(f"taking {need} {task} items from {source}")
         else:
             progress(f"generating {task} items: 0/{need}")
             built = build_items(
-                [task], plan.limit, on_item=_counter(progress, f"generating {task} items", need)
+                [task],
+                plan.limit,
+                on_item=_counter(progress, f"generating {task} items", need),
+                vocabulary=vocabulary,
             )
         items += built
-        missing += [i for i in built if i.id not in have]
+        missing += [i for i in built if have.get(i.id) != i]
     if missing:
         _add_to_dataset(folder, have, missing, progress, source if given is not None else None)
     return items
+
+
+def _same_vocabulary(task: str, items: list[Item], within: list[str] | None, source: Path) -> None:
+    """Refuses a built dataset whose `task` items were drawn in another vocabulary than this run draws in."""
+    other = next((i for i in items if i.vocabulary != within), None)
+    if other is None:
+        return
+    if other.vocabulary is None:
+        what = "in any category of the catalog, and this run draws them in those its detector can find"
+    elif within is None:
+        what = "in the categories a closed-set detector can find, and this run draws them in any category"
+    else:
+        what = "in other categories than those this run's detector can find"
+    raise InputError(
+        f"the dataset at {source} drew its {task} items {what}",
+        "build the dataset with the run's --findable-by (attribot dataset build --findable-by SPEC), or "
+        "leave out --dataset to generate them",
+    )
 
 
 def _add_to_dataset(
@@ -374,21 +405,23 @@ def run_eval(
     # the detector whose classes choose the items, asked before any work (a bad spec fails here)
     chooser = plan.findable_by or str(settings.detector)
     closed = closed_set_detector(chooser, settings)
+    vocabulary = None if closed is None else findable_categories(closed)
     with RunLock(out):
-        _check_run(out, settings, chooser if closed is not None else None)
+        _check_run(out, settings, chooser if closed is not None else None, vocabulary)
         summary = _run_locked(plan, settings, out, workers, executor, say, on_record, dataset, given, started,
-                              _Chooser(chooser, closed, note or say))  # fmt: skip
+                              _Chooser(chooser, closed, note or say, vocabulary))  # fmt: skip
     return summary
 
 
 @dataclass(frozen=True)
 class _Chooser:
-    """The closed-set detector that chooses a run's items (None: every item is kept), and where to say
-    what it kept."""
+    """The closed-set detector that chooses a run's items (None: every item is kept), where to say what it
+    kept, and the categories it can find (in which the tasks that can be are drawn; None: any)."""
 
     spec: str
     detector: Any
     note: Callable[[str], None]
+    vocabulary: tuple[str, ...] | None = None
 
     def choose(self, out: Path, items: list[Item]) -> tuple[list[Item], Subset | None]:
         if self.detector is None:
@@ -420,7 +453,7 @@ def _run_locked(
         note = _set_aside_torn(path)
         if note is not None:
             say(note)
-    items, subset = chooser.choose(out, _dataset(out, plan, say, dataset, given))
+    items, subset = chooser.choose(out, _dataset(out, plan, say, dataset, given, chooser.vocabulary))
     jobs, skipped = _jobs(items, plan, out)
     total = len(jobs)
     handles: dict[Path, Any] = {}

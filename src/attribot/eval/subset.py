@@ -2,12 +2,17 @@
 
 A detector trained on a closed set of classes (the `coco` backend: COCO's 80) cannot find a kettle, so an
 item whose query chooses among a kettle, a mug and a book measures the detector's vocabulary, not the
-method. A run with such a detector keeps the items whose `object_categories` (the objects the query
-chooses among, from the world's truth) the detector says it can find: it is asked itself
-(`attribot.models.base.can_find`), nothing here knows its classes. `--findable-by SPEC` takes the subset
-of another detector, so that the oracle runs on the items the coco detector is judged on. An
-open-vocabulary detector keeps every item. The run says per task how many items of how many it kept, and
-which categories left the others out.
+method. Two rules make a closed-set run's items, per task:
+- drawn: a task that can be drawn in a vocabulary (`Task.build_in_vocabulary`, the embodied tasks) draws
+  its items in scenes whose objects are all of the catalog categories the detector can find
+  (`attribot.models.base.findable_categories`), and every item is kept;
+- kept: for the other tasks (the still-image ones), the run keeps the items whose `object_categories` (the
+  objects the query chooses among, from the world's truth) the detector says it can find.
+Either way the detector is asked itself (`attribot.models.base.can_find`): nothing here knows its classes.
+`--findable-by SPEC` takes the items of another detector, so that the oracle runs on exactly the items the
+coco detector is judged on (the same seeds, scenes and queries). An open-vocabulary detector keeps every
+item of the catalog's scenes. The run says per task which rule made its items, how many it kept of how
+many, and which categories left the others out.
 """
 
 from __future__ import annotations
@@ -34,18 +39,32 @@ class Subset:
     name: str  # the detector's own name
     kept: dict[str, tuple[int, int]] = field(default_factory=dict)
     left_out: dict[str, Counter[str]] = field(default_factory=dict)
+    drawn: set[str] = field(default_factory=set)  # the tasks whose items were drawn in its vocabulary
 
     @property
     def rule(self) -> str:
-        return (
+        kept = (
             f"items whose objects are all among the classes of the detector {self.spec} ({self.name}): the "
             "true object and those its query chooses among"
         )
+        if not self.drawn:
+            return kept
+        drawn = (
+            f"{', '.join(t for t in self.kept if t in self.drawn)}: items drawn in scenes whose objects, "
+            f"the candidates and all others, are of the categories the detector {self.spec} ({self.name}) "
+            "can find"
+        )
+        others = [t for t in self.kept if t not in self.drawn]
+        return drawn if not others else f"{drawn}; {', '.join(others)}: {kept}"
 
     def says(self, task: str) -> str:
-        """What was kept of `task`: "62 of 100 items kept; 38 left out, with objects ... (kettle 20, ...)"."""
+        """What was kept of `task`: "62 of 100 items kept; 38 left out, with objects ... (kettle 20, ...)",
+        or for a task drawn in the detector's vocabulary "50 of 50 items kept, drawn in scenes whose objects
+        coco can all find"."""
         kept, of = self.kept[task]
         text = f"{kept} of {of} items kept"
+        if task in self.drawn:
+            text += f", drawn in scenes whose objects {self.spec} can all find"
         if kept < of:
             why = ", ".join(f"{c} {n}" for c, n in self.left_out[task].most_common())
             text += f"; {of - kept} left out, with objects {self.spec} cannot find ({why})"
@@ -68,7 +87,9 @@ def closed_set_detector(spec: str, settings: Settings) -> Detector | None:
 
 
 def findable_items(items: list[Item], spec: str, detector: Detector) -> tuple[list[Item], Subset]:
-    """The items whose object categories `detector` can all find, in their order, and what was kept."""
+    """The items whose object categories `detector` can all find, in their order, and what was kept. Items
+    drawn in its vocabulary are checked the same way (their tasks are named as drawn): by construction
+    every one is kept."""
     known: dict[str, bool] = {}
     subset = Subset(spec=spec, name=detector.name)
     kept: list[Item] = []
@@ -81,6 +102,8 @@ def findable_items(items: list[Item], spec: str, detector: Detector) -> tuple[li
                 missing.append(category)
         if not item.object_categories:
             missing.append("(no categories recorded)")
+        if item.vocabulary is not None:
+            subset.drawn.add(item.task)
         had, of = subset.kept.get(item.task, (0, 0))
         subset.left_out.setdefault(item.task, Counter()).update(missing)
         subset.kept[item.task] = (had + (not missing), of + 1)

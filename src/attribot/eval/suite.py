@@ -6,7 +6,9 @@ compares on it, the paper's published accuracies, why our rows differ from them,
 tagged task registry is the model: `tagged("embodied")` lists the embodied tasks). A `Method` says how one
 of the paper's rows runs on an item. Tasks register themselves in the modules of `attribot.eval.tasks`,
 methods in `attribot.eval.methods`; adding a task is one `register_task(Task(...))` in one of those modules.
-A task belongs to a suite (`attribot eval --suite NAME`): `paper`, the paper's five experiments, or
+A task whose scenes are generated may say how to draw its items in the categories a closed-set detector can
+find (`build_in_vocabulary`): a run with such a detector draws them so, and keeps every item. A task belongs
+to a suite (`attribot eval --suite NAME`): `paper`, the paper's five experiments, or
 `senses`, the senses the paper proposed adding (temperature, softness, fullness).
 """
 
@@ -38,6 +40,9 @@ __all__ = [
 
 Build = Callable[[int, int], Iterator["Item"]]
 """Builds a task's items: (queries, seed base) -> items, deterministic."""
+BuildIn = Callable[[int, int, tuple[str, ...]], Iterator["Item"]]
+"""Builds a task's items in a vocabulary: (queries, seed base, categories) -> items whose scenes draw their
+objects from those categories only (each item records them), deterministic."""
 Run = Callable[["Item", "Settings", str], "Record"]
 """Runs a method on one item: (item, settings, noise condition) -> its record."""
 
@@ -57,6 +62,10 @@ class Task:
     tags: frozenset[str] = frozenset()  # e.g. "embodied" (Table I), "image" (the bar figures)
     forms: tuple[str, ...] = ("n/a",)  # each query is asked in each form (size: superlative and absolute)
     suite: str = "paper"  # the suite it belongs to: paper (the paper's experiments) or senses
+    build_in_vocabulary: BuildIn | None = None
+    """How its items are drawn in the categories a closed-set detector can find, so that a run with that
+    detector keeps every item (`attribot.eval.subset`); None: it cannot be, and such a run keeps the items
+    whose objects the detector can find."""
 
     def item_count(self, limit: int | None = None) -> int:
         """Items built for at most `limit` queries (every query gives one item per form)."""

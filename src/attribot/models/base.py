@@ -35,6 +35,7 @@ __all__ = [
     "detect_many",
     "answer_many",
     "can_find",
+    "findable_categories",
     "BackendStatus",
     "probe_backend",
 ]
@@ -72,9 +73,11 @@ class Detection(BaseModel):
 class Detector(Protocol):
     """Open-vocabulary detection: boxes for the noun phrases in `queries`, best first.
 
-    A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt) and
-    `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup); `can_find` below
-    asks any detector."""
+    A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt),
+    `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup) and `class_of(name)
+    -> str | None` (the one class a name reaches); `can_find` and `findable_categories` below ask any
+    detector. One whose answer depends on nothing but the frame's RGB pixels and the queries says so with
+    `pixels_only = True`, and is then asked once per view (`attribot.models.cache`)."""
 
     name: str
 
@@ -122,6 +125,30 @@ def can_find(detector: Detector, name: str) -> bool:
     `can_find`; an open-vocabulary one (no `can_find`) takes any name."""
     ask = getattr(detector, "can_find", None)
     return True if ask is None else bool(ask(name))
+
+
+def findable_categories(detector: Detector) -> tuple[str, ...] | None:
+    """The categories layouts draw (`attribot.sim.catalog`) that `detector` can find, in catalog order, for a
+    scene whose objects it can all name (`SceneConfig.vocabulary`); None for an open-vocabulary detector,
+    which finds any. Two categories that reach one class of the detector (a ball and a basketball are both
+    a sports ball) could not be told apart by it, so only the first in catalog order is kept; a detector
+    that says which class a name reaches (`class_of`) keeps only names that reach one."""
+    if getattr(detector, "can_find", None) is None:
+        return None
+    from attribot.sim.catalog import categories
+
+    class_of = getattr(detector, "class_of", None)
+    classes: set[str] = set()
+    found: list[str] = []
+    for cat in categories():
+        if not cat.drawn or not can_find(detector, cat.name):
+            continue
+        same = cat.name if class_of is None else class_of(cat.name)
+        if same is None or same in classes:
+            continue
+        classes.add(same)
+        found.append(cat.name)
+    return tuple(found)
 
 
 Builder = Callable[[str | None, "Settings"], Any]

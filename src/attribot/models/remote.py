@@ -297,6 +297,7 @@ class RemoteDetector:
         self.client = client
         self.name = f"remote:{client.url}"
         self.served_by: str | None = None  # the server's backend name, once a request has been answered
+        self.pixels_only = True  # the server is sent the RGB pixels and the queries, nothing else
 
     def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
         """Detections of `queries` in `frame` (boxes in its pixels), best first, as the server ranks them."""

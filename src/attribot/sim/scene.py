@@ -161,13 +161,19 @@ class ScenePlan:
 
 @dataclass(frozen=True)
 class SceneRequest:
-    """What the caller asked for: object count, categories (None: the layout chooses), layout options, and
-    the robot ("mast" or "ep")."""
+    """What the caller asked for: object count, categories (None: the layout chooses), layout options, the
+    robot ("mast" or "ep"), and the vocabulary: the names of the only categories the layout may draw
+    from (None: every category it draws), its own rules (pickable, small enough) applied within them."""
 
     n_objects: int | None = None
     categories: tuple[Category, ...] | None = None
     options: dict[str, Any] = field(default_factory=dict)
     robot: str = "mast"
+    vocabulary: frozenset[str] | None = None
+
+    def drawable(self, cat: Category) -> bool:
+        """Whether the layout may draw `cat` unasked: a category layouts draw, within the vocabulary."""
+        return cat.drawn and (self.vocabulary is None or cat.name in self.vocabulary)
 
     def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
         value = self.options.get(name, default)
@@ -277,8 +283,15 @@ def _pool(request: SceneRequest, predicate: Callable[[Category], bool]) -> list[
     if request.categories:
         pool = list(request.categories)
     else:
-        pool = [c for c in categories() if c.drawn and predicate(c)]
+        pool = [c for c in categories() if request.drawable(c) and predicate(c)]
     if not pool:
+        if request.vocabulary is not None and not request.categories:
+            names = sorted(request.vocabulary)
+            raise InputError(
+                f"none of the {len(names)} categories this scene may draw from fits this layout "
+                f"({', '.join(names[:6])}{', ...' if len(names) > 6 else ''})",
+                "choose another layout, or draw from more categories",
+            )
         raise InputError("no object category fits this layout", "choose other categories")
     return pool
 
@@ -458,9 +471,18 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         if i == odd_index and odd_kind == "category":
             others = [
                 c
-                for c in (pool[1:] if request.categories and len(pool) > 1 else _pool(SceneRequest(), _small))
+                for c in (
+                    pool[1:]
+                    if request.categories and len(pool) > 1
+                    else _pool(SceneRequest(vocabulary=request.vocabulary), _small)
+                )
                 if c.name != main.name
             ]
+            if not others:
+                raise InputError(
+                    f"an arrangement with odd=category needs a second category besides {main.name}",
+                    "use --option odd=size or odd=color, or draw from more categories",
+                )
             cat = others[int(rng.integers(len(others)))]
             size = float(np.clip(common, *cat.size_range_m))
             col = str(cat.colors[int(rng.integers(len(cat.colors)))])
@@ -495,7 +517,7 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
                 )
     else:
         ok = _triplet_ok if request.robot != "ep" else (lambda c: _triplet_ok(c) and _ep_graspable(c))
-        pool = sorted(_pool(SceneRequest(), ok), key=lambda c: c.typical_mass_kg)
+        pool = sorted(_pool(SceneRequest(vocabulary=request.vocabulary), ok), key=lambda c: c.typical_mass_kg)
         for _ in range(1000):
             first = pool[int(rng.integers(len(pool)))]
             chosen = [first]
@@ -797,6 +819,13 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
             raise InputError(
                 f"the EP-like robot's gripper (about 10 cm open) cannot hold {', '.join(unfit)}",
                 "choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
+            )
+    if req.vocabulary is not None:
+        outside = [c.name for c in req.categories or () if c.name not in req.vocabulary]
+        if outside:
+            raise InputError(
+                f"{', '.join(outside)} is not among the categories this scene may draw from",
+                "leave it out of the categories, or draw from a vocabulary that holds it",
             )
     rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
     plan = fn(rng, req)

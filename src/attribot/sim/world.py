@@ -144,8 +144,13 @@ class SimWorld:
         self.robot = config.robot
         self._joints = robot_ep.EP_JOINTS if self.robot == "ep" else _ROBOT_JOINTS
         self.finger_open = robot_ep.EP.finger_open if self.robot == "ep" else GEOMETRY.finger_range[1]
+        vocabulary = config.vocabulary
         request = SceneRequest(
-            config.objects, resolve_categories(config.categories), dict(config.options), config.robot
+            config.objects,
+            resolve_categories(config.categories),
+            dict(config.options),
+            config.robot,
+            None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
         )
         self.width, self.height, self.profile = width, height, config.profile
         self.force_noise_std = config.force_noise_std

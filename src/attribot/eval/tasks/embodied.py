@@ -1,6 +1,11 @@
 """The paper's embodied tasks (its Table I): which named object is closer, which is the most lightweight, in
 household scenes, with the rangefinder or the wrist force sensor. The truth is the world's distance from the
-camera and the objects' masses."""
+camera and the objects' masses.
+
+Both can be drawn in a vocabulary (`Task.build_in_vocabulary`): for a run with a closed-set detector, every
+object of every scene, the candidates and the others, is of a category the detector can find, so that the
+run keeps every item; the same seeds are tried in the same order, and the items keep the same properties
+(distinct categories, pickable candidates for weight, distances 15 cm apart, visible)."""
 
 from __future__ import annotations
 
@@ -24,10 +29,11 @@ def _named(objects: list[ObjectInfo]) -> str:
     return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 2 else f"{names[0]} and {names[1]}"
 
 
-def _candidates(seed: int, pickable: bool) -> list[ObjectInfo] | None:
-    """Up to three visible objects of the household scene of `seed`, one per category (so that a name picks
-    one object); None where the scene has too few, or no room for its objects."""
-    config = SceneConfig(layout="household", seed=seed, width=WIDTH, height=HEIGHT)
+def _candidates(seed: int, pickable: bool, vocabulary: tuple[str, ...] | None) -> list[ObjectInfo] | None:
+    """Up to three visible objects of the household scene of `seed` (drawn in `vocabulary`, None: any
+    category), one per category (so that a name picks one object); None where the scene has too few, or no
+    room for its objects."""
+    config = SceneConfig(layout="household", seed=seed, width=WIDTH, height=HEIGHT, vocabulary=vocabulary)
     try:
         info = scene_info(config)
     except InputError:
@@ -50,12 +56,14 @@ def _distance_query(made: int, chosen: list[ObjectInfo]) -> tuple[str, list[Obje
     return f"Out of {_named(chosen)}, which one is closer to me?", chosen
 
 
-def _embodied_items(task: str, n: int, start_seed: int) -> Iterator[Item]:
+def _embodied_items(
+    task: str, n: int, start_seed: int, vocabulary: tuple[str, ...] | None = None
+) -> Iterator[Item]:
     distance = task == "distance_embodied"
     made, seed = 0, start_seed
     while made < n:
         seed += 1
-        chosen = _candidates(seed, pickable=not distance)
+        chosen = _candidates(seed, not distance, vocabulary)
         if chosen is None:
             continue
         if distance:
@@ -83,16 +91,17 @@ def _embodied_items(task: str, n: int, start_seed: int) -> Iterator[Item]:
             true_box=truth.box or [],
             candidates=[o.id for o in chosen],
             object_categories=sorted({o.category for o in chosen}),
+            vocabulary=None if vocabulary is None else list(vocabulary),
         )
         made += 1
 
 
-def _distance_items(n: int, start_seed: int) -> Iterator[Item]:
-    return _embodied_items("distance_embodied", n, start_seed)
+def _distance_items(n: int, start_seed: int, vocabulary: tuple[str, ...] | None = None) -> Iterator[Item]:
+    return _embodied_items("distance_embodied", n, start_seed, vocabulary)
 
 
-def _weight_items(n: int, start_seed: int) -> Iterator[Item]:
-    return _embodied_items("weight_embodied", n, start_seed)
+def _weight_items(n: int, start_seed: int, vocabulary: tuple[str, ...] | None = None) -> Iterator[Item]:
+    return _embodied_items("weight_embodied", n, start_seed, vocabulary)
 
 
 register_task(
@@ -101,6 +110,7 @@ register_task(
         size=50,
         seed_base=40_000,
         build=_distance_items,
+        build_in_vocabulary=_distance_items,
         methods=("ovd", "vqa", "attr-api", "vlm", "pa-api"),
         paper={
             "ovd": (("OVD", 0.64),),
@@ -120,6 +130,7 @@ register_task(
         size=50,
         seed_base=50_000,
         build=_weight_items,
+        build_in_vocabulary=_weight_items,
         methods=("ovd", "vqa", "attr-api", "vlm", "pa-api"),
         paper={
             "ovd": (("OVD", 0.14),),
