@@ -382,15 +382,15 @@ class Manipulator:
             return
         name = f"the top of {target.describe()}"
         placed = None if box is None else estimate_object(frame.depth, camera, view, pose, box)
-        flat = height < 0.03 and placed is not None and abs(placed.support_z - top.z) <= 0.02
-        if flat and any(bool(seen.on_top(placed.xy(), margin=seen.cell)[0]) for seen in tops):
-            return  # too flat to stand out of the top in depth (a CD): seen by the detector lying on it
         if placed is None:
             raise ControlError(
                 f"put_on failed: after letting go, the camera sees nothing standing on {name} where the "
                 f"{hold.label} was put",
                 "it may have fallen; find it again in a new image",
             )
+        flat = height < 0.03 and abs(placed.support_z - top.z) <= 0.02
+        if flat and any(bool(seen.on_top(placed.xy(), margin=seen.cell)[0]) for seen in tops):
+            return  # too flat to stand out of the top in depth (a CD): seen by the detector lying on it
         off = float(np.linalg.norm(placed.xy() - spot.xy()))
         raise ControlError(
             f"put_on failed: the {hold.label} came to rest {off * 100:.0f} cm from where it was let go, at "

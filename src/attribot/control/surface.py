@@ -148,11 +148,11 @@ def _levels(zs: np.ndarray, near: tuple[np.ndarray, float] | None) -> list[float
 def _layer(ij: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """The cells of a layer's points, with gaps of a cell closed (depth samples a far, slanted top
     sparsely) and strips two cells wide opened away (a vertical face crosses every layer as a line)."""
-    mask = np.zeros(shape, np.uint8)
-    mask[ij[:, 0], ij[:, 1]] = 1
+    cells = np.zeros(shape, np.uint8)
+    cells[ij[:, 0], ij[:, 1]] = 1
     square = np.ones((3, 3), np.uint8)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, square)
-    return cv2.morphologyEx(mask, cv2.MORPH_OPEN, square).astype(bool)
+    closed = cv2.morphologyEx(cells, cv2.MORPH_CLOSE, square)
+    return np.asarray(cv2.morphologyEx(closed, cv2.MORPH_OPEN, square), bool)
 
 
 def _part(mask: np.ndarray, near: np.ndarray | None) -> np.ndarray | None:
