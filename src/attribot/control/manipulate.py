@@ -451,20 +451,22 @@ class Manipulator:
 
     def carry_height(self, hold: Hold, z: float) -> None:
         """Pull the arm in with what is held, then raise it to `z` (at least where it is), to drive with it:
-        in first, the way it came out, since a shelf's board may hang over where it was picked. Where the
-        lift stops short (the object still under the board), it goes down again and the base backs off a
-        little before the next try."""
+        in first, the way it came out, since a shelf's board may hang over where it was picked. Where a
+        telescoping lift stops short (the object still under the board), it goes down again and the base
+        backs off a little before the next try."""
         t = self.plant.tuning
         lift = self.plant.lift()
         self.plant.world.set_arm(lift, 0.0)
         self.plant.settle(t.arm_move_s)
         if z <= lift:
             return
+        body = self.plant.geometry()
         for _ in range(3):
             self.plant.world.set_arm(z, 0.0)
             self.plant.settle(t.arm_move_s)
             stopped = self.plant.lift()
-            if stopped >= z - 0.03:  # a heavy load sags a centimetre or two
+            # a heavy load sags a centimetre or two; a two-link arm reaches only what its linkage allows
+            if stopped >= z - 0.03 or body is None or body.arm is not None:
                 return
             self.plant.world.set_arm(lift, 0.0)
             self.plant.settle(t.arm_move_s)
