@@ -221,3 +221,50 @@ def test_it_says_what_it_can_find(detector):
     assert len(detector.vocabulary) == 80 and "cup" in detector.vocabulary
     assert detector.can_find("the red mug") and detector.can_find("object")
     assert not detector.can_find("kettle") and not detector.can_find("")
+
+
+# ---- speed: views kept across queries, views batched ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def household_frame() -> Frame:
+    from attribot.sim.world import SimWorld
+
+    world = SimWorld(layout="household", seed=5, width=640, height=480)
+    try:
+        return world.observe()
+    finally:
+        world.close()
+
+
+def _same(a: list, b: list) -> bool:
+    return [d.label for d in a] == [d.label for d in b] and np.allclose(
+        [(*d.box, d.score) for d in a], [(*d.box, d.score) for d in b], atol=1e-4
+    )
+
+
+SMALL = 320  # the network's input side in these tests: what they check holds at any size, and it is quicker
+
+
+def test_another_query_about_the_same_pixels_runs_no_view_again(household_frame):
+    kept = CocoDetector(input_size=SMALL)
+    first = kept.detect(household_frame, ["book"])  # not sure in the whole image: its tiles are looked at
+    assert kept.forwarded == 1 + 9
+    second = kept.detect(household_frame, ["cup", "apple"])
+    again = kept.detect(Frame(rgb=household_frame.rgb.copy()), ["book"])  # another frame, the same pixels
+    assert kept.forwarded == 10 and kept.reused >= 1 + 10
+    # the very answers a detector that kept nothing gives
+    fresh = CocoDetector(input_size=SMALL)
+    assert _same(again, first) and _same(first, fresh.detect(household_frame, ["book"]))
+    fresh = CocoDetector(input_size=SMALL)
+    assert _same(second, fresh.detect(household_frame, ["cup", "apple"]))
+
+
+def test_a_batch_of_views_gives_the_same_boxes_as_one_pass_per_view(household_frame):
+    one_by_one, batched = CocoDetector(batch=1, input_size=SMALL), CocoDetector(batch=10, input_size=SMALL)
+    a = one_by_one.detect(household_frame, ["object"])
+    b = batched.detect(household_frame, ["object"])
+    assert a and _same(a, b)
+    assert build_backend("detector", "coco?batch=4", load_settings()).batch == 4
+    with pytest.raises(ConfigError, match="batch"):
+        CocoDetector(batch=0)

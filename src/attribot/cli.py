@@ -67,6 +67,17 @@ class _Commands(_PlainFlags, TyperGroup):
                 return super().invoke(ctx)
             except AttribotError as exc:
                 raise fail(exc.message, exc.fix) from None
+            except OSError as exc:  # the machine's, not the input's: a full disk, a folder that is a file
+                from attribot.files import disk_full
+
+                where = f" ({exc.filename})" if exc.filename else ""
+                raise fail(
+                    f"{exc.strerror or exc.__class__.__name__}{where}",
+                    "free some space (the disk or your quota is full) and run the same command again; what "
+                    "was written before is kept"
+                    if disk_full(exc)
+                    else "check that path and its permissions, or give another, and run the command again",
+                ) from None
             except _USAGE_ERROR as exc:
                 # a flag click could not parse: a script that asked for --json still gets the answer's shape
                 # on stdout (click prints its usage message to stderr and exits 2 as usual)
@@ -82,21 +93,80 @@ PLUGINS_ENV = "ATTRIBOT_PLUGINS"
 
 
 def _load_plugins() -> None:
+    """Import the modules named in ATTRIBOT_PLUGINS, then every registry's own plug-ins. Whatever a module
+    does wrong as it is imported (a name that is no module, an exception, a syntax error, `sys.exit`, a
+    name taken from attribot's own) is a `ConfigError` naming the module and what it did; what it prints
+    goes to stderr, so that --json output stays JSON."""
     import importlib
     import os
+    import sys
 
     from attribot.errors import ConfigError
+    from attribot.registry import Registry
 
-    for name in (m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",")):
-        if not name:
-            continue
-        try:
-            importlib.import_module(name)
-        except ImportError as exc:
+    names = [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
+    fix = f"fix the module, or take it out of {PLUGINS_ENV}"
+    for name in names:
+        if not all(part.isidentifier() for part in name.split(".")):
+            relative = (
+                " (a relative name: there is no package for it to be relative to)" if name[0] == "." else ""
+            )
             raise ConfigError(
-                f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
-                f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+                f"{PLUGINS_ENV} names {name[:100]!r}, which is no module name{relative}",
+                f"give absolute module names separated by commas, e.g. {PLUGINS_ENV}=lab_sensors,lab.worlds",
+            )
+        try:
+            with contextlib.redirect_stdout(sys.stderr):
+                importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name or name.startswith(f"{exc.name}."):  # the module itself, not one it imports
+                raise ConfigError(
+                    f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                    f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
+                ) from None
+            raise ConfigError(
+                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
+        except SystemExit as exc:
+            raise ConfigError(
+                f"the plug-in module {name!r} called sys.exit({exc.code!r}) as it was imported"[:300],
+                f"a plug-in registers what it adds and returns; {fix}",
+            ) from None
+        except BaseException as exc:  # noqa: BLE001 (anything a module does as it is imported is its own)
+            raise ConfigError(
+                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+            ) from None
+    if names:
+        try:  # a plug-in that took a built-in's name, or a method Robot has, is said now, not later
+            Registry.load_all()
+            from attribot.api.robot import Robot
+
+            Robot.API_METHODS  # noqa: B018 (installs the plug-ins' sensor methods, refusing a clash)
+        except AttribotError as exc:
+            raise ConfigError(
+                f"a plug-in of {PLUGINS_ENV} ({', '.join(names)}) clashes with attribot's own: {exc.message}",
+                exc.fix or fix,
+            ) from None
+
+
+def _raised(exc: BaseException) -> str:
+    """What an exception raised in a plug-in says, and where in the plug-in (not inside attribot)."""
+    import traceback
+
+    where = ""
+    if isinstance(exc, SyntaxError) and exc.filename:
+        where = f" ({exc.filename}, line {exc.lineno})"
+    else:
+        own = str(Path(__file__).resolve().parent)
+        frames = [
+            f
+            for f in traceback.extract_tb(exc.__traceback__)
+            if not f.filename.startswith(("<frozen", own)) and "importlib" not in f.filename
+        ]
+        if frames:
+            where = f" ({frames[-1].filename}, line {frames[-1].lineno})"
+    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    return (text if len(text) <= 300 else text[:297] + "...") + where
 
 
 _USAGE_ERROR: type[typer.BadParameter] = typer.BadParameter.__mro__[1]
@@ -645,6 +715,14 @@ def exec_program(
     query: str = typer.Option(
         "", "--query", metavar="TEXT", help="The question the program answers (recorded only)."
     ),  # fmt: skip
+    trust_saved: bool = typer.Option(
+        False,
+        "--trust-saved-backends",
+        help="Replay a saved folder with its own endpoints, models and world (remote:URL, openai: at its "
+        "llm_base_url, hf:MODEL, a robot bridge): its settings then decide where your ATTRIBOT_LLM_API_KEY, "
+        "ATTRIBOT_REMOTE_TOKEN, ATTRIBOT_BRIDGE_TOKEN and camera images go. Only for folders you made; "
+        "without it those come from your own settings.",
+    ),
     given: Any = None,
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one. A
@@ -658,7 +736,8 @@ def exec_program(
         if program.is_dir():
             from attribot.session import load_saved
 
-            load_saved(program)  # a folder that is no saved run says what it lacks, before the flags
+            # a folder that is no saved run says what it lacks, before the flags
+            load_saved(program, trust_saved_backends=trust_saved)
             if flags:
                 shown = ", ".join(_flag_name(n) for n in flags)
                 raise fail(
@@ -668,46 +747,38 @@ def exec_program(
                 )
             from attribot.session import replay
 
-            answer = replay(program, save_dir=given.save)
+            answer = replay(program, save_dir=given.save, trust_saved_backends=trust_saved)
         elif not flags and (program.parent / RUN_FILE).is_file():
             err_console.print(
-                f"[dim]running in the scene saved beside it ({program.parent / RUN_FILE}); scene flags "
-                "run it elsewhere[/]",
+                f"[dim]running in the scene saved beside it ({escape(str(program.parent / RUN_FILE))}); "
+                "scene flags run it elsewhere[/]",
                 highlight=False,
             )
-            answer = _saved_scene_run(program, query, given.save)
+            answer = _saved_scene_run(program, query, given.save, trust_saved)
+        elif trust_saved:
+            raise fail(
+                "--trust-saved-backends replays a folder written by --save, and this program runs in the "
+                "world its flags describe",
+                "drop --trust-saved-backends, or give the saved folder",
+            )
         else:
             answer = _file_run(program, query, given)
     _show(answer, given.as_json)
 
 
-def _read_program(program: Path) -> str:
-    from attribot.errors import InputError
-    from attribot.files import check_regular_file
-
-    check_regular_file(program, "program file", "give the path of a .py file, or a folder written by --save")
-    try:
-        return program.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the code
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(
-            f"program file {str(program)!r} cannot be read as UTF-8 text ({exc.__class__.__name__})",
-            "save it as UTF-8",
-        ) from None
-
-
 def _file_run(program: Path, query: str, given: Any) -> Any:
     scene = _scene(given)
-    from attribot.session import run_program
+    from attribot.session import read_program, run_program
 
-    source = _read_program(program)
+    source = read_program(program)
     return run_program(source, scene, _settings(given), query=query, save_dir=given.save)
 
 
-def _saved_scene_run(program: Path, query: str, save: Path | None) -> Any:
-    from attribot.session import load_saved, run_program
+def _saved_scene_run(program: Path, query: str, save: Path | None, trusted: bool) -> Any:
+    from attribot.session import load_saved, read_program, run_program
 
-    _, scene, settings, saved_query = load_saved(program.parent)
-    source = _read_program(program)
+    _, scene, settings, saved_query = load_saved(program.parent, trust_saved_backends=trusted)
+    source = read_program(program)
     return run_program(source, scene, settings, query=query or saved_query, save_dir=save, planner="replay")
 
 
@@ -831,13 +902,17 @@ def dataset_show(
         )
     item = items[item_id]
     typer.echo(item.model_dump_json(indent=2))
-    image = folder / "images" / f"{item_id}.png"
-    if image.is_file():
+    if (folder / "images" / f"{item_id}.png").exists():
         from PIL import Image, ImageDraw
 
+        from attribot.files import inside
+        from attribot.frame import load_image
+
+        fix = "build the dataset again with attribot dataset build"
+        image = inside(folder, f"images/{item_id}.png", "the item's image", fix)  # never a file elsewhere
         target = _shown_path(out, folder, item_id)
         _writable_folder(target.parent, "--out")
-        img = Image.open(image).convert("RGB")
+        img = Image.fromarray(load_image(image))
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
         img.save(target)
         err_console.print(f"image with the true box -> {target}", highlight=False)
@@ -1107,7 +1182,7 @@ def serve_models(
     """Serve the configured detector, VQA and language backends over HTTP with dynamic batching."""
     from pydantic import ValidationError
 
-    from attribot.config import load_settings
+    from attribot.config import load_settings, revealed
     from attribot.server import ServerConfig, build_served_backends, check_bind, listen_socket, served_specs
     from attribot.server import serve_models as run_server
 
@@ -1116,7 +1191,7 @@ def serve_models(
     settings = load_settings()
     try:
         config = ServerConfig(
-            token=token or settings.remote_token,
+            token=token or revealed(settings.remote_token),
             max_batch=max_batch,
             batch_window_ms=batch_window_ms,
             max_image_mb=max_image_mb,

@@ -16,12 +16,24 @@ names its flags, the Python API's its keywords), so that no flag name lives here
 
 from __future__ import annotations
 
+import contextvars
 import os
+import types
+import typing
+import urllib.parse
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SecretStr,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+)
 from pydantic_settings import (
     BaseSettings,
     PydanticBaseSettingsSource,
@@ -29,10 +41,11 @@ from pydantic_settings import (
     TomlConfigSettingsSource,
 )
 
-from attribot.errors import ConfigError, InputError
-from attribot.files import not_a_file
+from attribot.errors import ConfigError, InputError, InvalidSetting, InvalidValue
+from attribot.files import not_a_file, read_capped
 from attribot.noise import WorldNoise
 from attribot.registry import Registry
+from attribot.text import plain_value, shown_url
 
 __all__ = [
     "Settings",
@@ -50,6 +63,10 @@ __all__ = [
     "MAX_TIME_S",
     "RENDER_PROFILES",
     "ROBOTS",
+    "SECRETS",
+    "MAX_SETTINGS_BYTES",
+    "plain_input",
+    "revealed",
 ]
 
 MAX_QUERY_CHARS = 500
@@ -69,13 +86,36 @@ see `attribot.sim.robot_ep`)."""
 OBJECT_LOOKS = ("detailed", "primitive")
 """detailed: objects that look like their category; primitive: their body primitives (see
 `attribot.sim.looks`)."""
+MAX_SETTINGS_BYTES = 1_000_000
+"""The largest settings file read (attribot's settings fill a few hundred bytes)."""
+MAX_SECRET_CHARS = 4096
+MAX_TEXT_SETTING_CHARS = 4096
+"""The longest text setting (a URL, a model name, a backend spec): longer ones are no such thing."""
+
+
+def _numeric(annotation: Any) -> bool:
+    """Whether a field's type is a number (int, float, or one of them or None)."""
+    if annotation in (int, float):
+        return True
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return any(a in (int, float) for a in typing.get_args(annotation))
+    return False
+
+
+def plain_input(model: type[BaseModel], name: str | None, value: Any) -> Any:
+    """The one check of every config and settings field's input before its type's own (`plain_value`)."""
+    if name is None:
+        return value
+    return plain_value(value, number=_numeric(model.model_fields[name].annotation))
 
 
 class Settings(BaseSettings):
     """Resolved configuration of attribot. Backend specs: `oracle`, `catalog`, `hf:MODEL`,
     `openai:MODEL`, `remote:URL`."""
 
-    model_config = SettingsConfigDict(env_prefix="ATTRIBOT_", extra="forbid", validate_default=True)
+    model_config = SettingsConfigDict(
+        env_prefix="ATTRIBOT_", extra="forbid", validate_default=True, hide_input_in_errors=True
+    )
 
     # perception backends, one spec per role
     detector: str = "oracle"
@@ -86,7 +126,7 @@ class Settings(BaseSettings):
     planner: str = "rules"
     llm_base_url: str | None = None
     llm_model: str = "gpt-4o"
-    llm_api_key: str | None = Field(default=None, repr=False)
+    llm_api_key: SecretStr | None = Field(default=None, repr=False)  # see SECRETS
     llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
     llm_max_tries: int = Field(3, ge=1, le=100)
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
@@ -99,7 +139,7 @@ class Settings(BaseSettings):
     coco_dir: Path | None = None
 
     # remote model server
-    remote_token: str | None = Field(default=None, repr=False)
+    remote_token: SecretStr | None = Field(default=None, repr=False)
     remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
@@ -110,6 +150,63 @@ class Settings(BaseSettings):
     program_wall_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     cache_dir: Path = Path(".attribot-cache")
+
+    def __init__(self, **values: Any) -> None:
+        """Settings from `values`, the ATTRIBOT_* variables and the settings file; a bad one raises
+        `InvalidSetting` naming it and where it came from (`load_settings` is the usual way in)."""
+        try:
+            super().__init__(**values)
+        except ValidationError as exc:
+            error = _setting_error(exc, values, KEYWORDS)
+            error.validation = exc  # type: ignore[attr-defined]  # load_settings names it its own way
+            raise error from None
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _plain(cls, value: Any, info: ValidationInfo) -> Any:
+        return plain_input(cls, info.field_name, value)
+
+    @field_validator("detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "checks")
+    @classmethod
+    def _short_text(cls, value: str) -> str:
+        if len(value) > MAX_TEXT_SETTING_CHARS:
+            raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
+        return value
+
+    @field_validator("llm_base_url")
+    @classmethod
+    def _http_url(cls, value: str | None) -> str | None:
+        if value is None:
+            return None
+        if len(value) > MAX_TEXT_SETTING_CHARS:
+            raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
+        if any(c.isspace() for c in value):
+            raise ValueError("it holds a space, which no URL does")
+        try:
+            parts = urllib.parse.urlsplit(value)
+            parts.port  # noqa: B018 (a port out of range raises here)
+            host = parts.hostname or ""
+            host.encode("idna")
+        except (ValueError, UnicodeError):
+            raise ValueError("it is not a URL (its host or port cannot be read)") from None
+        if parts.scheme not in ("http", "https") or not host:
+            raise ValueError("it is not an http(s) URL with a host, e.g. http://127.0.0.1:8000/v1")
+        return value
+
+    @field_validator("llm_api_key", "remote_token")
+    @classmethod
+    def _header_safe(cls, value: SecretStr | None) -> SecretStr | None:
+        # it travels in an HTTP header: visible ASCII only (a space, a newline or an accent breaks the
+        # request, or splits the header)
+        if value is None or not value.get_secret_value():  # ATTRIBOT_LLM_API_KEY= (empty) sets none
+            return None
+        text = value.get_secret_value()
+        if len(text) > MAX_SECRET_CHARS or not all("!" <= c <= "~" for c in text):
+            raise ValueError(
+                f"a key or token is 1 to {MAX_SECRET_CHARS} visible ASCII characters, with no space, "
+                "accent or control character"
+            )
+        return value
 
     @classmethod
     def settings_customise_sources(
@@ -128,10 +225,20 @@ class Settings(BaseSettings):
 
     def public_dict(self) -> dict[str, Any]:
         """The settings as JSON-ready data, with secrets left out: what a run saves."""
-        data = self.model_dump(mode="json")
-        for secret in ("llm_api_key", "remote_token"):
+        data = {k: shown_url(v) if isinstance(v, str) else v for k, v in self.model_dump(mode="json").items()}
+        for secret in SECRETS:  # and a password in a URL (remote:http://user:pw@host) is left out too
             data[secret] = None if data.get(secret) is None else "***"
         return data
+
+
+def revealed(secret: SecretStr | None) -> str | None:
+    """The text of a secret setting, where it is sent (an HTTP header); None when it is not set."""
+    return None if secret is None else secret.get_secret_value()
+
+
+SECRETS = tuple(name for name, f in Settings.model_fields.items() if f.annotation == SecretStr | None)
+"""The settings that hold secrets (typed `SecretStr`: masked wherever they are shown, read only with
+`.get_secret_value()` where they are sent), never saved and never echoed in an error."""
 
 
 def config_path() -> Path | None:
@@ -153,35 +260,53 @@ def config_path() -> Path | None:
 def load_settings(naming: FieldNaming | None = None, **overrides: Any) -> Settings:
     """Settings from file and environment; keyword arguments (CLI flags) win over both.
 
-    A file that is not UTF-8 TOML, an unknown key or a bad value is a `ConfigError` that names the
+    A file that is not UTF-8 TOML, an unknown key or a bad value is an `InvalidSetting` that names the
     setting and where it came from (the given value as `naming` spells it, the ATTRIBOT_* variable or the
-    file)."""
+    file); a secret's value is never shown."""
     given = {k: v for k, v in overrides.items() if v is not None}
     path = config_path()
     if path is not None:
         _check_toml(path)
     try:
         return Settings(**given)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        name = ".".join(str(p) for p in first.get("loc", ())) or "settings"
-        env = f"ATTRIBOT_{name.upper()}"
-        if name in given:
-            source = (naming or KEYWORDS).name(name)
-        elif any(k.upper() == env for k in os.environ):
-            source = f"the environment variable {env}"
-        else:
-            source = f"the settings file {str(path)!r}" if path is not None else "the defaults"
-        value = first.get("input")
-        if first.get("type") == "extra_forbidden":
-            known = ", ".join(Settings.model_fields)
-            raise ConfigError(
-                f"{source} has an unknown setting {name!r}", f"remove it; the settings are: {known}"
-            ) from None
-        raise ConfigError(
-            f"setting {name} = {value!r} (from {source}) is not valid: {first.get('msg', 'invalid')}",
-            f"fix {name} in {source}; `attribot backends` shows the resolved configuration",
-        ) from None
+    except InvalidSetting as exc:
+        raise _setting_error(exc.validation, given, naming or KEYWORDS) from None  # type: ignore[attr-defined]
+
+
+def _setting_error(exc: ValidationError, given: dict[str, Any], naming: FieldNaming) -> InvalidSetting:
+    """The first error of `exc` as an `InvalidSetting` naming the setting and its source, and the fix."""
+    first = exc.errors()[0]
+    name = ".".join(str(p) for p in first.get("loc", ())) or "settings"
+    env = f"ATTRIBOT_{name.upper()}"
+    path = config_path()
+    if name in given:
+        source = naming.name(name)
+    elif any(k.upper() == env for k in os.environ):
+        source = f"the environment variable {env}"
+    else:
+        source = f"the settings file {str(path)!r}" if path is not None else "the defaults"
+    if first.get("type") == "extra_forbidden":
+        known = ", ".join(Settings.model_fields)
+        return InvalidSetting(
+            f"{source} has an unknown setting {shown_url(name)[:100]!r}",
+            f"remove it; the settings are: {known}",
+        )
+    value = first.get("input")
+    if name in SECRETS:
+        kind = (
+            "a secret, not shown"
+            if isinstance(value, str | SecretStr)
+            else f"not text: {type(value).__name__}"
+        )
+        shown = f"({kind})"
+    else:
+        text = shown_url(repr(value))
+        shown = text if len(text) <= 200 else text[:197] + "..."
+    message = str(first.get("msg", "invalid")).removeprefix("Value error, ")
+    return InvalidSetting(
+        f"setting {name} = {shown} (from {source}) is not valid: {message}",
+        f"fix {name} in {source}; `attribot backends` shows the resolved configuration",
+    )
 
 
 def _check_toml(path: Path) -> None:
@@ -189,11 +314,13 @@ def _check_toml(path: Path) -> None:
     import tomllib
 
     try:
-        tomllib.loads(path.read_bytes().decode("utf-8"))
-    except OSError as exc:
-        raise ConfigError(
-            f"the settings file {str(path)!r} cannot be read ({exc.strerror or exc})", "check its permissions"
-        ) from None
+        data = read_capped(
+            path, "the settings file", MAX_SETTINGS_BYTES, "attribot's settings are a few lines"
+        )
+    except InputError as exc:
+        raise ConfigError(exc.message, exc.fix) from None
+    try:
+        tomllib.loads(data.decode("utf-8"))
     except UnicodeDecodeError as exc:
         raise ConfigError(
             f"the settings file {str(path)!r} is not UTF-8 text (byte {exc.start})", "save it as UTF-8"
@@ -225,7 +352,39 @@ KEYWORDS = FieldNaming(lambda field: f"{field}=", lambda field, value: f"{field}
 OptionValue = str | int | float | bool
 
 
-class SceneConfig(BaseModel):
+_NAMING: contextvars.ContextVar[FieldNaming | None] = contextvars.ContextVar("naming", default=None)
+
+
+class _WorldConfig(BaseModel):
+    """What every world's config shares: a bad field, given to the constructor or to `create`, is an
+    `InvalidValue` (an `InputError`, and a ValueError) that names it as the caller spells it, with its limits
+    and the fix; true or false is no number, and text holds no undecodable byte or control character."""
+
+    WHAT: ClassVar[str] = "world"
+
+    def __init__(self, **fields: Any) -> None:
+        try:
+            super().__init__(**fields)
+        except ValidationError as exc:
+            raise _invalid(type(self), exc, _NAMING.get() or KEYWORDS) from None
+
+    @classmethod
+    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> Any:
+        """A validated config; a bad field raises `InvalidValue` naming it (as `naming` spells it), its
+        limits and the fix."""
+        given = _NAMING.set(naming)  # read by __init__, which pydantic also calls from model_validate
+        try:
+            return cls(**fields)
+        finally:
+            _NAMING.reset(given)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _plain(cls, value: Any, info: ValidationInfo) -> Any:
+        return plain_input(cls, info.field_name, value)
+
+
+class SceneConfig(_WorldConfig):
     """Where a query runs in the embedded world: the layout and seed, and what overrides the layout's choice.
 
     layout: "household" | "arrangement" | "triplet" (see `attribot.sim.scene`); seed: the same seed gives
@@ -238,9 +397,11 @@ class SceneConfig(BaseModel):
     force_noise_std: Gaussian noise of the wrist force sensor, newtons per axis; noise: the
     world's seeded imperfections of sensing and acting (`attribot.noise.WorldNoise`, presets by name);
     robot: "mast" (the default) or "ep" (RoboMaster-EP-like: its scenes put the objects on the floor).
-    Build it with `SceneConfig.create(...)` to get an `InputError` that names the bad field.
+    A bad field is an `InvalidValue` naming it (`SceneConfig.create(naming=...)` names it as a caller
+    spells it).
     """
 
+    WHAT: ClassVar[str] = "scene"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     layout: str = "household"
@@ -278,49 +439,37 @@ class SceneConfig(BaseModel):
             raise ValueError(f"unknown render profile; choose one of: {', '.join(RENDER_PROFILES)}")
         return value
 
-    @classmethod
-    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> SceneConfig:
-        """A validated config; a bad field raises `InputError` naming it (as `naming` spells it), its
-        limits and the fix."""
-        return _create(cls, "scene", naming, fields)
-
     def describe(self) -> dict[str, Any]:
         """The fields that differ from the defaults, always with layout and seed: what answers record."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         return {"layout": self.layout, "seed": self.seed, **data}
 
 
-class BridgeConfig(BaseModel):
+class BridgeConfig(_WorldConfig):
     """A robot behind `attribot bridge serve`: its address `url` (tcp://HOST:PORT) and the time-out of
     one request. The shared token is never part of a config (it comes from ATTRIBOT_BRIDGE_TOKEN), so a
     saved run holds no secret."""
 
+    WHAT: ClassVar[str] = "bridge"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     url: str = Field(pattern=r"^tcp://[^:/]+:\d+$")
     timeout_s: float = Field(10.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
-    @classmethod
-    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> BridgeConfig:
-        return _create(cls, "bridge", naming, fields)
-
     def describe(self) -> dict[str, Any]:
         return {"url": self.url, **self.model_dump(mode="json", exclude_defaults=True, exclude={"url"})}
 
 
-class Ai2ThorConfig(BaseModel):
+class Ai2ThorConfig(_WorldConfig):
     """An AI2-THOR scene: its name (FloorPlan1 to FloorPlan430), camera pixels and field of view."""
 
+    WHAT: ClassVar[str] = "ai2thor"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     scene: str = "FloorPlan1"
     width: int = Field(640, ge=16, le=4096, strict=True)
     height: int = Field(480, ge=16, le=4096, strict=True)
     fov_deg: float = Field(90.0, gt=0, lt=180, allow_inf_nan=False)
-
-    @classmethod
-    def create(cls, naming: FieldNaming | None = None, **fields: Any) -> Ai2ThorConfig:
-        return _create(cls, "ai2thor", naming, fields)
 
     def describe(self) -> dict[str, Any]:
         return {"scene": self.scene, **self.model_dump(mode="json", exclude_defaults=True)}
@@ -334,22 +483,21 @@ WORLD_CONFIGS.register("bridge")(BridgeConfig)
 WORLD_CONFIGS.register("ai2thor")(Ai2ThorConfig)
 
 
-def _create(cls: Any, what: str, naming: FieldNaming | None, fields: dict[str, Any]) -> Any:
-    """`cls(**fields)`, a bad field an `InputError` naming it as `naming` spells it, and the fix."""
-    naming = naming or KEYWORDS
-    try:
-        return cls(**fields)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        name = ".".join(str(p) for p in first.get("loc", ())) or what
-        field = name.split(".")[0]
-        value = first.get("input")
-        shown = naming.name(field) if field in cls.model_fields else name
-        fix = _FIXES.get(field)
-        raise InputError(
-            f"{what} setting {name} ({shown}) = {value!r} is not valid: {first.get('msg', 'invalid')}",
-            fix(naming) if fix else f"the {what} settings are: {', '.join(cls.model_fields)}",
-        ) from None
+def _invalid(cls: Any, exc: ValidationError, naming: FieldNaming) -> InvalidValue:
+    """The first error of `exc` as an `InvalidValue` naming the field as `naming` spells it, and the fix."""
+    what = cls.WHAT
+    first = exc.errors()[0]
+    name = ".".join(str(p) for p in first.get("loc", ())) or what
+    field = name.split(".")[0]
+    value = shown_url(repr(first.get("input")))
+    shown = naming.name(field) if field in cls.model_fields else name
+    fix = _FIXES.get(field)
+    message = str(first.get("msg", "invalid")).removeprefix("Value error, ")
+    value = value if len(value) <= 200 else value[:197] + "..."
+    return InvalidValue(
+        f"{what} setting {name} ({shown}) = {value} is not valid: {message}",
+        fix(naming) if fix else f"the {what} settings are: {', '.join(cls.model_fields)}",
+    )
 
 
 _FIXES: dict[str, Callable[[FieldNaming], str]] = {

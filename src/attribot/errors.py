@@ -10,6 +10,9 @@ __all__ = [
     "UnsupportedAction",
     "InputError",
     "BackendError",
+    "InvalidValue",
+    "InvalidSetting",
+    "BadPlugin",
 ]
 
 
@@ -53,3 +56,17 @@ class UnsupportedAction(AttribotError):
 
 class BackendError(AttribotError):
     """A model backend or endpoint failed: unreachable, refused the key, timed out, answered garbage."""
+
+
+class InvalidValue(InputError, ValueError):
+    """A config record given a value it cannot take (`SceneConfig(seed=-1)`), naming the field, its limits
+    and the fix; a ValueError too, as the validation error it replaces was."""
+
+
+class InvalidSetting(ConfigError, ValueError):
+    """A setting that cannot take its value (from the settings file, an ATTRIBOT_* variable or a keyword),
+    naming it and where it came from, and never echoing a secret; a ValueError too."""
+
+
+class BadPlugin(ConfigError, ValueError):
+    """A plug-in that cannot be registered: a name that is taken, a method name a program cannot call."""

@@ -1,20 +1,47 @@
-"""Writing files so that nothing is ever half-written: the one place for it.
+"""Files: written so that nothing is ever half-written, and read from outside within bounds. The one place
+for both.
 
 `write_whole` writes beside the target and renames into place, so a reader (or a crash) sees the old file
 or the new one, never a part. `check_writable` tries the only sure test of writability (a probe file),
 since permission bits lie to root (/proc/self looks writable) and /dev/null is not a folder.
+
+What comes from outside (a saved run, a run folder, a dataset, a settings file) is read as a stranger's
+data: `inside` takes a file only inside the folder it belongs to (no absolute name, no `..`, no link that
+leads out); `read_capped` reads only a regular file, and only when its size is within a stated bound,
+checked before a byte is read; `read_json` and `parse_json` bound JSON in size and in depth.
+`disk_full` names a write that failed for want of room, so that a command can say so and stop cleanly.
 """
 
 from __future__ import annotations
 
+import errno
+import json
 import os
 import stat
 import tempfile
-from pathlib import Path
+from pathlib import Path, PurePosixPath
+from typing import Any
 
 from attribot.errors import InputError
 
-__all__ = ["write_whole", "check_writable", "check_regular_file", "not_a_file"]
+__all__ = [
+    "write_whole",
+    "check_writable",
+    "check_regular_file",
+    "not_a_file",
+    "inside",
+    "read_capped",
+    "read_json",
+    "parse_json",
+    "disk_full",
+    "MAX_JSON_BYTES",
+    "MAX_JSON_DEPTH",
+]
+
+MAX_JSON_BYTES = 1_000_000
+"""The largest JSON file of settings or of a run's description read from outside (ours are a few kB)."""
+MAX_JSON_DEPTH = 32
+"""The deepest nesting of JSON read from outside (ours nest five deep)."""
 
 
 def write_whole(path: Path, data: bytes) -> None:
@@ -48,8 +75,13 @@ def not_a_file(path: Path) -> str | None:
         mode = path.stat().st_mode
     except FileNotFoundError:
         return "missing"
-    except OSError as exc:
-        return f"unreadable ({exc.strerror or exc})"
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the name
+        return f"unreadable ({getattr(exc, 'strerror', None) or exc})"
+    return _kind(mode)
+
+
+def _kind(mode: int) -> str | None:
+    """None for a regular file; else what `mode` says the file is."""
     if stat.S_ISREG(mode):
         return None
     if stat.S_ISDIR(mode):
@@ -72,6 +104,108 @@ def check_regular_file(path: Path, what: str, fix: str) -> None:
     if kind.startswith("unreadable"):
         raise InputError(f"{what} {str(path)!r} cannot be read: it is {kind}", fix)
     raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file", fix)
+
+
+def inside(folder: Path, name: object, what: str, fix: str) -> Path:
+    """The file `name` of `folder`, resolved; an `InputError` unless it lies inside the folder: a name that is
+    not text, absolute, climbs out with `..`, or a link (anywhere on the way) that leads out."""
+    if not isinstance(name, str) or not name.strip() or "\x00" in name:
+        raise InputError(f"{what} {name!r} is not the name of a file in {str(folder)!r}", fix)
+    relative = PurePosixPath(name)
+    if relative.is_absolute() or ".." in relative.parts:
+        raise InputError(f"{what} {name!r} points outside {str(folder)!r}: only its own files are read", fix)
+    try:
+        base = folder.resolve()
+        path = (base / relative).resolve()
+    except (OSError, RuntimeError) as exc:  # a loop of links
+        raise InputError(f"{what} {name!r} in {str(folder)!r} cannot be resolved ({exc})", fix) from None
+    if not path.is_relative_to(base):
+        raise InputError(
+            f"{what} {name!r} is a link that leads outside {str(folder)!r}: only its own files are read", fix
+        )
+    return path
+
+
+def read_capped(path: Path, what: str, max_bytes: int, fix: str) -> bytes:
+    """The bytes of the regular file `path`; an `InputError` naming `what` when it is missing, not a regular
+    file (a FIFO would block, /dev/zero never ends) or larger than `max_bytes`, said from its size before
+    anything is read (and again if it grows while it is read)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # a FIFO opens without waiting
+    except FileNotFoundError:
+        raise InputError(f"{what} {str(path)!r} does not exist", fix) from None
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or exc
+        raise InputError(f"{what} {str(path)!r} cannot be read ({reason})", fix) from None
+    try:
+        info = os.fstat(fd)
+        kind = _kind(info.st_mode)
+        if kind is not None:
+            raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file", fix)
+        if info.st_size > max_bytes:
+            raise InputError(
+                f"{what} {str(path)!r} holds {info.st_size:,} bytes, more than the {max_bytes:,} allowed", fix
+            )
+        chunks, size = [], 0
+        while size <= max_bytes:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise InputError(f"{what} {str(path)!r} cannot be read ({exc.strerror or exc})", fix) from None
+    finally:
+        os.close(fd)
+    if size > max_bytes:
+        raise InputError(f"{what} {str(path)!r} grew past the {max_bytes:,} bytes it may hold", fix)
+    return b"".join(chunks)
+
+
+def parse_json(data: bytes | str, what: str, fix: str, max_depth: int = MAX_JSON_DEPTH) -> Any:
+    """JSON text from outside, as data; an `InputError` naming `what` when it is not UTF-8 JSON or nests
+    deeper than `max_depth`."""
+    try:
+        text = data.decode("utf-8") if isinstance(data, bytes) else data
+        value = json.loads(text)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{what} is not UTF-8 text (byte {exc.start})", fix) from None
+    except RecursionError:
+        raise InputError(f"{what} nests deeper than the {max_depth} levels allowed", fix) from None
+    except ValueError as exc:
+        raise InputError(f"{what} is not valid JSON ({exc})", fix) from None
+    if _depth(value, max_depth) > max_depth:
+        raise InputError(f"{what} nests deeper than the {max_depth} levels allowed", fix)
+    return value
+
+
+def read_json(
+    path: Path, what: str, fix: str, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH
+) -> Any:
+    """The JSON file `path` from outside, as data: `read_capped`, then `parse_json`."""
+    return parse_json(read_capped(path, what, max_bytes, fix), f"{what} {str(path)!r}", fix, max_depth)
+
+
+def _depth(value: Any, limit: int) -> int:
+    """How deep `value` nests (lists and dicts), counting no further than `limit` + 1."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if not isinstance(item, list | dict):
+            continue
+        deepest = max(deepest, depth)
+        if depth > limit:
+            return depth
+        stack.extend((v, depth + 1) for v in (item.values() if isinstance(item, dict) else item))
+    return deepest
+
+
+_NO_ROOM = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG}
+
+
+def disk_full(exc: BaseException) -> bool:
+    """Whether `exc` is a write that failed for want of room: the disk or the quota full, a file too large."""
+    return isinstance(exc, OSError) and exc.errno in _NO_ROOM
 
 
 def _umask() -> int:

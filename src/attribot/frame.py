@@ -8,6 +8,7 @@ A crop keeps all layers aligned and remembers where it sits in the full frame.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +19,15 @@ import numpy as np
 from attribot.boxes import crop_array
 from attribot.errors import InputError
 
-__all__ = ["ObjectTruth", "CameraInfo", "Frame", "load_image", "check_rgb", "MAX_IMAGE_PIXELS"]
+__all__ = [
+    "ObjectTruth",
+    "CameraInfo",
+    "Frame",
+    "load_image",
+    "check_rgb",
+    "pixel_digest",
+    "MAX_IMAGE_PIXELS",
+]
 
 
 @dataclass(frozen=True)
@@ -62,6 +71,15 @@ def check_rgb(rgb: np.ndarray) -> np.ndarray:
     if rgb.shape[0] == 0 or rgb.shape[1] == 0:
         raise ValueError("an image must have at least one pixel")
     return rgb
+
+
+def pixel_digest(rgb: np.ndarray) -> bytes:
+    """16 bytes that stand for an image's pixels: equal for equal images (same shape, same values), and
+    different for different ones but with a chance of 2^-128. What a detector that reads nothing but the
+    pixels is keyed by, in its caches."""
+    digest = hashlib.blake2b(repr((rgb.shape, rgb.dtype.str)).encode(), digest_size=16)
+    digest.update(np.ascontiguousarray(rgb).data)
+    return digest.digest()
 
 
 @dataclass(frozen=True, eq=False)

@@ -22,9 +22,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from attribot.errors import ConfigError
+from attribot.text import plain_value
 
 __all__ = ["WorldNoise", "NOISE_PRESETS", "preset", "world_noise"]
 
@@ -65,6 +66,11 @@ class WorldNoise(BaseModel):
     slip: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
     odom_drift: float = Field(0.0, ge=0.0, le=1.0, allow_inf_nan=False)
     seed: int = Field(0, ge=0, le=2**32 - 1)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_bool(cls, value: Any) -> Any:
+        return plain_value(value, number=True)  # every field is a number: `slip = true` is not 1.0
 
     @property
     def clean(self) -> bool:

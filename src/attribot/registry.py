@@ -8,10 +8,11 @@ and free of side effects.
 from __future__ import annotations
 
 import importlib
+import weakref
 from collections.abc import Callable, Iterator
-from typing import Generic, TypeVar
+from typing import Any, ClassVar, Generic, TypeVar
 
-from attribot.errors import UnknownName
+from attribot.errors import BadPlugin, UnknownName
 
 __all__ = ["Registry"]
 
@@ -27,20 +28,34 @@ class Registry(Generic[T]):
     3
     """
 
+    _every: ClassVar[weakref.WeakSet[Any]] = weakref.WeakSet()
+
     def __init__(self, kind: str, modules: tuple[str, ...] = ()) -> None:
         self.kind = kind
         self._modules = modules
         self._loaded = not modules
         self._entries: dict[str, T] = {}
         self._aliases: dict[str, str] = {}
+        Registry._every.add(self)
+
+    @classmethod
+    def load_all(cls) -> None:
+        """Register the built-in plug-ins of every registry made so far: after a lab's plug-ins are imported,
+        so that one that took a built-in's name is refused now, naming it, not at some later look-up."""
+        for registry in list(cls._every):
+            registry._load()
 
     def register(self, name: str, *, aliases: tuple[str, ...] = ()) -> Callable[[T], T]:
-        """Decorator that adds `obj` under `name` (and its aliases); a name used twice is an error."""
+        """Decorator that adds `obj` under `name` (and its aliases); a name used twice is a `BadPlugin`."""
 
         def add(obj: T) -> T:
             for key in (name, *aliases):
                 if key in self._entries or key in self._aliases:
-                    raise ValueError(f"{self.kind} {key!r} is registered twice")
+                    raise BadPlugin(
+                        f"{self.kind} {key!r} is registered twice: attribot's own or an earlier plug-in "
+                        "has it",
+                        f"give the new {self.kind} another name",
+                    )
             self._entries[name] = obj
             for alias in aliases:
                 self._aliases[alias] = name

@@ -16,14 +16,23 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, ValidationError
 
-from attribot.config import WORLD_CONFIGS, Settings, WorldConfig, load_settings
+from attribot.config import (
+    MAX_QUERY_CHARS,
+    WORLD_CONFIGS,
+    FieldNaming,
+    Settings,
+    WorldConfig,
+    load_settings,
+    plain_input,
+)
 from attribot.errors import ConfigError, InputError
-from attribot.files import check_regular_file, check_writable, write_whole
+from attribot.files import check_regular_file, check_writable, inside, read_capped, read_json, write_whole
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
+from attribot.text import shown_url
 
 __all__ = [
     "Scene",
@@ -32,10 +41,14 @@ __all__ = [
     "ask",
     "run_program",
     "replay",
+    "load_saved",
+    "replay_settings",
+    "read_program",
     "save_answer",
     "check_save_dir",
     "SAVED_FILES",
     "RUN_FILE",
+    "TRUST_SAVED",
 ]
 
 SAVED_FILES = ("answer.json", "program.py", "settings.json", "run.json", "answer.png", "episode.mp4")
@@ -62,6 +75,18 @@ class Scene:
     still: bool = False
 
     def __post_init__(self) -> None:
+        named = (("world", self.world, "mujoco"), ("controller", self.controller, "servo"))
+        for name, value, example in named:
+            if value is not None and not isinstance(value, str):
+                raise InputError(
+                    f"Scene({name}={_shown(value)}): a {name} is given by its name (text), not as "
+                    f"{type(value).__name__}",
+                    f"give a name, e.g. Scene({name}={example!r}), or leave {name} out",
+                )
+        if not isinstance(self.still, bool):
+            raise InputError(
+                f"Scene(still={_shown(self.still)}) is not True or False", "give still=True or False"
+            )
         if self.image is not None and (self.config is not None or self.world is not None):
             raise InputError(
                 "a query runs either on an image or in a world, not both",
@@ -69,7 +94,7 @@ class Scene:
             )
         self._check_sensors()
         if self.image is not None:  # a missing file, a folder, a FIFO or /dev/zero is named before any work
-            self.image = Path(self.image)
+            self.image = _path_of(self.image, "the image", "give the path of a PNG or JPEG file")
             check_regular_file(self.image, "the image", "give the path of a PNG or JPEG file")
             return
         self.world = self._world_name()
@@ -81,6 +106,11 @@ class Scene:
             return
         if isinstance(self.sensors, str):
             self.sensors = [s.strip() for s in self.sensors.split(",") if s.strip()]
+        if not isinstance(self.sensors, list | tuple) or not all(isinstance(s, str) for s in self.sensors):
+            raise InputError(
+                f"sensors={self.sensors!r} is not a list of sensor names"[:300],
+                "give names, e.g. sensors=['camera', 'distance'] or sensors='camera,distance'",
+            )
         if not list(self.sensors):
             raise InputError("no sensor named: the sensors are empty", "name at least one, e.g. camera")
         if self.image is not None and set(self.sensors) - {"camera"}:
@@ -131,13 +161,26 @@ class Scene:
         }
 
     @classmethod
-    def from_saved(cls, data: dict[str, Any], folder: Path) -> Scene:
-        """The scene `saved()` described, its image file in `folder`."""
+    def from_saved(cls, data: dict[str, Any], folder: Path, trusted: bool = False) -> Scene:
+        """The scene `saved()` described, its image file in `folder` (never outside it). A world that
+        reaches a place (a robot's address) is refused unless `trusted` (see `replay`)."""
+        fix = "give a folder written by `attribot ask --save`, unchanged"
         if data.get("image"):
-            return cls(image=folder / str(data["image"]), sensors=data.get("sensors"))
+            return cls(
+                image=inside(folder, data["image"], "the saved image", fix), sensors=data.get("sensors")
+            )
         world = str(data.get("world") or "mujoco")
         kind: Any = WORLD_CONFIGS.get(world)
-        config = kind.model_validate(data["config"]) if data.get("config") is not None else None
+        config = kind.create(**data["config"]) if data.get("config") is not None else None
+        if "url" in kind.model_fields and not trusted:
+            where = shown_url(str(getattr(config, "url", "")))
+            raise ConfigError(
+                f"the saved run in {str(folder)!r} ran in the {world} world at {where!r}: replaying it would "
+                "act there and send your ATTRIBOT_BRIDGE_TOKEN to it",
+                f"run its program on your own robot (attribot exec {str(folder / 'program.py')!r} --world "
+                f"{world} --bridge-url tcp://HOST:PORT), or, for a folder you made, replay with "
+                f"{TRUST_SAVED} (Python: trust_saved_backends=True)",
+            )
         return cls(
             config=config,
             world=world,
@@ -363,6 +406,7 @@ class Session:
             frame=self.image.frame,
         )
         answer.checks = [e.model_dump() for e in self.safeguards.events]
+        answer.perception = self.perception.counts()
         if self.world_started is not None:
             answer.sim_s = round(self.world.world_time() - self.world_started, 3)
         if save_dir is not None:
@@ -425,12 +469,60 @@ def _scene_of(world: Scene | WorldConfig | str | None) -> Scene:
     )
 
 
-def _settings_of(settings: Settings | None, overrides: dict[str, Any]) -> Settings:
+def _settings_of(
+    settings: Settings | None, overrides: dict[str, Any], naming: FieldNaming | None = None
+) -> Settings:
+    if settings is not None and not isinstance(settings, Settings):
+        raise InputError(
+            f"settings={_shown(settings)} is not attribot's Settings",
+            "give attribot.load_settings(...) or leave it out, and give settings fields as keywords "
+            "(e.g. ask(query, scene, planner='rules'))",
+        )
     if settings is None:
-        return load_settings(**overrides)
+        return load_settings(naming, **overrides)
     if not overrides:
         return settings
-    return load_settings(**{**settings.model_dump(), **overrides})
+    return load_settings(naming, **{**settings.model_dump(), **overrides})
+
+
+def _shown(value: Any) -> str:
+    """A value from a caller, short, for a message."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _path_of(value: Any, what: str, fix: str) -> Path:
+    """A path given to the Python API: text or a path object, with no NUL byte."""
+    if not isinstance(value, str | Path) and not hasattr(value, "__fspath__"):
+        raise InputError(f"{what} must be a path (text or pathlib.Path), not {type(value).__name__}", fix)
+    try:
+        path = Path(value)
+    except TypeError:  # an os.PathLike that gives bytes
+        raise InputError(f"{what} must be a path given as text, not bytes", fix) from None
+    if isinstance(value, str) and not value.strip():  # Path("") would be the current folder
+        raise InputError(f"{what} is empty", fix)
+    if "\x00" in str(path):
+        raise InputError(f"{what} {str(path)!r} holds a NUL byte, which no file name can", fix)
+    return path
+
+
+def _check_watch(watch: Any) -> None:
+    if watch is not None and not isinstance(watch, Watch):
+        raise InputError(
+            f"watch={_shown(watch)} is not a Watch", "give attribot.session.Watch(call=...) or leave it out"
+        )
+    for name in ("program", "call", "frame"):
+        seen = getattr(watch, name, None)
+        if seen is not None and not callable(seen):
+            raise InputError(
+                f"Watch({name}={_shown(seen)}) is not a function", f"give {name}=a function, or None"
+            )
+
+
+def _save_path(save_dir: Any) -> Path | None:
+    if save_dir is None:
+        return None
+    return _path_of(save_dir, "save_dir", "give a new folder for the answer, e.g. save_dir='runs/mug-1'")
 
 
 def ask(
@@ -450,9 +542,10 @@ def ask(
     `save_dir`: keep the answer, program, settings, scene and image there, for `replay`. `watch`: callbacks
     that see each program, API call and episode frame as it happens (the live demo)."""
     text = check_query(query)  # the one check of the query on its way to the planner
+    _check_watch(watch)
     scene = _scene_of(world)
     settings = _settings_of(settings, overrides)
-    save = Path(save_dir) if save_dir is not None else None
+    save = _save_path(save_dir)
     check_save_dir(save)
     from attribot.planning import PlanRequest, build_planner, solve
 
@@ -487,6 +580,19 @@ class _OneRun:
     error: Any = None
 
 
+def read_program(path: Path, what: str = "the program file") -> str:
+    """The text of a program file: a regular file no larger than a program may be (checked before it is
+    read), UTF-8 (a byte-order mark is not part of the code)."""
+    from attribot.runner import Limits
+
+    fix = "give a .py file that defines execute_command(image, robot)"
+    data = read_capped(path, what, 4 * Limits().max_source_chars + 3, fix)  # UTF-8: at most 4 bytes a char
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError(f"{what} {str(path)!r} is not UTF-8 text", "save it as UTF-8") from None
+
+
 def run_program(
     program: str,
     world: Scene | WorldConfig | str | None = None,
@@ -505,29 +611,82 @@ def run_program(
     program = program.removeprefix("\ufeff")  # a byte-order mark, which Python itself accepts in a file
     if not program.strip():
         raise InputError("the program is empty", "give a file that defines execute_command(image, robot)")
+    for name, text in (("query", query), ("planner", planner)):
+        if not isinstance(text, str):
+            raise InputError(f"the {name} must be text, not {type(text).__name__}", f"pass {name}='...'")
     if not is_utf8_text(program) or not is_utf8_text(query):
         raise InputError("the program or the query is not valid UTF-8 text", "save it as UTF-8")
+    if len(query) > MAX_QUERY_CHARS or len(planner) > 100:
+        raise InputError(
+            f"the query is {len(query)} characters long, more than the {MAX_QUERY_CHARS} allowed"
+            if len(query) > MAX_QUERY_CHARS
+            else f"the planner's name is {len(planner)} characters long",
+            "it is recorded only: give the question the program answers, briefly",
+        )
     scene = _scene_of(world)
     settings = _settings_of(settings, overrides)
-    save = Path(save_dir) if save_dir is not None else None
+    save = _save_path(save_dir)
     check_save_dir(save)
     with Session(scene, settings, record=save is not None, title=query) as session:
         return session.finish(query, planner, _OneRun(program, session.run(program)), save)
 
 
-def replay(folder: Path | str, *, save_dir: Path | str | None = None) -> Answer:
+def replay(
+    folder: Path | str, *, save_dir: Path | str | None = None, trust_saved_backends: bool = False
+) -> Answer:
     """Run the program of a `save_dir` folder again, in its saved scene with its saved settings (secrets
-    come from the environment, as they were never saved): the same answer and the same trace."""
-    folder = Path(folder)
-    program, scene, settings, query = load_saved(folder)
+    come from the environment, as they were never saved): the same answer and the same trace.
+
+    A saved folder is a stranger's data: its files are read only inside it, within bounds, and the
+    backends and worlds that reach a place (an endpoint, a model, a robot) come from your own settings;
+    a folder that used others is refused, naming them, unless `trust_saved_backends` (it then decides
+    where your keys, tokens and camera images go: only for folders you made)."""
+    folder = _path_of(folder, "the saved folder", "give the folder that --save wrote")
+    program, scene, settings, query = load_saved(folder, trust_saved_backends=trust_saved_backends)
     return run_program(program, scene, settings, query=query, save_dir=save_dir, planner="replay")
 
 
-def load_saved(folder: Path) -> tuple[str, Scene, Settings, str]:
-    """The program, scene, settings and query of a saved folder; a folder that lacks one says which."""
+TRUST_SAVED = "--trust-saved-backends"
+"""The flag (and, as `trust_saved_backends=True`, the keyword) that lets a saved folder choose its
+endpoints, models and world: it decides where the user's keys, tokens and images go."""
+SAVED_CHOICES = ("checks", "program_wall_s", "detector_threshold", "llm_temperature")
+"""The settings a saved folder decides on its own: how its program ran; none of them names a place."""
+TRUSTED_CHOICES = ("llm_base_url", "llm_model", "hf_device", "hf_dtype")
+"""What a trusted saved folder decides besides its backends: the endpoint and model its openai: backends
+used, and where its hf: models ran."""
+_SAVED_FIX = "give a folder written by `attribot ask --save`, unchanged"
+
+
+class _SavedScene(BaseModel):
+    """The scene part of a saved run.json (what `Scene.saved` writes), checked before any of it is used."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    world: StrictStr | None = Field(None, max_length=100)
+    config: dict[str, Any] | None = None
+    image: StrictStr | None = Field(None, max_length=255)
+    sensors: list[StrictStr] | None = Field(None, max_length=64)
+    controller: StrictStr | None = Field(None, max_length=100)
+    still: StrictBool = False
+
+
+class _SavedRun(BaseModel):
+    """A saved run.json: the query, the planner that wrote the program, the scene."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    query: StrictStr = Field("", max_length=MAX_QUERY_CHARS)
+    planner: StrictStr = Field("", max_length=100)
+    scene: _SavedScene
+
+
+def load_saved(folder: Path, *, trust_saved_backends: bool = False) -> tuple[str, Scene, Settings, str]:
+    """The program, scene, settings and query of a saved folder; a folder that lacks one says which, and one
+    whose files lead out of it, are too large, or ask for a place your own settings do not name (an
+    endpoint, a model, a robot; see `replay`) is refused, naming what."""
     if not folder.is_dir():
         raise InputError(f"{str(folder)!r} is not a folder", "give the folder that --save wrote")
-    missing = [name for name in ("program.py", RUN_FILE, "settings.json") if not (folder / name).is_file()]
+    missing = [name for name in ("program.py", RUN_FILE, "settings.json") if not (folder / name).exists()]
     if missing:
         what = (
             "no program (program.py): its run never produced one"
@@ -538,18 +697,71 @@ def load_saved(folder: Path) -> tuple[str, Scene, Settings, str]:
             f"the folder {str(folder)!r} holds {what}, so it cannot be replayed",
             "give a folder written by `attribot ask --save` whose answer has a program, or a .py file",
         )
+    program = read_program(inside(folder, "program.py", "the saved program", _SAVED_FIX))
+    run = _saved_run(read_json(inside(folder, RUN_FILE, "the saved run", _SAVED_FIX), "the saved run",
+                               _SAVED_FIX), folder)  # fmt: skip
+    saved = read_json(inside(folder, "settings.json", "the saved settings", _SAVED_FIX), "the saved settings",
+                      _SAVED_FIX)  # fmt: skip
+    scene = Scene.from_saved(run.scene.model_dump(), folder, trusted=trust_saved_backends)
+    settings = replay_settings(saved, folder, trust_saved_backends)
+    return program, scene, settings, run.query
+
+
+def _saved_run(data: Any, folder: Path) -> _SavedRun:
     try:
-        program = (folder / "program.py").read_text(encoding="utf-8-sig")
-        run = json.loads((folder / RUN_FILE).read_text(encoding="utf-8"))
-        saved = json.loads((folder / "settings.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        return _SavedRun.model_validate(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first.get("loc", ())) or "the file"
         raise InputError(
-            f"the saved run in {str(folder)!r} cannot be read ({exc.__class__.__name__}: {exc})",
-            "give a folder written by `attribot ask --save`, unchanged",
+            f"the saved run {str(folder / RUN_FILE)!r} is not one attribot wrote: {where}: "
+            f"{first.get('msg', 'invalid')}",
+            _SAVED_FIX,
         ) from None
-    secrets = {"llm_api_key", "remote_token"}
-    kept = {k: v for k, v in saved.items() if k not in secrets and v is not None}
-    return program, Scene.from_saved(run["scene"], folder), load_settings(**kept), str(run.get("query", ""))
+
+
+def replay_settings(saved: Any, folder: Path, trusted: bool = False) -> Settings:
+    """The settings a replay of `folder` runs with (`saved`: its settings.json, as data): your own (file
+    and ATTRIBOT_* variables), with the folder's choices of how its program ran (`SAVED_CHOICES`) and of
+    its backends where they name no place (the oracle, the catalog, coco's own files). A backend that
+    reaches a place and is not your own is refused, naming it, unless `trusted`."""
+    from attribot.models.base import ROLES, reaches_out
+
+    source = f"the saved settings {str(folder / 'settings.json')!r}"
+    if not isinstance(saved, dict):
+        raise InputError(f"{source} is not a table of settings", _SAVED_FIX)
+    unknown = sorted(set(saved) - set(Settings.model_fields))
+    if unknown:
+        raise InputError(f"{source} holds settings attribot has not: {', '.join(unknown)[:200]}", _SAVED_FIX)
+    own = load_settings()
+
+    def yours(key: str) -> bool:  # the folder's value is your own (saved with a URL's password left out)
+        theirs, mine = saved.get(key), getattr(own, key)
+        return theirs is None or theirs == mine or (isinstance(mine, str) and theirs == shown_url(mine))
+
+    keys = SAVED_CHOICES + (TRUSTED_CHOICES if trusted else ())
+    chosen = {k: saved[k] for k in keys if not yours(k)}
+    for role in ROLES:
+        theirs, mine = saved.get(role), getattr(own, role)
+        if yours(role):
+            continue
+        if not isinstance(theirs, str):
+            raise InputError(f"{source}: {role} is not a backend spec", _SAVED_FIX)
+        try:
+            plain_input(Settings, role, theirs)
+        except ValueError as exc:
+            raise InputError(f"{source}: {role} {shown_url(repr(theirs))[:200]}: {exc}", _SAVED_FIX) from None
+        if trusted or not reaches_out(role, theirs):
+            chosen[role] = theirs
+            continue
+        raise ConfigError(
+            f"{source} names the {role} {shown_url(theirs)!r}, and yours is {shown_url(mine)!r}: a saved "
+            "folder does not choose where your keys, tokens and camera images go",
+            f"set the {role} yourself (ATTRIBOT_{role.upper()} or attribot.toml) to replay with it, or, for "
+            f"a folder you made, replay with {TRUST_SAVED} (Python: trust_saved_backends=True)",
+        )
+    naming = FieldNaming(lambda field: source, lambda field, value: f"{field} = {value}")
+    return _settings_of(own, chosen, naming)
 
 
 # ---- saving -----------------------------------------------------------------------------------------

@@ -6,7 +6,15 @@ from __future__ import annotations
 import re
 from typing import Any
 
-__all__ = ["json_safe", "json_safe_data", "visible", "control_characters", "terminal_json"]
+__all__ = [
+    "json_safe",
+    "json_safe_data",
+    "visible",
+    "control_characters",
+    "terminal_json",
+    "shown_url",
+    "plain_value",
+]
 
 _SURROGATES = re.compile("[\ud800-\udfff]")
 # C0 controls but tab and newline, DEL, C1 controls, and the bidirectional overrides and isolates (which
@@ -14,6 +22,7 @@ _SURROGATES = re.compile("[\ud800-\udfff]")
 _CONTROLS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
 # what JSON leaves unescaped but a terminal acts on (JSON already escapes C0 controls)
 _JSON_UNESCAPED = re.compile("[\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+_USERINFO = re.compile(r"(?<=://)[^/@\s]*@")
 
 
 def json_safe(text: str) -> str:
@@ -57,3 +66,27 @@ def terminal_json(text: str) -> str:
     """JSON text for a terminal: the characters JSON leaves as they are but a terminal acts on (C1
     controls, bidirectional overrides) written as `\\u` escapes, which read back to the same data."""
     return _JSON_UNESCAPED.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
+
+
+def shown_url(text: str) -> str:
+    """`text` (a URL, or a backend spec that holds one) to show in a message: a user name and password in
+    it (`http://user:secret@host`) are left out."""
+    return _USERINFO.sub("***@", text)
+
+
+def plain_value(value: Any, number: bool = False) -> Any:
+    """A configuration value from outside, checked before its type's own check: true or false is no number
+    when `number` (pydantic would take `program_wall_s = true` as 1 s), and text holds no byte that is no
+    character (a non-UTF-8 byte of an environment variable) and no control character (newlines and tabs
+    included). Raises ValueError, which pydantic reports under the field's name."""
+    if number and isinstance(value, bool):
+        raise ValueError("a number is needed, not true or false")
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            raise ValueError("it holds bytes that are not UTF-8 text") from None
+        controls = control_characters(value) + [_escape(m) for m in re.finditer("[\t\n]", value)][:1]
+        if controls:
+            raise ValueError(f"it holds control characters ({', '.join(dict.fromkeys(controls))})")
+    return value

@@ -10,6 +10,8 @@ import numpy as np
 from attribot.errors import ConfigError
 from attribot.lexicon import surface_kind
 from attribot.models.base import Detector, LanguageModel, VisualQA, build_backend
+from attribot.models.cache import CachedDetector, cacheable
+from attribot.text import shown_url
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -20,7 +22,11 @@ __all__ = ["Perception"]
 
 @dataclass(frozen=True)
 class Perception:
-    """The three backends behind `find`/`exists`, `visual_query` and `language_query`."""
+    """The three backends behind `find`/`exists`, `visual_query` and `language_query`.
+
+    A detector whose answer depends on the pixels alone is kept behind a `CachedDetector`, so that every
+    caller (find, looking again, the servo, the checks after a grasp) is answered from memory about a view
+    the detector has already seen."""
 
     detector: Detector
     vqa: VisualQA
@@ -39,6 +45,8 @@ class Perception:
                     f"{proto.__name__} protocol",
                     f"give an object with a `name` and a `{method}` method (see attribot.models.base)",
                 )
+        if cacheable(self.detector) and not isinstance(self.detector, CachedDetector):
+            object.__setattr__(self, "detector", CachedDetector(self.detector))
 
     @classmethod
     def from_settings(cls, settings: Settings) -> Perception:
@@ -49,9 +57,16 @@ class Perception:
             language=build_backend("language", settings.language, settings),
         )
 
+    def counts(self) -> dict[str, int]:
+        """What the detector did for this bundle: calls, those answered from memory, and the backend's own
+        counts (views run through a network); empty for a detector that keeps none."""
+        counts = getattr(self.detector, "counts", None)
+        return dict(counts()) if callable(counts) else {}
+
     def names(self) -> dict[str, str]:
         """Backend name per role, as answers and traces report them."""
-        return {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}
+        names = {"detector": self.detector.name, "vqa": self.vqa.name, "language": self.language.name}
+        return {role: shown_url(name) for role, name in names.items()}  # no password in a URL shown
 
     def findable(self, frame: Frame) -> str:
         """What `image.find` can find in `frame`, in words for the prompt: the detector's closed vocabulary

@@ -1081,7 +1081,8 @@ def _sensor_method(sensor: Sensor) -> Callable[..., float]:
 
 def _install_sensor_methods() -> list[str]:
     """Give Robot (and the view a program's `Robot(sensors=...)` makes) a method for each registered sensor
-    that names one, once; the names, in the registry's order."""
+    that names one, once; the names, in the registry's order. A sensor whose method name Robot has already
+    (a method, an attribute) is a `ConfigError`."""
     names = []
     for cls in (Robot, _RobotWithSensors):  # a sensor taken out of the registry takes its method along
         for name, value in list(vars(cls).items()):
@@ -1092,12 +1093,16 @@ def _install_sensor_methods() -> list[str]:
         if sensor.method is None:
             continue
         have = Robot.__dict__.get(sensor.method)
-        if have is None:
+        # a robot's own attribute (robot.held) or anything the class has by inheritance is taken too
+        taken = sensor.method in (*Robot.HOST_ATTRIBUTES, *Robot.API_ATTRIBUTES) or (
+            have is None and hasattr(Robot, sensor.method)
+        )
+        if have is None and not taken:
             setattr(Robot, sensor.method, _sensor_method(sensor))
             view = _through_view(sensor.method)
             view.sensor_name = sensor.name
             setattr(_RobotWithSensors, sensor.method, view)
-        elif getattr(have, "sensor_name", None) != sensor.name:
+        elif taken or getattr(have, "sensor_name", None) != sensor.name:
             raise ConfigError(
                 f"the {sensor.name} sensor names its method robot.{sensor.method}, which Robot has already",
                 "give the sensor another method name (Sensor(method=...))",

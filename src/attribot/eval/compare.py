@@ -11,14 +11,13 @@ and the report says which; a task that one run alone holds is shown as it is, co
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from attribot.errors import InputError
 from attribot.eval.methods import Record
-from attribot.eval.run import read_records
+from attribot.eval.run import read_about, read_records
 from attribot.eval.suite import task_names
 
 __all__ = ["Runs", "read_runs", "SIDE_BY_SIDE"]
@@ -39,15 +38,12 @@ class Runs:
     compared: list[str]  # one line per task: on which items the runs were compared, or why not
 
 
-def _about(run: Path) -> dict[str, Any]:
-    path = run / "run.json"
-    return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
-
-
 def _value(v: Any) -> str:
     if isinstance(v, dict):
-        return "; ".join(f"{k}: {_value(x)}" for k, x in v.items())
-    return "-" if v is None else str(v)
+        text = "; ".join(f"{k}: {_value(x)}" for k, x in v.items())
+    else:
+        text = "-" if v is None else str(v)
+    return text if len(text) <= 500 else text[:497] + "..."  # a run.json from elsewhere may hold anything
 
 
 def _check_side_by_side(dirs: tuple[Path, ...], abouts: list[dict[str, Any]]) -> None:
@@ -114,7 +110,7 @@ def read_runs(dirs: list[Path]) -> Runs:
     runs = tuple(dict.fromkeys(dirs))
     if len(runs) < len(dirs):
         raise InputError("a run folder is given twice", "give each run folder once")
-    abouts = [_about(d) for d in runs]
+    abouts = [read_about(d) for d in runs]
     per_run = [read_records(d) for d in runs]
     for about, records in zip(abouts, per_run, strict=True):
         for record in records:

@@ -18,19 +18,21 @@ the API call that failed as its trace records it), and wall seconds.
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, FiniteFloat, field_validator
 
-from attribot.api.safeguards import MECHANISMS
+from attribot.api.safeguards import MECHANISMS, CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
-from attribot.eval.datasets import Item
+from attribot.eval.datasets import Box, Item, Name
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.noise import NOISE_PRESETS, world_noise
+from attribot.text import shown_url
 
 __all__ = [
     "Record",
@@ -68,22 +70,22 @@ class Record(BaseModel):
 
     status: right | wrong | failed | not run."""
 
-    id: str
-    task: str
-    method: str
-    noise: str
+    id: Name
+    task: Name
+    method: Name
+    noise: Name
     query: str
     detector: str | None = None  # the run's detector spec (its noise aside); None in records made before
     form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
-    iou: float | None = None
-    box: list[float] | None = None
+    iou: FiniteFloat | None = None
+    box: Box | None = None
     chosen_id: str | None = None
     true_id: str
-    true_box: list[float]
+    true_box: Box
     answer: str = ""
-    value: float | None = None
+    value: FiniteFloat | None = None
     unit: str | None = None
     program: str | None = None
     trace: list[dict[str, Any]] = []
@@ -91,8 +93,15 @@ class Record(BaseModel):
     error: str | None = None
     error_category: str | None = None  # planner | runner | perception | action | uncertain (see `_category`)
     checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (caught, confirmed, unsettled)
-    wall_s: float = 0.0
-    sim_s: float | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
+    wall_s: FiniteFloat = 0.0
+    sim_s: FiniteFloat | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
+    perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
+
+    @field_validator("checks")
+    @classmethod
+    def _events(cls, checks: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        # each one a mechanism's event, so that the report's tables can read its fields
+        return [CheckEvent.model_validate(c).model_dump() for c in checks]
 
 
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
@@ -200,7 +209,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
         record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
     record.wall_s = time.perf_counter() - started
-    record.detector = str(settings.detector)
+    record.detector = shown_url(str(settings.detector))  # a password in its URL is not recorded
     return record
 
 
@@ -277,6 +286,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         error_category=_category(answer),
         sim_s=answer.sim_s,
         checks=answer.checks,
+        perception=answer.perception,
     )
 
 
@@ -339,7 +349,7 @@ def _vlm(item: Item, settings: Settings, noise: str) -> Record:
         f"(image {frame.width}x{frame.height}, origin top-left).",
     )
     numbers = [float(n) for n in re.findall(r"-?\d+(?:\.\d+)?", said)[:4]]
-    if len(numbers) != 4:
+    if len(numbers) != 4 or not all(math.isfinite(n) for n in numbers):  # "9" * 400 reads as inf
         return _record(
             item,
             "vlm",
@@ -348,7 +358,9 @@ def _vlm(item: Item, settings: Settings, noise: str) -> Record:
             error="the model's reply holds no box",
             error_category="perception",
         )
-    return _record(item, "vlm", noise, box=numbers, answer=said)
+    x0, y0, x1, y1 = numbers  # corners in another order still name a box
+    box = [min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)]
+    return _record(item, "vlm", noise, box=box, answer=said)
 
 
 # the paper's rows, in the order of its tables

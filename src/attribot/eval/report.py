@@ -38,7 +38,8 @@ from attribot.eval.tables import (
     table_one,
     table_one_latex,
 )
-from attribot.files import write_whole
+from attribot.files import inside, write_whole
+from attribot.frame import load_image
 from attribot.noise import NOISE_PRESETS
 
 __all__ = ["wilson", "summarize", "write_report", "default_out", "paper_numbers"]
@@ -231,10 +232,11 @@ class _Legend:
 
 def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> str:
     """The item's image at full size with the true box (thick, green) and each method's box (its colour,
-    named), as a JPEG data URI; "" when the run holds no image of it."""
+    named), as a JPEG data URI; "" when the run holds no image of it. A file that is no image, or one too
+    large to decode, is an `InputError` (`load_image`)."""
     if path is None:
         return ""
-    img = Image.open(path).convert("RGB")
+    img = Image.fromarray(load_image(path))
     d = ImageDraw.Draw(img)
     if item_records[0].true_box:
         d.rectangle(item_records[0].true_box, outline=(0, 200, 0), width=5)
@@ -252,15 +254,25 @@ def _image(path: Path | None, item_records: list[Record], legend: _Legend) -> st
     return "data:image/jpeg;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
-def _trace_line(call: dict[str, Any]) -> str:
-    args = ", ".join(str(a)[:40] for a in call.get("args", []))
-    return f"{call.get('call')}({args}) -> {str(call.get('result'))[:60]}"
+_TRACE_LINES = 200
+"""The most calls of one record's trace a gallery card shows."""
+
+
+def _trace_line(call: Any) -> str:
+    if not isinstance(call, dict):
+        return str(call)[:100]
+    args = call.get("args")
+    args = ", ".join(str(a)[:40] for a in (args[:10] if isinstance(args, list) else []))
+    return f"{str(call.get('call'))[:60]}({args}) -> {str(call.get('result'))[:60]}"
 
 
 def _image_path(run_dirs: tuple[Path, ...], item_id: str) -> Path | None:
-    """The item's image in the first run folder that holds it (runs reported together share items)."""
-    paths = (d / "dataset" / "images" / f"{item_id}.png" for d in run_dirs)
-    return next((p for p in paths if p.is_file()), None)
+    """The item's image in the first run folder that holds it (runs reported together share items), never
+    a file outside that folder."""
+    name = f"dataset/images/{item_id}.png"
+    fix = "give run folders written by attribot eval, whose files are their own"
+    paths = (inside(d, name, "the item's image", fix) for d in run_dirs if (d / name).exists())
+    return next(paths, None)
 
 
 def _result(r: Record, legend: _Legend) -> dict[str, Any]:
@@ -271,7 +283,8 @@ def _result(r: Record, legend: _Legend) -> dict[str, Any]:
         "answer": r.answer[:200],
         "error": (f"{r.error_category}: " if r.error_category else "") + (r.error or "")[:300],
         "program": r.program,
-        "trace": "\n".join(_trace_line(t) for t in r.trace),
+        "trace": "\n".join(_trace_line(t) for t in r.trace[:_TRACE_LINES])
+        + (f"\n... ({len(r.trace)} calls)" if len(r.trace) > _TRACE_LINES else ""),
     }
 
 
@@ -367,5 +380,6 @@ def _page(runs: Runs, rows: list[dict[str, Any]], out: Path, gallery_noise: str)
         "gallery_noise": gallery_noise,
         "gallery": _gallery(records, runs.dirs, gallery_noise, legend),
         "legend": legend.rows(),
-        "summary": json.dumps(rows).replace("</", "<\\/"),
+        # inside <script>: no "<" at all, so that no "</script>" or "<!--" in a record's text can end it
+        "summary": json.dumps(rows).replace("<", "\\u003c"),
     }

@@ -32,6 +32,7 @@ from attribot.eval.datasets import (
     drawn_in,
     item_count,
     read_dataset,
+    read_jsonl,
     write_dataset,
 )
 from attribot.eval.methods import (
@@ -43,11 +44,26 @@ from attribot.eval.methods import (
 )
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
-from attribot.files import write_whole
+from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
 from attribot.shutdown import die_with_parent
+from attribot.text import shown_url
 
-__all__ = ["EvalPlan", "RunSummary", "RunLock", "run_eval", "read_records", "records_path", "worker_pool"]
+__all__ = [
+    "EvalPlan",
+    "RunSummary",
+    "RunLock",
+    "run_eval",
+    "read_records",
+    "read_about",
+    "records_path",
+    "worker_pool",
+]
+_RUN_FIX = "give a run folder written by attribot eval, unchanged, or another --out"
+MAX_RECORD_BYTES = 16 * 1024 * 1024
+"""The longest records line looked for at the end of a records file (a record is a few kB)."""
+_IMAGE_BYTES = 50 * 1024 * 1024
+"""The largest dataset image copied into a run (ours are PNGs of a few hundred kB)."""
 
 Job = tuple[Item, str, str]  # item, method, noise
 
@@ -95,16 +111,17 @@ def fingerprint(
     """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
     the closed-set detector whose classes chose the items (None: every item); `vocabulary`: the categories
     it can find, in which the embodied tasks' items are drawn (None: the catalog's)."""
-    return {
+    base_url = getattr(settings, "llm_base_url", None)
+    return {  # a password in a URL is not written down (shown_url)
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
-        "detector": str(settings.detector),
-        "vqa": str(settings.vqa),
-        "language": str(settings.language),
+        "detector": shown_url(str(settings.detector)),
+        "vqa": shown_url(str(settings.vqa)),
+        "language": shown_url(str(settings.language)),
         "checks": settings.checks,
         "program_wall_s": settings.program_wall_s,
         "llm_model": getattr(settings, "llm_model", None),
-        "llm_base_url": getattr(settings, "llm_base_url", None),
+        "llm_base_url": None if base_url is None else shown_url(base_url),
         "subset": subset,
         "vocabulary": None if vocabulary is None else list(vocabulary),
     }
@@ -120,7 +137,7 @@ def read_records(out: Path) -> list[Record]:
     An item recorded twice for one method and noise level (two runs that wrote into one folder) is an
     `InputError`: counted twice, it would narrow every interval of the report."""
     records = []
-    for path in sorted((out / "records").glob("*.jsonl")):
+    for path in _records_files(out):
         seen: dict[str, int] = {}
         for record in _records_in(path):
             seen[record.id] = seen.get(record.id, 0) + 1
@@ -145,7 +162,8 @@ class RunLock:
 
         try:
             out.mkdir(parents=True, exist_ok=True)
-            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+            # never through a link: a run folder from elsewhere could point .lock at a file to truncate
+            fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
         except OSError as exc:
             raise InputError(
                 f"the run folder {out} cannot be written ({exc.strerror or exc})", "give a writable --out"
@@ -191,30 +209,76 @@ def _set_aside_torn(path: Path) -> str | None:
         f.seek(size - 1)
         if f.read(1) == b"\n":
             return None
-        f.seek(0)
-        data = f.read()
-        keep = data.rfind(b"\n") + 1
-        with path.with_name(path.name + ".torn").open("ab") as torn:
-            torn.write(data[keep:] + b"\n")
+        keep = size  # the end of the last whole line: looked for backwards, a block at a time
+        while keep > 0:
+            if size - keep > MAX_RECORD_BYTES:
+                raise InputError(
+                    f"the records file {str(path)!r} ends in more than {MAX_RECORD_BYTES:,} bytes that "
+                    "are no record (no line ends there)",
+                    _RUN_FIX,
+                )
+            start = max(0, keep - (1 << 16))
+            f.seek(start)
+            block = f.read(keep - start)
+            at = block.rfind(b"\n")
+            keep = start if at < 0 else start + at + 1
+            if at >= 0:
+                break
+        f.seek(keep)
+        fragment = f.read(min(size - keep, 1 << 20))  # a torn record is kept as far as the first MB
+        torn = os.open(
+            path.with_name(path.name + ".torn"), os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW
+        )
+        try:
+            os.write(torn, fragment + b"\n")
+        finally:
+            os.close(torn)
         f.truncate(keep)
     return f"{path.name}: a record torn by a crash was set aside in {path.name}.torn"
 
 
+def read_about(out: Path) -> dict[str, Any]:
+    """The run folder's run.json (the settings its records were made with), read within bounds; {} when
+    there is none."""
+    if not (out / "run.json").exists():
+        return {}
+    about = read_json(inside(out, "run.json", "the run's settings", _RUN_FIX), "the run's settings", _RUN_FIX)
+    if not isinstance(about, dict):
+        raise InputError(f"the run's settings {str(out / 'run.json')!r} are not a table", _RUN_FIX)
+    return about
+
+
+def _records_files(out: Path) -> list[Path]:
+    """The records files of a run folder, each inside it (a link that leads out is refused)."""
+    folder = out / "records"
+    if not folder.is_dir():
+        return []
+    return [
+        inside(out, f"records/{p.name}", "the records file", _RUN_FIX) for p in sorted(folder.glob("*.jsonl"))
+    ]
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
 def _check_run(out: Path, settings: Settings, subset: str | None, vocabulary: tuple[str, ...] | None) -> None:
     want = fingerprint(settings, subset, vocabulary)
-    path = out / "run.json"
-    if path.is_file():
-        have = json.loads(path.read_text(encoding="utf-8"))
+    have = read_about(out)
+    if have:
         differ = [k for k in want if have.get(k) != want[k]]
         if differ:
-            detail = "; ".join(f"{k}: this run {want[k]!r}, the directory {have.get(k)!r}" for k in differ)
+            detail = "; ".join(
+                f"{k}: this run {_shown(want[k])}, the directory {_shown(have.get(k))}" for k in differ
+            )
             raise ConfigError(
                 f"{out} holds a run made with other settings ({detail})",
                 "run with the same settings to resume it, or give another --out",
             )
         return
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(want, indent=2) + "\n", encoding="utf-8")
+    write_whole(out / "run.json", (json.dumps(want, indent=2) + "\n").encode("utf-8"))
 
 
 def _counter(progress: Callable[[str], None], what: str, total: int) -> Callable[[Item], None]:
@@ -264,7 +328,7 @@ def _dataset(
                     f"the dataset at {source} holds {len(built)} {task} items, and this run needs {need}",
                     f"give a --limit it covers, or build it with more: attribot dataset build --tasks {task}",
                 )
-            absent = [i.id for i in built if not (source / "images" / f"{i.id}.png").is_file()]
+            absent = [i.id for i in built if not (source / "images" / f"{i.id}.png").exists()]
             if absent:
                 raise InputError(
                     f"the dataset at {source} has no image of {', '.join(absent[:3])}",
@@ -317,8 +381,13 @@ def _add_to_dataset(
     (folder / "images").mkdir(parents=True, exist_ok=True)
     if source is not None:
         for item in missing:
-            name = f"{item.id}.png"
-            write_whole(folder / "images" / name, (source / "images" / name).read_bytes())
+            name = f"images/{item.id}.png"
+            image = inside(
+                source, name, "the dataset image", "build the dataset again with attribot dataset build"
+            )
+            write_whole(
+                folder / name, read_capped(image, "the dataset image", _IMAGE_BYTES, "build it again")
+            )
     else:
         rendered = _counter(progress, "rendering images", len(missing))
         write_dataset(missing, folder / "new", images=True, on_image=rendered)
@@ -354,20 +423,19 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
 
 
 def _records_in(path: Path) -> Iterator[Record]:
-    if not path.is_file():
+    """The records of one file (an unfinished last line, from a crash mid-write, is left out; any other
+    line that is no record is an `InputError` naming it)."""
+    if not path.exists():
         return
-    for line in path.read_text(encoding="utf-8").splitlines():
-        try:
-            yield Record.model_validate_json(line)
-        except ValueError:
-            continue
+    for _, record in read_jsonl(path, Record, "the records file", _RUN_FIX):
+        yield record
 
 
-def _run_job(job_json: str, settings_json: str) -> str:
-    """One job in a worker process or Ray task: JSON in, the record's JSON out."""
+def _run_job(job_json: str, settings: Settings) -> str:
+    """One job in a worker process or Ray task: the job's JSON and the settings (pickled, secrets and all:
+    JSON would mask them) in, the record's JSON out."""
     job = json.loads(job_json)
     item = Item.model_validate(job["item"])
-    settings = Settings.model_validate_json(settings_json)
     return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
 
 
@@ -395,6 +463,12 @@ def run_eval(
     The run holds a lock on `out` throughout: a second run into it is refused with an `InputError`."""
     if workers < 1:
         raise InputError(f"--workers {workers} runs nothing", "give 1 or more workers")
+    most = 4 * (os.cpu_count() or 1)
+    if executor == "local" and workers > most:  # each is a process with its own simulator and renderer
+        raise InputError(
+            f"--workers {workers} starts more processes than this machine's {os.cpu_count()} CPUs can run",
+            f"give at most {most} (about one per CPU is fastest), or run on a cluster: --executor ray",
+        )
     if executor not in ("local", "ray"):
         raise InputError(f"unknown executor {executor!r}", "choose local or ray")
     if dataset is not None and (dataset / "dataset" / "manifest.jsonl").is_file():
@@ -427,9 +501,10 @@ class _Chooser:
         if self.detector is None:
             return items, None
         kept, subset = findable_items(items, self.spec, self.detector)
-        path = out / "run.json"
-        about = json.loads(path.read_text(encoding="utf-8"))
-        write_whole(path, (json.dumps({**about, "items": subset.as_json()}, indent=2) + "\n").encode())
+        about = read_about(out)
+        write_whole(
+            out / "run.json", (json.dumps({**about, "items": subset.as_json()}, indent=2) + "\n").encode()
+        )
         self.note(f"the detector {self.spec} is closed-set: {subset.rule}")
         for line in subset.lines():
             self.note(line)
@@ -449,36 +524,69 @@ def _run_locked(
     started: float,
     chooser: _Chooser,
 ) -> RunSummary:
-    for path in sorted((out / "records").glob("*.jsonl")):
+    for path in _records_files(out):
         note = _set_aside_torn(path)
         if note is not None:
             say(note)
     items, subset = chooser.choose(out, _dataset(out, plan, say, dataset, given, chooser.vocabulary))
     jobs, skipped = _jobs(items, plan, out)
     total = len(jobs)
-    handles: dict[Path, Any] = {}
-
-    def write(record: Record) -> None:
-        path = records_path(out, record.task, record.method, record.noise)
-        if path not in handles:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            handles[path] = path.open("a", encoding="utf-8")
-        handles[path].write(record.model_dump_json() + "\n")
-        handles[path].flush()
-
     finished = 0
-    try:
+    with _RecordsWriter(out) as writer:
         for record in _execute(jobs, settings, workers, executor):
-            write(record)
+            writer.write(record, finished + skipped)
             finished += 1
             if on_record is not None:
                 on_record(record, finished, total)
-    finally:
-        for handle in handles.values():
-            handle.close()
     return RunSummary(
         done=finished, skipped=skipped, seconds=time.perf_counter() - started, out=out, subset=subset
     )
+
+
+class _RecordsWriter:
+    """Appends records to their files, a line each, written out at once with one system call, so that a
+    record is on disk before the next is run. A write that fails (the disk full) ends the run with an
+    `InputError` that says how many records are kept; the unfinished line, if any, is set aside when the
+    run resumes (`_set_aside_torn`), so that nothing written before is lost."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.fds: dict[Path, int] = {}
+
+    def write(self, record: Record, kept: int) -> None:
+        path = records_path(self.out, record.task, record.method, record.noise)
+        line = (record.model_dump_json() + "\n").encode("utf-8")
+        try:
+            if path not in self.fds:  # never through a link out of the run folder
+                path.parent.mkdir(parents=True, exist_ok=True)
+                inside(self.out, f"records/{path.name}", "the records file", _RUN_FIX)
+                flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+                self.fds[path] = os.open(path, flags, 0o644)
+            view = memoryview(line)
+            while view:
+                view = view[os.write(self.fds[path], view) :]
+        except OSError as exc:
+            mend = (
+                "free some space (the disk or your quota is full, or move the run folder to a disk with room)"
+                if disk_full(exc)
+                else f"make {path} a file that can be written"
+            )
+            raise InputError(
+                f"writing the records in {self.out} failed ({exc.strerror or exc}): the run stopped after "
+                f"{kept} records, which are kept in {self.out / 'records'}",
+                f"{mend} and run the same command again: it resumes where it stopped",
+            ) from None
+
+    def close(self) -> None:
+        for fd in self.fds.values():
+            os.close(fd)
+        self.fds.clear()
+
+    def __enter__(self) -> _RecordsWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def worker_pool(workers: int) -> ProcessPoolExecutor:
@@ -495,26 +603,25 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
 def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -> Iterator[Record]:
     if not jobs:
         return
-    settings_json = settings.model_dump_json()
     if executor == "ray":
-        yield from _execute_ray(jobs, settings_json)
+        yield from _execute_ray(jobs, settings)
         return
     if workers == 1:
         for item, method, noise in jobs:
             yield run_method(item, method, settings, noise)
         return
     with worker_pool(workers) as pool:
-        pending = {pool.submit(_run_job, _job_json(j), settings_json) for j in jobs[: workers * 4]}
+        pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
         queued = jobs[workers * 4 :]
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
                 yield Record.model_validate_json(future.result())
                 if queued:
-                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings_json))
+                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
 
 
-def _execute_ray(jobs: list[Job], settings_json: str) -> Iterator[Record]:
+def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:
     from attribot.deps import require
 
     ray = require("ray", "the ray executor (--executor ray)")
@@ -524,7 +631,7 @@ def _execute_ray(jobs: list[Job], settings_json: str) -> Iterator[Record]:
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False, include_dashboard=False)
     try:
         remote = ray.remote(num_cpus=1)(_run_job)
-        pending = [remote.remote(_job_json(j), settings_json) for j in jobs]
+        pending = [remote.remote(_job_json(j), settings) for j in jobs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:

@@ -38,6 +38,7 @@ __all__ = [
     "findable_categories",
     "BackendStatus",
     "probe_backend",
+    "reaches_out",
 ]
 
 UNKNOWN = "unknown"
@@ -76,7 +77,8 @@ class Detector(Protocol):
     A closed-set detector says what it can find: `vocabulary` (its class names, for the prompt),
     `can_find(name) -> bool` (whether a name reaches one of its classes: a mug is a cup) and `class_of(name)
     -> str | None` (the one class a name reaches); `can_find` and `findable_categories` below ask any
-    detector."""
+    detector. One whose answer depends on nothing but the frame's RGB pixels and the queries says so with
+    `pixels_only = True`, and is then asked once per view (`attribot.models.cache`)."""
 
     name: str
 
@@ -189,6 +191,19 @@ def build_backend(role: str, spec: str, settings: Settings) -> Any:
         raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
     kind, arg = parse_spec(spec)
     return ROLES[role].get(kind)(arg, settings)
+
+
+def reaches_out(role: str, spec: str) -> bool:
+    """Whether the backend of `spec` for `role` reaches a place beyond this process's own data: an endpoint
+    (remote:URL, openai: through llm_base_url), a model to load (hf:ID or PATH), a folder of files
+    (coco:FOLDER). A builder says it with a `reaches_out(arg) -> bool` attribute; one that says nothing (a
+    plug-in's kind) reaches out. What reaches out is chosen only by the user's own settings, never by a
+    saved run (`attribot.session.replay`)."""
+    if role not in ROLES:
+        raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
+    kind, arg = parse_spec(spec)
+    says = getattr(ROLES[role].get(kind), "reaches_out", None)
+    return True if says is None else bool(says(arg))
 
 
 class BackendStatus(BaseModel):

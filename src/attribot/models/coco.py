@@ -8,7 +8,7 @@ and copies the three files, each checked by its own hash, into a folder this bac
 downloaded when a detector is built.
 
 Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`, with
-options `?tiles=N` and `?size=S` (see `build_coco_detector`). The
+options `?tiles=N`, `?size=S` and `?batch=B` (see `build_coco_detector`). The
 detector is closed-set: a noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a
 cup, a cactus a potted plant, a basketball a sports ball), generic words ("object", "item") to every class
 of a thing one could pick up, and a name with no class is refused with an error that names an
@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+from collections import OrderedDict
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,7 +33,7 @@ import numpy as np
 from attribot import boxes as boxmath
 from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
-from attribot.frame import Frame
+from attribot.frame import Frame, pixel_digest
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
 from attribot.models.base import DETECTORS, Detection
 from attribot.models.noise import split_options
@@ -71,6 +72,13 @@ tall in a 640x480 frame, and YOLOv3-tiny finds 0.59 of the COCO-class objects th
 way against 0.45 from the whole image alone (`benchmarks/bench_coco.py --tiles 1`, 30 household and 30
 triplet seeds). The nine tiles are looked at only when the whole image
 leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass."""
+DEFAULT_BATCH = 1
+"""Views per forward pass. One view at a time: on a 2-core CPU OpenCV's DNN takes longer for a batch of ten
+608x608 views than for the ten one after another (`benchmarks/bench_coco_speed.py`); the boxes are the
+same either way."""
+KEPT_VIEWS = 400
+"""The network outputs kept (about 40 images with their tiles): those of the views a query looks at and
+the views around it."""
 _PURPOSE = "the coco detector (YOLOv3-tiny on OpenCV's DNN module)"
 _INSTALL = f"{install_line('coco')}, then attribot fetch coco"
 
@@ -287,11 +295,12 @@ class CocoDetector:
     `detect(frame, queries)`: boxes of the classes the phrases name (see `coco_classes_for`), best score
     first, each labelled with the phrase that asked for it (with the class name for a generic word such as
     "object"); scores are the network's class confidence, at least `threshold`; per class, boxes
-    overlapping a better one by more than `nms_iou` are dropped. `detect_batch` runs many frames in one
-    forward pass, then (`tiles` > 1) the tiles of those frames where some wanted class was not found with a
-    score of `SURE` in a second pass. `input_size` is the side the network sees: 608 rather than Darknet's
-    default 416, because household objects a few metres away are 20-40 pixels tall in a 640x480 frame and
-    YOLOv3-tiny misses most of them at 416.
+    overlapping a better one by more than `nms_iou` are dropped. `detect_batch` looks at the whole images,
+    then (`tiles` > 1) at the tiles of those where some wanted class was not found with a score of `SURE`,
+    `batch` views per forward pass; each view's output is kept for other queries about the same pixels
+    (`counts()` says how many views ran and how many were served from memory). `input_size` is the side
+    the network sees: 608 rather than Darknet's default 416, because household objects a few metres away
+    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416.
     """
 
     def __init__(
@@ -302,6 +311,7 @@ class CocoDetector:
         nms_iou: float = 0.45,
         input_size: int = 608,
         tiles: int = DEFAULT_TILES,
+        batch: int = DEFAULT_BATCH,
     ) -> None:
         if not 0.0 <= threshold <= 1.0:
             raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
@@ -322,16 +332,24 @@ class CocoDetector:
         )
         self.net.setPreferableBackend(cv2.dnn.DNN_BACKEND_OPENCV)
         self.net.setPreferableTarget(cv2.dnn.DNN_TARGET_CPU)
-        self._outputs = list(self.net.getUnconnectedOutLayersNames())
+        self._outputs_names = list(self.net.getUnconnectedOutLayersNames())
         self.classes = _class_names(self.folder)
         self.vocabulary = tuple(self.classes)  # closed-set: what the prompt says `find` can find
         self.name = "coco:yolov3-tiny"
+        self.pixels_only = True  # its answer is a function of the RGB pixels and the queries
         self.threshold = float(threshold)
         self.nms_iou = float(nms_iou)
         self.input_size = int(input_size)
         if not 1 <= tiles <= 4:
             raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) to 4")
         self.tiles = int(tiles)
+        if batch < 1:
+            raise ConfigError(f"batch {batch} is under 1", "give the views per forward pass, e.g. 1")
+        self.batch = int(batch)
+        self.keep = KEPT_VIEWS
+        self._kept: OrderedDict[tuple[bytes, tuple[int, int, int, int]], tuple[np.ndarray, np.ndarray]]
+        self._kept = OrderedDict()
+        self.forwarded = self.reused = 0  # views run through the network, and kept outputs that served
 
     def wanted(self, queries: Sequence[str]) -> dict[str, str]:
         """COCO class -> the first phrase that asked for it; refuses a phrase that names no class."""
@@ -373,29 +391,63 @@ class CocoDetector:
     def detect_batch(
         self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]
     ) -> list[list[Detection]]:
-        """Detections for each frame and its own queries: one forward pass over the whole images, then one
-        over the tiles of the frames where a wanted class is not yet found with a score of `SURE`."""
+        """Detections for each frame and its own queries: the whole image first, then its tiles where a
+        wanted class is not yet found with a score of `SURE`. The network's output for a view does not
+        depend on the query (it scores all 80 classes), so each view's output is kept (the last `keep`
+        views) and another query about the same pixels needs no forward pass."""
         if len(frames) != len(queries):
             raise InputError(
                 f"{len(frames)} frames but {len(queries)} query lists", "give one list per frame"
             )
         wanted = [self.wanted(q) for q in queries]  # refuse a bad phrase before any work
-        if not frames:
-            return []
         images = [_rgb_of(f) for f in frames]
-        whole = [(0, 0, img.shape[1], img.shape[0]) for img in images]
-        rows = self._forward([(img, v) for img, v in zip(images, whole, strict=True)])
-        boxes = [[self._boxes(r, v)] for r, v in zip(rows, whole, strict=True)]
-        found = [self._select(*_stack(b), img.shape[1], img.shape[0], want)
+        digests = [pixel_digest(img) for img in images]
+        views = [self._views(img.shape[1], img.shape[0]) for img in images]
+        boxes = self._outputs([(img, d, v[0]) for img, d, v in zip(images, digests, views, strict=True)])
+        found = [self._select(*b, img.shape[1], img.shape[0], want)
                  for b, img, want in zip(boxes, images, wanted, strict=True)]  # fmt: skip
         again = [i for i, (f, want) in enumerate(zip(found, wanted, strict=True)) if not _sure(f, want)]
-        tiles = [(i, v) for i in again for v in self._views(images[i].shape[1], images[i].shape[0])[1:]]
+        tiles = [(i, v) for i in again for v in views[i][1:]]
         if tiles:
-            for (i, view), r in zip(tiles, self._forward([(images[i], v) for i, v in tiles]), strict=True):
-                boxes[i].append(self._boxes(r, view))
+            more = self._outputs([(images[i], digests[i], v) for i, v in tiles])
             for i in again:
-                found[i] = self._select(*_stack(boxes[i]), images[i].shape[1], images[i].shape[0], wanted[i])
+                own = [boxes[i], *(b for (k, _), b in zip(tiles, more, strict=True) if k == i)]
+                xyxy, scores = _stack(own)
+                found[i] = self._select(xyxy, scores, images[i].shape[1], images[i].shape[0], wanted[i])
         return found
+
+    def counts(self) -> dict[str, int]:
+        """Views (whole images and tiles) run through the network, and those whose kept output served."""
+        return {"network_views": self.forwarded, "network_views_reused": self.reused}
+
+    def _outputs(
+        self, views: list[tuple[np.ndarray, bytes, tuple[int, int, int, int]]]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each (image, its pixels' digest, view)'s boxes in the image's pixels and their class scores:
+        kept ones as kept, the others from the network, `batch` views per forward pass."""
+        out: dict[tuple[bytes, tuple[int, int, int, int]], tuple[np.ndarray, np.ndarray]] = {}
+        todo: dict[tuple[bytes, tuple[int, int, int, int]], np.ndarray] = {}
+        for img, digest, view in views:
+            key = (digest, view)
+            if key in self._kept:
+                self._kept.move_to_end(key)
+                out[key] = self._kept[key]
+                self.reused += 1
+            else:
+                todo.setdefault(key, img)
+        pending = list(todo.items())
+        for at in range(0, len(pending), self.batch):
+            chunk = pending[at : at + self.batch]
+            rows = self._forward([(img, view) for (_, view), img in chunk])
+            for (key, _), r in zip(chunk, rows, strict=True):
+                xyxy, scores = self._boxes(r, key[1])
+                # a row under the threshold in every class is never selected: only the others are kept
+                live = scores.max(axis=1) >= max(self.threshold, 1e-6)
+                out[key] = self._kept[key] = (xyxy[live], scores[live])
+        self.forwarded += len(pending)
+        while len(self._kept) > self.keep:
+            self._kept.popitem(last=False)
+        return [out[(digest, view)] for _, digest, view in views]
 
     def _forward(self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]]) -> list[np.ndarray]:
         """The network's output rows (boxes, classes) for each (image, view) given, in one pass."""
@@ -404,7 +456,7 @@ class CocoDetector:
         side = self.input_size
         blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
         self.net.setInput(blob)
-        outs = self.net.forward(self._outputs)
+        outs = self.net.forward(self._outputs_names)
         rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
         return list(rows)
 
@@ -476,18 +528,19 @@ def _rgb_of(frame: Frame) -> np.ndarray:
     return np.ascontiguousarray(frame.rgb)
 
 
-_OPTIONS = ("tiles", "size")
+_OPTIONS = ("tiles", "size", "batch")
 
 
 def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
-    """The folder and the options (`tiles`, `size`) of a `coco[:FOLDER][?tiles=N&size=S]` spec."""
+    """The folder and the options (`tiles`, `size`, `batch`) of a `coco[:FOLDER][?tiles=N&size=S&batch=B]`
+    spec."""
     head, raw = split_options(arg)
     options: dict[str, int] = {}
     for key, text in raw.items():
         if key not in _OPTIONS or not text.isdigit():
             raise ConfigError(
                 f"coco option {key}={text!r} is not known",
-                "write coco?tiles=N (1 to 4) or coco?size=S (e.g. 416)",
+                "write coco?tiles=N (1 to 4), coco?size=S (e.g. 416) or coco?batch=B (views per pass)",
             )
         options[key] = int(text)
     if head:
@@ -513,16 +566,19 @@ def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
 
 def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
     """`coco` (the files in the default folder, or the `coco_dir` setting) or `coco:FOLDER`, with options
-    `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest) and `?size=S`
-    (the network's input side, a multiple of 32)."""
+    `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest), `?size=S`
+    (the network's input side, a multiple of 32) and `?batch=B` (views per forward pass)."""
     folder, options = _parse(arg, settings)
     return CocoDetector(
         folder,
         threshold=settings.detector_threshold,
         tiles=options.get("tiles", DEFAULT_TILES),
         input_size=options.get("size", 608),
+        batch=options.get("batch", DEFAULT_BATCH),
     )
 
 
 build_coco_detector.probe = probe_coco  # type: ignore[attr-defined]
+# `coco` and `coco?tiles=N` read the files of the user's own coco_dir; `coco:FOLDER` names a folder
+build_coco_detector.reaches_out = lambda arg: bool(split_options(arg)[0])  # type: ignore[attr-defined]
 DETECTORS.register("coco")(build_coco_detector)

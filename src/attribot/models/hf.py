@@ -309,6 +309,7 @@ class HFDetector:
         self.device, self.dtype = loaded.device, loaded.dtype
         self.family = loaded.family
         self.name = loaded.name
+        self.pixels_only = True  # its answer is a function of the RGB pixels and the queries
         self.threshold = float(threshold)
         self.nms_iou = float(nms_iou)
         self.max_detections = int(max_detections)

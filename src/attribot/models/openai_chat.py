@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from attribot.config import revealed
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, check_rgb
 from attribot.models.base import LANGUAGE_MODELS, UNKNOWN, VQAS
@@ -158,7 +159,7 @@ class OpenAILanguageModel(_ChatBackend):
 def _client_args(settings: Settings) -> dict[str, Any]:
     return {
         "base_url": settings.llm_base_url,
-        "api_key": settings.llm_api_key,
+        "api_key": revealed(settings.llm_api_key),
         "timeout_s": settings.llm_timeout_s,
         "temperature": settings.llm_temperature,
     }
@@ -184,7 +185,7 @@ def probe_endpoint(arg: str | None, settings: Settings, timeout_s: float = 3.0) 
     import openai
 
     model = _model_of(arg, settings)
-    client = make_client(settings.llm_base_url, settings.llm_api_key, timeout_s, max_retries=0)
+    client = make_client(settings.llm_base_url, revealed(settings.llm_api_key), timeout_s, max_retries=0)
     where = str(client.base_url)
     try:
         ids = [m.id for m in client.models.list()]

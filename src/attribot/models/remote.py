@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
+from attribot.config import revealed
 from attribot.deps import require
 from attribot.errors import AttribotError, BackendError, ConfigError, InputError
 from attribot.frame import Frame
@@ -297,6 +298,7 @@ class RemoteDetector:
         self.client = client
         self.name = f"remote:{client.url}"
         self.served_by: str | None = None  # the server's backend name, once a request has been answered
+        self.pixels_only = True  # the server is sent the RGB pixels and the queries, nothing else
 
     def detect(self, frame: Frame, queries: Sequence[str]) -> list[Detection]:
         """Detections of `queries` in `frame` (boxes in its pixels), best first, as the server ranks them."""
@@ -362,7 +364,7 @@ class RemoteLanguageModel:
 
 
 def _client(arg: str | None, settings: Settings) -> RemoteClient:
-    return RemoteClient(arg or "", token=settings.remote_token, timeout_s=settings.remote_timeout_s)
+    return RemoteClient(arg or "", token=revealed(settings.remote_token), timeout_s=settings.remote_timeout_s)
 
 
 def build_remote_detector(arg: str | None, settings: Settings) -> RemoteDetector:
@@ -383,7 +385,7 @@ def probe_remote(
     """Whether the server at `arg` answers, serves `role`, and accepts our token; never raises."""
     token_note = "token accepted" if settings.remote_token else "no token set"
     try:
-        with RemoteClient(arg or "", token=settings.remote_token, timeout_s=timeout_s) as client:
+        with RemoteClient(arg or "", token=revealed(settings.remote_token), timeout_s=timeout_s) as client:
             url = client.url
             health = client.health(timeout_s=timeout_s)
             backend = health.roles.get(role)

@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from attribot.config import revealed
 from attribot.errors import ConfigError
 from attribot.files import write_whole
 from attribot.planning.base import ENTRY_POINT, PLANNERS, Attempt, Plan, PlanRequest
@@ -184,7 +185,7 @@ class LLMPlanner:
 
             self._client = make_client(
                 self.settings.llm_base_url,
-                self.settings.llm_api_key,
+                revealed(self.settings.llm_api_key),
                 self.settings.llm_timeout_s,
                 self.http_retries,
             )

@@ -40,16 +40,54 @@ _CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
 """Longest text kept whole in a trace record; longer ones are cut and say how long they were."""
+TRACE_ITEMS = 50
+"""Most items of a list or dict kept in a trace record; the rest are counted."""
+TRACE_DEPTH = 8
+"""Deepest nesting kept in a trace record."""
+TRACE_PART_CHARS = 8000
+"""About the most characters the arguments, or the result, of one call keep in the trace."""
+TRACE_RUN_CHARS = 2_000_000
+"""About the most characters the trace of one run keeps: past them, a call's record keeps its name, line,
+time and error, and says that its arguments and result were not kept."""
 
 
-def _cut(value: Any) -> Any:
-    """A trace value with long texts cut (a program can pass a 300 KB string to every call)."""
-    if isinstance(value, str) and len(value) > TRACE_TEXT_CHARS:
-        return value[:TRACE_TEXT_CHARS] + f"... ({len(value)} characters)"
+def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
+    """A trace value cut to fit: long texts, long lists and dicts, deep nesting, and the whole within `room`
+    (characters, counted down; `TRACE_PART_CHARS` when not given). A program can pass a 300 KB string, or
+    a list of 190,000 names, to every call: the trace keeps what shows what the call was."""
+    if room is None:
+        room = [TRACE_PART_CHARS]
+    if isinstance(value, str):
+        keep = max(0, min(TRACE_TEXT_CHARS, room[0]))
+        text = value if len(value) <= keep else value[:keep] + f"... ({len(value)} characters)"
+        room[0] -= len(text)
+        return text
     if isinstance(value, list):
-        return [_cut(v) for v in value]
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        items: list[Any] = []
+        for item in value:
+            if len(items) >= TRACE_ITEMS or room[0] <= 0:
+                items.append(f"... ({len(value)} items)")
+                break
+            room[0] -= 2
+            items.append(_cut(item, room, depth + 1))
+        return items
     if isinstance(value, dict):
-        return {k: _cut(v) for k, v in value.items()}
+        if depth >= TRACE_DEPTH or room[0] <= 0:
+            room[0] -= 3
+            return "..."
+        entries: dict[Any, Any] = {}
+        for key, item in value.items():
+            if len(entries) >= TRACE_ITEMS or room[0] <= 0:
+                entries["..."] = f"{len(value) - len(entries)} more entries"
+                break
+            room[0] -= 2
+            entries[_cut(key, room, depth + 1)] = _cut(item, room, depth + 1)
+        return entries
+    # a number, true, false or None; a 4,000-digit int counts its digits
+    room[0] -= 8 + (value.bit_length() // 3 if isinstance(value, int) else 0)
     return value
 
 
@@ -288,6 +326,7 @@ class _Run:
         self.last_line: int | None = None
         self.stop: tuple[str, str, int | None] | None = None
         self.cutter = runner._cutter
+        self.trace_room = [TRACE_RUN_CHARS]  # what the trace may still keep (see `_kept`)
 
     # ---- host objects <-> handles -------------------------------------------------------------------
     def handle(self, obj: Any) -> dict[str, Any]:
@@ -410,7 +449,7 @@ class _Run:
         constructor = isinstance(method, str) and method == getattr(cls, "PROGRAM_CONSTRUCTOR", None)
         name = cls.__name__ if constructor else f"{cls.__name__}.{method}"
         kind = getattr(cls, "API_KIND", None)
-        shown = _cut([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
+        shown = self._kept([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
         if not isinstance(method, str) or not (constructor or method in cls.API_METHODS):
             return self._refuse(
                 name,
@@ -477,9 +516,22 @@ class _Run:
                 kind=kind,
             )
         self.record(
-            TraceRecord(call=name, args=shown, result=_cut(self.summary(result)), ms=ms, line=line, kind=kind)
+            TraceRecord(
+                call=name, args=shown, result=self._kept(self.summary(result)), ms=ms, line=line, kind=kind
+            )
         )
         return {KIND: Kind.RETURN, Key.VALUE: wire}
+
+    def _kept(self, value: Any) -> Any:
+        """What the trace keeps of one call's arguments or result: `_cut`, within what is left of the run's
+        `TRACE_RUN_CHARS` (past them, a note that it was not kept)."""
+        if self.trace_room[0] <= 0:
+            note = "(not kept: the trace of this run is full)"
+            return [note] if isinstance(value, list) else note
+        room = [TRACE_PART_CHARS]
+        kept = _cut(value, room)
+        self.trace_room[0] -= TRACE_PART_CHARS - room[0]
+        return kept
 
     def record(self, record: TraceRecord) -> None:
         """Keep one call in the trace, and show it to the run's observer (a live view) as it happens."""

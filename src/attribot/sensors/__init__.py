@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
-from attribot.errors import InputError
+from attribot.errors import BadPlugin, InputError
 from attribot.registry import Registry
 
 __all__ = [
@@ -75,12 +75,29 @@ class Sensor:
     capability: str | None = None
 
     def __post_init__(self) -> None:
-        if not self.name or self.name != _key(self.name):
-            raise ValueError(f"a sensor's name is lower-case words, got {self.name!r}")
-        if self.method is not None and (not self.method.isidentifier() or self.method.startswith("_")):
-            raise ValueError(f"sensor {self.name!r}: {self.method!r} cannot be a method's name")
+        if not isinstance(self.name, str) or not self.name or self.name != _key(self.name):
+            raise BadPlugin(
+                f"a sensor's name is lower-case words, got {self.name!r}", "e.g. name='spectrometer'"
+            )
+        if self.method is not None and (
+            not isinstance(self.method, str) or not self.method.isidentifier() or self.method.startswith("_")
+        ):
+            raise BadPlugin(
+                f"sensor {self.name!r}: {self.method!r} cannot be a method's name (a program may call no "
+                "name that starts with _)",
+                "name its method in lower-case words joined by _, e.g. method='measure_sugar'",
+            )
+        if not isinstance(self.aliases, tuple) or not all(
+            isinstance(a, str) and _key(a) for a in self.aliases
+        ):
+            raise BadPlugin(
+                f"sensor {self.name!r}: aliases must be a tuple of names", "e.g. aliases=('brix meter',)"
+            )
         if self.readings < 1 or not self.resolution >= 0 or not 0 <= self.relative < 1:
-            raise ValueError(f"sensor {self.name!r}: readings >= 1, resolution >= 0, 0 <= relative < 1")
+            raise BadPlugin(
+                f"sensor {self.name!r}: readings >= 1, resolution >= 0, 0 <= relative < 1",
+                "give readings, resolution and relative within those bounds",
+            )
 
 
 SENSORS: Registry[Sensor] = Registry("sensor", ("attribot.sensors.builtin",))
@@ -96,6 +113,14 @@ SENSOR_BUNDLES: dict[str, tuple[str, ...]] = {
 def register_sensor(sensor: Sensor) -> Sensor:
     """Add `sensor` under its name and aliases (a name used twice is an error)."""
     aliases = tuple(dict.fromkeys(_key(a) for a in sensor.aliases if _key(a) != sensor.name))
+    taken = [n for n in (sensor.name, *aliases) if n in SENSOR_BUNDLES]
+    if (
+        taken
+    ):  # "depth camera" stands for the camera and the rangefinder: a sensor of that name is unreachable
+        raise BadPlugin(
+            f"sensor {sensor.name!r}: {', '.join(map(repr, taken))} names several built-in sensors at once",
+            "give the sensor another name",
+        )
     return SENSORS.register(sensor.name, aliases=aliases)(sensor)
 
 

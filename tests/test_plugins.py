@@ -1,0 +1,104 @@
+"""The plug-in loader (`ATTRIBOT_PLUGINS`, issue 28): whatever a lab's module does wrong as it is imported is
+a clear refusal, exit 2 with an `error:` line naming the module and what it did and a `fix:` line; never a
+traceback, and never a command skipped with exit 0."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import EMPTY_SETTINGS
+
+SENSOR = "from attribot.sensors import Sensor, register_sensor\n"
+
+
+def run_with_plugin(tmp_path: Path, plugins: str, *args: str, **modules: str) -> subprocess.CompletedProcess:
+    """`attribot ARGS` in a fresh process with the modules written into `tmp_path` and named in
+    ATTRIBOT_PLUGINS (a plug-in changes the process it is imported into: each test gets its own)."""
+    for name, source in modules.items():
+        path = tmp_path / f"{name.replace('.', '/')}.py"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(source)
+    env = {
+        **os.environ,
+        "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS),
+        "ATTRIBOT_PLUGINS": plugins,
+        "PYTHONPATH": f"{tmp_path}:{os.environ.get('PYTHONPATH', '')}",
+    }
+    return subprocess.run(
+        [sys.executable, "-m", "attribot.cli", *(args or ("version",))],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+
+
+@pytest.mark.parametrize(
+    ("plugins", "modules", "words"),
+    [
+        ("lab_raises", {"lab_raises": "raise RuntimeError('the lab is closed')\n"},
+         ["lab_raises", "RuntimeError: the lab is closed", "lab_raises.py, line 1"]),
+        ("lab_syntax", {"lab_syntax": "def broken(:\n    pass\n"}, ["lab_syntax", "SyntaxError", "line 1"]),
+        (".relative", {}, ["'.relative', which is no module name", "relative name"]),
+        ("lab/path", {}, ["'lab/path', which is no module name"]),
+        ("lab_exits", {"lab_exits": "import sys\nsys.exit(0)\n"}, ["lab_exits", "called sys.exit(0)"]),
+        ("lab_exits_text", {"lab_exits_text": "raise SystemExit('bye')\n"}, ["called sys.exit('bye')"]),
+        ("lab_shadow", {"lab_shadow": SENSOR + "register_sensor(Sensor(name='camera', measures='x', "
+                                                "quantity='x', unit='x'))\n"},
+         ["sensor 'camera' is registered twice", "another name"]),
+        ("lab_alias", {"lab_alias": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
+                                              "quantity='x', unit='m', aliases=('rangefinder',)))\n"},
+         ["'rangefinder' is registered twice"]),
+        ("lab_init", {"lab_init": SENSOR + "register_sensor(Sensor(name='probe', measures='x', quantity='x', "
+                                            "unit='x', method='__init__'))\n"},
+         ["'__init__' cannot be a method's name"]),
+        ("lab_bundle", {"lab_bundle": SENSOR + "register_sensor(Sensor(name='depth camera', measures='x', "
+                                                "quantity='x', unit='x'))\n"},
+         ["'depth camera' names several built-in sensors"]),
+        ("lab_method", {"lab_method": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
+                                                "quantity='x', unit='m', method='pick_up'))\n"},
+         ["robot.pick_up, which Robot has already"]),
+        ("lab_held", {"lab_held": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
+                                            "quantity='x', unit='m', method='held'))\n"},
+         ["robot.held, which Robot has already"]),
+        ("lab_imports", {"lab_imports": "import no_such_dependency\n"},
+         ["the plug-in module 'lab_imports' failed", "No module named 'no_such_dependency'"]),
+        ("lab_deep", {"lab_deep": "def f(n):\n    return f(n + 1)\nf(0)\n"}, ["RecursionError"]),
+        ("lab_stops", {"lab_stops": "raise KeyboardInterrupt\n"}, ["lab_stops", "KeyboardInterrupt"]),
+        ("lab_ok,lab_raises", {"lab_ok": "", "lab_raises": "raise ValueError('x' * 5000)\n"},
+         ["lab_raises", "ValueError: xxx", "..."]),
+    ],
+)  # fmt: skip
+def test_a_plugin_that_fails_as_it_is_imported_is_refused_clearly(tmp_path, plugins, modules, words):
+    done = run_with_plugin(tmp_path, plugins, **modules)
+    said = " ".join(done.stderr.split())
+    assert done.returncode == 2, (done.returncode, done.stdout, done.stderr)
+    assert "Traceback" not in done.stderr and "error:" in said and "fix:" in said, said
+    for word in words:
+        assert word in said, said
+    assert done.stdout == ""  # the command did not run
+    assert len(said) < 1500
+
+
+def test_what_a_plugin_prints_does_not_spoil_json_output(tmp_path):
+    import json
+
+    chatty = "print('lab sensors loaded')\n"
+    done = run_with_plugin(tmp_path, "lab_chatty", "backends", "--json", lab_chatty=chatty)
+    assert done.returncode == 0, done.stderr
+    json.loads(done.stdout)
+    assert "lab sensors loaded" in done.stderr
+
+
+def test_a_plugin_that_registers_a_new_sensor_still_works(tmp_path):
+    done = run_with_plugin(
+        tmp_path,
+        " lab_fine , ",
+        lab_fine=SENSOR + "register_sensor(Sensor(name='sonar', measures='x', quantity='x', unit='m'))\n",
+    )
+    assert done.returncode == 0, done.stderr
