@@ -21,6 +21,7 @@ import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import mujoco
 import numpy as np
@@ -390,15 +391,25 @@ _GLOSS = {"glossy": (0.5, 0.6), "matte": (0.05, 0.1), "plastic": (0.3, 0.4)}
 """Plain materials without an image: (specular, shininess)."""
 
 
+@cache
+def _texture_images() -> tuple[tuple[str, int, int, bytes], ...]:
+    """Every texture's (name, width, height, RGB bytes): drawn once per process (drawing them took longer
+    than compiling a scene), the same for every model."""
+    rng = np.random.default_rng(20250)
+    images = []
+    for name, (make, _, _, _) in TEXTURES.items():
+        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
+        images.append((name, img.shape[1], img.shape[0], img.tobytes()))
+    return tuple(images)
+
+
 def add_materials(spec: mujoco.MjSpec) -> None:
     """Add every texture and material a look can name to `spec` (once per model; a few hundred KB)."""
-    rng = np.random.default_rng(20250)
-    for name, (make, specular, shininess, repeat) in TEXTURES.items():
-        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
-        h, w = img.shape[:2]
+    for name, w, h, data in _texture_images():
+        _, specular, shininess, repeat = TEXTURES[name]
         tex = spec.add_texture(name=f"look_{name}", type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h)
         tex.nchannel = 3
-        tex.data = img.tobytes()
+        tex.data = data
         mat = spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
         mat.texrepeat = [repeat, repeat]
         mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = f"look_{name}"
