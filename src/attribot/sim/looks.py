@@ -5,9 +5,11 @@ rangefinder, the view checks and the truth's bounds read, inside one collision b
 that body: meshes generated here (surfaces of revolution, tubes swept along curves) and primitives with
 procedural materials (wood grain, fabric, brushed metal, printed labels, screens, keys, pages), with the
 parts that define the category: a mug's hollow and handle, a kettle's spout, lid and arched handle, a
-banana's curve, a laptop's lit screen and keyboard, a backpack's straps and pocket, a book's pages and
-spine. A look carries no mass and never collides, so physics, sensing and the seeds' scenes are the same
-with either look; only pixels change. Within a category, looks vary with the object (`variant`, drawn
+banana's curve, a laptop's lit screen and keyboard, a backpack's zips, straps and pocket, a book's pages
+between its boards and its printed cover, a suitcase's shell and wheels, the open loops of scissors. A
+look reaches at most a tenth of the object's size beyond its body (a test holds every look to it), carries
+no mass and never collides, so physics, sensing and the seeds' scenes are the same with either look; only
+pixels change. Within a category, looks vary with the object (`variant`, drawn
 from its id, never from the scene's generator).
 
 `LOOKS` maps a shape name to its look builder; a shape without one is drawn with its body's primitives
@@ -304,15 +306,6 @@ def _pages(rng: np.random.Generator, n: int = 64) -> np.ndarray:
     return np.repeat(lines[:, None], n, 1)[..., None] * np.array([1.0, 0.97, 0.88])
 
 
-def _cover(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    img = np.ones((n, n, 3)) * 0.92
-    img[:, : n // 12] = 0.55  # the spine's shadow
-    img[n // 5 : n // 5 + 14, n // 5 : n - n // 6] = 1.0  # a title band
-    img[n // 5 + 4 : n // 5 + 10, n // 4 : n - n // 4] = 0.3
-    img[n - n // 4 : n - n // 4 + 6, n // 3 : n - n // 3] = 0.5
-    return img
-
-
 def _title(rng: np.random.Generator, n: int = 128) -> np.ndarray:
     """A printed title: two lines of bold letters and a line of small print on paper."""
     img = np.ones((n, n, 3)) * np.array([0.96, 0.94, 0.88])
@@ -377,7 +370,6 @@ TEXTURES: dict[str, tuple[Callable[[np.random.Generator], np.ndarray], float, fl
     "phone": (_phone_screen, 0.3, 0.8, 1),
     "keys": (_keys, 0.1, 0.3, 1),
     "pages": (_pages, 0.0, 0.1, 1),
-    "cover": (_cover, 0.15, 0.3, 1),
     "peel": (_peel, 0.25, 0.4, 3),
     "leather": (_leather, 0.1, 0.2, 6),
     "ribs": (_ribs, 0.1, 0.2, 1),
