@@ -9,6 +9,7 @@ import math
 import os
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import textwrap
@@ -70,6 +71,77 @@ def test_a_walrus_free_38_grammar_check_really_rejects_newer_syntax():
     src = "match x:\n    case 1:\n        pass\n"
     with pytest.raises(SyntaxError):
         ast.parse(src, feature_version=(3, 8))
+
+
+_ROBOT_38 = textwrap.dedent(
+    """
+    import sys
+    from attribot.bridge.server import Driver, Limits, RobotServer
+
+    class Wheels(Driver):
+        name = "wheels"
+
+        def capabilities(self):
+            return ["base"]
+
+        def drive(self, vx, vy, wz):
+            print("drive", vx, vy, wz, flush=True)
+
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)
+    server = RobotServer(Wheels(), sys.argv[1], limits=limits)
+    print("port", server.address[1], sys.version_info[0], sys.version_info[1], flush=True)
+    server.serve_forever()
+    """
+)
+
+
+def _python38() -> str | None:
+    """A Python 3.8 interpreter on this machine (the RoboMaster SDK's), if there is one."""
+    import glob
+    import shutil
+
+    candidates = [
+        shutil.which("python3.8"),
+        *sorted(glob.glob(os.path.expanduser("~/.pyenv/versions/3.8*/bin/python3.8"))),
+    ]
+    for exe in candidates:
+        if exe and subprocess.run([exe, "-c", "import sys; assert sys.version_info[:2] == (3, 8)"],
+                                  capture_output=True).returncode == 0:  # fmt: skip
+            return exe
+    return None
+
+
+def test_the_robot_side_serves_on_python_38_as_the_robots_computer_runs_it():
+    """Not only its grammar: the server itself on a real Python 3.8 (where `socket.timeout` is not yet a
+    `TimeoutError`, so that catching the latter ended accepting after the first idle 0.2 s)."""
+    exe = _python38()
+    if exe is None:
+        pytest.skip("no Python 3.8 interpreter on this machine")
+    src = str(BRIDGE_DIR.parents[1])
+    robot = subprocess.Popen(
+        [exe, "-c", _ROBOT_38, TOKEN], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": src},
+    )  # fmt: skip
+    try:
+        assert robot.stdout is not None
+        _, port, major, minor = robot.stdout.readline().split()
+        assert (major, minor) == ("3", "8")
+        time.sleep(1.0)  # idle for longer than the accept time-out
+        with BridgeWorld(url=f"tcp://127.0.0.1:{port}", token=TOKEN, timeout_s=10) as world:
+            world.command_base(0.1, 0.0, 0.0)
+            with pytest.raises(BridgeError, match="needs vx as a finite number"):
+                world.command_base(float("nan"), 0.0, 0.0)
+        with socket.create_connection(("127.0.0.1", int(port)), timeout=10) as sock:
+            assert _hello(sock)["ok"] is True
+            _raw(sock, b'{"op":"base","vx":' + b"[" * 20_000 + b"]" * 20_000 + b',"vy":0,"wz":0}')
+            assert recv_message(sock)[0]["code"] == "message"
+            _raw(sock, b'{"op":"base","vx":1' + b"0" * 4000 + b',"vy":0,"wz":0}')
+            assert recv_message(sock)[0]["code"] == "value"
+    finally:
+        robot.terminate()
+        out, err = robot.communicate(timeout=30)
+    assert "drive 0.1 0.0 0.0" in out and "drive 0.0 0.0 0.0" in out
+    assert "Traceback" not in err, err
 
 
 # --- a recording driver for the safety tests ---------------------------------------------------------
@@ -271,6 +343,29 @@ def test_a_hello_trickled_a_byte_at_a_time_is_cut_at_the_deadline():
         assert closed  # the robot hung up long before the hello was whole
 
 
+def test_one_address_cannot_take_every_hello_slot():
+    import select
+
+    from attribot.bridge.server import MAX_GREETING_PER_ADDRESS
+
+    with serving(RecordingDriver) as (server, _):
+        idle = [socket.create_connection(server.address) for _ in range(MAX_GREETING_PER_ADDRESS + 2)]
+        try:
+            closed: list[socket.socket] = []
+            deadline = time.monotonic() + 1.5  # within the hello deadline: only those past the cap close
+            while len(closed) < 2 and time.monotonic() < deadline:
+                open_ = [s for s in idle if s not in closed]
+                readable, _, _ = select.select(open_, [], [], 0.1)
+                closed += [s for s in readable if s.recv(1) == b""]
+            assert len(closed) == 2
+            assert select.select([s for s in idle if s not in closed], [], [], 0)[0] == []
+        finally:
+            for s in idle:
+                s.close()
+        with BridgeWorld(url=url(server), token=TOKEN) as world:  # and once they are gone, a client is served
+            assert world.observe().rgb.shape == (2, 4, 3)
+
+
 def test_a_second_client_is_told_the_robot_is_busy():
     with serving(RecordingDriver) as (server, _):
         with BridgeWorld(url=url(server), token=TOKEN) as first:
@@ -323,6 +418,305 @@ def test_killing_the_client_mid_session_stops_the_base_within_the_watchdog_time(
                 client.kill()
         assert stopped - killed < limits.watchdog_s
         assert driver.velocity == (0.0, 0.0, 0.0)
+
+
+# --- hostile clients: the robot stops on anything it refuses, and no message ends the server ----------
+
+
+def _raw(sock: socket.socket, head: bytes, payload: bytes = b"") -> None:
+    """Send a message whose header bytes are given as they are (json.dumps cannot write most of these)."""
+    sock.sendall(struct.pack(">4sII", b"ATB1", len(head), len(payload)) + head + payload)
+
+
+@contextmanager
+def _session(
+    limits: Limits | None = None, make: Callable[[], Driver] = RecordingDriver
+) -> Iterator[tuple[RobotServer, Any, socket.socket]]:
+    """A served driver and a raw client that has said hello."""
+    with serving(make, limits) as (server, driver), socket.create_connection(server.address) as sock:
+        sock.settimeout(30)
+        assert _hello(sock)["ok"] is True
+        yield server, driver, sock
+
+
+def _still_served(server: RobotServer) -> None:
+    """The server lives on: a new client is served and can drive."""
+    with BridgeWorld(url=url(server), token=TOKEN, timeout_s=30) as world:
+        world.command_base(0.05, 0.0, 0.0)
+        world.stop()
+
+
+def _until(condition: Callable[[], bool], timeout: float = 3.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return condition()
+
+
+_REFUSED = {
+    "nan-speed": (b'{"op":"base","vx":NaN,"vy":0,"wz":0}', "value"),
+    "unknown-op": (b'{"op":"fly"}', "op"),
+    "no-capability": (b'{"op":"grasp"}', "unsupported"),
+    "arm-far-off": (b'{"op":"arm","lift":1e6,"extension":0}', "value"),
+    "not-json": (b"{op: base}", "message"),
+}
+
+
+@pytest.mark.parametrize("name", list(_REFUSED))
+def test_a_refused_request_stops_the_base_and_does_not_keep_it_driving(name):
+    # issue 28: refused requests reset the watchdog, so a base kept driving at 0.4 m/s
+    head, code = _REFUSED[name]
+    limits = Limits(max_speed=0.4, max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3)
+    with _session(limits) as (server, driver, sock):
+        send_message(sock, {"op": "base", "vx": 0.4, "vy": 0.0, "wz": 0.0})
+        assert recv_message(sock)[0]["ok"] is True
+        assert _until(lambda: driver.velocity[0] == pytest.approx(0.4))
+        for _ in range(8):  # refused requests keep coming, faster than the watchdog's time
+            _raw(sock, head)
+            reply = recv_message(sock)[0]
+            assert reply["ok"] is False and reply["code"] == code, reply
+            assert driver.velocity == (0.0, 0.0, 0.0)  # stopped before the refusal was sent
+            time.sleep(0.1)
+        assert driver.velocity == (0.0, 0.0, 0.0) and driver.arm == []
+        assert any("refused" in why for _, why in server.stops)
+
+
+def test_only_accepted_commands_feed_the_watchdog():
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3)
+    with _session(limits) as (server, driver, sock):
+        send_message(sock, {"op": "base", "vx": 0.2, "vy": 0.0, "wz": 0.0})
+        assert recv_message(sock)[0]["ok"] is True
+        for _ in range(6):  # accepted requests, each within the watchdog's time: the base drives on
+            time.sleep(0.1)
+            send_message(sock, {"op": "observe"})
+            assert recv_message(sock)[0]["ok"] is True
+        assert driver.velocity[0] == pytest.approx(0.2) and not driver.stopped_at
+        assert _until(lambda: bool(driver.stopped_at), 2.0)  # silence: the watchdog stops it
+        assert any("watchdog" in why for _, why in server.stops)
+
+
+def test_a_message_nested_200000_deep_is_refused_and_the_server_serves_on():
+    # issue 28: one authenticated message nested 200,000 deep killed the server (RecursionError)
+    with serving(RecordingDriver) as (server, driver):
+        with socket.create_connection(server.address) as sock:
+            sock.settimeout(30)
+            assert _hello(sock)["ok"] is True
+            _raw(sock, b'{"op":"base","vx":' + b"[" * 200_000 + b"]" * 200_000 + b',"vy":0,"wz":0}')
+            reply = recv_message(sock)[0]
+            assert reply["ok"] is False and reply["code"] == "message" and "too large" in reply["error"]
+        with socket.create_connection(server.address) as sock:  # deep but small: refused for its depth
+            sock.settimeout(30)
+            assert _hello(sock)["ok"] is True
+            _raw(sock, b'{"op":"base","vx":' + b"[" * 20_000 + b"]" * 20_000 + b',"vy":0,"wz":0}')
+            reply = recv_message(sock)[0]
+            assert reply["ok"] is False and reply["code"] == "message" and "16 deep" in reply["error"]
+            send_message(sock, {"op": "base", "vx": 0.1, "vy": 0.0, "wz": 0.0})  # the session goes on
+            assert recv_message(sock)[0]["ok"] is True
+            send_message(sock, {"op": "bye"})
+            recv_message(sock)
+        _still_served(server)
+
+
+def test_a_4001_digit_number_is_a_value_error_not_a_driver_failure():
+    with _session() as (server, driver, sock):
+        _raw(sock, b'{"op":"base","vx":1' + b"0" * 4000 + b',"vy":0,"wz":0}')
+        reply = recv_message(sock)[0]
+        assert reply["ok"] is False and reply["code"] == "value", reply
+        assert "needs vx as a finite number" in reply["error"]
+        _raw(sock, b'{"op":"step","seconds":' + b"9" * 5000 + b"}")  # past Python's own int limit too
+        assert recv_message(sock)[0]["code"] == "value"
+        assert all(math.isfinite(x) for _, v in driver.drives for x in v)
+
+
+_HOSTILE = [
+    ("not-json", b"not json at all", "message"),
+    ("array", b"[1, 2, 3]", "message"),
+    ("not-utf8", b'{"op":"\xff\xfe"}', "message"),
+    ("truncated", b'{"op":"base","vx":0.1', "message"),
+    ("object-speed", b'{"op":"base","vx":{"a":1},"vy":0,"wz":0}', "value"),
+    ("list-speed", b'{"op":"base","vx":[0.1],"vy":0,"wz":0}', "value"),
+    ("null-speed", b'{"op":"base","vx":null,"vy":0,"wz":0}', "value"),
+    ("overflow-float", b'{"op":"base","vx":1e400,"vy":0,"wz":0}', "value"),
+    ("duplicate-key", b'{"op":"base","vx":0.1,"vx":NaN,"vy":0,"wz":0}', "value"),
+    ("null-op", b'{"op":null}', "op"),
+    ("object-op", b'{"op":{"op":"base"}}', "op"),
+    ("long-step", b'{"op":"step","seconds":1e6}', "value"),
+    ("negative-step", b'{"op":"step","seconds":-1}', "value"),
+    ("no-head", b'{"op":"head","pan":0,"tilt":0}', "unsupported"),
+    ("sensor-list", b'{"op":"read","sensor":["temperature"]}', "unsupported"),
+    ("second-hello", b'{"op":"hello","version":1,"token":"correct horse"}', "op"),
+]
+
+
+@pytest.mark.parametrize("head, code", [(h, c) for _, h, c in _HOSTILE], ids=[n for n, _, _ in _HOSTILE])
+def test_a_malformed_request_is_refused_with_its_code_and_the_session_goes_on(head, code):
+    with _session() as (server, driver, sock):
+        _raw(sock, head)
+        reply = recv_message(sock)[0]
+        assert reply["ok"] is False and reply["code"] == code, reply
+        assert reply["error"] and reply["fix"]
+        send_message(sock, {"op": "base", "vx": 0.1, "vy": 0.0, "wz": 0.0})
+        assert recv_message(sock)[0]["ok"] is True
+    assert all(math.isfinite(x) and abs(x) <= 0.1 + 1e-9 for _, v in driver.drives for x in v)
+
+
+def test_a_huge_string_is_not_echoed_back():
+    with _session() as (server, driver, sock):
+        _raw(sock, json.dumps({"op": "x" * 60_000}).encode())
+        reply = recv_message(sock)[0]
+        assert reply["code"] == "op" and len(reply["error"]) < 200
+        _raw(sock, json.dumps({"op": "base", "vx": "y" * 60_000, "vy": 0, "wz": 0}).encode())
+        reply = recv_message(sock)[0]
+        assert reply["code"] == "value" and len(reply["error"]) < 200
+
+
+@pytest.mark.parametrize(
+    "prefix",
+    [
+        struct.pack(">4sII", b"ATB1", 2 << 20, 0),  # a 2 MiB header announced
+        struct.pack(">4sII", b"ATB1", 20, 1 << 20),  # a request with a payload (requests carry none)
+        struct.pack(">4sII", b"HTTP", 0, 0),  # not a bridge message
+    ],
+    ids=["huge-header", "payload", "bad-magic"],
+)
+def test_a_message_over_the_limits_is_answered_then_the_connection_closed(prefix):
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)
+    with serving(RecordingDriver, limits) as (server, driver):
+        with socket.create_connection(server.address) as sock:
+            sock.settimeout(30)
+            assert _hello(sock)["ok"] is True
+            send_message(sock, {"op": "base", "vx": 0.3, "vy": 0.0, "wz": 0.0})
+            assert recv_message(sock)[0]["ok"] is True
+            sock.sendall(prefix)  # nothing of the announced bytes is read: the reply comes at once
+            reply = recv_message(sock)[0]
+            assert reply["ok"] is False and reply["code"] == "message", reply
+            assert sock.recv(1) == b""  # then closed
+        assert _until(lambda: driver.velocity == (0.0, 0.0, 0.0))
+        _still_served(server)
+
+
+def test_a_request_trickled_after_the_hello_is_cut_and_frees_the_robot(monkeypatch):
+    import attribot.bridge.server as bridge_server
+
+    monkeypatch.setattr(bridge_server, "MESSAGE_TIMEOUT_S", 0.5)
+    with serving(RecordingDriver) as (server, _), socket.create_connection(server.address) as slow:
+        slow.settimeout(30)
+        assert _hello(slow)["ok"] is True
+        slow.sendall(struct.pack(">4sII", b"ATB1", 40, 0) + b'{"op":')  # and the rest never comes
+        reply = recv_message(slow)[0]
+        assert reply["code"] == "message" and "did not arrive in time" in reply["error"]
+        assert slow.recv(1) == b""
+        _still_served(server)  # not "robot busy": the trickling client no longer holds it
+
+
+@pytest.mark.parametrize(
+    "hello, code",
+    [
+        (b'{"op":"hello","version":1,"token":"\\ud800"}', "auth"),  # a lone surrogate
+        (b'{"op":"hello","version":true,"token":"correct horse"}', "version"),
+        (b'{"op":"hello","version":1.0e0,"token":"correct horse"}', "version"),
+        (b'{"op":"hello","version":1,"token":["correct horse"]}', "auth"),
+        (b'{"op":"hello","version":1,"token":"correct horse"', "hello"),  # cut short
+        (b'{"op":' + b"[" * 20_000 + b"]" * 20_000 + b"}", "hello"),
+        (b'{"op":' + b"[" * 200_000 + b"]" * 200_000 + b"}", "hello"),
+        (b"\x00" * 100, "hello"),
+    ],
+    ids=["surrogate", "bool-version", "float-version", "list-token", "truncated", "deep", "huge", "nul"],
+)
+def test_a_strange_hello_is_refused_with_its_code_and_the_robot_serves_on(hello, code):
+    with serving(RecordingDriver) as (server, driver):
+        with socket.create_connection(server.address) as sock:
+            sock.settimeout(30)
+            _raw(sock, hello)
+            reply = recv_message(sock)[0]
+        assert reply["ok"] is False and reply["code"] == code, reply
+        assert driver.drives == []
+        _still_served(server)
+
+
+class _BodiedDriver(RecordingDriver):
+    """A recording robot that states the EP's body: its arm's travel is the body's lift and arm range."""
+
+    def body(self) -> dict[str, Any]:
+        from attribot.bridge.robomaster_body import EP_BODY
+
+        return dict(EP_BODY)
+
+
+def test_arm_targets_are_clipped_to_the_stated_travel_and_far_off_ones_refused():
+    # issue 28: arm targets reached the SDK unclipped (lift=1e6 became moveto(x=-1e9, ...))
+    with _session(make=_BodiedDriver) as (server, driver, sock):
+        send_message(sock, {"op": "bye"})
+        recv_message(sock)
+    with serving(_BodiedDriver) as (server, driver):
+        with socket.create_connection(server.address) as sock:
+            hello = _hello(sock)
+            assert hello["travel"]["lift"] == [0.03, 0.22] and hello["travel"]["extension"] == [0.0, 0.065]
+            send_message(sock, {"op": "bye"})
+            recv_message(sock)
+        with BridgeWorld(url=url(server), token=TOKEN) as world:
+            for lift, extension in ((1e6, 0.0), (0.1, -1e6), (-0.5, 0.0), (0.1, 0.2)):
+                with pytest.raises(BridgeError, match="outside its travel"):
+                    world.set_arm(lift, extension)
+            assert driver.arm == []
+            world.set_arm(0.23, 0.07)  # a hair beyond the travel: clipped into it
+            world.set_arm(0.1, 0.03)  # within: as given
+    assert driver.arm == [(0.22, 0.065), (0.1, 0.03)]
+
+
+def test_the_watchdog_outlives_a_driver_that_fails_to_drive():
+    class Failing(RecordingDriver):
+        def drive(self, vx: float, vy: float, wz: float) -> None:
+            if vx > 0.1:
+                raise RuntimeError("the chassis stopped answering")
+            super().drive(vx, vy, wz)
+
+    limits = Limits(max_accel=1.0, watchdog_s=5.0)
+    with _session(limits, Failing) as (server, driver, sock):
+        send_message(sock, {"op": "base", "vx": 0.3, "vy": 0.0, "wz": 0.0})
+        assert recv_message(sock)[0]["ok"] is True  # the ramp starts below 0.1 m/s
+        # the watchdog thread's ramp meets the failure: it stops the robot, and lives on
+        assert _until(lambda: any("failed to drive" in why for _, why in server.stops))
+        assert driver.velocity == (0.0, 0.0, 0.0)
+        send_message(sock, {"op": "base", "vx": 0.05, "vy": 0.0, "wz": 0.0})
+        assert recv_message(sock)[0]["ok"] is True
+        assert _until(lambda: driver.velocity[0] == pytest.approx(0.05))
+        assert _until(lambda: bool(driver.stopped_at), 6.0)  # and still watches: silence stops it
+
+
+def test_a_blank_token_is_refused_before_serving():
+    for blank in ("", "   ", "\t\n"):
+        with pytest.raises(ValueError, match="not blank"):
+            RobotServer(RecordingDriver(), blank)
+    served = subprocess.run(
+        [sys.executable, "-m", "attribot.cli", "bridge", "serve", "--driver", "mujoco", "--token", "  "],
+        capture_output=True, text=True, env=_env(), timeout=120,
+    )  # fmt: skip
+    assert served.returncode == 2 and "error: --token is blank" in served.stderr and "fix:" in served.stderr
+
+
+def test_a_robot_that_answers_a_deep_message_is_a_bridge_error_on_the_host():
+    """The host reads the robot's replies with the same bounds: a hostile robot cannot crash the planner."""
+    import threading
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+
+    def robot() -> None:
+        conn, _ = listener.accept()
+        with conn:
+            recv_message(conn)
+            _raw(conn, b'{"ok":true,"robot":' + b"[" * 100_000 + b"]" * 100_000 + b"}")
+            conn.recv(1)
+
+    thread = threading.Thread(target=robot, daemon=True)
+    thread.start()
+    try:
+        with pytest.raises(BridgeError, match="stopped answering"):
+            BridgeWorld(url=f"tcp://127.0.0.1:{port}", token=TOKEN, timeout_s=30)
+    finally:
+        listener.close()
+        thread.join(timeout=10)
 
 
 # --- the mujoco driver end to end ----------------------------------------------------------------

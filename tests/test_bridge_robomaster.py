@@ -301,3 +301,33 @@ def test_an_analog_thermometer_on_a_sensor_adaptor_is_stated_in_hello_and_read_o
     assert kwargs["thermometer"].celsius_per_count == 0.2 and kwargs["thermometer"].port == 2
     with pytest.raises(ValueError, match="needs thermometer_celsius_per_count"):
         driver_options({"thermometer_offset": "3"})
+
+
+def test_arm_targets_beyond_the_eps_travel_never_reach_the_sdk():
+    # issue 28: `lift=1e6` reached the SDK as moveto(x=-1e9, ...)
+    from attribot.bridge.robomaster_body import EP_BODY, to_sdk_mm
+    from attribot.embodiments.bridge import BridgeError
+
+    ep = FakeEP()
+    driver = _driver(ep)
+    server = RobotServer(driver, TOKEN, limits=Limits(watchdog_s=5.0))
+    import threading
+
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        with BridgeWorld(url=f"tcp://127.0.0.1:{server.address[1]}", token=TOKEN) as world:
+            for lift, extension in ((1e6, 0.0), (0.1, 1e6), (-1e6, -1e6), (0.5, 0.0)):
+                with pytest.raises(BridgeError, match="outside its travel"):
+                    world.set_arm(lift, extension)
+            world.set_arm(0.23, 0.07)  # a hair beyond the box the body states: clipped into it
+    finally:
+        server.close()
+        thread.join(timeout=10)
+        driver.close()
+    (low, high), (near, far) = EP_BODY["lift_range"], EP_BODY["arm_range"]
+    corners = [to_sdk_mm(lift, ext) for lift in (low, high) for ext in (near, far)]
+    xs, ys = [c[0] for c in corners], [c[1] for c in corners]
+    assert to_sdk_mm(high, far) in ep.robotic_arm.moves  # the clipped target was sent
+    for x, y in ep.robotic_arm.moves:  # and every move (a refusal's stop holds the arm) within the box
+        assert min(xs) - 1e-6 <= x <= max(xs) + 1e-6 and min(ys) - 1e-6 <= y <= max(ys) + 1e-6

@@ -46,7 +46,7 @@ def test_config_file_and_env_select_and_probe_each_role(server, tmp_path):
     cfg = tmp_path / "attribot.toml"
     cfg.write_text(
         f'detector = "hf:{model}"\nvqa = "openai:vlm"\nlanguage = "openai:other"\nplanner = "llm"\n'
-        f'llm_base_url = "{server.url_for("/v1")}"\nllm_model = "vlm"\n'
+        f'llm_base_url = "{server.url_for("/v1")}"\nllm_model = "vlm"\nprompt = "paper"\n'
     )
     result = _run(["--json", "--strict"], {"ATTRIBOT_CONFIG": str(cfg), "ATTRIBOT_VQA": "openai:vlm"})
     assert result.exit_code == 0, result.output
@@ -64,6 +64,7 @@ def test_config_file_and_env_select_and_probe_each_role(server, tmp_path):
     assert rows["vqa"]["available"] is True and "serves vlm" in rows["vqa"]["detail"]
     assert rows["language"]["available"] is True and "does not list other" in rows["language"]["detail"]
     assert rows["planner"]["available"] is True and rows["planner"]["arg"] == "vlm"
+    assert rows["planner"]["detail"].endswith("; shows the paper prompt")
     assert len(server.log) == 3  # one /models call per endpoint user
 
 

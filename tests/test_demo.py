@@ -7,17 +7,20 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
 import time
 import zipfile
+from pathlib import Path
 
 import httpx
 import pytest
 
 from attribot.config import load_settings
 from attribot.demo import DemoConfig, create_app, serve_demo
+from attribot.demo.app import SECRET_HEADER
 from attribot.errors import ConfigError
 from attribot.server.run import ServerThread
 from fakes.chat import serve_chat_replies
@@ -33,8 +36,13 @@ def demo(tmp_path):
 
 
 def _client(server) -> httpx.Client:
+    """A browser-like client: the page sets its visitor cookie and gives it its secret, sent with posts."""
     client = httpx.Client(base_url=server.url, timeout=60)
-    assert client.get("/").status_code == 200  # the page sets the visitor cookie
+    page = client.get("/")
+    assert page.status_code == 200
+    secret = re.search(r'<meta name="attribot-secret" content="([0-9a-f]+)">', page.text)
+    assert secret is not None, "the page carries its secret"
+    client.headers[SECRET_HEADER] = secret.group(1)
     return client
 
 
@@ -47,14 +55,20 @@ def _events(client, url) -> list[dict]:
     return out
 
 
-def test_a_query_streams_its_program_calls_frames_and_answer_and_saves_the_run(demo):
+def test_a_query_streams_its_program_calls_frames_and_answer_and_saves_the_run(demo, tmp_path):
     client = _client(demo)
     started = client.post("/api/runs", json={"query": "Which object is the closest?", "seed": "0"})
     assert started.status_code == 200, started.text
     # one query at a time per visitor: a second one while the first runs is refused, and says why
     again = client.post("/api/runs", json={"query": "Which object is the closest?"})
     assert again.status_code == 409 and "still running" in again.json()["message"]
-    events = _events(client, started.json()["events"])
+    events = []
+    with client.stream("GET", started.json()["events"], timeout=300) as reply:
+        for line in reply.iter_lines():
+            if line.startswith("data: "):
+                events.append(json.loads(line[6:]))
+                if events[-1]["type"] == "answer":  # a page fetches the answer's image as it arrives
+                    assert client.get(events[-1]["image"]).status_code == 200
     kinds = [e["type"] for e in events]
     assert kinds[-1] == "done" and "error" not in kinds
     # the program comes before its calls, the calls before the answer, and camera frames arrive meanwhile
@@ -77,6 +91,10 @@ def test_a_query_streams_its_program_calls_frames_and_answer_and_saves_the_run(d
     assert {"answer.json", "program.py", "settings.json", "answer.png", "episode.mp4"} <= names
     kept = json.loads(saved.read(next(n for n in saved.namelist() if n.endswith("answer.json"))))
     assert kept["answer"] == answer["answer"]
+    for name in saved.namelist():  # what a stranger downloads names no folder of the server's
+        if name.endswith(".json"):
+            text = saved.read(name).decode()
+            assert str(Path.home()) + "/" not in text and str(tmp_path) not in text, name
     # another browser (no cookie of this visitor) cannot read this visitor's run
     other = _client(demo)
     assert other.get(answer_event["saved_run"]).status_code == 404
@@ -89,7 +107,7 @@ def test_a_query_streams_its_program_calls_frames_and_answer_and_saves_the_run(d
         ({"query": "Which is heaviest?", "layout": "nowhere"}, 400, "nowhere"),
         ({"query": "Which is heaviest?", "seed": "x"}, 400, "seed 'x' is not a whole number"),
         ({"query": "Which is heaviest?", "options": "grid"}, 400, "KEY=VALUE"),
-        ({"query": "Which is heaviest?", "image": {"name": "a.png", "data": "%%%"}}, 400, "not base64"),
+        ({"query": "Which is heaviest?", "image": {"name": "a.png", "data": "%%%"}}, 400, "not valid base64"),
     ],
 )
 def test_bad_input_is_refused_with_a_message_and_its_fix(demo, body, status, words):
@@ -120,7 +138,10 @@ def test_without_a_visitor_cookie_or_with_a_wrong_token_nothing_runs(tmp_path):
         assert plain.get("/").status_code == 401
         assert plain.get("/?token=wrong").status_code == 401
         assert plain.get("/api/options", headers={"Authorization": "Bearer s3cret"}).status_code == 200
-        assert plain.get("/?token=s3cret").status_code == 200  # the token is then kept in a cookie
+        entered = plain.get("/?token=s3cret")  # the token is then kept in a cookie, and leaves the address
+        assert entered.status_code == 303 and entered.headers["location"] == "/"
+        assert "s3cret" not in entered.headers["set-cookie"]  # the cookie holds a value derived from it
+        assert plain.get("/").status_code == 200
         assert plain.get("/api/options").json()["layouts"]
     app = create_app(DemoConfig(settings=load_settings(), runs_dir=tmp_path))
     with ServerThread(app) as server:
@@ -291,13 +312,15 @@ def test_with_an_llm_endpoint_each_try_s_program_is_shown_and_the_answer_says_ll
     app = create_app(DemoConfig(settings=settings, runs_dir=tmp_path / "runs"))
     with ServerThread(app) as server:
         client = _client(server)
-        assert client.get("/api/options").json()["llm_model"] == "test-model"
+        options = client.get("/api/options").json()
+        assert options["llm_model"] == "test-model" and options["prompt"] == "attribot"
         started = client.post("/api/runs", json={"query": "Which object is the first one?"})
         events = _events(client, started.json()["events"])
     programs = [e for e in events if e["type"] == "program"]
     assert [p["text"] for p in programs] == [wrong, right] and [p["attempt"] for p in programs] == [1, 2]
     answer = next(e for e in events if e["type"] == "answer")["answer"]
     assert answer["planner"] == "llm" and answer["attempts"] == 2 and answer["error"] is None
+    assert answer["prompt"] == "attribot"  # the answer names the prompt the model was shown
     assert answer["object"]["id"] and len(requests) == 2
 
 

@@ -280,7 +280,10 @@ PLANNER_FLAGS = (
     _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
     _flag("llm_base_url", str | None, "--llm-base-url", metavar="URL", help="OpenAI-compatible endpoint."),
     _flag("llm_model", str | None, "--llm-model", metavar="NAME", help="Model name at that endpoint."),
-)
+    _flag("prompt", str | None, "--prompt", metavar="NAME", help="The prompt the llm planner shows: "
+          "attribot (default; generated from the API) or paper (the structure of the paper authors' released "
+          "prompt)."),
+)  # fmt: skip
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
     _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "
@@ -593,7 +596,16 @@ def _settings(given: Any) -> Any:
     """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
     from attribot.config import load_settings
 
-    names = ("detector", "vqa", "language", "program_wall_s", "planner", "llm_base_url", "llm_model")
+    names = (
+        "detector",
+        "vqa",
+        "language",
+        "program_wall_s",
+        "planner",
+        "llm_base_url",
+        "llm_model",
+        "prompt",
+    )
     return load_settings(
         naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}
     )
@@ -662,8 +674,9 @@ def _show(answer: Any, as_json: bool) -> None:
         if answer.checks:
             out.print(f"[dim]checks: {escape(_tally(answer.checks))}[/]", highlight=False)
         backends = ", ".join(f"{k}={v}" for k, v in answer.backends.items())
+        prompt = f" prompt={answer.prompt}" if answer.prompt else ""
         out.print(
-            f"[dim]planner={answer.planner} attempts={answer.attempts} {escape(backends)}; "
+            f"[dim]planner={answer.planner}{prompt} attempts={answer.attempts} {escape(backends)}; "
             f"{len(answer.trace)} API calls (--json shows the program and the trace)[/]",
             highlight=False,
         )
@@ -1129,7 +1142,7 @@ def _planner_status(settings: Any, record: Any) -> Any:
         arg=settings.llm_model,
         registered=True,
         available=available,
-        detail=detail,
+        detail=f"{detail}; shows the {settings.prompt} prompt",
     )
 
 
@@ -1257,6 +1270,11 @@ def bridge_serve(
     from attribot.bridge.server import Limits, RobotServer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    if not token.strip():
+        raise fail(
+            "--token is blank",
+            "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
+        )
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
@@ -1305,6 +1323,13 @@ def demo(
         "--runs-dir",
         help="Keep each query's saved run here (default: a temporary folder, removed at exit).",
     ),
+    allow_host: list[str] | None = typer.Option(
+        None,
+        "--allow-host",
+        metavar="NAME",
+        help="Another name visitors reach the demo by (e.g. lab-pc.local); IP addresses and localhost "
+        "always work, other names are refused (DNS rebinding).",
+    ),
     given: Any = None,
 ) -> None:
     """Serve the live demo page: choose a scene, ask, watch the robot, get the answer and its video."""
@@ -1323,7 +1348,13 @@ def demo(
         err_console.print(f"attribot demo: open {url} ({kept}; Ctrl-C stops)", highlight=False)
 
     with tempfile.TemporaryDirectory(prefix="attribot-demo-") as scratch:
-        config = DemoConfig(settings=settings, runs_dir=runs_dir or Path(scratch), token=token)
+        config = DemoConfig(
+            settings=settings,
+            runs_dir=runs_dir or Path(scratch),
+            token=token,
+            hosts=tuple(allow_host or ()),
+            keep_runs=runs_dir is not None,
+        )
         _prefetch_rendering()
         serve_demo(config, host=host, port=port, announce=announce)
 

@@ -67,6 +67,7 @@ __all__ = [
     "MAX_SETTINGS_BYTES",
     "plain_input",
     "revealed",
+    "PROMPTS",
 ]
 
 MAX_QUERY_CHARS = 500
@@ -83,6 +84,9 @@ ROBOTS = ("mast", "ep")
 """mast: the default mobile manipulator (a pan-tilt head on a mast, a telescoping arm on a lift); ep: a
 RoboMaster-EP-like robot (its camera on a two-link arm, a gripper that reaches the floor, no depth camera;
 see `attribot.sim.robot_ep`)."""
+PROMPTS = ("attribot", "paper")
+"""The prompts the LLM planner can show (`attribot.api.prompt.PROMPTS`): attribot, generated from the API;
+paper, the structure of the paper authors' released prompt, in the paper's dialect."""
 OBJECT_LOOKS = ("detailed", "primitive")
 """detailed: objects that look like their category; primitive: their body primitives (see
 `attribot.sim.looks`)."""
@@ -130,6 +134,8 @@ class Settings(BaseSettings):
     llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
     llm_max_tries: int = Field(3, ge=1, le=100)
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
+    # the prompt the LLM planner shows (PROMPTS): recorded with every answer and evaluation record
+    prompt: str = "attribot"
 
     # transformers backends
     hf_device: str = "auto"
@@ -222,6 +228,13 @@ class Settings(BaseSettings):
         if path is not None:
             sources.append(TomlConfigSettingsSource(settings_cls, toml_file=path))
         return tuple(sources)
+
+    @field_validator("prompt")
+    @classmethod
+    def _known_prompt(cls, value: str) -> str:
+        if value not in PROMPTS:
+            raise ValueError(f"unknown prompt; choose one of: {', '.join(PROMPTS)}")
+        return value
 
     def public_dict(self) -> dict[str, Any]:
         """The settings as JSON-ready data, with secrets left out: what a run saves."""

@@ -389,14 +389,18 @@ class Session:
         names["robot"] = self.robot.backend_name()
         return names
 
-    def finish(self, query: str, planner: str, solved: Any, save_dir: Path | None) -> Answer:
-        """The answer to `query` from the last run (`solved`: program, result, attempts, error); saved in
-        `save_dir` with the video of the episode when one was filmed."""
+    def finish(
+        self, query: str, planner: str, solved: Any, save_dir: Path | None, prompt: str | None = None
+    ) -> Answer:
+        """The answer to `query` from the last run (`solved`: program, result, attempts, error; `prompt`: the
+        prompt the planner showed a model, if any); saved in `save_dir` with the video of the episode when
+        one was filmed."""
         answer = build_answer(
             doubt=self._doubt(solved.result),
             error=solved.error,
             query=query,
             planner=planner,
+            prompt=prompt,
             program=solved.program,
             result=solved.result,
             attempts=len(solved.attempts),
@@ -567,7 +571,8 @@ def ask(
             max_tries=settings.llm_max_tries,
             check=lambda result: result_problem(result, wants_object),
         )
-        return session.finish(text, planner.name, solved, save)
+        # a planner that shows a model a prompt names it (the llm planner: attribot or paper)
+        return session.finish(text, planner.name, solved, save, prompt=getattr(planner, "prompt", None))
 
 
 @dataclass(frozen=True)

@@ -323,9 +323,10 @@ class ImagePatch:
         check_text(object_name, "object_name", "exists", "detector")
         return len(self.find(object_name)) > 0
 
-    def visual_query(self, question: str) -> str:
-        """Returns the answer of a visual question-answering model to a question about this patch's pixels.
-        Use it for what can be seen: what something is, its colour, its material, what is in the image.
+    def visual_query(self, question: str = "What is this?") -> str:
+        """Returns the answer of a visual question-answering model to a question about this patch's pixels
+        (with no question: what is this?). Use it for what can be seen: what something is, its colour, its
+        material, what is in the image.
 
         >>> # return the red mug
         >>> def execute_command(image, robot):

@@ -1,14 +1,22 @@
-"""The planner's prompt, generated from the API classes themselves.
+"""The planner's prompts: `attribot`, generated from the API classes themselves, and `paper`, the structure
+of the paper authors' released prompt.
 
-The API reference is Python source rendered from `ImagePatch` and `Robot`: the names in their
-`API_ATTRIBUTES` / `API_METHODS`, signatures from `inspect`, docstrings (with their `>>>` examples) as
-written in the classes. The rest of the prompt (guidelines after the paper and ViperGPT, the sensors, the
-query, the answer format) is the template `prompts/program.jinja`, package data rendered with
-`StrictUndefined`. There is no other copy of the API text.
+`attribot` (`build_prompt`): the API reference is Python source rendered from `ImagePatch` and `Robot`:
+the names in their `API_ATTRIBUTES` / `API_METHODS`, signatures from `inspect`, docstrings (with their
+`>>>` examples) as written in the classes. The rest of the prompt (guidelines after the paper and
+ViperGPT, the sensors, the query, the answer format) is the template `prompts/program.jinja`, package data
+rendered with `StrictUndefined`. There is no other copy of our API text. Robot methods are offered only
+when the robot has the sensor they need (`Robot.REQUIRES`); the ones left out are named in one line with
+the sensor that would enable them, so that the LLM does not invent them. With `embodied=False` (a still
+image) no robot method is offered.
 
-Robot methods are offered only when the robot has the sensor they need (`Robot.REQUIRES`); the ones left
-out are named in one line with the sensor that would enable them, so that the LLM does not invent them.
-With `embodied=False` (a still image) no robot method is offered.
+`paper` (`build_paper_prompt`): the template `prompts/paper.jinja`, in our own words with the structure
+of the prompt the authors released: their API listing (the paper's dialect: `execute_command(image)`,
+`Robot(sensors=[...])` made by the program, robot methods called bare and with object names), their
+request and guidelines, and "Instruction: The robot is equipped with {sensors}. {query}". That listing
+describes the paper's API as the authors wrote it, which the runner accepts beside ours; the sensors
+beyond the paper's get their methods from the sensor registry. `PROMPTS` holds both, under the names of
+`attribot.config.PROMPTS` (the `prompt` setting).
 """
 
 from __future__ import annotations
@@ -16,6 +24,7 @@ from __future__ import annotations
 import inspect
 import textwrap
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 from typing import Any
@@ -28,11 +37,22 @@ from attribot.config import MAX_QUERY_CHARS
 from attribot.errors import InputError
 from attribot.sensors import SENSORS, check_sensors, sensor_names
 
-__all__ = ["build_prompt", "api_reference", "offered_robot_methods", "MAX_QUERY_CHARS", "ENTRY_POINT"]
+__all__ = [
+    "build_prompt",
+    "build_paper_prompt",
+    "api_reference",
+    "offered_robot_methods",
+    "PromptStyle",
+    "PROMPTS",
+    "prompt_style",
+    "MAX_QUERY_CHARS",
+    "ENTRY_POINT",
+]
 
 ENTRY_POINT = "execute_command"
 """The function every program defines: `execute_command(image, robot)`."""
 _TEMPLATE = "program.jinja"
+_PAPER_TEMPLATE = "paper.jinja"
 
 
 def offered_robot_methods(sensors: Sequence[str], embodied: bool = True) -> tuple[list[str], dict[str, str]]:
@@ -135,13 +155,7 @@ def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True, f
     embodied=False says the query runs on a still image: no robot action is offered. `findable` says what
     the detector can find in this world (`Perception.findable`); empty: the prompt says nothing of it.
     """
-    if not isinstance(query, str) or not query.strip():
-        raise InputError("the query is empty", 'ask a question, e.g. "the second cup from the left"')
-    text = " ".join(query.split())
-    if len(text) > MAX_QUERY_CHARS:
-        raise InputError(
-            f"the query has {len(text)} characters, more than {MAX_QUERY_CHARS}", "shorten the query"
-        )
+    text = _query_text(query)
     have = check_sensors(sensors)
     offered, missing = offered_robot_methods(have, embodied)
     return (
@@ -160,3 +174,76 @@ def build_prompt(query: str, sensors: Sequence[str], *, embodied: bool = True, f
             query=text,
         )
     )
+
+
+def _query_text(query: str) -> str:
+    """The query on one line, checked: not empty, at most MAX_QUERY_CHARS."""
+    if not isinstance(query, str) or not query.strip():
+        raise InputError("the query is empty", 'ask a question, e.g. "the second cup from the left"')
+    text = " ".join(query.split())
+    if len(text) > MAX_QUERY_CHARS:
+        raise InputError(
+            f"the query has {len(text)} characters, more than {MAX_QUERY_CHARS}", "shorten the query"
+        )
+    return text
+
+
+def build_paper_prompt(
+    query: str, sensors: Sequence[str], *, embodied: bool = True, findable: str = ""
+) -> str:
+    """The prompt for `query` in the structure of the paper authors' released prompt (see the module
+    docstring), for a robot with `sensors`; `embodied` and `findable` as in `build_prompt`."""
+    text = _query_text(query)
+    have = check_sensors(sensors)
+    extras = []
+    for name in have:
+        sensor = SENSORS.get(name)
+        if sensor.method is not None:
+            extras.append(
+                {
+                    "method": sensor.method,
+                    "sensor": name,
+                    "quantity": sensor.quantity,
+                    "unit": sensor.unit,
+                    "needs": str(sensor.needs),
+                }
+            )
+    aliases = {name: (SENSORS.get(name).aliases or (name,))[0] for name in have}
+    return (
+        _environment()
+        .get_template(_PAPER_TEMPLATE)
+        .render(
+            entry_point=ENTRY_POINT,
+            sensors=have,
+            aliases=aliases,
+            extras=extras,
+            findable=findable,
+            embodied=embodied,
+            query=text,
+        )
+    )
+
+
+@dataclass(frozen=True)
+class PromptStyle:
+    """One prompt the LLM planner can show: its name, its builder (`(query, sensors, *, embodied,
+    findable) -> str`) and the entry point its programs define, as feedback to the model names it."""
+
+    name: str
+    build: Callable[..., str]
+    entry: str
+
+
+PROMPTS: dict[str, PromptStyle] = {
+    "attribot": PromptStyle("attribot", build_prompt, f"{ENTRY_POINT}(image, robot)"),
+    "paper": PromptStyle("paper", build_paper_prompt, f"{ENTRY_POINT}(image)"),
+}
+"""The prompts by the names the `prompt` setting takes (`attribot.config.PROMPTS`)."""
+
+
+def prompt_style(name: str) -> PromptStyle:
+    """The prompt called `name`; an unknown one is an `InputError` naming those there are."""
+    style = PROMPTS.get(name)
+    if style is None:
+        raise InputError(f"unknown prompt {name!r}", f"choose one of: {', '.join(PROMPTS)}")
+    return style

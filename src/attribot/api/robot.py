@@ -22,10 +22,12 @@ from attribot.api.looking import Survey, View, capture_now
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
+from attribot.boxes import iou
 from attribot.control.base import Capture, ControlError, Controller, Target, build_controller
 from attribot.embodiments.base import Embodiment
 from attribot.errors import ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo
+from attribot.lexicon import GENERIC_NOUNS
 from attribot.sensors import (
     SENSORS,
     Need,
@@ -114,6 +116,13 @@ class _RobotApi(type):
         return (*own[:at], *_install_sensor_methods(), *own[at:])
 
     @property
+    def PROGRAM_FUNCTIONS(cls) -> tuple[str, ...]:
+        """The methods a program may also call as bare functions (`go_to_object("book")`) and on a patch
+        (`book_patch.measure_weight("book")`), as the paper authors' prompt writes them: all of them, bound
+        to the program's one Robot (`attribot.runner` offers them on the program's side)."""
+        return cls.API_METHODS
+
+    @property
     def REQUIRES(cls) -> dict[str, str]:
         """The sensor each method needs (methods not listed need none); the prompt offers a method only
         when the robot has its sensor."""
@@ -163,12 +172,17 @@ class Robot(metaclass=_RobotApi):
         "look",
         "backend_name",
         "from_program",
+        "called_on",
         "settle",
         "snapshot",
         "restore",
     )
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `Robot(...)` in a program calls on the session's robot (the paper's dialect)."""
+    PROGRAM_FUNCTIONS_ON: ClassVar[tuple[str, ...]] = ("ImagePatch",)
+    """The class whose objects take the robot's methods too (`PROGRAM_FUNCTIONS`): `patch.pick_up()`."""
+    PROGRAM_CALLED_ON: ClassVar[str] = "called_on"
+    """The host method the runner tells which patch such a call was made on."""
 
     FOCUS_CORRECTIONS: ClassVar[int] = 3
     FOCUS_TOL_PX: ClassVar[float] = 1.5
@@ -226,6 +240,9 @@ class Robot(metaclass=_RobotApi):
         self.acting_on = ""  # the name of the object of that action
         self.acting_on_id: str | None = None  # and its detector id, when the detector gives one
         self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
+        # a call through the robot a program made (the paper's dialect): it arranges what an action or a
+        # reading needs (turning to the object, going to it, picking it up) where this robot would refuse
+        self._arranging = False
 
     @property
     def sensors(self) -> list[str]:
@@ -359,9 +376,12 @@ class Robot(metaclass=_RobotApi):
     def from_program(self, sensors: Sequence[str] | None = None) -> Robot:
         """Host side: `Robot(sensors=[...])` written in a program, as the paper's programs do: this robot,
         seen through only the named sensors (the paper's names are read too: "distance sensor",
-        "force/torque sensor", "depth camera"). A sensor it was not given is refused."""
+        "force/torque sensor", "depth camera"; none named: all of its own). A sensor it was not given is
+        refused. The paper's robot did what its methods needed itself (its prompt's programs weigh one
+        object after another with no put_down), so this one arranges it: a reading turns to its object,
+        goes to it or picks it up first, and a pick-up puts down what the gripper holds."""
         if sensors is None:
-            return self
+            return _RobotWithSensors(self, list(self._sensors))
         names = check_sensors(sensors)
         missing = [n for n in names if n not in self._sensors]
         if missing:
@@ -372,6 +392,18 @@ class Robot(metaclass=_RobotApi):
                 "or leave it out of Robot(...)",
             )
         return _RobotWithSensors(self, names)
+
+    def called_on(self, patch: ImagePatch) -> None:
+        """Host side: the program called one of this robot's methods on `patch` (`book_patch.pick_up("book")`,
+        `apple_patch.measure_distance("desk")`), or named an object right after looking at `patch` (a loop
+        over patches that asks each a question, then `go_to_object("object")`): a name in that call stands
+        for it when it answers to the name (see `_named`), as for the latest object the program acted on."""
+        if (
+            isinstance(patch, ImagePatch)
+            and patch.label
+            and (not self._acted_on or self._acted_on[-1] is not patch)
+        ):
+            self._acted_on.append(patch)
 
     def backend_name(self) -> str:
         """Host side: the controller's name, reported as the "robot" backend of an answer."""
@@ -396,7 +428,9 @@ class Robot(metaclass=_RobotApi):
 
     def _named(self, name: str, method: str) -> ImagePatch:
         """The patch an object's name stands for, as the paper's Robot took names (`robot.pick_up("book")`):
-        the last patch the program acted on with that name, else the one such object in the camera image."""
+        the last patch the program acted on with that name (or any name, for a generic noun such as
+        "object"), else the very last one when the camera finds it under that name, else the one such
+        object in the camera image. Several in view is ambiguous: refused, naming them."""
         key = _name_key(name)
         if not key:
             raise ApiArgumentError(
@@ -404,8 +438,13 @@ class Robot(metaclass=_RobotApi):
                 f'pass a patch or a name, e.g. robot.{method}("cup")',
             )
         for done in reversed(self._acted_on):
-            if _name_key(done.label) == key:
+            if key in GENERIC_NOUNS or _name_key(done.label) == key:  # "object": the one acted on last
                 return done
+        last = self._acted_on[-1] if self._acted_on else None  # found as "object", named now as a "jar"
+        if last is not None and any(
+            f.same_object(last) or iou(f.box, last.box) >= _SAME_BOX for f in last.find(name)
+        ):
+            return last
         if self._image is None:
             raise UnsupportedAction(
                 f"robot.{method}({name!r}) is not available here: there is no camera image of a world",
@@ -418,15 +457,20 @@ class Robot(metaclass=_RobotApi):
                 f'find it first: patches = image.find("{name}")',
             )
         if len(found) > 1:
+            seen = ", ".join(_named(p) for p in found[:4]) + (", ..." if len(found) > 4 else "")
             raise ApiArgumentError(
-                f"robot.{method}({name!r}) is ambiguous: the robot's camera sees {len(found)} of them",
-                f'pass the patch itself, e.g. robot.{method}(image.find("{name}")[0])',
+                f"robot.{method}({name!r}) is ambiguous: the robot's camera sees {len(found)} of them "
+                f"({seen})",
+                f"pass the patch you mean instead of its name, e.g. for patch in image.find({name!r}): ... "
+                f"{method}(patch)",
             )
         return found[0]
 
     def _target(self, patch: object, method: str) -> tuple[ImagePatch, Target]:
         if isinstance(patch, str):
             patch = self._named(patch, method)
+        elif isinstance(patch, list | tuple) and all(isinstance(p, ImagePatch) for p in patch):
+            patch = _one_of(patch, method)  # the list find returned, as the paper's prompt passes it
         p = check_patch(patch, ImagePatch, "patch", method)
         self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
         self.activity = f"{_DOING.get(method, method)} {self.acting_on}"
@@ -636,17 +680,7 @@ class Robot(metaclass=_RobotApi):
         """
         self._need("measure_weight")
         p, target = self._target(patch, "measure_weight")
-        if self.held is None or not self.held.same_object(p):
-            holding = (
-                f"the robot holds {self.held.label or 'another object'}"
-                if self.held
-                else "the robot holds nothing"
-            )
-            raise PreconditionError(
-                f"robot.measure_weight() needs {target.describe()} in the gripper, and {holding}",
-                ("call robot.put_down() first, then " if self.held else "call ")
-                + "robot.go_to_object(patch) and robot.pick_up(patch) before robot.measure_weight(patch)",
-            )
+        self._held_for(p, target, "measure_weight")
         assert self.world is not None
         newtons, error, samples = self._weigh(p)
         kg = newtons / GRAVITY
@@ -663,8 +697,12 @@ class Robot(metaclass=_RobotApi):
         return kg
 
     def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
-        """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call."""
+        """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
+        robot a program made picks it up instead."""
         if self.held is not None and self.held.same_object(p):
+            return
+        if self._arranging:
+            self.pick_up(p)
             return
         holding = (
             f"the robot holds {self.held.label or 'another object'}"
@@ -731,6 +769,11 @@ class Robot(metaclass=_RobotApi):
         self._need(method)
         p, target = self._target(patch, method)
         assert self.world is not None  # _target checked it
+        arrange = self._arranging
+        if sensor.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)) and arrange:
+            self._focus(p, target)
+        elif sensor.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
+            self.go_to_object(p)
         if sensor.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
             raise PreconditionError(
                 f"robot.{method}() reads whatever the camera is centred on, and it is not centred on "
@@ -881,6 +924,12 @@ class Robot(metaclass=_RobotApi):
         >>>     return fridge
         """
         p, target = self._target(patch, "go_to_object")
+        if self._arranging and self.held is not None and not self.held.same_object(p):
+            # the paper's programs go on to the next object holding the last (their API has no put_down):
+            # what they do there moves the robot itself (a pick-up puts the held object down first and
+            # comes here, put_on reaches its receptacle), and driving with a load in view loses the target
+            self._near = self._aimed = None
+            return
         tries = self.APPROACH_TRIES if self.safeguards.on("verify_actions") else 1
         for attempt in range(tries):
             try:
@@ -924,12 +973,18 @@ class Robot(metaclass=_RobotApi):
         >>>     return apple
         """
         p, target = self._target(patch, "pick_up")
+        if self.held is not None and self._arranging:
+            if self.held.same_object(p):
+                return
+            self.put_down()
         if self.held is not None:
             raise PreconditionError(
                 "robot.pick_up() needs an empty gripper, and the robot holds "
                 f"{self.held.label or 'an object'}",
                 "call robot.put_down() first",
             )
+        if (self._near is None or not self._near.same_object(p)) and self._arranging:
+            self.go_to_object(p)
         if self._near is None or not self._near.same_object(p):
             raise PreconditionError(
                 f"robot.pick_up() needs the robot next to {target.describe()}",
@@ -997,7 +1052,8 @@ class Robot(metaclass=_RobotApi):
         self.held = self._aimed = None
 
     def put_on(self, patch: ImagePatch) -> None:
-        """Places the held object on top of the object in `patch`.
+        """Places the held object on top of the object in `patch`; on a table, counter or shelf, at a
+        free spot near the robot.
 
         >>> # put the cup on the tray
         >>> def execute_command(image, robot):
@@ -1014,7 +1070,12 @@ class Robot(metaclass=_RobotApi):
                 "robot.put_on() needs an object in the gripper, and it is empty",
                 "call robot.go_to_object(obj) and robot.pick_up(obj) first",
             )
-        self.controller.put_on(target)
+        try:
+            self.controller.put_on(target)
+        except ControlError:
+            if getattr(self.controller, "holding", self.held) is None:  # let go before the failure showed
+                self.held = self._aimed = None
+            raise
         self.held = self._aimed = None
 
     def push(self, patch: ImagePatch) -> None:
@@ -1033,7 +1094,8 @@ class Robot(metaclass=_RobotApi):
 
 class _RobotWithSensors(Robot):
     """The session's robot as a program's `Robot(sensors=[...])` sees it: every action and measurement is
-    the session robot's own (its state, its measurements), checked against the fewer sensors."""
+    the session robot's own (its state, its measurements), checked against the fewer sensors, and arranges
+    what it needs first (see `Robot.from_program`)."""
 
     def __init__(self, robot: Robot, sensors: list[str]) -> None:  # noqa: D107 (no Robot.__init__: a view)
         self._robot = robot
@@ -1042,18 +1104,22 @@ class _RobotWithSensors(Robot):
     def from_program(self, sensors: Sequence[str] | None = None) -> Robot:
         return self._robot.from_program(sensors)
 
+    def called_on(self, patch: ImagePatch) -> None:
+        self._robot.called_on(patch)
+
 
 def _through_view(name: str) -> Any:
     robot_method = getattr(Robot, name)
 
     def method(self: _RobotWithSensors, *args: Any, **kwargs: Any) -> Any:
         robot = self._robot
-        given = robot._sensors
+        given, arranging = robot._sensors, robot._arranging
         robot._sensors = self._sensors  # the session robot checks the view's sensors for this call
+        robot._arranging = True  # and does what the call needs first, as the paper's robot did
         try:
             return getattr(robot, name)(*args, **kwargs)
         finally:
-            robot._sensors = given
+            robot._sensors, robot._arranging = given, arranging
 
     method.__name__ = name
     method.__doc__ = robot_method.__doc__
@@ -1120,8 +1186,29 @@ _NEEDS = {
 }
 """What the robot's own measurements need (a sensor's method says it in its record)."""
 
+_SAME_BOX = 0.5
+"""Two boxes of one image that overlap this much (IoU) show one object: a name and a patch found under
+another word meet there when the detector gives no ids."""
+
 _RETRYABLE = ("target lost", "not reachable", "did not converge", "blocked")
 """Approach failures another try from where the robot now stands can mend (a new view, another path)."""
+
+
+def _one_of(patches: Sequence[ImagePatch], method: str) -> ImagePatch:
+    """The one patch of a list `image.find` returned, passed where a patch belongs; none or several are
+    refused, naming them."""
+    if len(patches) == 1:
+        return patches[0]
+    if not patches:
+        raise ApiArgumentError(
+            f"robot.{method}() got an empty list: image.find found nothing there",
+            "check the list before acting (if patches: ...), or find the object under another name",
+        )
+    seen = ", ".join(_named(p) for p in patches[:4]) + (", ..." if len(patches) > 4 else "")
+    raise ApiArgumentError(
+        f"robot.{method}() got a list of {len(patches)} patches ({seen}) and acts on one object",
+        f"pass the one you mean: patches[0], max(patches, key=...), or {method}(patch) in a loop over them",
+    )
 
 
 def _named(patch: ImagePatch) -> str:

@@ -29,6 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--watchdog", type=float, default=0.5, help="s without a command before stopping")
     parser.add_argument("--option", action="append", default=[], help="driver option KEY=VALUE")
     args = parser.parse_args(argv)
+    if not args.token.strip():
+        parser.error("--token is blank: give the shared secret the planner's computer sends")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     from attribot.bridge.robomaster import RoboMasterDriver, driver_options
 

@@ -3,12 +3,15 @@
 `RobotServer` serves a `Driver` (the robot's own calls) over the protocol of `protocol.py`. Safety lives
 here, not in the drivers, so that every robot gets it: the shared-secret token is checked before anything
 moves (a wrong one is refused and logged), base velocities are clipped to the speed limits and ramped at
-most at the acceleration limits, and a watchdog stops the base and the arm when no command arrives within
-`Limits.watchdog_s` or the connection drops.
+most at the acceleration limits, arm and head targets are clipped to the body's travel (a target far
+outside it is refused), and a watchdog stops the base and the arm when no accepted command arrives within
+`Limits.watchdog_s` or the connection drops. The robot stops on anything it refuses: a request it cannot
+read, a value out of range, an unknown op, a call its driver failed. No message ends the server.
 """
 
 from __future__ import annotations
 
+import collections
 import hmac
 import logging
 import math
@@ -18,11 +21,20 @@ import threading
 import time
 import zlib
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
+from attribot.bridge.protocol import (
+    MAX_DEPTH,
+    PROTOCOL_VERSION,
+    ConnectionClosed,
+    MessageError,
+    ProtocolError,
+    recv_message,
+    send_message,
+)
 
-from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["Driver", "Limits", "RobotServer", "CameraFrame", "serve_in_thread"]
 
@@ -73,6 +85,19 @@ class Driver:
         `attribot.control.body.BodyGeometry`: camera_xyz, arm_xy, reach0, arm_range, lift_range, base_half,
         finger_open; metres, base frame), or None when the robot does not state it."""
         return None
+
+    def travel(self) -> dict[str, tuple[float, float]]:
+        """Each actuator target's travel, [low, high] in the request's unit: `lift` and `extension` (metres,
+        from the body's lift_range and arm_range when it states a body), `pan` and `tilt` (radians; a
+        head's default: any heading, and from straight down to straight up). The server clips targets
+        into these and refuses those further out than `TRAVEL_TOLERANCE`."""
+        out = dict(_ANY_TRAVEL)
+        body = self.body()
+        if body is not None:
+            for name, field in (("lift", "lift_range"), ("extension", "arm_range")):
+                low, high = body[field]
+                out[name] = (float(low), float(high))
+        return out
 
     def frame(self) -> CameraFrame:
         raise NotImplementedError
@@ -176,6 +201,24 @@ HELLO_TIMEOUT_S = 2.0
 """How long a new connection has to send its hello: one that sends nothing must not hold the robot."""
 MAX_GREETING = 16
 """Connections in their hello at once; more are closed at once (a flood must not exhaust threads)."""
+MAX_GREETING_PER_ADDRESS = 4
+"""Connections in their hello at once from one address: one flooding machine cannot take every slot."""
+MAX_REQUEST_HEADER = 64 << 10
+"""The largest request header the robot reads (the largest real one is under 200 bytes); requests carry no
+payload."""
+MESSAGE_TIMEOUT_S = 10.0
+"""Once a request has begun, the rest of it must arrive within this time: one trickled a byte at a time
+must not hold the robot."""
+MAX_STEP_S = 10.0
+"""The longest `step` one request may ask for (a simulator runs it at once; a real robot waits it out)."""
+TRAVEL_TOLERANCE = 0.02
+"""How far (m or rad) beyond an actuator's travel a target is clipped into it; further out it is refused."""
+_ANY_TRAVEL = {
+    "lift": (-10.0, 10.0),  # a robot that states no body: still no arm reaches 10 m
+    "extension": (-10.0, 10.0),
+    "pan": (-math.pi, math.pi),
+    "tilt": (-math.pi / 2, math.pi / 2),
+}
 
 
 def _shut(conn: socket.socket) -> None:
@@ -186,17 +229,84 @@ def _shut(conn: socket.socket) -> None:
         pass
 
 
+def _shown(value: Any, limit: int = 40) -> str:
+    """A short repr of what a client sent, for an error message (a huge string is not echoed back)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _finite(h: dict[str, Any], key: str, op: str) -> float:
-    """`h[key]` as a finite float; anything else (missing, text, a bool, NaN, an infinity: clipping a NaN
-    gives the limit, so NaN would drive the base at full speed) is refused with code `value`."""
+    """`h[key]` as a finite float; anything else (missing, text, a bool, NaN, an infinity, a number too
+    large for a float: clipping a NaN gives the limit, so NaN would drive the base at full speed) is refused
+    with code `value`."""
     value = h.get(key)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    number = None
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer of hundreds of digits
+            number = None
+    if number is None or not math.isfinite(number):
         raise _Refused(
             "value",
-            f"{op} needs {key} as a finite number, got {value!r}",
-            "send finite numbers (no NaN or infinity; JSON has none)",
+            f"{op} needs {key} as a finite number, got {_shown(value)}",
+            "send finite numbers (no NaN or infinity, nothing beyond a float's range; JSON has none)",
         )
-    return float(value)
+    return number
+
+
+def _within(value: float, travel: tuple[float, float], what: str, unit: str) -> float:
+    """`value` clipped into `travel`; refused (code `value`) when it lies further out than the tolerance:
+    a target that far off is a client's bug, not a robot's reach."""
+    low, high = travel
+    if not low - TRAVEL_TOLERANCE <= value <= high + TRAVEL_TOLERANCE:
+        raise _Refused(
+            "value",
+            f"{what} {value:g} {unit} is outside its travel, {low:g} to {high:g} {unit}",
+            "command targets within the travel the robot states in its hello (`travel`)",
+        )
+    return min(high, max(low, value))
+
+
+_LINGER_S = 1.0
+_LINGER_BYTES = 4 << 20
+_HELLO_FIX = "send hello with version and token first (docs/bridge-protocol.md)"
+_READ_FIX = (
+    f"send one JSON object per message: a header of at most {MAX_REQUEST_HEADER} bytes, nested at most "
+    f"{MAX_DEPTH} deep, no payload (docs/bridge-protocol.md)"
+)
+
+
+def _answer(conn: socket.socket, refusal: _Refused, last: bool = False) -> None:
+    """Tell a client why it is refused, if it still listens. `last`: the connection ends here; what the
+    client is still sending is read and dropped for a moment first, so that closing with unread bytes does
+    not reset the connection before the client has read why."""
+    try:
+        send_message(conn, {"ok": False, "code": refusal.code, "error": refusal.message, "fix": refusal.fix})
+        if last:
+            conn.shutdown(socket.SHUT_WR)
+            conn.settimeout(_LINGER_S)
+            deadline = time.monotonic() + _LINGER_S
+            dropped = 0
+            while time.monotonic() < deadline and dropped < _LINGER_BYTES:
+                chunk = conn.recv(1 << 16)
+                if not chunk:
+                    break
+                dropped += len(chunk)
+    except OSError:
+        pass
+
+
+def _keep_alive(conn: socket.socket) -> None:
+    """Probe an idle client's connection, so that a planner's computer that vanished without closing it
+    (power lost, network gone) frees the robot within about half a minute."""
+    try:
+        conn.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+        for option, value in (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3)):
+            if hasattr(socket, option):  # Linux; elsewhere the system's defaults
+                conn.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
+    except OSError:
+        pass
 
 
 class RobotServer:
@@ -210,11 +320,12 @@ class RobotServer:
         port: int = 0,
         limits: Limits | None = None,
     ) -> None:
-        if not token:
-            raise ValueError("the bridge needs a non-empty token (the shared secret clients must send)")
+        if not token.strip():
+            raise ValueError("the bridge needs a token that is not blank (the secret clients must send)")
         self.driver = driver
         self.token = token
         self.limits = limits or Limits()
+        self.travel = driver.travel()
         self._lock = threading.RLock()  # one driver call at a time (client thread, watchdog thread)
         self._target = (0.0, 0.0, 0.0)  # base velocity the client asked for (clipped)
         self._applied = (0.0, 0.0, 0.0)  # base velocity the driver was last given (ramped)
@@ -223,13 +334,14 @@ class RobotServer:
         self._closing = threading.Event()
         self._slot = threading.Lock()  # guards `_client` and `_greeting`
         self._client: Any = None  # the peer being served, None when the robot is free
-        self._greeting = 0  # connections in their hello
+        self._greeting: dict[str, int] = {}  # connections in their hello, by the peer's address
         self._handoff = queue.Queue()  # type: queue.Queue[tuple[socket.socket, Any, dict[str, Any]]]
-        self.stops: list[tuple[float, str]] = []  # (monotonic time, why) of each safety stop
+        # (monotonic time, why) of the latest safety stops: a flood of refused requests must not grow it
+        self.stops = collections.deque(maxlen=1000)  # type: collections.deque[tuple[float, str]]
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._sock.bind((host, port))
-        self._sock.listen(1)
+        self._sock.listen(MAX_GREETING)  # a burst of connections is accepted, then sorted by the acceptor
         self._sock.settimeout(0.2)  # accept wakes up to notice close()
         self.address = self._sock.getsockname()[:2]
         self._watchdog = threading.Thread(target=self._watch, name="bridge-watchdog", daemon=True)
@@ -266,17 +378,20 @@ class RobotServer:
 
     def _watch(self) -> None:
         while not self._closing.wait(_RAMP_TICK):
+            why = None
             with self._lock:
                 if not self._armed:
                     continue
                 if time.monotonic() - self._last_command > self.limits.watchdog_s:
-                    late = True
-                else:
-                    late = False
-                    if self.driver.realtime and self._applied != self._target:
+                    why = f"no accepted command for {self.limits.watchdog_s:.2f} s (watchdog)"
+                elif self.driver.realtime and self._applied != self._target:
+                    try:
                         self._ramp(_RAMP_TICK)
-            if late:
-                self.safety_stop(f"no command for {self.limits.watchdog_s:.2f} s (watchdog)")
+                    except Exception:  # the watchdog must outlive a driver's failure, and stop the robot
+                        log.exception("bridge: driving the base failed")
+                        why = "the driver failed to drive the base"
+            if why is not None:
+                self.safety_stop(why)
 
     # --- serving ----------------------------------------------------------------------------------
     def serve_forever(self) -> None:
@@ -296,6 +411,9 @@ class RobotServer:
                     continue
                 try:
                     self.serve_client(conn, peer, header)
+                except Exception:  # a bug met by one client must not end the robot's server
+                    log.exception("bridge: serving %s failed", peer)
+                    self.safety_stop(f"serving {peer} failed")
                 finally:
                     conn.close()
                     self._free(peer)
@@ -309,16 +427,20 @@ class RobotServer:
         while not self._closing.is_set():
             try:
                 conn, peer = self._sock.accept()
-            except TimeoutError:
+            except socket.timeout:  # noqa: UP041 (on Python 3.8 not a TimeoutError: it would end accepting)
                 continue
             except OSError:
                 break  # closed
             with self._slot:
-                crowded = self._greeting >= MAX_GREETING
+                address = str(peer[0])
+                crowded = (
+                    sum(self._greeting.values()) >= MAX_GREETING
+                    or self._greeting.get(address, 0) >= MAX_GREETING_PER_ADDRESS
+                )
                 if not crowded:
-                    self._greeting += 1
+                    self._greeting[address] = self._greeting.get(address, 0) + 1
             if crowded:
-                log.warning("bridge: refused %s: %d connections already in their hello", peer, MAX_GREETING)
+                log.warning("bridge: refused %s: too many connections in their hello", peer)
                 conn.close()
                 continue
             threading.Thread(target=self._greet, args=(conn, peer), name="bridge-hello", daemon=True).start()
@@ -333,7 +455,7 @@ class RobotServer:
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             conn.settimeout(HELLO_TIMEOUT_S)
             cutoff.start()
-            header, _ = recv_message(conn)
+            header, _ = recv_message(conn, MAX_REQUEST_HEADER, 0)
             cutoff.cancel()
             self._check_hello(header, peer)
             with self._slot:
@@ -352,16 +474,24 @@ class RobotServer:
             self._handoff.put((conn, peer, header))
             handed = True
         except _Refused as exc:
-            try:
-                send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
-            except OSError:
-                pass
-        except (ProtocolError, OSError) as exc:  # a timeout is an OSError: no hello within the deadline
+            _answer(conn, exc)
+        except MessageError as exc:
+            _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX))
+        except ProtocolError as exc:
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
+            if not isinstance(exc, ConnectionClosed):
+                _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX), last=True)
+        except OSError as exc:  # a timeout is an OSError: no hello within the deadline
+            log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
+        except Exception:  # nothing a stranger sends may end this thread with a traceback
+            log.exception("bridge: the hello of %s failed", peer)
         finally:
             cutoff.cancel()
             with self._slot:
-                self._greeting -= 1
+                address = str(peer[0])
+                self._greeting[address] -= 1
+                if not self._greeting[address]:
+                    del self._greeting[address]
             if not handed:
                 conn.close()
 
@@ -372,7 +502,10 @@ class RobotServer:
                 self._client = None
 
     def serve_client(self, conn: socket.socket, peer: Any, hello: dict[str, Any]) -> None:
-        """Serve one client whose `hello` was checked: answer it, then its requests until it leaves."""
+        """Serve one client whose `hello` was checked: answer it, then its requests until it leaves.
+
+        Only an accepted request feeds the watchdog; anything refused (a request that cannot be read, a
+        bad value, an unknown op, a driver's failure) stops the robot before the refusal is sent."""
         authenticated = False
         try:
             with self._lock:
@@ -380,11 +513,16 @@ class RobotServer:
             reply["ok"] = True
             send_message(conn, reply)
             authenticated = True
+            _keep_alive(conn)
             log.info("bridge: client %s connected", peer)
             while not self._closing.is_set():
-                header, payload = recv_message(conn)
-                with self._lock:
-                    self._last_command = time.monotonic()
+                try:
+                    header, _ = recv_message(conn, MAX_REQUEST_HEADER, 0, within_s=MESSAGE_TIMEOUT_S)
+                except MessageError as exc:
+                    unread = _Refused("message", f"the request could not be read: {exc}", _READ_FIX)
+                    self._refuse(conn, unread)
+                    continue
+                received = time.monotonic()
                 op = header.get("op")
                 if op == "bye":
                     # stopped and free before the reply: a client that reconnects at once is served
@@ -394,44 +532,53 @@ class RobotServer:
                     send_message(conn, {"ok": True})
                     break
                 try:
-                    body, data = self._handle(str(op), header)
+                    body, data = self._handle(op if isinstance(op, str) else _shown(op), header, received)
                 except _Refused as exc:
-                    send_message(conn, {"ok": False, "code": exc.code, "error": exc.message, "fix": exc.fix})
+                    self._refuse(conn, exc)
                     continue
                 except Exception as exc:  # a driver failure is the client's answer, not the server's death
-                    log.exception("bridge: %s failed", op)
-                    send_message(
-                        conn,
-                        {
-                            "ok": False,
-                            "code": "driver",
-                            "error": f"{op} failed on the robot: {exc}",
-                            "fix": "see the robot's log",
-                        },
-                    )
+                    log.exception("bridge: %s failed", _shown(op))
+                    failure = f"{_shown(op)} failed on the robot: {str(exc)[:200]}"
+                    self._refuse(conn, _Refused("driver", failure, "see the robot's log"))
                     continue
+                with self._lock:
+                    self._last_command = max(self._last_command, received)
                 body["ok"] = True
                 send_message(conn, body, data)
-        except (ProtocolError, OSError) as exc:
+        except ProtocolError as exc:
+            log.info("bridge: client %s gone (%s)", peer, exc)
+            if not isinstance(exc, ConnectionClosed):  # stopped and free first; then it may still read why
+                self.safety_stop(f"client {peer} sent what cannot be read ({exc})")
+                authenticated = False
+                self._free(peer)
+                _answer(conn, _Refused("message", str(exc), _READ_FIX), last=True)
+        except OSError as exc:
             log.info("bridge: client %s gone (%s)", peer, exc)
         finally:
             if authenticated:  # a refused client never moved anything
                 self.safety_stop(f"client {peer} disconnected")
 
+    def _refuse(self, conn: socket.socket, refusal: _Refused) -> None:
+        """Stop the robot (it stops on anything it refuses), then tell the client why."""
+        self.safety_stop(f"refused a request ({refusal.code}: {refusal.message[:80]})")
+        send_message(conn, {"ok": False, "code": refusal.code, "error": refusal.message, "fix": refusal.fix})
+
     def _check_hello(self, header: dict[str, Any], peer: Any) -> None:
         if header.get("op") != "hello":
-            raise _Refused("hello", "the first message must be hello", "send hello with version and token")
+            raise _Refused("hello", "the first message must be hello", _HELLO_FIX)
         version = header.get("version")
-        if version != PROTOCOL_VERSION:
+        if type(version) is not int or version != PROTOCOL_VERSION:
             log.warning("bridge: refused %s: protocol version %r", peer, version)
             raise _Refused(
                 "version",
-                f"protocol version mismatch: the client speaks version {version}, "
+                f"protocol version mismatch: the client speaks version {_shown(version)}, "
                 f"this robot speaks version {PROTOCOL_VERSION}",
                 "install the same attribot release on the robot and the planner's computer",
             )
         token = header.get("token")
-        if not isinstance(token, str) or not hmac.compare_digest(token.encode(), self.token.encode()):
+        if not isinstance(token, str) or not hmac.compare_digest(
+            token.encode("utf-8", "surrogatepass"), self.token.encode("utf-8", "surrogatepass")
+        ):
             log.warning("bridge: refused %s: wrong token", peer)
             raise _Refused(
                 "auth",
@@ -446,6 +593,7 @@ class RobotServer:
             "robot": self.driver.name,
             "capabilities": caps,
             "limits": self.limits.as_dict(),
+            "travel": {name: [low, high] for name, (low, high) in self.travel.items()},
         }
         if "camera" in caps:
             reply["camera"] = dict(self.driver.camera())
@@ -465,7 +613,9 @@ class RobotServer:
                 "available here: {}".format(", ".join(sorted(self.driver.capabilities()))),
             )
 
-    def _handle(self, op: str, h: dict[str, Any]) -> tuple[dict[str, Any], bytes]:
+    def _handle(self, op: str, h: dict[str, Any], received: float) -> tuple[dict[str, Any], bytes]:
+        """Do one request received at `received` (monotonic); `_Refused` when it cannot be done. A motion
+        command feeds the watchdog as it arms it (a tick in between must not find it armed and late)."""
         d = self.driver
         with self._lock:
             if op == "observe":
@@ -480,11 +630,19 @@ class RobotServer:
                     _clip(_finite(h, "wz", op), lim.max_turn),
                 )
                 self._armed = True
+                self._last_command = max(self._last_command, received)
                 if d.realtime:
                     self._ramp(_RAMP_TICK)
                 return {"commanded": list(self._target)}, b""
             if op == "step":
-                self._step(_finite(h, "seconds", op))
+                seconds = _finite(h, "seconds", op)
+                if not 0.0 <= seconds <= MAX_STEP_S:
+                    raise _Refused(
+                        "value",
+                        f"step needs seconds from 0 to {MAX_STEP_S:g}, got {seconds:g}",
+                        "step in shorter pieces",
+                    )
+                self._step(seconds)
                 return {"clock": d.clock()}, b""
             if op == "stop":
                 self._target = (0.0, 0.0, 0.0)
@@ -494,14 +652,22 @@ class RobotServer:
                 return {}, b""
             if op == "head":
                 self._need("head", "move a camera head")
-                d.set_head(_finite(h, "pan", op), _finite(h, "tilt", op))
-                return {}, b""
+                pan, tilt = _finite(h, "pan", op), _finite(h, "tilt", op)
+                if abs(pan) > 2 * math.pi:
+                    raise _Refused("value", f"head pan {pan:g} rad is more than a turn", "send an angle")
+                pan = _within(math.remainder(pan, 2 * math.pi), self.travel["pan"], "head pan", "rad")
+                tilt = _within(tilt, self.travel["tilt"], "head tilt", "rad")
+                d.set_head(pan, tilt)
+                return {"commanded": [pan, tilt]}, b""
             if op == "arm":
                 self._need("arm", "move an arm")
-                lift, extension = _finite(h, "lift", op), _finite(h, "extension", op)
+                travel = self.travel
+                lift = _within(_finite(h, "lift", op), travel["lift"], "arm lift", "m")
+                extension = _within(_finite(h, "extension", op), travel["extension"], "arm extension", "m")
                 self._armed = True
+                self._last_command = max(self._last_command, received)
                 d.set_arm(lift, extension)
-                return {}, b""
+                return {"commanded": [lift, extension]}, b""
             if op == "grasp":
                 self._need("gripper", op)
                 return {"held": bool(d.grasp())}, b""
@@ -538,11 +704,9 @@ class RobotServer:
             if op == "joints":
                 self._need("pose", "report joint states")
                 return {"joints": {k: float(v) for k, v in d.joints().items()}}, b""
-        raise _Refused("op", f"unknown bridge request {op!r}", "see docs/bridge-protocol.md")
+        raise _Refused("op", f"unknown bridge request {_shown(op)}", "see docs/bridge-protocol.md")
 
     def _step(self, seconds: float) -> None:
-        if not (seconds >= 0 and math.isfinite(seconds)):
-            raise _Refused("value", f"step needs a non-negative time, got {seconds!r}")
         d = self.driver
         if d.realtime:
             # the ramp runs in the watchdog thread; waiting must not hold the lock
@@ -566,10 +730,14 @@ class RobotServer:
         parts = [("jpeg", frame.jpeg)]
         header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(self.driver.camera())}
         if frame.depth is not None:
+            import numpy as np  # only a robot with depth or segmentation needs it
+
             depth = np.ascontiguousarray(frame.depth, dtype="<f4")
             parts.append(("depth", depth.tobytes()))
             header["depth_shape"] = list(depth.shape)
         if frame.segmentation is not None:
+            import numpy as np
+
             seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
             parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
             header["segmentation_shape"] = list(seg.shape)

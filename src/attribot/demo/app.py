@@ -4,294 +4,262 @@ A visitor chooses a scene (layout, seed, objects, layout options) or uploads an 
 watches it run: the robot camera and the room camera as the episode is filmed, the program, each API call
 with its result as it ends, then the answer with its box drawn and its values, and links to the episode
 video and the saved run (a zip of what `attribot ask --save` writes). Queries run one after another on one
-worker thread (a world renders and steps on the CPU; two at once would only halve each), and a visitor
-(a cookie) has at most one query waiting or running.
+worker thread (a world renders and steps on the CPU; two at once would only halve each), a visitor (a
+cookie) has at most one query waiting or running, and at most `MAX_WAITING` wait in all (`runs.py`).
 
 Routes: `GET /` the page; `GET /static/...` its script and style; `GET /api/options` the layouts and the
 backends; `POST /api/runs` start a query (JSON: query, layout, seed, objects, options, or image as
-{name, data (base64)});
-`GET /api/runs/{id}/events` its progress as server-sent events (status, program, call, frame, answer,
-error, done); `GET /api/runs/{id}/answer.png | episode.mp4 | run.zip` what it saved.
+{name, data (base64)}); `GET /api/runs/{id}/events` its progress as server-sent events (status, program,
+call, frame, answer, error, done); `GET /api/runs/{id}/answer.png | episode.mp4 | run.zip` what it saved.
 
-With a token (`attribot demo --token`), every route needs it: `/?token=TOKEN` once (it is then kept in a
-cookie), or `Authorization: Bearer TOKEN`.
+Who may do what:
+- Every request must name this demo as its `Host`: `localhost`, an IP address, or a name given with
+  `--allow-host`. A site whose DNS name is rebound to this machine's address is refused (DNS rebinding).
+- Starting a query, the one request that changes anything, needs the page's secret in `X-Attribot-Secret`
+  (the server writes it into the page, one per visitor), a JSON body, and no `Origin` of another site:
+  a form or `text/plain` post from another site (CSRF) cannot start one.
+- With a token (`attribot demo --token`), every route needs it: `/?token=TOKEN` once (the page then keeps a
+  cookie derived from it, and the address is cleaned of it), or `Authorization: Bearer TOKEN`.
 """
 
 # no `from __future__ import annotations`: FastAPI reads the endpoints' annotations at run time, and
 # `Request` is imported inside create_app (the server extra is optional)
-import base64
+import asyncio
+import hashlib
 import hmac
-import io
-import itertools
-import json
-import logging
-import queue
+import ipaddress
+import re
 import secrets
-import threading
-import time
-import zipfile
-from collections import OrderedDict
-from collections.abc import AsyncIterator, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
-import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from attribot.config import MAX_QUERY_CHARS, Settings
+from attribot.demo.runs import KEPT_RUNS, MAX_WAITING, Busy, Crowded, NoSpace, Run, Runs
 from attribot.deps import require
 from attribot.errors import AttribotError, InputError
 
-__all__ = ["DemoConfig", "create_app", "MAX_IMAGE_BYTES"]
-
-log = logging.getLogger("attribot.demo")
+__all__ = ["DemoConfig", "create_app", "MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "KEPT_RUNS", "MAX_WAITING"]
 
 MAX_IMAGE_BYTES = 10 * 1024 * 1024
-"""The largest image a visitor may upload."""
-KEPT_RUNS = 32
-"""Runs whose events and files stay reachable; older ones are forgotten (their folders stay on disk)."""
-FRAME_INTERVAL_S = 0.1
-"""The least time between two camera frames sent to one page (the sim may film faster than that)."""
+"""The largest image file a visitor may upload."""
+MAX_IMAGE_PIXELS = 25_000_000
+"""The most pixels an uploaded image may have (read from its header before it is decoded)."""
+BODY_TIMEOUT_S = 60.0
+"""How long a query's request body may take to arrive (a client trickling it must not hold a task)."""
+SECRET_HEADER = "X-Attribot-Secret"
 
 _VISITOR = "attribot_demo_visitor"
 _TOKEN = "attribot_demo_token"
+_VISITOR_FORMAT = re.compile(r"[0-9a-f]{32}")
+_SECURITY_HEADERS = [
+    ("x-content-type-options", "nosniff"),
+    ("x-frame-options", "DENY"),
+    ("referrer-policy", "no-referrer"),
+    (
+        "content-security-policy",
+        "default-src 'self'; img-src 'self' data:; object-src 'none'; frame-ancestors 'none'; "
+        "base-uri 'none'; form-action 'self'",
+    ),
+    ("cross-origin-opener-policy", "same-origin"),
+    ("cross-origin-resource-policy", "same-origin"),
+]
 
 
 @dataclass
 class DemoConfig:
-    """What the demo serves with: the backend settings of every query, the folder runs are saved in, and
-    the token every request must carry (None: no check, for 127.0.0.1 only)."""
+    """What the demo serves with: the backend settings of every query, the folder runs are saved in, the
+    token every request must carry (None: no check, for 127.0.0.1 only), the host names it answers to
+    beyond `localhost` and IP addresses, and whether it keeps every run's folder (else a run forgotten
+    after `KEPT_RUNS` newer ones is removed), refusing new runs below `min_free_bytes` of free disk."""
 
     settings: Settings
     runs_dir: Path
     token: str | None = None
+    hosts: tuple[str, ...] = ()
+    keep_runs: bool = False
+    min_free_bytes: int = 256 << 20
+    max_streams_per_run: int = 4
 
 
-@dataclass
-class _Run:
-    """One query: what the page asked, what happened so far, what it saved."""
+class _Upload(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+    name: str = Field("upload.png", max_length=1000)
+    data: str
 
-    id: str
-    visitor: str
+
+class _RunRequest(BaseModel):
+    """The page's form: a query, and a scene (layout, seed, objects, options) or an image."""
+
+    model_config = ConfigDict(extra="ignore")
     query: str
-    config: Any
-    image: Path | None
-    folder: Path
-    events: list[dict[str, Any]] = field(default_factory=list)
-    frame: tuple[np.ndarray, np.ndarray] | None = None
-    frames: int = 0  # frames taken so far; the page gets the latest one
-    done: bool = False
-    cond: threading.Condition = field(default_factory=threading.Condition)
-
-    def emit(self, event_type: str, /, **data: Any) -> None:
-        # positional-only: an event's data may hold its own "kind" (a trace record's call kind)
-        with self.cond:
-            self.events.append({**data, "type": event_type})
-            self.cond.notify_all()
-
-    def on_frame(self, robot: np.ndarray, room: np.ndarray) -> None:
-        with self.cond:
-            # copies: the recorder goes on writing its labels onto these arrays
-            self.frame = (robot.copy(), room.copy())
-            self.frames += 1
-            self.cond.notify_all()
+    layout: str | None = Field(None, max_length=100)
+    seed: int | str | None = Field(None, union_mode="left_to_right")
+    objects: int | str | None = Field(None, union_mode="left_to_right")
+    options: str | None = Field(None, max_length=4000)
+    image: _Upload | None = None
 
 
-def _jpeg(rgb: np.ndarray, quality: int = 80) -> str:
-    import cv2
-
-    ok, data = cv2.imencode(
-        ".jpg", np.ascontiguousarray(rgb[:, :, ::-1]), [cv2.IMWRITE_JPEG_QUALITY, quality]
-    )
-    if not ok:  # cannot happen for a uint8 RGB image; said plainly if it does
-        raise RuntimeError("JPEG encoding failed")
-    return "data:image/jpeg;base64," + base64.b64encode(data.tobytes()).decode("ascii")
-
-
-class _Busy(InputError):
-    """This visitor's earlier query has not finished (HTTP 409)."""
-
-
-class _Demo:
-    """The runs and the worker thread that answers them in order."""
-
-    def __init__(self, config: DemoConfig) -> None:
-        self.config = config
-        self.runs: OrderedDict[str, _Run] = OrderedDict()
-        self.lock = threading.Lock()
-        self.queue: queue.Queue[_Run | None] = queue.Queue()
-        self.counter = itertools.count(1)
-        self.worker = threading.Thread(target=self._work, name="attribot-demo-worker", daemon=True)
-        self.worker.start()
-
-    # ---- runs ---------------------------------------------------------------------------------------
-    def start(self, visitor: str, query: str, config: Any, image: tuple[str, bytes] | None) -> _Run:
-        with self.lock:
-            busy = [r for r in self.runs.values() if r.visitor == visitor and not r.done]
-            if busy:
-                raise _Busy(
-                    "your earlier query is still running", "wait for its answer, then ask the next one"
-                )
-            run_id = f"{next(self.counter):04d}-{secrets.token_hex(4)}"
-            folder = self.config.runs_dir / run_id
-            folder.mkdir(parents=True)
-            path = None
-            if image is not None:
-                name, data = image
-                suffix = Path(name).suffix.lower()  # the name is the visitor's: only its known suffixes
-                path = folder / ("upload" + (suffix if suffix in (".png", ".jpg", ".jpeg") else ".png"))
-                path.write_bytes(data)
-            run = _Run(run_id, visitor, query, config, path, folder / "run")
-            self.runs[run_id] = run
-            while len(self.runs) > KEPT_RUNS:
-                oldest = next(iter(self.runs))
-                if not self.runs[oldest].done:
-                    break
-                del self.runs[oldest]
-            ahead = sum(1 for r in self.runs.values() if not r.done) - 1
-        run.emit("status", text=f"waiting: {ahead} queries ahead" if ahead else "starting")
-        self.queue.put(run)
-        return run
-
-    def get(self, run_id: str, visitor: str) -> _Run:
-        with self.lock:
-            run = self.runs.get(run_id)
-        if run is None or run.visitor != visitor:
-            raise KeyError(run_id)
-        return run
-
-    def close(self) -> None:
-        self.queue.put(None)
-
-    def _work(self) -> None:
-        while True:
-            run = self.queue.get()
-            if run is None:
-                return
-            self._answer(run)
-
-    def _answer(self, run: _Run) -> None:
-        from attribot.demo.adapter import run_query
-
-        run.emit("status", text="building the scene" if run.image is None else "reading the image")
-        tries = 0
-
-        def on_program(text: str) -> None:
-            nonlocal tries
-            tries += 1
-            run.emit("program", attempt=tries, text=text)
-            run.emit("status", text="running the program" + (f" (try {tries})" if tries > 1 else ""))
-
-        def on_call(record: Any) -> None:
-            run.emit("call", **record.model_dump(mode="json"))
-
-        try:
-            answer = run_query(
-                run.query,
-                config=run.config,
-                image=run.image,
-                settings=self.config.settings,
-                save_dir=run.folder,
-                on_program=on_program,
-                on_call=on_call,
-                on_frame=run.on_frame,
-            )
-        except AttribotError as exc:
-            run.emit("error", message=exc.message, fix=exc.fix)
-        except Exception as exc:  # noqa: BLE001 (the page says what failed; the server goes on serving)
-            log.exception("demo query %s failed", run.id)
-            run.emit("error", message=f"internal error: {type(exc).__name__}: {exc}", fix=None)
-        else:
-            saved = {name: (run.folder / name).is_file() for name in ("answer.png", "episode.mp4")}
-            run.emit(
-                "answer",
-                answer=json.loads(answer.model_dump_json()),
-                image=f"/api/runs/{run.id}/answer.png" if saved["answer.png"] else None,
-                video=f"/api/runs/{run.id}/episode.mp4" if saved["episode.mp4"] else None,
-                saved_run=f"/api/runs/{run.id}/run.zip",
-            )
-        finally:
-            with run.cond:
-                run.done = True
-                run.frame = None  # the page has the last one; a kept run need not hold two images
-                run.events.append({"type": "done"})
-                run.cond.notify_all()
-
-    # ---- the event stream ---------------------------------------------------------------------------
-    def stream(self, run: _Run) -> Iterator[str]:
-        sent, frames, last_frame = 0, 0, 0.0
-        while True:
-            with run.cond:
-                if sent == len(run.events) and run.frames == frames and not run.done:
-                    run.cond.wait(0.5)
-                events = run.events[sent:]
-                sent += len(events)
-                frame = None
-                if run.frames != frames and time.monotonic() - last_frame >= FRAME_INTERVAL_S:
-                    frame, frames = run.frame, run.frames
-                finished = run.done and sent == len(run.events)
-            if frame is not None:
-                last_frame = time.monotonic()
-                yield _sse("frame", {"type": "frame", "robot": _jpeg(frame[0]), "room": _jpeg(frame[1])})
-            for event in events:
-                yield _sse(event["type"], event)
-            if finished:
-                return
-            if not events and frame is None:
-                yield ": keep-alive\n\n"  # a comment line: lets the server notice a page that has gone
-                time.sleep(FRAME_INTERVAL_S / 2)
-
-
-def _sse(kind: str, data: dict[str, Any]) -> str:
-    return f"event: {kind}\ndata: {json.dumps(data, allow_nan=False, default=str)}\n\n"
-
-
-def _zip_folder(folder: Path) -> bytes:
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as archive:
-        for path in sorted(folder.iterdir()):
-            if path.is_file():
-                archive.write(path, f"{folder.parent.name}/{path.name}")
-    return buf.getvalue()
-
-
-def _upload(image: Any) -> tuple[str, bytes] | None:
-    """The uploaded image of the page's JSON ({"name": ..., "data": base64}), None when there is none."""
-    if not image:
-        return None
-    if not isinstance(image, dict) or not isinstance(image.get("data"), str):
-        raise InputError("the image is not {name, data (base64)}", "upload the image from the page")
+def _host_name(value: str) -> str | None:
+    """The host name of a `Host` (or `Origin` netloc) value, lower case and without its port."""
     try:
-        data = base64.b64decode(image["data"], validate=True)
+        return urlsplit("//" + value).hostname
     except ValueError:
-        raise InputError("the image's data is not base64", "upload the image from the page") from None
-    if len(data) > MAX_IMAGE_BYTES:
-        raise InputError(
-            f"the image is larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB", "send a smaller one"
+        return None
+
+
+def is_ip(name: str) -> bool:
+    """Whether `name` is an IP address (v4 or v6) rather than a host name."""
+    try:
+        ipaddress.ip_address(name)
+    except ValueError:
+        return False
+    return True
+
+
+def _visitor_of(cookies: dict[str, str]) -> str | None:
+    value = cookies.get(_VISITOR, "")
+    return value if _VISITOR_FORMAT.fullmatch(value) else None
+
+
+def _problem(status: int, message: str, fix: str | None = None, headers: dict[str, str] | None = None) -> Any:
+    from starlette.responses import JSONResponse
+
+    return JSONResponse({"message": message, "fix": fix}, status_code=status, headers=headers)
+
+
+class _Guard:
+    """The checks every request meets before any route (an ASGI middleware): its `Host`, the token, the
+    `Origin` of anything but a read; and the headers every response carries (no framing, no sniffing, no
+    referrer, a content security policy)."""
+
+    def __init__(self, app: Any, config: DemoConfig) -> None:
+        self.app = app
+        self.hosts = {"localhost", *(h.lower() for h in config.hosts)}
+        self.token = None if config.token is None else config.token.encode()
+        # the cookie holds a value derived from the token, never the token itself
+        self.cookie = (
+            None if self.token is None else hmac.new(self.token, b"cookie", hashlib.sha256).hexdigest()
         )
-    return str(image.get("name") or "upload.png"), data
+
+    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        from starlette.datastructures import Headers, MutableHeaders
+
+        headers = Headers(scope=scope)
+        extra: list[tuple[str, str]] = []
+        refusal = self._refusal(scope, headers)
+        if refusal is None and self.token is not None:
+            refusal, extra = self._token(scope, headers)
+
+        async def guarded(message: Any) -> None:
+            if message["type"] == "http.response.start":
+                out = MutableHeaders(scope=message)
+                for name, value in _SECURITY_HEADERS + extra:
+                    out.append(name, value)
+            await send(message)
+
+        if refusal is not None:
+            await refusal(scope, receive, guarded)
+            return
+        await self.app(scope, receive, guarded)
+
+    def _refusal(self, scope: Any, headers: Any) -> Any:
+        name = _host_name(headers.get("host", ""))
+        if name is None or not (name in self.hosts or is_ip(name)):
+            return _problem(
+                400,
+                "this demo does not answer to the host this request names",
+                "open it by its IP address or as localhost (or start it with --allow-host NAME)",
+            )
+        if scope["method"] in ("GET", "HEAD"):
+            return None
+        origin = headers.get("origin")
+        if origin is not None:
+            parts = urlsplit(origin) if origin != "null" else None
+            if parts is None or parts.netloc.lower() != headers.get("host", "").lower():
+                return _problem(403, "this request comes from another site", "ask from the demo's own page")
+        elif headers.get("sec-fetch-site", "same-origin") not in ("same-origin", "none"):
+            return _problem(403, "this request comes from another site", "ask from the demo's own page")
+        return None
+
+    def _token(self, scope: Any, headers: Any) -> tuple[Any, list[tuple[str, str]]]:
+        """A refusal (or the redirect that takes the token out of the address), and the headers to add."""
+        from starlette.datastructures import QueryParams
+        from starlette.requests import cookie_parser
+
+        assert self.token is not None and self.cookie is not None
+        query = QueryParams(scope["query_string"])
+        given = query.get("token")
+        auth = headers.get("authorization", "")
+        if given is None and auth.lower().startswith("bearer "):
+            given = auth[7:].strip()
+        if given is not None:
+            ok = hmac.compare_digest(given.encode("utf-8", "surrogatepass"), self.token)
+        else:
+            cookie = cookie_parser(headers.get("cookie", "")).get(_TOKEN, "")
+            ok = hmac.compare_digest(cookie.encode("utf-8", "surrogatepass"), self.cookie.encode())
+        if not ok:
+            return (
+                _problem(
+                    401,
+                    "the token is wrong" if given else "this demo needs its token",
+                    "open the address the demo printed, with ?token=TOKEN",
+                ),
+                [],
+            )
+        if "token" not in query:
+            return None, []
+        kept = [("set-cookie", f"{_TOKEN}={self.cookie}; HttpOnly; Path=/; SameSite=strict")]
+        if scope["path"] == "/" and scope["method"] == "GET":
+            # the token leaves the address bar (and the history) at once: the page is kept by the cookie
+            from starlette.responses import RedirectResponse
+
+            return RedirectResponse("/", status_code=303), kept
+        return None, kept
 
 
-def _scene_config(form: dict[str, Any]) -> Any:
+def _upload(image: _Upload) -> tuple[str, bytes]:
+    """The uploaded image's file suffix and bytes, once it is known to be a PNG or JPEG file whose size and
+    pixels are within the limits (read from its header before any pixel is decoded)."""
+    import base64
+
+    from attribot.models.wire import ImageTooLarge, decode_image
+
+    if len(image.data) * 3 // 4 > MAX_IMAGE_BYTES + 2:
+        raise ImageTooLarge(f"the image is larger than {MAX_IMAGE_BYTES >> 20} MB", "upload a smaller one")
+    decode_image(image.data, max_pixels=MAX_IMAGE_PIXELS)
+    data = base64.b64decode(image.data)
+    return (".png" if data.startswith(b"\x89PNG") else ".jpg"), data
+
+
+def _scene_config(form: _RunRequest) -> Any:
     """The SceneConfig of the page's scene fields; a bad field is an `InputError` that names it."""
     from attribot.config import SceneConfig
+    from attribot.sim.scene import LAYOUTS
 
-    def number(name: str) -> int | None:
-        text = str(form.get(name) or "").strip()
+    def number(name: str, value: int | str | None) -> int | None:
+        if isinstance(value, int):
+            return value
+        text = str(value or "").strip()
         if not text:
             return None
-        try:
-            return int(text)
-        except ValueError:
-            raise InputError(
-                f"{name} {text!r} is not a whole number", f"give {name} as digits, e.g. 3"
-            ) from None
+        if not re.fullmatch(r"[+-]?[0-9]{1,18}", text):
+            raise InputError(f"{name} {text[:40]!r} is not a whole number", f"give {name} as digits, e.g. 3")
+        return int(text)
 
     options: dict[str, Any] = {}
-    for item in str(form.get("options") or "").replace(",", " ").split():
+    for item in str(form.options or "").replace(",", " ").split():
         key, sep, raw = item.partition("=")
         if not sep or not key:
-            raise InputError(f"layout option {item!r} is not KEY=VALUE", "write e.g. pattern=grid odd=size")
+            raise InputError(
+                f"layout option {item[:60]!r} is not KEY=VALUE", "write e.g. pattern=grid odd=size"
+            )
         value: Any = raw
         for cast in (int, float):
             try:
@@ -300,19 +268,37 @@ def _scene_config(form: dict[str, Any]) -> Any:
             except ValueError:
                 pass
         options[key] = value
-    from attribot.sim.scene import LAYOUTS
-
-    layout = str(form.get("layout") or "household")
+    layout = str(form.layout or "household")
     if layout not in LAYOUTS:
         raise InputError(
-            f"layout {layout!r} is not a layout here", f"choose one of: {', '.join(LAYOUTS.names())}"
+            f"layout {layout[:60]!r} is not a layout here", f"choose one of: {', '.join(LAYOUTS.names())}"
         )
     fields: dict[str, Any] = {"layout": layout, "options": options}
-    for name in ("seed", "objects"):
-        value = number(name)
+    for name, given in (("seed", form.seed), ("objects", form.objects)):
+        value = number(name, given)
         if value is not None:
             fields[name] = value
     return SceneConfig.create(**fields)
+
+
+def _following(demo: Runs, run: Run) -> Any:
+    """The response that streams `run`'s events to a page: counted against the bounds on streams from
+    before its headers are sent until it ends (a refused page gets HTTP 503 instead)."""
+    from starlette.responses import StreamingResponse
+
+    class Following(StreamingResponse):
+        async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+            try:
+                demo.reserve(run)
+            except Crowded as exc:
+                await _problem(503, exc.message, exc.fix, {"Retry-After": "30"})(scope, receive, send)
+                return
+            try:
+                await super().__call__(scope, receive, send)
+            finally:
+                demo.release(run)
+
+    return Following(run.stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"})
 
 
 def create_app(config: DemoConfig) -> Any:
@@ -321,49 +307,49 @@ def create_app(config: DemoConfig) -> Any:
     from contextlib import asynccontextmanager
 
     from starlette import responses
+    from starlette.concurrency import run_in_threadpool
     from starlette.requests import Request
     from starlette.staticfiles import StaticFiles
 
+    from attribot.models.wire import ImageTooLarge
+    from attribot.planning.query import check_query
     from attribot.sim.scene import LAYOUTS
 
-    demo = _Demo(config)
-    token = None if config.token is None else config.token.encode()
+    demo = Runs(
+        config.runs_dir,
+        config.settings,
+        keep_runs=config.keep_runs,
+        min_free_bytes=config.min_free_bytes,
+        max_streams_per_run=config.max_streams_per_run,
+    )
+    key = secrets.token_bytes(32)  # the visitors' secrets; a restarted demo gives new ones
+    page_html = (Path(__file__).parent / "static" / "index.html").read_text(encoding="utf-8")
+
+    def secret_of(visitor: str) -> str:
+        return hmac.new(key, visitor.encode(), hashlib.sha256).hexdigest()
 
     @asynccontextmanager
-    async def lifespan(app: Any) -> AsyncIterator[None]:
+    async def lifespan(app: Any) -> Any:
         yield
-        demo.close()
+        # the running query is unwound and closes its world in its own thread before the process ends
+        await asyncio.to_thread(demo.stop)
 
     app = fastapi.FastAPI(title="attribot demo", docs_url=None, redoc_url=None, lifespan=lifespan)
-
-    def problem(status: int, message: str, fix: str | None = None) -> Any:
-        return responses.JSONResponse({"message": message, "fix": fix}, status_code=status)
-
-    @app.middleware("http")
-    async def check_token(request: Any, call_next: Any) -> Any:
-        if token is None:
-            return await call_next(request)
-        given = request.query_params.get("token") or request.cookies.get(_TOKEN) or ""
-        auth = request.headers.get("authorization", "")
-        if auth.lower().startswith("bearer "):
-            given = auth[7:].strip()
-        if not hmac.compare_digest(given.encode(), token):
-            return problem(
-                401,
-                "this demo needs its token" if not given else "the token is wrong",
-                "open the address the demo printed, with ?token=TOKEN",
-            )
-        response = await call_next(request)
-        if request.query_params.get("token"):
-            response.set_cookie(_TOKEN, given, httponly=True, samesite="strict")
-        return response
+    app.add_middleware(_Guard, config=config)
 
     @app.get("/")
     def page(request: Request) -> Any:
-        html = (Path(__file__).parent / "static" / "index.html").read_text(encoding="utf-8")
-        response = responses.HTMLResponse(html)
-        if not request.cookies.get(_VISITOR):
-            response.set_cookie(_VISITOR, secrets.token_hex(16), httponly=True, samesite="strict")
+        visitor = _visitor_of(request.cookies)
+        fresh = visitor is None
+        if visitor is None:
+            visitor = secrets.token_hex(16)
+        html = page_html.replace(
+            '<meta name="attribot-secret" content="">',
+            f'<meta name="attribot-secret" content="{secret_of(visitor)}">',
+        )
+        response = responses.HTMLResponse(html, headers={"Cache-Control": "no-store"})
+        if fresh:
+            response.set_cookie(_VISITOR, visitor, httponly=True, samesite="strict")
         return response
 
     app.mount("/static", StaticFiles(packages=[("attribot.demo", "static")]), name="static")
@@ -375,76 +361,118 @@ def create_app(config: DemoConfig) -> Any:
             "layouts": sorted(LAYOUTS.names()),
             "planner": settings.planner,
             "llm_model": settings.llm_model if settings.planner == "llm" else None,
-            "backends": {"detector": settings.detector, "vqa": settings.vqa, "language": settings.language},
+            "prompt": settings.prompt if settings.planner == "llm" else None,
+            "backends": {
+                role: demo.scrub.text(str(getattr(settings, role)))
+                for role in ("detector", "vqa", "language")
+            },
             "max_query_chars": MAX_QUERY_CHARS,
             "max_image_mb": MAX_IMAGE_BYTES // (1024 * 1024),
+            "max_image_megapixels": MAX_IMAGE_PIXELS / 1e6,
         }
+
+    limit = MAX_IMAGE_BYTES * 4 // 3 + 65536  # the image travels as base64 inside the JSON
+    too_large = f"the upload is larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
+
+    async def body_of(request: Request) -> bytes | None:
+        """The request's body, or None when it is over `limit` (what is still coming is read and dropped,
+        up to a bound, so that the client sees the refusal and not a reset connection)."""
+        declared = request.headers.get("content-length", "")
+        over = declared.isdigit() and len(declared) <= 18 and int(declared) > limit
+        body = bytearray()
+        seen = 0
+        async with asyncio.timeout(BODY_TIMEOUT_S):
+            async for chunk in request.stream():
+                seen += len(chunk)
+                if over:
+                    if seen > 4 * limit:
+                        break
+                    continue
+                body.extend(chunk)
+                over = len(body) > limit
+        return None if over else bytes(body)
 
     @app.post("/api/runs")
     async def start(request: Request) -> Any:
-        visitor = request.cookies.get(_VISITOR)
-        if not visitor:
-            return problem(400, "this browser has no visitor cookie", "load the demo page first, then ask")
-        limit = MAX_IMAGE_BYTES * 4 // 3 + 65536  # the image travels as base64 inside the JSON
-        body = bytearray()
-        async for chunk in request.stream():
-            body.extend(chunk)
-            if len(body) > limit:
-                return problem(
-                    413,
-                    f"the upload is larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB",
-                    "send a smaller image",
-                )
+        visitor = _visitor_of(request.cookies)
+        if visitor is None:
+            return _problem(400, "this browser has no visitor cookie", "load the demo page first, then ask")
+        given = request.headers.get(SECRET_HEADER, "")
+        if not hmac.compare_digest(given.encode("utf-8", "surrogatepass"), secret_of(visitor).encode()):
+            return _problem(
+                403,
+                "this request does not carry the demo page's secret",
+                "reload the demo page and ask from it",
+            )
+        kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
+        if kind != "application/json":
+            return _problem(
+                415, f"the request is {kind[:60] or 'untyped'}, not JSON", "send the page's form as JSON"
+            )
         try:
-            fields = json.loads(body)
-            if not isinstance(fields, dict):
-                raise ValueError("not an object")
-        except ValueError:
-            return problem(400, "the request is not a JSON object", "send the page's form as JSON")
+            body = await body_of(request)
+        except TimeoutError:
+            return _problem(408, f"the request took over {BODY_TIMEOUT_S:g} s to arrive", "send it again")
+        if body is None:
+            return _problem(413, too_large, "send a smaller image")
         try:
-            query = str(fields.get("query") or "").strip()
-            if not query:
-                raise InputError("the query is empty", "type a question, e.g. Which object is the heaviest?")
-            image = _upload(fields.get("image"))
-            scene = None if image is not None else _scene_config(fields)
-            run = demo.start(visitor, query, scene, image)
+            form = _RunRequest.model_validate_json(body)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = str(first.get("loc", ("body",))[0]) if first.get("loc") else "body"
+            return _problem(
+                400,
+                f"the request is not the page's form: {where}: {first.get('msg', 'invalid')}",
+                "send a JSON object: query, and layout, seed, objects, options, or image {name, data}",
+            )
+        try:
+            query = check_query(form.query)
+            demo.admit(visitor)  # before the upload is decoded: a refused query costs nothing more
+            image = None if form.image is None else await run_in_threadpool(_upload, form.image)
+            scene = None if image is not None else _scene_config(form)
+            run = demo.start(visitor, query, scene, image, asyncio.get_running_loop())
         except AttribotError as exc:
-            return problem(409 if isinstance(exc, _Busy) else 400, exc.message, exc.fix)
+            statuses: dict[type, int] = {Busy: 409, Crowded: 503, NoSpace: 507, ImageTooLarge: 413}
+            status = statuses.get(type(exc), 400)
+            headers = {"Retry-After": "30"} if status in (503, 507) else None
+            return _problem(status, exc.message, exc.fix, headers)
         return {"id": run.id, "events": f"/api/runs/{run.id}/events"}
 
-    def find(run_id: str, request: Request) -> _Run | None:
+    def find(run_id: str, request: Request) -> Run | None:
         try:
-            return demo.get(run_id, request.cookies.get(_VISITOR) or "")
+            return demo.get(run_id, _visitor_of(request.cookies) or "")
         except KeyError:
             return None
 
     @app.get("/api/runs/{run_id}/events")
-    def events(run_id: str, request: Request) -> Any:
+    async def events(run_id: str, request: Request) -> Any:
         run = find(run_id, request)
         if run is None:
-            return problem(404, f"no run {run_id!r} of this browser", "start a query from the page")
-        return responses.StreamingResponse(
-            demo.stream(run), media_type="text/event-stream", headers={"Cache-Control": "no-store"}
-        )
+            return _problem(404, f"no run {run_id[:40]!r} of this browser", "start a query from the page")
+        return _following(demo, run)
 
     media = {"answer.png": "image/png", "episode.mp4": "video/mp4"}
 
     @app.get("/api/runs/{run_id}/{name}")
-    def saved(run_id: str, name: str, request: Request) -> Any:
+    async def saved(run_id: str, name: str, request: Request) -> Any:
         run = find(run_id, request)
         if run is None or not run.done:
-            return problem(404, f"no finished run {run_id!r} of this browser", "wait for the answer")
+            return _problem(404, f"no finished run {run_id[:40]!r} of this browser", "wait for the answer")
         if name == "run.zip":
             if not run.folder.is_dir():
-                return problem(404, "this run saved nothing", "its query failed before it ran")
-            return responses.Response(
-                _zip_folder(run.folder),
-                media_type="application/zip",
-                headers={"Content-Disposition": f'attachment; filename="attribot-run-{run.id}.zip"'},
+                return _problem(404, "this run saved nothing", "its query failed before it ran")
+            try:
+                path = await run_in_threadpool(demo.zipped, run)
+            except OSError as exc:
+                return _problem(507, f"the demo cannot write the zip ({exc.strerror})", "download it later")
+            return responses.FileResponse(
+                path, media_type="application/zip", filename=f"attribot-run-{run.id}.zip"
             )
         path = run.folder / name
         if name not in media or not path.is_file():
-            return problem(404, f"this run has no {name}", "answer.png, episode.mp4 and run.zip are served")
+            return _problem(
+                404, "this run has no such file", "answer.png, episode.mp4 and run.zip are served"
+            )
         return responses.FileResponse(path, media_type=media[name], filename=f"{run.id}-{name}")
 
     app.state.demo = demo

@@ -76,6 +76,7 @@ class Record(BaseModel):
     noise: Name
     query: str
     detector: str | None = None  # the run's detector spec (its noise aside); None in records made before
+    prompt: str | None = None  # the prompt the planner showed a model (attribot, paper); None: no model
     form: str = "n/a"  # the item's form: superlative | absolute | comparative | n/a
     status: str
     right: bool
@@ -280,6 +281,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         value=answer.value,
         unit=answer.unit,
         program=answer.program,
+        prompt=answer.prompt,
         trace=answer.trace,
         measured=_measured(answer.trace),
         error=answer.error.message if answer.error else None,

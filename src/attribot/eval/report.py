@@ -283,6 +283,7 @@ def _result(r: Record, legend: _Legend) -> dict[str, Any]:
         "answer": r.answer[:200],
         "error": (f"{r.error_category}: " if r.error_category else "") + (r.error or "")[:300],
         "program": r.program,
+        "prompt": r.prompt,
         "trace": "\n".join(_trace_line(t) for t in r.trace[:_TRACE_LINES])
         + (f"\n... ({len(r.trace)} calls)" if len(r.trace) > _TRACE_LINES else ""),
     }

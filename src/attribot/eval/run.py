@@ -120,6 +120,7 @@ def fingerprint(
         "language": shown_url(str(settings.language)),
         "checks": settings.checks,
         "program_wall_s": settings.program_wall_s,
+        "prompt": settings.prompt,
         "llm_model": getattr(settings, "llm_model", None),
         "llm_base_url": None if base_url is None else shown_url(base_url),
         "subset": subset,

@@ -59,6 +59,7 @@ class Answer(BaseModel):
     output: str = ""  # what the program printed (cut at the runner's output limit)
     program: str | None = None
     planner: str
+    prompt: str | None = None  # the prompt the planner showed a model (attribot, paper); None: no prompt
     backends: dict[str, str]
     attempts: int
     trace: list[dict[str, Any]] = []
@@ -119,6 +120,7 @@ def build_answer(
     *,
     query: str,
     planner: str,
+    prompt: str | None = None,
     program: str | None,
     result: Any,
     attempts: int,
@@ -136,6 +138,7 @@ def build_answer(
         query=query,
         program=program,
         planner=planner,
+        prompt=prompt,
         backends=backends,
         attempts=attempts,
         trace=[t.model_dump(mode="json") for t in (result.trace if result is not None else [])],

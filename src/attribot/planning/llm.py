@@ -1,6 +1,7 @@
 """The LLM planner: any OpenAI-compatible chat endpoint writes the program.
 
-The prompt comes from the API itself (`attribot.api.prompt.build_prompt`). Each failed attempt (an error
+The prompt is the one the settings name (`prompt`: `attribot`, generated from the API itself, or `paper`,
+the structure of the paper authors' prompt; see `attribot.api.prompt`). Each failed attempt (an error
 from the runner, or a reply with no usable code) goes back to the model as the assistant's earlier reply
 followed by a user message with the structured error, and the model is asked again. Replies are cached on
 disk under a hash of the model, the messages and the sampling parameters, so that a rerun is reproducible
@@ -35,9 +36,11 @@ list of chat messages. `embodied` and `findable` are passed when the builder acc
 _OUTPUT_TAIL = 1500  # characters of program output sent back: enough to see what it printed last
 
 
-def feedback_message(error: Any, did: Sequence[str] = (), same_start: bool = False) -> str:
+def feedback_message(
+    error: Any, did: Sequence[str] = (), same_start: bool = False, entry: str = f"{ENTRY_POINT}(image, robot)"
+) -> str:
     """The follow-up user message for a failed attempt: the structured error, what the try did (its API
-    calls, `did`), where the next try starts, and what to do."""
+    calls, `did`), where the next try starts, and what to do (`entry`: the function the prompt asked for)."""
     where = f", line {error.line}" if getattr(error, "line", None) else ""
     lines = [f"Your program failed ({error.category} error{where}): {error.message}"]
     if getattr(error, "snippet", None):
@@ -54,8 +57,7 @@ def feedback_message(error: Any, did: Sequence[str] = (), same_start: bool = Fal
             "its gripper empty, and the same first image."
         )
     lines.append(
-        f"Fix it and answer with the whole program again, as one ```python code block that defines "
-        f"{ENTRY_POINT}(image, robot)."
+        f"Fix it and answer with the whole program again, as one ```python code block that defines {entry}."
     )
     return "\n".join(lines)
 
@@ -119,6 +121,8 @@ class LLMPlanner:
         self.cache = ReplyCache(Path(settings.cache_dir) / "llm") if use_cache else None
         self.http_retries = http_retries
         self._prompt_builder = prompt_builder
+        # the prompt shown (named in every answer): the settings' choice, or "custom" for a given builder
+        self.prompt = settings.prompt if prompt_builder is None else "custom"
         self._client: Any = None
 
     # -- the conversation ---------------------------------------------------------------------------
@@ -139,7 +143,7 @@ class LLMPlanner:
                 continue
             said = attempt.reply if attempt.reply is not None else f"```python\n{attempt.program}```"
             messages.append({"role": "assistant", "content": said})
-            feedback_text = feedback_message(attempt.error, attempt.did, request.same_start)
+            feedback_text = feedback_message(attempt.error, attempt.did, request.same_start, self._entry())
             messages.append({"role": "user", "content": feedback_text})
         return messages
 
@@ -167,10 +171,18 @@ class LLMPlanner:
 
     def _builder(self) -> PromptBuilder:
         if self._prompt_builder is None:
-            from attribot.api.prompt import build_prompt
+            from attribot.api.prompt import prompt_style
 
-            self._prompt_builder = build_prompt
+            self._prompt_builder = prompt_style(self.prompt).build
         return self._prompt_builder
+
+    def _entry(self) -> str:
+        """The entry point as the prompt taught it: feedback asks for the same."""
+        if self.prompt == "custom":
+            return f"{ENTRY_POINT}(image, robot)"
+        from attribot.api.prompt import prompt_style
+
+        return prompt_style(self.prompt).entry
 
     def _get_client(self) -> Any:
         if self._client is None:

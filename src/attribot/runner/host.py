@@ -114,6 +114,16 @@ def _params(signature: inspect.Signature) -> str:
     return ", ".join(out)
 
 
+def _takes_one(method: Any) -> bool:
+    """Whether `method` (a function of a class) needs exactly one argument besides `self`."""
+    try:
+        parameters = list(inspect.signature(method).parameters.values())[1:]
+    except (TypeError, ValueError):
+        return False
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return sum(p.kind in positional and p.default is inspect.Parameter.empty for p in parameters) == 1
+
+
 class _CallTimeout(BaseException):
     """Raised inside a host-side API call when the run's wall-clock deadline passes (a BaseException, so
     that a backend's `except Exception` cannot swallow it)."""
@@ -443,6 +453,8 @@ class _Run:
                 raise ValueError("a malformed call")
             args = [self.decode(a) for a in raw_args]
             kwargs = {str(k): self.decode(v) for k, v in raw_kwargs.items()}
+            has_receiver = Key.RECEIVER in msg
+            receiver = self.decode({proto.TAG_HANDLE: msg[Key.RECEIVER]}) if has_receiver else None
         except (ValueError, TypeError, RecursionError) as e:
             return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
         cls = self.runner._class_of(obj)
@@ -465,6 +477,7 @@ class _Run:
                 signature.bind(*args, **kwargs)
             except TypeError as e:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown, kind=kind)
+        called_on = getattr(cls, "PROGRAM_CALLED_ON", None) if has_receiver else None
         t0 = time.perf_counter()
         cutter = self.cutter
         try:
@@ -472,6 +485,8 @@ class _Run:
             try:
                 if time.monotonic() >= deadline:
                     raise _CallTimeout()
+                if called_on is not None:  # `patch.method(...)`: the owner hears which patch
+                    getattr(obj, called_on)(receiver)
                 result = fn(*args, **kwargs)
             finally:
                 cutter.in_call = False
@@ -623,6 +638,7 @@ class ProgramRunner:
                 raise ConfigError(f"two API classes are named {cls.__name__}")
             names.add(cls.__name__)
         self._wire_classes = {cls.__name__: list(cls.API_METHODS) for cls in self.classes}
+        self._wire_functions = self._functions()
         self._class_cache: dict[type, type | None] = {}
         self._signatures: dict[tuple[type, str], inspect.Signature | None] = {}
         self._lock = threading.Lock()
@@ -634,6 +650,37 @@ class ProgramRunner:
         self._box[0] = _Worker()
 
     # ---- host-side helpers --------------------------------------------------------------------------
+    def _functions(self) -> dict[str, Any]:
+        """What the worker offers as bare functions: for each class that declares `PROGRAM_FUNCTIONS` (API
+        method names), those methods and whether each takes one object (one required argument: a patch
+        given to `patch.method()` with no arguments), and for each class named in its
+        `PROGRAM_FUNCTIONS_ON` the ones its objects take too (all but the names it has of its own). Such a
+        call tells the owner's host method named by `PROGRAM_CALLED_ON`, if any, which object it was on (and a
+        call that names an object, which one the program looked at last)."""
+        names = {cls.__name__: cls for cls in self.classes}
+        out: dict[str, Any] = {}
+        for cls in self.classes:
+            methods = getattr(cls, "PROGRAM_FUNCTIONS", None)
+            if methods is None:
+                continue
+            unknown = [m for m in methods if m not in cls.API_METHODS]
+            if unknown:
+                raise ConfigError(f"{cls.__name__}.PROGRAM_FUNCTIONS names no API method: {unknown}")
+            on = tuple(getattr(cls, "PROGRAM_FUNCTIONS_ON", ()))
+            strangers = [c for c in on if c not in names]
+            if strangers:
+                raise ConfigError(
+                    f"{cls.__name__}.PROGRAM_FUNCTIONS_ON names no class of this runner: {strangers}"
+                )
+            out[cls.__name__] = {
+                Key.FN_METHODS: {m: _takes_one(getattr(cls, m)) for m in methods},
+                Key.FN_ON: {
+                    c: [m for m in methods if m not in (*names[c].API_METHODS, *names[c].API_ATTRIBUTES)]
+                    for c in on
+                },
+            }
+        return out
+
     def _class_of(self, obj: Any) -> Any:
         kind = type(obj)
         if kind not in self._class_cache:
@@ -715,6 +762,7 @@ class ProgramRunner:
                 Key.LIMITS: proto.WireLimits(**self.limits.model_dump()).to_wire(),
                 Key.CLASSES: self._wire_classes,
                 Key.CONSTRUCTORS: constructors,
+                Key.FUNCTIONS: self._wire_functions,
             }
             try:
                 result = self._serve(state, request, t0)

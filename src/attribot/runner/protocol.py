@@ -32,12 +32,12 @@ class Kind:
     # worker -> host
     READY = "ready"  # started, waiting for the program
     GO = "go"  # has the program; its clocks run from now
-    CALL = "call"  # an API call: HANDLE, METHOD, ARGS, KWARGS, LINE
+    CALL = "call"  # an API call: HANDLE, METHOD, ARGS, KWARGS, LINE, and at times RECEIVER
     OUT = "out"  # printed text: TEXT
     DONE = "done"  # the entry point returned VALUE
     FAILED = "error"  # the program failed: CATEGORY, MESSAGE, LINE
     # host -> worker
-    RUN = "run"  # CODE, ENTRY, ARGS, LIMITS, CLASSES, CONSTRUCTORS
+    RUN = "run"  # CODE, ENTRY, ARGS, LIMITS, CLASSES, CONSTRUCTORS, FUNCTIONS
     RETURN = "ret"  # the call's VALUE
     API_ERROR = "err"  # the call failed: CATEGORY, MESSAGE (raised in the program as a stop)
     # the action or measurement ran and failed in the world: MESSAGE (raised in the program as the
@@ -54,6 +54,10 @@ class Key:
     ARGS = "a"
     KWARGS = "k"
     LINE = "l"  # the program's line, or None
+    # the object a borrowed method was called on (`book_patch.measure_weight("book")`: the patch), or, when a
+    # method of a class with bare functions is given an object's name, the object of a borrowing class the
+    # program last called a method of (what it looked at); told to the host method named by PROGRAM_CALLED_ON
+    RECEIVER = "r"
     VALUE = "v"
     TEXT = "s"
     CATEGORY = "c"
@@ -65,6 +69,13 @@ class Key:
     # class name -> [handle of the argument object that serves `ClassName(...)` in the program, the host
     # method that does] (the paper's dialect: `ImagePatch(image)`, `Robot(sensors=[...])`)
     CONSTRUCTORS = "ctors"
+    # class name -> {FN_METHODS: {method: whether it takes one object}, FN_ON: {class name: [methods]}}:
+    # methods a program may also call as bare functions, and on objects of the FN_ON classes (the paper
+    # authors' prompt: `go_to_object("book")`, `book_patch.measure_weight("book")`), bound to the
+    # program's one object of the class
+    FUNCTIONS = "fns"
+    FN_METHODS = "m"
+    FN_ON = "on"
     # an API object handed to the program the first time: {TAG_HANDLE: h, STUB_CLASS: ..., STUB_ATTRS: ...}
     STUB_CLASS = "c"
     STUB_ATTRS = "a"

@@ -133,6 +133,11 @@ class _State:
         self.classes = {}
         self.stub_types = {}
         self.constructors = {}  # class name -> (the session's object that builds it, the host method)
+        self.owners = {}  # class name -> {method: takes one object}: its methods that are bare functions too
+        self.made = {}  # class name -> [(object, line)] the program's `ClassName(...)` made
+        self.implicit = {}  # class name -> the object its bare functions act on when the program made none
+        self.borrowers = set()  # the classes whose objects take bare functions as methods too
+        self.looked_at = None  # the last object of those the program called a method of: what it looks at
         self.math = None
         self.typing = None
         self.future = None
@@ -216,7 +221,11 @@ def encode(value):
     t = type(value)
     if value is None or t is bool or t is int or t is float or t is str:
         return value
-    if t is list:
+    if t is Reading:
+        return float(value)
+    if t is Text:
+        return str(value)
+    if t is list or t is Found:
         return [encode(v) for v in value]
     if t is tuple:
         return {TAG_TUPLE: [encode(v) for v in value]}
@@ -285,9 +294,15 @@ class Stub:
         return f"{type(self)._sb_class}({inner})"
 
 
-def rpc(stub, method, args, kwargs):
+def rpc(stub, method, args, kwargs, receiver=None):
     line = program_line(sys._getframe(2))
     cls = type(stub)._sb_class
+    if cls in STATE.borrowers:
+        STATE.looked_at = stub
+    elif receiver is None and cls in STATE.owners and args and isinstance(args[0], str):
+        # an object named to a robot method (`go_to_object("object")` in a loop over patches, as the paper's
+        # prompt writes it): the host hears which object the program last looked at, which it may mean
+        receiver = STATE.looked_at
     try:
         msg = {
             KIND: Kind.CALL,
@@ -297,6 +312,8 @@ def rpc(stub, method, args, kwargs):
             Key.KWARGS: {k: encode(v) for k, v in kwargs.items()},
             Key.LINE: line,
         }
+        if receiver is not None:
+            msg[Key.RECEIVER] = object.__getattribute__(receiver, "_sb_handle")
     except Unsupported as e:
         stop(
             "api",
@@ -314,7 +331,7 @@ def rpc(stub, method, args, kwargs):
     answer = exchange(data)
     kind = answer.get(KIND)
     if kind == Kind.RETURN:
-        return decode(answer[Key.VALUE])
+        return shaped(decode(answer[Key.VALUE]), cls, method, args)
     if kind == Kind.ACTION_FAILED:
         raise ActionFailed(str(answer.get(Key.MESSAGE, "the action failed")))
     stop(answer.get(Key.CATEGORY, "api"), answer.get(Key.MESSAGE, "the API call failed"))
@@ -327,7 +344,10 @@ def construct(cls, *args, **kwargs):
     found = STATE.constructors.get(name)
     if found is None:
         raise TypeError(f"{name} objects come from the API: use the `image` and `robot` execute_command gets")
-    return rpc(found[0], found[1], args, kwargs)
+    made = rpc(found[0], found[1], args, kwargs)
+    if name in STATE.owners:
+        STATE.made.setdefault(name, []).append((made, program_line(sys._getframe(1))))
+    return made
 
 
 def call_entry(fn, args, entry):
@@ -359,12 +379,16 @@ def no_init(self, *args, **kwargs):
     pass
 
 
-def stub_class(cls_name, methods):
+def stub_class(cls_name, methods, borrowed=()):
     """The program's class `cls_name`: its objects are the host's, `isinstance(x, cls_name)` works, and
-    calling it is the paper dialect's constructor."""
+    calling it is the paper dialect's constructor. `borrowed`: (owner, method, takes one object) of another
+    class's methods its objects take too (`book_patch.measure_weight("book")`)."""
     namespace = {"__slots__": (), "_sb_class": cls_name, "__new__": construct, "__init__": no_init}
     for m in methods:
         namespace[m] = make_method(cls_name, m)
+    for owner, m, takes in borrowed:
+        if m not in namespace:
+            namespace[m] = make_borrowed(owner, m, takes)
     return type(cls_name, (Stub,), namespace)
 
 
@@ -378,6 +402,150 @@ def make_stub(data):
         object.__setattr__(stub, "_sb_attrs", {k: decode(v) for k, v in data[Key.STUB_ATTRS].items()})
         STATE.stubs[handle] = stub
     return stub
+
+
+# ---- the paper authors' habits ---------------------------------------------------------------------
+# Their prompt calls robot methods as bare functions (`go_to_object("book")`) and on patches
+# (`book_patch.measure_weight("book")`), reads a weight as a dictionary (`weight["book"]`), uses the list
+# `find` returns as the patch (`tv_patch = image_patch.find("tv")`) and compares answers with "Yes". These
+# are conveniences of the program's side only: every call is still one of the host's API methods.
+
+
+class Reading(float):
+    """A number a robot method returned. The paper's prompt also reads it as a dictionary from the object's
+    name (`weight = book_patch.measure_weight("book")`, then `weight["book"]`): indexed by a name or a
+    patch, it is its own value."""
+
+    __slots__ = ()
+
+    def __getitem__(self, key):
+        if isinstance(key, str | Stub):
+            return float(self)
+        kind = type(key).__name__
+        raise TypeError(
+            f"a measurement is indexed by the object's name, e.g. weight['book'], not by a {kind}"
+        )
+
+
+def _folded(text):
+    return text.strip().rstrip(".!").strip().casefold()
+
+
+class Text(str):
+    """A text an API method answered: compared with `==` it ignores case, the spaces around it and a final
+    full stop, so that `visual_query(...) == "Yes"` (the paper's prompt) and `== "yes"` (ViperGPT's) both
+    read a model's "yes". Hashed as written, like the str it is."""
+
+    __slots__ = ()
+
+    def __eq__(self, other):
+        if isinstance(other, str):
+            return _folded(self) == _folded(other)
+        return NotImplemented
+
+    def __ne__(self, other):
+        same = self.__eq__(other)
+        return same if same is NotImplemented else not same
+
+    __hash__ = str.__hash__
+
+
+class Found(list):
+    """A list of API objects a call returned (`image_patch.find("tv")`). The paper's prompt uses it as the
+    object itself (`tv_patch.measure_distance("tv")`): holding exactly one, the list answers for it; holding
+    none or several, it says so and how to write it."""
+
+    __slots__ = ("_sb_what",)
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        if len(self) == 1:
+            return getattr(self[0], name)
+        what = self._sb_what
+        if not self:
+            raise AttributeError(
+                f"{what} found nothing, and .{name} was asked of that empty list: check that the list is not "
+                "empty (if patches: ...) before using it"
+            )
+        raise AttributeError(
+            f"{what} found {len(self)} objects, and .{name} was asked of the list, which cannot tell which "
+            "one is meant: take one (patches[0], or max(patches, key=...)) or loop over them "
+            "(for patch in patches:)"
+        )
+
+
+def shaped(value, cls, method, args):
+    """A value an API call returned, as the program gets it: a number from a method of a class whose methods
+    are bare functions too (the robot's) a `Reading`, a text a `Text`, a list of API objects a `Found`."""
+    t = type(value)
+    if t is float and cls in STATE.owners:
+        return Reading(value)
+    if t is str:
+        return Text(value)
+    if t is list and all(isinstance(v, Stub) for v in value):
+        found = Found(value)
+        first = args[0] if args else None
+        found._sb_what = f"{method}({str(first)!r})" if isinstance(first, str) else f"{method}()"
+        return found
+    return value
+
+
+def bound(owner, name):
+    """The object of class `owner` a bare function (or a borrowed method) acts on: the one the program made
+    (several made alike count as one), else one made for it with no arguments (the session's own, as
+    `ClassName()` gives it). Objects made with different attributes are ambiguous: a stop that names them."""
+    made = STATE.made.get(owner, ())
+    kinds = {}
+    for obj, line in made:
+        attrs = object.__getattribute__(obj, "_sb_attrs")
+        key = repr(sorted(attrs.items()))
+        if key not in kinds:
+            kinds[key] = (obj, line, attrs)
+    if len(kinds) > 1:
+        each = "; ".join(
+            f"line {line}: {owner}({', '.join(f'{k}={v!r}' for k, v in attrs.items())})"
+            for _, line, attrs in kinds.values()
+        )
+        stop(
+            "api",
+            f"{name}() cannot tell which {owner} acts: the program made {len(kinds)} different ones "
+            f"({each}); make one {owner}(...) with everything the program uses, or call the method on the "
+            f"one you mean ({owner.lower()}.{name}(...))",
+        )
+    if made:
+        return made[-1][0]
+    obj = STATE.implicit.get(owner)
+    if obj is None:
+        found = STATE.constructors.get(owner)
+        if found is None:
+            stop("api", f"{name}() needs a {owner}, and this program runs without one")
+        obj = STATE.implicit[owner] = rpc(found[0], found[1], (), {})
+    return obj
+
+
+def make_function(owner, method):
+    """The bare function `method(...)` of the program: `owner`'s method on the object `bound` gives."""
+
+    def call(*args, **kwargs):
+        return rpc(bound(owner, method), method, args, kwargs)
+
+    call.__name__ = call.__qualname__ = method
+    return call
+
+
+def make_borrowed(owner, method, takes):
+    """`owner`'s method taken by another class's objects: `patch.method(...)` acts on the object `bound`
+    gives, with the patch itself as the argument when the call names none and the method takes one; the
+    host hears which patch it was called on (a name in the call may mean it: `book_patch.pick_up("book")`)."""
+
+    def call(self, *args, **kwargs):
+        if takes and not args and not kwargs:
+            args = (self,)
+        return rpc(bound(owner, method), method, args, kwargs, receiver=self)
+
+    call.__name__ = method
+    return call
 
 
 # ---- guards the compiler inserted calls to ---------------------------------------------------------
@@ -619,6 +787,9 @@ def build_globals():
     safe["ActionFailed"] = ActionFailed
     for name, cls in STATE.stub_types.items():  # isinstance(x, ImagePatch); ImagePatch(image)
         safe[name] = cls
+    for owner, methods in STATE.owners.items():  # go_to_object("book"); a program's own names win
+        for method in methods:
+            safe.setdefault(method, make_function(owner, method))
     return {
         "__builtins__": safe,
         "__name__": "program",
@@ -693,7 +864,16 @@ def run(request):
     STATE.max_seq = limits.max_sequence
     STATE.max_msg = limits.max_message_bytes
     STATE.classes = {name: tuple(methods) for name, methods in request[Key.CLASSES].items()}
-    STATE.stub_types = {name: stub_class(name, methods) for name, methods in STATE.classes.items()}
+    functions = request.get(Key.FUNCTIONS) or {}
+    STATE.owners = {owner: dict(spec[Key.FN_METHODS]) for owner, spec in functions.items()}
+    borrowed = {}
+    for owner, spec in functions.items():
+        for on, methods in spec[Key.FN_ON].items():
+            borrowed.setdefault(on, []).extend((owner, m, spec[Key.FN_METHODS][m]) for m in methods)
+    STATE.stub_types = {
+        name: stub_class(name, methods, borrowed.get(name, ())) for name, methods in STATE.classes.items()
+    }
+    STATE.borrowers = set(borrowed)
     code = marshal.loads(binascii.a2b_base64(request[Key.CODE]))
     g = build_globals()
     args = [decode(a) for a in request[Key.ARGS]]

@@ -64,7 +64,8 @@ function showAnswer(event) {
       rows.push([what + " of " + short(t.args[0]), short(t.result) + " " + unit]);
     }
   }
-  rows.push(["planner", a.planner + (a.attempts > 1 ? ", " + a.attempts + " tries" : "")]);
+  const prompt = a.prompt ? ", " + a.prompt + " prompt" : "";
+  rows.push(["planner", a.planner + prompt + (a.attempts > 1 ? ", " + a.attempts + " tries" : "")]);
   rows.push(["backends", Object.entries(a.backends || {}).map(([k, v]) => k + "=" + v).join(", ")]);
   if (a.sim_s !== null && a.sim_s !== undefined) rows.push(["robot time", a.sim_s.toFixed(1) + " s (simulated)"]);
   const table = $("values");
@@ -158,15 +159,24 @@ async function ask(event) {
   setStatus("sending", "busy");
   let reply;
   try {
+    // the page's own secret (the server wrote it into the page): another site cannot send it
+    const secret = document.querySelector("meta[name=attribot-secret]").content;
     reply = await fetch("/api/runs", {
-      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(request),
+      method: "POST",
+      headers: { "Content-Type": "application/json", "X-Attribot-Secret": secret },
+      body: JSON.stringify(request),
     });
   } catch (e) {
     setStatus("the demo server cannot be reached: " + e, "bad");
     $("ask").disabled = false;
     return;
   }
-  const body = await reply.json();
+  let body;
+  try {
+    body = await reply.json();
+  } catch (e) {
+    body = { message: "the demo answered " + reply.status + " " + reply.statusText, fix: null };
+  }
   if (!reply.ok) {
     setStatus("error: " + body.message + (body.fix ? " (fix: " + body.fix + ")" : ""), "bad");
     $("ask").disabled = false;
@@ -186,7 +196,8 @@ async function loadOptions() {
     select.appendChild(opt);
   }
   $("query").maxLength = o.max_query_chars;
-  const planner = o.planner === "llm" ? "an LLM (" + (o.llm_model || "model not set") + ")" : "the offline rules";
+  const planner = o.planner === "llm"
+    ? "an LLM (" + (o.llm_model || "model not set") + ", shown the " + o.prompt + " prompt)" : "the offline rules";
   $("backends").textContent = "Programs are written by " + planner + "; detector " + o.backends.detector +
     ", VQA " + o.backends.vqa + ", language " + o.backends.language + ".";
 }
