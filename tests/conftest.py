@@ -50,7 +50,7 @@ EMPTY_SETTINGS = ARTIFACTS / "empty-settings.toml"
 # ---- settings -----------------------------------------------------------------------------------------
 
 
-def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+def cli(*args: str, cwd: Path | None = None, timeout: float = 120) -> subprocess.CompletedProcess[str]:
     """`attribot ARGS...` in a fresh process with the empty settings file, its output captured."""
     env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS)}
     return subprocess.run(
@@ -59,7 +59,7 @@ def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]
         text=True,
         env=env,
         cwd=cwd,
-        timeout=120,
+        timeout=timeout,
     )
 
 

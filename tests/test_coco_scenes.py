@@ -158,3 +158,19 @@ def test_dataset_build_draws_the_embodied_tasks_for_a_detector(tmp_path, coco):
     assert about["drawn_in_vocabulary"] == {"detector": "coco", "tasks": ["weight_embodied"]}
     (item,) = read_dataset(tmp_path / "ds")
     assert item.vocabulary == list(findable_categories(coco) or ())
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_the_acceptance_command_keeps_every_item(tmp_path):
+    """The issue's command, at the smallest limit: pa-api with the real detector, two workers."""
+    tasks = "weight_embodied,distance_embodied"
+    done = cli("eval", "--suite", "paper", "--tasks", tasks, "--methods", "pa-api", "--detector", "coco",
+               "--limit", "1", "--workers", "2", "--out", str(tmp_path / "run"), timeout=600)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    said = " ".join(done.stderr.split())  # the console wraps long lines
+    about = json.loads((tmp_path / "run" / "run.json").read_text())
+    for task in ("weight_embodied", "distance_embodied"):
+        assert f"{task}: 1 of 1 items kept, drawn in scenes whose objects coco can all find" in said
+        assert about["items"][task].startswith("1 of 1 items kept, drawn in scenes")
+    assert sorted(r.task for r in read_records(tmp_path / "run")) == ["distance_embodied", "weight_embodied"]

@@ -4,12 +4,15 @@ library opens again."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
+import signal
 import stat
 
 import av
 import numpy as np
+import pytest
 
 from attribot.config import SceneConfig, load_settings
 from attribot.session import Scene, ask, run_program
@@ -150,3 +153,59 @@ def test_the_robot_says_what_it_does_to_which_object(tmp_path):
         assert robot.measurements[-1].describe().startswith("mug 0: 1.")
     finally:
         world.close()
+
+
+def test_a_deadline_signal_in_the_main_thread_never_breaks_the_video():
+    """The run's deadline cuts a host call with a signal that raises in the main thread
+    (attribot.runner.host); one that landed while PyAV's muxer called back into Python broke the container,
+    and the whole saved run was lost at finish(). Frames are encoded on the writer's own thread."""
+
+    class Cut(BaseException):
+        pass
+
+    armed = [False]
+
+    def cut(signum, frame):
+        if armed[0]:
+            armed[0] = False
+            raise Cut()
+
+    previous = signal.signal(signal.SIGALRM, cut)
+    writer = VideoWriter(fps=10)
+    rng = np.random.default_rng(0)
+    cuts = 0
+    signal.setitimer(signal.ITIMER_REAL, 0.0003, 0.0003)
+    try:
+        for _ in range(120):
+            image = rng.integers(0, 255, (96, 128, 3), dtype=np.uint8)
+            try:
+                armed[0] = True
+                writer.add(image)
+                armed[0] = False
+            except Cut:
+                cuts += 1
+    finally:
+        armed[0] = False
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert cuts > 0  # the signal did land during add()
+    data = writer.finish()
+    with av.open(io.BytesIO(data)) as container:
+        assert len(_shown(container)) >= 120 - cuts
+
+
+def test_a_video_that_cannot_be_finished_leaves_the_rest_of_the_saved_run(tmp_path, monkeypatch):
+    from attribot.embodiments.episode import EpisodeRecorder
+
+    def broken(self, *args, **kwargs):
+        raise OSError("the encoder failed")
+
+    monkeypatch.setattr(EpisodeRecorder, "finish", broken)
+    out = tmp_path / "run"
+    with pytest.warns(RuntimeWarning, match="episode video could not be finished"):
+        answer = ask("Which object is the closest?", Scene(SceneConfig()), load_settings(), save_dir=out)
+    assert answer.ok
+    saved = json.loads((out / "answer.json").read_text())
+    assert saved["answer"] == answer.answer
+    assert {"program.py", "settings.json", "run.json", "answer.png"} <= {p.name for p in out.iterdir()}
+    assert not (out / "episode.mp4").exists()

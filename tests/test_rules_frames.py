@@ -83,6 +83,32 @@ def test_frames_read_with_their_meaning():
     assert isinstance(parse_query("which object doesn't belong with the others?"), OddQuery)
 
 
+@pytest.mark.parametrize(
+    ("query", "target", "noun"),
+    [
+        ("Bring the lightest cup to the table", "table", "cup"),
+        ("bring me the lightest cup to the table", "table", "cup"),
+        ("take the heaviest apple over to the counter", "counter", "apple"),
+        ("can you carry the tomato to the shelf?", "shelf", "tomato"),
+        ("move the banana onto the coffee table", "coffee table", "banana"),
+        ("bring the apple to the plate", "plate", "apple"),
+    ],
+)
+def test_carrying_an_object_to_a_place_puts_it_there(query, target, noun):
+    put = parse_query(query)
+    assert isinstance(put, Request) and put.action == "put" and put.target == target
+    inner = put.inner
+    nouns = [o.noun for o in inner.objects] if hasattr(inner, "objects") else [inner.obj.noun]  # type: ignore[union-attr]
+    assert nouns == [noun]
+
+
+def test_bring_without_a_place_or_relating_to_one_is_not_a_put():
+    assert parse_query("bring me the lightest cup").action == "pick"  # type: ignore[union-attr]
+    assert parse_query("bring me the lightest cup on the table").action == "pick"  # type: ignore[union-attr]
+    with pytest.raises(UnsupportedQuery):  # the mug nearest the table, not the mug to the table
+        parse_query("bring me the mug closest to the table")
+
+
 def test_a_refusal_is_one_short_line_naming_the_unplaced_words():
     with pytest.raises(UnsupportedQuery) as refused:
         parse_query("tell me a joke")

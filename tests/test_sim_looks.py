@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -9,7 +10,7 @@ from attribot.errors import InputError
 from attribot.sim.catalog import categories
 from attribot.sim.looks import LOOKS, lathe, look_of, tube, variant_of
 from attribot.sim.scene import SceneRequest, build_model, plan_scene
-from attribot.sim.shapes import SHAPES, build_shape
+from attribot.sim.shapes import SHAPES, Part, Shape, build_shape
 from attribot.sim.world import SimWorld
 
 
@@ -62,6 +63,39 @@ def test_each_look_has_the_size_of_its_body(shape):
         pts = np.vstack(pts)
         extent = pts.max(axis=0) - pts.min(axis=0)
         assert extent.max() < 1.6 * size, (shape, extent)
+
+
+def _bounds(looks: list) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for look in looks:
+        if look.mesh is not None:
+            pts = look.mesh.vertices
+        else:
+            part = Part(look.kind, look.size, (0, 0, 0), look.quat)
+            if look.kind in ("sphere", "ellipsoid"):  # a turned ellipsoid's own extent, not its box's
+                rot = np.zeros(9)
+                mujoco.mju_quat2Mat(rot, np.asarray(look.quat, float))
+                reach = np.sqrt(((rot.reshape(3, 3) * part.half_extents()) ** 2).sum(axis=1))
+            else:
+                reach = np.abs(Shape((part,)).hi)
+            pts = np.asarray([np.asarray(look.pos) - reach, np.asarray(look.pos) + reach])
+        lo, hi = np.minimum(lo, pts.min(axis=0)), np.maximum(hi, pts.max(axis=0))
+    return lo, hi
+
+
+@pytest.mark.parametrize(
+    "category", [c for c in categories() if c.shape in LOOKS.names()], ids=lambda c: c.name
+)
+def test_a_look_keeps_to_its_body_at_real_world_sizes(category):
+    """A look is drawn over its body, at its category's sizes: no part of it reaches more than a tenth of the
+    object's size (2 cm at least: a toaster's toast, a backpack's straps) beyond the body's bounds, which
+    the truth's boxes, the rangefinder and the grasps read."""
+    for size in category.size_range_m:
+        body = build_shape(category.shape, size)
+        for variant in range(3):
+            lo, hi = _bounds(look_of(category.shape, body, size, variant))
+            beyond = np.maximum(np.asarray(body.lo) - lo, hi - np.asarray(body.hi)).max()
+            assert beyond <= max(0.1 * size, 0.02), (category.name, size, variant, beyond)
 
 
 def test_every_look_names_a_shape_and_variants_come_from_the_id_not_the_scene():

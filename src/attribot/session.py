@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -417,7 +418,15 @@ class Session:
             video = None
             if self.parts.recorder is not None:
                 lines = [answer.answer, *(m.describe() for m in self.robot.measurements)]
-                video = self.parts.recorder.finish(lines, answer_image(answer, self.image.frame.rgb))
+                try:
+                    video = self.parts.recorder.finish(lines, answer_image(answer, self.image.frame.rgb))
+                except Exception as exc:  # the video is the least of a saved run: keep the rest
+                    warnings.warn(
+                        f"the episode video could not be finished ({type(exc).__name__}: {exc}); the answer, "
+                        "program and settings are saved without it",
+                        RuntimeWarning,
+                        stacklevel=2,
+                    )
             save_answer(
                 answer,
                 save_dir,

@@ -1,12 +1,18 @@
 """Writing MP4 video in process, with the H.264 encoder PyAV ships in its wheel (no system ffmpeg).
 
-`VideoWriter` encodes frames as they come (nothing is held but the encoded bytes) and `finish()` returns
-the file's bytes, so that the caller writes it whole with `attribot.files.write_whole`.
+`VideoWriter` encodes frames as they come (nothing is held but the encoded bytes and a short queue) and
+`finish()` returns the file's bytes, so that the caller writes it whole with `attribot.files.write_whole`.
+Frames are encoded and muxed on a thread of the writer's own: a run's deadline is enforced by a signal
+that raises in the main thread (`attribot.runner.host`), and an exception raised while PyAV's muxer is
+calling back into Python leaves the container broken, so that the whole saved run would be lost at
+`finish()`. Signal handlers never run on another thread, and the main thread only hands frames over.
 """
 
 from __future__ import annotations
 
 import io
+import queue
+import threading
 from typing import Any
 
 import numpy as np
@@ -14,6 +20,9 @@ import numpy as np
 from attribot.errors import InputError
 
 __all__ = ["VideoWriter"]
+
+_QUEUED_FRAMES = 32
+"""Frames waiting for the encoder at most: `add` waits beyond this, so memory stays bounded."""
 
 
 class VideoWriter:
@@ -28,6 +37,11 @@ class VideoWriter:
         self._fps = fps
         self.frames = 0  # frame times so far (a held frame counts its repeats)
         self._held: tuple[np.ndarray, int] = (np.zeros((0, 0, 3), np.uint8), 0)
+        self._size: tuple[int, int] | None = None  # width, height of every frame (even sides)
+        self._queue: queue.Queue[tuple[np.ndarray, int] | None] = queue.Queue(_QUEUED_FRAMES)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._encode_queued, name="attribot-video", daemon=True)
+        self._thread.start()
 
     def add(self, rgb: np.ndarray, repeat: int = 1) -> None:
         """Append `rgb`, shown for `repeat` frame times: a held frame is encoded once, with a longer
@@ -37,24 +51,36 @@ class VideoWriter:
             raise InputError(f"a video frame must be RGB uint8 (H, W, 3), got {rgb.dtype} {rgb.shape}")
         if repeat < 1:
             raise InputError(f"a video frame is shown at least once, got repeat={repeat}")
-        h, w = rgb.shape[:2]
+        if self._size is None:
+            h, w = rgb.shape[:2]
+            self._size = (w - w % 2, h - h % 2)  # yuv420p wants even sides
+        width, height = self._size
+        rgb = np.ascontiguousarray(rgb[:height, :width])  # a copy the caller cannot change under us
+        pts = self.frames
+        self.frames += repeat
+        self._held = (rgb, repeat)
+        self._queue.put((rgb, pts))
+
+    def _encode_queued(self) -> None:
+        while (item := self._queue.get()) is not None:
+            if self._error is None:
+                try:
+                    self._encode(*item)
+                except BaseException as exc:  # kept for finish(): this thread has no caller to raise to
+                    self._error = exc
+
+    def _encode(self, rgb: np.ndarray, pts: int) -> None:
+        import av
+
         if self._stream is None:
             from fractions import Fraction
 
             rate = Fraction(self._fps).limit_denominator(1000)
             self._stream = self._container.add_stream("libx264", rate=rate)
             self._stream.codec_context.time_base = 1 / rate  # one tick per frame time
-            self._stream.width, self._stream.height = w - w % 2, h - h % 2  # yuv420p wants even sides
+            self._stream.width, self._stream.height = rgb.shape[1], rgb.shape[0]
             self._stream.pix_fmt = "yuv420p"
             self._stream.options = {"crf": "28", "preset": "veryfast"}
-        rgb = np.ascontiguousarray(rgb[: self._stream.height, : self._stream.width])
-        self._encode(rgb, self.frames)
-        self.frames += repeat
-        self._held = (rgb, repeat)
-
-    def _encode(self, rgb: np.ndarray, pts: int) -> None:
-        import av
-
         frame = av.VideoFrame.from_ndarray(rgb, format="rgb24")
         frame.pts = pts
         for packet in self._stream.encode(frame):
@@ -62,12 +88,16 @@ class VideoWriter:
 
     def finish(self) -> bytes:
         """Flush the encoder and return the MP4 file's bytes (empty when no frame was added)."""
+        rgb, repeat = self._held
+        if repeat > 1:  # the last frame's duration is the gap to the next: one more frame ends it
+            self._queue.put((rgb, self.frames - 1))
+        self._queue.put(None)
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
         if self._stream is None:
             self._container.close()
             return b""
-        rgb, repeat = self._held
-        if repeat > 1:  # the last frame's duration is the gap to the next: one more frame ends it
-            self._encode(rgb, self.frames - 1)
         for packet in self._stream.encode():
             self._container.mux(packet)
         self._container.close()

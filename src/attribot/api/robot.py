@@ -1052,7 +1052,8 @@ class Robot(metaclass=_RobotApi):
         self.held = self._aimed = None
 
     def put_on(self, patch: ImagePatch) -> None:
-        """Places the held object on top of the object in `patch`.
+        """Places the held object on top of the object in `patch`; on a table, counter or shelf, at a
+        free spot near the robot.
 
         >>> # put the cup on the tray
         >>> def execute_command(image, robot):
@@ -1069,7 +1070,12 @@ class Robot(metaclass=_RobotApi):
                 "robot.put_on() needs an object in the gripper, and it is empty",
                 "call robot.go_to_object(obj) and robot.pick_up(obj) first",
             )
-        self.controller.put_on(target)
+        try:
+            self.controller.put_on(target)
+        except ControlError:
+            if getattr(self.controller, "holding", self.held) is None:  # let go before the failure showed
+                self.held = self._aimed = None
+            raise
         self.held = self._aimed = None
 
     def push(self, patch: ImagePatch) -> None:

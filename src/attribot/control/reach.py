@@ -8,7 +8,7 @@ object's front), then drives the rest of the way straight, on odometry, as the p
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,14 +80,19 @@ class Reacher:
         holding: Hold | None,
         tol: float | None,
         short: float = 0.0,
+        relocate: Callable[[ObjectEstimate], ObjectEstimate] | None = None,
     ) -> Reach:
-        """Find the object again from here and correct the base until the arm's line passes within `tol`
-        (default `arrive_tol`) of it, `short` metres short of the grasp; then drive those straight."""
+        """Find the object again from here (by the detector; or by `relocate`, which sees where `est` is
+        now) and correct the base until the arm's line passes within `tol` (default `arrive_tol`) of it,
+        `short` metres short of the grasp; then drive those straight."""
         tuning = self.plant.tuning
         tol = tuning.arrive_tol if tol is None else tol
         side = ext = math.nan
         for _ in range(tuning.align_tries):
-            est = self.locator.refind(est, target, action, holding=holding)
+            if relocate is not None:
+                est = relocate(est)
+            else:
+                est = self.locator.refind(est, target, action, holding=holding)
             local = to_base(np.array(est.centre), self.plant.pose())
             ext = float(local[0] - body.reach_x(0.0) - short)
             side = float(local[1] - body.arm_xy[1])

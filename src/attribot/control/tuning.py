@@ -55,6 +55,16 @@ class ServoTuning:
     load_sigmas: standard errors of the difference within which a load change is noise; load_max_noise_n:
     a sensor noisier than this leaves the verdict to the gripper; closed_gripper_m: a finger gap below which
     the fingers met (the object fell out).
+
+    Putting on a large receptacle (`Manipulator.put_on`): large_top_m2: the area of flat top (as depth
+    sees it) from which a receptacle is furniture whose top takes the object at a free spot near the robot
+    (smaller ones, a plate, a bowl, take it at their middle); top_clear_m: how far above a top depth must
+    see something to count it as standing there (more than the depth's noise); place_clear_m: the
+    clearance kept around the object from what stands on the top and from its edges; spot_tries: free
+    spots tried, nearest first, for a place to stand within the arm's reach; place_tol: how close the arm's
+    line must pass to the spot; lower_step_m / lower_step_s / lower_below_m: the guarded descent onto the
+    top, step by step while the wrist's load is watched, down to this far below where depth says the
+    object meets it.
     """
 
     control_s: float = 0.05
@@ -110,3 +120,12 @@ class ServoTuning:
     load_sigmas: float = 3.0
     load_max_noise_n: float = 0.05
     closed_gripper_m: float = 0.0003
+
+    large_top_m2: float = 0.12
+    top_clear_m: float = 0.004
+    place_clear_m: float = 0.03
+    spot_tries: int = 12
+    place_tol: float = 0.02
+    lower_step_m: float = 0.005
+    lower_step_s: float = 0.15
+    lower_below_m: float = 0.03

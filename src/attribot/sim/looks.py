@@ -5,9 +5,11 @@ rangefinder, the view checks and the truth's bounds read, inside one collision b
 that body: meshes generated here (surfaces of revolution, tubes swept along curves) and primitives with
 procedural materials (wood grain, fabric, brushed metal, printed labels, screens, keys, pages), with the
 parts that define the category: a mug's hollow and handle, a kettle's spout, lid and arched handle, a
-banana's curve, a laptop's lit screen and keyboard, a backpack's straps and pocket, a book's pages and
-spine. A look carries no mass and never collides, so physics, sensing and the seeds' scenes are the same
-with either look; only pixels change. Within a category, looks vary with the object (`variant`, drawn
+banana's curve, a laptop's lit screen and keyboard, a backpack's zips, straps and pocket, a book's pages
+between its boards and its printed cover, a suitcase's shell and wheels, the open loops of scissors. A
+look reaches at most a tenth of the object's size beyond its body (a test holds every look to it), carries
+no mass and never collides, so physics, sensing and the seeds' scenes are the same with either look; only
+pixels change. Within a category, looks vary with the object (`variant`, drawn
 from its id, never from the scene's generator).
 
 `LOOKS` maps a shape name to its look builder; a shape without one is drawn with its body's primitives
@@ -21,6 +23,7 @@ import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import mujoco
 import numpy as np
@@ -161,12 +164,16 @@ def extrude(profile: list[tuple[float, float]], length: float) -> Mesh:
         a, b = i, (i + 1) % n
         faces += [(a, a + n, b + n), (a, b + n, b)]
     for k, flip in ((0, False), (1, True)):
+        # each end has vertices of its own, so that it shades flat, not blended with the sides
+        ring = len(verts)
+        verts += [(x, ys[k], z) for x, z in prof]
+        tex += [(0.5, 0.5)] * n
         centre = len(verts)
         cx, cz = prof.mean(axis=0)
         verts.append((cx, ys[k], cz))
         tex.append((0.5, 0.5))
         for i in range(n):
-            a, b = k * n + i, k * n + (i + 1) % n
+            a, b = ring + i, ring + (i + 1) % n
             faces.append((centre, b, a) if flip else (centre, a, b))
     return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
 
@@ -178,6 +185,43 @@ def _rounded_rect(half_x: float, height: float, radius: float, n: int = 5) -> li
         for t in np.linspace(a0, a0 + math.pi / 2, n):
             pts.append((cx + radius * math.cos(t), height - radius + radius * math.sin(t)))
     return pts
+
+
+def _rounded(
+    half_x: float, z0: float, z1: float, top: float, bottom: float, n: int = 5
+) -> list[tuple[float, float]]:
+    """A rectangle from x = -half_x to half_x and z = z0 to z1 with its top corners rounded by `top` and its
+    bottom ones by `bottom`, as (x, z), counter-clockwise seen from -y (convex, for `extrude`)."""
+    pts: list[tuple[float, float]] = []
+    for cx, cz, r, a0 in (
+        (-half_x + bottom, z0 + bottom, bottom, math.pi),
+        (half_x - bottom, z0 + bottom, bottom, 1.5 * math.pi),
+        (half_x - top, z1 - top, top, 0.0),
+        (-half_x + top, z1 - top, top, 0.5 * math.pi),
+    ):
+        pts += [(cx + r * math.cos(t), cz + r * math.sin(t)) for t in np.linspace(a0, a0 + math.pi / 2, n)]
+    return pts
+
+
+def _moved(m: Mesh, turn: str = "", by: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mesh:
+    """`m` turned a quarter turn, then moved `by`. `turn` "z": about z, its x axis to y and y to -x (an
+    extrusion along y then runs along x); "y": about y, its z axis to x (a lathe's axis lies along x); "x":
+    about x, its z axis to y and y to -z (an extruded (x, z) outline then lies flat)."""
+    x, y, z = m.vertices.T
+    v = {
+        "": (x, y, z),
+        "z": (-y, x, z),
+        "y": (z, y, -x),
+        "x": (x, z, -y),
+    }[turn]
+    return Mesh(np.stack(v, axis=1) + np.asarray(by), m.faces, m.texcoords)
+
+
+def _ring(centre: tuple[float, float, float], radii: tuple[float, float], n: int = 20) -> np.ndarray:
+    """A closed ellipse in the horizontal plane about `centre` (its first point repeated at the end)."""
+    t = np.linspace(0.0, 2 * math.pi, n + 1)
+    return np.stack([centre[0] + radii[0] * np.cos(t), centre[1] + radii[1] * np.sin(t),
+                     np.full(t.shape, centre[2])], axis=1)  # fmt: skip
 
 
 def _arc(centre: tuple[float, float, float], radii: tuple[float, float], t0: float, t1: float, plane: str,
@@ -262,12 +306,28 @@ def _pages(rng: np.random.Generator, n: int = 64) -> np.ndarray:
     return np.repeat(lines[:, None], n, 1)[..., None] * np.array([1.0, 0.97, 0.88])
 
 
-def _cover(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    img = np.ones((n, n, 3)) * 0.92
-    img[:, : n // 12] = 0.55  # the spine's shadow
-    img[n // 5 : n // 5 + 14, n // 5 : n - n // 6] = 1.0  # a title band
-    img[n // 5 + 4 : n // 5 + 10, n // 4 : n - n // 4] = 0.3
-    img[n - n // 4 : n - n // 4 + 6, n // 3 : n - n // 3] = 0.5
+def _title(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    """A printed title: two lines of bold letters and a line of small print on paper."""
+    img = np.ones((n, n, 3)) * np.array([0.96, 0.94, 0.88])
+    for top, height, size, count in ((14, 26, 13, 6), (50, 26, 13, 5), (96, 10, 7, 8)):
+        x = 12
+        for _ in range(count):
+            width = int(size * rng.uniform(0.6, 1.0))
+            if x + width > n - 10:
+                break
+            img[top : top + height, x : x + width] = 0.12
+            img[top + height // 3 : top + 2 * height // 3, x + width // 3 : x + 2 * width // 3] = 0.96
+            x += width + 4
+    return img.transpose(1, 0, 2)  # lines across a box's x (a cover's width), as `_keys`
+
+
+def _art(rng: np.random.Generator, n: int = 128) -> np.ndarray:
+    """A cover's picture: a sky, a sun and hills."""
+    y, x = np.mgrid[0:n, 0:n] / n
+    img = np.stack([0.55 + 0.3 * y, 0.7 + 0.2 * y, 0.95 - 0.1 * y], axis=-1)
+    img[(x - 0.7) ** 2 + (y - 0.3) ** 2 < 0.02] = (0.98, 0.8, 0.2)
+    img[y > 0.62 + 0.12 * np.sin(2 * math.pi * x * 1.3)] = (0.2, 0.5, 0.25)
+    img[y > 0.8 + 0.06 * np.sin(2 * math.pi * (x * 2 + 0.3))] = (0.12, 0.35, 0.18)
     return img
 
 
@@ -287,10 +347,17 @@ def _ribs(rng: np.random.Generator, n: int = 64) -> np.ndarray:
     return np.repeat(ribs[None, :], n, 0)[..., None] * np.ones(3)
 
 
+def _rings(rng: np.random.Generator, n: int = 64) -> np.ndarray:
+    """Faint rings round a root, unevenly spaced."""
+    v = np.cumsum(rng.uniform(0.5, 1.5, n))
+    rings = 0.88 + 0.12 * np.abs(np.sin(math.pi * 5 * v / v[-1] * 3))
+    return np.repeat(rings[:, None], n, 1)[..., None] * np.ones(3)
+
+
 def _strings(rng: np.random.Generator, n: int = 64) -> np.ndarray:
     y, x = np.mgrid[0:n, 0:n]
     grid = ((x % 6) < 1) | ((y % 6) < 1)
-    return np.where(grid, 0.95, 0.18)[..., None] * np.ones(3)
+    return np.where(grid, 0.95, 0.5)[..., None] * np.ones(3)  # a string bed, the floor showing through
 
 
 TEXTURES: dict[str, tuple[Callable[[np.random.Generator], np.ndarray], float, float, int]] = {
@@ -303,26 +370,38 @@ TEXTURES: dict[str, tuple[Callable[[np.random.Generator], np.ndarray], float, fl
     "phone": (_phone_screen, 0.3, 0.8, 1),
     "keys": (_keys, 0.1, 0.3, 1),
     "pages": (_pages, 0.0, 0.1, 1),
-    "cover": (_cover, 0.15, 0.3, 1),
     "peel": (_peel, 0.25, 0.4, 3),
     "leather": (_leather, 0.1, 0.2, 6),
     "ribs": (_ribs, 0.1, 0.2, 1),
     "strings": (_strings, 0.0, 0.1, 1),
+    "rings": (_rings, 0.05, 0.1, 1),
+    "title": (_title, 0.05, 0.1, 1),
+    "art": (_art, 0.2, 0.3, 1),
 }
 """Procedural textures (grey or coloured images that modulate a look's colour), with their shading."""
 _GLOSS = {"glossy": (0.5, 0.6), "matte": (0.05, 0.1), "plastic": (0.3, 0.4)}
 """Plain materials without an image: (specular, shininess)."""
 
 
+@cache
+def _texture_images() -> tuple[tuple[str, int, int, bytes], ...]:
+    """Every texture's (name, width, height, RGB bytes): drawn once per process (drawing them took longer
+    than compiling a scene), the same for every model."""
+    rng = np.random.default_rng(20250)
+    images = []
+    for name, (make, _, _, _) in TEXTURES.items():
+        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
+        images.append((name, img.shape[1], img.shape[0], img.tobytes()))
+    return tuple(images)
+
+
 def add_materials(spec: mujoco.MjSpec) -> None:
     """Add every texture and material a look can name to `spec` (once per model; a few hundred KB)."""
-    rng = np.random.default_rng(20250)
-    for name, (make, specular, shininess, repeat) in TEXTURES.items():
-        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
-        h, w = img.shape[:2]
+    for name, w, h, data in _texture_images():
+        _, specular, shininess, repeat = TEXTURES[name]
         tex = spec.add_texture(name=f"look_{name}", type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h)
         tex.nchannel = 3
-        tex.data = img.tobytes()
+        tex.data = data
         mat = spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
         mat.texrepeat = [repeat, repeat]
         mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = f"look_{name}"
@@ -499,25 +578,39 @@ def _laptop(s: float, v: int) -> list[Look]:
 
 @LOOKS.register("book")
 def _book(s: float, v: int) -> list[Look]:
+    """A hardcover lying flat: two boards in its colour over a cream block of pages that shows on three
+    sides (its fore-edge towards the viewer, the spine at the back), and a printed cover: a title panel
+    and, on two variants of three, a picture."""
     d, w, t = s * 0.72, s, s * 0.14
-    return [
-        Look("box", (d / 2, w / 2, t * 0.08), (0, 0, t * 0.08), material="plastic"),
+    board = max(t * 0.1, 0.0015)
+    inset = 0.004  # the boards overhang the pages by this much
+    top = t - board / 2
+    looks = [
+        Look("box", (d / 2, w / 2, board / 2), (0, 0, board / 2), material="plastic"),
+        Look("box", (d / 2, w / 2, board / 2), (0, 0, top), material="plastic"),
         Look(
             "box",
-            (d / 2 * 0.96, w / 2 * 0.97, t * 0.42),
-            (0.006, 0, t * 0.5),
-            color=(1, 1, 1),
+            (d / 2 - inset, w / 2 - inset, t / 2 - board),
+            (inset, 0, t / 2),
+            color="paper",
             material="pages",
         ),
-        Look("box", (d / 2, w / 2, t * 0.08), (0, 0, t * 0.92), color="main", material="cover"),
-        Look("box", (0.006, w / 2, t / 2), (-d / 2, 0, t / 2), material="plastic"),
+        Look("box", (board / 2, w / 2, t / 2), (d / 2 - board / 2, 0, t / 2), material="plastic"),
         Look(
             "box",
-            (0.0065, w * 0.3, t * 0.12),
-            (-d / 2, 0, t / 2),
-            color=((0.95, 0.95, 0.9), (0.85, 0.7, 0.3), (0.1, 0.1, 0.1))[v],
+            (d * 0.36, w * 0.16, 0.0004),
+            (-d * 0.04, w * 0.26, t + 0.0004),
+            color=(1, 1, 1),
+            material="title",
         ),
     ]
+    if v != 2:  # a picture under the title
+        looks.append(Look("box", (d * 0.32, w * 0.2, 0.0004), (-d * 0.04, -w * 0.12, t + 0.0004),
+                          color=(1, 1, 1), material="art"))  # fmt: skip
+    if v != 0:  # a band of gilt lettering on the spine's side of the cover
+        looks.append(Look("box", (d * 0.04, w * 0.4, 0.0004), (d * 0.36, 0, t + 0.0004),
+                          color=(0.85, 0.7, 0.3), material="glossy"))  # fmt: skip
+    return looks
 
 
 @LOOKS.register("phone")
@@ -540,14 +633,7 @@ def _keyboard(s: float, v: int) -> list[Look]:
     d = s * 0.35
     return [
         Look("box", (d / 2, s / 2, 0.012), (0, 0, 0.012), material="plastic"),
-        Look(
-            "box",
-            (d * 0.45, s * 0.48, 0.002),
-            (0, 0, 0.026),
-            color=(1, 1, 1),
-            material="keys",
-            quat=quat_axis_angle((0, 0, 1), math.pi / 2),
-        ),  # fmt: skip
+        Look("box", (d * 0.45, s * 0.48, 0.002), (0, 0, 0.026), color=(1, 1, 1), material="keys"),
     ]
 
 
@@ -642,20 +728,154 @@ def _kettle(s: float, v: int) -> list[Look]:
 
 @LOOKS.register("backpack")
 def _backpack(s: float, v: int) -> list[Look]:
+    """A soft pack with a rounded top: a zip running round its front, a front pocket with its own zip,
+    mesh pockets on the sides, a grab loop on top and padded straps on its back."""
     d, w, h = s * 0.4, s * 0.7, s * 0.85
-    straps = []
+    crown = h + s * 0.08
+    body = _rounded(w / 2, 0.0, crown, w * 0.42, 0.04)
+    pocket = _rounded(w * 0.36, h * 0.06, h * 0.5, w * (0.12, 0.3, 0.2)[v], 0.03)
+    front = -d / 2 - d * 0.13
+    zips = [
+        _arc((-d / 2 - 0.003, 0.0, crown - w * 0.42), (w * 0.38, w * 0.38), 0.15, math.pi - 0.15, "yz"),
+        np.array([(front - d * 0.15 - 0.003, y, z) for y, z in pocket if z > h * 0.3]),
+    ]
+    looks = [
+        _mesh(_moved(extrude(body, d), "z"), material="fabric"),
+        _mesh(_moved(extrude(pocket, d * 0.3), "z", (front, 0.0, 0.0)), material="fabric"),
+        *(_mesh(tube(z, s * 0.008, 6), color="dark", material="plastic") for z in zips),
+    ]
     for side in (-1, 1):
         path = _arc((d / 2, side * w * 0.25, h * 0.55), (d * 0.18, h * 0.42), -math.pi / 2, math.pi / 2, "xz")
-        straps.append(_mesh(tube(path, s * 0.02, 6), color="dark", material="fabric"))
-    loop = _arc((0.0, 0.0, h + s * 0.08), (s * 0.06, s * 0.05), 0.0, math.pi, "yz", n=8)
+        looks.append(_mesh(tube(path, s * 0.025, 6), color="dark", material="fabric"))
+        looks.append(Look("box", (d * 0.3, 0.012, h * 0.17), (0.0, side * (w / 2 + 0.01), h * 0.2),
+                          color=(0.15, 0.15, 0.16), material="strings"))  # fmt: skip
+    loop = _arc((0.0, 0.0, crown), (s * 0.06, s * 0.05), 0.0, math.pi, "yz", n=8)
+    looks.append(_mesh(tube(loop, s * 0.012, 6), color="dark", material="fabric"))
+    return looks
+
+
+@LOOKS.register("suitcase")
+def _suitcase(s: float, v: int) -> list[Look]:
+    """A hard-shell case on four spinner wheels: a rounded shell in its colour, split by a dark seam, with
+    ridges down its front, a carry handle on top and the telescopic handle's bar above."""
+    d, w, h, lift = s * 0.35, s * 0.7, s * 0.9, 0.03
+    shell = _rounded(w / 2, lift, lift + h, 0.05, 0.04)
+    seam = _rounded(w / 2 + 0.003, lift - 0.003, lift + h + 0.003, 0.053, 0.043)
+    looks = [
+        _mesh(_moved(extrude(shell, d), "z"), material="plastic"),
+        _mesh(_moved(extrude(seam, 0.012), "z"), color="dark", material="plastic"),
+    ]
+    for y in (-0.3, -0.1, 0.1, 0.3):  # ridges down the front shell
+        looks.append(Look("box", (0.003, w * 0.02, h * 0.38), (-d / 2 - 0.002, y * w, lift + h / 2),
+                          material="plastic"))  # fmt: skip
+    carry = _arc((0.0, 0.0, lift + h), (w * 0.13, s * 0.045), 0.0, math.pi, "yz", n=10)
+    looks.append(_mesh(tube(carry, 0.01, 8), color="dark", material="plastic"))
+    top = lift + h + s * 0.1
+    for y in (-w * 0.25, w * 0.25):  # the telescopic handle, its rods and its bar
+        looks.append(Look("box", (0.01, 0.01, s * 0.05), (d * 0.3, y, top - s * 0.05), color="gray",
+                          material="brushed"))  # fmt: skip
+    looks.append(Look("box", (0.014, w * 0.27, 0.014), (d * 0.3, 0, top), color="dark", material="plastic"))
+    for x in (-d * 0.32, d * 0.32):
+        for y in (-w * 0.4, w * 0.4):
+            looks.append(Look("cylinder", (lift * 0.5, 0.01), (x, y, lift * 0.5), _ALONG_Y, color="dark",
+                              material="plastic"))  # fmt: skip
+    return looks
+
+
+@LOOKS.register("scissors")
+def _scissors(s: float, v: int) -> list[Look]:
+    """Two steel blades crossed at a screw, and two loop handles in its colour."""
+    outline = [(-0.04 * s, -0.028 * s), (0.5 * s, -0.004 * s), (0.5 * s, 0.002 * s), (-0.04 * s, 0.03 * s)]
+    blade = extrude(outline, 0.002)
+    open_ = (0.06, 0.12, 0.03)[v]
+    looks = []
+    for side, z in ((1, 0.004), (-1, 0.006)):
+        turned = _moved(_moved(blade, "x"), by=(0.0, 0.0, z))
+        c, sn = math.cos(side * open_), math.sin(side * open_)
+        x, y, zz = turned.vertices.T
+        turned = Mesh(np.stack([c * x - sn * y, sn * x + c * y, zz], 1), turned.faces, turned.texcoords)
+        looks.append(_mesh(turned, color="metal", material="brushed"))
+        ring = _ring((-0.2 * s, side * 0.1 * s, 0.01), (0.09 * s, 0.065 * s))
+        looks.append(_mesh(tube(ring, 0.02 * s, 8, caps=False), material="plastic"))
+        shank = np.array([[-0.11 * s, side * 0.07 * s, 0.01], [-0.02 * s, side * 0.012 * s, 0.007]])
+        looks.append(_mesh(tube(shank, 0.018 * s, 8), material="plastic"))
+    looks.append(Look("cylinder", (0.012 * s, 0.002), (0.0, 0.0, 0.008), color="dark", material="brushed"))
+    return looks
+
+
+@LOOKS.register("carrot")
+def _carrot(s: float, v: int) -> list[Look]:
+    """A tapering root lying down, ringed faintly, with a tuft of leaves at its crown."""
+    r = s * 0.08
+    root = [(0.0, 0.0), (r * 0.8, 0.0), (r, s * 0.04), (r * 0.92, s * 0.25), (r * 0.7, s * 0.5),
+            (r * 0.35, s * 0.72), (r * 0.1, s * 0.8), (0.0, s * 0.81)]  # fmt: skip
+    looks = [_mesh(_moved(lathe(root, 16), "y", (-0.35 * s, 0.0, r)), material="rings")]
+    for k, ang in enumerate((-0.35, 0.0, 0.35, -0.15, 0.2)):
+        q = quat_axis_angle((0, 0, 1), ang)
+        length = s * (0.14 if k < 3 else 0.1)
+        pos = (
+            -0.35 * s - length * math.cos(ang) * 0.9,
+            -length * math.sin(ang) * 0.9,
+            r * (1.2 if k < 3 else 1.5),
+        )
+        looks.append(Look("ellipsoid", (length, r * 0.3, r * 0.12), pos, q, color="leaf", material="matte"))
+    return looks
+
+
+@LOOKS.register("mouse")
+def _mouse(s: float, v: int) -> list[Look]:
+    """A computer mouse: a smooth shell, the seam between its two buttons and a scroll wheel."""
     return [
-        Look("box", (d / 2, w / 2, h / 2 * 0.92), (0, 0, h / 2 * 0.92), material="fabric"),
-        Look("ellipsoid", (d / 2, w / 2, s * 0.1), (0, 0, h * 0.9), material="fabric"),
-        Look("box", (d * 0.2, w * 0.38, h * 0.22), (-d / 2 - d * 0.13, 0, h * 0.3), material="fabric"),
-        Look("box", (d * 0.21, w * 0.36, 0.004), (-d / 2 - d * 0.13, 0, h * 0.52), color="dark"),
-        Look("box", (0.004, w * 0.4, 0.004), (-d / 2 - 0.002, 0, h * 0.68), color="dark"),
-        *straps,
-        _mesh(tube(loop, s * 0.012, 6), color="dark", material="fabric"),
+        Look("ellipsoid", (s / 2, s * 0.3, s * 0.18), (0, 0, s * 0.18), material="plastic"),
+        Look("box", (s * 0.17, 0.0008, s * 0.02), (-s * 0.3, 0, s * 0.3), color="dark"),
+        Look(
+            "cylinder",
+            (s * 0.045, s * 0.018),
+            (-s * 0.27, 0, s * 0.315),
+            _ALONG_Y,
+            color="dark",
+            material="plastic",
+        ),
+    ]
+
+
+@LOOKS.register("knife")
+def _knife(s: float, v: int) -> list[Look]:
+    """A kitchen knife: a steel blade curving to its point, a bolster, and a handle with three rivets."""
+    edge = [(0.0, -0.06 * s), (0.3 * s, -0.055 * s), (0.44 * s, -0.03 * s), (0.5 * s, 0.0),
+            (0.0, 0.035 * s)]  # fmt: skip
+    blade = _moved(_moved(extrude(edge, 0.002), "x"), by=(0.0, 0.0, 0.003))
+    looks = [
+        _mesh(blade, color="metal", material="brushed"),
+        Look(
+            "box",
+            (0.012 * s, 0.05 * s, 0.028 * s),
+            (-0.005 * s, 0, 0.028 * s),
+            color="metal",
+            material="brushed",
+        ),
+        Look("box", (0.2 * s, 0.042 * s, 0.026 * s), (-0.3 * s, 0, 0.028 * s), material="plastic"),
+    ]
+    for x in (-0.42, -0.3, -0.18):
+        looks.append(Look("cylinder", (0.012 * s, 0.0008), (x * s, 0, 0.054 * s + 0.0008), color="metal",
+                          material="brushed"))  # fmt: skip
+    return looks
+
+
+@LOOKS.register("spoon")
+def _spoon(s: float, v: int) -> list[Look]:
+    """A steel spoon: a shallow oval bowl, hollow side up, and a handle that widens towards its end."""
+    t = np.linspace(0.0, math.pi / 2, 7)
+    dish = [(math.sin(a), 1 - math.cos(a)) for a in t] + [(math.sin(a) * 0.9, 0.12 + 0.88 * (1 - math.cos(a)))
+                                                         for a in t[::-1]]  # fmt: skip
+    bowl = lathe([(0.0, 0.0), *dish[1:]], 20)
+    scale = np.array([0.16 * s, 0.1 * s, 0.055 * s])
+    bowl = Mesh(bowl.vertices * scale + np.array([0.32 * s, 0.0, 0.004]), bowl.faces, bowl.texcoords)
+    handle = np.array([[-0.5 * s, 0.0, 0.006], [-0.2 * s, 0.0, 0.006], [0.05 * s, 0.0, 0.008],
+                       [0.18 * s, 0.0, 0.01]])  # fmt: skip
+    return [
+        _mesh(bowl, material="brushed"),
+        _mesh(tube(handle, np.array([0.035, 0.028, 0.018, 0.016]) * s, 8), material="brushed"),
     ]
 
 
@@ -679,7 +899,11 @@ def _racket(s: float, v: int) -> list[Look]:
         Look(
             "ellipsoid", (s * 0.17, s * 0.13, 0.002), (s * 0.3, 0, 0.014), color=(1, 1, 1), material="strings"
         ),  # fmt: skip
-        Look("box", (s * 0.2, 0.01, 0.01), (-s * 0.02, 0, 0.014), material="glossy"),
+        Look("box", (s * 0.07, 0.01, 0.01), (-s * 0.17, 0, 0.014), material="glossy"),
+        *(  # the open throat: two arms from the shaft to the head
+            _mesh(tube(np.array([[-s * 0.1, 0.0, 0.014], [s * 0.171, side * s * 0.085, 0.014]]), 0.008, 8))
+            for side in (-1, 1)
+        ),
         Look("capsule", (0.016, s * 0.11), (-s * 0.35, 0, 0.016), _ALONG_X, color="dark", material="fabric"),
     ]
 

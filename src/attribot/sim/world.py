@@ -338,8 +338,7 @@ class SimWorld:
                 n -= k
         self._track_odometry()
         if self._slip_at is not None and d.time >= self._slip_at and self._held is not None:
-            self.data.eq_active[self.weld_of[self._held]] = 0  # the grip gives: it falls out
-            self._held = None
+            self._let_go()  # the grip gives: it falls out
             self._slip_at = None
             self.set_gripper(0.0)  # and the fingers, still closing, meet each other
         for hook in getattr(self, "step_hooks", ()):
@@ -542,11 +541,24 @@ class SimWorld:
     def release(self) -> None:
         """Drop the weld and open the fingers."""
         if self._held is not None:
-            self.data.eq_active[self.weld_of[self._held]] = 0
-            self._held = None
+            self._let_go()
         self._slip_at = None
         self.set_gripper(self.finger_open)
         self.step(0.3)
+
+    def _let_go(self) -> None:
+        """Drop the weld of the held object and wake it. Held still in the gripper, it was ready to sleep;
+        unwelded, it would fall asleep at once where it hangs instead of falling onto what is below."""
+        assert self._held is not None
+        m, d = self.model, self.data
+        d.eq_active[self.weld_of[self._held]] = 0
+        tree = int(m.body_treeid[self.body_of[self._held]])
+        if d.tree_asleep[tree] < 0:
+            d.tree_asleep[tree] = -(1 + mujoco.mjMINAWAKE)  # as awake as a tree gets: counting down anew
+        else:
+            dof = int(m.body_dofadr[self.body_of[self._held]])
+            d.qvel[dof : dof + 6] = -0.0  # MuJoCo's documented wake signal (not 0.0 bytewise), no push
+        self._held = None
 
     @property
     def held(self) -> int | None:
@@ -717,6 +729,22 @@ class SimWorld:
             lo = np.minimum(lo, d.geom_xpos[g] - r)
             hi = np.maximum(hi, d.geom_xpos[g] + r)
         return np.stack([lo, hi])
+
+    def support_of(self, key: int, tol: float = 0.01) -> str | None:
+        """The name of the surface the object stands on now: a piece of furniture's top or board (as the
+        plan names its surfaces: "shelf_2", "shelf_2_low"), or "floor"; its lowest point within `tol` of
+        the surface's height and its middle over the furniture. None when it stands on none of them (held,
+        in the air, on another object)."""
+        lo, hi = self.object_bounds(key)
+        x, y = (lo[:2] + hi[:2]) / 2
+        for f in self.plan.furniture:
+            x0, y0, x1, y1 = f.footprint()
+            if not (x0 <= x <= x1 and y0 <= y <= y1):
+                continue
+            for surface in f.surfaces():
+                if abs(lo[2] - surface.z) <= tol:
+                    return surface.name
+        return "floor" if abs(lo[2]) <= tol else None
 
     def top_of(self, key: int, x: float, y: float) -> float | None:
         """Height of the object's upper surface at world (x, y) by a ray cast downward, or None if missed."""

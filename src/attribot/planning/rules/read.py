@@ -214,6 +214,13 @@ _ACT_PUT = re.compile(
     _OPENING + r"(?:put|place|move|set)\s+(?P<rest>.+)\s+(?:on|onto|on\s+to|on\s+top\s+of)\s+(?:the\s+)?"
     r"(?P<target>[a-z ]+?)$"
 )
+# "bring the cup to the table": to a surface or an object, it is put there (not handed over)
+_ACT_BRING = re.compile(
+    _OPENING + r"(?:bring|take|carry|move|get)(?:\s+me|\s+us)?\s+(?P<rest>.+?)\s+(?:over\s+)?"
+    r"(?:to|onto|on\s+to)\s+(?:the\s+)?(?P<target>[a-z ]+?)$"
+)
+# "bring me the mug closest to the table" relates the mug to the table: not a destination
+_RELATING = re.compile(r"\b(?:closest|nearest|farthest|furthest|next|close|near|far|closer|nearer|farther)$")
 _ACT_MEASURE = re.compile(
     _OPENING + r"(?:(?:pick\s+up|lift|grab|take|go\s+to|drive\s+to|approach)\s+)(?P<obj>.+?)\s+and\s+"
     r"(?:(?:tell\s+me\s+|say\s+|find\s+out\s+|report\s+)?(?P<what>how\s+much\s+(?:it|they)\s+weighs?|"
@@ -223,16 +230,19 @@ _ACT_MEASURE = re.compile(
 
 
 def _take_action(text: str) -> tuple[str | None, str | None, object]:
-    """("pick" or "put", the target, the rest of the text) of a request to act; ("measure", None, the
-    measurement) of "pick up the X and tell me how much it weighs"; (None, None, text) otherwise."""
+    """("pick" or "put", the target, the rest of the text) of a request to act ("put the X on the Y",
+    "bring the X to the Y" put it there); ("measure", None, the measurement) of "pick up the X and tell me
+    how much it weighs"; (None, None, text) otherwise."""
     match = _ACT_MEASURE.fullmatch(text)
     if match is not None:
         obj = _named(_strip_article(match["obj"]))
         if obj is not None:
             weight = any(w in match["what"] for w in ("weigh", "heavy", "mass"))
             return "measure", None, MeasureQuery(obj, "weight" if weight else "distance")
-    match = _ACT_PUT.fullmatch(text)
-    if match is not None:
+    for form in (_ACT_PUT, _ACT_BRING):
+        match = form.fullmatch(text)
+        if match is None or (form is _ACT_BRING and _RELATING.search(match["rest"])):
+            continue
         target = _strip_article(match["target"])
         kind = SURFACE_WORDS.get(target)
         spec = None if kind is not None else _named(target)
