@@ -61,8 +61,6 @@ PARAPHRASE_EXAMPLES = [
     "the least massive object",
     "which one is farthest away",
     "which is closest by",
-    "what's the distance to the book",
-    "which's heavier",
     "which object is lowest in weight",
     "which item is highest in mass",
     "which one is heaviest by weight",
@@ -81,6 +79,25 @@ PARAPHRASE_EXAMPLES = [
     "which ball gives the most when you squeeze it",
     "which ball gives the least when squeezed",
     "how much is left in the bottle",
+    "does the bottle have anything in it",
+    "which mug has got something in it",
+    "is there anything in the mug",
+    "which thing is the weightiest",
+    "the least weighty box",
+    "is the pot weightier than the pan",
+    "how many kilos is the carrot",
+    "what can i lift most easily",
+    "which mug has the highest temperature",
+    "which can has the lowest temperature",
+    "how many degrees is the mug",
+    "how many meters from you is the lamp",
+    "how many centimetres across is the bowl",
+    "how many cm tall is the lamp",
+    "how far off is the vase",
+    "how far is it to the kettle",
+    "where did i leave my phone",
+    "which one is nearest the camera",
+    "is there water in the bottle",
 ]
 
 
@@ -98,6 +115,11 @@ PARAPHRASE_EXAMPLES = [
         ("which can came out of the fridge?", "which can is cold?"),
         ("which jar has nothing in it", "which jar is empty"),
         ("how much is left in the bottle?", "how full is the bottle?"),
+        ("is there anything in the mug", "is the mug full"),
+        ("which mug has got something in it", "which mug is full"),
+        ("how many kilos is the carrot", "how heavy is the carrot"),
+        ("how many degrees is the mug", "what temperature is the mug"),
+        ("what can i lift most easily", "what is the lightest"),
     ],
 )
 def test_left_and_right_are_positions_and_lifting_is_weight(text, meaning):
@@ -108,12 +130,54 @@ def test_left_and_right_are_positions_and_lifting_is_weight(text, meaning):
 def test_every_paraphrase_the_lexicon_rewrites_holds_a_cue(text):
     import re
 
-    assert any(re.search(p, text) for p, _ in lexicon.ATTRIBUTE_PARAPHRASES), text
-    assert any(cue in text for cue in lexicon.ATTRIBUTE_PARAPHRASE_CUES), text
+    matching = [cues for p, _, cues in lexicon.ATTRIBUTE_PARAPHRASES if re.search(p, text)]
+    assert matching, text
+    # each pattern that matches runs only where one of its cues is: it must be here
+    assert all(any(cue in text for cue in cues) for cues in matching), text
+
+
+@pytest.mark.parametrize("text", PARAPHRASE_EXAMPLES)
+def test_running_only_the_cued_patterns_reads_as_running_them_all(text):
+    import re
+
+    every = text
+    for pattern, meaning, _ in lexicon.ATTRIBUTE_PARAPHRASES:
+        every = re.sub(pattern, meaning, every)
+    assert lexicon.paraphrased(text) == every
 
 
 def test_each_paraphrase_pattern_has_an_example():
     import re
 
-    for pattern, _ in lexicon.ATTRIBUTE_PARAPHRASES:
+    for pattern, _, _ in lexicon.ATTRIBUTE_PARAPHRASES:
         assert any(re.search(pattern, e) for e in PARAPHRASE_EXAMPLES), pattern
+
+
+@pytest.mark.parametrize(
+    ("text", "meaning"),
+    [
+        ("which one's the heaviest?", "which one is the heaviest?"),
+        ("the mug's hot?", "the mug is hot?"),
+        ("what's the book's weight?", "what is the weight of the book?"),
+        ("what is the tissue box's weight", "what is the weight of the tissue box"),
+        ("which jar's got something in it", "which jar has something in it"),
+        ("which of 'em's heaviest", "which of them is heaviest"),
+        (
+            "isn't the pot heavier? i'm sure it's not, we'd say",
+            "is not the pot heavier? i am sure it is not, we would say",
+        ),
+        ("can't, won't, doesn't", "can not, will not, does not"),
+        ("the mugs' weights", "the mugs weights"),
+        ("whats the closest thing to u pls", "what is the closest thing to you please"),
+        ("which ones heaviest", "which one is heaviest"),
+        ("which ones are heavy", "which ones are heavy"),  # a plural stays one
+    ],
+)
+def test_contractions_and_shorthand_are_written_out(text, meaning):
+    assert lexicon.expand_contractions(text) == meaning
+
+
+def test_no_function_word_is_a_category_name_or_synonym():
+    """A word that never names an object must not be one a category is called: "can" names a can."""
+    names = {w for c in categories() for name in (c.name, *c.synonyms) for w in name.split()}
+    assert not names & lexicon.FUNCTION_WORDS

@@ -144,6 +144,53 @@ def test_the_detector_finds_furniture_and_a_scope_keeps_what_stands_on_it():
     assert answer.unit == "kg"
 
 
+@pytest.mark.parametrize(
+    ("board", "level"), [("top", "top"), ("upper", "top"), ("bottom", "bottom"), ("lower", "bottom")]
+)
+def test_a_shelfs_board_is_a_scope_of_any_family(board, level):
+    for query in (f"what's sitting on the {board} shelf?", f"the heaviest thing on the {board} shelf"):
+        parsed = parse_query(query)
+        assert isinstance(parsed, Request) and parsed.scope == "shelf" and parsed.level == level
+    program = rules_program(f"which thing on the {board} shelf is closest to you?", ALL, embodied=True)
+    assert f'on_level(patch, surface, "{level}")' in program and 'image.find("thing")' in program
+
+
+def test_a_board_of_the_shelf_scopes_what_stands_there_in_the_world():
+    """The truth: the scene's own `surface` of each object, shelf_N (the top board) or shelf_N_low."""
+    config, seen = _household(1, objects=6)
+    top = [o for o in seen if o.surface.startswith("shelf") and not o.surface.endswith("_low")]
+    low = [o for o in seen if o.surface.endswith("_low")]
+    assert len(top) == 1 and len(low) >= 2, "the scene these checks were written for"
+    answer = ask("what's lying on the top shelf?", Scene(config, sensors=["camera"]), load_settings())
+    assert answer.object is not None and answer.object.id == top[0].id, answer.answer
+    answer = ask(
+        "which thing on the bottom shelf is closest to you?", Scene(config, sensors=ALL), load_settings()
+    )
+    assert answer.object is not None and answer.object.id == min(low, key=lambda o: o.distance_m).id
+
+
+@pytest.mark.parametrize(
+    ("query", "attribute", "more"),
+    [
+        ("tissue box heavier than the hammer?", "weight", True),
+        ("kettle closer than the vase?", "distance", False),
+        ("book to the left of the mug?", "position", False),
+        ("the mug weighs more than the plate?", "weight", True),
+        ("isn't the pot heavier than the bowl?", "weight", True),
+        ("the pot is lighter than the pan, right?", "weight", False),
+        ("tell me if the kettle is heavier than the mug", "weight", True),
+    ],
+)
+def test_a_yes_no_question_needs_no_leading_verb(query, attribute, more):
+    parsed = parse_query(query)
+    assert isinstance(parsed, YesNoQuery) and parsed.attribute == attribute and parsed.more is more
+
+
+def test_a_statement_without_a_question_mark_is_no_yes_no_question():
+    with pytest.raises(UnsupportedQuery):
+        parse_query("the mug to the left of the book")  # a relation it does not read, not a question
+
+
 def test_yes_no_carries_the_boolean_both_values_and_the_one_that_is():
     config, seen = _household(3, categories=("kettle", "mug"), objects=2)
     kettle, mug = (next(o for o in seen if o.category == c) for c in ("kettle", "mug"))

@@ -39,6 +39,19 @@ def test_on_surface_reads_where_an_object_stands():
     assert helpers.on_any(patch(150, 120, 180, 170), [patch(0, 0, 50, 50), table])
 
 
+def test_a_surface_is_never_on_itself():
+    shelf = patch(100, 0, 400, 300)
+    assert not helpers.on_surface(shelf, shelf), "furniture named as a place is never the answer"
+
+
+def test_on_level_tells_a_shelfs_top_board_from_a_lower_one():
+    shelf = patch(200, 0, 440, 180)  # y up: the top board is the box's upper edge
+    on_top = patch(300, 165, 330, 200)  # its foot near the upper edge (measured: within a tenth of the box)
+    below = patch(300, 88, 330, 130)  # its foot about half way down (measured: 0.45 to 0.55 of the box)
+    assert helpers.on_level(on_top, shelf, "top") and not helpers.on_level(on_top, shelf, "bottom")
+    assert helpers.on_level(below, shelf, "bottom") and not helpers.on_level(below, shelf, "top")
+
+
 def test_the_one_unlike_the_rest():
     assert helpers.the_one_unlike_the_rest(["mug", "apple", "mug"]) == 1
     assert helpers.the_one_unlike_the_rest(["mug", "apple", "pear"]) is None

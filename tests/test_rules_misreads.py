@@ -4,9 +4,15 @@ that guesses wrong silently is worse than one that refuses")."""
 
 from __future__ import annotations
 
+import json
+import re
+from pathlib import Path
+
 import pytest
 
-from attribot.planning.rules import UnsupportedQuery, WeightQuery, parse_query
+from attribot.errors import InputError
+from attribot.lexicon import FUNCTION_WORDS, GENERIC_NOUNS
+from attribot.planning.rules import UnsupportedQuery, WeightQuery, parse_query, rules_program
 
 
 @pytest.mark.parametrize(
@@ -159,3 +165,70 @@ def test_scopes_and_ranks_once_refused_are_read(query, expected):
     parsed = parse_query(query)
     assert repr(parsed).startswith(expected)
     assert getattr(parsed, "rank", 2) == 2 or getattr(parsed, "scope", None) == "table"
+
+
+# ---- what a program searches for is a name, never a leftover (issue 30) ---------------------------------
+
+_FIND = re.compile(r'image\.find\(("(?:[^"\\]|\\.)*")\)')
+_SENSORS = ("camera", "distance", "force", "temperature", "grip")
+DATA = Path(__file__).parent / "data"
+
+
+def _searched(query: str) -> list[str]:
+    """What the program of `query` asks the detector for; none when the planner refuses it."""
+    try:
+        program = rules_program(query, _SENSORS, embodied=True)
+    except InputError:
+        return []
+    return [json.loads(literal) for literal in _FIND.findall(program)]
+
+
+def _only_names(phrases: list[str]) -> bool:
+    for phrase in phrases:
+        words = phrase.split()
+        if "'" in phrase or any(w in FUNCTION_WORDS for w in words):
+            return False
+        if any(w in GENERIC_NOUNS for w in words[:-1]):
+            return False
+    return True
+
+
+@pytest.mark.parametrize(
+    ("query", "searched"),
+    [
+        ("which one's the heaviest?", ["object"]),
+        ("lightest item pls", ["item"]),
+        ("which object looks biggest?", ["object"]),
+        ("um, which bottle is the heaviest?", ["bottle"]),
+        ("which cup's the lightest", ["cup"]),
+        ("So which one is furthest away from you then?", ["object"]),
+        ("what's lying on the top shelf?", ["object", "shelf"]),
+    ],
+)
+def test_leftovers_of_contractions_and_fillers_are_never_searched(query, searched):
+    assert _searched(query) == searched
+
+
+@pytest.mark.parametrize(
+    "query",
+    [
+        "which one's the thingamajig?",
+        "the heaviest item yonder",
+        "so then which is the heaviest whatsit pls pls",
+    ],
+)
+def test_what_is_left_unread_is_refused_in_one_line_naming_it(query):
+    with pytest.raises(UnsupportedQuery) as refused:
+        parse_query(query)
+    assert "could not place" in str(refused.value) or "cannot read" in str(refused.value)
+    assert "\n" not in refused.value.message
+
+
+def test_no_program_of_any_phrasing_set_searches_a_word_that_never_names_an_object():
+    """Every phrasing of the earlier sets and of the tuning part of the new one, read or refused: what is read
+    searches names only (no "'s", no "item pls", no "object looks")."""
+    files = ("generalisation.jsonl", "generalisation_senses.jsonl", "generalisation_english_tuning.jsonl")
+    queries = [json.loads(line)["query"] for f in files for line in (DATA / f).read_text().splitlines()]
+    queries += [json.loads(line)["query"] for line in (DATA / "paraphrases.jsonl").read_text().splitlines()]
+    bad = {q: found for q in queries if not _only_names(found := _searched(q))}
+    assert not bad

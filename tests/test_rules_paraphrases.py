@@ -123,6 +123,22 @@ def test_the_odd_one_out_by_size_measures_what_perspective_hides():
     assert right / total >= 0.8, f"{right} of {total}"
 
 
+def test_the_odd_one_outs_value_is_the_attribute_that_decided_never_the_distance():
+    """By size, the value is its size in metres (the distance measured on the way is not the answer); by
+    kind, there is no value."""
+    config = SceneConfig(layout="arrangement", seed=0, options={"odd": "size", "pattern": "row"})
+    with MujocoWorld(config) as world:
+        (odd,) = [o for o in world.scene_info().objects if o.odd_one_out]
+    answer = ask("spot the odd one out", Scene(config, sensors=["camera", "distance"]), load_settings())
+    assert answer.object is not None and answer.object.id == odd.id
+    assert answer.unit == "m" and answer.value == pytest.approx(odd.size_m, rel=0.35)
+    assert abs(answer.value - odd.distance_m) > 0.5, "the size, not the rangefinder's distance"
+    config = SceneConfig(layout="arrangement", seed=1, options={"odd": "category", "pattern": "row"})
+    answer = ask("spot the odd one out", Scene(config, sensors=["camera", "distance"]), load_settings())
+    assert answer.object is not None and answer.object.id == _odd_truth(config)
+    assert answer.value is None and answer.unit is None
+
+
 def test_how_far_is_the_closest_measures_the_chosen_object(household):
     answer = _ask("How far is the closest object?", "household", 7, ["camera", "distance"])
     nearest = min(household, key=lambda o: o["distance_m"])

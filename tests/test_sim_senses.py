@@ -43,16 +43,41 @@ def test_hidden_states_are_seeded_and_span_each_categorys_states():
             assert 19.0 <= plan.room_temperature_c <= 24.0
             for o in plan.objects:
                 seen.setdefault(o.category.name, set()).update({o.thermal, o.softness, f"fill={o.fill}"})
-                if o.thermal == "cold" and o.category.name == "kettle":  # not switched on: the room's
+                if o.thermal == "room" and o.category.name == "kettle":  # not switched on: the room's
                     assert abs(o.temperature_c - plan.room_temperature_c) < 2.0
                 if o.fill is not None:  # a container's mass is its own plus its contents
                     cat = o.category
                     assert cat.empty_kg is not None
                     empty = o.mass_kg - o.fill * cat.capacity_kg
                     assert cat.empty_kg[0] - 1e-6 <= empty <= cat.empty_kg[1] + 1e-6
-    assert {"hot", "cold"} <= seen["kettle"] and {"hot", "room"} <= seen["mug"]
+    assert {"hot", "room"} <= seen["kettle"] and {"hot", "room"} <= seen["mug"]
     assert {"cold", "room"} <= seen["can"] and {"soft", "firm", "hard"} <= seen["ball"]
     assert {"fill=0.0", "fill=1.0"} <= seen["bottle"] and "fill=None" in seen["kettle"]
+
+
+def test_the_word_for_each_temperature_is_the_readmes_threshold():
+    """`thermal` in the scene's truth says what the README's thresholds say (hot is 40 °C or more, warm 30,
+    cold 12 or less, cool 18): a kettle that is not switched on, at about 20 °C, is never "cold"."""
+    kettles_off = 0
+    for seed in range(30):
+        plan = _plan(("kettle", "can", "mug"), seed)
+        assert plan is not None
+        for o in plan.objects:
+            t = o.temperature_c
+            expected = (
+                "hot"
+                if t >= 40
+                else "warm"
+                if t >= 30
+                else "cold"
+                if t <= 12
+                else "cool"
+                if t <= 18
+                else "room"
+            )
+            assert o.thermal == expected, (o.category.name, t, o.thermal)
+            kettles_off += o.category.name == "kettle" and t < 40
+    assert kettles_off > 0, "the kettle not switched on was drawn"
 
 
 def test_a_triplets_containers_are_empty_so_that_weight_still_rises_with_the_category():

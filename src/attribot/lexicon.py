@@ -9,7 +9,9 @@ with the catalog's data in `attribot.sim.catalog`, which folds plurals with `sin
 
 from __future__ import annotations
 
+import operator
 import re
+from typing import Literal
 
 __all__ = [
     "COLOR_WORDS",
@@ -28,9 +30,16 @@ __all__ = [
     "SIZE_COMPARATIVES",
     "WEIGHT_PHRASES",
     "SURFACE_WORDS",
+    "SURFACE_LEVELS",
     "SENSE_WORDS",
+    "SENSE_STATES",
+    "FUNCTION_WORDS",
+    "PROPERTY_NOUNS",
     "surface_kind",
     "paraphrased",
+    "expand_contractions",
+    "state_holds",
+    "temperature_state",
     "words",
     "singular_forms",
 ]
@@ -81,6 +90,109 @@ DEICTIC_WORDS: frozenset[str] = frozenset(
     }
 )
 """Pronouns and place words: they point at something and never name it, so a planner never searches them."""
+
+FUNCTION_WORDS: frozenset[str] = frozenset(
+    """
+    a an the some any every each all both either neither another other others such
+    my your our their his her its mine yours ours theirs
+    i me you we us he she him they them it myself yourself
+    what which who whom whose where when why how whichever
+    of in on at to from by for about into onto upon over under above below behind beside
+    between among amongst near next inside outside across along around through toward towards up down off
+    out than like unlike via per
+    and or but if so because then while whether though nor yet
+    is are was were be been being am do does did done have has had having will would shall should may might
+    must could
+    not no yes very really just only also too now here there please thanks thank actually maybe perhaps
+    still already again ever never quite rather even exactly
+    um uh er erm hmm hm ah oh hey hi hello ok okay alright well yeah yep nope huh wow sorry excuse pardon
+    two three four five six seven eight nine ten eleven twelve
+    looks look looking seems seem appears appear find show tell give get bring take pick grab go know think
+    wonder want need see say mind help check let make keep put leave hold point guess reckon suppose
+    many much more most less least few lot lots bit
+    """.split()
+)
+"""Words that never name an object, whatever the query: articles and possessives, pronouns, question words,
+prepositions, conjunctions, auxiliaries, fillers, the verbs of a request, number and quantity words. A planner
+that has such a word left over has not read the query, and refuses it rather than searching for it
+("which one's" is no object called "'s", "the object looks" none called "object looks"). Not here: "can",
+which names a can, and "with" or "standing", which a name may hold ("the box with shoes", "the standing
+lamp")."""
+
+PROPERTY_NOUNS: frozenset[str] = frozenset(
+    {
+        "weight", "mass", "temperature", "distance", "size", "height", "width", "length", "fullness", "fill",
+        "softness", "stiffness", "hardness", "firmness", "colour", "color", "position", "location",
+    }
+)  # fmt: skip
+"""Nouns for what an object has (its weight, its temperature): after "X's" they make a possessive ("the book's
+weight" is the weight of the book), where "X's" before anything else is "X is"."""
+
+_SHORTHAND = {
+    "u": "you", "ur": "your", "r": "are", "temp": "temperature", "pls": "please", "plz": "please",
+    "plox": "please", "thx": "thanks", "whats": "what is", "wheres": "where is", "thats": "that is",
+    "whos": "who is", "hows": "how is", "whichs": "which is", "theres": "there is", "heres": "here is",
+    "isnt": "is not", "arent": "are not", "doesnt": "does not", "dont": "do not", "didnt": "did not",
+    "wont": "will not", "cant": "can not", "im": "i am", "ive": "i have", "youre": "you are",
+    "lemme": "let me", "gimme": "give me", "wanna": "want to", "gonna": "going to",
+}  # fmt: skip
+"""Words typed without their apostrophe, and text-message spellings, written out."""
+_SHORTHAND_WORDS = re.compile(r"\b(?:" + "|".join(_SHORTHAND) + r")\b")
+_NOT = re.compile(r"\b([a-z]+)n't\b")
+_NOT_STEMS = {"ca": "can", "wo": "will", "sha": "shall"}  # "can't", "won't", "shan't"
+_SUFFIXES = (
+    (re.compile(r"\bi'm\b"), "i am"),
+    (re.compile(r"\blet's\b"), "let us"),
+    (re.compile(r"(?<![a-z])'em\b"), "them"),
+    (re.compile(r"([a-z])'re\b"), r"\1 are"),
+    (re.compile(r"([a-z])'ve\b"), r"\1 have"),
+    (re.compile(r"([a-z])'ll\b"), r"\1 will"),
+    (re.compile(r"([a-z])'d\b"), r"\1 would"),
+    (re.compile(r"([a-z])'s\s+got\b"), r"\1 has"),
+)
+_ONES_IS = re.compile(r"\bones\s+(?=(?:the\s+)?[a-z]+est\b)")  # "which ones heaviest": "one's", unmarked
+_POSSESSIVE = re.compile(r"((?:[a-z]+\s+){0,2}[a-z]+)'s\s+(" + "|".join(sorted(PROPERTY_NOUNS)) + r")\b")
+_DETERMINERS = frozenset({"the", "a", "an", "my", "your", "our", "this", "that"})
+
+
+def _possessive(match: re.Match[str]) -> str:
+    """ "the tissue box's weight" -> "the weight of the tissue box": the owner is the words before "'s"
+    that can name something, after the article."""
+    words = match[1].split()
+    start = len(words)
+    while start > 0 and words[start - 1] not in FUNCTION_WORDS:
+        start -= 1
+    before, owner = words[:start], words[start:]
+    if before and before[-1] in _DETERMINERS:
+        before = before[:-1]
+    if not owner:  # "it's weight": a typo of "its", no owner to name
+        return " ".join([*before, "the", match[2], "of", "it"])
+    return " ".join([*before, "the", match[2], "of", "the", *owner])
+
+
+def expand_contractions(text: str) -> str:
+    """Lower-case `text` with English contractions and shorthand written out: "n't" is "not", "'re" "are",
+    "'ll" "will", "'d" "would", "'m" "am", "'s got" "has"; "X's" before a property noun is a possessive ("the
+    book's weight" is "the weight of the book") and "is" otherwise ("which one's the heaviest", "the mug's
+    hot"); a plural's "s'" is dropped; words typed without their apostrophe ("whats", "dont") and
+    text-message spellings ("u", "pls") are written out.
+
+    >>> expand_contractions("which one's the heaviest? the book's weight, pls")
+    'which one is the heaviest? the weight of the book, please'
+    """
+    text = _SHORTHAND_WORDS.sub(
+        lambda m: _SHORTHAND[m[0]], text.replace("\u2019", "'").replace("\u2018", "'")
+    )
+    if "'" in text:
+        text = _NOT.sub(lambda m: _NOT_STEMS.get(m[1], m[1]) + " not", text)
+        for pattern, meaning in _SUFFIXES:
+            text = pattern.sub(meaning, text)
+        text = _POSSESSIVE.sub(_possessive, text)
+        text = re.sub(r"([a-z])'s\b", r"\1 is", text)
+        text = re.sub(r"([a-z]s)'(?=\s|$)", r"\1", text)  # "the mugs' weights": the mugs
+        text = text.replace("'", " ")
+    return _ONES_IS.sub("one is ", text) if "ones " in text else text
+
 
 # ---- the attributes: the words that name a weight, a distance or a size, and their direction ----------
 
@@ -166,57 +278,218 @@ fullness; whether it asks for more of it; its form: absolute "hot", comparative 
 "hottest"). "Less" and "least" turn the direction round ("the least warm" is the coldest); softness is less
 stiffness."""
 
-ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str], ...] = (
+SENSE_STATES: dict[str, tuple[float, str]] = {
+    "hot": (40.0, ">="),
+    "boiling": (90.0, ">="),
+    "warm": (30.0, ">="),
+    "cold": (12.0, "<="),
+    "chilled": (12.0, "<="),
+    "cool": (18.0, "<="),
+    "hard": (5.0, ">="),
+    "rigid": (5.0, ">="),
+    "firm": (1.0, ">="),
+    "stiff": (1.0, ">="),
+    "soft": (1.0, "<"),
+    "squishy": (1.0, "<"),
+    "squashy": (1.0, "<"),
+    "spongy": (1.0, "<"),
+    "full": (0.5, ">"),
+    "filled": (0.5, ">"),
+    "empty": (0.5, "<"),
+}
+"""What a state word of `SENSE_WORDS` means: (the threshold, the comparison a value in that state passes), in
+the sense's unit (°C, N/mm of squeeze, the share of a container's capacity). The one place these thresholds
+live: the planner's programs state them, and the simulator labels its objects' states with them."""
+
+_COMPARISONS = {">=": operator.ge, ">": operator.gt, "<=": operator.le, "<": operator.lt}
+
+
+def state_holds(word: str, value: float) -> bool:
+    """Whether `value` (in the sense's unit) is in the state `word` of `SENSE_STATES`.
+
+    >>> state_holds("cold", 19.99), state_holds("cold", 12.0)
+    (False, True)
+    """
+    threshold, comparison = SENSE_STATES[word]
+    return bool(_COMPARISONS[comparison](value, threshold))
+
+
+def temperature_state(celsius: float) -> str:
+    """The word for a temperature: "hot", "warm", "cold" or "cool" by `SENSE_STATES`, "room" otherwise.
+
+    >>> temperature_state(85.0), temperature_state(19.99), temperature_state(4.0)
+    ('hot', 'room', 'cold')
+    """
+    for word in ("hot", "warm", "cold", "cool"):
+        if state_holds(word, celsius):
+            return word
+    return "room"
+
+
+_CONTENTS = r"(?:anything|something|stuff|water|coffee|tea|juice|milk|soda|liquid|drink)"
+"""What a container holds, as a question names it."""
+
+ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     # verb phrases of weight, to the adjective they mean
-    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest"),
-    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?least\b", "is the lightest"),
-    (r"\b(?:weighs?|weighing)\s+more\b", "is heavier"),
-    (r"\b(?:weighs?|weighing)\s+less\b", "is lighter"),
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?most\b", "is the heaviest", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+(?:the\s+)?least\b", "is the lightest", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+more\b", "is heavier", ("weigh",)),
+    (r"\b(?:weighs?|weighing)\s+less\b", "is lighter", ("weigh",)),
     (
         r"\b(?:has|have|with)\s+(?:the\s+)?(?:greatest|highest|largest|biggest|most)\s+(?:mass|weight)\b",
         "is the heaviest",
+        ("mass", "weight"),
     ),
-    (r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b", "is the lightest"),
-    (r"\b(?:lowest|least|smallest)\s+in\s+(?:weight|mass)\b", "lightest"),
-    (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest"),
-    (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1"),
-    (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1"),
-    (r"\b(?:greatest|highest|largest|biggest|most|more)\s+(?:weight|mass)\b", "heaviest"),
-    (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest"),
-    (r"\bmost\s+massive\b", "heaviest"),
-    (r"\bleast\s+massive\b", "lightest"),
+    (
+        r"\b(?:has|have|with)\s+(?:the\s+)?(?:least|lowest|smallest)\s+(?:mass|weight)\b",
+        "is the lightest",
+        ("mass", "weight"),
+    ),
+    (r"\b(?:lowest|least|smallest)\s+in\s+(?:weight|mass)\b", "lightest", ("mass", "weight")),
+    (r"\b(?:highest|greatest|largest|biggest|most)\s+in\s+(?:weight|mass)\b", "heaviest", ("mass", "weight")),
+    (r"\b(heaviest|lightest|heavier|lighter)\s+(?:in|by)\s+(?:weight|mass)\b", r"\1", ("mass", "weight")),
+    (r"\b(largest|biggest|smallest|larger|bigger|smaller)\s+(?:in|by)\s+size\b", r"\1", (" size",)),
+    (r"\b(?:greatest|highest|largest|biggest|most|more)\s+(?:weight|mass)\b", "heaviest", ("mass", "weight")),
+    (r"\b(?:lowest|smallest|least|less)\s+(?:weight|mass)\b", "lightest", ("mass", "weight")),
+    (r"\bmost\s+massive\b", "heaviest", ("mass",)),
+    (r"\bleast\s+massive\b", "lightest", ("mass",)),
     # left and right are positions in the picture, not distances: "furthest to the left", "far right",
     # "left-most" (hyphens are spaces by now), "on the very left" are the leftmost and the rightmost
     (
         r"\b(?:on|at|to|in)\s+the\s+(?:very|far|furthest|farthest|extreme)\s+(left|right)(?:\s+(?:side|end|edge))?\b",
         r"\1most",
+        ("left", "right"),
     ),
     (
         r"\b(?:the\s+)?(?:furthest|farthest|further|farther|most|far)\s+(?:to\s+(?:the\s+)?|on\s+the\s+)?(left|right)\b",
         r"\1most",
+        ("left", "right"),
     ),
-    (r"\b(left|right)\s+most\b", r"\1most"),
+    (r"\b(left|right)\s+most\b", r"\1most", ("left", "right")),
     # what weight does to a person: hard or easy to lift
-    (r"\b(?:hardest|heaviest)\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "heaviest"),
-    (r"\beasiest\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "lightest"),
-    (r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b", "how far away"),
+    (
+        r"\b(?:hardest|heaviest)\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b",
+        "heaviest",
+        ("lift", "carry", "pick"),
+    ),
+    (r"\beasiest\s+(?:one\s+)?to\s+(?:lift|carry|pick\s+up)\b", "lightest", ("lift", "carry", "pick")),
+    (
+        r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters)\s+away\b",
+        "how far away",
+        ("away",),
+    ),
+    # "nearest the camera" is nearest to it
+    (
+        r"\b(closest|nearest|closer|nearer)\s+(?=(?:me|you|us|the\s+robot|the\s+camera)\b)",
+        r"\1 to ",
+        ("est me", "est you", "est us", "est the", "er me", "er you", "er us", "er the"),
+    ),
     # distance: "farthest away", "closest by" mean the adjective alone
-    (r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b", r"\1"),
+    (
+        r"\b(farthest|furthest|farther|further|closest|nearest|closer|nearer)\s+(?:away|by)\b",
+        r"\1",
+        ("away", " by"),
+    ),
     # what the senses' states are said with: a drink from the fridge is cold, a jar with nothing in it empty
-    (r"\b(?:has|have)\s+(?:just\s+)?(?:been\s+)?boiled\b", "is hot"),
-    (r"\b(?:came|come|comes|is|are|was|were|just)\s+(?:out\s+of|from)\s+the\s+fridge\b", "is cold"),
-    (r"\b(?:from|out\s+of)\s+the\s+fridge\b", "cold"),
-    (r"\b(?:has|have)\s+nothing\s+(?:left\s+)?in\s+(?:it|them)\b", "is empty"),
-    (r"\b(?:needs?|needing)\s+(?:a\s+)?(?:refilling|refill|filling\s+up)\b", "is empty"),
-    (r"\bgives?\s+the\s+most\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the softest"),
-    (r"\bgives?\s+the\s+least\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the hardest"),
-    (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is"),
-    # contractions
-    (r"\bwhat's\b", "what is"),
-    (r"\bwhich's\b", "which is"),
+    (r"\b(?:has|have)\s+(?:just\s+)?(?:been\s+)?boiled\b", "is hot", ("boiled",)),
+    (
+        r"\b(?:came|come|comes|is|are|was|were|just)\s+(?:out\s+of|from)\s+the\s+fridge\b",
+        "is cold",
+        ("fridge",),
+    ),
+    (r"\b(?:from|out\s+of)\s+the\s+fridge\b", "cold", ("fridge",)),
+    (r"\b(?:has|have)\s+nothing\s+(?:left\s+)?in\s+(?:it|them)\b", "is empty", ("nothing",)),
+    (
+        r"\b(?:needs?|needing)\s+(?:a\s+)?(?:refilling|refill|filling\s+up)\b",
+        "is empty",
+        ("refill", "filling"),
+    ),
+    (r"\bgives?\s+the\s+most\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b", "is the softest", ("squeeze",)),
+    (
+        r"\bgives?\s+the\s+least\s+when\s+(?:you\s+|i\s+)?squeezed?(?:\s+it)?\b",
+        "is the hardest",
+        ("squeeze",),
+    ),
+    (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is", ("left", "still")),
+    # something in a container: it is not empty ("is there anything in the mug" asks whether it is full;
+    # "water", "coffee" are what is in it, never the object asked about)
+    (
+        r"\b(?:does|do)\s+(.+?)\s+(?:have|hold|contain)\s+"
+        + _CONTENTS
+        + r"(?:\s+(?:in|inside)\s+(?:it|them))?$",
+        r"is \1 full",
+        ("have", "hold", "contain"),
+    ),
+    (
+        r"\b(?:has|have)\s+(?:got\s+)?" + _CONTENTS + r"\s+(?:left\s+)?(?:in|inside)\s+(?:it|them)\b",
+        "is full",
+        ("has", "have"),
+    ),
+    (
+        r"\bis\s+(?:there\s+)?" + _CONTENTS + r"\s+(?:left\s+)?(?:in|inside)\s+"
+        r"((?:the|my|your|this|that)\s+[a-z]+(?:\s+[a-z]+)?)$",
+        r"is \1 full",
+        (" in",),
+    ),
+    # weight in other words and units: "the weightiest", "how many kilos is the carrot"
+    (r"\b(?:most\s+weighty|weightiest)\b", "heaviest", ("weight",)),
+    (r"\b(?:least\s+weighty)\b", "lightest", ("weight",)),
+    (r"\bweightier\b", "heavier", ("weight",)),
+    (
+        r"\bhow\s+many\s+(?:kilos|kilograms?|kgs?|grams?|pounds|lbs?)\s+(?:is|are|does|do)\s+(.+?)(?:\s+weighs?)?$",
+        r"how heavy is \1",
+        ("how many",),
+    ),
+    (
+        r"\b(?:can|could)\s+(?:i|you|we)\s+(?:lift|carry|pick\s+up)\s+(?:the\s+)?most\s+easily\b",
+        "is the lightest",
+        ("easily",),
+    ),
+    # temperature as a quantity: "the highest temperature" is the hottest, "how many degrees" asks it
+    (
+        r"\b(?:has|have|with)\s+(?:the\s+)?(?:highest|greatest)\s+temperature\b",
+        "is the hottest",
+        ("temperature",),
+    ),
+    (r"\b(?:has|have|with)\s+(?:the\s+)?lowest\s+temperature\b", "is the coldest", ("temperature",)),
+    (
+        r"\bhow\s+many\s+degrees(?:\s+(?:celsius|centigrade))?\s+(?=is\b|are\b)",
+        "what temperature ",
+        ("how many",),
+    ),
+    # distances and sizes in units: "how many meters from you", "how many centimetres across"
+    (
+        r"\bhow\s+many\s+(?:metres|meters|feet|inches|centimetres|centimeters|cm)\s+(away|from)\b",
+        r"how far \1",
+        ("how many",),
+    ),
+    (
+        r"\bhow\s+many\s+(?:metres|meters|inches|centimetres|centimeters|cm|millimetres|mm)\s+across\b",
+        "how big",
+        ("how many",),
+    ),
+    (
+        r"\bhow\s+many\s+(?:metres|meters|inches|centimetres|centimeters|cm|millimetres|mm)\s+(wide|long|tall|high)\b",
+        r"how \1",
+        ("how many",),
+    ),
+    (r"\bhow\s+far\s+off\b", "how far away", ("far off",)),
+    # where something was left is where it is
+    (
+        r"\bwhere\s+(?:did|have)\s+(?:i|we|you)\s+(?:leave|left|put|place|placed)\s+",
+        "where is ",
+        ("where did", "where have"),
+    ),
+    (
+        r"\bhow\s+far\s+(?:away\s+)?is\s+it\s+(?:from\s+(?:here|you|me)\s+)?to\b",
+        "how far away is",
+        ("is it",),
+    ),
 )
-"""(pattern, replacement) pairs that turn paraphrases of an attribute into the words the planner reads
-("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text."""
+"""(pattern, replacement, cues) that turn paraphrases of an attribute into the words the planner reads
+("Which object weighs the most?" is "Which object is the heaviest?"), applied in order to lower-case text;
+every text a pattern matches holds one of its cues (a test checks it), so that a pattern runs only where one
+is: most texts skip most patterns."""
 
 
 def paraphrased(text: str) -> str:
@@ -227,18 +500,17 @@ def paraphrased(text: str) -> str:
     'which item is the heaviest?'
     """
     text = text.lower()
-    if any(cue in text for cue in ATTRIBUTE_PARAPHRASE_CUES):  # most texts have none: skip the patterns
-        for pattern, meaning in _COMPILED_PARAPHRASES:
-            text = pattern.sub(meaning, text)
+    cued = {i for cue in _CUE.findall(text) for i in _PATTERNS_OF_CUE[cue]}
+    for i in sorted(cued):  # in the table's order: a later pattern may read what an earlier one wrote
+        pattern, meaning = _COMPILED_PARAPHRASES[i]
+        text = pattern.sub(meaning, text)
     return text
 
 
-ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = (
-    "weigh", "mass", "weight", "away", " by", "'s", " size", "left", "right", "lift", "carry", "boiled",
-    "fridge", "nothing", "refill", "filling", "squeeze",
-)  # fmt: skip
-"""Every text one of `ATTRIBUTE_PARAPHRASES` matches holds one of these (a test checks it), so that a query
-without any can skip the patterns."""
+ATTRIBUTE_PARAPHRASE_CUES: tuple[str, ...] = tuple(
+    dict.fromkeys(cue for _, _, cues in ATTRIBUTE_PARAPHRASES for cue in cues)
+)
+"""Every cue of `ATTRIBUTE_PARAPHRASES`: a text with none of these is no paraphrase."""
 
 SURFACE_WORDS: dict[str, str] = {
     "table": "table", "tables": "table", "desk": "table", "dining table": "table",
@@ -248,6 +520,13 @@ SURFACE_WORDS: dict[str, str] = {
 }  # fmt: skip
 """Words for the surfaces objects stand on (furniture and the floor), to the kind of surface they name: what
 the oracle detector finds as furniture and what the planner reads as a scope ("on the table")."""
+
+
+SURFACE_LEVELS: dict[str, Literal["top", "bottom"]] = {
+    "top": "top", "upper": "top", "uppermost": "top", "highest": "top", "topmost": "top",
+    "bottom": "bottom", "lower": "bottom", "lowest": "bottom", "bottommost": "bottom",
+}  # fmt: skip
+"""Words for a board of a shelf ("the bottom shelf"), to the board: "top" or "bottom"."""
 
 
 def surface_kind(name: str) -> str:
@@ -297,4 +576,11 @@ def singular_forms(word: str) -> list[str]:
     return list(dict.fromkeys(forms))
 
 
-_COMPILED_PARAPHRASES = [(re.compile(p), meaning) for p, meaning in ATTRIBUTE_PARAPHRASES]
+_COMPILED_PARAPHRASES = [(re.compile(p), meaning) for p, meaning, _ in ATTRIBUTE_PARAPHRASES]
+_PATTERNS_OF_CUE = {
+    cue: [i for i, (_, _, cues) in enumerate(ATTRIBUTE_PARAPHRASES) if cue in cues]
+    for cue in ATTRIBUTE_PARAPHRASE_CUES
+}
+_CUE = re.compile(
+    "|".join(re.escape(cue) for cue in sorted(ATTRIBUTE_PARAPHRASE_CUES, key=len, reverse=True))
+)

@@ -219,7 +219,7 @@ _DATA: tuple[Category, ...] = (
         (0.22, 0.26),
         ("silver", "black", "white"),
         (0.9, 1.4),
-        temperatures=(("hot", (80.0, 95.0)), ("cold", None)),  # just boiled, or not switched on
+        temperatures=(("hot", (80.0, 95.0)), ("room", None)),  # just boiled, or not switched on
     ),
     _c(
         "bottle",

@@ -32,8 +32,8 @@ its contents). See `attribot.sim.catalog` for the states each category can be in
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mujoco
@@ -41,6 +41,7 @@ import numpy as np
 
 from attribot.config import MAX_OBJECTS, MAX_SEED
 from attribot.errors import InputError
+from attribot.lexicon import temperature_state
 from attribot.registry import Registry
 from attribot.sim.catalog import (
     COLORS,
@@ -136,7 +137,7 @@ class PlacedObject:
     extras: dict[str, Any] = field(default_factory=dict)
     mass_share: float = 0.5  # where in its (variant's) mass range the mass was drawn, 0 to 1
     temperature_c: float = 21.0  # what an infrared thermometer reads on its surface
-    thermal: str = "room"  # its thermal state ("hot", "cold", "room")
+    thermal: str = "room"  # the word for its temperature (lexicon.temperature_state): hot, cold, room...
     stiffness_n_per_mm: float = RIGID_N_PER_MM  # force per millimetre of gripper closure
     softness: str = "rigid"  # its softness state ("soft", "firm", "hard", "rigid")
     fill: float | None = None  # a container's contents, as a share of its capacity (None: no container)
@@ -241,10 +242,12 @@ def _draw_hidden_states(plan: ScenePlan, seed: int, attempt: int) -> None:
     for o in plan.objects:
         rng = np.random.default_rng([seed, attempt, o.key, 0x7E3])
         cat = o.category
-        thermal, span = _pick(rng, cat.temperatures) if cat.temperatures else ("room", None)
+        _, span = _pick(rng, cat.temperatures) if cat.temperatures else ("room", None)
         near_room = room + float(rng.normal(0.0, 0.3))  # drawn always: the next draws keep their place
-        o.thermal = thermal
         o.temperature_c = round(float(rng.uniform(*span)) if span is not None else near_room, 2)
+        # its word by the thresholds the planner reads, not the state's name: a kettle not switched on
+        # is at the room's temperature, never "cold"
+        o.thermal = temperature_state(o.temperature_c)
         o.softness, stiff = _pick(rng, cat.stiffness) if cat.stiffness else ("rigid", None)
         share = float(rng.uniform())
         o.stiffness_n_per_mm = (
@@ -365,14 +368,13 @@ def _count(request: SceneRequest, default: int, lo: int, hi: int, what: str) -> 
 _TABLE_FRONT = GEOMETRY.base_half[0] + 0.05  # gap between the robot and the table's near edge
 
 
-def _row_plan(
-    rng: np.random.Generator, layout: str, objs: list[PlacedObject], rows: int, cols: int
-) -> ScenePlan:
-    """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to fit, before the robot.
+_TABLE_MAX = (1.9, 1.2)  # the widest and deepest table a grid is put on (m)
 
-    Columns are as wide as their widest object; rows are deep enough that an object does not hide the one
-    behind it from the head camera (which looks down at about 40 degrees).
-    """
+
+def _grid(
+    objs: list[PlacedObject], rows: int, cols: int
+) -> tuple[list[list[PlacedObject | None]], list[float], list[float]]:
+    """Objects row-major on a grid, the width of each column and the depth of each row (m)."""
     grid = [
         [objs[r * cols + c] if r * cols + c < len(objs) else None for c in range(cols)] for r in range(rows)
     ]
@@ -389,9 +391,27 @@ def _row_plan(
         + 0.04
         for r in range(rows)
     ]
+    return grid, col_w, row_d
+
+
+def _fits_table(objs: list[PlacedObject], rows: int, cols: int) -> bool:
+    """Whether the objects fit on the largest table in `rows` x `cols`."""
+    _, col_w, row_d = _grid(objs, rows, cols)
+    return sum(col_w) <= _TABLE_MAX[0] and sum(row_d) <= _TABLE_MAX[1]
+
+
+def _row_plan(
+    rng: np.random.Generator, layout: str, objs: list[PlacedObject], rows: int, cols: int
+) -> ScenePlan:
+    """Put objects (row-major, row 0 farthest) on a grid centred on a table sized to fit, before the robot.
+
+    Columns are as wide as their widest object; rows are deep enough that an object does not hide the one
+    behind it from the head camera (which looks down at about 40 degrees).
+    """
+    grid, col_w, row_d = _grid(objs, rows, cols)
     need_w, need_d = sum(col_w), sum(row_d)
-    max_w, max_d = 1.9, 1.2
-    if need_w > max_w or need_d > max_d:
+    if not _fits_table(objs, rows, cols):
+        max_w, max_d = _TABLE_MAX
         raise InputError(
             f"{len(objs)} objects in {rows} row(s) x {cols} column(s) do not fit on the table "
             f"(need {need_w:.2f} m x {need_d:.2f} m, at most {max_w:.2f} m x {max_d:.2f} m)",
@@ -434,13 +454,7 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     pattern = request.option("pattern", str(rng.choice(["row", "column", "grid"])), ("row", "column", "grid"))
     default_n = {"row": 5, "column": 3, "grid": 8}[pattern]
     n = _count(request, default_n, 3, 20, f"an arrangement ({pattern})")
-    if pattern == "row":
-        rows, cols = 1, n
-    elif pattern == "column":
-        rows, cols = n, 1
-    else:
-        rows = 2 if n <= 10 else 3 if n <= 15 else 4
-        cols = math.ceil(n / rows)
+    rows, cols = _pattern_shape(pattern, n)
     pool = _pool(request, _small)
     main = pool[int(rng.integers(len(pool)))] if not request.categories else pool[0]
     odd_kinds = ["category", "size"] + (["color"] if len(main.colors) > 1 else [])
@@ -491,7 +505,42 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         o = _make_object(rng, i, cat, size=size, color=col)
         o.extras.update(odd_one_out=(i == odd_index), odd_kind=odd_kind if i == odd_index else "")
         objs.append(o)
+    if not _fits_table(objs, rows, cols):
+        pattern, rows, cols = _fitting_pattern(objs, pattern, "pattern" in request.options)
     return _row_plan(rng, "arrangement", objs, rows, cols)
+
+
+_PATTERNS = ("row", "grid", "column")
+
+
+def _pattern_shape(pattern: str, n: int) -> tuple[int, int]:
+    """(rows, columns) of `n` objects in a row, a column or a grid."""
+    if pattern == "row":
+        return 1, n
+    if pattern == "column":
+        return n, 1
+    rows = 2 if n <= 10 else 3 if n <= 15 else 4
+    return rows, math.ceil(n / rows)
+
+
+def _fitting_pattern(objs: list[PlacedObject], pattern: str, asked: bool) -> tuple[str, int, int]:
+    """A pattern the objects fit on the table in, when the one drawn does not (a column of three large
+    objects is too deep); when the pattern was asked for, an error that says what fits instead."""
+    fitting = [p for p in _PATTERNS if p != pattern and _fits_table(objs, *_pattern_shape(p, len(objs)))]
+    if fitting and not asked:
+        return fitting[0], *_pattern_shape(fitting[0], len(objs))
+    what_fits = [f"--option pattern={p}" for p in fitting]
+    fewer = [k for k in range(len(objs) - 1, 2, -1) if _fits_table(objs[:k], *_pattern_shape(pattern, k))]
+    if fewer:
+        what_fits.append(f"--objects {fewer[0]}")
+    rows, cols = _pattern_shape(pattern, len(objs))
+    _, col_w, row_d = _grid(objs, rows, cols)
+    raise InputError(
+        f"{len(objs)} objects ({objs[0].category.name}) in a {pattern} ({rows} row(s) x {cols} column(s)) do "
+        f"not fit on the table (need {sum(col_w):.2f} m x {sum(row_d):.2f} m, at most "
+        f"{_TABLE_MAX[0]:.2f} m x {_TABLE_MAX[1]:.2f} m)",
+        f"these fit: {' or '.join(what_fits)}" if what_fits else "choose a smaller category",
+    )
 
 
 def _triplet_ok(c: Category) -> bool:
@@ -833,6 +882,47 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
     plan.robot_kind = req.robot
     _draw_hidden_states(plan, int(seed), int(attempt))
     return plan
+
+
+CROWDED_MIN_GAP = 0.08
+"""The spacing of the candidates' distances (m) a household scene falls back to when none of its attempts
+places them at the default one: a crowded request of small objects ("three cans") fits only closer together,
+on the one table near enough for them to be seen (the spacing the benchmarks' household scenes ask for)."""
+
+
+def scene_requests(layout: str, request: SceneRequest, attempts: int) -> Iterator[tuple[int, SceneRequest]]:
+    """The (attempt, request) pairs a world tries in turn for one seed: the request as asked, then, for a
+    household scene whose `min_gap` was not asked for, the same with `CROWDED_MIN_GAP` (so that every seed
+    that was placed at the default spacing keeps its scene)."""
+    for attempt in range(attempts):
+        yield attempt, request
+    if LAYOUTS.get(layout) is LAYOUTS.get("household") and "min_gap" not in request.options:
+        crowded = replace(request, options={**request.options, "min_gap": CROWDED_MIN_GAP})
+        for attempt in range(attempts, 2 * attempts):
+            yield attempt, crowded
+
+
+def what_fits(layout: str, seed: int, request: SceneRequest, attempts: int) -> str:
+    """The fix for a request no attempt could place: how many of its objects do fit on this seed, or that
+    smaller categories are needed."""
+    n = request.n_objects or len(request.categories or ())
+    spacing = request.options.get("min_gap", CROWDED_MIN_GAP)
+    for k in range(n - 1, 0, -1):
+        fewer = replace(
+            request,
+            n_objects=k,
+            categories=request.categories[:k] if request.categories else None,
+            options={**request.options, "min_gap": spacing},
+        )
+        for attempt in range(attempts):
+            try:
+                plan_scene(layout, seed, fewer, attempt)
+            except InputError:
+                continue
+            return (
+                f"at most {k} of these can be placed on seed {seed}: ask for {k} (--objects {k}) or smaller"
+            )
+    return "none of these objects fits in view on a surface of this layout: choose smaller categories"
 
 
 def resolve_categories(names: Sequence[str] | None) -> tuple[Category, ...] | None:

@@ -40,6 +40,8 @@ from attribot.sim.scene import (
     build_model,
     plan_scene,
     resolve_categories,
+    scene_requests,
+    what_fits,
 )
 
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
@@ -90,7 +92,7 @@ class ObjectInfo(BaseModel):
     weight_rank: int | None = None
     # what no camera sees (`attribot.sim.catalog`): the world's own state, which the new senses read
     temperature_c: float | None = None  # its surface temperature
-    thermal: str = ""  # hot, cold, room
+    thermal: str = ""  # the word for its temperature (`attribot.lexicon.temperature_state`)
     stiffness_n_per_mm: float | None = None  # force per millimetre of gripper closure
     softness: str = ""  # soft, firm, hard, rigid
     fill: float | None = None  # a container's contents as a share of its capacity (None: no container)
@@ -166,9 +168,9 @@ class SimWorld:
         self._renderer: SceneRenderer | None = None
         # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
         error: InputError | None = None
-        for attempt in range(_ATTEMPTS):
+        for attempt, asked in scene_requests(layout, request, _ATTEMPTS):
             try:
-                self.plan: ScenePlan = plan_scene(layout, seed, request, attempt)
+                self.plan: ScenePlan = plan_scene(layout, seed, asked, attempt)
             except InputError as exc:
                 if self._fixed(layout):
                     raise
@@ -187,7 +189,7 @@ class SimWorld:
             )
         else:
             assert error is not None
-            raise error
+            raise InputError(error.message, what_fits(layout, seed, request, _ATTEMPTS)) from error
         self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
         self._slip_at: float | None = None  # when a held object that will slip falls out
         n = self.noise

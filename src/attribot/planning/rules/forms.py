@@ -32,6 +32,7 @@ class UnsupportedQuery(InputError):
 # ---- the parsed form ---------------------------------------------------------------------------------
 
 Side = Literal["left", "right", "top", "bottom"]
+Level = Literal["top", "bottom"]
 
 
 @dataclass(frozen=True)
@@ -190,6 +191,7 @@ class Request:
     among: Among | None = None
     action: Literal["pick", "put"] | None = None
     target: str | None = None  # what "put" puts the object on: a surface kind or an object's name
+    level: Level | None = None  # the board of a shelf the scope is ("on the bottom shelf")
 
 
 ParsedQuery = (

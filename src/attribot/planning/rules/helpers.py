@@ -20,6 +20,7 @@ __all__ = [
     "on_surface",
     "on_any",
     "on_side",
+    "on_level",
     "bring",
     "put_it_on",
     "source",
@@ -108,7 +109,10 @@ def size_outlier(patches: Sequence[Patch]) -> int:
 
 def on_surface(patch: Patch, surface: Patch) -> bool:
     """True when the patch stands on the surface: the middle of its bottom edge lies inside the surface's box
-    (an object's foot is where it rests; y grows upward)."""
+    (an object's foot is where it rests; y grows upward). The surface itself, or a patch as big as it, is not
+    on it: furniture named as a place is never the answer."""
+    if patch.width >= 0.8 * surface.width and patch.height >= 0.8 * surface.height:
+        return False
     x = patch.horizontal_center
     return surface.left <= x <= surface.right and surface.lower <= patch.lower <= surface.upper
 
@@ -119,6 +123,14 @@ def on_any(patch: Patch, surfaces: Sequence[Patch]) -> bool:
         if on_surface(patch, surface):
             return True
     return False
+
+
+def on_level(patch: Patch, shelf: Patch, level: str) -> bool:
+    """True when the patch stands on that board ("top" or "bottom") of a shelf it stands on: the top board is
+    the upper edge of the shelf's box, a lower board about half way down, so a foot in the upper third of the
+    box is on the top board (y grows upward)."""
+    depth = (shelf.upper - patch.lower) / max(shelf.height, 1.0)
+    return depth < 1 / 3 if level == "top" else depth >= 1 / 3
 
 
 def on_side(patch: Patch, side: str, whole: Patch) -> bool:

@@ -8,18 +8,22 @@ from __future__ import annotations
 
 import re
 import unicodedata
+from typing import NamedTuple
 
 from attribot.lexicon import (
     COLOR_ALIASES,
     COLOR_WORDS,
     DEICTIC_WORDS,
     FAR_WORDS,
+    FUNCTION_WORDS,
+    GENERIC_NOUNS,
     NEAR_WORDS,
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
     WEIGHT_HEAVY,
     WEIGHT_LIGHT,
+    expand_contractions,
     paraphrased,
 )
 from attribot.planning.rules.forms import (
@@ -76,7 +80,7 @@ _DIST_WORDS = "|".join(sorted(_NEAR | _FAR, key=len, reverse=True))
 _ME = r"(?:\s+(?:to|from)\s+(?:me|you|us|the\s+robot|the\s+camera))?"
 
 # words that cannot be part of an object's name here: left over from a phrase the parser did not read
-_STOP = {
+_STOP = FUNCTION_WORDS | {
     "from",
     "row",
     "rows",
@@ -180,32 +184,43 @@ _STOP = {
 
 
 _LEAD = (
-    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find|show(?:\s+me)?|point\s+(?:to|at)|select|pick\s+up|pick|get|"
-    r"give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|i\s+am\s+looking\s+for|"
+    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at)|select|"
+    r"pick\s+up|pick\s+out|pick|get|give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|"
+    r"(?:i|we)\s+(?:am\s+|are\s+)?(?:looking\s+for|after)|(?:i|we)\s+(?:would\s+like|want|need)|"
     r"show\s+me\s+where|where\s+can\s+i\s+find|help\s+me\s+find)\s+"
 )
 
 
-def _normalize(query: str) -> tuple[str, bool, str] | None:
-    """Lower case, accents folded, punctuation to spaces, polite or imperative openings ("find", "where
-    is") and articles dropped, and whether there was such an opening; None when the text holds letters
-    outside a-z (another script), which the planner cannot read. The third item is the text before the
-    opening was dropped, which the frames (actions) read."""
-    text = query.lower().replace("\u2019", "'").replace("-", " ")
+class Normalised(NamedTuple):
+    """A query as the readers start from it (see `_normalize`)."""
+
+    text: str  # the opening ("find", "where is") and the article dropped
+    opened: bool  # there was such an opening
+    full: str  # the text before the opening was dropped, which the frames (actions) read
+    question: bool  # asked as a question: a question mark, or a tag ("yes or no", "isn't it")
+
+
+def _normalize(query: str) -> Normalised | None:
+    """Lower case, accents folded, contractions written out (`attribot.lexicon.expand_contractions`),
+    sentence ends joined like commas, other punctuation to spaces, fillers, courtesy and tags dropped
+    (`_drop_fillers`: the one place they are), polite or imperative openings ("find", "where is") and
+    articles dropped; None when the text holds letters outside a-z (another script), which the planner
+    cannot read."""
+    text = _DASH.sub(", ", query.lower()).replace("-", " ")
     if not text.isascii():  # lower-case ASCII letters are a-z already: only other text needs folding
+        text = text.replace("\u2019", "'").replace("\u2018", "'")
         text = unicodedata.normalize("NFKD", text)
         text = "".join(ch for ch in text if not unicodedata.combining(ch))
         if any(ch.isalpha() and not ("a" <= ch <= "z") for ch in text):
             return None
-    text = re.sub(r"[^a-z0-9',\s]", " ", text)
+    question = text.rstrip().endswith("?")
+    text = expand_contractions(text)
+    text = _SENTENCE_END.sub(",", text)
+    text = re.sub(r"[^a-z0-9,\s]", " ", text)
     text = " ".join(text.split()).strip(" ,")
-    for short, full in _CONTRACTIONS:
-        if short in text:
-            text = text.replace(short, full)
-    text = _COURTESY.sub(" ", text)
+    text, tagged = _drop_fillers(text)
     if " where " in text:
         text = _FROM_WHERE.sub("from you", text)
-    text = " ".join(text.split()).strip(" ,")
     text = paraphrased(text)
     if "next to" in text:  # "the next to lightest" is the second lightest; "next to the lamp" stays
         text = _NEXT_TO_SUPERLATIVE.sub("second ", text)
@@ -213,32 +228,115 @@ def _normalize(query: str) -> tuple[str, bool, str] | None:
         text = _AUXILIARY_IS.sub("is", text)
     # the opening carries no meaning for the attribute families; alone with a name, it asks where it is
     stripped = rx(_LEAD).sub("", text)
-    return _strip_article(stripped), stripped != text, text
+    return Normalised(_strip_article(stripped), stripped != text, text, question or tagged)
 
 
-_CONTRACTIONS = (
-    ("doesn't", "does not"),
-    ("don't", "do not"),
-    ("isn't", "is not"),
-    ("aren't", "are not"),
-    ("where's", "where is"),
-    ("what's", "what is"),
-    ("which's", "which is"),
-    ("i'm", "i am"),
-    ("that's", "that is"),
-    ("it's", "it is"),
-    ("there's", "there is"),
-    ("who's", "who is"),
-    ("how's", "how is"),
-    ("you're", "you are"),
-)
-# courtesy carries no meaning: "please", "for me", "thanks", and "I'm looking for" is "find"
+_DASH = re.compile(r"\s+[-\u2013\u2014]+\s+")  # "the mug or the kettle - which is hotter?": a clause's end
+_SENTENCE_END = re.compile(r"(?:[?!.;:]+)(?=\s|$)")
+# words and phrases that carry no meaning for a reading, wherever they stand
 _COURTESY = re.compile(
-    r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b"
-    r"|^(?:hey|hi|hello|ok|okay)(?:\s+(?:robot|there|attribot))?\s*,?"
-    r"|\b(?:right\s+now|at\s+the\s+moment|currently)\b|,?\s+or\s+not$"
-    r"|^(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say)\s+(?=how\b|what\b|which\b|where\b)"
+    r"\bplease\b|\b(?:thanks|thank\s+you)\b|\bfor\s+me\b(?!\s+to)|\bkindly\b|\bjust\b|\bactually\b"
+    r"|\b(?:right\s+now|at\s+the\s+moment|currently)\b"
+    r"|\b(?:in|on|of)\s+(?:the|this)\s+(?:image|picture|photo|pic|frame|camera\s+view)\b"
+    r"|\b(?:up|down|over|back)\s+(?=on\s+the\b)|\b(?:over|around|in)\s+(?:here|there)\b"
+    r"|\b(?:very|absolute|absolutely|really)\s+(?=(?:[a-z]+est|most|least)\b)"
 )
+# a filler or an opening at the start: "um,", "ok so", "hey robot,", "quick question:", "I wonder"
+_OPENER = re.compile(
+    r"^(?:(?:um+|uh+|erm*|hmm*|ah+|oh+|well|so|ok(?:ay)?|alright|all\s+right|now|and|hey|hi|hello|yo|listen"
+    r"|sorry|excuse\s+me|pardon(?:\s+me)?|robot|attribot|quick\s+question|real\s+quick|one\s+more\s+thing)"
+    r"(?:\s+(?:robot|there|attribot))?"
+    r"|i\s+(?:wonder|was\s+wondering)|do\s+you\s+know|(?:can|could|would)\s+you\s+(?:please\s+)?"
+    r"(?:tell\s+me|say)|would\s+you\s+mind\s+telling\s+me|(?:tell\s+me|let\s+me\s+know|say)(?=\s+(?:how|what"
+    r"|which|where|if|whether)\b)|i\s+(?:would\s+like|want|need)\s+to\s+know|(?:take|have)\s+a\s+look\s+and"
+    r"|go(?:\s+and)?(?=\s+(?:find|get|grab|bring|fetch|pick|see|check|look|tell)\b))\s*,?(?:\s+|$)"
+)
+# a tag at the end that makes a statement a question: "..., yes or no?", "isn't it?", "..., right?"
+_TAG = re.compile(
+    r",?\s+(?:yes\s+or\s+no|or\s+not|is\s+not\s+it|is\s+it\s+not|are\s+not\s+they|do\s+you\s+(?:think|know)"
+    r"|would\s+you\s+say)$|,\s+(?:right|correct|true)$"  # "..., right?": not "furthest right"
+)
+# "tell me if the kettle is heavier than the mug": a yes/no question, asked inside a request
+_EMBEDDED_QUESTION = re.compile(
+    r"^(?:(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|i\s+wonder"
+    r"|do\s+you\s+know)\s+(?:if|whether)|is\s+it\s+true\s+that)\s+"
+)
+# what ends a query without adding to it: "then", "would you", a dangling "at", "roughly", a unit asked for
+_TAIL = re.compile(
+    r",?\s+(?:then|(?:would|could|will|can)\s+you|at|roughly|approximately|about|more\s+or\s+less|exactly)$"
+    r"|,?\s+in\s+(?:kilos|kilograms?|kgs?|grams?|metres|meters|centimetres|centimeters|cm|millimetres|mm"
+    r"|degrees(?:\s+celsius)?|celsius)\b"
+    # "pick up the heaviest one and bring it here": the second verb acts on the same object
+    r"|\s+and\s+(?:bring|give|hand|carry|take)\s+(?:it|them)(?:\s+(?:here|over|back|to\s+me))?$"
+)
+# "I'm thirsty. Which bottle is full?": a first sentence about the speaker, then the question
+_CONTEXT = re.compile(
+    r"^(?:i|i\s+am|we|we\s+are|my|our)\b[^,]*,\s*(?=(?:which|what|where|how|is|are|does|do|can|could)\b)"
+)
+# "there is a kettle here, is it hot?": "it" is the kettle
+_ANTECEDENT = re.compile(
+    r"^(?:there\s+(?:is|are)|(?:can|do)\s+you\s+see|you\s+(?:can\s+)?see|i\s+(?:have|see))\s+(?:a|an|the|some)\s+"
+    r"(?P<name>[a-z]+(?:\s+[a-z]+)??)(?:\s+(?:here|there|somewhere|around))?\s*,\s*(?P<before>.*?)\bit\b"
+    r"(?P<after>.*)$"
+)
+_WHO = re.compile(r"^who\s+(?=is\b|are\b)")  # "who's the heaviest?" asks which one is
+_LOOKS = re.compile(r"\b(?:looks|seems|appears)(?:\s+to\s+be)?\b")  # "which object looks biggest": is
+_NEGATIVE_QUESTION = re.compile(r"^(is|are|does|do)\s+not\s+")  # "isn't the pot heavier": is the pot heavier
+# "one of these is not like the others, which one?", "I need the heaviest item, which is it?"
+_TRAILING_WHICH = re.compile(r",\s*which(?:\s+one)?(?:\s+is\s+it)?$")
+_REFERS_BACK = re.compile(r"\b(?:it|them|they|that\s+one)\b")
+
+
+def _drop_fillers(text: str) -> tuple[str, bool]:
+    """The text without what carries no meaning for a reading: courtesy ("please", "for me", "thanks"),
+    fillers and openings ("um", "ok so", "quick question", "I wonder", "do you know"), a first sentence about
+    the speaker, a tag ("..., yes or no?", "isn't it?"), a unit asked for ("in kilograms"), a second verb on
+    the same object ("... and bring it here"); and whether a tag made it a question. Each pattern runs only
+    where a cheap test says it may match: this runs for every query."""
+    text = " ".join(_COURTESY.sub(" ", text).split()).strip(" ,")
+    tagged = False
+    for _ in range(3):  # "ok so, um, which...": openings one after the other
+        before = text
+        embedded = _EMBEDDED_QUESTION.match(text)
+        if embedded is not None:
+            text, tagged = text[embedded.end() :], True
+        opener = _OPENER.match(text)
+        if opener is not None:
+            text = text[opener.end() :].strip(" ,")
+        last = text[text.rfind(" ") + 1 :]
+        if last in _TAG_ENDINGS:
+            match = _TAG.search(text)
+            if match is not None:
+                text, tagged = text[: match.start()], True
+        if last in _TAIL_ENDINGS or " in " in text:
+            text = _TAIL.sub("", text)
+        if text.endswith(("which", "which one", "is it")):
+            text = _TRAILING_WHICH.sub("", text)
+        text = text.strip(" ,")
+        if text.startswith(_CONTEXT_STARTS):
+            context = _CONTEXT.match(text)
+            if context is not None and not _REFERS_BACK.search(text, context.end()):
+                text = text[context.end() :]
+        if text == before:
+            break
+    if text.startswith(_ANTECEDENT_STARTS):
+        antecedent = _ANTECEDENT.match(text)
+        if antecedent is not None:  # the question alone, with the name for "it"
+            text = f"{antecedent['before']}the {antecedent['name']}{antecedent['after']}"
+    if text.startswith(("who ", "is not ", "are not ", "does not ", "do not ")):
+        text = _NEGATIVE_QUESTION.sub(r"\1 ", _WHO.sub("which ", text))
+    if "look" in text or "seem" in text or "appear" in text:
+        text = _LOOKS.sub("is", text)
+    return " ".join(text.split()).strip(" ,"), tagged
+
+
+_TAG_ENDINGS = frozenset({"no", "not", "it", "they", "think", "know", "say", "right", "correct", "true"})
+_TAIL_ENDINGS = frozenset(
+    {"then", "you", "at", "roughly", "approximately", "about", "less", "exactly", "it", "them", "here",
+     "over", "back", "me"}
+)  # fmt: skip
+_CONTEXT_STARTS = ("i ", "we ", "my ", "our ")
+_ANTECEDENT_STARTS = ("there ", "can you", "do you", "you ", "i ")
 
 
 _NEXT_TO_SUPERLATIVE = re.compile(r"\bnext\s+to\s+(?:the\s+)?(?=[a-z]+est\b)")
@@ -247,7 +345,9 @@ _AUXILIARY_IS = re.compile(r"\b(?:would|will|might|could|does|do|did)\s+is\b")
 
 
 def _strip_article(text: str) -> str:
-    return rx(r"^(?:the|a|an|some)\s+").sub("", text.strip(" ,")).strip(" ,")
+    return (
+        rx(r"^(?:the|a|an|some|my|your|our|his|her|their|whichever)\s+").sub("", text.strip(" ,")).strip(" ,")
+    )
 
 
 def _ordinal(text: str) -> tuple[int, bool]:
@@ -301,8 +401,10 @@ def _object(phrase: str) -> ObjectSpec | None:
         return None
     if not words:
         return ObjectSpec("object")
-    if len(words) > 6 or any(not rx(r"[a-z0-9']+").fullmatch(w) or w in _STOP for w in words):
-        return None
+    if len(words) > 6 or any(not rx(r"[a-z0-9]+").fullmatch(w) or w in _STOP for w in words):
+        return None  # a word that never names an object: the phrase was not read, and is not searched
+    if any(w in GENERIC_NOUNS for w in words[:-1]):
+        return None  # "item pls", "object looks": a generic noun heads the name, nothing follows it
     if all(w.isdigit() for w in words):
         return None
     colors = tuple(w for w in words[:-1] if COLOR_ALIASES.get(w, w) in COLOR_WORDS)

@@ -9,6 +9,7 @@ import re
 
 from attribot.lexicon import (
     GENERIC_NOUNS,
+    SURFACE_LEVELS,
     SURFACE_WORDS,
 )
 from attribot.planning.query import check_query
@@ -19,6 +20,7 @@ from attribot.planning.rules.forms import (
     Among,
     DistanceQuery,
     GroundingQuery,
+    Level,
     LocationQuery,
     MeasureQuery,
     ObjectSpec,
@@ -66,7 +68,8 @@ _WHICH_X_IS_NTH = re.compile(
 
 _WHICH_X_IS_AT = re.compile(
     r"(?:which|what)\s+(?P<noun>[a-z]+(?:\s+[a-z]+){0,2}?)\s+(?:is|are|sits|stands|lies)\s+"
-    r"(?P<rest>(?:on|at|to|in|towards)\s+(?:the\s+)?(?:far\s+)?(?:left|right|top|bottom|middle|centre|center)"
+    r"(?P<rest>(?:(?:on|at|to|in)\s+(?:the\s+)?(?:far\s+)?)?(?:top|bottom|upper|lower)\s+(?:left|right)"
+    r"(?:\s+corner)?|(?:on|at|to|in|towards)\s+(?:the\s+)?(?:far\s+)?(?:left|right|top|bottom|middle|centre|center)"
     r"(?:\s+(?:side|part|edge))?)"
 )
 # "the mug that is second from the left" asks "which mug is second from the left"
@@ -87,7 +90,7 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     normalized = _normalize(original)
     if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")
-    text, opened, full = normalized
+    text, opened, full, question = normalized
     if not text:
         raise UnsupportedQuery(original, "it has no words the planner reads")
     action, target, acted = _take_action(full)
@@ -95,12 +98,12 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         return acted  # type: ignore[return-value]
     if action is not None:
         text, opened = _strip_article(str(acted)), True
-    yes_no = _parse_yes_no(text)
+    yes_no = _parse_yes_no(text, question)
     if yes_no is not None:
         if action is not None:
             raise UnsupportedQuery(original, "it asks to act and a yes/no question at once; ask one")
         return yes_no
-    scope, text = _take_scope(text)
+    scope, level, text = _take_scope(text)
     among, text = _take_among(text)
     region: Region | None = None
     if scope is not None and _ONLY_FRAME.fullmatch(text):
@@ -108,7 +111,7 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     else:
         try:
             inner = _parse_family(
-                text, opened, original, normalized[0] if scope is None and among is None else text
+                text, opened, original, normalized.text if scope is None and among is None else text, question
             )
         except UnsupportedQuery as refused:
             # a side, row or column around a choice ("the heaviest mug in the top row"), read only where
@@ -118,7 +121,7 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
                 raise refused from None
             scope = scope or surface
             try:
-                inner = _parse_family(rest, opened, original, rest)
+                inner = _parse_family(rest, opened, original, rest, question)
             except UnsupportedQuery:
                 raise refused from None
     if scope is None and among is None and action is None and region is None:
@@ -131,16 +134,24 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         raise UnsupportedQuery(original, "it narrows the candidates for a choice it does not read")
     if region is not None and isinstance(inner, LocationQuery):
         raise UnsupportedQuery(original, "it places the object twice; say its place once")
-    return Request(inner, scope=scope, among=among, action=action, target=target, region=region)  # type: ignore[arg-type]
+    return Request(
+        inner,
+        scope=scope,
+        among=among,
+        action=action,  # type: ignore[arg-type]
+        target=target,
+        region=region,
+        level=level,
+    )
 
 
-def _parse_family(text: str, opened: bool, original: str, whole: str) -> ParsedQuery:
+def _parse_family(text: str, opened: bool, original: str, whole: str, question: bool = False) -> ParsedQuery:
     """The families' readings of a text with no frame around it: the first reader, in their order, whose
     reading accounts for the whole text; refused, naming the words none placed, when there is none."""
     if text.endswith((" one", " ones")):
         text = _ADJECTIVE_ONE.sub(r"\1", text)
     text = _which_for_that(text)
-    reading = Reading(text, _plain(text), opened, whole, original)
+    reading = Reading(text, _plain(text), opened, whole, original, question)
     for reader in readers():
         parsed = reader(reading)
         if parsed is not None:
@@ -245,7 +256,8 @@ def _take_action(text: str) -> tuple[str | None, str | None, object]:
 
 _SCOPE = re.compile(
     r"\s*\b(?:(?:that|which)\s+(?:is|are)\s+|(?:is|are)\s+)?(?:(?:sitting|standing|lying|placed|resting|kept|"
-    r"left)\s+)?(?:on|upon|on\s+top\s+of)\s+(?:the\s+)?(?P<surface>" + _SURFACE + r")\b"
+    r"left)\s+)?(?:on|upon|on\s+top\s+of)\s+(?:the\s+)?(?:(?P<level>" + "|".join(SURFACE_LEVELS) + r")\s+)?"
+    r"(?P<surface>" + _SURFACE + r")\b"
 )
 # what is left of "which object is on the floor?" once the scope is taken: the question alone
 _ONLY_FRAME = re.compile(
@@ -255,13 +267,19 @@ _ONLY_FRAME = re.compile(
 )
 
 
-def _take_scope(text: str) -> tuple[str | None, str]:
-    """The surface a query is scoped to ("the heaviest thing on the counter") and the text without it."""
+def _take_scope(text: str) -> tuple[str | None, Level | None, str]:
+    """The surface a query is scoped to ("the heaviest thing on the counter"), the board of a shelf ("on the
+    bottom shelf"), and the text without them. Furniture named as a place is a scope, never the answer; a
+    level of anything but a shelf ("the top table") is not read."""
     match = _SCOPE.search(text)
     if match is None:
-        return None, text
+        return None, None, text
+    kind = SURFACE_WORDS[match["surface"]]
+    level = SURFACE_LEVELS[match["level"]] if match["level"] else None
+    if level is not None and kind != "shelf":
+        return None, None, text
     rest = " ".join((text[: match.start()] + " " + text[match.end() :]).split()).strip(" ,")
-    return SURFACE_WORDS[match["surface"]], rest
+    return kind, level, rest
 
 
 # "on the left side (of the table)", "in the right half", "on the left": a side of the view or of a surface

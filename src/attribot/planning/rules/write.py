@@ -13,6 +13,7 @@ from attribot.planning.rules.families import FAMILY_REGISTRY
 from attribot.planning.rules.forms import (
     Among,
     DistanceQuery,
+    Level,
     LineSpec,
     ObjectSpec,
     ParsedQuery,
@@ -103,15 +104,16 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found in the image"))
     frame = w.frame
     if frame is not None and frame.scope is not None:
-        _write_scope(w, var, frame.scope, obj)
+        _write_scope(w, var, frame.scope, obj, frame.level)
     if frame is not None and frame.region is not None:
         _write_region(w, var, frame.region, obj, frame.scope)
     if frame is not None and frame.among is not None and var == "candidates":
         _write_among(w, frame.among)
 
 
-def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
-    """Keep the patches of `var` that stand on the surface `scope` (on none of the furniture: the floor)."""
+def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec, level: Level | None = None) -> None:
+    """Keep the patches of `var` that stand on the surface `scope` (on none of the furniture: the floor), on
+    one board of it with a `level` ("the bottom shelf")."""
     w.helper("on_surface")
     w.helper("on_any")
     if scope == "floor":
@@ -121,6 +123,17 @@ def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
         w.line(f"for patch in {var}:")
         w.line("    if not on_any(patch, furniture):")
         w.line("        kept.append(patch)")
+    elif level is not None:
+        w.helper("on_level")
+        w.line(f"# on the {level} {scope}: standing on the {scope}, on its {level} board")
+        w.line(f"surfaces = image.find({_q(scope)})")
+        w.fail("len(surfaces) == 0", _q(f"no {scope} found in the image"))
+        w.line("kept = []")
+        w.line(f"for patch in {var}:")
+        w.line("    for surface in surfaces:")
+        w.line(f"        if on_surface(patch, surface) and on_level(patch, surface, {_q(level)}):")
+        w.line("            kept.append(patch)")
+        w.line("            break")
     else:
         w.line(f"# on the {scope}: the detector finds furniture too; keep what stands on it")
         w.line(f"surfaces = image.find({_q(scope)})")
@@ -130,7 +143,8 @@ def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec) -> None:
         w.line("    if on_any(patch, surfaces):")
         w.line("        kept.append(patch)")
     w.line(f"{var} = kept")
-    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found on the {scope}"))
+    place = f"{level} {scope}" if level is not None else scope
+    w.fail(f"len({var}) == 0", _q(f"no {obj.phrase} found on the {place}"))
 
 
 def _write_region(w: _Writer, var: str, region: Region, obj: ObjectSpec, scope: str | None) -> None:

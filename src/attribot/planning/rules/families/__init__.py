@@ -27,6 +27,7 @@ class Reading:
     opened: bool  # an opening such as "find" or "where is" came first
     whole: str  # what the reading by meaning reads
     original: str  # as asked, for refusals
+    question: bool = False  # asked as a question ("mug hot?"): a statement of a state or a comparison asks it
 
 
 Reader = Callable[[Reading], Any]

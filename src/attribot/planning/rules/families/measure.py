@@ -32,6 +32,7 @@ _MEASURE_FORMS: tuple[tuple[str, Literal["distance", "weight", "size", "height",
     (r"how\s+heavy\s+(?:is|are)\s+(?P<obj>.+)", "weight"),
     (r"how\s+much\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
     (r"what\s+(?:does|do)\s+(?P<obj>.+?)\s+weigh", "weight"),
+    (r"weigh\s+(?P<obj>.+)", "weight"),  # "weigh the tin (for me)"
     (r"(?:what\s+is\s+)?(?:the\s+)?(?:weight|mass)\s+of\s+(?P<obj>.+)", "weight"),
     (r"how\s+(?:big|large|long)\s+(?:is|are)\s+(?P<obj>.+)", "size"),
     (r"how\s+(?:tall|high)\s+(?:is|are)\s+(?P<obj>.+)", "height"),
@@ -59,6 +60,7 @@ _MEASURE_OPENINGS = (
     "length ",
     "height ",
     "width ",
+    "weigh ",
 )
 """Every form of `_MEASURE_FORMS` starts with one of these."""
 

@@ -3,15 +3,16 @@
 is empty?", "the coldest can"), whether one object is in a state or more so than another ("is the kettle
 hot?", "is the mug hotter than the kettle?"), and how much ("how hot is the kettle?" in degrees Celsius).
 
-A state word means a threshold, stated in the program: hot is 40 degC or more, warm 30, cold 12 or less,
-cool 18; soft is under 1 N/mm of squeeze, firm 1 or more, hard 5 or more; full is more than half full,
-empty less than half. "Which mug is hot?" chooses the hottest and says so when even that one is not hot.
+A state word means a threshold (`attribot.lexicon.SENSE_STATES`, the one place it is kept), stated in the
+program: hot is 40 degC or more, warm 30, cold 12 or less, cool 18; soft is under 1 N/mm of squeeze, firm 1
+or more, hard 5 or more; full is more than half full, empty less than half. "Which mug is hot?" chooses the
+hottest and says so when even that one is not hot.
 """
 
 from __future__ import annotations
 
 from attribot.errors import InputError
-from attribot.lexicon import SENSE_WORDS
+from attribot.lexicon import SENSE_STATES, SENSE_WORDS
 from attribot.planning.rules.families import FAMILY_REGISTRY, Family, Reading
 from attribot.planning.rules.families.attributes import _find_all, _write_extreme_loop
 from attribot.planning.rules.forms import SenseQuery
@@ -26,28 +27,7 @@ from attribot.planning.rules.normalise import (
 )
 from attribot.planning.rules.write import _find, _q, _Writer
 
-__all__ = ["STATES", "parse_sense"]
-
-STATES: dict[str, tuple[float, str]] = {
-    "hot": (40.0, ">="),
-    "boiling": (90.0, ">="),
-    "warm": (30.0, ">="),
-    "cold": (12.0, "<="),
-    "chilled": (12.0, "<="),
-    "cool": (18.0, "<="),
-    "hard": (5.0, ">="),
-    "rigid": (5.0, ">="),
-    "firm": (1.0, ">="),
-    "stiff": (1.0, ">="),
-    "soft": (1.0, "<"),
-    "squishy": (1.0, "<"),
-    "squashy": (1.0, "<"),
-    "spongy": (1.0, "<"),
-    "full": (0.5, ">"),
-    "filled": (0.5, ">"),
-    "empty": (0.5, "<"),
-}
-"""What a state word means: (the threshold, the comparison a value in it passes), in the sense's unit."""
+__all__ = ["parse_sense"]
 
 _SENSOR = {
     "temperature": ("temperature", "°C", "the camera cannot see how hot something is"),
@@ -81,11 +61,7 @@ def parse_sense(r: Reading) -> SenseQuery | None:
                                           "firm", "stiff", "squ", "spong", "rigid", "full", "fill",
                                           "empt", "temperature")):  # fmt: skip
         return None
-    for reader in (_how, _whether, _named_choice, _which):
-        found = reader(text)
-        if found is not None:
-            return found
-    return None
+    return _how(text) or _whether(text, r.question) or _named_choice(text) or _which(text)
 
 
 def _sense(word: str) -> tuple[str, bool, str]:
@@ -116,11 +92,13 @@ def _owned(text: str) -> str:
     return rx(r"^" + _POSSESSIVE).sub("", _strip_article(text))
 
 
-def _whether(text: str) -> SenseQuery | None:
-    """ "is the kettle hot", "is the kettle still hot", "is the mug hotter than the kettle"."""
-    match = rx(
-        r"(?:is|are|does|do)\s+(?P<a>.+?)" + _STILL + r"(?P<adj>" + _WORDS + r")(?:\s+than\s+(?P<b>.+?))?"
-    ).fullmatch(text)
+def _whether(text: str, question: bool = False) -> SenseQuery | None:
+    """ "is the kettle hot", "is the kettle still hot", "is the mug hotter than the kettle"; asked as a
+    question, the same without the verb first ("mug hot?", "the bottle is empty?")."""
+    state = r"(?P<adj>" + _WORDS + r")(?:\s+than\s+(?P<b>.+?))?"
+    match = rx(r"(?:is|are|does|do)\s+(?P<a>.+?)" + _STILL + state).fullmatch(text)
+    if match is None and question:
+        match = rx(r"(?P<a>.+?)(?:\s+(?:is|are))?" + _STILL + state).fullmatch(text)
     if match is None:
         return None
     attribute, more, form = _sense(match["adj"])
@@ -132,7 +110,7 @@ def _whether(text: str) -> SenseQuery | None:
         if second is None or form == "absolute":
             return None
         return SenseQuery((first, second), attribute, more, "whether", match["adj"], named=True)  # type: ignore[arg-type]
-    if form != "absolute" or match["adj"] not in STATES:
+    if form != "absolute" or match["adj"] not in SENSE_STATES:
         return None
     return SenseQuery((first,), attribute, more, "whether", match["adj"])  # type: ignore[arg-type]
 
@@ -147,6 +125,8 @@ def _named_choice(text: str) -> SenseQuery | None:
         r"(?:out\s+of|of|among|between|from)\s+(?P<list>.+?),?\s+" + which + r"\s+(?:is|are)\s+(?:the\s+)?"
         r"(?P<adj>" + _WORDS + r")",
         r"(?:is|are)\s+(?P<list>.+?\s+or\s+.+?)\s+(?P<adj>" + _WORDS + r")",
+        # "the mug or the kettle, which is hotter"
+        r"(?P<list>.+?\s+or\s+.+?),?\s+" + which + r"\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + _WORDS + r")",
         r"(?P<adj>" + _WORDS + r")\s+(?:one\s+)?(?:of|among|out\s+of)\s+"
         r"(?P<list>.+?(?:,|\s+and\s+|\s+or\s+).+)",
     ):
@@ -237,7 +217,7 @@ def _write_which(w: _Writer, q: SenseQuery) -> None:
     w.line("for patch in candidates:")
     body = _Indented(w)
     _write_measure(body, q.attribute, "patch", "values")
-    state = STATES.get(q.word)
+    state = SENSE_STATES.get(q.word)
     if state is not None and q.rank == 1:  # "which mug is hot?": say so when even the hottest is not
         threshold, op = state
         end = "max" if q.more else "min"
@@ -281,7 +261,7 @@ def _write_how(w: _Writer, q: SenseQuery) -> None:
 
 def _write_state(w: _Writer, q: SenseQuery) -> None:
     _write_one(w, q)
-    threshold, op = STATES[q.word]
+    threshold, op = SENSE_STATES[q.word]
     unit = _SENSOR[q.attribute][1]
     if q.attribute == "fullness":
         shown = 'str(round(100 * value)) + "% full"'

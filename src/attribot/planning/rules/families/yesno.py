@@ -30,27 +30,32 @@ _YES_NO_WORDS = {
     **{w: ("size", True) for w in ("bigger", "larger")},
     **{w: ("size", False) for w in ("smaller",)},
 }
-_YES_NO = re.compile(
-    r"(?:is|are|does|do|would|will)\s+(?P<a>.+?)\s+(?:(?:is|are|be)\s+)?(?P<adj>"
+_YES_NO_ADJ = (
+    r"(?P<adj>"
     + "|".join(sorted(_YES_NO_WORDS, key=len, reverse=True))
     + r")"
     + _ME
     + r"\s+than\s+(?P<b>.+?)"
     + _ME
 )
-_YES_NO_SIDE = re.compile(
-    r"(?:is|are)\s+(?P<a>.+?)\s+(?:(?:on|to)\s+the\s+)?(?P<side>left|right)\s+(?:of|from)\s+(?P<b>.+)"
-)
+_YES_NO = re.compile(r"(?:is|are|does|do|would|will)\s+(?P<a>.+?)\s+(?:(?:is|are|be)\s+)?" + _YES_NO_ADJ)
+# asked with a question mark and no verb before the names: "tissue box heavier than the hammer?", "the mug
+# is heavier than the plate?"
+_YES_NO_STATED = re.compile(r"(?P<a>.+?)\s+(?:(?:is|are)\s+)?" + _YES_NO_ADJ)
+_SIDE = r"(?:(?:on|to)\s+the\s+)?(?P<side>left|right)\s+(?:of|from)\s+(?P<b>.+)"
+_YES_NO_SIDE = re.compile(r"(?:is|are)\s+(?P<a>.+?)\s+" + _SIDE)
+_YES_NO_SIDE_STATED = re.compile(r"(?P<a>.+?)\s+(?:(?:is|are)\s+)?" + _SIDE)
 
 
-def _parse_yes_no(text: str) -> YesNoQuery | None:
-    """ "is the kettle heavier than the backpack", "is the book to the left of the mug"."""
-    match = _YES_NO.fullmatch(text)
+def _parse_yes_no(text: str, question: bool = False) -> YesNoQuery | None:
+    """ "is the kettle heavier than the backpack", "is the book to the left of the mug"; asked as a
+    question, the same without the verb before the names ("kettle closer than the vase?")."""
+    match = _YES_NO.fullmatch(text) or (_YES_NO_STATED.fullmatch(text) if question else None)
     if match is not None:
         attribute, more = _YES_NO_WORDS[match["adj"]]
         word = match["adj"]
     else:
-        match = _YES_NO_SIDE.fullmatch(text)
+        match = _YES_NO_SIDE.fullmatch(text) or (_YES_NO_SIDE_STATED.fullmatch(text) if question else None)
         if match is None:
             return None
         attribute, more, word = "position", match["side"] == "right", f"to the {match['side']} of"
