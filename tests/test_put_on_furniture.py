@@ -11,7 +11,7 @@ import pytest
 
 from attribot.api import Perception, Robot
 from attribot.config import SceneConfig, load_settings
-from attribot.control import manipulate
+from attribot.control import onto_top
 from attribot.control.base import ControlError, build_controller
 from attribot.control.surface import TopSurface
 from attribot.embodiments.mujoco import MujocoWorld
@@ -94,7 +94,7 @@ def test_put_on_furniture_sets_the_object_on_its_top(perception, seed, categorie
 def test_no_free_spot_on_the_top_is_said_and_the_object_stays_held(perception, monkeypatch):
     """Where depth sees the whole top taken, put_on says so before moving, and the world agrees that the
     gripper still holds the object."""
-    found = manipulate.find_top
+    found = onto_top.find_top
 
     def taken(*args, **kwargs):
         top = found(*args, **kwargs)
@@ -103,7 +103,7 @@ def test_no_free_spot_on_the_top_is_said_and_the_object_stays_held(perception, m
     with _world(2, ("mug", "apple", "book")) as world:
         robot = Robot(sensors=["camera", "force"], world=world, controller=build_controller(world))
         image = robot.look(perception)
-        monkeypatch.setattr(manipulate, "find_top", taken)
+        monkeypatch.setattr(onto_top, "find_top", taken)
         with pytest.raises(ControlError, match="no free spot on the top of table"):
             _carry(robot, image, "mug", "table", world)
         assert world.held_object() is not None and robot.held is not None
@@ -112,7 +112,7 @@ def test_no_free_spot_on_the_top_is_said_and_the_object_stays_held(perception, m
 def test_a_top_the_wrist_never_feels_is_not_let_go_above(perception, monkeypatch):
     """Depth (here made wrong by 10 cm) puts the top higher than it is: lowered to below where the object
     should meet it, the wrist still carries its weight, so the robot keeps holding it and says why."""
-    found = manipulate.find_top
+    found = onto_top.find_top
 
     def higher(*args, **kwargs):
         top = found(*args, **kwargs)
@@ -121,7 +121,7 @@ def test_a_top_the_wrist_never_feels_is_not_let_go_above(perception, monkeypatch
     with _world(2, ("mug", "apple", "book")) as world:
         robot = Robot(sensors=["camera", "force"], world=world, controller=build_controller(world))
         image = robot.look(perception)
-        monkeypatch.setattr(manipulate, "find_top", higher)
+        monkeypatch.setattr(onto_top, "find_top", higher)
         with pytest.raises(ControlError, match="the wrist never felt the top carry it"):
             _carry(robot, image, "mug", "table", world)
         assert world.held_object() is not None
@@ -137,7 +137,7 @@ def test_a_failure_seen_after_letting_go_leaves_the_robot_holding_nothing(percep
     with _world(2, ("mug", "apple", "book")) as world:
         robot = Robot(sensors=["camera", "force"], world=world, controller=build_controller(world))
         image = robot.look(perception)
-        monkeypatch.setattr(manipulate.Manipulator, "check_on_top", unseen)
+        monkeypatch.setattr(onto_top.TopPlacer, "check_on_top", unseen)
         with pytest.raises(ControlError, match="after letting go"):
             _carry(robot, image, "mug", "table", world)
         assert world.held_object() is None and robot.held is None

@@ -109,21 +109,8 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     if scope is not None and _ONLY_FRAME.fullmatch(text):
         inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
     else:
-        try:
-            inner = _parse_family(
-                text, opened, original, normalized.text if scope is None and among is None else text, question
-            )
-        except UnsupportedQuery as refused:
-            # a side, row or column around a choice ("the heaviest mug in the top row"), read only where
-            # the text does not read without it, so that no position the families read is taken from them
-            region, rest, surface = _take_region(text)
-            if region is None or (surface is not None and scope is not None):
-                raise refused from None
-            scope = scope or surface
-            try:
-                inner = _parse_family(rest, opened, original, rest, question)
-            except UnsupportedQuery:
-                raise refused from None
+        whole = normalized.text if scope is None and among is None else text
+        inner, scope, region = _parse_placed(text, whole, scope, opened, original, question)
     if scope is None and among is None and action is None and region is None:
         return inner
     if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
@@ -143,6 +130,24 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         region=region,
         level=level,
     )
+
+
+def _parse_placed(
+    text: str, whole: str, scope: str | None, opened: bool, original: str, question: bool
+) -> tuple[ParsedQuery, str | None, Region | None]:
+    """The families' reading of `text`, else of what is left with a side, row or column around a choice
+    taken off ("the heaviest mug in the top row"): read only where the text does not read without it, so
+    that no position the families read is taken from them. Returns the reading, the scope and the region."""
+    try:
+        return _parse_family(text, opened, original, whole, question), scope, None
+    except UnsupportedQuery as refused:
+        region, rest, surface = _take_region(text)
+        if region is None or (surface is not None and scope is not None):
+            raise refused from None
+        try:
+            return _parse_family(rest, opened, original, rest, question), scope or surface, region
+        except UnsupportedQuery:
+            raise refused from None
 
 
 def _parse_family(text: str, opened: bool, original: str, whole: str, question: bool = False) -> ParsedQuery:
