@@ -365,4 +365,3 @@ class Manipulator:
             readings.append(float(self.plant.world.read_force()[2]))
         self.load_spread = float(np.std(readings, ddof=1)) / math.sqrt(len(readings))
         return sum(readings) / len(readings)
-
