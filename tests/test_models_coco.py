@@ -268,3 +268,18 @@ def test_a_batch_of_views_gives_the_same_boxes_as_one_pass_per_view(household_fr
     assert build_backend("detector", "coco?batch=4", load_settings()).batch == 4
     with pytest.raises(ConfigError, match="batch"):
         CocoDetector(batch=0)
+
+
+def test_chosen_views_are_looked_at_alone_and_mapped_back_to_the_image(remote_frame):
+    """`detect_views` shows the network only the views asked for: the whole image alone is what the detector
+    with no tiles sees, and a square view around the remote still frames it in the image's pixels."""
+    frame, truth = remote_frame
+    detector = CocoDetector()
+    whole = detector.detect_views(frame, ["remote control"], [(0, 0, frame.width, frame.height)])
+    assert [d.box for d in whole] == [d.box for d in CocoDetector(tiles=1).detect(frame, ["remote control"])]
+    assert detector.counts()["network_views"] == 1
+    cx = (truth[0] + truth[2]) / 2
+    x0, y0 = int(min(max(cx - 240, 0), frame.width - 480)), 0
+    zoomed = detector.detect_views(frame, ["remote control"], [(x0, y0, x0 + 480, y0 + 480)])
+    assert zoomed and boxmath.iou(zoomed[0].box, truth) >= 0.5
+    assert detector.detect_views(frame, ["remote control"], [(0, 0, 4, 4)]) == []  # too small to look at

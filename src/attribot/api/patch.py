@@ -16,6 +16,7 @@ import numpy as np
 
 from attribot.api.checks import check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
+from attribot.api.harder import acting_find, look_harder
 from attribot.api.looking import Survey, ask_again, reexamine
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
@@ -24,6 +25,7 @@ from attribot.control.base import Capture, Target
 from attribot.errors import BackendError
 from attribot.frame import Frame, load_image
 from attribot.models.base import Detection
+from attribot.models.cache import cacheable
 
 __all__ = ["ImagePatch"]
 
@@ -162,7 +164,7 @@ class ImagePatch:
             detector, label = self.perception.detector, self.label
 
             def find(frame: Frame) -> list[tuple[float, float, float, float]]:
-                return [d.box for d in detector.detect(frame, [label])]
+                return [d.box for d in acting_find(detector, frame, label)]
 
         return Target(
             box=self.box, capture=self.capture, object_id=self.object_id, label=self.label, find=find
@@ -289,6 +291,7 @@ class ImagePatch:
                 "caught" if changed else "unsettled" if doubtful else "confirmed",
                 "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
             )
+        detections = self._look_harder(name, pixels, detections)
         dx = pixels.origin[0] - self.frame.origin[0]
         dy = pixels.origin[1] - self.frame.origin[1]
         found: list[ImagePatch] = []
@@ -312,6 +315,25 @@ class ImagePatch:
             child.safeguards = self.safeguards  # its own finds and questions are checked the same way
             found.append(child)
         return found
+
+    def _look_harder(self, name: str, pixels: Frame, detections: list[Detection]) -> list[Detection]:
+        """Host side: the find's detections after looking harder (`attribot.api.harder`), where that is on,
+        the patch is a robot's whole image with depth, and the detector reads pixels."""
+        guards, detector = self.safeguards, self.perception.detector
+        if guards is None or not guards.on("look_harder") or not self._whole() or self.capture is None:
+            return detections
+        if not cacheable(detector):
+            return detections
+        looked = look_harder(detector, pixels, self.capture, name, detections)
+        if looked is None:
+            return detections
+        harder, report = looked
+        if report.views or report.set_aside:
+            caught = report.added or report.set_aside
+            guards.note(
+                "look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe()
+            )
+        return harder
 
     def exists(self, object_name: str) -> bool:
         """Returns True if an object called `object_name` is found inside this patch, else False.

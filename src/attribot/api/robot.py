@@ -268,8 +268,9 @@ class Robot(metaclass=_RobotApi):
             self.capture = Capture(index=self._captures, camera=camera, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
-        if self.safeguards.on("look_again"):
+        if self.safeguards.on("look_again") or self.safeguards.on("look_harder"):
             self._image.safeguards = self.safeguards
+        if self.safeguards.on("look_again"):
             if survey and {"head", "pose"} <= caps and frame.depth is not None:
                 try:
                     body = self.world.body()

@@ -4,6 +4,8 @@ Each is on by default, can be switched off on its own (for ablations: `--checks 
 writes what it did into the answer's `checks` log, beside the trace:
 
 - `look_again`: the first image is checked against views from other head poses (`attribot.api.looking`);
+- `look_harder`: a find that comes back empty or unsure looks closer where depth sees objects stand, and
+  sets aside a detection where depth sees nothing stand (`attribot.api.harder`; detectors that read pixels);
 - `verify_actions`: a grasp that closed on nothing, slipped or lifted another object than the one meant
   is tried again; a distance reading is checked against the depth inside the object's box (the beam may
   have hit an edge or the wall behind);
@@ -25,7 +27,14 @@ from attribot.errors import InputError
 
 __all__ = ["MECHANISMS", "CheckEvent", "Safeguards", "parse_checks"]
 
-MECHANISMS: tuple[str, ...] = ("look_again", "verify_actions", "remeasure", "confidence", "reset")
+MECHANISMS: tuple[str, ...] = (
+    "look_again",
+    "look_harder",
+    "verify_actions",
+    "remeasure",
+    "confidence",
+    "reset",
+)
 
 
 class CheckEvent(BaseModel):

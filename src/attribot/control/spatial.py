@@ -25,6 +25,7 @@ __all__ = [
     "ObjectEstimate",
     "FloorMap",
     "base_points",
+    "point_map",
     "to_world",
     "to_base",
     "estimate_object",
@@ -64,6 +65,18 @@ def base_points(
     d = depth[rows, cols].astype(np.float64)
     ok = np.isfinite(d) & (d > 0.05) & (d < 20.0)
     d, u, v = d[ok], cols[ok] + 0.5, rows[ok] + 0.5
+    pts = _rotate_head(d, -(u - camera.cx) / camera.fx * d, -(v - camera.cy) / camera.fy * d, view.angles)
+    return pts + np.asarray(view.xyz)
+
+
+def point_map(depth: np.ndarray, camera: CameraInfo, view: CameraPose, stride: int = 1) -> np.ndarray:
+    """(H', W', 3) base-frame points of every `stride`-th pixel in rows and columns, laid out as the image
+    is (pixel (r, c) of the map is pixel (r * stride, c * stride)); NaN where the depth is not valid."""
+    rows, cols = np.mgrid[0 : depth.shape[0] : stride, 0 : depth.shape[1] : stride]
+    d = depth[rows, cols].astype(np.float64)
+    ok = np.isfinite(d) & (d > 0.05) & (d < 20.0)
+    d = np.where(ok, d, np.nan)
+    u, v = cols + 0.5, rows + 0.5
     pts = _rotate_head(d, -(u - camera.cx) / camera.fx * d, -(v - camera.cy) / camera.fy * d, view.angles)
     return pts + np.asarray(view.xyz)
 

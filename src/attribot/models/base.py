@@ -33,6 +33,7 @@ __all__ = [
     "build_backend",
     "UNKNOWN",
     "detect_many",
+    "detect_in_views",
     "answer_many",
     "can_find",
     "findable_categories",
@@ -111,6 +112,27 @@ def detect_many(
     if batch is not None:
         return batch(frames, queries)
     return [detector.detect(f, q) for f, q in zip(frames, queries, strict=True)]
+
+
+def detect_in_views(
+    detector: Detector, frame: Frame, queries: Sequence[str], views: Sequence[tuple[int, int, int, int]]
+) -> list[Detection]:
+    """Detections in the given views of a frame (xyxy pixel regions, each shown to the detector on its own,
+    so a small object in a small view grows to the detector's input size), in the frame's pixels, best
+    first: the backend's own `detect_views` when it has one (one network pass per view, no tiling of its
+    own), else `detect` on each view's crop."""
+    own = getattr(detector, "detect_views", None)
+    if own is not None:
+        return own(frame, queries, views)
+    found: list[Detection] = []
+    for view in views:
+        for det in detector.detect(frame.crop(view), queries):
+            x0, y0, x1, y1 = det.box
+            found.append(
+                det.model_copy(update={"box": (x0 + view[0], y0 + view[1], x1 + view[0], y1 + view[1])})
+            )
+    found.sort(key=lambda d: -d.score)
+    return found
 
 
 def answer_many(vqa: VisualQA, frames: Sequence[Frame], questions: Sequence[str]) -> list[str]:

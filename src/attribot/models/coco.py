@@ -416,6 +416,26 @@ class CocoDetector:
                 found[i] = self._select(xyxy, scores, images[i].shape[1], images[i].shape[0], wanted[i])
         return found
 
+    def detect_views(
+        self, frame: Frame, queries: Sequence[str], views: Sequence[tuple[int, int, int, int]]
+    ) -> list[Detection]:
+        """Detections in the given views of a frame only (xyxy pixels, clipped to the image), each shown
+        whole to the network at its input size, merged across views per class as the tiles are: the
+        network's output for each view is kept as for any other view."""
+        want = self.wanted(queries)
+        image = _rgb_of(frame)
+        height, width = image.shape[:2]
+        digest = pixel_digest(image)
+        clipped = []
+        for x0, y0, x1, y1 in views:
+            view = (max(int(x0), 0), max(int(y0), 0), min(int(x1), width), min(int(y1), height))
+            if view[2] - view[0] >= 8 and view[3] - view[1] >= 8:
+                clipped.append(view)
+        if not clipped:
+            return []
+        xyxy, scores = _stack(self._outputs([(image, digest, v) for v in clipped]))
+        return self._select(xyxy, scores, width, height, want)
+
     def counts(self) -> dict[str, int]:
         """Views (whole images and tiles) run through the network, and those whose kept output served."""
         return {"network_views": self.forwarded, "network_views_reused": self.reused}

@@ -1,0 +1,158 @@
+"""Looking harder (`attribot.api.harder`, the `look_harder` mechanism): depth finds where objects stand
+without knowing what they are, a find that comes back empty or unsure looks at those places zoomed in, and
+a detection where depth sees nothing stand is set aside. Truth comes from the world's own state (object
+boxes and ids); the detectors here are fakes that read pixels, so that what zooming buys is deterministic."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from attribot.api import Perception, Robot
+from attribot.api.harder import acting_find, zoom_views
+from attribot.api.safeguards import Safeguards
+from attribot.config import SceneConfig, load_settings
+from attribot.control.base import build_controller
+from attribot.control.body import CameraPose
+from attribot.control.candidates import object_candidates, stands_out
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.frame import CameraInfo, Frame
+from attribot.models.base import Detection, detect_in_views
+
+SCENES = [
+    SceneConfig(layout="household", seed=seed, categories=categories, objects=len(categories))
+    for seed, categories in ((5, ("apple", "mug", "book")), (11, ("bottle", "computer mouse", "orange")))
+]
+
+
+class ZoomOnlyDetector:
+    """Sees an object only in a view zoomed in on it (a frame under 300 pixels wide), where it frames the
+    middle fifth of the view: a detector that misses small objects in the whole image."""
+
+    name = "zoom-only"
+    pixels_only = True
+
+    def __init__(self) -> None:
+        self.views: list[tuple[int, int]] = []
+
+    def detect(self, frame: Frame, queries):
+        self.views.append((frame.width, frame.height))
+        if frame.width >= 300:
+            return []
+        w, h = frame.width, frame.height
+        return [Detection(box=(0.4 * w, 0.4 * h, 0.6 * w, 0.6 * h), score=0.6, label=queries[0])]
+
+
+class FixedBoxDetector:
+    """Answers one fixed box with a high score, whatever the pixels show."""
+
+    name = "fixed"
+    pixels_only = True
+
+    def __init__(self, box: tuple[float, float, float, float]) -> None:
+        self.box = box
+
+    def detect(self, frame: Frame, queries):
+        return [Detection(box=self.box, score=0.9, label=queries[0])]
+
+
+def _look(world: MujocoWorld, detector, checks: str = "all,-look_again"):
+    base = Perception.from_settings(load_settings(detector="oracle"))
+    perception = Perception(detector=detector, vqa=base.vqa, language=base.language)
+    robot = Robot(
+        sensors=["camera"], world=world, controller=build_controller(world), safeguards=Safeguards(checks)
+    )
+    return robot, robot.look(perception, survey=False)
+
+
+def _inside(point: tuple[float, float], box) -> bool:
+    return box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
+
+
+def _overlaps(a, b) -> bool:
+    return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
+
+
+@pytest.mark.parametrize("config", SCENES, ids=lambda c: f"seed{c.seed}")
+def test_depth_finds_where_the_objects_stand_and_not_the_walls(config):
+    with MujocoWorld(config) as world:
+        robot, image = _look(world, ZoomOnlyDetector())
+        truth = [o for o in world.scene_info().objects if o.box is not None and o.visible_pixels >= 100]
+    cap = image.capture
+    candidates = object_candidates(image.frame.depth, cap.camera, cap.view)
+    assert candidates
+    covered = [o for o in truth if any(_overlaps(c.box, o.box) for c in candidates)]
+    assert len(covered) == len(truth), [o.id for o in truth if o not in covered]
+    # each object the world has stands out in depth inside its own box
+    assert all(stands_out(image.frame.depth, cap.camera, cap.view, o.box) for o in truth)
+    # no candidate is the size of a wall or a piece of furniture
+    assert all((c.box[2] - c.box[0]) * (c.box[3] - c.box[1]) < 0.25 * 640 * 480 for c in candidates)
+
+
+def test_a_depth_image_with_no_level_has_no_candidates_and_cannot_tell():
+    camera = CameraInfo(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0)
+    wall = np.full((48, 64), 2.0, np.float32)  # looking level at a wall: nothing horizontal in view
+    view = CameraPose(xyz=(0.0, 0.0, 1.0), pan=0.0, tilt=0.0)
+    assert object_candidates(wall, camera, view) == []
+    assert stands_out(wall, camera, view, (10, 10, 30, 30)) is None
+
+
+@pytest.mark.parametrize("config", SCENES, ids=lambda c: f"seed{c.seed}")
+def test_an_empty_find_looks_harder_where_depth_sees_objects(config):
+    with MujocoWorld(config) as world:
+        robot, image = _look(world, ZoomOnlyDetector())
+        found = image.find("thing")
+        events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+        _, blind = _look(world, ZoomOnlyDetector(), "all,-look_again,-look_harder")
+        assert blind.find("thing") == []
+    cap = image.capture
+    candidates = object_candidates(image.frame.depth, cap.camera, cap.view)
+    assert found and events and events[0].outcome == "caught" and "zoomed in on" in events[0].detail
+    for patch in found:  # every box added frames a place where depth sees something stand
+        assert any(_overlaps(patch.box, c.box) for c in candidates)
+
+
+def test_a_detection_where_depth_sees_nothing_stand_is_set_aside():
+    with MujocoWorld(SCENES[0]) as world:
+        robot, image = _look(world, ZoomOnlyDetector())
+        cap, truth = image.capture, [o.box for o in world.scene_info().objects if o.box is not None]
+        # a box away from every object of the world, where depth sees nothing stand (a wall, the floor)
+        grid = [
+            (float(x), float(y), x + 40.0, y + 32.0) for y in range(0, 448, 32) for x in range(0, 600, 40)
+        ]
+        wall = next(
+            b
+            for b in grid
+            if not any(_overlaps(b, t) for t in truth)
+            and stands_out(image.frame.depth, cap.camera, cap.view, b) is False
+        )
+        robot, image = _look(world, FixedBoxDetector(wall))
+        found = image.find("mug")
+        _, trusting = _look(world, FixedBoxDetector(wall), "all,-look_again,-look_harder")
+        assert [p.box for p in trusting.find("mug")] == [wall]
+    assert all(p.box != wall for p in found)
+    assert any(e.mechanism == "look_harder" and "set aside" in e.detail for e in robot.safeguards.events)
+
+
+def test_zoomed_views_stay_inside_the_image_and_are_not_repeated():
+    from attribot.control.candidates import Candidate
+
+    cands = [Candidate((600, 440, 630, 470), 0.1, 40), Candidate((602, 441, 631, 471), 0.1, 30)]
+    views = zoom_views(cands, 640, 480)
+    assert len(views) == 1
+    x0, y0, x1, y1 = views[0]
+    assert 0 <= x0 < x1 <= 640 and 0 <= y0 < y1 <= 480 and x1 - x0 == y1 - y0 >= 112
+
+
+def test_views_of_a_detector_without_its_own_are_crops_mapped_back():
+    det = ZoomOnlyDetector()
+    frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8))
+    found = detect_in_views(det, frame, ["cup"], [(100, 50, 200, 150)])
+    assert det.views == [(100, 100)]
+    assert found[0].box == pytest.approx((140.0, 90.0, 160.0, 110.0))
+
+
+def test_acting_find_without_views_of_its_own_asks_the_detector_once():
+    det = ZoomOnlyDetector()
+    frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8))
+    assert acting_find(det, frame, "cup") == [] and det.views == [(640, 480)]
