@@ -5,14 +5,18 @@
 Frames are encoded and muxed on a thread of the writer's own: a run's deadline is enforced by a signal
 that raises in the main thread (`attribot.runner.host`), and an exception raised while PyAV's muxer is
 calling back into Python leaves the container broken, so that the whole saved run would be lost at
-`finish()`. Signal handlers never run on another thread, and the main thread only hands frames over.
+`finish()`. Signal handlers never run on another thread, and the main thread only hands frames over,
+through a deque (whose append and popleft are atomic) rather than a `queue.Queue`: a signal that raised
+while `Queue.put` held the queue's lock (between acquiring it and the `with` taking charge of it) left the
+lock held, and the next `put` waited forever.
 """
 
 from __future__ import annotations
 
 import io
-import queue
 import threading
+import time
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -23,6 +27,8 @@ __all__ = ["VideoWriter"]
 
 _QUEUED_FRAMES = 32
 """Frames waiting for the encoder at most: `add` waits beyond this, so memory stays bounded."""
+_POLL_S = 0.001
+"""How long the encoder waits for a frame, and `add` for room, before looking again."""
 
 
 class VideoWriter:
@@ -38,7 +44,7 @@ class VideoWriter:
         self.frames = 0  # frame times so far (a held frame counts its repeats)
         self._held: tuple[np.ndarray, int] = (np.zeros((0, 0, 3), np.uint8), 0)
         self._size: tuple[int, int] | None = None  # width, height of every frame (even sides)
-        self._queue: queue.Queue[tuple[np.ndarray, int] | None] = queue.Queue(_QUEUED_FRAMES)
+        self._queue: deque[tuple[np.ndarray, int] | None] = deque()
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._encode_queued, name="attribot-video", daemon=True)
         self._thread.start()
@@ -59,10 +65,24 @@ class VideoWriter:
         pts = self.frames
         self.frames += repeat
         self._held = (rgb, repeat)
-        self._queue.put((rgb, pts))
+        self._put((rgb, pts))
+
+    def _put(self, item: tuple[np.ndarray, int] | None) -> None:
+        """Hand an item to the encoder, waiting while `_QUEUED_FRAMES` wait already (no lock is taken: see
+        the module docstring)."""
+        while len(self._queue) >= _QUEUED_FRAMES and self._thread.is_alive():
+            time.sleep(_POLL_S)
+        self._queue.append(item)
 
     def _encode_queued(self) -> None:
-        while (item := self._queue.get()) is not None:
+        while True:
+            try:
+                item = self._queue.popleft()
+            except IndexError:
+                time.sleep(_POLL_S)
+                continue
+            if item is None:
+                return
             if self._error is None:
                 try:
                     self._encode(*item)
@@ -90,8 +110,8 @@ class VideoWriter:
         """Flush the encoder and return the MP4 file's bytes (empty when no frame was added)."""
         rgb, repeat = self._held
         if repeat > 1:  # the last frame's duration is the gap to the next: one more frame ends it
-            self._queue.put((rgb, self.frames - 1))
-        self._queue.put(None)
+            self._put((rgb, self.frames - 1))
+        self._put(None)
         self._thread.join()
         if self._error is not None:
             raise self._error
