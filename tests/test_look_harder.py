@@ -156,3 +156,60 @@ def test_acting_find_without_views_of_its_own_asks_the_detector_once():
     det = ZoomOnlyDetector()
     frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8))
     assert acting_find(det, frame, "cup") == [] and det.views == [(640, 480)]
+
+
+class NearOnlyDetector:
+    """The simulator's own detector, but blind to objects under 45 pixels tall: a detector that sees
+    objects only from near enough. It reads pixels only as far as look_harder is concerned."""
+
+    name = "near-only"
+    pixels_only = True
+
+    def __init__(self) -> None:
+        from attribot.models.oracle import OracleDetector
+
+        self.inner = OracleDetector()
+
+    def detect(self, frame: Frame, queries):
+        return [d for d in self.inner.detect(frame, queries) if d.box[3] - d.box[1] >= 45]
+
+
+def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back():
+    """Driving nearer makes a far object large enough for a detector that misses it from afar; its box is
+    carried back into the first image (where the world's truth puts it), and the robot returns to where it
+    looked from."""
+    config = SceneConfig(
+        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
+    )
+    with MujocoWorld(config) as world:
+        truth = {o.id: o for o in world.scene_info().objects}
+        far = [
+            o
+            for o in truth.values()
+            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
+        ]
+        assert far, "the scene has a small far object"
+        target = far[0]
+        robot, image = _look(world, NearOnlyDetector())
+        start, head = world.base_pose(), dict(world.joint_states())
+        found = [p for p in image.find(target.category) if _overlaps(p.box, target.box)]
+        back, head_back = world.base_pose(), world.joint_states()
+        _, staying = _look(world, NearOnlyDetector(), "all,-look_again,-look_harder")
+        assert staying.find(target.category) == []  # from where it stands the detector misses it
+    events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+    assert found, [e.detail for e in events]
+    assert any("drove nearer" in e.detail for e in events)
+    assert abs(back.x - start.x) < 0.05 and abs(back.y - start.y) < 0.05 and abs(back.yaw - start.yaw) < 0.05
+    assert abs(head_back["head_pan"] - head["head_pan"]) < 0.02
+
+
+def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_first():
+    from attribot.api.harder import visit_order
+    from attribot.control.candidates import Candidate
+
+    leg = Candidate((100, 300, 110, 400), 0.4, 50)
+    cup = Candidate((200, 200, 230, 230), 0.1, 60)
+    ball = Candidate((300, 200, 320, 220), 0.15, 30)
+    small = Candidate((400, 200, 410, 210), 0.05, 10)
+    explained = [Detection(box=(295, 195, 325, 225), score=0.8, label="sports ball")]
+    assert visit_order([leg, cup, ball, small], explained) == [small, cup, ball]

@@ -12,18 +12,33 @@ read pixels look harder (a zoomed view shows them more); the oracle reads the si
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from attribot.boxes import iou
+from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, object_candidates, stands_out
+from attribot.control.spatial import base_points, project, to_base, to_world
 from attribot.frame import Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.sim.catalog import find_category
 
-__all__ = ["LookHarderReport", "acting_find", "look_harder", "zoom_views"]
+__all__ = [
+    "LookHarderReport",
+    "Nearer",
+    "acting_find",
+    "carried_back",
+    "look_harder",
+    "visit_order",
+    "zoom_views",
+]
+
+Nearer = Callable[[str, list[Candidate]], tuple[list[Detection], int]]
+"""Drives nearer to candidates in turn and looks for a name there: (detections in the first image, visits)."""
 
 UNSURE = 0.25
 """A find whose best detection scores under this looks harder (the coco detector's own `SURE`)."""
@@ -46,11 +61,15 @@ class LookHarderReport:
     views: int  # zoomed views looked at
     added: int  # detections found in them
     set_aside: int  # detections where depth sees nothing stand
+    visits: int = 0  # places the robot drove nearer to
+    found_nearer: int = 0  # detections seen from nearer
 
     def describe(self) -> str:
         text = f"depth sees {self.candidates} things stand"
         if self.views:
             text += f"; zoomed in on {self.views} of them: {self.added} found"
+        if self.visits:
+            text += f"; drove nearer to {self.visits} of them: {self.found_nearer} found"
         if self.set_aside:
             text += f"; {self.set_aside} set aside where depth sees nothing stand"
         return text
@@ -74,10 +93,16 @@ def zoom_views(candidates: list[Candidate], width: int, height: int) -> list[tup
 
 
 def look_harder(
-    detector: Detector, frame: Frame, capture: Capture, name: str, detections: list[Detection]
+    detector: Detector,
+    frame: Frame,
+    capture: Capture,
+    name: str,
+    detections: list[Detection],
+    nearer: Nearer | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (see the module docstring), and what it did; None where
-    the capture gives no depth and camera pose to look by."""
+    the capture gives no depth and camera pose to look by. `nearer`, where the robot can drive, is asked
+    to look from nearer at the candidates in `visit_order` when zooming found nothing sure."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     depth, camera, view = frame.depth, capture.camera, capture.view
@@ -100,8 +125,83 @@ def look_harder(
         if all(iou(det.box, other.box) < 0.5 for other in merged):
             merged.append(det)
     report.views, report.added = len(views), len(merged) - len(kept)
+    if nearer is not None and not merged:  # only where nothing of the name is seen at all
+        others = [d for d in detect_in_views(detector, frame, ["object"], views) if d.label != name]
+        category = find_category(name)
+        sizes = None if category is None else category.size_range_m
+        seen, report.visits = nearer(name, visit_order(candidates, others, sizes))
+        # boxes of one object seen from two places land on each other: one object
+        kept_seen: list[Detection] = []
+        for det in seen:
+            if all(overlap_of_smaller(det.box, o.box) < 0.5 for o in kept_seen):
+                kept_seen.append(det)
+        seen = kept_seen
+        report.found_nearer = len(seen)
+        merged += seen
     merged.sort(key=lambda d: -d.score)
     return merged, report
+
+
+LEG_RISE_M, LEG_ASPECT = 0.35, 2.5
+"""A candidate this tall over its level and this many times taller than wide (in the image) is a leg of the
+furniture it stands under, not an object: not worth a drive."""
+
+
+def visit_order(
+    candidates: list[Candidate], others: list[Detection], size_range: tuple[float, float] | None = None
+) -> list[Candidate]:
+    """The candidates worth driving nearer to, in the order to visit them: those no other name explains
+    first (by the best score of a box of another name over their middle), then those whose size as depth
+    sees it fits the size of what is looked for (`size_range`, metres: a mug is 8 to 12 cm), then the
+    smaller (a detector misses the small ones); furniture legs left out."""
+
+    def explained(cand: Candidate) -> float:
+        x0, y0, x1, y1 = cand.box
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        inside = [d.score for d in others if d.box[0] <= cx <= d.box[2] and d.box[1] <= cy <= d.box[3]]
+        return round(max(inside, default=0.0), 1)
+
+    def misfit(cand: Candidate) -> float:
+        if size_range is None or cand.size <= 0:
+            return 0.0
+        # depth sees part of an object (its near side, its top): half the smallest size still fits
+        lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
+        return round(abs(math.log(min(max(cand.size, lo), hi) / cand.size)), 1)
+
+    def leg(cand: Candidate) -> bool:
+        x0, y0, x1, y1 = cand.box
+        return cand.rise > LEG_RISE_M and (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0)
+
+    worth = [c for c in candidates if not leg(c)]
+    return sorted(worth, key=lambda c: (explained(c), misfit(c), c.pixels))
+
+
+def carried_back(
+    box: tuple[float, float, float, float], frame: Frame, capture: Capture, first: Capture
+) -> tuple[float, float, float, float] | None:
+    """Where the object in `box` of a frame taken from elsewhere (`capture`) lies in the first image: the
+    nearest surface in the box's middle, placed in the world by depth and odometry and projected into the
+    first image; None without depth or pose there, or where it falls outside the first image."""
+    if frame.depth is None or capture.camera is None or capture.view is None or capture.base is None:
+        return None
+    if first.camera is None or first.view is None or first.base is None:
+        return None
+    x0, y0, x1, y1 = box
+    qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
+    inner = base_points(frame.depth, capture.camera, capture.view, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
+    if len(inner) == 0:
+        return None
+    rng = np.linalg.norm(inner - np.asarray(capture.view.xyz), axis=1)
+    surface = inner[rng <= np.quantile(rng, 0.2) + 0.08]  # the object, not what shows behind its edges
+    uv, front = project(to_base(to_world(surface, capture.base), first.base), first.camera, first.view)
+    if not front.all():
+        return None
+    w, h = first.camera.width, first.camera.height
+    u0, v0 = np.clip(uv.min(axis=0), 0, [w, h])
+    u1, v1 = np.clip(uv.max(axis=0), 0, [w, h])
+    if u1 - u0 < 1 or v1 - v0 < 1:
+        return None
+    return float(u0), float(v0), float(u1), float(v1)
 
 
 def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:

@@ -16,7 +16,7 @@ import numpy as np
 
 from attribot.api.checks import check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.harder import acting_find, look_harder
+from attribot.api.harder import Nearer, acting_find, look_harder
 from attribot.api.looking import Survey, ask_again, reexamine
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
@@ -71,6 +71,7 @@ class ImagePatch:
         "object_id",
         "capture",
         "survey",
+        "nearer",
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
@@ -109,6 +110,7 @@ class ImagePatch:
         self.label = label
         self.score = score
         self.survey: Survey | None = None  # views around the first image, where the robot looked again
+        self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
         self.safeguards: Safeguards | None = None
         self._pixels: Frame | None = None
         self._upward = to_upward(self.box, frame.height)
@@ -324,12 +326,12 @@ class ImagePatch:
             return detections
         if not cacheable(detector):
             return detections
-        looked = look_harder(detector, pixels, self.capture, name, detections)
+        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer)
         if looked is None:
             return detections
         harder, report = looked
         if report.views or report.set_aside:
-            caught = report.added or report.set_aside
+            caught = report.added or report.set_aside or report.found_nearer
             guards.note(
                 "look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe()
             )

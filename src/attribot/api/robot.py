@@ -18,16 +18,19 @@ from pydantic import BaseModel, ConfigDict
 
 from attribot.api.checks import check_number, check_patch
 from attribot.api.errors import ActionFailed, ApiArgumentError, MissingSensor, PreconditionError
+from attribot.api.harder import acting_find, carried_back
 from attribot.api.looking import Survey, View, capture_now
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
-from attribot.boxes import iou
+from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture, ControlError, Controller, Target, build_controller
+from attribot.control.candidates import Candidate
 from attribot.embodiments.base import Embodiment
 from attribot.errors import ConfigError, UnsupportedAction
 from attribot.frame import CameraInfo
 from attribot.lexicon import GENERIC_NOUNS
+from attribot.models.base import Detection
 from attribot.sensors import (
     SENSORS,
     Need,
@@ -191,6 +194,8 @@ class Robot(metaclass=_RobotApi):
     FORCE_MAX_SAMPLES: ClassVar[int] = 40  # re-measuring: until the standard error is small, at most this
     FORCE_RESOLUTION_N: ClassVar[float] = 0.02  # the least uncertainty a weighing claims
     RANGE_READINGS: ClassVar[int] = 5
+    NEARER_VISITS: ClassVar[int] = 2  # look_harder: places driven nearer to for one find, at most
+    NEARER_M: ClassVar[float] = 0.9  # ...and how far from them it stops to look
     RANGE_RESOLUTION_M: ClassVar[float] = 0.003
     BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
     GRASP_TRIES: ClassVar[int] = 4
@@ -270,6 +275,8 @@ class Robot(metaclass=_RobotApi):
         self._image = ImagePatch(frame, perception, capture=self.capture)
         if self.safeguards.on("look_again") or self.safeguards.on("look_harder"):
             self._image.safeguards = self.safeguards
+        if self.safeguards.on("look_harder") and {"base", "pose"} <= caps and frame.depth is not None:
+            self._image.nearer = self._nearer
         if self.safeguards.on("look_again"):
             if survey and {"head", "pose"} <= caps and frame.depth is not None:
                 try:
@@ -281,6 +288,47 @@ class Robot(metaclass=_RobotApi):
         self._acted_on = []
         self._aimed = None
         return self._image
+
+    def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
+        """Host side, for `look_harder`: drive nearer to each candidate of the image in turn (at most
+        `NEARER_VISITS`), look for `name` there and carry what is seen back into the image; then drive back
+        to where the robot was. Returns the detections in the image and the places visited."""
+        image, world = self._image, self.world
+        look, back = (
+            getattr(self.controller, "look_nearer", None),
+            getattr(self.controller, "return_to", None),
+        )
+        if image is None or image.capture is None or world is None or look is None or back is None:
+            return [], 0
+        if self.held is not None:
+            return [], 0  # it does not drive about with something in the gripper to look
+        first, detector = image.capture, image.perception.detector
+        pose, js = world.base_pose(), world.joint_states()
+        head = (
+            (float(js["head_pan"]), float(js["head_tilt"]))
+            if "head_pan" in js and "head_tilt" in js
+            else None
+        )
+        found: list[Detection] = []
+        visits = 0
+        try:
+            for cand in candidates[: self.NEARER_VISITS]:
+                try:
+                    look(Target(box=cand.box, capture=first), self.NEARER_M)
+                except (ControlError, UnsupportedAction):
+                    continue
+                visits += 1
+                frame = world.observe()
+                seen = capture_now(world, frame, -1, frame.camera or first.camera)
+                for det in acting_find(detector, frame, name):
+                    box = carried_back(det.box, frame, seen, first)
+                    if box is not None and overlap_of_smaller(box, cand.box) >= 0.3:
+                        found.append(Detection(box=box, score=det.score, label=det.label))
+                if found:
+                    break
+        finally:
+            back((float(pose.x), float(pose.y), float(pose.yaw)), head)
+        return found, visits
 
     def settle(self, chosen: ImagePatch) -> str | None:
         """Host side, after a program chose `chosen`: with `confidence`, when the choice rests on measured

@@ -40,11 +40,13 @@ MIN_PIXELS = 3
 @dataclass(frozen=True)
 class Candidate:
     """A region of the image where depth sees something stand on a level: its box (pixels, xyxy, y down),
-    how high it rises over the level (metres) and how many map pixels it holds."""
+    how high it rises over the level (metres), how many map pixels it holds, and its longest side as depth
+    sees it (its rise or its span across the floor, metres; 0 where not measured)."""
 
     box: Box
     rise: float
     pixels: int
+    size: float = 0.0
 
 
 def object_candidates(depth: np.ndarray, camera: CameraInfo, view: CameraPose) -> list[Candidate]:
@@ -64,11 +66,12 @@ def object_candidates(depth: np.ndarray, camera: CameraInfo, view: CameraPose) -
             continue
         inside = labels[y : y + h, x : x + w] == k
         xy = pts[y : y + h, x : x + w][inside][:, :2]
-        if float(np.ptp(xy, axis=0).max()) > MAX_EXTENT_M:
+        span = float(np.ptp(xy, axis=0).max())
+        if span > MAX_EXTENT_M:
             continue
         top = float(rise[y : y + h, x : x + w][inside].max())
         box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
-        found.append(Candidate(box, top, area))
+        found.append(Candidate(box, top, area, max(span, top)))
     found.sort(key=lambda c: -c.pixels)
     return found
 

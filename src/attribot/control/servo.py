@@ -68,6 +68,10 @@ class ServoController(PointingController):
     tracked: Box | None = None
     sighted: tuple[Box, CameraPose] | None = None
     approached: Reach | None = field(default=None, repr=False)
+    driven: list[tuple[tuple[float, float, float], list[np.ndarray]]] = field(
+        default_factory=list, repr=False
+    )
+    """Where `look_nearer` drove from and along which path, for `return_to`."""
     plant: Plant = field(init=False, repr=False)
     driver: Driver = field(init=False, repr=False)
     locator: Locator = field(init=False, repr=False)
@@ -197,6 +201,51 @@ class ServoController(PointingController):
 
     def push(self, target: Target) -> None:
         self.manipulator.push(target)
+
+    def look_nearer(self, target: Target, distance: float) -> bool:
+        """Drive to a free place from which the arm would reach the object in the target's box (located from
+        the depth of the image it was seen in), facing it, and aim the camera at it: a small object seen
+        from afar grows in the frame. Only where it is farther than `distance`; False where it did not
+        drive (already near, or no free place to stand was found: it then only aims the camera)."""
+        body = self.plant.body("look_harder")
+        est = self.locator.locate(target, "look_harder")
+        here = self.plant.pose()
+        centre = est.xy()
+        if float(np.linalg.norm(centre - np.array(here[:2]))) > distance:
+            floor = self.locator.floor_map([target])
+            bearing = math.atan2(centre[1] - here[1], centre[0] - here[0])
+            for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5):  # the side it was seen from first
+                yaw = bearing + turn
+                for metres in (distance * 0.7, distance, distance * 1.3):
+                    xy = centre - metres * np.array([math.cos(yaw), math.sin(yaw)])
+                    pose = (float(xy[0]), float(xy[1]), yaw)
+                    if not floor.footprint_free(pose, body.base_half, 0.04):
+                        continue
+                    path = floor.path(np.array(here[:2]), xy, body.radius + 0.02)
+                    if path is not None:
+                        self.driven.append((here, [np.array(here[:2]), *path]))
+                        self.driver.follow(path, pose, np.array(est.centre), "look_harder")
+                        self.locator.aim(np.array(est.centre), body, target)
+                        return True
+        self.locator.aim(np.array(est.centre), body, target)
+        return False
+
+    def return_to(self, pose: tuple[float, float, float], head: tuple[float, float] | None) -> None:
+        """Drive back to `pose` (odometry) the way `look_nearer` came, which was free then, and turn the
+        head back to `head`: where the robot looked from before it went to look nearer. The last
+        centimetres straight, so that boxes of the image taken there still say where to look."""
+        legs = self.driven[::-1]
+        self.driven.clear()
+        for start, path in legs:
+            back = path[::-1]
+            self.driver.follow(back[1:] or [np.array(start[:2])], start, None, "look_harder")
+        for _ in range(3):
+            if not moved(self.plant.pose(), pose, 0.004, 0.004):
+                break
+            self.driver.drive_to(pose, None, "look_harder")
+        if head is not None and self.plant.has("head"):
+            self.plant.world.set_head(*head)
+            self.plant.settle(self.tuning.look_back_settle_s)
 
     def go_to_coords(self, target: Target) -> None:
         body = self.plant.body("go_to_coords")

@@ -1,0 +1,57 @@
+#!/usr/bin/env python3
+"""Embodied items with a real detector against the oracle, in one process: wall time per item and the ratio.
+
+The weight_embodied items of three objects drawn for the coco detector (every object a class it can name,
+as `attribot eval --detector coco` draws them) are answered by the rules planner with `--detector coco` and
+with the simulator's own `oracle`, one after the other, each item in a fresh world. Each figure is the median
+wall time per item, and the coco figure is printed as a ratio to the oracle's of the same run (the machine
+is shared and noisy). Issue "Right with real eyes" asks for at most 3x, and no item at the program limit.
+
+    .venv/bin/python benchmarks/bench_real_eyes.py [--items 4] [--checks all] [--clock cpu]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+from attribot.config import load_settings
+from attribot.eval.datasets import build_items
+from attribot.models.base import build_backend, findable_categories
+from attribot.session import Scene, ask
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--items", type=int, default=4, help="weight items of three objects to answer")
+    parser.add_argument("--checks", default="all", help="the error-catching mechanisms (as --checks)")
+    parser.add_argument("--clock", choices=("wall", "cpu"), default="wall")
+    args = parser.parse_args()
+    clock = time.perf_counter if args.clock == "wall" else time.process_time
+    coco = load_settings(detector="coco", checks=args.checks)
+    vocabulary = findable_categories(build_backend("detector", "coco", coco))
+    items = [
+        i for i in build_items(["weight_embodied"], 30, vocabulary=vocabulary) if len(i.candidates) == 3
+    ][: args.items]
+    times: dict[str, list[float]] = {"oracle": [], "coco": []}
+    limit = 0
+    for item in items:
+        for name in ("oracle", "coco"):
+            settings = load_settings(detector=name, checks=args.checks)
+            start = clock()
+            answer = ask(item.query, Scene(item.scene(), sensors=tuple(item.sensors)), settings)
+            times[name].append(clock() - start)
+            if answer.error is not None and "longer than" in answer.error.message:
+                limit += 1
+    oracle, real = statistics.median(times["oracle"]), statistics.median(times["coco"])
+    print(
+        f"reference oracle: {oracle:.2f} s per weight item of three objects "
+        f"({len(items)} items, {args.clock} clock)"
+    )
+    print(f"coco: {real:.2f} s per item = {real / oracle:.1f}x the oracle (target <= 3x)")
+    print(f"items at the program limit: {limit} of {len(items)} (target 0)")
+
+
+if __name__ == "__main__":
+    main()
