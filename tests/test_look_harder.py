@@ -213,3 +213,23 @@ def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_fi
     small = Candidate((400, 200, 410, 210), 0.05, 10)
     explained = [Detection(box=(295, 195, 325, 225), score=0.8, label="sports ball")]
     assert visit_order([leg, cup, ball, small], explained) == [small, cup, ball]
+
+
+def test_a_robot_that_cannot_drive_back_says_so(monkeypatch):
+    """After driving nearer to look, a robot that cannot get back to where it took the image says that its
+    image's boxes no longer hold, and how to go on, instead of acting on a stale image."""
+    from attribot.control.base import ControlError
+    from attribot.control.servo import ServoController
+
+    def blocked(self, pose, head):
+        raise ControlError("blocked: the base stopped on its way", "clear the way")
+
+    monkeypatch.setattr(ServoController, "return_to", blocked)
+    config = SceneConfig(
+        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
+    )
+    with MujocoWorld(config) as world:
+        small = [o for o in world.scene_info().objects if o.box is not None and o.box[3] - o.box[1] < 45]
+        robot, image = _look(world, NearOnlyDetector())
+        with pytest.raises(ControlError, match="could not drive back to where it took the image"):
+            image.find(small[0].category)

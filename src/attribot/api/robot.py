@@ -316,7 +316,7 @@ class Robot(metaclass=_RobotApi):
                 try:
                     look(Target(box=cand.box, capture=first), self.NEARER_M)
                 except (ControlError, UnsupportedAction):
-                    continue
+                    continue  # no way there, or stopped on the way: the next place, and back from there
                 visits += 1
                 frame = world.observe()
                 seen = capture_now(world, frame, -1, frame.camera or first.camera)
@@ -327,7 +327,15 @@ class Robot(metaclass=_RobotApi):
                 if found:
                     break
         finally:
-            back((float(pose.x), float(pose.y), float(pose.yaw)), head)
+            try:
+                back((float(pose.x), float(pose.y), float(pose.yaw)), head)
+            except ControlError as exc:
+                raise ControlError(
+                    f"looking harder for {name!r}, the robot drove nearer to look and could not drive back "
+                    f"to where it took the image: {exc.message}",
+                    "take a new image (robot.look) where it stands, or switch the mechanism off "
+                    "(--checks all,-look_harder)",
+                ) from exc
         return found, visits
 
     def settle(self, chosen: ImagePatch) -> str | None:

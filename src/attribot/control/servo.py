@@ -203,10 +203,11 @@ class ServoController(PointingController):
         self.manipulator.push(target)
 
     def look_nearer(self, target: Target, distance: float) -> bool:
-        """Drive to a free place from which the arm would reach the object in the target's box (located from
-        the depth of the image it was seen in), facing it, and aim the camera at it: a small object seen
-        from afar grows in the frame. Only where it is farther than `distance`; False where it did not
-        drive (already near, or no free place to stand was found: it then only aims the camera)."""
+        """Drive to a free place about `distance` from the object in the target's box (located from the depth
+        of the image it was seen in), facing it, on a free path (from the side it was seen from, else turned
+        from it), and aim the camera at it: a small object seen from afar grows in the frame. Only where it
+        is farther than `distance`; False where it did not drive (already near, or no free place found: it
+        then only aims the camera). `return_to` drives back the way it came."""
         body = self.plant.body("look_harder")
         est = self.locator.locate(target, "look_harder")
         here = self.plant.pose()
@@ -238,7 +239,10 @@ class ServoController(PointingController):
         self.driven.clear()
         for start, path in legs:
             back = path[::-1]
-            self.driver.follow(back[1:] or [np.array(start[:2])], start, None, "look_harder")
+            # from the waypoint nearest where it stands (a drive that stopped short stopped on the way)
+            here = np.array(self.plant.pose()[:2])
+            nearest = int(np.argmin([float(np.linalg.norm(w - here)) for w in back]))
+            self.driver.follow(back[nearest + 1 :] or [np.array(start[:2])], start, None, "look_harder")
         for _ in range(3):
             if not moved(self.plant.pose(), pose, 0.004, 0.004):
                 break
