@@ -2,12 +2,15 @@
 at where depth says objects stand, and sets aside what depth says is no object.
 
 A real detector misses objects that are small in the frame (YOLOv3-tiny sees a 25-pixel apple poorly at
-its 416-pixel input). Depth does not need to know what an object is to see that something stands on a
+its 608-pixel input). Depth does not need to know what an object is to see that something stands on a
 table (`control.candidates`): each such region is shown to the detector on its own, in a view a few times
 its size, so that the object fills the detector's input ("zooming by cropping"). A detection found this
 way counts only where depth sees something stand; and any detection of the find inside whose box depth
-sees nothing rise from a level (a box on a wall, on the floor's tiles) is set aside. Only detectors that
-read pixels look harder (a zoomed view shows them more); the oracle reads the simulator's segmentation.
+sees nothing rise from a level (a box on a wall, on the floor's tiles) is set aside. Where zooming finds
+nothing and the robot can drive, it drives nearer to a few of the places in turn (`visit_order`), looks
+there, carries what it sees back into the first image (`carried_back`) and drives back (the Robot's
+`_nearer`). Only detectors that read pixels look harder (a zoomed view shows them more); the oracle reads
+the simulator's segmentation.
 """
 
 from __future__ import annotations
