@@ -14,7 +14,7 @@ from attribot.api.safeguards import Safeguards
 from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
 from attribot.control.body import CameraPose
-from attribot.control.candidates import object_candidates, stands_out
+from attribot.control.candidates import StandingMap
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, detect_in_views
@@ -79,12 +79,13 @@ def test_depth_finds_where_the_objects_stand_and_not_the_walls(config):
         robot, image = _look(world, ZoomOnlyDetector())
         truth = [o for o in world.scene_info().objects if o.box is not None and o.visible_pixels >= 100]
     cap = image.capture
-    candidates = object_candidates(image.frame.depth, cap.camera, cap.view)
+    standing = StandingMap.of(image.frame.depth, cap.camera, cap.view)
+    candidates = standing.candidates()
     assert candidates
     covered = [o for o in truth if any(_overlaps(c.box, o.box) for c in candidates)]
     assert len(covered) == len(truth), [o.id for o in truth if o not in covered]
     # each object the world has stands out in depth inside its own box
-    assert all(stands_out(image.frame.depth, cap.camera, cap.view, o.box) for o in truth)
+    assert all(standing.stands_out(o.box) for o in truth)
     # no candidate is the size of a wall or a piece of furniture
     assert all((c.box[2] - c.box[0]) * (c.box[3] - c.box[1]) < 0.25 * 640 * 480 for c in candidates)
 
@@ -93,8 +94,9 @@ def test_a_depth_image_with_no_level_has_no_candidates_and_cannot_tell():
     camera = CameraInfo(width=64, height=48, fx=50.0, fy=50.0, cx=32.0, cy=24.0)
     wall = np.full((48, 64), 2.0, np.float32)  # looking level at a wall: nothing horizontal in view
     view = CameraPose(xyz=(0.0, 0.0, 1.0), pan=0.0, tilt=0.0)
-    assert object_candidates(wall, camera, view) == []
-    assert stands_out(wall, camera, view, (10, 10, 30, 30)) is None
+    standing = StandingMap.of(wall, camera, view)
+    assert standing.candidates() == []
+    assert standing.stands_out((10, 10, 30, 30)) is None
 
 
 @pytest.mark.parametrize("config", SCENES, ids=lambda c: f"seed{c.seed}")
@@ -106,7 +108,8 @@ def test_an_empty_find_looks_harder_where_depth_sees_objects(config):
         _, blind = _look(world, ZoomOnlyDetector(), "all,-look_again,-look_harder")
         assert blind.find("thing") == []
     cap = image.capture
-    candidates = object_candidates(image.frame.depth, cap.camera, cap.view)
+    standing = StandingMap.of(image.frame.depth, cap.camera, cap.view)
+    candidates = standing.candidates()
     assert found and events and events[0].outcome == "caught" and "zoomed in on" in events[0].detail
     for patch in found:  # every box added frames a place where depth sees something stand
         assert any(_overlaps(patch.box, c.box) for c in candidates)
@@ -117,14 +120,12 @@ def test_a_detection_where_depth_sees_nothing_stand_is_set_aside():
         robot, image = _look(world, ZoomOnlyDetector())
         cap, truth = image.capture, [o.box for o in world.scene_info().objects if o.box is not None]
         # a box away from every object of the world, where depth sees nothing stand (a wall, the floor)
+        standing = StandingMap.of(image.frame.depth, cap.camera, cap.view)
         grid = [
             (float(x), float(y), x + 40.0, y + 32.0) for y in range(0, 448, 32) for x in range(0, 600, 40)
         ]
         wall = next(
-            b
-            for b in grid
-            if not any(_overlaps(b, t) for t in truth)
-            and stands_out(image.frame.depth, cap.camera, cap.view, b) is False
+            b for b in grid if not any(_overlaps(b, t) for t in truth) and standing.stands_out(b) is False
         )
         robot, image = _look(world, FixedBoxDetector(wall))
         found = image.find("mug")

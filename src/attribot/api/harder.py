@@ -23,7 +23,7 @@ import numpy as np
 
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
-from attribot.control.candidates import Candidate, object_candidates, stands_out
+from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import base_points, project, to_base, to_world
 from attribot.frame import Frame
 from attribot.lexicon import SURFACE_WORDS
@@ -108,16 +108,12 @@ def look_harder(
     to look from nearer at the candidates in `visit_order` when zooming found nothing sure."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
-    depth, camera, view = frame.depth, capture.camera, capture.view
-    candidates = object_candidates(depth, camera, view)
+    standing = StandingMap.of(frame.depth, capture.camera, capture.view)
+    candidates = standing.candidates()
     kept = detections
     if name.lower() not in SURFACE_WORDS:
         small = frame.width * frame.height * SMALL_BOX
-        kept = [
-            d
-            for d in detections
-            if _area(d.box) >= small or stands_out(depth, camera, view, d.box) is not False
-        ]
+        kept = [d for d in detections if _area(d.box) >= small or standing.stands_out(d.box) is not False]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
     if any(d.score >= UNSURE for d in kept) or not candidates:
         return kept, report

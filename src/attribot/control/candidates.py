@@ -17,7 +17,7 @@ from attribot.control.body import CameraPose
 from attribot.control.spatial import point_map
 from attribot.frame import CameraInfo
 
-__all__ = ["Candidate", "object_candidates", "stands_out"]
+__all__ = ["Candidate", "StandingMap"]
 
 Box = tuple[float, float, float, float]
 
@@ -49,44 +49,59 @@ class Candidate:
     size: float = 0.0
 
 
-def object_candidates(depth: np.ndarray, camera: CameraInfo, view: CameraPose) -> list[Candidate]:
-    """Regions of a depth image where something stands on a horizontal level (see the module docstring),
-    largest first. Empty where the depth shows no level."""
-    pts, rise = _rise_map(depth, camera, view)
-    if rise is None:
-        return []
-    valid = np.isfinite(pts[..., 2])
-    d = np.where(valid, depth[::STRIDE, ::STRIDE].astype(np.float64), np.nan)
-    mask = _standing(rise) & ~_jumps(d)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
-    found: list[Candidate] = []
-    for k in range(1, count):
-        x, y, w, h, area = (int(v) for v in stats[k])
-        if area < MIN_PIXELS:
-            continue
-        inside = labels[y : y + h, x : x + w] == k
-        xy = pts[y : y + h, x : x + w][inside][:, :2]
-        span = float(np.ptp(xy, axis=0).max())
-        if span > MAX_EXTENT_M:
-            continue
-        top = float(rise[y : y + h, x : x + w][inside].max())
-        box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
-        found.append(Candidate(box, top, area, max(span, top)))
-    found.sort(key=lambda c: -c.pixels)
-    return found
+@dataclass(frozen=True)
+class StandingMap:
+    """One depth image read for what stands on its levels, once: its point map (every `STRIDE`-th pixel,
+    base frame) and each map pixel's height over the level under it (None where the image holds no level).
+    `candidates()` and `stands_out(box)` both read it."""
 
+    points: np.ndarray
+    rise: np.ndarray | None
+    depth: np.ndarray
 
-def stands_out(depth: np.ndarray, camera: CameraInfo, view: CameraPose, box: Box) -> bool | None:
-    """Whether depth sees something stand on a level inside `box` (pixels, xyxy): a few of its pixels rise
-    as an object's do. None where the image shows no level to tell it by."""
-    pts, rise = _rise_map(depth, camera, view)
-    if rise is None:
-        return None
-    h, w = rise.shape
-    c0, r0 = int(np.clip(box[0] // STRIDE, 0, w - 1)), int(np.clip(box[1] // STRIDE, 0, h - 1))
-    c1, r1 = int(np.clip(-(-box[2] // STRIDE), c0 + 1, w)), int(np.clip(-(-box[3] // STRIDE), r0 + 1, h))
-    inside = rise[r0:r1, c0:c1]
-    return int(_standing(inside).sum()) >= max(MIN_PIXELS, 0.03 * inside.size)
+    @classmethod
+    def of(cls, depth: np.ndarray, camera: CameraInfo, view: CameraPose) -> StandingMap:
+        points, rise = _rise_map(depth, camera, view)
+        return cls(points, rise, depth)
+
+    def candidates(self) -> list[Candidate]:
+        """Regions of the image where something stands on a horizontal level (see the module docstring),
+        largest first. Empty where the depth shows no level."""
+        pts, rise = self.points, self.rise
+        if rise is None:
+            return []
+        valid = np.isfinite(pts[..., 2])
+        d = np.where(valid, self.depth[::STRIDE, ::STRIDE].astype(np.float64), np.nan)
+        mask = _standing(rise) & ~_jumps(d)
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+        found: list[Candidate] = []
+        for k in range(1, count):
+            x, y, w, h, area = (int(v) for v in stats[k])
+            if area < MIN_PIXELS:
+                continue
+            inside = labels[y : y + h, x : x + w] == k
+            xy = pts[y : y + h, x : x + w][inside][:, :2]
+            span = float(np.ptp(xy, axis=0).max())
+            if span > MAX_EXTENT_M:
+                continue
+            top = float(rise[y : y + h, x : x + w][inside].max())
+            box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
+            found.append(Candidate(box, top, area, max(span, top)))
+        found.sort(key=lambda c: -c.pixels)
+        return found
+
+    def stands_out(self, box: Box) -> bool | None:
+        """Whether depth sees something stand on a level inside `box` (pixels, xyxy): a few of its pixels
+        rise as an object's do. None where the image shows no level to tell it by."""
+        rise = self.rise
+        if rise is None:
+            return None
+        h, w = rise.shape
+        c0, r0 = int(np.clip(box[0] // STRIDE, 0, w - 1)), int(np.clip(box[1] // STRIDE, 0, h - 1))
+        c1 = int(np.clip(-(-box[2] // STRIDE), c0 + 1, w))
+        r1 = int(np.clip(-(-box[3] // STRIDE), r0 + 1, h))
+        inside = rise[r0:r1, c0:c1]
+        return int(_standing(inside).sum()) >= max(MIN_PIXELS, 0.03 * inside.size)
 
 
 def _rise_map(
