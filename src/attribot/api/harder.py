@@ -24,7 +24,7 @@ import numpy as np
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
-from attribot.control.spatial import base_points, project, to_base, to_world
+from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
 from attribot.frame import Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
@@ -185,22 +185,10 @@ def carried_back(
         return None
     if first.camera is None or first.view is None or first.base is None:
         return None
-    x0, y0, x1, y1 = box
-    qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
-    inner = base_points(frame.depth, capture.camera, capture.view, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
-    if len(inner) == 0:
+    surface = nearest_surface(frame.depth, capture.camera, capture.view, box)
+    if surface is None:
         return None
-    rng = np.linalg.norm(inner - np.asarray(capture.view.xyz), axis=1)
-    surface = inner[rng <= np.quantile(rng, 0.2) + 0.08]  # the object, not what shows behind its edges
-    uv, front = project(to_base(to_world(surface, capture.base), first.base), first.camera, first.view)
-    if not front.all():
-        return None
-    w, h = first.camera.width, first.camera.height
-    u0, v0 = np.clip(uv.min(axis=0), 0, [w, h])
-    u1, v1 = np.clip(uv.max(axis=0), 0, [w, h])
-    if u1 - u0 < 1 or v1 - v0 < 1:
-        return None
-    return float(u0), float(v0), float(u1), float(v1)
+    return projected_box(to_base(to_world(surface, capture.base), first.base), first.camera, first.view)
 
 
 def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:

@@ -24,7 +24,14 @@ import numpy as np
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
-from attribot.control.spatial import base_points, point_from_range, project, to_base, to_world
+from attribot.control.spatial import (
+    nearest_surface,
+    point_from_range,
+    project,
+    projected_box,
+    to_base,
+    to_world,
+)
 from attribot.embodiments.base import Embodiment
 from attribot.errors import UnsupportedAction
 from attribot.frame import CameraInfo, Frame
@@ -195,15 +202,9 @@ class Survey:
         cap = view.capture
         if cap.depth is None or cap.camera is None or cap.head is None or cap.base is None:
             return None
-        x0, y0, x1, y1 = box
-        qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
-        pose = self.body.head_view(cap.head)
-        inner = base_points(cap.depth, cap.camera, pose, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
-        if len(inner) == 0:
+        surface = nearest_surface(cap.depth, cap.camera, self.body.head_view(cap.head), box)
+        if surface is None:
             return None
-        rng = np.linalg.norm(inner - np.asarray(pose.xyz), axis=1)
-        near = np.quantile(rng, 0.2)
-        surface = inner[rng <= near + 0.08]  # the object, not what shows behind it around its edges
         points = to_world(surface, cap.base)
         return points.mean(axis=0), points
 
@@ -253,15 +254,7 @@ class Survey:
             ]
         )
         rim_here = to_base(to_world(rim, seen.base), cap.base)
-        uv, front = project(rim_here, cap.camera, self.body.head_view(cap.head))
-        if not front.all():
-            return None
-        w, h = cap.camera.width, cap.camera.height
-        bx0, by0 = np.clip(uv.min(axis=0), 0, [w, h])
-        bx1, by1 = np.clip(uv.max(axis=0), 0, [w, h])
-        if bx1 - bx0 < 1 or by1 - by0 < 1:
-            return None
-        return float(bx0), float(by0), float(bx1), float(by1)
+        return projected_box(rim_here, cap.camera, self.body.head_view(cap.head))
 
 
 _SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object

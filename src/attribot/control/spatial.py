@@ -26,6 +26,8 @@ __all__ = [
     "FloorMap",
     "base_points",
     "point_map",
+    "nearest_surface",
+    "projected_box",
     "to_world",
     "to_base",
     "estimate_object",
@@ -79,6 +81,36 @@ def point_map(depth: np.ndarray, camera: CameraInfo, view: CameraPose, stride: i
     u, v = cols + 0.5, rows + 0.5
     pts = _rotate_head(d, -(u - camera.cx) / camera.fx * d, -(v - camera.cy) / camera.fy * d, view.angles)
     return pts + np.asarray(view.xyz)
+
+
+def nearest_surface(
+    depth: np.ndarray, camera: CameraInfo, view: CameraPose, box: tuple[float, float, float, float]
+) -> np.ndarray | None:
+    """(N, 3) base-frame points of the nearest surface in the middle of a box (its middle half each way):
+    the object the box frames, not what shows behind it around its edges; None without depth there."""
+    x0, y0, x1, y1 = box
+    qx, qy = (x1 - x0) / 4.0, (y1 - y0) / 4.0
+    inner = base_points(depth, camera, view, (x0 + qx, y0 + qy, x1 - qx, y1 - qy))
+    if len(inner) == 0:
+        return None
+    rng = np.linalg.norm(inner - np.asarray(view.xyz), axis=1)
+    return inner[rng <= np.quantile(rng, 0.2) + 0.08]
+
+
+def projected_box(
+    points_base: np.ndarray, camera: CameraInfo, view: CameraPose
+) -> tuple[float, float, float, float] | None:
+    """The box, clipped to the image, that base-frame points fill in the image of a camera at `view`; None
+    where any of them is behind the camera, or the box is under a pixel wide or tall."""
+    uv, front = project(points_base, camera, view)
+    if not front.all():
+        return None
+    w, h = camera.width, camera.height
+    u0, v0 = np.clip(uv.min(axis=0), 0, [w, h])
+    u1, v1 = np.clip(uv.max(axis=0), 0, [w, h])
+    if u1 - u0 < 1 or v1 - v0 < 1:
+        return None
+    return float(u0), float(v0), float(u1), float(v1)
 
 
 def point_from_range(metres: float, camera: CameraInfo, view: CameraPose, u: float, v: float) -> np.ndarray:
