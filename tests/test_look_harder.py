@@ -222,7 +222,7 @@ def test_a_robot_that_cannot_drive_back_says_so(monkeypatch):
     from attribot.control.base import ControlError
     from attribot.control.servo import ServoController
 
-    def blocked(self, pose, head):
+    def blocked(self):
         raise ControlError("blocked: the base stopped on its way", "clear the way")
 
     monkeypatch.setattr(ServoController, "return_to", blocked)

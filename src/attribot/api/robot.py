@@ -303,12 +303,6 @@ class Robot(metaclass=_RobotApi):
         if self.held is not None:
             return [], 0  # it does not drive about with something in the gripper to look
         first, detector = image.capture, image.perception.detector
-        pose, js = world.base_pose(), world.joint_states()
-        head = (
-            (float(js["head_pan"]), float(js["head_tilt"]))
-            if "head_pan" in js and "head_tilt" in js
-            else None
-        )
         found: list[Detection] = []
         visits = 0
         try:
@@ -328,7 +322,7 @@ class Robot(metaclass=_RobotApi):
                     break
         finally:
             try:
-                back((float(pose.x), float(pose.y), float(pose.yaw)), head)
+                back()
             except ControlError as exc:
                 raise ControlError(
                     f"looking harder for {name!r}, the robot drove nearer to look and could not drive back "

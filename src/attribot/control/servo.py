@@ -72,6 +72,10 @@ class ServoController(PointingController):
         default_factory=list, repr=False
     )
     """Where `look_nearer` drove from and along which path, for `return_to`."""
+    nearer_from: tuple[tuple[float, float, float], tuple[float, float] | None] | None = field(
+        default=None, repr=False
+    )
+    """The base pose and head angles before the first `look_nearer` since the last `return_to`."""
     plant: Plant = field(init=False, repr=False)
     driver: Driver = field(init=False, repr=False)
     locator: Locator = field(init=False, repr=False)
@@ -209,6 +213,8 @@ class ServoController(PointingController):
         is farther than `distance`; False where it did not drive (already near, or no free place found: it
         then only aims the camera). `return_to` drives back the way it came."""
         body = self.plant.body("look_harder")
+        if self.nearer_from is None:
+            self.nearer_from = (self.plant.pose(), self.plant.head() if self.plant.has("head") else None)
         est = self.locator.locate(target, "look_harder")
         here = self.plant.pose()
         centre = est.xy()
@@ -231,10 +237,13 @@ class ServoController(PointingController):
         self.locator.aim(np.array(est.centre), body, target)
         return False
 
-    def return_to(self, pose: tuple[float, float, float], head: tuple[float, float] | None) -> None:
-        """Drive back to `pose` (odometry) the way `look_nearer` came, which was free then, and turn the
-        head back to `head`: where the robot looked from before it went to look nearer. The last
-        centimetres straight, so that boxes of the image taken there still say where to look."""
+    def return_to(self) -> None:
+        """Drive back (odometry) the way `look_nearer` came, which was free then, to the pose and head angles
+        it started from: where the robot looked from before it went to look nearer. The last centimetres
+        straight, so that boxes of the image taken there still say where to look."""
+        if self.nearer_from is None:
+            return
+        (pose, head), self.nearer_from = self.nearer_from, None
         legs = self.driven[::-1]
         self.driven.clear()
         for start, path in legs:
