@@ -115,24 +115,60 @@ def test_an_empty_find_looks_harder_where_depth_sees_objects(config):
         assert any(_overlaps(patch.box, c.box) for c in candidates)
 
 
-def test_a_detection_where_depth_sees_nothing_stand_is_set_aside():
+class ScoredBoxDetector(FixedBoxDetector):
+    """Answers one fixed box with the score given."""
+
+    def __init__(self, box: tuple[float, float, float, float], score: float) -> None:
+        super().__init__(box)
+        self.score = score
+
+    def detect(self, frame: Frame, queries):
+        return [Detection(box=self.box, score=self.score, label=queries[0])]
+
+
+def _bare_level(world, image) -> tuple[float, float, float, float]:
+    """A box of the image away from every object of the world, where depth sees nothing stand: bare floor
+    or table top (a level)."""
+    cap, truth = image.capture, [o.box for o in world.scene_info().objects if o.box is not None]
+    standing = StandingMap.of(image.frame.depth, cap.camera, cap.view)
+    grid = [(float(x), float(y), x + 40.0, y + 32.0) for y in range(0, 448, 32) for x in range(0, 600, 40)]
+    return next(
+        b
+        for b in grid
+        if not any(_overlaps(b, t) for t in truth)
+        and standing.stands_out(b) is False
+        and standing.lies_on_level(b)
+    )
+
+
+def test_a_detection_where_depth_sees_nothing_stand_is_set_aside_unless_sure_and_lying_on_a_level():
     with MujocoWorld(SCENES[0]) as world:
-        robot, image = _look(world, ZoomOnlyDetector())
-        cap, truth = image.capture, [o.box for o in world.scene_info().objects if o.box is not None]
-        # a box away from every object of the world, where depth sees nothing stand (a wall, the floor)
-        standing = StandingMap.of(image.frame.depth, cap.camera, cap.view)
-        grid = [
-            (float(x), float(y), x + 40.0, y + 32.0) for y in range(0, 448, 32) for x in range(0, 600, 40)
-        ]
-        wall = next(
-            b for b in grid if not any(_overlaps(b, t) for t in truth) and standing.stands_out(b) is False
-        )
-        robot, image = _look(world, FixedBoxDetector(wall))
-        found = image.find("mug")
-        _, trusting = _look(world, FixedBoxDetector(wall), "all,-look_again,-look_harder")
-        assert [p.box for p in trusting.find("mug")] == [wall]
-    assert all(p.box != wall for p in found)
-    assert any(e.mechanism == "look_harder" and "set aside" in e.detail for e in robot.safeguards.events)
+        _, image = _look(world, ZoomOnlyDetector())
+        bare = _bare_level(world, image)
+        kept = {}
+        for score in (0.2, 0.9):
+            robot, image = _look(world, ScoredBoxDetector(bare, score))
+            kept[score] = [p.box for p in image.find("mug")] == [bare]
+            noted = any(
+                e.mechanism == "look_harder" and "set aside" in e.detail for e in robot.safeguards.events
+            )
+            assert noted != kept[score]
+        _, trusting = _look(world, ScoredBoxDetector(bare, 0.2), "all,-look_again,-look_harder")
+        assert [p.box for p in trusting.find("mug")] == [bare]
+    # an unsure box where nothing stands is set aside; a sure one that lies on a level is kept, since a flat
+    # object (a phone lying on a table) lies there without standing out
+    assert kept == {0.2: False, 0.9: True}
+
+
+def test_a_box_on_a_wall_does_not_lie_on_a_level_and_a_flat_thing_on_a_table_does():
+    rise = np.zeros((24, 32))  # the map's pixels' heights over the level under them, metres
+    rise[:8] = np.linspace(0.7, 2.0, 8)[:, None]  # a wall, rising far over the floor
+    rise[14:16, 10:16] = 0.004  # a phone lying on the table: under an object's least rise
+    standing = StandingMap(points=np.zeros((24, 32, 3)), rise=rise, depth=np.ones((48, 64)))
+    phone = (18.0, 26.0, 34.0, 34.0)  # pixels: the map is every second pixel
+    assert standing.stands_out(phone) is False and standing.lies_on_level(phone) is True
+    wall = (0.0, 0.0, 60.0, 14.0)
+    assert standing.stands_out(wall) is False and standing.lies_on_level(wall) is False
 
 
 def test_zoomed_views_stay_inside_the_image_and_are_not_repeated():
@@ -234,3 +270,86 @@ def test_a_robot_that_cannot_drive_back_says_so(monkeypatch):
         robot, image = _look(world, NearOnlyDetector())
         with pytest.raises(ControlError, match="could not drive back to where it took the image"):
             image.find(small[0].category)
+
+
+class FaintDetector:
+    """The simulator's own boxes, scored 0.03 for one category (under any detector's threshold) and 0.9 for
+    the others: a detector that sees one kind of object only faintly. Like coco, it answers chosen views
+    (`detect_views`) and gives its faint boxes only to a caller that asks for them (`threshold`)."""
+
+    name = "faint"
+    pixels_only = True
+
+    def __init__(self, faint: str) -> None:
+        from attribot.models.oracle import OracleDetector
+
+        self.inner, self.faint = OracleDetector(), faint
+
+    def _scored(self, frame: Frame, queries, threshold: float) -> list[Detection]:
+        found = []
+        for det in self.inner.detect(frame, queries):
+            score = 0.03 if det.label == self.faint else 0.9
+            if score >= threshold:
+                found.append(det.model_copy(update={"score": score}))
+        return found
+
+    def detect(self, frame: Frame, queries):
+        return self._scored(frame, queries, 0.1)
+
+    def detect_views(self, frame: Frame, queries, views, threshold=None):
+        return self._scored(frame, queries, 0.1 if threshold is None else threshold)
+
+
+def test_a_faint_box_on_the_one_place_depth_sees_something_stand_is_taken_with_its_low_score():
+    with MujocoWorld(SCENES[0]) as world:
+        truth = {o.category: o for o in world.scene_info().objects}
+        robot, image = _look(world, FaintDetector("apple"))
+        image.nearer = None  # the faint box, not a drive, is what this test is about
+        found = image.find("apple")
+        _, plain = _look(world, FaintDetector("apple"), "all,-look_again,-look_harder")
+        assert plain.find("apple") == []  # at the detector's own threshold it is not seen
+    assert len(found) == 1 and found[0].score == pytest.approx(0.03)
+    assert _inside(
+        ((found[0].box[0] + found[0].box[2]) / 2, (found[0].box[1] + found[0].box[3]) / 2), truth["apple"].box
+    )
+    events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+    assert events and events[-1].outcome == "caught" and "faint box" in events[-1].detail
+
+
+def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
+    from attribot.api.harder import faint_pick
+    from attribot.control.candidates import Candidate
+
+    apple = Candidate((100, 100, 130, 130), 0.08, 300, 0.08)
+    orange = Candidate((300, 100, 330, 130), 0.08, 300, 0.08)
+    on_apple = Detection(box=(98, 98, 132, 132), score=0.04, label="apple")
+    on_orange = Detection(box=(298, 98, 332, 132), score=0.015, label="apple")
+    assert faint_pick([on_apple, on_orange], [apple, orange]) == on_apple
+    nearly = on_orange.model_copy(update={"score": 0.03})  # nearly as faint elsewhere: no telling
+    assert faint_pick([on_apple, nearly], [apple, orange]) is None
+    nowhere = Detection(box=(500, 400, 520, 420), score=0.05, label="apple")  # frames no candidate
+    assert faint_pick([nowhere], [apple, orange]) is None
+
+
+def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
+    from attribot.api.harder import by_elimination
+    from attribot.control.candidates import Candidate
+
+    toaster = Candidate((300, 100, 350, 140), 0.19, 340, 0.28)
+    bottle = Candidate((250, 110, 262, 142), 0.17, 64, 0.17)
+    leg = Candidate((380, 300, 392, 420), 0.4, 200, 0.4)  # tall and thin: furniture, not an object
+    cut = Candidate((140, 430, 420, 480), 0.02, 380, 0.3)  # cut by the image's edge: the robot's table
+    crumb = Candidate((200, 200, 204, 204), 0.02, 4, 0.02)  # too small to be a toaster
+    seen = [Detection(box=(245, 105, 266, 146), score=0.6, label="bottle")]
+    toaster_size = (0.25, 0.3)
+    every = [toaster, bottle, leg, cut, crumb]
+    assert by_elimination(every, seen, toaster_size, 640, 480) == toaster
+    # a box of another name over it, if sure, explains it; one under UNSURE does not
+    laptop = Detection(box=(295, 95, 355, 145), score=0.21, label="laptop")
+    assert by_elimination(every, [*seen, laptop], toaster_size, 640, 480) == toaster
+    sure = laptop.model_copy(update={"score": 0.6})
+    assert by_elimination(every, [*seen, sure], toaster_size, 640, 480) is None
+    # two things could be it: no telling; and a name of no known size cannot be eliminated for
+    other = Candidate((450, 100, 500, 140), 0.2, 300, 0.27)
+    assert by_elimination([*every, other], seen, toaster_size, 640, 480) is None
+    assert by_elimination(every, seen, None, 640, 480) is None

@@ -283,3 +283,22 @@ def test_chosen_views_are_looked_at_alone_and_mapped_back_to_the_image(remote_fr
     zoomed = detector.detect_views(frame, ["remote control"], [(x0, y0, x0 + 480, y0 + 480)])
     assert zoomed and boxmath.iou(zoomed[0].box, truth) >= 0.5
     assert detector.detect_views(frame, ["remote control"], [(0, 0, 4, 4)]) == []  # too small to look at
+
+
+def test_faint_boxes_come_only_to_a_caller_that_asks_for_them(remote_frame):
+    """The network keeps class scores down to `FAINT`, but `detect` and `detect_views` answer at the
+    detector's threshold as before; a caller that asks with a lower `threshold` gets the fainter boxes too,
+    from the same forward pass."""
+    from attribot.models.coco import FAINT
+
+    frame, _ = remote_frame
+    detector = CocoDetector()
+    whole = [(0, 0, frame.width, frame.height)]
+    plain = detector.detect_views(frame, ["object"], whole)
+    faint = detector.detect_views(frame, ["object"], whole, threshold=FAINT)
+    assert detector.counts()["network_views"] == 1
+    assert plain and all(d.score >= detector.threshold for d in plain)
+    assert {d.box for d in plain} <= {d.box for d in faint}
+    assert any(FAINT <= d.score < detector.threshold for d in faint)
+    below = detector.detect_views(frame, ["object"], whole, threshold=0.0)  # no lower than the network keeps
+    assert min(d.score for d in below) >= FAINT

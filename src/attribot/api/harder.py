@@ -6,11 +6,16 @@ its 608-pixel input). Depth does not need to know what an object is to see that 
 table (`control.candidates`): each such region is shown to the detector on its own, in a view a few times
 its size, so that the object fills the detector's input ("zooming by cropping"). A detection found this
 way counts only where depth sees something stand; and any detection of the find inside whose box depth
-sees nothing rise from a level (a box on a wall, on the floor's tiles) is set aside. Where zooming finds
+sees nothing rise from a level (a box on a wall, on the floor's tiles) is set aside, unless it is sure and
+its box lies on a level (a phone lying on a table rises too little to stand out). Where zooming finds
 nothing and the robot can drive, it drives nearer to a few of the places in turn (`visit_order`), looks
 there, carries what it sees back into the first image (`carried_back`) and drives back (the Robot's
-`_nearer`). Only detectors that read pixels look harder (a zoomed view shows them more); the oracle reads
-the simulator's segmentation.
+`_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where it
+points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
+no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
+that no box of another name explains (`by_elimination`). What they give has the low score it earned, and
+the trace says how it was taken. Only detectors that read pixels look harder (a zoomed view shows them
+more); the oracle reads the simulator's segmentation.
 """
 
 from __future__ import annotations
@@ -34,7 +39,9 @@ __all__ = [
     "LookHarderReport",
     "Nearer",
     "acting_find",
+    "by_elimination",
     "carried_back",
+    "faint_pick",
     "look_harder",
     "visit_order",
     "zoom_views",
@@ -51,6 +58,13 @@ MIN_VIEW = 112
 """...and at least this many pixels square (a 30-pixel object fills about a quarter of it)."""
 MAX_VIEWS = 10
 """The most zoomed views one find looks at (a forward pass each)."""
+FAINT = 0.005
+"""The faintest box of a name weighed on a candidate (the detector's threshold is 0.1): YOLOv3-tiny scores a
+30-pixel apple 0.04 as an apple (and 0.7 as an orange), and a flat book 0.009."""
+FAINT_MARGIN = 2.0
+"""A faint box is taken only where its score is this many times that of the name on any other candidate."""
+ELIMINATED_SCORE = 0.001
+"""The score of a candidate taken by elimination: no detector saw it as the name."""
 SMALL_BOX = 1 / 6
 """Only a box under this share of the image is set aside for standing on nothing: a larger one may be
 furniture or a wall-sized object, whose own depth is its surface."""
@@ -66,6 +80,13 @@ class LookHarderReport:
     set_aside: int  # detections where depth sees nothing stand
     visits: int = 0  # places the robot drove nearer to
     found_nearer: int = 0  # detections seen from nearer
+    faint: float | None = None  # the score of the faint box taken, where one was
+    eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
+
+    @property
+    def taken(self) -> bool:
+        """Whether weaker evidence gave the find its object: a faint box, or elimination."""
+        return self.faint is not None or bool(self.eliminated)
 
     def describe(self) -> str:
         text = f"depth sees {self.candidates} things stand"
@@ -73,6 +94,10 @@ class LookHarderReport:
             text += f"; zoomed in on {self.views} of them: {self.added} found"
         if self.visits:
             text += f"; drove nearer to {self.visits} of them: {self.found_nearer} found"
+        if self.faint is not None:
+            text += f"; took the one framed by a faint box of the name (score {self.faint:.3f})"
+        if self.eliminated:
+            text += "; took by elimination the one thing of the name's size that no other name explains"
         if self.set_aside:
             text += f"; {self.set_aside} set aside where depth sees nothing stand"
         return text
@@ -102,10 +127,12 @@ def look_harder(
     name: str,
     detections: list[Detection],
     nearer: Nearer | None = None,
+    claimed: list[Detection] | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (see the module docstring), and what it did; None where
     the capture gives no depth and camera pose to look by. `nearer`, where the robot can drive, is asked
-    to look from nearer at the candidates in `visit_order` when zooming found nothing sure."""
+    to look from nearer at the candidates in `visit_order` when zooming found nothing sure. `claimed`: the
+    boxes the finds of other names took in this image (each explains its object)."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     standing = StandingMap.of(frame.depth, capture.camera, capture.view)
@@ -113,7 +140,7 @@ def look_harder(
     kept = detections
     if name.lower() not in SURFACE_WORDS:
         small = frame.width * frame.height * SMALL_BOX
-        kept = [d for d in detections if _area(d.box) >= small or standing.stands_out(d.box) is not False]
+        kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
     if any(d.score >= UNSURE for d in kept) or not candidates:
         return kept, report
@@ -124,21 +151,92 @@ def look_harder(
         if all(iou(det.box, other.box) < 0.5 for other in merged):
             merged.append(det)
     report.views, report.added = len(views), len(merged) - len(kept)
-    if nearer is not None and not merged:  # only where nothing of the name is seen at all
-        others = [d for d in detect_in_views(detector, frame, ["object"], views) if d.label != name]
-        category = find_category(name)
-        sizes = None if category is None else category.size_range_m
+    if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
+        merged = _unseen(detector, frame, name, candidates, views, nearer, claimed or [], report)
+    merged.sort(key=lambda d: -d.score)
+    return merged, report
+
+
+def _unseen(
+    detector: Detector,
+    frame: Frame,
+    name: str,
+    candidates: list[Candidate],
+    views: list[tuple[int, int, int, int]],
+    nearer: Nearer | None,
+    claimed: list[Detection],
+    report: LookHarderReport,
+) -> list[Detection]:
+    """For a name the zoomed views did not show: a faint box that points at one candidate no other name's
+    find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
+    `report`)."""
+    # a place another name's find took holds that object
+    free = [c for c in candidates if not any(_inside(_middle(c.box), d.box) for d in claimed)]
+    faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
+    if faint is not None:
+        report.faint = faint.score
+        return [faint]
+    whole = (0, 0, frame.width, frame.height)
+    others = [d for d in detect_in_views(detector, frame, ["object"], [whole, *views]) if d.label != name]
+    # what another name's find took is that object, whatever its score
+    others += [d.model_copy(update={"score": 1.0}) for d in claimed]
+    category = find_category(name)
+    sizes = None if category is None else category.size_range_m
+    if nearer is not None:
         seen, report.visits = nearer(name, visit_order(candidates, others, sizes))
         # boxes of one object seen from two places land on each other: one object
         kept_seen: list[Detection] = []
         for det in seen:
             if all(overlap_of_smaller(det.box, o.box) < 0.5 for o in kept_seen):
                 kept_seen.append(det)
-        seen = kept_seen
-        report.found_nearer = len(seen)
-        merged += seen
-    merged.sort(key=lambda d: -d.score)
-    return merged, report
+        report.found_nearer = len(kept_seen)
+        if kept_seen:
+            return kept_seen
+    left = by_elimination(candidates, others, sizes, frame.width, frame.height)
+    if left is None:
+        return []
+    report.eliminated = 1
+    return [Detection(box=left.box, score=ELIMINATED_SCORE, label=name)]
+
+
+def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
+    """The best of `faint` (boxes of one name under the detector's threshold) where it frames a candidate,
+    and the name's best box on every other candidate scores under 1 / `FAINT_MARGIN` of it; else None."""
+    best: dict[int, Detection] = {}
+    for det in faint:
+        for at in _framed(det, candidates):
+            if at not in best or det.score > best[at].score:
+                best[at] = det
+    ranked = sorted(best.values(), key=lambda d: -d.score)
+    if not ranked or (len(ranked) > 1 and ranked[1].score * FAINT_MARGIN > ranked[0].score):
+        return None
+    return ranked[0]
+
+
+def by_elimination(
+    candidates: list[Candidate],
+    others: list[Detection],
+    size_range: tuple[float, float] | None,
+    width: int,
+    height: int,
+) -> Candidate | None:
+    """The one candidate that can be the object looked for by elimination, or None where none or several
+    can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
+    size as depth sees it fits `size_range` (as in `visit_order`), whole in the image (a candidate cut by
+    the image's edge is most often the furniture the robot stands at) and no furniture leg."""
+    if size_range is None:
+        return None
+    lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
+    sure = [d for d in others if d.score >= UNSURE]
+    left = [
+        c
+        for c in candidates
+        if lo <= c.size <= hi
+        and not _leg(c)
+        and not _at_edge(c.box, width, height)
+        and not any(_inside(_middle(c.box), d.box) for d in sure)
+    ]
+    return left[0] if len(left) == 1 else None
 
 
 LEG_RISE_M, LEG_ASPECT = 0.35, 2.5
@@ -155,10 +253,8 @@ def visit_order(
     smaller (a detector misses the small ones); furniture legs left out."""
 
     def explained(cand: Candidate) -> float:
-        x0, y0, x1, y1 = cand.box
-        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        inside = [d.score for d in others if d.box[0] <= cx <= d.box[2] and d.box[1] <= cy <= d.box[3]]
-        return round(max(inside, default=0.0), 1)
+        middle = _middle(cand.box)
+        return round(max((d.score for d in others if _inside(middle, d.box)), default=0.0), 1)
 
     def misfit(cand: Candidate) -> float:
         if size_range is None or cand.size <= 0:
@@ -167,11 +263,7 @@ def visit_order(
         lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
         return round(abs(math.log(min(max(cand.size, lo), hi) / cand.size)), 1)
 
-    def leg(cand: Candidate) -> bool:
-        x0, y0, x1, y1 = cand.box
-        return cand.rise > LEG_RISE_M and (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0)
-
-    worth = [c for c in candidates if not leg(c)]
+    worth = [c for c in candidates if not _leg(c)]
     return sorted(worth, key=lambda c: (explained(c), misfit(c), c.pixels))
 
 
@@ -207,16 +299,51 @@ def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:
 
 
 def _on_candidate(det: Detection, candidates: list[Candidate]) -> bool:
-    """Whether a detection frames one of the candidates: the candidate's middle inside the box, or the box's
-    middle inside the candidate's box."""
-    x0, y0, x1, y1 = det.box
-    mx, my = (x0 + x1) / 2, (y0 + y1) / 2
-    for cand in candidates:
-        c0, r0, c1, r1 = cand.box
-        cx, cy = (c0 + c1) / 2, (r0 + r1) / 2
-        if (x0 <= cx <= x1 and y0 <= cy <= y1) or (c0 <= mx <= c1 and r0 <= my <= r1):
-            return True
-    return False
+    """Whether a detection frames one of the candidates (`_framed`)."""
+    return bool(_framed(det, candidates))
+
+
+def _framed(det: Detection, candidates: list[Candidate]) -> list[int]:
+    """The indices of the candidates a detection frames: the candidate's middle inside the box, or the
+    box's middle inside the candidate's box."""
+    middle = _middle(det.box)
+    return [
+        i
+        for i, cand in enumerate(candidates)
+        if _inside(_middle(cand.box), det.box) or _inside(middle, cand.box)
+    ]
+
+
+def _middle(box: tuple[float, float, float, float]) -> tuple[float, float]:
+    return (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+
+
+def _inside(point: tuple[float, float], box: tuple[float, float, float, float]) -> bool:
+    return box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
+
+
+def _leg(cand: Candidate) -> bool:
+    """A candidate this tall over its level and this much taller than wide in the image: a furniture leg."""
+    x0, y0, x1, y1 = cand.box
+    return cand.rise > LEG_RISE_M and (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0)
+
+
+EDGE_PX = 2
+"""A candidate's box within this many pixels of the image's edge is cut by it."""
+
+
+def _at_edge(box: tuple[float, float, float, float], width: int, height: int) -> bool:
+    return box[0] <= EDGE_PX or box[1] <= EDGE_PX or box[2] >= width - EDGE_PX or box[3] >= height - EDGE_PX
+
+
+def _stands(det: Detection, standing: StandingMap) -> bool:
+    """Whether depth may hold the object a detection sees: something stands in its box, or (for a sure
+    detection) the box lies on a level, where a flat object lies without standing out; True where depth
+    cannot tell."""
+    stands = standing.stands_out(det.box)
+    if stands is not False:
+        return True
+    return det.score >= UNSURE and bool(standing.lies_on_level(det.box))
 
 
 def _area(box: tuple[float, float, float, float]) -> float:

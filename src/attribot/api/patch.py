@@ -72,6 +72,7 @@ class ImagePatch:
         "capture",
         "survey",
         "nearer",
+        "named",
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
@@ -111,6 +112,8 @@ class ImagePatch:
         self.score = score
         self.survey: Survey | None = None  # views around the first image, where the robot looked again
         self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
+        # look_harder: the best box each name's find took in this image, which explains that object
+        self.named: dict[str, Detection] = {}
         self.safeguards: Safeguards | None = None
         self._pixels: Frame | None = None
         self._upward = to_upward(self.box, frame.height)
@@ -326,12 +329,15 @@ class ImagePatch:
             return detections
         if not cacheable(detector):
             return detections
-        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer)
+        claimed = [d for n, d in self.named.items() if n != name]
+        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed)
         if looked is None:
             return detections
         harder, report = looked
+        if harder:
+            self.named[name] = max(harder, key=lambda d: d.score)
         if report.views or report.set_aside:
-            caught = report.added or report.set_aside or report.found_nearer
+            caught = report.added or report.set_aside or report.found_nearer or report.taken
             guards.note(
                 "look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe()
             )

@@ -93,6 +93,23 @@ class StandingMap:
     def stands_out(self, box: Box) -> bool | None:
         """Whether depth sees something stand on a level inside `box` (pixels, xyxy): a few of its pixels
         rise as an object's do. None where the image shows no level to tell it by."""
+        inside = self._inside(box)
+        if inside is None:
+            return None
+        return int(_standing(inside).sum()) >= max(MIN_PIXELS, 0.03 * inside.size)
+
+    def lies_on_level(self, box: Box) -> bool | None:
+        """Whether most of `box` is a level itself (no higher than an object's least rise over it): where a
+        flat object (a phone, a knife lying down) lies, which does not stand out. None as `stands_out`."""
+        inside = self._inside(box)
+        if inside is None:
+            return None
+        with np.errstate(invalid="ignore"):
+            flat = np.abs(inside) < RISE_M[0]
+        return int(flat.sum()) >= 0.5 * inside.size
+
+    def _inside(self, box: Box) -> np.ndarray | None:
+        """The rise map's pixels inside `box`; None where the image holds no level."""
         rise = self.rise
         if rise is None:
             return None
@@ -100,8 +117,7 @@ class StandingMap:
         c0, r0 = int(np.clip(box[0] // STRIDE, 0, w - 1)), int(np.clip(box[1] // STRIDE, 0, h - 1))
         c1 = int(np.clip(-(-box[2] // STRIDE), c0 + 1, w))
         r1 = int(np.clip(-(-box[3] // STRIDE), r0 + 1, h))
-        inside = rise[r0:r1, c0:c1]
-        return int(_standing(inside).sum()) >= max(MIN_PIXELS, 0.03 * inside.size)
+        return rise[r0:r1, c0:c1]
 
 
 def _rise_map(

@@ -115,15 +115,20 @@ def detect_many(
 
 
 def detect_in_views(
-    detector: Detector, frame: Frame, queries: Sequence[str], views: Sequence[tuple[int, int, int, int]]
+    detector: Detector,
+    frame: Frame,
+    queries: Sequence[str],
+    views: Sequence[tuple[int, int, int, int]],
+    threshold: float | None = None,
 ) -> list[Detection]:
     """Detections in the given views of a frame (xyxy pixel regions, each shown to the detector on its own,
     so a small object in a small view grows to the detector's input size), in the frame's pixels, best
     first: the backend's own `detect_views` when it has one (one network pass per view, no tiling of its
-    own), else `detect` on each view's crop."""
+    own), else `detect` on each view's crop. `threshold` asks a backend with `detect_views` for boxes down
+    to that score (as far as it keeps them); the others answer at their own threshold."""
     own = getattr(detector, "detect_views", None)
     if own is not None:
-        return own(frame, queries, views)
+        return own(frame, queries, views) if threshold is None else own(frame, queries, views, threshold)
     found: list[Detection] = []
     for view in views:
         for det in detector.detect(frame.crop(view), queries):

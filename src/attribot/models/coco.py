@@ -267,7 +267,7 @@ def _cv2() -> Any:
     return cv2
 
 
-def _network(cfg: str, threshold: float) -> np.ndarray:
+def _network(cfg: str, floor: float) -> np.ndarray:
     """The network description as these weights need it, as bytes for `readNetFromDarknet`'s buffer form.
 
     Two corrections to the file as it ships (its bytes are hash-checked, so they are made here, in the
@@ -275,7 +275,7 @@ def _network(cfg: str, threshold: float) -> np.ndarray:
     trained with Darknet's original `mask = 1,2,3` and "can be used only with this typo" (AlexeyAB/darknet
     issue 1341, pjreddie/darknet issue 851); read with 0,1,2, that layer's boxes came out about half as tall
     and two thirds as wide as the object, under IoU 0.5 with it. And each output layer keeps class scores
-    down to `threshold`: OpenCV's reader zeroes every score under its own default of 0.2 (a `thresh` the
+    down to `floor`: OpenCV's reader zeroes every score under its own default of 0.2 (a `thresh` the
     cfg does not state), which made any lower threshold of ours a no-op."""
     head, sep, tail = cfg.rpartition("[yolo]")
     if not sep or tail.count("mask = 0,1,2") != 1:
@@ -284,8 +284,7 @@ def _network(cfg: str, threshold: float) -> np.ndarray:
             "fetch the files again: attribot fetch coco",
         )
     text = head + sep + tail.replace("mask = 0,1,2", "mask = 1,2,3")
-    floor = max(min(threshold, 0.2), 1e-3)
-    text = text.replace("[yolo]", f"[yolo]\nthresh = {floor:.4f}")
+    text = text.replace("[yolo]", f"[yolo]\nthresh = {max(min(floor, 0.2), 1e-3):.4f}")
     return np.frombuffer(text.encode("utf-8"), np.uint8)
 
 
@@ -327,7 +326,7 @@ class CocoDetector:
                 f"fetch them once: `attribot fetch coco` (or {_INSTALL}); give another folder as coco:FOLDER",
             )
         self.net = cv2.dnn.readNetFromDarknet(
-            _network((self.folder / "yolov3-tiny.cfg").read_text(encoding="utf-8"), threshold),
+            _network((self.folder / "yolov3-tiny.cfg").read_text(encoding="utf-8"), min(threshold, FAINT)),
             np.fromfile(self.folder / "yolov3-tiny.weights", np.uint8),
         )
         self.net.setPreferableBackend(cv2.dnn.DNN_BACKEND_OPENCV)
@@ -338,6 +337,7 @@ class CocoDetector:
         self.name = "coco:yolov3-tiny"
         self.pixels_only = True  # its answer is a function of the RGB pixels and the queries
         self.threshold = float(threshold)
+        self.floor = max(min(self.threshold, FAINT), 1e-6)  # the lowest score the network keeps
         self.nms_iou = float(nms_iou)
         self.input_size = int(input_size)
         if not 1 <= tiles <= 4:
@@ -417,11 +417,16 @@ class CocoDetector:
         return found
 
     def detect_views(
-        self, frame: Frame, queries: Sequence[str], views: Sequence[tuple[int, int, int, int]]
+        self,
+        frame: Frame,
+        queries: Sequence[str],
+        views: Sequence[tuple[int, int, int, int]],
+        threshold: float | None = None,
     ) -> list[Detection]:
         """Detections in the given views of a frame only (xyxy pixels, clipped to the image), each shown
         whole to the network at its input size, merged across views per class as the tiles are: the
-        network's output for each view is kept as for any other view."""
+        network's output for each view is kept as for any other view. `threshold` (default: the
+        detector's own) may go down to `FAINT`, for a caller that checks faint boxes otherwise."""
         want = self.wanted(queries)
         image = _rgb_of(frame)
         height, width = image.shape[:2]
@@ -434,7 +439,8 @@ class CocoDetector:
         if not clipped:
             return []
         xyxy, scores = _stack(self._outputs([(image, digest, v) for v in clipped]))
-        return self._select(xyxy, scores, width, height, want)
+        at_least = self.threshold if threshold is None else max(threshold, self.floor)
+        return self._select(xyxy, scores, width, height, want, at_least)
 
     def counts(self) -> dict[str, int]:
         """Views (whole images and tiles) run through the network, and those whose kept output served."""
@@ -461,8 +467,8 @@ class CocoDetector:
             rows = self._forward([(img, view) for (_, view), img in chunk])
             for (key, _), r in zip(chunk, rows, strict=True):
                 xyxy, scores = self._boxes(r, key[1])
-                # a row under the threshold in every class is never selected: only the others are kept
-                live = scores.max(axis=1) >= max(self.threshold, 1e-6)
+                # a row under the floor in every class is never selected: only the others are kept
+                live = scores.max(axis=1) >= self.floor
                 out[key] = self._kept[key] = (xyxy[live], scores[live])
         self.forwarded += len(pending)
         while len(self._kept) > self.keep:
@@ -507,13 +513,20 @@ class CocoDetector:
         return xyxy, rows[:, 5:]
 
     def _select(
-        self, xyxy: np.ndarray, scores: np.ndarray, width: int, height: int, want: dict[str, str]
+        self,
+        xyxy: np.ndarray,
+        scores: np.ndarray,
+        width: int,
+        height: int,
+        want: dict[str, str],
+        threshold: float | None = None,
     ) -> list[Detection]:
         index = {name: i for i, name in enumerate(self.classes)}
+        at_least = max(self.threshold if threshold is None else threshold, 1e-6)
         found: list[Detection] = []
         for name, label in want.items():
             cls = scores[:, index[name]]
-            keep = cls >= max(self.threshold, 1e-6)
+            keep = cls >= at_least
             if not keep.any():
                 continue
             boxes, s = boxmath.clip(xyxy[keep], width, height), cls[keep]
@@ -525,6 +538,9 @@ class CocoDetector:
         return found
 
 
+FAINT = 0.005
+"""The lowest class score the network keeps: under the detector's threshold, a box this faint is no
+detection, but a caller that has other evidence of an object there (depth) may weigh it."""
 SURE = 0.25
 """A wanted class found with at least this score in the whole image is not looked for again in tiles."""
 
