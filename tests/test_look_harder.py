@@ -353,3 +353,17 @@ def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
     other = Candidate((450, 100, 500, 140), 0.2, 300, 0.27)
     assert by_elimination([*every, other], seen, toaster_size, 640, 480) is None
     assert by_elimination(every, seen, None, 640, 480) is None
+
+
+def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
+    """The detector never sees the apple surely, from anywhere: the robot re-finds it by name nowhere on its
+    way, so it acts on where depth placed it in the first image, and lifts the apple (the world's truth)."""
+    with MujocoWorld(SCENES[0]) as world:
+        robot, image = _look(world, FaintDetector("apple"))
+        image.nearer = None
+        apple = image.find("apple")[0]
+        robot.go_to_object(apple)
+        robot.pick_up(apple)
+        held = world.held_object()
+        truth = {o.id: o.category for o in world.scene_info().objects}
+    assert apple.by_depth and held is not None and truth[held] == "apple"

@@ -73,6 +73,7 @@ class ImagePatch:
         "survey",
         "nearer",
         "named",
+        "by_depth",
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
@@ -95,10 +96,12 @@ class ImagePatch:
         object_id: str | None = None,
         label: str = "",
         score: float | None = None,
+        by_depth: bool = False,
     ) -> None:
         """Host side: a patch of `frame` (the whole camera frame) inside the xyxy `box` (pixels of `frame`,
         y down; None for the whole frame). `capture` says when and from where the frame was taken (None for
-        a still image); `object_id`, `label`, `score` come from the detection that produced the patch."""
+        a still image); `object_id`, `label`, `score` come from the detection that produced the patch, and
+        `by_depth` says that looking harder took it where the detector did not see its name surely."""
         if not isinstance(frame, Frame):
             raise TypeError(f"ImagePatch needs an attribot.frame.Frame, got {type(frame).__name__}")
         if not isinstance(perception, Perception):
@@ -110,6 +113,7 @@ class ImagePatch:
         self.object_id = object_id
         self.label = label
         self.score = score
+        self.by_depth = by_depth
         self.survey: Survey | None = None  # views around the first image, where the robot looked again
         self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
         # look_harder: the best box each name's find took in this image, which explains that object
@@ -172,7 +176,12 @@ class ImagePatch:
                 return [d.box for d in acting_find(detector, frame, label)]
 
         return Target(
-            box=self.box, capture=self.capture, object_id=self.object_id, label=self.label, find=find
+            box=self.box,
+            capture=self.capture,
+            object_id=self.object_id,
+            label=self.label,
+            find=find,
+            by_depth=self.by_depth,
         )
 
     def same_object(self, other: ImagePatch) -> bool:
@@ -296,7 +305,7 @@ class ImagePatch:
                 "caught" if changed else "unsettled" if doubtful else "confirmed",
                 "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
             )
-        detections = self._look_harder(name, pixels, detections)
+        detections, by_depth = self._look_harder(name, pixels, detections)
         dx = pixels.origin[0] - self.frame.origin[0]
         dy = pixels.origin[1] - self.frame.origin[1]
         found: list[ImagePatch] = []
@@ -316,23 +325,27 @@ class ImagePatch:
                 object_id=det.object_id,
                 label=det.label or name,
                 score=det.score,
+                by_depth=det in by_depth,
             )
             child.safeguards = self.safeguards  # its own finds and questions are checked the same way
             found.append(child)
         return found
 
-    def _look_harder(self, name: str, pixels: Frame, detections: list[Detection]) -> list[Detection]:
+    def _look_harder(
+        self, name: str, pixels: Frame, detections: list[Detection]
+    ) -> tuple[list[Detection], list[Detection]]:
         """Host side: the find's detections after looking harder (`attribot.api.harder`), where that is on,
-        the patch is a robot's whole image with depth, and the detector reads pixels."""
+        the patch is a robot's whole image with depth, and the detector reads pixels; and those of them it
+        took on weaker evidence than the detector's (a faint box, elimination)."""
         guards, detector = self.safeguards, self.perception.detector
         if guards is None or not guards.on("look_harder") or not self._whole() or self.capture is None:
-            return detections
+            return detections, []
         if not cacheable(detector):
-            return detections
+            return detections, []
         claimed = [d for n, d in self.named.items() if n != name]
         looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed)
         if looked is None:
-            return detections
+            return detections, []
         harder, report = looked
         if harder:
             self.named[name] = max(harder, key=lambda d: d.score)
@@ -341,7 +354,7 @@ class ImagePatch:
             guards.note(
                 "look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe()
             )
-        return harder
+        return harder, (harder if report.taken else [])
 
     def exists(self, object_name: str) -> bool:
         """Returns True if an object called `object_name` is found inside this patch, else False.

@@ -81,6 +81,9 @@ class Target:
     )
     """Finds the target's kind in a new frame with the configured detector (xyxy boxes): how a
     perception-driven controller sees it again. None when the target has no name to look for."""
+    by_depth: bool = False
+    """Taken where the detector did not see its name surely (a faint box, elimination: depth saw it stand):
+    a controller that does not see it again acts on where depth placed it."""
 
     @property
     def center(self) -> tuple[float, float]:

@@ -169,6 +169,9 @@ class Locator:
             self.driver.straight(-self.plant.tuning.back_off_m)
             self.aim(np.array(est.centre), body, target, holding)
             frame, box = self.look_again(target, camera, search, where)
+        if box is None and target.by_depth:
+            # the detector never saw it surely: where depth placed it is all there is to go on
+            return est
         if box is None:
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "
