@@ -355,6 +355,10 @@ class Session:
         self.runs += 1
         if self.watch.program is not None:
             self.watch.program(program)
+        from attribot.runner.policy import names_sought
+
+        # what the program will look for: looking harder for one name does not take another's object
+        self.image.sought = names_sought(program)
         return self.parts.runner.run(program, args=[self.image, self.robot], on_call=self.watch.call)
 
     def _reset(self) -> None:

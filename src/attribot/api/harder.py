@@ -30,6 +30,7 @@ from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
+from attribot.errors import InputError
 from attribot.frame import Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
@@ -128,11 +129,13 @@ def look_harder(
     detections: list[Detection],
     nearer: Nearer | None = None,
     claimed: list[Detection] | None = None,
+    sought: list[str] | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (see the module docstring), and what it did; None where
     the capture gives no depth and camera pose to look by. `nearer`, where the robot can drive, is asked
     to look from nearer at the candidates in `visit_order` when zooming found nothing sure. `claimed`: the
-    boxes the finds of other names took in this image (each explains its object)."""
+    boxes the finds of other names took in this image (each explains its object); `sought`: the other
+    names the program looks for, whose best boxes will explain theirs."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     standing = StandingMap.of(frame.depth, capture.camera, capture.view)
@@ -152,7 +155,8 @@ def look_harder(
             merged.append(det)
     report.views, report.added = len(views), len(merged) - len(kept)
     if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
-        merged = _unseen(detector, frame, name, candidates, views, nearer, claimed or [], report)
+        claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
+        merged = _unseen(detector, frame, name, candidates, views, nearer, claimed, report)
     merged.sort(key=lambda d: -d.score)
     return merged, report
 
@@ -197,6 +201,26 @@ def _unseen(
         return []
     report.eliminated = 1
     return [Detection(box=left.box, score=ELIMINATED_SCORE, label=name)]
+
+
+def _best_of(
+    detector: Detector, frame: Frame, name: str, others: list[str], views: list[tuple[int, int, int, int]]
+) -> list[Detection]:
+    """The best box of each of the `others` names in the image and in `views` (the outputs the find
+    already had). A closed-set detector's names are left out where they reach no one class (a generic
+    word: "object") or the class of `name` ("the red mug" and "the blue mug")."""
+    class_of = getattr(detector, "class_of", None)
+    best = []
+    for other in others:
+        if class_of is not None and class_of(other) in (None, class_of(name)):
+            continue
+        try:  # the find's own looks at the image (its tiles too) and its zoomed views: kept outputs
+            found = detector.detect(frame, [other]) + detect_in_views(detector, frame, [other], views)
+        except InputError:  # a name this detector cannot look for: the program's find will say so
+            continue
+        if found:
+            best.append(max(found, key=lambda d: d.score))
+    return best
 
 
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:

@@ -73,6 +73,7 @@ class ImagePatch:
         "survey",
         "nearer",
         "named",
+        "sought",
         "by_depth",
         "safeguards",
     )
@@ -118,6 +119,7 @@ class ImagePatch:
         self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
         # look_harder: the best box each name's find took in this image, which explains that object
         self.named: dict[str, Detection] = {}
+        self.sought: frozenset[str] = frozenset()  # look_harder: the names the program looks for
         self.safeguards: Safeguards | None = None
         self._pixels: Frame | None = None
         self._upward = to_upward(self.box, frame.height)
@@ -343,7 +345,8 @@ class ImagePatch:
         if not cacheable(detector):
             return detections, []
         claimed = [d for n, d in self.named.items() if n != name]
-        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed)
+        sought = sorted(self.sought - {n.lower() for n in (name, *self.named)})
+        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed, sought)
         if looked is None:
             return detections, []
         harder, report = looked

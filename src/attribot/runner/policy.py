@@ -15,6 +15,7 @@ from attribot.runner.records import Limits, RunError
 
 __all__ = [
     "check_program",
+    "names_sought",
     "prepare_program",
     "snippet_of",
     "PROGRAM_FILENAME",
@@ -462,6 +463,31 @@ def _parse(source: str, entry: str, limits: Limits) -> ast.Module:
     if not any(isinstance(n, ast.FunctionDef) and n.name == entry for n in tree.body):
         raise _Refusal(None, f"the program must define `def {entry}(...)` at the top level", "syntax")
     return tree
+
+
+def names_sought(source: str, limits: Limits | None = None) -> frozenset[str]:
+    """The object names a program looks for: the literal first arguments of its `.find(...)` and
+    `.exists(...)` calls ("mug" of `image.find("mug")`), stripped and lower-cased. Empty for a program
+    that does not parse or is longer than `limits` allow (the runner refuses it and says why)."""
+    if not isinstance(source, str) or len(source) > (limits or Limits()).max_source_chars:
+        return frozenset()
+    try:
+        tree = ast.parse(source)
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return frozenset()
+    names = set()
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Attribute)
+            and node.func.attr in ("find", "exists")
+            and node.args
+            and isinstance(node.args[0], ast.Constant)
+            and isinstance(node.args[0].value, str)
+            and node.args[0].value.strip()
+        ):
+            names.add(" ".join(node.args[0].value.lower().split()))
+    return frozenset(names)
 
 
 def _as_error(refusal: _Refusal, source: str) -> RunError:
