@@ -344,7 +344,7 @@ class ImagePatch:
             return detections, []
         if not cacheable(detector):
             return detections, []
-        claimed = [d for n, d in self.named.items() if n != name]
+        claimed = [d for n, d in self.named.items() if n.lower() != name.lower()]
         sought = sorted(self.sought - {n.lower() for n in (name, *self.named)})
         looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed, sought)
         if looked is None:
