@@ -46,6 +46,10 @@ class VideoWriter:
         self._size: tuple[int, int] | None = None  # width, height of every frame (even sides)
         self._queue: deque[tuple[np.ndarray, int] | None] = deque()
         self._error: BaseException | None = None
+        # set when the encoder thread ends; not Thread.is_alive() or join(): a signal that raises inside
+        # those (CPython 3.11's bpo-45274 handling) releases the running thread's own lock and marks it
+        # stopped, and finish() then flushed the encoder while the thread still encoded (a segfault)
+        self._done = threading.Event()
         self._thread = threading.Thread(target=self._encode_queued, name="attribot-video", daemon=True)
         self._thread.start()
 
@@ -70,24 +74,27 @@ class VideoWriter:
     def _put(self, item: tuple[np.ndarray, int] | None) -> None:
         """Hand an item to the encoder, waiting while `_QUEUED_FRAMES` wait already (no lock is taken: see
         the module docstring)."""
-        while len(self._queue) >= _QUEUED_FRAMES and self._thread.is_alive():
+        while len(self._queue) >= _QUEUED_FRAMES and not self._done.is_set():
             time.sleep(_POLL_S)
         self._queue.append(item)
 
     def _encode_queued(self) -> None:
-        while True:
-            try:
-                item = self._queue.popleft()
-            except IndexError:
-                time.sleep(_POLL_S)
-                continue
-            if item is None:
-                return
-            if self._error is None:
+        try:
+            while True:
                 try:
-                    self._encode(*item)
-                except BaseException as exc:  # kept for finish(): this thread has no caller to raise to
-                    self._error = exc
+                    item = self._queue.popleft()
+                except IndexError:
+                    time.sleep(_POLL_S)
+                    continue
+                if item is None:
+                    return
+                if self._error is None:
+                    try:
+                        self._encode(*item)
+                    except BaseException as exc:  # kept for finish(): this thread has no caller to raise to
+                        self._error = exc
+        finally:
+            self._done.set()
 
     def _encode(self, rgb: np.ndarray, pts: int) -> None:
         import av
@@ -112,7 +119,7 @@ class VideoWriter:
         if repeat > 1:  # the last frame's duration is the gap to the next: one more frame ends it
             self._put((rgb, self.frames - 1))
         self._put(None)
-        self._thread.join()
+        self._done.wait()
         if self._error is not None:
             raise self._error
         if self._stream is None:
