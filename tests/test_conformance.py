@@ -3,20 +3,23 @@ same way and keeps the same promises (determinism, finite outputs, protocol shap
 
 from __future__ import annotations
 
+import inspect
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
 
+from attribot.api import Robot
 from attribot.config import WORLD_CONFIGS, load_settings
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment
-from attribot.errors import AttribotError, ConfigError, InputError, MissingDependency
+from attribot.errors import AttribotError, ConfigError, InputError, MissingDependency, UnsupportedAction
 from attribot.frame import Frame
 from attribot.models.base import ROLES, BackendStatus, LanguageModel, VisualQA, build_backend, probe_backend
 from attribot.models.base import Detector as DetectorProtocol
 from attribot.planning import PLANNERS, PlanRequest, build_planner
 from attribot.runner import check_program
-from attribot.sensors import SENSORS, Need, check_sensors, sensor_method_doc
+from attribot.sensors import SENSORS, Need, check_sensors, senses, sensor_method_doc
 from attribot.sim.scene import LAYOUTS
 
 SMALL = {"width": 160, "height": 120}
@@ -129,25 +132,82 @@ def test_every_world_offers_what_the_servo_controller_uses(name):
             assert isinstance(world, ServoWorld)
 
 
+def _worlds_reading_sensors() -> Iterator[tuple[str, Embodiment]]:
+    """Every world that reads sensors here, built small: the embedded one with each robot body, and the
+    bridge to a robot (a loopback robot-side server driving the embedded world)."""
+    from attribot.config import SceneConfig
+    from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
+    from test_bridge import TOKEN, serving, url
+
+    for robot in ("mast", "ep"):
+        config = SceneConfig(layout="triplet", seed=3, robot=robot, **SMALL)
+        with EMBODIMENTS.get("mujoco")(config) as world:
+            yield f"mujoco/{robot}", world
+    config = SceneConfig(layout="triplet", seed=3, **SMALL)
+    with serving(lambda: EmbodimentDriver(EMBODIMENTS.get("mujoco")(config))) as (server, _):
+        with BridgeWorld(url=url(server), token=TOKEN) as bridge:
+            yield "bridge", bridge
+
+
 @pytest.mark.parametrize("name", SENSORS.names())
-def test_every_sensor_answers_to_its_names_and_the_mujoco_world_reads_it_or_says_why(name):
-    """Every registered sensor: its aliases resolve to it, its method (if any) is documented with an example
-    and its preconditions, and where the embedded world offers it a reading is a number, or NaN where the
-    reading needs a grasp and nothing is held."""
+def test_every_sensor_answers_to_its_names_and_every_sense_has_its_documented_method(name):
+    """Every registered sensor: its aliases resolve to it; each of its senses has a Robot method a program
+    can call, which needs this sensor and is documented with an example and its preconditions (the senses
+    of a sensor with a capability have Robot's own methods, the others one written from the record)."""
     sensor = SENSORS.get(name)
     assert check_sensors([name]) == ["camera"] + ([name] if name != "camera" else [])
     for alias in sensor.aliases:
         assert name in check_sensors([alias])
-    if sensor.method is not None:
-        doc = sensor_method_doc(sensor)
-        assert ">>> def execute_command(image, robot):" in doc and f"robot.{sensor.method}(" in doc
-        if sensor.needs is Need.AIM:
+    for sense in sensor.senses:
+        assert sense.method in Robot.API_METHODS and Robot.REQUIRES[sense.method] == name
+        doc = inspect.getdoc(getattr(Robot, sense.method)) or ""
+        if sensor.capability is None:
+            assert doc == sensor_method_doc(sensor, sense)
+        assert ">>> def execute_command(image, robot):" in doc and f".{sense.method}(" in doc
+        if sense.needs is Need.AIM and sensor.capability is None:  # robot.measure_distance aims itself
             assert "focus_on_patch" in doc
-        if sensor.needs is Need.GRASP:
+        if sense.needs is Need.GRASP:
             assert "pick_up" in doc
-    world_cls = EMBODIMENTS.get("mujoco")
-    with world_cls(layout="triplet", seed=3, **SMALL) as world:
-        if name not in world.sensors() or sensor.capability is not None:
-            return
-        value = world.read_sensor(name)
-        assert math.isfinite(value) or (math.isnan(value) and sensor.needs is Need.GRASP)
+        assert sense.words and sense.why and sense.doing, f"{sense.quantity}: words, why, doing"
+
+
+def test_every_world_reads_every_sensor_it_offers():
+    """In every world: the sensors it offers are registered ones, and each one read through `read_sensor`
+    gives a number, or NaN where the reading needs a grasp and nothing is held; one it does not offer is
+    refused, naming it."""
+    seen = set()
+    for where, world in _worlds_reading_sensors():
+        offered = world.sensors()
+        assert "camera" in offered and offered <= set(SENSORS.names()), where
+        for name in SENSORS.names():
+            sensor = SENSORS.get(name)
+            if sensor.capability is not None:
+                continue
+            if name not in offered:
+                with pytest.raises(UnsupportedAction, match=name):
+                    world.read_sensor(name)
+                continue
+            seen.add(name)
+            value = world.read_sensor(name)
+            grasp = any(s.needs is Need.GRASP for s in sensor.senses)
+            assert math.isfinite(value) or (math.isnan(value) and grasp), (where, name, value)
+    assert seen == {n for n in SENSORS.names() if SENSORS.get(n).capability is None}, "each is read somewhere"
+
+
+@pytest.mark.parametrize(("sensor", "sense"), senses(), ids=[q.quantity for _, q in senses()])
+def test_every_sense_is_offered_by_the_prompt_and_asked_in_its_words(sensor, sense):
+    """The prompt shows a sense's method exactly when the robot has its sensor; the rules planner reads a
+    question in the sense's superlative words and writes a program that measures with its method."""
+    from attribot.api.prompt import build_prompt
+
+    have = build_prompt("which one?", ["camera", sensor.name])
+    assert f"def {sense.method}(self" in have
+    without = build_prompt("which one?", ["camera"])
+    assert f"def {sense.method}(self" not in without and f"robot.{sense.method}" in without
+    planner = build_planner("rules", load_settings())
+    superlatives = [w for w, (more, form) in sense.words.items() if form == "superlative"]
+    assert superlatives, f"{sense.quantity} has no superlative word to ask with"
+    for word in superlatives:
+        query = f"which object is the {word}?"
+        program = planner.plan(PlanRequest(query=query, sensors=["camera", sensor.name], embodied=True))
+        assert f".{sense.method}(" in program.program, (query, program.program)

@@ -25,7 +25,7 @@ from attribot.eval.run import read_records
 from attribot.planning import PlanRequest
 from attribot.planning.llm import LLMPlanner
 from attribot.runner import ProgramRunner
-from attribot.sensors import SENSORS, Need, Sensor, check_sensors, register_sensor
+from attribot.sensors import SENSORS, Need, Sense, Sensor, check_sensors, register_sensor
 from attribot.session import Scene, ask
 from conftest import BallController, BallWorld, cli, serve_chat_replies, world_perception
 from test_paper_dialect import THINGS, _truth
@@ -76,8 +76,8 @@ def examples(prompt: str) -> list[str]:
 @pytest.fixture
 def spectrometer():
     sensor = register_sensor(
-        Sensor(name="spectrometer", measures="sugar", quantity="sugar content", unit="°Bx",
-               aliases=("near-infrared spectrometer",), needs=Need.AIM, method="measure_sugar")
+        Sensor(name="spectrometer", measures="sugar", aliases=("near-infrared spectrometer",),
+               senses=(Sense("sugar content", "°Bx", needs=Need.AIM, method="measure_sugar"),))
     )  # fmt: skip
     try:
         yield sensor
@@ -95,7 +95,7 @@ def test_the_paper_prompt_renders_for_every_sensor_set(sensors, embodied):
     )
     assert listed_sensors(prompt) == check_sensors(sensors)  # the words it uses read back as these sensors
     # the authors' API listing, with the methods of the senses beyond the paper's that this robot has
-    beyond = [SENSORS.get(s).method for s in sensors if SENSORS.get(s).method]
+    beyond = [q.method for s in sensors if SENSORS.get(s).capability is None for q in SENSORS.get(s).senses]
     fullness = ["measure_fullness"] if "force" in sensors else []
     assert sorted(robot_methods(prompt)) == sorted([*PAPERS_OWN, *fullness, *beyond])
     assert set(robot_methods(prompt)) <= set(Robot.API_METHODS)  # each one runs

@@ -13,7 +13,7 @@ import pytest
 
 from conftest import EMPTY_SETTINGS
 
-SENSOR = "from attribot.sensors import Sensor, register_sensor\n"
+SENSOR = "from attribot.sensors import Sense, Sensor, register_sensor\n"
 
 
 def run_with_plugin(tmp_path: Path, plugins: str, *args: str, **modules: str) -> subprocess.CompletedProcess:
@@ -48,23 +48,22 @@ def run_with_plugin(tmp_path: Path, plugins: str, *args: str, **modules: str) ->
         ("lab/path", {}, ["'lab/path', which is no module name"]),
         ("lab_exits", {"lab_exits": "import sys\nsys.exit(0)\n"}, ["lab_exits", "called sys.exit(0)"]),
         ("lab_exits_text", {"lab_exits_text": "raise SystemExit('bye')\n"}, ["called sys.exit('bye')"]),
-        ("lab_shadow", {"lab_shadow": SENSOR + "register_sensor(Sensor(name='camera', measures='x', "
-                                                "quantity='x', unit='x'))\n"},
+        ("lab_shadow", {"lab_shadow": SENSOR + "register_sensor(Sensor(name='camera', measures='x'))\n"},
          ["sensor 'camera' is registered twice", "another name"]),
         ("lab_alias", {"lab_alias": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
-                                              "quantity='x', unit='m', aliases=('rangefinder',)))\n"},
+                                              "aliases=('rangefinder',)))\n"},
          ["'rangefinder' is registered twice"]),
-        ("lab_init", {"lab_init": SENSOR + "register_sensor(Sensor(name='probe', measures='x', quantity='x', "
-                                            "unit='x', method='__init__'))\n"},
+        ("lab_init", {"lab_init": SENSOR + "register_sensor(Sensor(name='probe', measures='x', "
+                                            "senses=(Sense('x', 'x', method='__init__'),)))\n"},
          ["'__init__' cannot be a method's name"]),
-        ("lab_bundle", {"lab_bundle": SENSOR + "register_sensor(Sensor(name='depth camera', measures='x', "
-                                                "quantity='x', unit='x'))\n"},
+        ("lab_bundle", {"lab_bundle": SENSOR + "register_sensor(Sensor(name='depth camera', "
+                                                "measures='x'))\n"},
          ["'depth camera' names several built-in sensors"]),
         ("lab_method", {"lab_method": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
-                                                "quantity='x', unit='m', method='pick_up'))\n"},
+                                                "senses=(Sense('range', 'm', method='pick_up'),)))\n"},
          ["robot.pick_up, which Robot has already"]),
         ("lab_held", {"lab_held": SENSOR + "register_sensor(Sensor(name='sonar', measures='x', "
-                                            "quantity='x', unit='m', method='held'))\n"},
+                                            "senses=(Sense('range', 'm', method='held'),)))\n"},
          ["robot.held, which Robot has already"]),
         ("lab_imports", {"lab_imports": "import no_such_dependency\n"},
          ["the plug-in module 'lab_imports' failed", "No module named 'no_such_dependency'"]),
@@ -99,6 +98,7 @@ def test_a_plugin_that_registers_a_new_sensor_still_works(tmp_path):
     done = run_with_plugin(
         tmp_path,
         " lab_fine , ",
-        lab_fine=SENSOR + "register_sensor(Sensor(name='sonar', measures='x', quantity='x', unit='m'))\n",
+        lab_fine=SENSOR
+        + "register_sensor(Sensor(name='sonar', measures='x', senses=(Sense('range', 'm'),)))\n",
     )
     assert done.returncode == 0, done.stderr

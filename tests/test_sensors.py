@@ -21,8 +21,18 @@ from attribot.config import SceneConfig
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import InputError, UnsupportedAction
-from attribot.sensors import SENSORS, Need, Sensor, check_sensors, register_sensor, sensor_names
-from attribot.session import Scene, run_program
+from attribot.sensors import (
+    SENSORS,
+    Need,
+    Sense,
+    Sensor,
+    State,
+    check_sensors,
+    register_reading,
+    register_sensor,
+    sensor_names,
+)
+from attribot.session import Scene, ask, run_program
 from conftest import Ball, BallController, BallWorld, world_perception
 
 # ---- a lab's own sensor, defined here alone ------------------------------------------------------------
@@ -34,13 +44,24 @@ SPECTROMETER = Sensor(
     name="spectrometer",
     measures="a near-infrared spectrometer along the camera's axis: the sugar content of the fruit the "
     "camera is centred on, in degrees Brix (robot.measure_sugar)",
-    quantity="sugar content",
-    unit="°Bx",
     aliases=("nir spectrometer", "near-infrared spectrometer"),
-    needs=Need.AIM,
-    method="measure_sugar",
-    readings=3,
-    resolution=0.2,
+    senses=(
+        Sense(
+            quantity="sugar content",
+            unit="°Bx",
+            needs=Need.AIM,
+            method="measure_sugar",
+            readings=3,
+            resolution=0.2,
+            more=("sweet/sweeter/sweetest", "sugary/more sugary/most sugary"),
+            less=("sour/sourer/sourest",),
+            states=(State("sweet", 15.0, ">="), State("sour", 6.0, "<=")),
+            nouns=("sugar content", "sweetness"),
+            why="ripe and unripe fruit can look alike",
+            doing="tasting",
+            digits=1,
+        ),
+    ),
 )
 SWEETEST = """
 def execute_command(image, robot):
@@ -67,19 +88,10 @@ def _sugar(world: MujocoWorld) -> float:
 
 
 @pytest.fixture
-def spectrometer(monkeypatch: pytest.MonkeyPatch) -> Iterator[Sensor]:
-    """The spectrometer registered, and the MuJoCo world extended to read it, for one test."""
+def spectrometer() -> Iterator[Sensor]:
+    """The spectrometer registered, with the MuJoCo world's reading of it, for one test: what a lab writes."""
     register_sensor(SPECTROMETER)
-    plain_sensors, plain_read = MujocoWorld.sensors, MujocoWorld.read_sensor
-
-    def sensors(self: MujocoWorld) -> frozenset[str]:
-        return plain_sensors(self) | {"spectrometer"}
-
-    def read_sensor(self: MujocoWorld, name: str) -> float:
-        return _sugar(self) if name == "spectrometer" else plain_read(self, name)
-
-    monkeypatch.setattr(MujocoWorld, "sensors", sensors)
-    monkeypatch.setattr(MujocoWorld, "read_sensor", read_sensor)
+    register_reading("spectrometer", "mujoco", _sugar)
     try:
         yield SPECTROMETER
     finally:
@@ -95,6 +107,39 @@ def test_a_sensor_defined_in_a_test_is_read_by_a_program(spectrometer):
     assert answer.unit == "°Bx" and answer.value == pytest.approx(20.0)
     readings = [t for t in answer.trace if t["call"] == "Robot.measure_sugar"]
     assert sorted(r["result"] for r in readings) == [4.0, 12.0, 20.0]
+
+
+@pytest.mark.parametrize(
+    ("query", "truth"),
+    [
+        ("Which object is the sweetest?", "banana"),
+        ("the least sweet one", "tomato"),
+        ("which one is sourer, the apple or the banana?", "apple"),
+    ],
+)
+def test_a_labs_sense_is_asked_in_its_own_words_through_the_rules_planner(spectrometer, query, truth):
+    """The record's words alone teach the offline planner the sense: no planner code names it."""
+    answer = ask(query, Scene(FRUIT, sensors=["camera", "spectrometer"]), planner="rules")
+    assert answer.error is None, answer.error
+    categories = {o.id: o.category for o in Scene(FRUIT).truth().objects}
+    assert categories[answer.object.id] == truth
+    assert "robot.measure_sugar(patch)" in answer.program and "robot.focus_on_patch(patch)" in answer.program
+
+
+def test_a_labs_sense_states_and_amounts_come_from_its_record(spectrometer):
+    scene = Scene(FRUIT, sensors=["camera", "spectrometer"])
+    sweet = ask("is the banana sweet?", scene, planner="rules")
+    assert sweet.error is None and sweet.boolean is True and "20.0 °Bx: sweet" in sweet.answer
+    how = ask("how sweet is the tomato?", scene, planner="rules")
+    assert how.error is None and how.value == pytest.approx(4.0) and how.unit == "°Bx"
+    with pytest.raises(InputError, match="only a sensor settles.*no spectrometer sensor.*can look alike"):
+        ask("Which object is the sweetest?", Scene(FRUIT, sensors=["camera"]), planner="rules")
+    SENSORS.unregister("spectrometer")  # the words leave with the record
+    try:
+        with pytest.raises(InputError):
+            ask("Which object is the sweetest?", scene, planner="rules")
+    finally:
+        register_sensor(SPECTROMETER)
 
 
 def test_the_prompt_shows_the_sensor_and_its_method_only_when_the_robot_has_it(spectrometer):
@@ -129,28 +174,23 @@ PLUGIN = '''
 """A lab's spectrometer: its record, and the MuJoCo world taught to read it."""
 import math
 
-from attribot.embodiments.mujoco import MujocoWorld
-from attribot.sensors import Need, Sensor, register_sensor
+from attribot.sensors import Need, Sense, Sensor, register_reading, register_sensor
 
 register_sensor(Sensor(
-    name="spectrometer", measures="the sugar content of the fruit centred", quantity="sugar content",
-    unit="°Bx", needs=Need.AIM, method="measure_sugar",
+    name="spectrometer", measures="the sugar content of the fruit centred",
+    senses=(Sense("sugar content", "°Bx", needs=Need.AIM, method="measure_sugar"),),
 ))
 BRIX = {"banana": 20.0, "apple": 12.0, "tomato": 4.0}
-plain_sensors, plain_read = MujocoWorld.sensors, MujocoWorld.read_sensor
 
 
-def read(self, name):
-    if name != "spectrometer":
-        return plain_read(self, name)
-    frame = self.observe()
+def read(world):
+    frame = world.observe()
     h, w = frame.segmentation.shape
     key = int(frame.segmentation[h // 2, w // 2])
     return BRIX.get(frame.objects[key].category, math.nan) if key >= 0 else math.nan
 
 
-MujocoWorld.sensors = lambda self: plain_sensors(self) | {"spectrometer"}
-MujocoWorld.read_sensor = read
+register_reading("spectrometer", "mujoco", read)
 '''
 
 
@@ -209,11 +249,11 @@ def test_names_and_aliases_resolve_through_the_registry():
     assert all(name in unknown.value.fix for name in ("temperature", "grip", "distance"))
     assert sensor_names()[:3] == ["camera", "distance", "force"]
     with pytest.raises(ValueError, match="registered twice"):
-        register_sensor(Sensor(name="thermo", measures="", quantity="t", unit="C", aliases=("thermometer",)))
+        register_sensor(Sensor(name="thermo", measures="", aliases=("thermometer",)))
 
 
 def test_a_sensor_method_that_robot_has_already_is_refused():
-    register_sensor(Sensor(name="clash", measures="", quantity="x", unit="", method="pick_up"))
+    register_sensor(Sensor(name="clash", measures="", senses=(Sense("x", "", method="pick_up"),)))
     try:
         with pytest.raises(Exception, match="Robot has already"):
             _ = Robot.API_METHODS

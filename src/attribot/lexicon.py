@@ -2,16 +2,20 @@
 oracle backends, the catalog language backend and the simulator's catalog alike. A word added here is known
 everywhere (DESIGN.md, "One vocabulary").
 
-It sits in the bottom layer and imports nothing of attribot: the simulator paints with names from
-`COLOR_WORDS` (a test checks that every painted colour is here), and the category names and synonyms stay
-with the catalog's data in `attribot.sim.catalog`, which folds plurals with `singular_forms` from here.
+It sits in the bottom layer and imports nothing of attribot but `attribot.sensors`, beside it: the words of
+a sense (heavy, closer, hot, soft, empty, with their directions and thresholds) are held by the sense's
+record, so that a sensor a lab registers brings its words along, and read from here (`sense_words`,
+`sense_states`). The simulator paints with names from `COLOR_WORDS` (a test checks that every painted colour
+is here), and the category names and synonyms stay with the catalog's data in `attribot.sim.catalog`, which
+folds plurals with `singular_forms` from here.
 """
 
 from __future__ import annotations
 
-import operator
 import re
 from typing import Literal
+
+from attribot.sensors import State, sense_of, vocabulary
 
 __all__ = [
     "COLOR_WORDS",
@@ -31,8 +35,8 @@ __all__ = [
     "WEIGHT_PHRASES",
     "SURFACE_WORDS",
     "SURFACE_LEVELS",
-    "SENSE_WORDS",
-    "SENSE_STATES",
+    "sense_words",
+    "sense_states",
     "FUNCTION_WORDS",
     "PROPERTY_NOUNS",
     "surface_kind",
@@ -196,20 +200,39 @@ def expand_contractions(text: str) -> str:
 
 # ---- the attributes: the words that name a weight, a distance or a size, and their direction ----------
 
-WEIGHT_HEAVY: frozenset[str] = frozenset(
-    {"heaviest", "heavier", "heavy", "most heavy", "more heavy", "least lightweight", "less lightweight",
-     "least light"}
-)  # fmt: skip
-"""Words (and two-word phrases) that ask for more weight."""
-WEIGHT_LIGHT: frozenset[str] = frozenset(
-    {"lightest", "lighter", "light", "lightweight", "most lightweight", "more lightweight", "least heavy",
-     "less heavy"}
-)  # fmt: skip
+
+def sense_words(quantities: tuple[str, ...] | None = None) -> dict[str, tuple[str, bool, str]]:
+    """The words of the senses (`attribot.sensors`: each sense's record holds them), each with (its quantity:
+    weight, distance, temperature, stiffness, fullness or a lab's own; whether it asks for more of it; its
+    form: absolute "hot", comparative "hotter", superlative "hottest"), of every registered sense or of
+    `quantities`. "Less" and "least" turn the direction round ("the least warm" is the coldest); softness
+    is less stiffness.
+
+    >>> sense_words(("temperature",))["least warm"]
+    ('temperature', False, 'superlative')
+    """
+    words = vocabulary()[0]
+    return {w: v for w, v in words.items() if quantities is None or v[0] in quantities}
+
+
+def sense_states() -> dict[str, State]:
+    """What a state word of `sense_words` means, as its sense's record states it: a threshold and the
+    comparison a value in that state passes, in the sense's unit (°C, N/mm of squeeze, the share of a
+    container's capacity). The planner's programs state them, and the simulator labels its objects' states
+    with them."""
+    return vocabulary()[1]
+
+
+def _ends(quantity: str, more: bool) -> frozenset[str]:
+    return frozenset(w for w, (_, way, _) in sense_words((quantity,)).items() if way == more)
+
+
+WEIGHT_HEAVY: frozenset[str] = _ends("weight", True)
+"""Words (and two-word phrases) that ask for more weight: the weight sense's (`attribot.sensors.builtin`)."""
+WEIGHT_LIGHT: frozenset[str] = _ends("weight", False)
 """Words that ask for less weight."""
-NEAR_WORDS: frozenset[str] = frozenset({"closer", "closest", "nearer", "nearest"})
-FAR_WORDS: frozenset[str] = frozenset(
-    {"farther", "farthest", "further", "furthest", "more distant", "most distant"}
-)
+NEAR_WORDS: frozenset[str] = _ends("distance", False)
+FAR_WORDS: frozenset[str] = _ends("distance", True)
 WEIGHT_PHRASES = (
     r"weighs?\s+(?:the\s+)?(?:most|least|more|less)"
     r"|(?:greatest|highest|largest|biggest|most|more|lowest|smallest|least|less)\s+(?:weight|mass)"
@@ -238,92 +261,23 @@ SIZE_COMPARATIVES: dict[str, str] = {
 }  # fmt: skip
 
 
-def _sense(
-    attribute: str, more: bool, absolute: str, comparative: str, superlative: str
-) -> dict[str, tuple[str, bool, str]]:
-    return {
-        absolute: (attribute, more, "absolute"),
-        comparative: (attribute, more, "comparative"),
-        superlative: (attribute, more, "superlative"),
-        f"more {absolute}": (attribute, more, "comparative"),
-        f"most {absolute}": (attribute, more, "superlative"),
-        f"less {absolute}": (attribute, not more, "comparative"),
-        f"least {absolute}": (attribute, not more, "superlative"),
-    }
-
-
-SENSE_WORDS: dict[str, tuple[str, bool, str]] = {
-    **_sense("temperature", True, "hot", "hotter", "hottest"),
-    **_sense("temperature", True, "warm", "warmer", "warmest"),
-    **_sense("temperature", False, "cold", "colder", "coldest"),
-    **_sense("temperature", False, "cool", "cooler", "coolest"),
-    "chilled": ("temperature", False, "absolute"),
-    "boiling": ("temperature", True, "absolute"),
-    **_sense("stiffness", True, "hard", "harder", "hardest"),
-    **_sense("stiffness", True, "firm", "firmer", "firmest"),
-    **_sense("stiffness", True, "stiff", "stiffer", "stiffest"),
-    "rigid": ("stiffness", True, "absolute"),
-    "more rigid": ("stiffness", True, "comparative"),
-    "most rigid": ("stiffness", True, "superlative"),
-    **_sense("stiffness", False, "soft", "softer", "softest"),
-    **_sense("stiffness", False, "squishy", "squishier", "squishiest"),
-    **_sense("stiffness", False, "squashy", "squashier", "squashiest"),
-    "spongy": ("stiffness", False, "absolute"),
-    **_sense("fullness", True, "full", "fuller", "fullest"),
-    "filled": ("fullness", True, "absolute"),
-    **_sense("fullness", False, "empty", "emptier", "emptiest"),
-}
-"""The words of the senses beyond the paper's, each with (its attribute: temperature, stiffness or
-fullness; whether it asks for more of it; its form: absolute "hot", comparative "hotter", superlative
-"hottest"). "Less" and "least" turn the direction round ("the least warm" is the coldest); softness is less
-stiffness."""
-
-SENSE_STATES: dict[str, tuple[float, str]] = {
-    "hot": (40.0, ">="),
-    "boiling": (90.0, ">="),
-    "warm": (30.0, ">="),
-    "cold": (12.0, "<="),
-    "chilled": (12.0, "<="),
-    "cool": (18.0, "<="),
-    "hard": (5.0, ">="),
-    "rigid": (5.0, ">="),
-    "firm": (1.0, ">="),
-    "stiff": (1.0, ">="),
-    "soft": (1.0, "<"),
-    "squishy": (1.0, "<"),
-    "squashy": (1.0, "<"),
-    "spongy": (1.0, "<"),
-    "full": (0.5, ">"),
-    "filled": (0.5, ">"),
-    "empty": (0.5, "<"),
-}
-"""What a state word of `SENSE_WORDS` means: (the threshold, the comparison a value in that state passes), in
-the sense's unit (°C, N/mm of squeeze, the share of a container's capacity). The one place these thresholds
-live: the planner's programs state them, and the simulator labels its objects' states with them."""
-
-_COMPARISONS = {">=": operator.ge, ">": operator.gt, "<=": operator.le, "<": operator.lt}
-
-
 def state_holds(word: str, value: float) -> bool:
-    """Whether `value` (in the sense's unit) is in the state `word` of `SENSE_STATES`.
+    """Whether `value` (in the sense's unit) is in the state `word` of `sense_states`.
 
     >>> state_holds("cold", 19.99), state_holds("cold", 12.0)
     (False, True)
     """
-    threshold, comparison = SENSE_STATES[word]
-    return bool(_COMPARISONS[comparison](value, threshold))
+    return sense_states()[word].holds(value)
 
 
 def temperature_state(celsius: float) -> str:
-    """The word for a temperature: "hot", "warm", "cold" or "cool" by `SENSE_STATES`, "room" otherwise.
+    """The word for a temperature: "hot", "warm", "cold" or "cool" by its sense's states, "room" otherwise.
 
     >>> temperature_state(85.0), temperature_state(19.99), temperature_state(4.0)
     ('hot', 'room', 'cold')
     """
-    for word in ("hot", "warm", "cold", "cool"):
-        if state_holds(word, celsius):
-            return word
-    return "room"
+    found = sense_of("temperature")
+    return "room" if found is None else found[1].grade(celsius)
 
 
 _CONTENTS = r"(?:anything|something|stuff|water|coffee|tea|juice|milk|soda|liquid|drink)"

@@ -195,19 +195,18 @@ def build_paper_prompt(
     docstring), for a robot with `sensors`; `embodied` and `findable` as in `build_prompt`."""
     text = _query_text(query)
     have = check_sensors(sensors)
-    extras = []
-    for name in have:
-        sensor = SENSORS.get(name)
-        if sensor.method is not None:
-            extras.append(
-                {
-                    "method": sensor.method,
-                    "sensor": name,
-                    "quantity": sensor.quantity,
-                    "unit": sensor.unit,
-                    "needs": str(sensor.needs),
-                }
-            )
+    extras = [  # the senses read through read_sensor: the paper's own (distance, weight) are in the template
+        {
+            "method": sense.method,
+            "sensor": sensor.name,
+            "quantity": sense.quantity,
+            "unit": sense.unit,
+            "needs": str(sense.needs),
+        }
+        for sensor in map(SENSORS.get, have)
+        if sensor.capability is None
+        for sense in sensor.senses
+    ]
     aliases = {name: (SENSORS.get(name).aliases or (name,))[0] for name in have}
     return (
         _environment()

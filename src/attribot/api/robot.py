@@ -32,13 +32,15 @@ from attribot.frame import CameraInfo
 from attribot.lexicon import GENERIC_NOUNS
 from attribot.models.base import Detection
 from attribot.sensors import (
-    SENSORS,
     Need,
+    Sense,
     Sensor,
     check_sensors,
+    sense_of,
+    sense_of_method,
+    senses,
     sensor_method_doc,
     sensor_names,
-    sensor_of_method,
 )
 from attribot.sim.catalog import categories, find_category
 
@@ -64,16 +66,11 @@ class Measurement(BaseModel):
     method: str = ""  # the Robot method that measured it: how `settle` measures again
 
     def reading(self) -> str:
-        """The value as a person reads it: "0.308 kg (3.02 N)", "1.211 m", "84.6 °C", "95% full"."""
-        if self.unit == "kg" and self.newtons is not None:
-            return f"{self.value:.3f} kg ({self.newtons:.2f} N)"
-        if self.unit == FULL:
-            return f"{100 * self.value:.0f}% full"
-        if self.unit == "°C":
-            return f"{self.value:.1f} °C"
-        if self.unit == "N/mm":
-            return f"{self.value:.2f} N/mm"
-        return f"{self.value:.3f} {self.unit}"
+        """The value as a person reads it, as its sense shows it (`attribot.sensors.Sense.show`): "0.308 kg
+        (3.02 N)", "1.211 m", "84.6 °C", "95% full"."""
+        found = sense_of(self.kind)
+        shown = found[1].show(self.value) if found is not None else f"{self.value:.3f} {self.unit}"
+        return shown if self.newtons is None or self.kind != "weight" else f"{shown} ({self.newtons:.2f} N)"
 
     def describe(self) -> str:
         """The object and its value: "mug 0: 0.308 kg (3.02 N)"."""
@@ -87,27 +84,36 @@ def object_name(object_id: str | None, label: str | None) -> str:
     return label or "the object"
 
 
-FULL = "full"
+def _own_sense(quantity: str) -> Sense:
+    """The record of a sense whose methods Robot defines itself (distance, weight, fullness)."""
+    found = sense_of(quantity)
+    assert found is not None, f"the built-in {quantity} sense is registered (attribot.sensors.builtin)"
+    return found[1]
+
+
+FULL = _own_sense("fullness").unit
 """The unit of a fullness: the share of a container's capacity its contents fill (0 empty, 1 full)."""
 
 _DOING = {
     "focus_on_patch": "turning the camera to",
-    "measure_distance": "measuring the distance to",
-    "measure_weight": "weighing",
-    "measure_fullness": "weighing",
-    "measure_temperature": "taking the temperature of",
-    "measure_stiffness": "squeezing",
     "go_to_object": "driving to",
     "pick_up": "picking up",
     "put_on": "putting the held object on",
     "push": "pushing",
 }
-"""What an episode video's caption says a robot method is doing, before the object's name."""
+"""What an episode video's caption says a robot method is doing, before the object's name (a sense's
+method: its record's `doing`)."""
+
+
+def _doing(method: str) -> str:
+    found = sense_of_method(method)
+    return found[1].doing or method if found is not None else _DOING.get(method, method)
 
 
 class _RobotApi(type):
-    """The metaclass of `Robot`: a program's Robot methods are its own (`OWN_METHODS`) and one per registered
-    sensor that names a method (`attribot.sensors.Sensor.method`), read from the registry whenever they are
+    """The metaclass of `Robot`: a program's Robot methods are its own (`OWN_METHODS`, which include the
+    senses of the camera's, the rangefinder's and the force sensor's records) and one per registered sense
+    read through `read_sensor` (`attribot.sensors.Sense.method`), read from the registry whenever they are
     asked for, so that a sensor registered later (a lab's own) is offered like the built-in ones."""
 
     @property
@@ -129,8 +135,8 @@ class _RobotApi(type):
     def REQUIRES(cls) -> dict[str, str]:
         """The sensor each method needs (methods not listed need none); the prompt offers a method only
         when the robot has its sensor."""
-        sensors = {m: s.name for m in _install_sensor_methods() if (s := sensor_of_method(m)) is not None}
-        return {**Robot.OWN_REQUIRES, **sensors}
+        _install_sensor_methods()
+        return {**Robot.OWN_REQUIRES, **{sense.method: sensor.name for sensor, sense in senses()}}
 
 
 class Robot(metaclass=_RobotApi):
@@ -154,12 +160,8 @@ class Robot(metaclass=_RobotApi):
         "push",
     )
     """The methods the class defines itself; `API_METHODS` adds the sensors' (see `_RobotApi`)."""
-    OWN_REQUIRES: ClassVar[dict[str, str]] = {
-        "focus_on_patch": "camera",
-        "measure_distance": "distance",
-        "measure_weight": "force",
-        "measure_fullness": "force",
-    }
+    OWN_REQUIRES: ClassVar[dict[str, str]] = {"focus_on_patch": "camera"}
+    """The sensor each of its own methods needs beyond the senses' (each sense's method needs its sensor)."""
     HOST_ATTRIBUTES: ClassVar[tuple[str, ...]] = (
         "world",
         "controller",
@@ -189,14 +191,15 @@ class Robot(metaclass=_RobotApi):
 
     FOCUS_CORRECTIONS: ClassVar[int] = 3
     FOCUS_TOL_PX: ClassVar[float] = 1.5
-    FORCE_SAMPLES: ClassVar[int] = 10
+    # the readings a measurement combines and the least uncertainty it claims: the senses' records
+    FORCE_SAMPLES: ClassVar[int] = _own_sense("weight").readings
     FORCE_SAMPLE_S: ClassVar[float] = 0.05
     FORCE_MAX_SAMPLES: ClassVar[int] = 40  # re-measuring: until the standard error is small, at most this
-    FORCE_RESOLUTION_N: ClassVar[float] = 0.02  # the least uncertainty a weighing claims
-    RANGE_READINGS: ClassVar[int] = 5
+    FORCE_RESOLUTION_N: ClassVar[float] = round(_own_sense("weight").resolution * GRAVITY, 9)
+    RANGE_READINGS: ClassVar[int] = _own_sense("distance").readings
     NEARER_VISITS: ClassVar[int] = 2  # look_harder: places driven nearer to for one find, at most
     NEARER_M: ClassVar[float] = 0.9  # ...and how far from them it stops to look
-    RANGE_RESOLUTION_M: ClassVar[float] = 0.003
+    RANGE_RESOLUTION_M: ClassVar[float] = _own_sense("distance").resolution
     BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
     GRASP_TRIES: ClassVar[int] = 4
     GRIPPER_EMPTY_M: ClassVar[float] = 0.0003  # fingers closer than this hold nothing
@@ -367,7 +370,7 @@ class Robot(metaclass=_RobotApi):
                 self.safeguards.note("confidence", call, "unsettled", text)
                 return text
             for _value, _error, patch in [me, *close]:
-                self._measure_again(last.method or _METHOD_OF_KIND.get(kind, ""), patch)
+                self._measure_again(last.method or _own_sense(kind).method, patch)
         return None
 
     def _combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
@@ -390,8 +393,8 @@ class Robot(metaclass=_RobotApi):
 
     def _measure_again(self, method: str, patch: ImagePatch) -> None:
         """Measure `patch` again with `method`, arranging first what its reading needs."""
-        sensor = sensor_of_method(method)
-        needs = sensor.needs if sensor is not None else _NEEDS.get(method, Need.NOTHING)
+        found = sense_of_method(method)
+        needs = found[1].needs if found is not None else Need.NOTHING
         measure = getattr(self, method)
         if needs is Need.GRASP:
             if self.held is not None:
@@ -524,7 +527,7 @@ class Robot(metaclass=_RobotApi):
             patch = _one_of(patch, method)  # the list find returned, as the paper's prompt passes it
         p = check_patch(patch, ImagePatch, "patch", method)
         self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
-        self.activity = f"{_DOING.get(method, method)} {self.acting_on}"
+        self.activity = f"{_doing(method)} {self.acting_on}"
         if p.label and (not self._acted_on or self._acted_on[-1] is not p):
             self._acted_on.append(p)
         target = p.target()
@@ -813,56 +816,56 @@ class Robot(metaclass=_RobotApi):
         )
         return value
 
-    def _sense(self, sensor: Sensor, patch: ImagePatch) -> float:
+    def _sense(self, sensor: Sensor, sense: Sense, patch: ImagePatch) -> float:
         """A reading of a registered sensor through its method: checks the sensor, the object and what the
         reading needs, then reads (several readings with `remeasure`) and records the measurement."""
-        method = str(sensor.method)
+        method = sense.method
         self._need(method)
         p, target = self._target(patch, method)
         assert self.world is not None  # _target checked it
         arrange = self._arranging
-        if sensor.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)) and arrange:
+        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)) and arrange:
             self._focus(p, target)
-        elif sensor.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
+        elif sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
             self.go_to_object(p)
-        if sensor.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
+        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
             raise PreconditionError(
                 f"robot.{method}() reads whatever the camera is centred on, and it is not centred on "
                 f"{target.describe()}",
                 f"call robot.focus_on_patch(patch) right before robot.{method}(patch)",
             )
-        if sensor.needs is Need.REACH and (self._near is None or not self._near.same_object(p)):
+        if sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)):
             raise PreconditionError(
                 f"robot.{method}() needs the robot next to {target.describe()}",
                 f"call robot.go_to_object(patch) right before robot.{method}(patch)",
             )
-        if sensor.needs is Need.GRASP:
+        if sense.needs is Need.GRASP:
             self._held_for(p, target, method)
-        value, spread, count = self._read_sensor(sensor, p)
+        value, spread, count = self._read_sensor(sensor, sense, p)
         self._record(
             p,
-            kind=sensor.quantity,
+            kind=sense.quantity,
             value=value,
-            unit=sensor.unit,
+            unit=sense.unit,
             samples=count,
             uncertainty=spread,
             method=method,
         )
         return value
 
-    def _read_sensor(self, sensor: Sensor, p: ImagePatch) -> tuple[float, float, int]:
+    def _read_sensor(self, sensor: Sensor, sense: Sense, p: ImagePatch) -> tuple[float, float, int]:
         """The sensor's reading of `p`: (value, one standard deviation, readings used). With `remeasure`,
-        `sensor.readings` readings are combined (the ones that read nothing left out)."""
+        `sense.readings` readings are combined (the ones that read nothing left out)."""
         assert self.world is not None
         guards = self.safeguards
-        count = sensor.readings if guards.on("remeasure") else 1
-        call = f"{sensor.method}({p.label or 'patch'})"
+        count = sense.readings if guards.on("remeasure") else 1
+        call = f"{sense.method}({p.label or 'patch'})"
         readings = []
         for i in range(count):
             value = float(self.world.read_sensor(sensor.name))
             if math.isfinite(value):
                 readings.append(value)
-            if count > 1 and i + 1 < count and sensor.needs is not Need.GRASP:
+            if count > 1 and i + 1 < count and sense.needs is not Need.GRASP:
                 self.world.step(0.02)
         if count > 1:
             empty = count - len(readings)
@@ -872,13 +875,11 @@ class Robot(metaclass=_RobotApi):
         if not readings:
             raise ActionFailed(
                 f"the {sensor.name} sensor read nothing from {p.label or 'the object'}",
-                "check what the reading needs ("
-                + str(sensor.needs)
-                + "), or compare the objects another way",
+                "check what the reading needs (" + str(sense.needs) + "), or compare the objects another way",
             )
         mean = sum(readings) / len(readings)
         spread = _std(readings) / math.sqrt(len(readings)) if len(readings) > 1 else 0.0
-        return mean, max(spread, sensor.resolution, sensor.relative * abs(mean)), len(readings)
+        return mean, max(spread, sense.resolution, sense.relative * abs(mean)), len(readings)
 
     def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
         """The held load in newtons, its standard error and the readings used. A short window is averaged
@@ -1182,60 +1183,53 @@ for _name in Robot.OWN_METHODS:
     setattr(_RobotWithSensors, _name, _through_view(_name))
 
 
-def _sensor_method(sensor: Sensor) -> Callable[..., float]:
-    """The Robot method a program calls to read `sensor` (`robot.measure_temperature(patch)`), documented
-    by the sensor's own docstring; what it does is `Robot._sense`."""
+def _sensor_method(sensor: Sensor, sense: Sense) -> Callable[..., float]:
+    """The Robot method a program calls to read `sense` (`robot.measure_temperature(patch)`), documented by
+    the sense's own docstring; what it does is `Robot._sense`."""
 
     def method(self: Robot, patch: ImagePatch) -> float:
-        return self._sense(sensor, patch)
+        return self._sense(sensor, sense, patch)
 
-    method.__name__ = method.__qualname__ = str(sensor.method)
-    method.__doc__ = sensor_method_doc(sensor)
+    method.__name__ = method.__qualname__ = sense.method
+    method.__doc__ = sensor_method_doc(sensor, sense)
     method.__annotations__ = {"patch": "ImagePatch", "return": "float"}
     method.sensor_name = sensor.name  # type: ignore[attr-defined]
+    method.sense = sense  # type: ignore[attr-defined]
     return method
 
 
 def _install_sensor_methods() -> list[str]:
-    """Give Robot (and the view a program's `Robot(sensors=...)` makes) a method for each registered sensor
-    that names one, once; the names, in the registry's order. A sensor whose method name Robot has already
-    (a method, an attribute) is a `ConfigError`."""
+    """Give Robot (and the view a program's `Robot(sensors=...)` makes) a method for each registered sense
+    read through `read_sensor` (the senses of a sensor with a `capability` have Robot's own methods), once;
+    the names, in the registry's order. A sense whose method name Robot has already (a method, an
+    attribute) is a `ConfigError`."""
     names = []
+    current = {sense.method: sense for sensor, sense in senses() if sensor.capability is None}
     for cls in (Robot, _RobotWithSensors):  # a sensor taken out of the registry takes its method along
         for name, value in list(vars(cls).items()):
-            owner = getattr(value, "sensor_name", None)
-            if owner is not None and (owner not in SENSORS or SENSORS.get(owner).method != name):
+            if getattr(value, "sensor_name", None) is not None and current.get(name) is not value.sense:
                 delattr(cls, name)
-    for _, sensor in SENSORS.items():
-        if sensor.method is None:
+    for sensor, sense in senses():
+        if sensor.capability is not None:
             continue
-        have = Robot.__dict__.get(sensor.method)
+        have = Robot.__dict__.get(sense.method)
         # a robot's own attribute (robot.held) or anything the class has by inheritance is taken too
-        taken = sensor.method in (*Robot.HOST_ATTRIBUTES, *Robot.API_ATTRIBUTES) or (
-            have is None and hasattr(Robot, sensor.method)
+        taken = sense.method in (*Robot.HOST_ATTRIBUTES, *Robot.API_ATTRIBUTES) or (
+            have is None and hasattr(Robot, sense.method)
         )
         if have is None and not taken:
-            setattr(Robot, sensor.method, _sensor_method(sensor))
-            view = _through_view(sensor.method)
-            view.sensor_name = sensor.name
-            setattr(_RobotWithSensors, sensor.method, view)
+            setattr(Robot, sense.method, _sensor_method(sensor, sense))
+            view = _through_view(sense.method)
+            view.sensor_name, view.sense = sensor.name, sense
+            setattr(_RobotWithSensors, sense.method, view)
         elif taken or getattr(have, "sensor_name", None) != sensor.name:
             raise ConfigError(
-                f"the {sensor.name} sensor names its method robot.{sensor.method}, which Robot has already",
-                "give the sensor another method name (Sensor(method=...))",
+                f"the {sensor.name} sensor names its method robot.{sense.method}, which Robot has already",
+                "give the sense another method name (Sense(method=...))",
             )
-        names.append(sensor.method)
+        names.append(sense.method)
     return names
 
-
-_METHOD_OF_KIND = {"distance": "measure_distance", "weight": "measure_weight", "fullness": "measure_fullness"}
-"""The method behind a measurement of the robot's own kinds (for measurements recorded without one)."""
-_NEEDS = {
-    "measure_distance": Need.AIM,
-    "measure_weight": Need.GRASP,
-    "measure_fullness": Need.GRASP,
-}
-"""What the robot's own measurements need (a sensor's method says it in its record)."""
 
 _SAME_BOX = 0.5
 """Two boxes of one image that overlap this much (IoU) show one object: a name and a patch found under

@@ -17,7 +17,7 @@ from attribot.control.body import BodyGeometry
 from attribot.errors import UnsupportedAction
 from attribot.frame import CameraInfo, Frame
 from attribot.registry import Registry
-from attribot.sensors import SENSORS
+from attribot.sensors import SENSORS, reading_in, sensors_read_in
 
 __all__ = ["Capability", "Pose2D", "Embodiment", "EMBODIMENTS", "UnsupportedAction"]
 
@@ -54,10 +54,10 @@ class Embodiment:
 
     def sensors(self) -> frozenset[str]:
         """The names of the sensors (`attribot.sensors.SENSORS`) this world offers a robot: by default those
-        read through a capability it has (camera, distance, force); a world with more reads them in
-        `read_sensor` and lists them here."""
+        read through a capability it has (camera, distance, force) and those it has a registered reading of
+        (`attribot.sensors.register_reading` under its `name`)."""
         caps = {str(c) for c in self.capabilities()}
-        return frozenset(
+        return sensors_read_in(self.name) | frozenset(
             name for name, s in SENSORS.items() if s.capability is not None and s.capability in caps
         )
 
@@ -126,7 +126,11 @@ class Embodiment:
     def read_sensor(self, name: str) -> float:
         """One reading of the sensor `name` (one `sensors()` lists beyond the camera, rangefinder and force
         sensor), in the sensor's unit; what the reading needs (the camera centred on the object, the object
-        in the gripper) is the caller's to arrange."""
+        in the gripper) is the caller's to arrange. By default: the reading registered for this world
+        (`attribot.sensors.register_reading`)."""
+        read = reading_in(self.name, name)
+        if read is not None:
+            return float(read(self))
         raise UnsupportedAction(
             f"{self.name} cannot read a {name} sensor: it has none",
             f"its sensors: {', '.join(sorted(self.sensors())) or 'none'}",

@@ -14,7 +14,6 @@ the EP's bridge driver does.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -24,17 +23,12 @@ from attribot.control.body import BodyGeometry
 from attribot.embodiments import mujoco_control  # noqa: F401  (registers this world's controller)
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
+from attribot.sensors import register_reading
 from attribot.sim.robot import GEOMETRY
 from attribot.sim.robot_ep import EP
 from attribot.sim.world import SceneInfo, SimWorld
 
 __all__ = ["MujocoWorld"]
-
-_READINGS: dict[str, Callable[[SimWorld], float]] = {
-    "temperature": SimWorld.read_temperature,
-    "grip": SimWorld.squeeze,  # needs the object held: NaN (nothing read) with an empty gripper
-}
-"""The sensors this world reads beyond its capabilities' own calls, by `attribot.sensors` name."""
 
 
 @EMBODIMENTS.register("mujoco", aliases=("sim",))
@@ -54,15 +48,6 @@ class MujocoWorld(Embodiment):
         if self.sim.robot == "ep":
             return frozenset(Capability) - {Capability.HEAD, Capability.DEPTH}
         return frozenset(Capability)
-
-    def sensors(self) -> frozenset[str]:
-        return super().sensors() | set(_READINGS)
-
-    def read_sensor(self, name: str) -> float:
-        reading = _READINGS.get(name)
-        if reading is None:
-            return super().read_sensor(name)
-        return reading(self.sim)
 
     # camera
     def observe(self) -> Frame:
@@ -142,3 +127,8 @@ class MujocoWorld(Embodiment):
 
     def close(self) -> None:
         self.sim.close()
+
+
+# the sensors this world reads beyond its capabilities' own calls (`attribot.sensors`)
+register_reading("temperature", MujocoWorld.name, lambda world: world.sim.read_temperature())
+register_reading("grip", MujocoWorld.name, lambda world: world.sim.squeeze())  # NaN with an empty gripper

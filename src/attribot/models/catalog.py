@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING
 
 from attribot.errors import ConfigError, InputError
 from attribot.lexicon import (
-    SENSE_WORDS,
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
@@ -40,6 +39,7 @@ from attribot.lexicon import (
     WEIGHT_LIGHT,
     WEIGHT_PHRASES,
     paraphrased,
+    sense_words,
     singular_forms,
     words,
 )
@@ -72,9 +72,9 @@ _SIZE_WORDS = [
     )
     for direction in (True, False)
 ]
-_SENSES = {
+_SENSES = {  # the senses the catalog's data spans (`_interval`), in their records' words
     attribute: [
-        (_alternatives(w for w, (a, more, _) in SENSE_WORDS.items() if a == attribute and more == up), sign)
+        (_alternatives(w for w, (_, more, _) in sense_words((attribute,)).items() if more == up), sign)
         for up, sign in ((True, +1), (False, -1))
     ]
     for attribute in ("temperature", "stiffness", "fullness")

@@ -1,39 +1,59 @@
 """Sensor plug-ins: what a robot can be given (`--sensors`, `Robot(sensors=[...])`), as registered records.
 
 A `Sensor` says what it is called (its name and the paper-style names it answers to: "distance sensor",
-"force/torque sensor"), what it measures and in what unit, what a reading needs (nothing, the camera centred
-on the object, the robot next to it, the object in the gripper) and how the layers above reach it:
+"force/torque sensor") and what it settles: one `Sense` per quantity it measures (the force sensor settles
+weight and, weighing a container, fullness). A sense is the one record of everything attribot knows of a
+quantity:
 
-- a world offers it in `Embodiment.sensors()` and reads it with `Embodiment.read_sensor(name)` (the camera,
-  the rangefinder and the force sensor keep their own calls, named by `capability`);
-- the bridge carries the names in the robot's hello and each reading with the `read` request;
-- the API gives a program the sensor's `method` (e.g. `robot.measure_temperature(patch)`), documented by
-  `doc`, checking what the reading needs before it reads; the prompt shows the method only when the robot
-  has the sensor.
+- what a reading is (its unit, how many readings one measurement combines, the least uncertainty it
+  claims) and what it needs (nothing, the camera centred on the object, the robot next to it, the object in
+  the gripper);
+- the Robot method a program calls (`robot.measure_temperature(patch)`), documented by `doc`; the prompt
+  shows the method only when the robot has the sensor;
+- the words people say it with, read by every planner and backend through `attribot.lexicon`: adjectives
+  each way ("hot", "hotter", "hottest"), the states they name with their thresholds ("hot" is 40 °C or
+  more), the nouns of the quantity ("the temperature of the mug"), why the camera cannot settle it, and
+  how a caption says a robot is taking it.
 
-A lab adds its own sensor with one `register_sensor(Sensor(...))` and a world that reads it; nothing else
-changes. This is the bottom layer: it imports nothing of attribot above the registry.
+Each world registers how it reads a sensor (`register_reading(sensor, world, read)`): it then offers the
+sensor (`Embodiment.sensors()`) and reads it (`Embodiment.read_sensor(name)`); the camera, the rangefinder
+and the force sensor are read through the world's own calls, named by `capability`. The bridge carries the
+names in the robot's hello and each reading with the `read` request.
+
+A lab adds its own sensor with one `register_sensor(Sensor(...))` and one `register_reading(...)` per world;
+nothing else changes. This is the bottom layer: it imports nothing of attribot above the registry.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+import functools
+import operator
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from attribot.errors import BadPlugin, InputError
 from attribot.registry import Registry
 
 __all__ = [
     "Need",
+    "State",
+    "Sense",
     "Sensor",
     "SENSORS",
     "SENSOR_BUNDLES",
     "register_sensor",
+    "register_reading",
+    "reading_in",
+    "sensors_read_in",
     "sensor_names",
     "check_sensors",
-    "sensor_of_method",
+    "senses",
+    "sense_of",
+    "sense_of_method",
     "sensor_method_doc",
+    "vocabulary",
 ]
 
 
@@ -46,32 +66,175 @@ class Need(StrEnum):
     GRASP = "grasp"  # the object in the gripper (robot.pick_up): a load cell, a squeeze
 
 
-@dataclass(frozen=True)
-class Sensor:
-    """One kind of sensor a robot may carry (see the module docstring).
+_COMPARISONS: dict[str, Callable[[float, float], bool]] = {
+    ">=": operator.ge,
+    ">": operator.gt,
+    "<=": operator.le,
+    "<": operator.lt,
+}
 
-    name: what `--sensors` takes; measures: one line for the prompt ("an infrared thermometer ..."); quantity
-    and unit: what a reading is ("temperature", "°C"); aliases: other names it answers to; needs: what a
-    reading needs; method: the Robot method a program calls (None: the API defines its own methods for it,
-    as for the camera, distance and force); doc: that method's docstring, written for the LLM, with its
-    preconditions and a `>>> def execute_command(image, robot):` example (empty: one is written from the
-    fields); readings: how many readings one measurement combines (with `remeasure`); resolution and
-    relative: the least uncertainty a measurement claims, in `unit` and as a share of the value;
-    capability: the `attribot.embodiments.base.Capability` of a world that reads it through its own call
-    (None: through `read_sensor(name)`).
+
+@dataclass(frozen=True)
+class State:
+    """What a state word means: a value (in the sense's unit) is in the state `word` when it passes
+    `comparison` against `threshold` ("hot": >= 40.0 °C)."""
+
+    word: str
+    threshold: float
+    comparison: str
+
+    def __post_init__(self) -> None:
+        if self.comparison not in _COMPARISONS or not isinstance(self.word, str) or not _key(self.word):
+            raise BadPlugin(
+                f"state {self.word!r}: a word and one of {', '.join(_COMPARISONS)}",
+                "e.g. State('hot', 40.0, '>=')",
+            )
+
+    def holds(self, value: float) -> bool:
+        """Whether `value` is in this state."""
+        return bool(_COMPARISONS[self.comparison](value, self.threshold))
+
+
+@dataclass(frozen=True)
+class Sense:
+    """One quantity a sensor settles, and how people speak of it (see the module docstring).
+
+    quantity and unit: what a reading is ("temperature", "°C"); method: the Robot method a program calls
+    (default `measure_<quantity>`); needs: what a reading needs; doc: that method's docstring, written for
+    the LLM, with its preconditions and a `>>> def execute_command(image, robot):` example (empty: one is
+    written from the fields); readings: how many readings one measurement combines (with `remeasure`);
+    resolution and relative: the least uncertainty a measurement claims, in `unit` and as a share of the
+    value.
+
+    The words: more and less, the adjectives asking for more or less of it, each "absolute/comparative/
+    superlative" ("hot/hotter/hottest"; a form may be left empty, "/closer/closest"; one word alone is an
+    absolute only, "chilled"); states, what its absolute words mean as thresholds; grades, the state words a
+    value is named by on its own, tried in order (ungraded: the word when none holds, "room"); nouns, the
+    quantity's nouns ("temperature"); why, why the camera cannot settle it; doing, what a caption says a
+    robot measuring it is doing, before the object's name. digits, scale and suffix: how a value is shown
+    (`show`).
     """
 
-    name: str
-    measures: str
     quantity: str
     unit: str
-    aliases: tuple[str, ...] = ()
+    method: str = ""
     needs: Need = Need.NOTHING
-    method: str | None = None
     doc: str = ""
     readings: int = 5
     resolution: float = 0.0
     relative: float = 0.0
+    more: tuple[str, ...] = ()
+    less: tuple[str, ...] = ()
+    states: tuple[State, ...] = ()
+    grades: tuple[str, ...] = ()
+    ungraded: str = ""
+    nouns: tuple[str, ...] = ()
+    why: str = ""
+    doing: str = ""
+    digits: int = 3
+    scale: float = 1.0
+    suffix: str | None = None  # None: a space and the unit
+    words: dict[str, tuple[bool, str]] = field(init=False, repr=False, compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.quantity, str) or not _key(self.quantity) or not isinstance(self.unit, str):
+            raise BadPlugin(
+                f"a sense needs a quantity and a unit, got {self.quantity!r} in {self.unit!r}",
+                "e.g. Sense(quantity='sugar content', unit='°Bx')",
+            )
+        if not self.method:
+            object.__setattr__(self, "method", "measure_" + "_".join(_key(self.quantity).split()))
+        if not isinstance(self.method, str) or not self.method.isidentifier() or self.method.startswith("_"):
+            raise BadPlugin(
+                f"sense {self.quantity!r}: {self.method!r} cannot be a method's name (a program may call no "
+                "name that starts with _)",
+                "name its method in lower-case words joined by _, e.g. method='measure_sugar'",
+            )
+        if self.readings < 1 or not self.resolution >= 0 or not 0 <= self.relative < 1 or self.digits < 0:
+            raise BadPlugin(
+                f"sense {self.quantity!r}: readings >= 1, resolution >= 0, 0 <= relative < 1, digits >= 0",
+                "give readings, resolution, relative and digits within those bounds",
+            )
+        for group in ("more", "less", "nouns", "grades"):
+            value = getattr(self, group)
+            if not isinstance(value, tuple) or not all(isinstance(w, str) and w.strip() for w in value):
+                raise BadPlugin(
+                    f"sense {self.quantity!r}: {group} must be a tuple of words",
+                    "e.g. more=('hot/hotter/hottest',)",
+                )
+        states = {s.word for s in self.states if isinstance(s, State)}
+        if len(states) != len(self.states) or not set(self.grades) <= states:
+            raise BadPlugin(
+                f"sense {self.quantity!r}: states must be State records with distinct words, and grades "
+                "words among them",
+                "e.g. states=(State('hot', 40.0, '>='),), grades=('hot',)",
+            )
+        words = {**_degrees(self.more, True), **_degrees(self.less, False)}
+        if not states <= {w for w, (_, form) in words.items() if form == "absolute"}:
+            raise BadPlugin(
+                f"sense {self.quantity!r}: a state is said with one of its absolute words (more or less)",
+                "add the state's word to more or less",
+            )
+        object.__setattr__(self, "words", words)
+
+    def state(self, word: str) -> State | None:
+        """The state `word` names, or None."""
+        return next((s for s in self.states if s.word == word), None)
+
+    def grade(self, value: float) -> str:
+        """The word for `value` on its own: the first of `grades` whose state holds, else `ungraded`."""
+        for word in self.grades:
+            state = self.state(word)
+            if state is not None and state.holds(value):
+                return word
+        return self.ungraded
+
+    def show(self, value: float) -> str:
+        """`value` as a person reads it: "84.6 °C", "0.25 N/mm", "95% full"."""
+        suffix = f" {self.unit}" if self.suffix is None else self.suffix
+        return f"{self.scale * value:.{self.digits}f}{suffix}"
+
+
+def _degrees(entries: tuple[str, ...], more: bool) -> dict[str, tuple[bool, str]]:
+    """The words of `entries` ("hot/hotter/hottest", "chilled") with (asks for more, form); an adjective
+    with all three forms also takes "more", "most", "less" and "least" ("the least hot" is the coldest)."""
+    out: dict[str, tuple[bool, str]] = {}
+    for entry in entries:
+        forms = [" ".join(f.split()) for f in entry.lower().split("/")]
+        if len(forms) not in (1, 3):
+            raise BadPlugin(
+                f"{entry!r}: one word, or its three forms 'absolute/comparative/superlative'",
+                "e.g. 'hot/hotter/hottest', '/closer/closest' or 'chilled'",
+            )
+        for word, form in zip(forms, ("absolute", "comparative", "superlative"), strict=False):
+            if word:
+                out[word] = (more, form)
+        absolute = forms[0]
+        if len(forms) == 3 and absolute:
+            for modifier, form, way in (
+                ("more", "comparative", more),
+                ("most", "superlative", more),
+                ("less", "comparative", not more),
+                ("least", "superlative", not more),
+            ):
+                out.setdefault(f"{modifier} {absolute}", (way, form))
+    return out
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One kind of sensor a robot may carry (see the module docstring).
+
+    name: what `--sensors` takes; measures: one line for the prompt ("an infrared thermometer ...");
+    aliases: other names it answers to; senses: the quantities it settles; capability: the
+    `attribot.embodiments.base.Capability` of a world that reads it through its own call (the API defines
+    its senses' methods itself), None: through `read_sensor(name)` and a registered reading.
+    """
+
+    name: str
+    measures: str
+    aliases: tuple[str, ...] = ()
+    senses: tuple[Sense, ...] = ()
     capability: str | None = None
 
     def __post_init__(self) -> None:
@@ -79,24 +242,16 @@ class Sensor:
             raise BadPlugin(
                 f"a sensor's name is lower-case words, got {self.name!r}", "e.g. name='spectrometer'"
             )
-        if self.method is not None and (
-            not isinstance(self.method, str) or not self.method.isidentifier() or self.method.startswith("_")
-        ):
-            raise BadPlugin(
-                f"sensor {self.name!r}: {self.method!r} cannot be a method's name (a program may call no "
-                "name that starts with _)",
-                "name its method in lower-case words joined by _, e.g. method='measure_sugar'",
-            )
         if not isinstance(self.aliases, tuple) or not all(
             isinstance(a, str) and _key(a) for a in self.aliases
         ):
             raise BadPlugin(
                 f"sensor {self.name!r}: aliases must be a tuple of names", "e.g. aliases=('brix meter',)"
             )
-        if self.readings < 1 or not self.resolution >= 0 or not 0 <= self.relative < 1:
+        if not isinstance(self.senses, tuple) or not all(isinstance(s, Sense) for s in self.senses):
             raise BadPlugin(
-                f"sensor {self.name!r}: readings >= 1, resolution >= 0, 0 <= relative < 1",
-                "give readings, resolution and relative within those bounds",
+                f"sensor {self.name!r}: senses must be a tuple of Sense records",
+                "e.g. senses=(Sense(quantity='sugar content', unit='°Bx', needs=Need.AIM),)",
             )
 
 
@@ -111,7 +266,8 @@ SENSOR_BUNDLES: dict[str, tuple[str, ...]] = {
 
 
 def register_sensor(sensor: Sensor) -> Sensor:
-    """Add `sensor` under its name and aliases (a name used twice is an error)."""
+    """Add `sensor` under its name and aliases (a name used twice is an error, and so is a quantity or a
+    method another sensor's sense has)."""
     aliases = tuple(dict.fromkeys(_key(a) for a in sensor.aliases if _key(a) != sensor.name))
     taken = [n for n in (sensor.name, *aliases) if n in SENSOR_BUNDLES]
     if (
@@ -121,7 +277,48 @@ def register_sensor(sensor: Sensor) -> Sensor:
             f"sensor {sensor.name!r}: {', '.join(map(repr, taken))} names several built-in sensors at once",
             "give the sensor another name",
         )
+    mine = [(s.quantity, s.method) for s in sensor.senses]
+    for other, sense in senses():
+        clash = [x for pair in mine for x in pair if x in (sense.quantity, sense.method)]
+        if clash and other.name != sensor.name:
+            raise BadPlugin(
+                f"sensor {sensor.name!r}: the {other.name} sensor settles {clash[0]!r} already",
+                "name the sense's quantity and method otherwise",
+            )
+    if len({q for q, _ in mine}) < len(mine) or len({m for _, m in mine}) < len(mine):
+        raise BadPlugin(
+            f"sensor {sensor.name!r}: two of its senses share a quantity or a method", "name each one apart"
+        )
     return SENSORS.register(sensor.name, aliases=aliases)(sensor)
+
+
+_READINGS: dict[str, dict[str, Callable[[Any], float]]] = {}
+"""How each world reads each sensor: sensor name -> world name -> read(world)."""
+
+
+def register_reading(sensor: str, world: str, read: Callable[[Any], float]) -> None:
+    """Say how the world `world` (an `Embodiment.name`: "mujoco") reads `sensor`: `read(embodiment)` returns
+    one reading in the sense's unit (NaN: nothing read). The world then offers the sensor. Registering a
+    world's reading of a sensor twice replaces it."""
+    if sensor not in SENSORS or not callable(read) or not isinstance(world, str) or not world:
+        raise BadPlugin(
+            f"a reading of {sensor!r} in {world!r}: the sensor must be registered first, and read callable",
+            f"register_sensor(Sensor(name={sensor!r}, ...)) before register_reading; registered: "
+            + ", ".join(sensor_names()),
+        )
+    _READINGS.setdefault(SENSORS.get(sensor).name, {})[world] = read
+
+
+def reading_in(world: str, sensor: str) -> Callable[[Any], float] | None:
+    """How `world` reads `sensor` (a registered sensor's name), or None."""
+    if sensor not in SENSORS:
+        return None
+    return _READINGS.get(SENSORS.get(sensor).name, {}).get(world)
+
+
+def sensors_read_in(world: str) -> frozenset[str]:
+    """The registered sensors `world` has a reading of."""
+    return frozenset(name for name, by_world in _READINGS.items() if world in by_world and name in SENSORS)
 
 
 def sensor_names() -> list[str]:
@@ -160,9 +357,19 @@ def check_sensors(sensors: Sequence[str]) -> list[str]:
     return out
 
 
-def sensor_of_method(method: str) -> Sensor | None:
-    """The registered sensor whose Robot method is `method`, or None."""
-    return next((s for _, s in SENSORS.items() if s.method == method), None)
+def senses() -> list[tuple[Sensor, Sense]]:
+    """Every registered sense with its sensor, in the registry's order."""
+    return [(sensor, sense) for _, sensor in SENSORS.items() for sense in sensor.senses]
+
+
+def sense_of(quantity: str) -> tuple[Sensor, Sense] | None:
+    """The sense of `quantity` ("temperature") with its sensor, or None."""
+    return next(((s, q) for s, q in senses() if q.quantity == quantity), None)
+
+
+def sense_of_method(method: str) -> tuple[Sensor, Sense] | None:
+    """The sense whose Robot method is `method`, with its sensor, or None."""
+    return next(((s, q) for s, q in senses() if q.method == method), None)
 
 
 _PRECONDITION = {
@@ -181,24 +388,23 @@ _STEPS = {
 }
 
 
-def sensor_method_doc(sensor: Sensor) -> str:
-    """The docstring of a sensor's Robot method: its own `doc`, else one written from its fields (what it
+def sensor_method_doc(sensor: Sensor, sense: Sense) -> str:
+    """The docstring of a sense's Robot method: its own `doc`, else one written from its fields (what it
     returns, what the reading needs, an example program)."""
-    if sensor.doc:
-        return sensor.doc
-    method = sensor.method or f"measure_{sensor.quantity.replace(' ', '_')}"
+    if sense.doc:
+        return sense.doc
     lines = [
-        f"Returns the {sensor.quantity} of the object in `patch`, in {sensor.unit}, read with the "
-        f"{sensor.name} sensor. {_PRECONDITION[sensor.needs]}".rstrip(),
+        f"Returns the {sense.quantity} of the object in `patch`, in {sense.unit}, read with the "
+        f"{sensor.name} sensor. {_PRECONDITION[sense.needs]}".rstrip(),
         "",
-        f">>> # the object with the highest {sensor.quantity}",
+        f">>> # the object with the highest {sense.quantity}",
         ">>> def execute_command(image, robot):",
         ">>>     best, best_value = None, 0.0",
         '>>>     for patch in image.find("object"):',
-        *(f">>>         {step}" for step in _STEPS[sensor.needs]),
-        f">>>         value = robot.{method}(patch)",
+        *(f">>>         {step}" for step in _STEPS[sense.needs]),
+        f">>>         value = robot.{sense.method}(patch)",
     ]
-    if sensor.needs is Need.GRASP:
+    if sense.needs is Need.GRASP:
         lines.append(">>>         robot.put_down()")
     lines += [
         ">>>         if best is None or value > best_value:",
@@ -206,3 +412,21 @@ def sensor_method_doc(sensor: Sensor) -> str:
         ">>>     return best",
     ]
     return "\n".join(lines)
+
+
+@functools.lru_cache(maxsize=8)
+def _vocabulary(all_senses: tuple[Sense, ...]) -> tuple[dict[str, tuple[str, bool, str]], dict[str, State]]:
+    words: dict[str, tuple[str, bool, str]] = {}
+    states: dict[str, State] = {}
+    for sense in all_senses:
+        for word, (more, form) in sense.words.items():
+            words.setdefault(word, (sense.quantity, more, form))
+        for state in sense.states:
+            states.setdefault(state.word, state)
+    return words, states
+
+
+def vocabulary() -> tuple[dict[str, tuple[str, bool, str]], dict[str, State]]:
+    """Every registered sense's words, word -> (quantity, asks for more, form), and its state words, word
+    -> `State`; the first sense to register a word keeps it. Read through `attribot.lexicon`."""
+    return _vocabulary(tuple(sense for _, sense in senses()))

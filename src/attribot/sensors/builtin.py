@@ -3,7 +3,7 @@ proposed adding (an infrared thermometer, and a gripper that feels how hard it s
 
 from __future__ import annotations
 
-from attribot.sensors import Need, Sensor, register_sensor
+from attribot.sensors import Need, Sense, Sensor, State, register_sensor
 
 __all__: list[str] = []
 
@@ -11,8 +11,6 @@ register_sensor(
     Sensor(
         name="camera",
         measures="colour images (and depth where the world has it): what image.find and visual_query look at",
-        quantity="image",
-        unit="px",
         aliases=("rgb camera", "color camera", "colour camera", "rgb"),
         capability="camera",
     )
@@ -22,8 +20,6 @@ register_sensor(
         name="distance",
         measures="an infrared rangefinder: the distance in metres from the robot to the object centred in "
         "front of it (robot.measure_distance)",
-        quantity="distance",
-        unit="m",
         aliases=(
             "distance sensor",
             "proximity sensor",
@@ -37,9 +33,21 @@ register_sensor(
             "time of flight sensor",
             "depth sensor",
         ),
-        needs=Need.AIM,
-        readings=5,
-        resolution=0.003,
+        senses=(
+            Sense(
+                quantity="distance",
+                unit="m",
+                needs=Need.AIM,
+                readings=5,
+                resolution=0.003,
+                # "near", "close" and "far" alone are places ("the cup near the plate"), not asked-for ends
+                more=("/farther/farthest", "/further/furthest", "/more distant/most distant"),
+                less=("/closer/closest", "/nearer/nearest"),
+                nouns=("distance",),
+                why="one picture does not tell how far away something is",
+                doing="measuring the distance to",
+            ),
+        ),
         capability="distance",
     )
 )
@@ -48,8 +56,6 @@ register_sensor(
         name="force",
         measures="a force sensor at the wrist: the weight of the object held in the gripper, in kilograms "
         "(robot.measure_weight), and so how full a container is (robot.measure_fullness)",
-        quantity="weight",
-        unit="kg",
         aliases=(
             "force sensor",
             "force/torque sensor",
@@ -62,9 +68,35 @@ register_sensor(
             "weight sensor",
             "scale",
         ),
-        needs=Need.GRASP,
-        readings=10,
-        resolution=0.02 / 9.81,
+        senses=(
+            Sense(
+                quantity="weight",
+                unit="kg",
+                needs=Need.GRASP,
+                readings=10,
+                resolution=0.02 / 9.81,
+                more=("heavy/heavier/heaviest",),
+                less=("light/lighter/lightest", "lightweight/more lightweight/most lightweight"),
+                nouns=("weight", "mass"),
+                why="the camera cannot see how heavy something is",
+                doing="weighing",
+            ),
+            Sense(
+                quantity="fullness",
+                unit="full",
+                needs=Need.GRASP,
+                readings=10,
+                more=("full/fuller/fullest", "filled"),
+                less=("empty/emptier/emptiest",),
+                states=(State("full", 0.5, ">"), State("filled", 0.5, ">"), State("empty", 0.5, "<")),
+                nouns=("fullness", "fill level", "level"),
+                why="an empty and a full container look the same",
+                doing="weighing",
+                digits=0,
+                scale=100.0,
+                suffix="% full",
+            ),
+        ),
         capability="force",
     )
 )
@@ -89,8 +121,6 @@ register_sensor(
         name="temperature",
         measures="an infrared thermometer on the head, along the camera's axis: the temperature in degrees "
         "Celsius of the object the camera is centred on (robot.measure_temperature)",
-        quantity="temperature",
-        unit="°C",
         aliases=(
             "thermometer",
             "infrared thermometer",
@@ -102,11 +132,32 @@ register_sensor(
             "heat sensor",
             "pyrometer",
         ),
-        needs=Need.AIM,
-        method="measure_temperature",
-        doc=_TEMPERATURE_DOC,
-        readings=5,
-        resolution=0.1,
+        senses=(
+            Sense(
+                quantity="temperature",
+                unit="°C",
+                needs=Need.AIM,
+                doc=_TEMPERATURE_DOC,
+                readings=5,
+                resolution=0.1,
+                more=("hot/hotter/hottest", "warm/warmer/warmest", "boiling"),
+                less=("cold/colder/coldest", "cool/cooler/coolest", "chilled"),
+                states=(
+                    State("hot", 40.0, ">="),
+                    State("boiling", 90.0, ">="),
+                    State("warm", 30.0, ">="),
+                    State("cold", 12.0, "<="),
+                    State("chilled", 12.0, "<="),
+                    State("cool", 18.0, "<="),
+                ),
+                grades=("hot", "warm", "cold", "cool"),
+                ungraded="room",
+                nouns=("temperature",),
+                why="the camera cannot see how hot something is",
+                doing="taking the temperature of",
+                digits=1,
+            ),
+        ),
     )
 )
 
@@ -132,8 +183,6 @@ register_sensor(
         name="grip",
         measures="a gripper that reads its closure and squeezing force: how hard the held object is, in "
         "newtons per millimetre (robot.measure_stiffness)",
-        quantity="stiffness",
-        unit="N/mm",
         aliases=(
             "gripper force sensor",
             "grip force sensor",
@@ -145,11 +194,43 @@ register_sensor(
             "softness sensor",
             "stiffness sensor",
         ),
-        needs=Need.GRASP,
-        method="measure_stiffness",
-        doc=_STIFFNESS_DOC,
-        readings=2,
-        resolution=0.02,
-        relative=0.05,
+        senses=(
+            Sense(
+                quantity="stiffness",
+                unit="N/mm",
+                needs=Need.GRASP,
+                doc=_STIFFNESS_DOC,
+                readings=2,
+                resolution=0.02,
+                relative=0.05,
+                more=(
+                    "hard/harder/hardest",
+                    "firm/firmer/firmest",
+                    "stiff/stiffer/stiffest",
+                    "rigid/more rigid/most rigid",
+                ),
+                less=(
+                    "soft/softer/softest",
+                    "squishy/squishier/squishiest",
+                    "squashy/squashier/squashiest",
+                    "spongy",
+                ),  # fmt: skip
+                states=(
+                    State("hard", 5.0, ">="),
+                    State("rigid", 5.0, ">="),
+                    State("firm", 1.0, ">="),
+                    State("stiff", 1.0, ">="),
+                    State("soft", 1.0, "<"),
+                    State("squishy", 1.0, "<"),
+                    State("squashy", 1.0, "<"),
+                    State("spongy", 1.0, "<"),
+                ),
+                grades=("hard", "firm", "soft"),
+                nouns=("stiffness", "softness", "hardness", "firmness"),
+                why="the camera cannot feel how hard something is",
+                doing="squeezing",
+                digits=2,
+            ),
+        ),
     )
 )

@@ -18,6 +18,7 @@ from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
+from attribot.sensors import sense_of
 from attribot.sim.scene import SceneRequest, plan_scene, resolve_categories
 from attribot.sim.world import ObjectInfo
 
@@ -57,11 +58,23 @@ _FORMS: dict[str, tuple[_Form, ...]] = {
         _Form("Which box is full?", ("box", "box"), "fill", True),
     ),
 }
-_SENSORS = {
-    "temperature_embodied": ["camera", "temperature"],
-    "softness_embodied": ["camera", "grip"],
-    "fullness_embodied": ["camera", "force"],
+_QUANTITY = {
+    "temperature_embodied": "temperature",
+    "softness_embodied": "stiffness",
+    "fullness_embodied": "fullness",
 }
+"""The sense (`attribot.sensors`) each task is about: its items give the robot the camera and the sensor
+that settles it."""
+
+
+def _sensors(task: str) -> list[str]:
+    found = sense_of(_QUANTITY[task])
+    if found is None:
+        raise InputError(
+            f"task {task}: no registered sensor measures {_QUANTITY[task]}",
+            "keep attribot's built-in sensors",
+        )
+    return ["camera", found[0].name]
 
 
 def _apart(end: float, next_: float, field: str) -> bool:
@@ -124,7 +137,7 @@ def _item(task: str, made: int, form: _Form, seed: int) -> Item | None:
         seed=seed,
         objects=len(form.categories),
         categories=list(form.categories),
-        sensors=_SENSORS[task],
+        sensors=_sensors(task),
         embodied=True,
         true_id=truth.id,
         true_box=truth.box or [],

@@ -141,7 +141,8 @@ class YesNoQuery:
 @dataclass(frozen=True)
 class SenseQuery:
     """A question about what only a sense beyond the camera settles: temperature (an infrared
-    thermometer), stiffness (a squeeze; softness is less of it) or fullness (weighing a container).
+    thermometer), stiffness (a squeeze; softness is less of it), fullness (weighing a container), or any
+    sense a lab registers (`attribot.sensors`): `attribute` is its quantity.
 
     ask: "which" chooses among `objects` (one kind, or the named ones) the one at the end asked ("which mug
     is hot?", "the softest ball"); "whether" answers yes or no, about one object's state ("is the kettle
@@ -149,7 +150,7 @@ class SenseQuery:
     measures one named object ("how hot is the kettle?")."""
 
     objects: tuple[ObjectSpec, ...]
-    attribute: Literal["temperature", "stiffness", "fullness"]
+    attribute: str
     more: bool  # the end asked: hotter, harder (stiffer), fuller
     ask: Literal["which", "whether", "how"]
     word: str  # as written: "hot", "softest", "hotter"

@@ -32,8 +32,8 @@ def _nth(k: int) -> str:
 
 
 def _q(text: str) -> str:
-    """A Python string literal (double quotes)."""
-    return json.dumps(text)
+    """A Python string literal (double quotes), its letters as written ("°C", "café")."""
+    return json.dumps(text, ensure_ascii=False)
 
 
 class _Writer:

@@ -47,6 +47,10 @@ from attribot.planning.rules.write import (
     _Writer,
 )
 
+MEASURED = ("weight", "distance")
+"""The senses (`attribot.sensors`) whose questions this family reads and whose programs it writes: the
+`senses` family reads the others."""
+
 _COMPARE_WORDS = _WEIGHT_WORDS + "|" + _DIST_WORDS
 _COMPARE_FORMS = [
     re.compile(form)
