@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from attribot.api.errors import ActionFailed, ApiArgumentError
 from attribot.control.base import (
     Capture,
     ControlError,
+    Failure,
     Target,
     UnsupportedController,
     build_controller,
@@ -292,3 +294,39 @@ def test_importing_the_api_loads_no_simulator():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+@pytest.mark.parametrize(
+    ("reason", "retried"),
+    [
+        (Failure.BLOCKED, True),
+        (Failure.TARGET_LOST, True),
+        (Failure.GRASP_FAILED, False),
+        (Failure.OTHER, False),
+    ],
+)
+def test_an_approach_is_tried_again_by_its_failures_typed_reason_not_its_words(reason, retried):
+    """The message says "blocked" every time: only the typed reason decides whether verify_actions tries
+    again from where the robot stopped."""
+
+    @dataclass
+    class FailsOnce(BallController):
+        tries: int = 0
+
+        def approach(self, target: Target) -> None:
+            self.tries += 1
+            if self.tries == 1:
+                raise ControlError("blocked: the base stopped on its way", "clear the way", reason=reason)
+            super().approach(target)
+
+    controller = FailsOnce(BallWorld(BALLS))
+    _, robot, image = setup(controller=controller)
+    ball = image.find("ball")[0]
+    if retried:
+        robot.go_to_object(ball)
+        assert controller.world.approached == ball.object_id and controller.tries == 2
+        assert [e.mechanism for e in robot.safeguards.events][-1] == "verify_actions"
+    else:
+        with pytest.raises(ControlError, match="blocked"):
+            robot.go_to_object(ball)
+        assert controller.tries == 1

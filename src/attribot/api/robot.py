@@ -24,7 +24,15 @@ from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou, overlap_of_smaller
-from attribot.control.base import Capture, ControlError, Controller, Target, build_controller
+from attribot.control.base import (
+    RETRY_FROM_HERE,
+    Capture,
+    ControlError,
+    Controller,
+    Failure,
+    Target,
+    build_controller,
+)
 from attribot.control.candidates import Candidate
 from attribot.embodiments.base import Embodiment
 from attribot.errors import ConfigError, UnsupportedAction
@@ -988,7 +996,7 @@ class Robot(metaclass=_RobotApi):
                 self.controller.approach(target)
                 break
             except ControlError as exc:
-                if attempt + 1 == tries or not exc.message.startswith(_RETRYABLE):
+                if attempt + 1 == tries or exc.reason not in RETRY_FROM_HERE:
                     raise
                 call = f"go_to_object({p.label or 'patch'})"
                 # from where it stopped, the robot sees the object anew: approach what it sees now
@@ -1053,7 +1061,7 @@ class Robot(metaclass=_RobotApi):
                 self._check_held(p, target, seen_first)
                 break
             except ControlError as exc:
-                if attempt + 1 == tries or not str(exc.message).startswith("grasp failed"):
+                if attempt + 1 == tries or exc.reason is not Failure.GRASP_FAILED:
                     raise
                 call = f"pick_up({p.label or 'patch'})"
                 self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
@@ -1079,6 +1087,7 @@ class Robot(metaclass=_RobotApi):
         raise ControlError(
             f"grasp failed: it lifted another object than {target.describe()} and put it back: {detail}",
             "call robot.go_to_object(patch) again and retry",
+            reason=Failure.GRASP_FAILED,
         )
 
     def put_down(self) -> None:
@@ -1234,9 +1243,6 @@ def _install_sensor_methods() -> list[str]:
 _SAME_BOX = 0.5
 """Two boxes of one image that overlap this much (IoU) show one object: a name and a patch found under
 another word meet there when the detector gives no ids."""
-
-_RETRYABLE = ("target lost", "not reachable", "did not converge", "blocked")
-"""Approach failures another try from where the robot now stands can mend (a new view, another path)."""
 
 
 def _one_of(patches: Sequence[ImagePatch], method: str) -> ImagePatch:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, Protocol, runtime_checkable
 
 from attribot.control.body import CameraPose
@@ -29,6 +30,8 @@ __all__ = [
     "Target",
     "Controller",
     "ControlError",
+    "Failure",
+    "RETRY_FROM_HERE",
     "UnsupportedController",
     "CONTROLLERS",
     "build_controller",
@@ -37,10 +40,32 @@ __all__ = [
 ]
 
 
+class Failure(StrEnum):
+    """Why a motion failed, typed, so that the caller decides what to do next without reading the message."""
+
+    TARGET_LOST = "target lost"  # the camera no longer sees what it was heading for
+    NOT_REACHABLE = "not reachable"  # no free way there, or out of the arm's reach from here
+    NOT_CONVERGED = "did not converge"  # the base did not arrive in time
+    BLOCKED = "blocked"  # something stopped the base on its way
+    GRASP_FAILED = "grasp failed"  # the gripper closed on nothing, or lost what it lifted
+    OTHER = "other"
+
+
+RETRY_FROM_HERE = frozenset(
+    {Failure.TARGET_LOST, Failure.NOT_REACHABLE, Failure.NOT_CONVERGED, Failure.BLOCKED}
+)
+"""Approach failures another try from where the robot now stands can mend (a new view, another path)."""
+
+
 class ControlError(AttribotError):
-    """A motion was attempted and did not succeed (a joint did not settle, a grasp closed on nothing)."""
+    """A motion was attempted and did not succeed (a joint did not settle, a grasp closed on nothing);
+    `reason` says why, typed (`Failure`)."""
 
     recoverable = True  # a program may catch it as ActionFailed and go on with the next object
+
+    def __init__(self, message: str, fix: str | None = None, *, reason: Failure = Failure.OTHER) -> None:
+        super().__init__(message, fix)
+        self.reason = reason
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attribot.control.base import ControlError
+from attribot.control.base import ControlError, Failure
 from attribot.control.pid import PID
 from attribot.control.plant import Plant, moved
 from attribot.control.spatial import FloorMap, head_towards
@@ -49,6 +49,7 @@ class Driver:
                     f"not reachable: no free way to ({pose[0]:.2f}, {pose[1]:.2f}) on the floor the camera "
                     "sees",
                     "choose a place the robot can drive to",
+                    reason=Failure.NOT_REACHABLE,
                 )
         self.follow(path or [], pose, None if look_at is None else np.asarray(look_at, float), action)
 
@@ -122,6 +123,7 @@ class Driver:
                     f"blocked: the base stopped at ({now[0]:.2f}, {now[1]:.2f}) on its way to "
                     f"({pose[0]:.2f}, {pose[1]:.2f})",
                     "something the camera did not see is in the way; choose another target",
+                    reason=Failure.BLOCKED,
                 )
             progress.stall_steps, progress.stall_from = 0, now
         if progress.budget <= 0:
@@ -130,6 +132,7 @@ class Driver:
                 f"did not converge: the base did not reach ({pose[0]:.2f}, {pose[1]:.2f}) within "
                 f"{t.drive_timeout_s:.0f} s",
                 "something blocks the way; choose another target",
+                reason=Failure.NOT_CONVERGED,
             )
         return False
 

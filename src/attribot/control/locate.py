@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from attribot.control.base import Capture, ControlError, Target, not_available
+from attribot.control.base import Capture, ControlError, Failure, Target, not_available
 from attribot.control.body import BodyGeometry, CameraPose
 from attribot.control.drive import Driver
 from attribot.control.plant import Hold, Plant
@@ -177,6 +177,7 @@ class Locator:
                 f"target lost: the camera no longer sees {target.describe()} where it was "
                 f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
                 "find the object again in a new image and retry",
+                reason=Failure.TARGET_LOST,
             )
         located = where(frame, box)
         self.focus(Target(box, self.capture(frame, camera, body), label=target.label, find=target.find))

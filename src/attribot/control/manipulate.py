@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attribot.control.base import ControlError, Target
+from attribot.control.base import ControlError, Failure, Target
 from attribot.control.body import BodyGeometry
 from attribot.control.drive import Driver
 from attribot.control.locate import Locator
@@ -58,6 +58,7 @@ class Manipulator:
                 f"grasp failed: the gripper closed on nothing where it saw {target.describe()} "
                 f"({ext:.2f} m out, {z:.2f} m up)",
                 "call robot.go_to_object(patch) again and retry; the object may be too big to grasp",
+                reason=Failure.GRASP_FAILED,
             )
         world.set_arm(z + headroom, ext)
         self.plant.settle(t.lift_load_s)
@@ -92,6 +93,7 @@ class Manipulator:
             raise ControlError(
                 f"grasp failed: {felt} after lifting {target.describe()}",
                 "call robot.go_to_object(patch) again and retry",
+                reason=Failure.GRASP_FAILED,
             )
 
     def check_held(self, target: Target, seen_first: Target) -> tuple[bool | None, str]:
@@ -184,6 +186,7 @@ class Manipulator:
                 f"not reachable: the top of {target.describe()} is {top_z:.2f} m up, too high "
                 "for the lift with the held object",
                 "put the object on something lower",
+                reason=Failure.NOT_REACHABLE,
             )
 
     def push(self, target: Target) -> None:
@@ -195,6 +198,7 @@ class Manipulator:
                 f"not reachable: {target.describe()} stands {est.support_z:.2f} m up, and this robot pushes "
                 "with its base, which reaches only objects on the floor",
                 "push objects that lie on the floor",
+                reason=Failure.NOT_REACHABLE,
             )
         floor = self.locator.floor_map([target])
         floor.clear_disc(est.xy(), est.radius + 0.05)
@@ -265,6 +269,7 @@ class Manipulator:
             f"not reachable: raising the {hold.label} to {z:.2f} m, the lift stopped at {stopped:.2f} m: "
             "something above holds it back",
             "put it down with robot.put_down(), or put it on something lower",
+            reason=Failure.NOT_REACHABLE,
         )
 
     def out_from_under(self, hold: Hold, z: float, target: Target, body: BodyGeometry) -> None:

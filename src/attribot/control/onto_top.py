@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from attribot.control.base import ControlError, Target
+from attribot.control.base import ControlError, Failure, Target
 from attribot.control.body import BodyGeometry, CameraPose
 from attribot.control.drive import Driver
 from attribot.control.locate import Locator, view_of
@@ -149,6 +149,7 @@ class TopPlacer:
             f"not reachable: no free place to stand within the arm's reach of the free spots on {name} "
             f"nearest the robot ({min(len(spots), t.spot_tries)} tried)",
             "clear the way to it, or put the object on another receptacle",
+            reason=Failure.NOT_REACHABLE,
         )
 
     def free_spots(self, top: TopSurface, hold: Hold) -> np.ndarray:

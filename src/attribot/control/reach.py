@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attribot.control.base import ControlError, Target
+from attribot.control.base import ControlError, Failure, Target
 from attribot.control.body import BodyGeometry
 from attribot.control.drive import Driver
 from attribot.control.locate import Locator
@@ -60,7 +60,7 @@ class Reacher:
             try:
                 return self.line_up(est, target, action, body, holding, tol, short)
             except ControlError as e:
-                if not str(e).startswith("target lost"):
+                if e.reason is not Failure.TARGET_LOST:
                     raise
                 lost = e
         if lost is not None:
@@ -69,6 +69,7 @@ class Reacher:
             f"not reachable: no free place to stand within the arm's reach of {target.describe()} "
             f"(at {est.centre[0]:.2f}, {est.centre[1]:.2f}, {est.centre[2]:.2f} m)",
             "choose an object nearer a free edge of its furniture",
+            reason=Failure.NOT_REACHABLE,
         )
 
     def line_up(
@@ -111,6 +112,7 @@ class Reacher:
             f"not reachable: the robot could not line its arm up with {target.describe()} (after "
             f"{tuning.align_tries} corrections, {abs(side) * 100:.1f} cm aside, extension {ext:.2f} m)",
             "the object may lie beyond the arm's reach from any free place; choose another",
+            reason=Failure.NOT_REACHABLE,
         )
 
     def standing_poses(

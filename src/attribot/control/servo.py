@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attribot.control.base import CONTROLLERS, ControlError, Target, not_available
+from attribot.control.base import CONTROLLERS, ControlError, Failure, Target, not_available
 from attribot.control.body import CameraPose
 from attribot.control.drive import Driver
 from attribot.control.focus import FocusLoop, FocusReport
@@ -277,6 +277,7 @@ class ServoController(PointingController):
             f"not reachable: the floor at ({goal[0]:.2f}, {goal[1]:.2f}) and the way to it are taken by "
             "something the camera sees",
             "choose a point on free floor",
+            reason=Failure.NOT_REACHABLE,
         )
 
 
