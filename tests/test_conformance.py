@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from attribot.api import Robot
-from attribot.config import WORLD_CONFIGS, load_settings
+from attribot.config import ROBOTS, WORLD_CONFIGS, SceneConfig, load_settings
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment
 from attribot.errors import AttribotError, ConfigError, InputError, MissingDependency, UnsupportedAction
 from attribot.frame import Frame
@@ -20,6 +20,8 @@ from attribot.models.base import Detector as DetectorProtocol
 from attribot.planning import PLANNERS, PlanRequest, build_planner
 from attribot.runner import check_program
 from attribot.sensors import SENSORS, Need, check_sensors, senses, sensor_method_doc
+from attribot.sim.bodies import BODIES, body_named
+from attribot.sim.catalog import find_category
 from attribot.sim.scene import LAYOUTS
 
 SMALL = {"width": 160, "height": 120}
@@ -135,11 +137,10 @@ def test_every_world_offers_what_the_servo_controller_uses(name):
 def _worlds_reading_sensors() -> Iterator[tuple[str, Embodiment]]:
     """Every world that reads sensors here, built small: the embedded one with each robot body, and the
     bridge to a robot (a loopback robot-side server driving the embedded world)."""
-    from attribot.config import SceneConfig
     from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
     from test_bridge import TOKEN, serving, url
 
-    for robot in ("mast", "ep"):
+    for robot in BODIES.names():
         config = SceneConfig(layout="triplet", seed=3, robot=robot, **SMALL)
         with EMBODIMENTS.get("mujoco")(config) as world:
             yield f"mujoco/{robot}", world
@@ -211,3 +212,38 @@ def test_every_sense_is_offered_by_the_prompt_and_asked_in_its_words(sensor, sen
         query = f"which object is the {word}?"
         program = planner.plan(PlanRequest(query=query, sensors=["camera", sensor.name], embodied=True))
         assert f".{sense.method}(" in program.program, (query, program.program)
+
+
+@pytest.mark.parametrize("name", BODIES.names())
+def test_every_robot_body_builds_and_states_what_it_has(name):
+    """Every registered robot body: the config accepts its name, a world built with it sees through its
+    camera, reports its joints and head as its record says, offers the capabilities it has, and draws a
+    scene within its limits (what its gripper holds, where its gripper reaches)."""
+    body = BODIES.get(name)
+    assert name in ROBOTS
+    config = SceneConfig(layout=(body.layouts or ("triplet",))[0], seed=2, robot=name, **SMALL)
+    with EMBODIMENTS.get("mujoco")(config) as world:
+        caps = world.capabilities()
+        assert (Capability.HEAD in caps) is body.head and (Capability.DEPTH in caps) is body.depth
+        assert world.body() == body.geometry
+        frame = world.observe()
+        assert frame.rgb.shape == (SMALL["height"], SMALL["width"], 3)
+        assert (frame.depth is not None) is body.depth
+        joints = world.joint_states()
+        assert {"base_x", "base_y", "base_yaw", "gripper"} <= set(joints)
+        assert all(math.isfinite(v) for v in joints.values())
+        pan, tilt = world.sim.head()
+        assert math.isfinite(pan) and math.isfinite(tilt)
+        for o in world.scene_info().objects:
+            category = find_category(o.category)
+            assert category is not None and body.holds(category)
+            assert (o.surface == "floor") is body.on_floor
+    if not body.head:
+        with EMBODIMENTS.get("mujoco")(config) as world, pytest.raises(InputError, match="no camera head"):
+            world.sim.set_head(0.1, 0.0)
+
+
+def test_an_unknown_robot_body_is_refused_naming_the_registered_ones():
+    with pytest.raises(InputError, match="unknown robot") as refused:
+        body_named("hexapod")
+    assert all(name in refused.value.fix for name in BODIES.names())

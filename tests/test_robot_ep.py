@@ -33,7 +33,7 @@ from attribot.errors import InputError
 from attribot.frame import CameraInfo
 from attribot.planning.answer import Answer
 from attribot.session import Scene, ask
-from attribot.sim.scene import _ep_graspable
+from attribot.sim.bodies import BODIES
 from attribot.sim.world import SceneInfo, SimWorld
 from conftest import EMPTY_SETTINGS, wait_listening
 
@@ -108,7 +108,7 @@ def test_ep_scenes_put_objects_its_gripper_holds_on_the_floor_in_its_view(layout
         assert info == b.scene_info()  # the same seed, the same scene
         for o, placed in zip(info.objects, a.plan.objects, strict=True):
             assert o.surface == "floor" and o.box is not None, o  # on the floor, in the first view
-            assert _ep_graspable(placed.category) and o.pickable
+            assert BODIES.get("ep").holds(placed.category) and o.pickable
 
 
 def test_what_the_ep_cannot_do_is_refused_naming_the_fix():
@@ -232,7 +232,7 @@ def test_the_ep_is_refused_by_the_privileged_controller(monkeypatch):
     answer = ask(
         "How much does the egg weigh?", Scene(config, sensors=SENSORS, controller="privileged"), settings
     )
-    assert answer.error is not None and "mast robot only" in answer.error.message
+    assert answer.error is not None and "cannot move the EP-like robot" in answer.error.message
 
 
 def _cli(*args: str) -> list[str]:

@@ -81,9 +81,10 @@ MAX_TIME_S = 86_400.0
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
 ROBOTS = ("mast", "ep")
-"""mast: the default mobile manipulator (a pan-tilt head on a mast, a telescoping arm on a lift); ep: a
-RoboMaster-EP-like robot (its camera on a two-link arm, a gripper that reaches the floor, no depth camera;
-see `attribot.sim.robot_ep`)."""
+"""The names `SceneConfig(robot=...)` accepts, checked as the config is read: the bodies
+`attribot.sim.bodies` registers, whose records hold what each is (a test keeps the two in step). mast: the
+default mobile manipulator (a pan-tilt head on a mast, a telescoping arm on a lift); ep: a RoboMaster-EP-like
+robot (its camera on a two-link arm, a gripper that reaches the floor, no depth camera)."""
 PROMPTS = ("attribot", "paper")
 """The prompts the LLM planner can show (`attribot.api.prompt.PROMPTS`): attribot, generated from the API;
 paper, the structure of the paper authors' released prompt, in the paper's dialect."""

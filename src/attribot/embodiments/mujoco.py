@@ -24,8 +24,6 @@ from attribot.embodiments import mujoco_control  # noqa: F401  (registers this w
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.frame import CameraInfo, Frame
 from attribot.sensors import register_reading
-from attribot.sim.robot import GEOMETRY
-from attribot.sim.robot_ep import EP
 from attribot.sim.world import SceneInfo, SimWorld
 
 __all__ = ["MujocoWorld"]
@@ -45,9 +43,9 @@ class MujocoWorld(Embodiment):
         self.seed = self.sim.plan.seed
 
     def capabilities(self) -> frozenset[Capability]:
-        if self.sim.robot == "ep":
-            return frozenset(Capability) - {Capability.HEAD, Capability.DEPTH}
-        return frozenset(Capability)
+        body = self.sim.body
+        lacks = {Capability.HEAD} if not body.head else set()
+        return frozenset(Capability) - lacks - ({Capability.DEPTH} if not body.depth else set())
 
     # camera
     def observe(self) -> Frame:
@@ -90,18 +88,7 @@ class MujocoWorld(Embodiment):
         return self.sim.read_force()
 
     def body(self) -> BodyGeometry:
-        if self.sim.robot == "ep":
-            return EP
-        g = GEOMETRY
-        return BodyGeometry(
-            camera_xyz=(g.mast_xy[0], g.mast_xy[1], g.head_height),
-            arm_xy=g.mast_xy,
-            reach0=g.arm_reach0 + g.grip_offset,
-            arm_range=g.arm_range,
-            lift_range=g.lift_range,
-            base_half=g.base_half,
-            finger_open=g.finger_range[1],
-        )
+        return self.sim.body.geometry
 
     def base_pose(self) -> Pose2D:
         return Pose2D(*self.sim.odometry())  # what the wheels say, drift and all (truth: scene_info)

@@ -39,11 +39,12 @@ class SimController(PointingController):
     name: str = "sim-privileged"
 
     def _object_id(self, target: Target, action: str) -> str:
-        if getattr(getattr(self.world, "sim", None), "robot", "mast") != "mast":
+        body = getattr(getattr(self.world, "sim", None), "body", None)
+        if body is not None and not body.scripted:
             raise not_available(
                 action,
                 self._world_name,
-                "the privileged scripts move the mast robot only; the EP-like robot acts by perception "
+                f"the privileged scripts cannot move {body.called}: it acts by perception "
                 "(--controller servo, its default)",
             )
         if not target.object_id:

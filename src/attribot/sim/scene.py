@@ -14,11 +14,12 @@ Layouts (the stand-ins for the paper's experiments):
 - `household`: a room with two or three pieces of furniture and 2 to 6 candidate objects at different
   distances from the robot, all in the robot camera's first view.
 
-The robot is the mast robot (`attribot.sim.robot`) unless the request names the RoboMaster-EP-like one
-(`attribot.sim.robot_ep`, `SceneRequest.robot == "ep"`): its gripper reaches only the floor, so its
-`household` and `triplet` scenes put the candidates on the floor, ones its gripper can hold, where it can
-drive straight to each (it has no depth camera to see its way), and the `arrangement` layout (a grid seen
-from above) is refused.
+The robot is the mast robot (`attribot.sim.robot`) unless the request names another registered body
+(`attribot.sim.bodies`). A body whose gripper reaches only the floor (the RoboMaster-EP-like one,
+`SceneRequest(robot="ep")`) gets `household` and `triplet` scenes with the candidates on the floor, ones
+its gripper can hold, where it can drive straight to each (it has no depth camera to see its way); a layout
+not made for it (`arrangement`, a grid seen from above) is refused. The other layouts are drawn for the
+mast robot's head and camera.
 
 Objects rest on their surface: each is placed with its lowest point on the surface, without overlapping
 another object's footprint, and the world lets them settle before the first frame.
@@ -43,6 +44,7 @@ from attribot.config import MAX_OBJECTS, MAX_SEED
 from attribot.errors import InputError
 from attribot.lexicon import temperature_state
 from attribot.registry import Registry
+from attribot.sim.bodies import SimBody, body_named
 from attribot.sim.catalog import (
     COLORS,
     RIGID_N_PER_MM,
@@ -52,8 +54,7 @@ from attribot.sim.catalog import (
     get_category,
 )
 from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, add_materials, look_of, variant_of
-from attribot.sim.robot import GEOMETRY, add_robot
-from attribot.sim.robot_ep import EP, add_ep_robot
+from attribot.sim.robot import GEOMETRY
 from attribot.sim.shapes import MATERIALS, Shape, build_shape
 
 __all__ = [
@@ -156,15 +157,18 @@ class ScenePlan:
     arm: tuple[float, float] = (0.2, 0.0)  # lift, extension: low and retracted, out of the camera's way
     width: int = 640
     height: int = 480
-    robot_kind: str = "mast"  # which robot (set by plan_scene from the request): "mast" or "ep"
+    robot_kind: str = (
+        "mast"  # the robot body's name (`attribot.sim.bodies`), set by plan_scene from the request
+    )
     room_temperature_c: float = 21.0
 
 
 @dataclass(frozen=True)
 class SceneRequest:
     """What the caller asked for: object count, categories (None: the layout chooses), layout options, the
-    robot ("mast" or "ep"), and the vocabulary: the names of the only categories the layout may draw
-    from (None: every category it draws), its own rules (pickable, small enough) applied within them."""
+    robot body's name (`attribot.sim.bodies`: "mast" or "ep"), and the vocabulary: the names of the only
+    categories the layout may draw from (None: every category it draws), its own rules (pickable, small
+    enough) applied within them."""
 
     n_objects: int | None = None
     categories: tuple[Category, ...] | None = None
@@ -175,6 +179,11 @@ class SceneRequest:
     def drawable(self, cat: Category) -> bool:
         """Whether the layout may draw `cat` unasked: a category layouts draw, within the vocabulary."""
         return cat.drawn and (self.vocabulary is None or cat.name in self.vocabulary)
+
+    @property
+    def body(self) -> SimBody:
+        """The robot body the scene is drawn for."""
+        return body_named(self.robot)
 
     def option(self, name: str, default: Any, choices: Sequence[Any] | None = None) -> Any:
         value = self.options.get(name, default)
@@ -565,7 +574,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
                     "choose categories of clearly different weight",
                 )
     else:
-        ok = _triplet_ok if request.robot != "ep" else (lambda c: _triplet_ok(c) and _ep_graspable(c))
+        holds = request.body.holds
+        ok: Callable[[Category], bool] = lambda c: _triplet_ok(c) and holds(c)  # noqa: E731
         pool = sorted(_pool(SceneRequest(vocabulary=request.vocabulary), ok), key=lambda c: c.typical_mass_kg)
         for _ in range(1000):
             first = pool[int(rng.integers(len(pool)))]
@@ -594,8 +604,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         o = _make_object(rng, slot, chosen[int(idx)])
         o.extras.update(weight_rank=int(idx))
         objs.append(o)
-    if request.robot == "ep":
-        return _ep_triplet(rng, objs)
+    if request.body.on_floor:
+        return _floor_triplet(rng, objs, request.body)
     return _row_plan(rng, "triplet", objs, 1, 3)
 
 
@@ -606,8 +616,8 @@ def triplet(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
 def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     """A room with 2-3 pieces of furniture and 2-6 candidate objects (up to 12 on request) at distances
     from the robot that differ by at least `min_gap` metres (option, default 0.15)."""
-    if request.robot == "ep":
-        return _ep_household(rng, request)
+    if request.body.on_floor:
+        return _floor_household(rng, request)
     n = _count(request, int(rng.integers(2, 7)), 1, 12, "a household scene")
     min_gap = float(request.option("min_gap", 0.15))
     robot = (
@@ -707,25 +717,18 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     return ScenePlan("household", furniture, objs, robot, (pan, tilt))
 
 
-# --- the RoboMaster-EP-like robot: candidates on the floor, where its gripper reaches ------------------
-
-_EP_CORRIDOR = EP.base_half[1] + 0.06  # half the width the base sweeps driving straight, with a margin
+# --- a body whose gripper reaches only the floor (the RoboMaster-EP-like robot): candidates there ------
 
 
-def _ep_graspable(c: Category) -> bool:
-    """What the EP's gripper (about 10 cm open) can hold and its beam (at least 3 cm up) can find: pickable,
-    at most 9 cm from its centre to its farthest edge at its largest, at least 3.5 cm tall at its smallest."""
-    if not c.pickable:
-        return False
-    lo, hi = c.size_range_m
-    small, big = build_shape(c.shape, lo), build_shape(c.shape, hi)
-    return big.footprint_radius <= 0.09 and small.hi[2] - small.lo[2] >= 0.035
+def _corridor(body: SimBody) -> float:
+    """Half the width the base sweeps driving straight, with a margin."""
+    return body.geometry.base_half[1] + 0.06
 
 
-def _ep_camera(robot: tuple[float, float, float]) -> np.ndarray:
-    """World position of the EP-like robot's camera with its arm at rest, for a base pose."""
+def _floor_camera(robot: tuple[float, float, float], body: SimBody) -> np.ndarray:
+    """World position of the body's camera with its arm at rest, for a base pose."""
     x, y, yaw = robot
-    cx, cy, cz = EP.camera_xyz
+    cx, cy, cz = body.geometry.camera_xyz
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([x + c * cx - s * cy, y + s * cx + c * cy, cz])
 
@@ -737,22 +740,23 @@ def _off_line(p: tuple[float, float], a: tuple[float, float], b: tuple[float, fl
     return float(np.hypot(*(np.subtract(p, a) - t * ab)))
 
 
-def _ep_triplet(rng: np.random.Generator, objs: list[PlacedObject]) -> ScenePlan:
+def _floor_triplet(rng: np.random.Generator, objs: list[PlacedObject], body: SimBody) -> ScenePlan:
     """Three objects on the floor 0.8 m before the robot, 26 degrees apart (left to right in their order):
     the way to each passes clear of the others."""
     robot = (0.0, 0.0, 0.0)
-    cam = _ep_camera(robot)
+    cam = _floor_camera(robot, body)
     for o, bearing in zip(objs, (0.45, 0.0, -0.45), strict=True):
         o.x, o.y, o.z, o.surface = 0.8 * math.cos(bearing), 0.8 * math.sin(bearing), 0.0, "floor"
         _face(o, (cam[0], cam[1]), rng, 0.25)
     return ScenePlan("triplet", [], objs, robot, (0.0, 0.0))
 
 
-def _ep_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
+def _floor_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     """A room with a table to one side and a counter or shelf at the back, and 2 to 4 candidates (up to 6
     on request) on the floor between them and the robot, at distances that differ by at least `min_gap`,
     each with a straight way to it that passes clear of the others."""
-    n = _count(request, int(rng.integers(2, 5)), 1, 6, "a household scene for the EP-like robot")
+    body = request.body
+    n = _count(request, int(rng.integers(2, 5)), 1, 6, f"a household scene for {body.called}")
     min_gap = float(request.option("min_gap", 0.15))
     robot = (
         -2.0 + float(rng.uniform(-0.2, 0.2)),
@@ -768,13 +772,13 @@ def _ep_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         _table("table_0", *table_xy, (0.7, 0.9, 0.75)),
         _table(f"{back}_1", *back_xy, (0.45, 1.2, 0.9), back),
     ]
-    pool = _pool(request, _ep_graspable)
+    pool = _pool(request, body.holds)
     order = rng.permutation(len(pool)).tolist()
     picks = [
         pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))] for i in range(n)
     ]
     objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
-    cam = _ep_camera(robot)
+    cam = _floor_camera(robot, body)
     placed: list[tuple[float, float, float]] = []
     dists: list[float] = []
     for o in objs:
@@ -782,7 +786,7 @@ def _ep_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         for _ in range(400):
             x = rx + float(rng.uniform(0.7, 1.9))
             y = ry + float(rng.uniform(-1.0, 1.0)) * (x - rx) * 0.45
-            if not _ep_spot_free(x, y, r, furniture, placed, (rx, ry)):
+            if not _floor_spot_free(x, y, r, furniture, placed, (rx, ry), _corridor(body)):
                 continue
             o.x, o.y, o.z, o.surface = x, y, 0.0, "floor"
             _face(o, (cam[0], cam[1]), rng, 0.4)
@@ -794,20 +798,21 @@ def _ep_household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
             break
         else:
             raise InputError(
-                f"cannot place {n} objects on the floor for the EP-like robot with distances {min_gap} m "
+                f"cannot place {n} objects on the floor for {body.called} with distances {min_gap} m "
                 f"apart and a clear way to each (object {o.key}, a {o.category.name}, found no free spot)",
                 "ask for fewer objects, or a smaller min_gap",
             )
     return ScenePlan("household", furniture, objs, robot, (0.0, 0.0))
 
 
-def _ep_spot_free(
+def _floor_spot_free(
     x: float,
     y: float,
     r: float,
     furniture: list[Furniture],
     placed: list[tuple[float, float, float]],
     start: tuple[float, float],
+    corridor: float,
 ) -> bool:
     """Whether an object of radius r at (x, y) keeps off the furniture and the others, off the ways to
     them, and leaves its own way clear of them."""
@@ -819,8 +824,8 @@ def _ep_spot_free(
         if math.hypot(x - px, y - py) < r + pr + 0.2:
             return False
         if (
-            _off_line((x, y), start, (px, py)) < _EP_CORRIDOR + r
-            or _off_line((px, py), start, (x, y)) < _EP_CORRIDOR + pr
+            _off_line((x, y), start, (px, py)) < corridor + r
+            or _off_line((px, py), start, (x, y)) < corridor + pr
         ):
             return False
     return True
@@ -856,19 +861,15 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
             f"the {fn.__name__} layout has no option {', '.join(unknown)} (it would be ignored)",
             f"its options are: {', '.join(known)}" if known else "it takes no --option",
         )
-    if req.robot == "ep":
-        if fn.__name__ not in ("household", "triplet"):
-            raise InputError(
-                f"the {fn.__name__} layout is not made for the EP-like robot (its grid is seen from above, "
-                "on a table the EP's gripper does not reach)",
-                "use the household or triplet layout with the EP-like robot",
-            )
-        unfit = [c.name for c in req.categories or () if not _ep_graspable(c)]
-        if unfit:
-            raise InputError(
-                f"the EP-like robot's gripper (about 10 cm open) cannot hold {', '.join(unfit)}",
-                "choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
-            )
+    body = req.body
+    if body.layouts is not None and fn.__name__ not in body.layouts:
+        raise InputError(
+            f"the {fn.__name__} layout is not made for {body.called} ({body.layouts_why})",
+            f"use the {' or '.join(body.layouts)} layout with {body.called}",
+        )
+    unfit = [c.name for c in req.categories or () if not body.holds(c)]
+    if unfit:
+        raise InputError(f"{body.called}'s gripper cannot hold {', '.join(unfit)}", body.holds_fix)
     if req.vocabulary is not None:
         outside = [c.name for c in req.categories or () if c.name not in req.vocabulary]
         if outside:
@@ -1158,10 +1159,7 @@ def build_model(plan: ScenePlan, *, timestep: float = 0.004, looks: str = "detai
     meshes: set[str] = set()
     for o in plan.objects:
         _add_object(spec, o, looks, meshes)
-    if plan.robot_kind == "ep":
-        add_ep_robot(spec, plan.width, plan.height)
-    else:
-        add_robot(spec)
+    body_named(plan.robot_kind).build(spec, plan.width, plan.height)
     _add_room_camera(spec, plan.robot)
     for o in plan.objects:
         if o.category.pickable:

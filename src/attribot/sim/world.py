@@ -29,10 +29,10 @@ from pydantic import BaseModel
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
-from attribot.sim import robot_ep, senses
+from attribot.sim import senses
+from attribot.sim.bodies import body_named
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
 from attribot.sim.render import SceneRenderer
-from attribot.sim.robot import GEOMETRY
 from attribot.sim.scene import (
     ROOM_CAMERA,
     ScenePlan,
@@ -47,18 +47,6 @@ from attribot.sim.scene import (
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
 
 _ATTEMPTS = 30
-# the robot's joints, each with an actuator of the same name
-_ROBOT_JOINTS = (
-    "base_x",
-    "base_y",
-    "base_yaw",
-    "head_pan",
-    "head_tilt",
-    "lift",
-    "arm",
-    "finger_l",
-    "finger_r",
-)
 # what rays hit (rangefinder, view checks, tops): the room, furniture, robot and objects' body parts, drawn
 # (group 0) or under their looks (BODY_GROUP); never the looks (LOOK_GROUP), so that sensing is the same
 # whatever objects look like
@@ -144,8 +132,9 @@ class SimWorld:
         self.config = config
         layout, seed, width, height = config.layout, config.seed, config.width, config.height
         self.robot = config.robot
-        self._joints = robot_ep.EP_JOINTS if self.robot == "ep" else _ROBOT_JOINTS
-        self.finger_open = robot_ep.EP.finger_open if self.robot == "ep" else GEOMETRY.finger_range[1]
+        self.body = body_named(config.robot)
+        self._joints = self.body.joints
+        self.finger_open = self.body.finger_open
         vocabulary = config.vocabulary
         request = SceneRequest(
             config.objects,
@@ -248,8 +237,7 @@ class SimWorld:
         self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in self._joints}
         self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
         self._act = {n: _name2id(m, A, n) for n in self._joints}
-        camera = robot_ep.CAMERA if self.robot == "ep" else "head_camera"
-        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, self.body.camera)
         self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
         self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
         self._ft_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "ft_site")
@@ -294,20 +282,7 @@ class SimWorld:
     def _start(self) -> None:
         d, q = self.data, self._qadr
         x, y, yaw = self.plan.robot
-        open_ = self.finger_open
-        if self.robot == "ep":  # the arm in its zero pose, the camera on it looking ahead
-            self._targets = {**robot_ep.arm_targets(*robot_ep.EP.rest), "finger_l": open_, "finger_r": open_}
-        else:
-            pan, tilt = self.plan.head
-            lift, ext = self.plan.arm
-            self._targets = {
-                "head_pan": pan,
-                "head_tilt": tilt,
-                "lift": lift,
-                "arm": ext,
-                "finger_l": open_,
-                "finger_r": open_,
-            }
+        self._targets = self.body.rest(self.plan.head, self.plan.arm, self.finger_open)
         for name, value in (("base_x", x), ("base_y", y), ("base_yaw", yaw), *self._targets.items()):
             d.qpos[q[name]] = value
         for name in ("base_x", "base_y", "base_yaw"):
@@ -431,22 +406,16 @@ class SimWorld:
 
     def set_head(self, pan: float, tilt: float) -> None:
         """Head targets (radians, clipped to the joint ranges): pan left positive, tilt up positive."""
-        if self.robot == "ep":
-            raise InputError("the EP-like robot has no camera head", "turn the base, or move the arm")
+        if not self.body.head:
+            raise InputError(f"{self.body.called} has no camera head", "turn the base, or move the arm")
         self._target("head_pan", math.remainder(float(pan), math.tau))
         self._target("head_tilt", float(tilt))
 
     def set_arm(self, lift: float, extension: float) -> None:
         """Lift height of the carriage and arm extension targets, metres (clipped to the joint ranges); on
         the EP-like robot, the grip point's height and reach (as near as its two links reach)."""
-        if self.robot == "ep":
-            if not (math.isfinite(lift) and math.isfinite(extension)):
-                raise InputError(f"arm target {(lift, extension)} is not finite", "give finite numbers")
-            for name, value in robot_ep.arm_targets(float(lift), float(extension)).items():
-                self._target(name, value)
-            return
-        self._target("lift", float(lift))
-        self._target("arm", float(extension))
+        for name, value in self.body.arm(float(lift), float(extension)).items():
+            self._target(name, value)
 
     def set_gripper(self, opening: float) -> None:
         """Each finger's distance from the centre line, metres (0 closed, 0.07 fully open)."""
@@ -575,8 +544,7 @@ class SimWorld:
             r = self._beam(math.radians(n.beam_deg))
         else:
             r = float(self.data.sensordata[self._range_adr])
-        own = robot_ep.RANGE_MAX if self.robot == "ep" else GEOMETRY.range_max
-        range_max = min(own, n.range_max or math.inf)
+        range_max = min(self.body.range_max, n.range_max or math.inf)
         if r < 0 or r > range_max:
             return math.inf
         if n.range_dropout and rng.random() < n.range_dropout:
@@ -638,10 +606,9 @@ class SimWorld:
         """Joint positions by name; the EP-like robot's arm as its links' elevations (upper_arm, forearm)
         and where its grip point is (lift, arm), as the EP reports its arm."""
         q = self.data.qpos
-        out = {n: float(q[a]) for n, a in self._qadr.items() if not n.startswith("finger")}
-        if self.robot == "ep":
-            arm = robot_ep.arm_joint_states(out)
-            out = {n: v for n, v in out.items() if n.startswith("base")} | arm
+        out = self.body.reported(
+            {n: float(q[a]) for n, a in self._qadr.items() if not n.startswith("finger")}
+        )
         out["gripper"] = float((q[self._qadr["finger_l"]] + q[self._qadr["finger_r"]]) / 2)
         return out
 
@@ -657,9 +624,8 @@ class SimWorld:
         """The camera's pan and tilt: the head's joints; on the EP-like robot, the camera's pitch on the
         arm (it has no pan)."""
         q = self.data.qpos
-        if self.robot == "ep":
-            return 0.0, robot_ep.camera_tilt({n: float(q[a]) for n, a in self._qadr.items()})
-        return float(q[self._qadr["head_pan"]]), float(q[self._qadr["head_tilt"]])
+        pan, tilt = self.body.head_angles({n: float(q[a]) for n, a in self._qadr.items()})
+        return float(pan), float(tilt)
 
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World position of the optical centre and the camera's rotation (columns: right, up, backward)."""
@@ -693,11 +659,13 @@ class SimWorld:
     def observe(self, *, depth: bool = True, segmentation: bool = True) -> Frame:
         """The head camera's frame: RGB, and depth and segmentation (object keys, -1 elsewhere) with truth."""
         mujoco.mj_forward(self.model, self.data)
-        # the EP's camera must not see its ToF's beam; the mast robot's beam runs along its optical axis
-        # and shows as nothing (drawn as ever, so that its frames stay as they were)
-        rays = self.robot != "ep"
         out = self.renderer.render(
-            self.data, self.camera_id, rgb=True, depth=depth, segmentation=segmentation, rays=rays
+            self.data,
+            self.camera_id,
+            rgb=True,
+            depth=depth,
+            segmentation=segmentation,
+            rays=self.body.beam_in_view,
         )
         seg = surfaces = None
         if out.geom_ids is not None:
