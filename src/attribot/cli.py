@@ -946,54 +946,59 @@ def _shown_path(out: Path | None, dataset: Path, item_id: str) -> Path:
     return out
 
 
+_EVAL_METHODS = typer.Option(
+    None,
+    "--methods",
+    help="Comma-separated: ovd,vqa,vqa+llm,vlm,attr-api,pa-api (default: the paper's per task).",
+)
+_EVAL_NOISE = typer.Option(
+    "clean",
+    "--noise",
+    help="Comma-separated noise presets: clean, frame (per-frame perception noise, earlier releases' "
+    "realistic), perception, sensing, acting, realistic (all three); PRESET-no-MECHANISM for one "
+    "ablation condition.",
+)
+_EVAL_ABLATION = typer.Option(
+    False,
+    "--ablation",
+    help="Add realistic with each error-catching mechanism off in turn (api methods).",
+)
+_EVAL_DATASET = typer.Option(
+    None,
+    "--dataset",
+    help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
+    "generating them.",
+)
+_EVAL_FINDABLE_BY = typer.Option(
+    None,
+    "--findable-by",
+    metavar="SPEC",
+    help="Run on the items of this closed-set detector (default: the run's own --detector; an "
+    "open-vocabulary one keeps every item): the embodied tasks are drawn in scenes whose objects it can "
+    "all find, the other tasks keep the items whose objects it can find; e.g. --detector oracle "
+    "--findable-by coco runs the oracle on exactly the coco run's items.",
+)
+
+
 @app.command("eval", cls=_Command)
 @_with_flags(PLANNER_FLAGS, (*BACKEND_FLAGS[:3], BACKEND_FLAGS[4]))
 def evaluate(
     out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
     suite: str = _SUITE,
     tasks: str | None = _TASKS,
-    methods: str | None = typer.Option(
-        None,
-        "--methods",
-        help="Comma-separated: ovd,vqa,vqa+llm,vlm,attr-api,pa-api (default: the paper's per task).",
-    ),
+    methods: str | None = _EVAL_METHODS,
     limit: int | None = _LIMIT,
-    noise: str = typer.Option(
-        "clean",
-        "--noise",
-        help="Comma-separated noise presets: clean, frame (per-frame perception noise, earlier releases' "
-        "realistic), perception, sensing, acting, realistic (all three); PRESET-no-MECHANISM for one "
-        "ablation condition.",
-    ),
-    ablation: bool = typer.Option(
-        False,
-        "--ablation",
-        help="Add realistic with each error-catching mechanism off in turn (api methods).",
-    ),
+    noise: str = _EVAL_NOISE,
+    ablation: bool = _EVAL_ABLATION,
     workers: int = typer.Option(1, "--workers", help="Items run in this many processes."),
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
-    dataset: Path | None = typer.Option(
-        None,
-        "--dataset",
-        help="A dataset folder made by `attribot dataset build`: its items and images are used instead of "
-        "generating them.",
-    ),
-    findable_by: str | None = typer.Option(
-        None,
-        "--findable-by",
-        metavar="SPEC",
-        help="Run on the items of this closed-set detector (default: the run's own --detector; an "
-        "open-vocabulary one keeps every item): the embodied tasks are drawn in scenes whose objects it can "
-        "all find, the other tasks keep the items whose objects it can find; e.g. --detector oracle "
-        "--findable-by coco runs the oracle on exactly the coco run's items.",
-    ),
+    dataset: Path | None = _EVAL_DATASET,
+    findable_by: str | None = _EVAL_FINDABLE_BY,
     given: Any = None,
 ) -> None:
     """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
     from attribot.eval.methods import ablations
-    from attribot.eval.run import EvalPlan, run_eval
+    from attribot.eval.run import EvalPlan
 
     plan = EvalPlan(
         tasks=tuple(_suite_tasks(suite, tasks)),
@@ -1003,6 +1008,23 @@ def evaluate(
         findable_by=findable_by,
     )
     settings = _settings(given)
+    summary = _run_eval_shown(plan, settings, out, workers=workers, executor=executor, dataset=dataset)
+    console.print(
+        f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
+        f"report: attribot report {out}",
+        highlight=False,
+    )
+
+
+def _run_eval_shown(
+    plan: Any, settings: Any, out: Path, *, workers: int, executor: str, dataset: Path | None
+) -> Any:
+    """Run the evaluation with a progress bar on stderr (the items done, their rate, the time left) and the
+    run's notes printed above it; return its summary."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from attribot.eval.run import run_eval
+
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -1019,7 +1041,7 @@ def evaluate(
             rate = finished / max(time.perf_counter() - started, 1e-9)
             bar.update(job, completed=finished, total=total, rate=f"{rate:.1f}/s", description=record.task)
 
-        summary = run_eval(
+        return run_eval(
             plan,
             settings,
             out,
@@ -1030,11 +1052,6 @@ def evaluate(
             dataset=dataset,
             note=lambda line: bar.console.print(line, highlight=False),
         )
-    console.print(
-        f"{summary.done} records written, {summary.skipped} already done, {summary.seconds:.1f} s -> {out}; "
-        f"report: attribot report {out}",
-        highlight=False,
-    )
 
 
 @app.command("report", cls=_Command)
@@ -1154,26 +1171,34 @@ serve_app = typer.Typer(
 app.add_typer(serve_app, name="serve")
 
 
+_SERVE_TOKEN = typer.Option(
+    None,
+    "--token",
+    help="Bearer token clients must send (default: ATTRIBOT_REMOTE_TOKEN; none: no check).",
+)
+_SERVE_DETECTOR = typer.Option(None, "--detector", help="Detector spec to serve, e.g. hf:MODEL, or none.")
+_SERVE_VQA = typer.Option(None, "--vqa", help="VQA spec to serve, e.g. hf:MODEL or openai:MODEL, or none.")
+_SERVE_LANGUAGE = typer.Option(
+    None, "--language", help="Language spec to serve (catalog, openai:MODEL, none)."
+)
+_SERVE_MODEL_PROCESS = typer.Option(
+    True,
+    "--model-process/--in-process",
+    help="Run each hf: model (detector, VQA) in a process of its own, so that the server's HTTP work "
+    "does not hold up the model (the default), or in the server's process.",
+)
+
+
 @serve_app.command("models", cls=_Command)
 def serve_models(
     host: str = typer.Option(
         "127.0.0.1", "--host", help="Address to listen on (127.0.0.1: reach it by SSH tunnel)."
     ),
     port: int = typer.Option(8500, "--port", help="TCP port."),
-    token: str | None = typer.Option(
-        None,
-        "--token",
-        help="Bearer token clients must send (default: ATTRIBOT_REMOTE_TOKEN; none: no check).",
-    ),
-    detector: str | None = typer.Option(
-        None, "--detector", help="Detector spec to serve, e.g. hf:MODEL, or none."
-    ),
-    vqa: str | None = typer.Option(
-        None, "--vqa", help="VQA spec to serve, e.g. hf:MODEL or openai:MODEL, or none."
-    ),
-    language: str | None = typer.Option(
-        None, "--language", help="Language spec to serve (catalog, openai:MODEL, none)."
-    ),
+    token: str | None = _SERVE_TOKEN,
+    detector: str | None = _SERVE_DETECTOR,
+    vqa: str | None = _SERVE_VQA,
+    language: str | None = _SERVE_LANGUAGE,
     max_batch: int = typer.Option(
         32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."
     ),
@@ -1185,35 +1210,23 @@ def serve_models(
     ),
     max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
     log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
-    model_process: bool = typer.Option(
-        True,
-        "--model-process/--in-process",
-        help="Run each hf: model (detector, VQA) in a process of its own, so that the server's HTTP work "
-        "does not hold up the model (the default), or in the server's process.",
-    ),
+    model_process: bool = _SERVE_MODEL_PROCESS,
 ) -> None:
     """Serve the configured detector, VQA and language backends over HTTP with dynamic batching."""
-    from pydantic import ValidationError
-
     from attribot.config import load_settings, revealed
-    from attribot.server import ServerConfig, build_served_backends, check_bind, listen_socket, served_specs
+    from attribot.server import build_served_backends, check_bind, listen_socket, served_specs
     from attribot.server import serve_models as run_server
 
     if not 0 < port < 65536:
         raise fail(f"--port must lie in 1..65535, got {port}", "use e.g. --port 8500")
     settings = load_settings()
-    try:
-        config = ServerConfig(
-            token=token or revealed(settings.remote_token),
-            max_batch=max_batch,
-            batch_window_ms=batch_window_ms,
-            max_image_mb=max_image_mb,
-            max_queue=max_queue,
-        )
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        option = "--" + str(first["loc"][0]).replace("_", "-") if first.get("loc") else "an option"
-        raise fail(f"{option}: {first.get('msg')}", "see `attribot serve models --help`") from None
+    config = _server_config(
+        token=token or revealed(settings.remote_token),
+        max_batch=max_batch,
+        batch_window_ms=batch_window_ms,
+        max_image_mb=max_image_mb,
+        max_queue=max_queue,
+    )
     check_bind(host, config.token)
     given = {"detector": detector, "vqa": vqa, "language": language}
     _, notes = served_specs(settings, given)
@@ -1225,6 +1238,34 @@ def serve_models(
     except BaseException:
         sock.close()
         raise
+    _print_served(backends, host, port, token_required=bool(config.token))
+    run_server(backends, config, host=host, port=port, log_level=log_level, sock=sock)
+
+
+def _server_config(
+    token: str | None, max_batch: int, batch_window_ms: float, max_image_mb: float, max_queue: int
+) -> Any:
+    """The model server's config from the command's options; a value out of bounds fails naming its option."""
+    from pydantic import ValidationError
+
+    from attribot.server import ServerConfig
+
+    try:
+        return ServerConfig(
+            token=token,
+            max_batch=max_batch,
+            batch_window_ms=batch_window_ms,
+            max_image_mb=max_image_mb,
+            max_queue=max_queue,
+        )
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        option = "--" + str(first["loc"][0]).replace("_", "-") if first.get("loc") else "an option"
+        raise fail(f"{option}: {first.get('msg')}", "see `attribot serve models --help`") from None
+
+
+def _print_served(backends: dict[str, Any], host: str, port: int, *, token_required: bool) -> None:
+    """Say on stderr what each role serves and where clients reach it."""
     for role, backend in backends.items():
         pid = getattr(backend, "pid", None)
         where = f" (model process {pid})" if pid is not None else ""
@@ -1232,11 +1273,10 @@ def serve_models(
             f"serving {role}: {getattr(backend, 'name', '-') if backend else 'none'}{where}", highlight=False
         )
     err_console.print(
-        f"listening on http://{host}:{port} (token {'required' if config.token else 'not required'}); "
+        f"listening on http://{host}:{port} (token {'required' if token_required else 'not required'}); "
         f"clients give remote:http://{host}:{port} as the backend spec of each served role",
         highlight=False,
     )
-    run_server(backends, config, host=host, port=port, log_level=log_level, sock=sock)
 
 
 # ---- bridge (the robot side of the robot bridge) -----------------------------------------------------

@@ -23,14 +23,14 @@ Who may do what:
 """
 
 # no `from __future__ import annotations`: FastAPI reads the endpoints' annotations at run time, and
-# `Request` is imported inside create_app (the server extra is optional)
+# `Request` is imported inside the functions that add the routes (the server extra is optional)
 import asyncio
 import hashlib
 import hmac
 import ipaddress
 import re
 import secrets
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -301,41 +301,47 @@ def _following(demo: Runs, run: Run) -> Any:
     return Following(run.stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"})
 
 
-def create_app(config: DemoConfig) -> Any:
-    """The demo's FastAPI app (start it with uvicorn, or `attribot demo`)."""
-    fastapi = require("fastapi", "the live demo")
+@dataclass(frozen=True)
+class _Shared:
+    """What every route reads: the demo's config, its runs, the page's HTML, and the key the visitors'
+    secrets are derived from (never sent, so it stays out of the repr too)."""
+
+    config: DemoConfig
+    runs: Runs
+    page_html: str
+    key: bytes = field(repr=False)
+
+    def secret_of(self, visitor: str) -> str:
+        return hmac.new(self.key, visitor.encode(), hashlib.sha256).hexdigest()
+
+    def find(self, run_id: str, request: Any) -> Run | None:
+        """The run `run_id` of the request's visitor, or None (another visitor's run is not found)."""
+        try:
+            return self.runs.get(run_id, _visitor_of(request.cookies) or "")
+        except KeyError:
+            return None
+
+
+def _stopped_at_exit(runs: Runs) -> Any:
+    """The app's lifespan: at the end, the running query is unwound and closes its world in its own thread
+    before the process ends."""
     from contextlib import asynccontextmanager
-
-    from starlette import responses
-    from starlette.concurrency import run_in_threadpool
-    from starlette.requests import Request
-    from starlette.staticfiles import StaticFiles
-
-    from attribot.models.wire import ImageTooLarge
-    from attribot.planning.query import check_query
-    from attribot.sim.scene import LAYOUTS
-
-    demo = Runs(
-        config.runs_dir,
-        config.settings,
-        keep_runs=config.keep_runs,
-        min_free_bytes=config.min_free_bytes,
-        max_streams_per_run=config.max_streams_per_run,
-    )
-    key = secrets.token_bytes(32)  # the visitors' secrets; a restarted demo gives new ones
-    page_html = (Path(__file__).parent / "static" / "index.html").read_text(encoding="utf-8")
-
-    def secret_of(visitor: str) -> str:
-        return hmac.new(key, visitor.encode(), hashlib.sha256).hexdigest()
 
     @asynccontextmanager
     async def lifespan(app: Any) -> Any:
         yield
-        # the running query is unwound and closes its world in its own thread before the process ends
-        await asyncio.to_thread(demo.stop)
+        await asyncio.to_thread(runs.stop)
 
-    app = fastapi.FastAPI(title="attribot demo", docs_url=None, redoc_url=None, lifespan=lifespan)
-    app.add_middleware(_Guard, config=config)
+    return lifespan
+
+
+def _add_page_routes(app: Any, shared: _Shared) -> None:
+    """`GET /` (the page, with the visitor's secret in it), `/static/...` and `GET /api/options`."""
+    from starlette import responses
+    from starlette.requests import Request
+    from starlette.staticfiles import StaticFiles
+
+    from attribot.sim.scene import LAYOUTS
 
     @app.get("/")
     def page(request: Request) -> Any:
@@ -343,9 +349,9 @@ def create_app(config: DemoConfig) -> Any:
         fresh = visitor is None
         if visitor is None:
             visitor = secrets.token_hex(16)
-        html = page_html.replace(
+        html = shared.page_html.replace(
             '<meta name="attribot-secret" content="">',
-            f'<meta name="attribot-secret" content="{secret_of(visitor)}">',
+            f'<meta name="attribot-secret" content="{shared.secret_of(visitor)}">',
         )
         response = responses.HTMLResponse(html, headers={"Cache-Control": "no-store"})
         if fresh:
@@ -356,14 +362,14 @@ def create_app(config: DemoConfig) -> Any:
 
     @app.get("/api/options")
     def options() -> Any:
-        settings = config.settings
+        settings = shared.config.settings
         return {
             "layouts": sorted(LAYOUTS.names()),
             "planner": settings.planner,
             "llm_model": settings.llm_model if settings.planner == "llm" else None,
             "prompt": settings.prompt if settings.planner == "llm" else None,
             "backends": {
-                role: demo.scrub.text(str(getattr(settings, role)))
+                role: shared.runs.scrub.text(str(getattr(settings, role)))
                 for role in ("detector", "vqa", "language")
             },
             "max_query_chars": MAX_QUERY_CHARS,
@@ -371,66 +377,93 @@ def create_app(config: DemoConfig) -> Any:
             "max_image_megapixels": MAX_IMAGE_PIXELS / 1e6,
         }
 
+
+async def _body_of(request: Any, limit: int) -> bytes | None:
+    """The request's body, or None when it is over `limit` (what is still coming is read and dropped, up to
+    a bound, so that the client sees the refusal and not a reset connection)."""
+    declared = request.headers.get("content-length", "")
+    over = declared.isdigit() and len(declared) <= 18 and int(declared) > limit
+    body = bytearray()
+    seen = 0
+    async with asyncio.timeout(BODY_TIMEOUT_S):
+        async for chunk in request.stream():
+            seen += len(chunk)
+            if over:
+                if seen > 4 * limit:
+                    break
+                continue
+            body.extend(chunk)
+            over = len(body) > limit
+    return None if over else bytes(body)
+
+
+def _refusal_of_sender(request: Any, shared: _Shared) -> tuple[str | None, Any]:
+    """The visitor who starts a query, or the refusal of a request that is not the page's own: no visitor
+    cookie, not the page's secret, not JSON."""
+    visitor = _visitor_of(request.cookies)
+    if visitor is None:
+        return None, _problem(400, "this browser has no visitor cookie", "load the demo page first, then ask")
+    given = request.headers.get(SECRET_HEADER, "")
+    if not hmac.compare_digest(given.encode("utf-8", "surrogatepass"), shared.secret_of(visitor).encode()):
+        return None, _problem(
+            403,
+            "this request does not carry the demo page's secret",
+            "reload the demo page and ask from it",
+        )
+    kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if kind != "application/json":
+        return None, _problem(
+            415, f"the request is {kind[:60] or 'untyped'}, not JSON", "send the page's form as JSON"
+        )
+    return visitor, None
+
+
+async def _form_of(request: Any, limit: int, too_large: str) -> tuple[_RunRequest | None, Any]:
+    """The page's form in the request's body, or the refusal of a body that is slow, too large or not the
+    form."""
+    try:
+        body = await _body_of(request, limit)
+    except TimeoutError:
+        return None, _problem(408, f"the request took over {BODY_TIMEOUT_S:g} s to arrive", "send it again")
+    if body is None:
+        return None, _problem(413, too_large, "send a smaller image")
+    try:
+        return _RunRequest.model_validate_json(body), None
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = str(first.get("loc", ("body",))[0]) if first.get("loc") else "body"
+        return None, _problem(
+            400,
+            f"the request is not the page's form: {where}: {first.get('msg', 'invalid')}",
+            "send a JSON object: query, and layout, seed, objects, options, or image {name, data}",
+        )
+
+
+def _add_start_route(app: Any, shared: _Shared) -> None:
+    """`POST /api/runs`: start a query from the page's form, its scene or its uploaded image."""
+    from starlette.concurrency import run_in_threadpool
+    from starlette.requests import Request
+
+    from attribot.models.wire import ImageTooLarge
+    from attribot.planning.query import check_query
+
     limit = MAX_IMAGE_BYTES * 4 // 3 + 65536  # the image travels as base64 inside the JSON
     too_large = f"the upload is larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
 
-    async def body_of(request: Request) -> bytes | None:
-        """The request's body, or None when it is over `limit` (what is still coming is read and dropped,
-        up to a bound, so that the client sees the refusal and not a reset connection)."""
-        declared = request.headers.get("content-length", "")
-        over = declared.isdigit() and len(declared) <= 18 and int(declared) > limit
-        body = bytearray()
-        seen = 0
-        async with asyncio.timeout(BODY_TIMEOUT_S):
-            async for chunk in request.stream():
-                seen += len(chunk)
-                if over:
-                    if seen > 4 * limit:
-                        break
-                    continue
-                body.extend(chunk)
-                over = len(body) > limit
-        return None if over else bytes(body)
-
     @app.post("/api/runs")
     async def start(request: Request) -> Any:
-        visitor = _visitor_of(request.cookies)
+        visitor, refusal = _refusal_of_sender(request, shared)
         if visitor is None:
-            return _problem(400, "this browser has no visitor cookie", "load the demo page first, then ask")
-        given = request.headers.get(SECRET_HEADER, "")
-        if not hmac.compare_digest(given.encode("utf-8", "surrogatepass"), secret_of(visitor).encode()):
-            return _problem(
-                403,
-                "this request does not carry the demo page's secret",
-                "reload the demo page and ask from it",
-            )
-        kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
-        if kind != "application/json":
-            return _problem(
-                415, f"the request is {kind[:60] or 'untyped'}, not JSON", "send the page's form as JSON"
-            )
-        try:
-            body = await body_of(request)
-        except TimeoutError:
-            return _problem(408, f"the request took over {BODY_TIMEOUT_S:g} s to arrive", "send it again")
-        if body is None:
-            return _problem(413, too_large, "send a smaller image")
-        try:
-            form = _RunRequest.model_validate_json(body)
-        except ValidationError as exc:
-            first = exc.errors()[0]
-            where = str(first.get("loc", ("body",))[0]) if first.get("loc") else "body"
-            return _problem(
-                400,
-                f"the request is not the page's form: {where}: {first.get('msg', 'invalid')}",
-                "send a JSON object: query, and layout, seed, objects, options, or image {name, data}",
-            )
+            return refusal
+        form, refusal = await _form_of(request, limit, too_large)
+        if form is None:
+            return refusal
         try:
             query = check_query(form.query)
-            demo.admit(visitor)  # before the upload is decoded: a refused query costs nothing more
+            shared.runs.admit(visitor)  # before the upload is decoded: a refused query costs nothing more
             image = None if form.image is None else await run_in_threadpool(_upload, form.image)
             scene = None if image is not None else _scene_config(form)
-            run = demo.start(visitor, query, scene, image, asyncio.get_running_loop())
+            run = shared.runs.start(visitor, query, scene, image, asyncio.get_running_loop())
         except AttribotError as exc:
             statuses: dict[type, int] = {Busy: 409, Crowded: 503, NoSpace: 507, ImageTooLarge: 413}
             status = statuses.get(type(exc), 400)
@@ -438,31 +471,33 @@ def create_app(config: DemoConfig) -> Any:
             return _problem(status, exc.message, exc.fix, headers)
         return {"id": run.id, "events": f"/api/runs/{run.id}/events"}
 
-    def find(run_id: str, request: Request) -> Run | None:
-        try:
-            return demo.get(run_id, _visitor_of(request.cookies) or "")
-        except KeyError:
-            return None
+
+def _add_run_routes(app: Any, shared: _Shared) -> None:
+    """`GET /api/runs/{id}/events` (the run's progress as server-sent events) and what a finished run saved:
+    `answer.png`, `episode.mp4`, `run.zip`; each of the visitor's own runs only."""
+    from starlette import responses
+    from starlette.concurrency import run_in_threadpool
+    from starlette.requests import Request
 
     @app.get("/api/runs/{run_id}/events")
     async def events(run_id: str, request: Request) -> Any:
-        run = find(run_id, request)
+        run = shared.find(run_id, request)
         if run is None:
             return _problem(404, f"no run {run_id[:40]!r} of this browser", "start a query from the page")
-        return _following(demo, run)
+        return _following(shared.runs, run)
 
     media = {"answer.png": "image/png", "episode.mp4": "video/mp4"}
 
     @app.get("/api/runs/{run_id}/{name}")
     async def saved(run_id: str, name: str, request: Request) -> Any:
-        run = find(run_id, request)
+        run = shared.find(run_id, request)
         if run is None or not run.done:
             return _problem(404, f"no finished run {run_id[:40]!r} of this browser", "wait for the answer")
         if name == "run.zip":
             if not run.folder.is_dir():
                 return _problem(404, "this run saved nothing", "its query failed before it ran")
             try:
-                path = await run_in_threadpool(demo.zipped, run)
+                path = await run_in_threadpool(shared.runs.zipped, run)
             except OSError as exc:
                 return _problem(507, f"the demo cannot write the zip ({exc.strerror})", "download it later")
             return responses.FileResponse(
@@ -475,5 +510,30 @@ def create_app(config: DemoConfig) -> Any:
             )
         return responses.FileResponse(path, media_type=media[name], filename=f"{run.id}-{name}")
 
-    app.state.demo = demo
+
+def create_app(config: DemoConfig) -> Any:
+    """The demo's FastAPI app (start it with uvicorn, or `attribot demo`)."""
+    fastapi = require("fastapi", "the live demo")
+    runs = Runs(
+        config.runs_dir,
+        config.settings,
+        keep_runs=config.keep_runs,
+        min_free_bytes=config.min_free_bytes,
+        max_streams_per_run=config.max_streams_per_run,
+    )
+    shared = _Shared(
+        config,
+        runs,
+        key=secrets.token_bytes(32),  # the visitors' secrets; a restarted demo gives new ones
+        page_html=(Path(__file__).parent / "static" / "index.html").read_text(encoding="utf-8"),
+    )
+    app = fastapi.FastAPI(
+        title="attribot demo", docs_url=None, redoc_url=None, lifespan=_stopped_at_exit(runs)
+    )
+    app.add_middleware(_Guard, config=config)
+    # in this order: a route is matched by the first path that fits (`events` before `{name}`)
+    _add_page_routes(app, shared)
+    _add_start_route(app, shared)
+    _add_run_routes(app, shared)
+    app.state.demo = runs
     return app

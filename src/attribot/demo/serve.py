@@ -13,6 +13,7 @@ import os
 import shutil
 import sys
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any
 
 from attribot.demo.app import DemoConfig, create_app, is_ip
@@ -90,6 +91,58 @@ def _header_deadline(base: type[Any]) -> type[Any]:
     return HeaderDeadline
 
 
+def _answering_to(config: DemoConfig, host: str) -> DemoConfig:
+    """`config` with `host` among the names the demo answers to, when it is a name (not an address)."""
+    if host.lower() not in ("localhost", "0.0.0.0", "::") and not is_ip(host):
+        return dataclasses.replace(config, hosts=(*config.hosts, host))
+    return config
+
+
+def _demo_server(uvicorn: ModuleType, app: Any, host: str, port: int, log_level: str) -> Any:
+    """The uvicorn server of `app`: a deadline on each request's headers, and a signal that stops the
+    demo's runs at once."""
+    from uvicorn import Server as UvicornServer
+    from uvicorn.protocols.http.auto import AutoHTTPProtocol
+
+    runs = app.state.demo
+
+    class Server(UvicornServer):
+        def handle_exit(self, sig: int, frame: Any) -> None:
+            # at the signal, not after the pages' grace: the running query unwinds now, so that the pages
+            # that follow it get its last events before their connections close
+            runs.stopping.set()
+            super().handle_exit(sig, frame)
+
+    return Server(
+        uvicorn.Config(
+            app,
+            host=host,
+            port=port,
+            log_level=log_level,
+            access_log=False,
+            http=_header_deadline(AutoHTTPProtocol),
+            timeout_keep_alive=5,
+            timeout_graceful_shutdown=STREAM_GRACE_S,
+        )
+    )
+
+
+def _stop_runs(runs: Any, config: DemoConfig, code: int | str | None) -> None:
+    """Stop the demo's runs once the server has stopped; a query that does not stop in time ends the
+    process at once with `code`."""
+    grace = STOP_GRACE_S if not runs.stopping.is_set() else 0.5  # else stopped already, or not
+    if runs.worker.is_alive() and not runs.stop(grace):
+        # a query that did not notice the stop (a model call of minutes): exit without it, never through
+        # the interpreter's teardown under a live rendering thread
+        log.warning("the demo stops with a query still running")
+        if not config.keep_runs:
+            shutil.rmtree(config.runs_dir, ignore_errors=True)
+        logging.shutdown()
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+        os._exit(code if isinstance(code, int) else 1)
+
+
 def serve_demo(
     config: DemoConfig,
     host: str = "127.0.0.1",
@@ -103,36 +156,13 @@ def serve_demo(
     token). The demo answers to `host` when it is a name, besides localhost and IP addresses."""
     _check_token(host, config.token)
     uvicorn = require("uvicorn", "the live demo")
-    from uvicorn import Server as UvicornServer
-    from uvicorn.protocols.http.auto import AutoHTTPProtocol
-
-    if host.lower() not in ("localhost", "0.0.0.0", "::") and not is_ip(host):
-        config = dataclasses.replace(config, hosts=(*config.hosts, host))
+    config = _answering_to(config, host)
     sock = listen_socket(host, port)
     app = create_app(config)
     runs = app.state.demo
     if announce is not None:
         announce(f"http://{host}:{port}/" + (f"?token={config.token}" if config.token else ""))
-
-    class Server(UvicornServer):
-        def handle_exit(self, sig: int, frame: Any) -> None:
-            # at the signal, not after the pages' grace: the running query unwinds now, so that the pages
-            # that follow it get its last events before their connections close
-            runs.stopping.set()
-            super().handle_exit(sig, frame)
-
-    server = Server(
-        uvicorn.Config(
-            app,
-            host=host,
-            port=port,
-            log_level=log_level,
-            access_log=False,
-            http=_header_deadline(AutoHTTPProtocol),
-            timeout_keep_alive=5,
-            timeout_graceful_shutdown=STREAM_GRACE_S,
-        )
-    )
+    server = _demo_server(uvicorn, app, host, port, log_level)
     code: int | str | None = 0
     with termination_as_exit():
         try:
@@ -143,16 +173,6 @@ def serve_demo(
             code = exc.code
         finally:
             sock.close()
-            grace = STOP_GRACE_S if not runs.stopping.is_set() else 0.5  # else stopped already, or not
-            if runs.worker.is_alive() and not runs.stop(grace):
-                # a query that did not notice the stop (a model call of minutes): exit without it, never
-                # through the interpreter's teardown under a live rendering thread
-                log.warning("the demo stops with a query still running")
-                if not config.keep_runs:
-                    shutil.rmtree(config.runs_dir, ignore_errors=True)
-                logging.shutdown()
-                for stream in (sys.stdout, sys.stderr):
-                    stream.flush()
-                os._exit(code if isinstance(code, int) else 1)
+            _stop_runs(runs, config, code)
     if code:
         raise SystemExit(code)
