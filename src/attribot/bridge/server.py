@@ -605,105 +605,13 @@ class RobotServer:
             reply["sensors"] = sensors
         return reply
 
-    def _need(self, capability: str, op: str) -> None:
-        if capability not in self.driver.capabilities():
-            raise _Refused(
-                "unsupported",
-                f"{self.driver.name} cannot {op}: it has no {capability} capability",
-                "available here: {}".format(", ".join(sorted(self.driver.capabilities()))),
-            )
-
     def _handle(self, op: str, h: dict[str, Any], received: float) -> tuple[dict[str, Any], bytes]:
         """Do one request received at `received` (monotonic); `_Refused` when it cannot be done. A motion
         command feeds the watchdog as it arms it (a tick in between must not find it armed and late)."""
-        d = self.driver
         with self._lock:
-            if op == "observe":
-                self._need("camera", op)
-                return self._frame(d.frame())
-            if op == "base":
-                self._need("base", "drive its base")
-                lim = self.limits
-                self._target = (
-                    _clip(_finite(h, "vx", op), lim.max_speed),
-                    _clip(_finite(h, "vy", op), lim.max_speed),
-                    _clip(_finite(h, "wz", op), lim.max_turn),
-                )
-                self._armed = True
-                self._last_command = max(self._last_command, received)
-                if d.realtime:
-                    self._ramp(_RAMP_TICK)
-                return {"commanded": list(self._target)}, b""
-            if op == "step":
-                seconds = _finite(h, "seconds", op)
-                if not 0.0 <= seconds <= MAX_STEP_S:
-                    raise _Refused(
-                        "value",
-                        f"step needs seconds from 0 to {MAX_STEP_S:g}, got {seconds:g}",
-                        "step in shorter pieces",
-                    )
-                self._step(seconds)
-                return {"clock": d.clock()}, b""
-            if op == "stop":
-                self._target = (0.0, 0.0, 0.0)
-                self._applied = (0.0, 0.0, 0.0)
-                self._armed = False
-                d.stop()
-                return {}, b""
-            if op == "head":
-                self._need("head", "move a camera head")
-                pan, tilt = _finite(h, "pan", op), _finite(h, "tilt", op)
-                if abs(pan) > 2 * math.pi:
-                    raise _Refused("value", f"head pan {pan:g} rad is more than a turn", "send an angle")
-                pan = _within(math.remainder(pan, 2 * math.pi), self.travel["pan"], "head pan", "rad")
-                tilt = _within(tilt, self.travel["tilt"], "head tilt", "rad")
-                d.set_head(pan, tilt)
-                return {"commanded": [pan, tilt]}, b""
-            if op == "arm":
-                self._need("arm", "move an arm")
-                travel = self.travel
-                lift = _within(_finite(h, "lift", op), travel["lift"], "arm lift", "m")
-                extension = _within(_finite(h, "extension", op), travel["extension"], "arm extension", "m")
-                self._armed = True
-                self._last_command = max(self._last_command, received)
-                d.set_arm(lift, extension)
-                return {"commanded": [lift, extension]}, b""
-            if op == "grasp":
-                self._need("gripper", op)
-                return {"held": bool(d.grasp())}, b""
-            if op == "release":
-                self._need("gripper", op)
-                d.release()
-                return {}, b""
-            if op == "distance":
-                self._need("distance", "measure distance")
-                value = float(d.distance())
-                return {"metres": value if math.isfinite(value) else None}, b""
-            if op == "tare":
-                self._need("force", "tare a force sensor")
-                d.tare_force()
-                return {}, b""
-            if op == "force":
-                self._need("force", "measure force")
-                return {"newtons": [float(v) for v in d.force()]}, b""
-            if op == "read":
-                name = h.get("sensor")
-                offered = [str(s) for s in d.sensors()]
-                if not isinstance(name, str) or name not in offered:
-                    raise _Refused(
-                        "unsupported",
-                        f"{d.name} has no {name!r} sensor",
-                        "its sensors: {}".format(", ".join(offered) or "none beyond its capabilities"),
-                    )
-                value = float(d.read_sensor(name))
-                return {"value": value if math.isfinite(value) else None}, b""
-            if op == "pose":
-                self._need("pose", "report its pose")
-                x, y, yaw = d.pose()
-                return {"x": float(x), "y": float(y), "yaw": float(yaw)}, b""
-            if op == "joints":
-                self._need("pose", "report joint states")
-                return {"joints": {k: float(v) for k, v in d.joints().items()}}, b""
+            request = _REQUESTS.get(op)
+            if request is not None:
+                return request(self, op, h, received)
         raise _Refused("op", f"unknown bridge request {_shown(op)}", "see docs/bridge-protocol.md")
 
     def _step(self, seconds: float) -> None:
@@ -726,25 +634,6 @@ class RobotServer:
             d.step(dt)
             left -= dt
 
-    def _frame(self, frame: CameraFrame) -> tuple[dict[str, Any], bytes]:
-        parts = [("jpeg", frame.jpeg)]
-        header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(self.driver.camera())}
-        if frame.depth is not None:
-            import numpy as np  # only a robot with depth or segmentation needs it
-
-            depth = np.ascontiguousarray(frame.depth, dtype="<f4")
-            parts.append(("depth", depth.tobytes()))
-            header["depth_shape"] = list(depth.shape)
-        if frame.segmentation is not None:
-            import numpy as np
-
-            seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
-            parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
-            header["segmentation_shape"] = list(seg.shape)
-            header["objects"] = frame.objects or []
-        header["parts"] = [[name, len(data)] for name, data in parts]
-        return header, b"".join(data for _, data in parts)
-
     def close(self) -> None:
         self._closing.set()
         try:
@@ -752,6 +641,200 @@ class RobotServer:
         except OSError:
             pass
         self._watchdog.join(timeout=1.0)
+
+
+# --- requests -------------------------------------------------------------------------------------------
+# One function per request op, called by `RobotServer._handle` with the server's lock held: each returns the
+# reply's header and payload, or raises `_Refused`. A table, not a lookup by name: a client's op string
+# reaches nothing but these.
+
+
+def _need(driver: Driver, capability: str, op: str) -> None:
+    if capability not in driver.capabilities():
+        raise _Refused(
+            "unsupported",
+            f"{driver.name} cannot {op}: it has no {capability} capability",
+            "available here: {}".format(", ".join(sorted(driver.capabilities()))),
+        )
+
+
+def _frame(driver: Driver, frame: CameraFrame) -> tuple[dict[str, Any], bytes]:
+    parts = [("jpeg", frame.jpeg)]
+    header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(driver.camera())}
+    if frame.depth is not None:
+        import numpy as np  # only a robot with depth or segmentation needs it
+
+        depth = np.ascontiguousarray(frame.depth, dtype="<f4")
+        parts.append(("depth", depth.tobytes()))
+        header["depth_shape"] = list(depth.shape)
+    if frame.segmentation is not None:
+        import numpy as np
+
+        seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
+        parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
+        header["segmentation_shape"] = list(seg.shape)
+        header["objects"] = frame.objects or []
+    header["parts"] = [[name, len(data)] for name, data in parts]
+    return header, b"".join(data for _, data in parts)
+
+
+def _op_observe(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "camera", op)
+    return _frame(server.driver, server.driver.frame())
+
+
+def _op_base(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "base", "drive its base")
+    lim = server.limits
+    server._target = (
+        _clip(_finite(h, "vx", op), lim.max_speed),
+        _clip(_finite(h, "vy", op), lim.max_speed),
+        _clip(_finite(h, "wz", op), lim.max_turn),
+    )
+    server._armed = True
+    server._last_command = max(server._last_command, received)
+    if server.driver.realtime:
+        server._ramp(_RAMP_TICK)
+    return {"commanded": list(server._target)}, b""
+
+
+def _op_step(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    seconds = _finite(h, "seconds", op)
+    if not 0.0 <= seconds <= MAX_STEP_S:
+        raise _Refused(
+            "value",
+            f"step needs seconds from 0 to {MAX_STEP_S:g}, got {seconds:g}",
+            "step in shorter pieces",
+        )
+    server._step(seconds)
+    return {"clock": server.driver.clock()}, b""
+
+
+def _op_stop(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    server._target = (0.0, 0.0, 0.0)
+    server._applied = (0.0, 0.0, 0.0)
+    server._armed = False
+    server.driver.stop()
+    return {}, b""
+
+
+def _op_head(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "head", "move a camera head")
+    pan, tilt = _finite(h, "pan", op), _finite(h, "tilt", op)
+    if abs(pan) > 2 * math.pi:
+        raise _Refused("value", f"head pan {pan:g} rad is more than a turn", "send an angle")
+    pan = _within(math.remainder(pan, 2 * math.pi), server.travel["pan"], "head pan", "rad")
+    tilt = _within(tilt, server.travel["tilt"], "head tilt", "rad")
+    server.driver.set_head(pan, tilt)
+    return {"commanded": [pan, tilt]}, b""
+
+
+def _op_arm(server: RobotServer, op: str, h: dict[str, Any], received: float) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "arm", "move an arm")
+    travel = server.travel
+    lift = _within(_finite(h, "lift", op), travel["lift"], "arm lift", "m")
+    extension = _within(_finite(h, "extension", op), travel["extension"], "arm extension", "m")
+    server._armed = True
+    server._last_command = max(server._last_command, received)
+    server.driver.set_arm(lift, extension)
+    return {"commanded": [lift, extension]}, b""
+
+
+def _op_grasp(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "gripper", op)
+    return {"held": bool(server.driver.grasp())}, b""
+
+
+def _op_release(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "gripper", op)
+    server.driver.release()
+    return {}, b""
+
+
+def _op_distance(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "distance", "measure distance")
+    value = float(server.driver.distance())
+    return {"metres": value if math.isfinite(value) else None}, b""
+
+
+def _op_tare(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "force", "tare a force sensor")
+    server.driver.tare_force()
+    return {}, b""
+
+
+def _op_force(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "force", "measure force")
+    return {"newtons": [float(v) for v in server.driver.force()]}, b""
+
+
+def _op_read(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    d = server.driver
+    name = h.get("sensor")
+    offered = [str(s) for s in d.sensors()]
+    if not isinstance(name, str) or name not in offered:
+        raise _Refused(
+            "unsupported",
+            f"{d.name} has no {name!r} sensor",
+            "its sensors: {}".format(", ".join(offered) or "none beyond its capabilities"),
+        )
+    value = float(d.read_sensor(name))
+    return {"value": value if math.isfinite(value) else None}, b""
+
+
+def _op_pose(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "pose", "report its pose")
+    x, y, yaw = server.driver.pose()
+    return {"x": float(x), "y": float(y), "yaw": float(yaw)}, b""
+
+
+def _op_joints(
+    server: RobotServer, op: str, h: dict[str, Any], received: float
+) -> tuple[dict[str, Any], bytes]:
+    _need(server.driver, "pose", "report joint states")
+    return {"joints": {k: float(v) for k, v in server.driver.joints().items()}}, b""
+
+
+_REQUESTS = {
+    "observe": _op_observe,
+    "base": _op_base,
+    "step": _op_step,
+    "stop": _op_stop,
+    "head": _op_head,
+    "arm": _op_arm,
+    "grasp": _op_grasp,
+    "release": _op_release,
+    "distance": _op_distance,
+    "tare": _op_tare,
+    "force": _op_force,
+    "read": _op_read,
+    "pose": _op_pose,
+    "joints": _op_joints,
+}
 
 
 def serve_in_thread(

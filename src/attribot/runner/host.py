@@ -101,6 +101,12 @@ def _scrub(text: str, limit: int = 300) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def _failure(name: str, error: Exception) -> str:
+    """What a program is told of a host call that failed: the exception's type and scrubbed text."""
+    text = _scrub(str(error))
+    return f"{name} failed: {type(error).__name__}" + (f": {text}" if text else "")
+
+
 def _params(signature: inspect.Signature) -> str:
     """A method's parameters as a program would write them (names and defaults, no annotations)."""
     out = []
@@ -447,29 +453,19 @@ class _Run:
             self.stop = self.stop or ("limit", message, line)
             return {KIND: Kind.STOP, Key.CATEGORY: "limit", Key.MESSAGE: message}
         try:
-            obj = self.decode({proto.TAG_HANDLE: msg.get(Key.HANDLE)})
-            raw_args, raw_kwargs = msg.get(Key.ARGS), msg.get(Key.KWARGS)
-            if not isinstance(raw_args, list) or not isinstance(raw_kwargs, dict):
-                raise ValueError("a malformed call")
-            args = [self.decode(a) for a in raw_args]
-            kwargs = {str(k): self.decode(v) for k, v in raw_kwargs.items()}
-            has_receiver = Key.RECEIVER in msg
-            receiver = self.decode({proto.TAG_HANDLE: msg[Key.RECEIVER]}) if has_receiver else None
+            obj, args, kwargs, receiver = self._read_call(msg)
         except (ValueError, TypeError, RecursionError) as e:
             return self._refuse(f"?.{method}", f"the call could not be read: {_scrub(str(e))}", line, [])
+        has_receiver = Key.RECEIVER in msg
         cls = self.runner._class_of(obj)
         constructor = isinstance(method, str) and method == getattr(cls, "PROGRAM_CONSTRUCTOR", None)
         name = cls.__name__ if constructor else f"{cls.__name__}.{method}"
         kind = getattr(cls, "API_KIND", None)
         shown = self._kept([self.summary(a) for a in args] + ([self.summary(kwargs)] if kwargs else []))
         if not isinstance(method, str) or not (constructor or method in cls.API_METHODS):
-            return self._refuse(
-                name,
-                f"{cls.__name__} has no method {method!r}; its methods are: {', '.join(cls.API_METHODS)}",
-                line,
-                shown,
-                kind=kind,
-            )
+            methods = ", ".join(cls.API_METHODS)
+            message = f"{cls.__name__} has no method {method!r}; its methods are: {methods}"
+            return self._refuse(name, message, line, shown, kind=kind)
         fn = getattr(obj, method)
         signature = self.runner._signature(cls, method, fn)
         if signature is not None:
@@ -479,29 +475,13 @@ class _Run:
                 return self._refuse(name, f"{name}({_params(signature)}): {e}", line, shown, kind=kind)
         called_on = getattr(cls, "PROGRAM_CALLED_ON", None) if has_receiver else None
         t0 = time.perf_counter()
-        cutter = self.cutter
         try:
-            cutter.in_call = True  # before the clock is read: see `_Cutter.arm`
-            try:
-                if time.monotonic() >= deadline:
-                    raise _CallTimeout()
-                if called_on is not None:  # `patch.method(...)`: the owner hears which patch
-                    getattr(obj, called_on)(receiver)
-                result = fn(*args, **kwargs)
-            finally:
-                cutter.in_call = False
+            result = self._call_host(obj, fn, args, kwargs, called_on, receiver, deadline)
         except _CallTimeout:
             ms = (time.perf_counter() - t0) * 1000
+            cut = "cut at the run's time limit"
             self.record(
-                TraceRecord(
-                    call=name,
-                    args=shown,
-                    result=None,
-                    ms=ms,
-                    line=line,
-                    error="cut at the run's time limit",
-                    kind=kind,
-                )
+                TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=cut, kind=kind)
             )
             raise
         except AttribotError as e:
@@ -509,32 +489,56 @@ class _Run:
             return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind)
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
-            text = _scrub(str(e))
-            return self._refuse(
-                name,
-                f"{name} failed: {type(e).__name__}" + (f": {text}" if text else ""),
-                line,
-                shown,
-                ms,
-                kind=kind,
-            )
+            return self._refuse(name, _failure(name, e), line, shown, ms, kind=kind)
         ms = (time.perf_counter() - t0) * 1000
+        return self._returned(name, result, line, shown, ms, kind)
+
+    def _read_call(self, msg: dict[str, Any]) -> tuple[Any, list[Any], dict[str, Any], Any]:
+        """The object, arguments and receiver (None when there is none) that a call names, as host values;
+        `ValueError`, `TypeError` or `RecursionError` when the child sent what cannot be read."""
+        obj = self.decode({proto.TAG_HANDLE: msg.get(Key.HANDLE)})
+        raw_args, raw_kwargs = msg.get(Key.ARGS), msg.get(Key.KWARGS)
+        if not isinstance(raw_args, list) or not isinstance(raw_kwargs, dict):
+            raise ValueError("a malformed call")
+        args = [self.decode(a) for a in raw_args]
+        kwargs = {str(k): self.decode(v) for k, v in raw_kwargs.items()}
+        receiver = self.decode({proto.TAG_HANDLE: msg[Key.RECEIVER]}) if Key.RECEIVER in msg else None
+        return obj, args, kwargs, receiver
+
+    def _call_host(
+        self,
+        obj: Any,
+        fn: Any,
+        args: list[Any],
+        kwargs: dict[str, Any],
+        called_on: str | None,
+        receiver: Any,
+        deadline: float,
+    ) -> Any:
+        """Call the host method `fn`, where the run's deadline can cut it (`_CallTimeout`)."""
+        cutter = self.cutter
+        cutter.in_call = True  # before the clock is read: see `_Cutter.arm`
+        try:
+            if time.monotonic() >= deadline:
+                raise _CallTimeout()
+            if called_on is not None:  # `patch.method(...)`: the owner hears which patch
+                getattr(obj, called_on)(receiver)
+            return fn(*args, **kwargs)
+        finally:
+            cutter.in_call = False
+
+    def _returned(
+        self, name: str, result: Any, line: int | None, shown: list[Any], ms: float, kind: str | None
+    ) -> dict[str, Any]:
+        """The reply that hands a call's result to the program, and its trace record; a refusal when the
+        result is not something a program can hold."""
         try:
             wire = self.encode(result)
         except (TypeError, RecursionError) as e:
-            return self._refuse(
-                name,
-                f"{name} returned {e}, which cannot be passed to a program",
-                line,
-                shown,
-                ms,
-                kind=kind,
-            )
-        self.record(
-            TraceRecord(
-                call=name, args=shown, result=self._kept(self.summary(result)), ms=ms, line=line, kind=kind
-            )
-        )
+            message = f"{name} returned {e}, which cannot be passed to a program"
+            return self._refuse(name, message, line, shown, ms, kind=kind)
+        kept = self._kept(self.summary(result))
+        self.record(TraceRecord(call=name, args=shown, result=kept, ms=ms, line=line, kind=kind))
         return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def _kept(self, value: Any) -> Any:
@@ -600,6 +604,105 @@ class _Run:
             snippet=snippet_of(self.source, line),
             output="".join(self.output),
         )
+
+
+class _Attempt:
+    """One worker's go at serving a run: what the worker sends is answered here, message by message, until
+    the run has a result. Until the worker has the program (`ready`) the deadline is the start-up allowance;
+    from then on, the run's wall-clock limit and a grace."""
+
+    def __init__(
+        self, worker: _Worker, state: _Run, request: dict[str, Any], t0: float, limits: Limits
+    ) -> None:
+        self.worker = worker
+        self.state = state
+        self.request = request
+        self.t0 = t0
+        self.limits = limits
+        # the child times itself out at wall_s and reports the line; this deadline is the backstop for a
+        # child stuck inside one long C call. It counts from the moment the worker has the program, so
+        # that a slow start on a loaded machine is not charged to the program.
+        self.grace = min(1.0, 0.2 + 0.1 * limits.wall_s)
+        self.deadline = time.monotonic() + _STARTUP_S
+        self.ready = False
+        self.max_bytes = limits.max_message_bytes + 4096
+
+    def finish(
+        self, ok: bool, value: Any = None, value_object: Any = None, error: RunError | None = None
+    ) -> RunResult:
+        """The run's result, with its output, trace and time so far."""
+        return RunResult(
+            ok=ok,
+            value=value,
+            value_object=value_object,
+            output="".join(self.state.output),
+            error=error,
+            trace=self.state.trace,
+            wall_ms=(time.perf_counter() - self.t0) * 1000,
+        )
+
+    def answer(self, msg: dict[str, Any] | None) -> RunResult | None:
+        """Act on the worker's next message (None: the deadline passed first); the run's result once it
+        has one. `_Overflow` for a message that is not one the worker may send."""
+        if msg is None:
+            if not self.ready:
+                self.worker.kill()
+                raise ConfigError(
+                    f"the sandbox worker did not start within {_STARTUP_S} s",
+                    f"check that `{sys.executable} -I -S` runs on this machine",
+                )
+            return self._timed_out()
+        kind = msg.get(KIND)
+        if kind == Kind.CALL:
+            return self._serve_call(msg)
+        if kind == Kind.OUT:
+            self.state.add_output(msg.get(Key.TEXT))
+            return None
+        if kind == Kind.DONE:
+            return self._done(msg)
+        if kind == Kind.FAILED:
+            line = msg.get(Key.LINE)
+            category, message = str(msg.get(Key.CATEGORY)), str(msg.get(Key.MESSAGE))
+            error = self.state.error(category, message, line if type(line) is int else None)
+            return self.finish(False, error=error)
+        if kind == Kind.GO and not self.ready:  # the worker has the program and starts its clocks
+            self.ready = True
+            self.deadline = time.monotonic() + self.limits.wall_s + self.grace
+            self.state.cutter.arm(self.deadline)
+            return None
+        if kind == Kind.READY:
+            return None
+        raise _Overflow("the program sent a message that is not valid")
+
+    def _serve_call(self, msg: dict[str, Any]) -> RunResult | None:
+        """Serve one API call and send the worker its reply; a result only when the run's time ran out."""
+        try:
+            reply = self.state.call(msg, self.deadline if self.ready else math.inf)
+        except _CallTimeout:
+            reply = None
+        if reply is None or time.monotonic() > self.deadline:
+            return self._timed_out()
+        self.worker.send(reply)
+        return None
+
+    def _done(self, msg: dict[str, Any]) -> RunResult:
+        """The result of a program that returned (unless the host already decided to stop it)."""
+        state = self.state
+        if state.stop is not None:
+            return self.finish(False, error=state.error(*state.stop))
+        try:
+            obj = state.decode(msg.get(Key.VALUE))
+        except (ValueError, TypeError, RecursionError):
+            message = f"{self.request[Key.ENTRY]} returned a value that cannot be read"
+            return self.finish(False, error=state.error("runtime", message, None))
+        return self.finish(True, value=state.summary(obj), value_object=obj)
+
+    def _timed_out(self) -> RunResult:
+        """Kill the worker, and the result of a run that went past its wall-clock limit."""
+        self.worker.kill()
+        state = self.state
+        err = state.error("timeout", f"the program ran longer than {self.limits.wall_s} s", state.last_line)
+        return self.finish(False, error=err)
 
 
 class ProgramRunner:
@@ -772,100 +875,20 @@ class ProgramRunner:
         return result
 
     def _serve(self, state: _Run, request: dict[str, Any], t0: float, retry: bool = True) -> RunResult:
-        worker = self._box[0]
-        if worker is None or not worker.alive():
-            if worker is not None:
-                worker.kill()
-            worker = self._box[0] = _Worker()
-        limits = self.limits
-        # the child times itself out at wall_s and reports the line; this deadline is the backstop for a
-        # child stuck inside one long C call. It counts from the moment the worker has the program, so
-        # that a slow start on a loaded machine is not charged to the program.
-        grace = min(1.0, 0.2 + 0.1 * limits.wall_s)
-        deadline = time.monotonic() + _STARTUP_S
-        ready = False
-        max_bytes = limits.max_message_bytes + 4096
-
-        def finish(
-            ok: bool, value: Any = None, value_object: Any = None, error: RunError | None = None
-        ) -> RunResult:
-            return RunResult(
-                ok=ok,
-                value=value,
-                value_object=value_object,
-                output="".join(state.output),
-                error=error,
-                trace=state.trace,
-                wall_ms=(time.perf_counter() - t0) * 1000,
-            )
-
+        worker = self._live_worker()
+        attempt = _Attempt(worker, state, request, t0, self.limits)
         try:
             worker.send(request)
             while True:
-                msg = worker.recv(deadline, max_bytes)
-                if msg is None:
-                    worker.kill()
-                    if not ready:
-                        raise ConfigError(
-                            f"the sandbox worker did not start within {_STARTUP_S} s",
-                            f"check that `{sys.executable} -I -S` runs on this machine",
-                        )
-                    err = state.error(
-                        "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
-                    )
-                    return finish(False, error=err)
-                kind = msg.get(KIND)
-                if kind == Kind.CALL:
-                    try:
-                        reply = state.call(msg, deadline if ready else math.inf)
-                    except _CallTimeout:
-                        reply = None
-                    if reply is None or time.monotonic() > deadline:
-                        worker.kill()
-                        err = state.error(
-                            "timeout", f"the program ran longer than {limits.wall_s} s", state.last_line
-                        )
-                        return finish(False, error=err)
-                    worker.send(reply)
-                elif kind == Kind.OUT:
-                    state.add_output(msg.get(Key.TEXT))
-                elif kind == Kind.DONE:
-                    if state.stop is not None:
-                        return finish(False, error=state.error(*state.stop))
-                    try:
-                        obj = state.decode(msg.get(Key.VALUE))
-                    except (ValueError, TypeError, RecursionError):
-                        return finish(
-                            False,
-                            error=state.error(
-                                "runtime", f"{request[Key.ENTRY]} returned a value that cannot be read", None
-                            ),
-                        )
-                    return finish(True, value=state.summary(obj), value_object=obj)
-                elif kind == Kind.FAILED:
-                    line = msg.get(Key.LINE)
-                    return finish(
-                        False,
-                        error=state.error(
-                            str(msg.get(Key.CATEGORY)),
-                            str(msg.get(Key.MESSAGE)),
-                            line if type(line) is int else None,
-                        ),
-                    )
-                elif kind == Kind.GO and not ready:  # the worker has the program and starts its clocks
-                    ready = True
-                    deadline = time.monotonic() + limits.wall_s + grace
-                    state.cutter.arm(deadline)
-                elif kind == Kind.READY:
-                    pass
-                else:
-                    raise _Overflow("the program sent a message that is not valid")
+                result = attempt.answer(worker.recv(attempt.deadline, attempt.max_bytes))
+                if result is not None:
+                    return result
         except _Overflow as e:
             worker.kill()
-            return finish(False, error=state.error("limit", str(e), state.last_line))
+            return attempt.finish(False, error=state.error("limit", str(e), state.last_line))
         except _Gone:
             status = worker.kill()
-            if not ready:  # the worker died before the program reached it: not the program's doing
+            if not attempt.ready:  # the worker died before the program reached it: not the program's doing
                 if retry:
                     self._box[0] = _Worker()
                     return self._serve(state, request, t0, retry=False)
@@ -873,7 +896,16 @@ class ProgramRunner:
                     f"the sandbox worker could not start (exit status {status})",
                     f"check that `{sys.executable} -I -S` runs on this machine",
                 ) from None
-            return finish(False, error=state.error(*self._death(status), state.last_line))
+            return attempt.finish(False, error=state.error(*self._death(status), state.last_line))
+
+    def _live_worker(self) -> _Worker:
+        """The waiting worker, or a fresh one in place of one that is missing or has died."""
+        worker = self._box[0]
+        if worker is None or not worker.alive():
+            if worker is not None:
+                worker.kill()
+            worker = self._box[0] = _Worker()
+        return worker
 
     @staticmethod
     def _death(status: int | None) -> tuple[str, str]:
