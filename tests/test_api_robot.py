@@ -10,6 +10,7 @@ import pytest
 
 from attribot.api import ImagePatch, MissingSensor, PreconditionError, Robot
 from attribot.api.errors import ActionFailed, ApiArgumentError
+from attribot.api.robot_session import RobotSession
 from attribot.control.base import (
     Capture,
     ControlError,
@@ -250,9 +251,10 @@ def test_focus_corrects_the_parallax_of_a_camera_off_the_head_axes():
     def centre_error(corrections: int) -> tuple[float, float, float]:
         world = BallWorld(BALLS, cam_offset=(0.25, 0.10, 0.15))
         robot = Robot(sensors=["camera", "distance"], world=world, controller=BallController(world))
-        robot.FOCUS_CORRECTIONS = corrections
-        b3 = [p for p in robot.look(world_perception()).find("ball") if p.object_id == "b3"][0]
-        metres = robot.measure_distance(b3)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(RobotSession, "FOCUS_CORRECTIONS", corrections)
+            b3 = [p for p in robot.look(world_perception()).find("ball") if p.object_id == "b3"][0]
+            metres = robot.measure_distance(b3)
         again = [p for p in robot.look(world_perception()).find("ball") if p.object_id == "b3"][0]
         cx, cy = (again.box[0] + again.box[2]) / 2, (again.box[1] + again.box[3]) / 2
         truth = float(np.linalg.norm(np.asarray(BALLS[2].center) - world.camera_position())) - BALLS[2].radius
@@ -260,15 +262,15 @@ def test_focus_corrects_the_parallax_of_a_camera_off_the_head_axes():
 
     open_loop_px, _, _ = centre_error(0)
     closed_px, metres, truth = centre_error(3)
-    assert open_loop_px > 2 * Robot.FOCUS_TOL_PX  # the geometry alone is off by several pixels
-    assert closed_px <= Robot.FOCUS_TOL_PX
+    assert open_loop_px > 2 * RobotSession.FOCUS_TOL_PX  # the geometry alone is off by several pixels
+    assert closed_px <= RobotSession.FOCUS_TOL_PX
     assert metres == pytest.approx(truth, abs=0.005)
 
 
-def test_pointing_removes_the_steady_state_sag_of_the_head():
+def test_pointing_removes_the_steady_state_sag_of_the_head(monkeypatch):
     world = BallWorld(BALLS, tilt_sag=0.01)  # the tilt servo stops 10 mrad under its command
     robot = Robot(sensors=["camera", "distance"], world=world, controller=BallController(world))
-    robot.FOCUS_CORRECTIONS = 0  # the joint-level correction alone, without the visual check
+    monkeypatch.setattr(RobotSession, "FOCUS_CORRECTIONS", 0)  # the joint-level correction alone
     b1 = [p for p in robot.look(world_perception()).find("ball") if p.object_id == "b1"][0]
     want = pan_tilt_towards(CAM, (0.0, 0.0), *b1.target().center)
     robot.focus_on_patch(b1)

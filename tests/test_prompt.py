@@ -233,3 +233,22 @@ def test_the_prompt_says_what_the_detector_can_find_here():
     prompt = build_prompt("bring the lightest cup to the table", ALL, findable=findable)
     assert f"- What `image.find` can find here: {findable}." in prompt
     assert "{{" not in build_prompt("x", ALL) and "can find here" not in build_prompt("x", ALL)
+
+
+def test_a_program_facing_class_is_checked_as_it_is_defined():
+    """The facade programs see is checked when its class is defined: a public method it does not declare
+    (host work belongs to the session) or a program method without an example program is refused."""
+    from attribot.api.robot import check_facade
+
+    def documented(self):
+        """Does it.
+
+        >>> def execute_command(image, robot):
+        >>>     return robot.act()
+        """
+
+    check_facade(Robot, {"OWN_METHODS": ("act",), "act": documented})
+    with pytest.raises(TypeError, match=r"defines \['helper'\] without declaring"):
+        check_facade(Robot, {"OWN_METHODS": ("act",), "act": documented, "helper": documented})
+    with pytest.raises(TypeError, match="act has no docstring with an example program"):
+        check_facade(Robot, {"OWN_METHODS": ("act",), "act": lambda self: None})

@@ -25,14 +25,14 @@ from enum import StrEnum
 
 import numpy as np
 
-from attribot.control.base import ControlError, Target
+from attribot.control.base import ControlError, Controller, Target
 from attribot.control.pid import PID
 from attribot.control.plant import Plant
 from attribot.control.sighting import Box, carried, gap, nearest_to, nearest_to_centre, off_centre
 from attribot.control.tracker import BoxTracker
 from attribot.frame import CameraInfo, Frame
 
-__all__ = ["FocusLoop", "FocusReport", "Phase"]
+__all__ = ["FocusLoop", "FocusReport", "Phase", "correct_aim"]
 
 
 class Phase(StrEnum):
@@ -218,3 +218,29 @@ class FocusLoop:
                 f"too little texture to track, and the detector missed it {self.misses} times in a row"
             )
         self.box = predicted
+
+
+def correct_aim(
+    controller: Controller,
+    find_again: Callable[[], Target | None],
+    corrections: int,
+    tol_px: float,
+    *,
+    headless: bool,
+) -> None:
+    """After the camera was pointed at an object by geometry: find it again in fresh images
+    (`find_again`) and point again until it sits at the image centre within `tol_px`, at most
+    `corrections` times. This absorbs what the controller's geometry ignores (the camera's offset from the
+    head axes, head tracking error). Without a camera head (`headless`) only the base turns the camera:
+    left-right is all it can centre. Stops where the object is not found again or has no intrinsics to
+    check against: the geometric aim stands."""
+    for _ in range(corrections):
+        seen = find_again()
+        if seen is None or seen.capture is None or seen.capture.camera is None:
+            return
+        cam = seen.capture.camera
+        u, v = seen.center
+        off = abs(u - cam.cx) if headless else math.hypot(u - cam.cx, v - cam.cy)
+        if off <= tol_px:
+            return
+        controller.focus_on(seen)

@@ -1,0 +1,183 @@
+"""The actions of a robot session: driving, going to an object, picking it up (checking that the right
+object was lifted), putting it down or on another, pushing; `verify_actions` tries again where a new view
+can mend a failure."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from attribot.api.checks import check_number
+from attribot.api.errors import ApiArgumentError, PreconditionError
+from attribot.api.patch import ImagePatch
+from attribot.api.robot_core import SessionCore, object_name
+from attribot.control.base import (
+    RETRY_FROM_HERE,
+    ControlError,
+    Failure,
+    Target,
+)
+from attribot.errors import UnsupportedAction
+
+__all__ = ["Acting"]
+
+
+class Acting(SessionCore):
+    """The actions half of a robot session (see the module docstring)."""
+
+    GRASP_TRIES: ClassVar[int] = 4
+    APPROACH_TRIES: ClassVar[int] = 3
+
+    def go_to_coords(self, x: float, y: float) -> None:
+        """The session's side of `Robot.go_to_coords` (its docstring is the one programs read)."""
+        fx, fy = check_number(x, "x", "go_to_coords"), check_number(y, "y", "go_to_coords")
+        if self.capture is None or self.world is None:
+            raise UnsupportedAction(
+                "robot.go_to_coords() is not available here: "
+                "there is no camera image of a world to navigate in",
+                "run the query in a world (--layout) to use robot actions",
+            )
+        cam = self.capture.camera
+        w, h = (cam.width, cam.height) if cam is not None else (None, None)
+        if w is not None and h is not None and not (0 <= fx <= w and 0 <= fy <= h):
+            raise ApiArgumentError(
+                f"go_to_coords({fx:g}, {fy:g}) lies outside the {w}x{h} image",
+                "pass a point inside the image, e.g. a patch's horizontal_center and vertical_center",
+            )
+        v = (h - fy) if h is not None else -fy  # y upward -> pixel row
+        self.controller.go_to_coords(Target(box=(fx, v, fx, v), capture=self.capture, label="point"))
+        self._near = self._aimed = None
+
+    def go_to_object(self, patch: ImagePatch) -> None:
+        """The session's side of `Robot.go_to_object` (its docstring is the one programs read)."""
+        p, target = self._target(patch, "go_to_object")
+        if self._arranging and self.held is not None and not self.held.same_object(p):
+            # the paper's programs go on to the next object holding the last (their API has no put_down):
+            # what they do there moves the robot itself (a pick-up puts the held object down first and
+            # comes here, put_on reaches its receptacle), and driving with a load in view loses the target
+            self._near = self._aimed = None
+            return
+        tries = self.APPROACH_TRIES if self.safeguards.on("verify_actions") else 1
+        for attempt in range(tries):
+            try:
+                self.controller.approach(target)
+                break
+            except ControlError as exc:
+                if attempt + 1 == tries or exc.reason not in RETRY_FROM_HERE:
+                    raise
+                call = f"go_to_object({p.label or 'patch'})"
+                # from where it stopped, the robot sees the object anew: approach what it sees now
+                fresh = self._seen_from_here(p, target)
+                how = "from a new look at it" if fresh is not target else "again"
+                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying {how}")
+                target = fresh
+        self._near = p
+        self._aimed = None
+
+    def _seen_from_here(self, p: ImagePatch, target: Target) -> Target:
+        """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
+        detection of its name nearest the image centre; `target` itself when it cannot be seen again."""
+        try:
+            self.controller.focus_on(target)
+            seen = self._reacquire(p, by_id=False)  # what the camera sees there, not what the id says
+        except (ControlError, UnsupportedAction):
+            return target
+        if seen is None:
+            return target
+        return Target(
+            box=seen.box, capture=seen.capture, object_id=p.object_id, label=p.label, find=target.find
+        )
+
+    def pick_up(self, patch: ImagePatch) -> None:
+        """The session's side of `Robot.pick_up` (its docstring is the one programs read)."""
+        p, target = self._target(patch, "pick_up")
+        if self.held is not None and self._arranging:
+            if self.held.same_object(p):
+                return
+            self.put_down()
+        if self.held is not None:
+            raise PreconditionError(
+                "robot.pick_up() needs an empty gripper, and the robot holds "
+                f"{self.held.label or 'an object'}",
+                "call robot.put_down() first",
+            )
+        if (self._near is None or not self._near.same_object(p)) and self._arranging:
+            self.go_to_object(p)
+        if self._near is None or not self._near.same_object(p):
+            raise PreconditionError(
+                f"robot.pick_up() needs the robot next to {target.describe()}",
+                "call robot.go_to_object(patch) right before robot.pick_up(patch)",
+            )
+        tries = self.GRASP_TRIES if self.safeguards.on("verify_actions") else 1
+        seen_first = target
+        for attempt in range(tries):
+            if "force" in self.sensors:
+                assert self.world is not None
+                self.world.tare_force()  # zero with the gripper empty, so a later reading is the load alone
+            try:
+                self.controller.pick_up(target)
+                self._check_held(p, target, seen_first)
+                break
+            except ControlError as exc:
+                if attempt + 1 == tries or exc.reason is not Failure.GRASP_FAILED:
+                    raise
+                call = f"pick_up({p.label or 'patch'})"
+                self.safeguards.note("verify_actions", call, "caught", f"{exc.message}; trying again")
+                target = self._seen_from_here(p, target)  # a failed grasp may have moved it
+                self.controller.approach(target)
+        self.held = p
+        self._aimed = None
+
+    def _check_held(self, p: ImagePatch, target: Target, seen_first: Target) -> None:
+        """With `verify_actions`, where the controller can look: the object lifted must be the one meant (its
+        name is seen rising with the gripper). When another object was lifted, it is put back and the grasp
+        counts as failed, to be tried again; when the camera cannot tell, the grasp stands."""
+        check = getattr(self.controller, "check_held", None)
+        if check is None or not self.safeguards.on("verify_actions"):
+            return
+        verdict, detail = check(target, seen_first)
+        call = f"pick_up({p.label or 'patch'})"
+        if verdict is True:
+            self.safeguards.note("verify_actions", call, "confirmed", detail)
+        if verdict is not False:
+            return
+        self.controller.put_down()
+        raise ControlError(
+            f"grasp failed: it lifted another object than {target.describe()} and put it back: {detail}",
+            "call robot.go_to_object(patch) again and retry",
+            reason=Failure.GRASP_FAILED,
+        )
+
+    def put_down(self) -> None:
+        """The session's side of `Robot.put_down` (its docstring is the one programs read)."""
+        self.activity = "putting down " + (
+            object_name(self.held.object_id, self.held.label) if self.held is not None else "nothing"
+        )
+        if self.held is None:
+            raise PreconditionError(
+                "robot.put_down() needs an object in the gripper, and it is empty",
+                "call robot.pick_up(patch) before robot.put_down()",
+            )
+        self.controller.put_down()
+        self.held = self._aimed = None
+
+    def put_on(self, patch: ImagePatch) -> None:
+        """The session's side of `Robot.put_on` (its docstring is the one programs read)."""
+        _, target = self._target(patch, "put_on")
+        if self.held is None:
+            raise PreconditionError(
+                "robot.put_on() needs an object in the gripper, and it is empty",
+                "call robot.go_to_object(obj) and robot.pick_up(obj) first",
+            )
+        try:
+            self.controller.put_on(target)
+        except ControlError:
+            if getattr(self.controller, "holding", self.held) is None:  # let go before the failure showed
+                self.held = self._aimed = None
+            raise
+        self.held = self._aimed = None
+
+    def push(self, patch: ImagePatch) -> None:
+        """The session's side of `Robot.push` (its docstring is the one programs read)."""
+        _, target = self._target(patch, "push")
+        self.controller.push(target)
+        self._near = self._aimed = None

@@ -1,0 +1,402 @@
+"""The readings of a robot session and their statistics: the rangefinder, the force sensor (weight and
+fullness), every registered sensor read through `read_sensor`, the uncertainty each measurement claims, and
+`settle`, which measures again where a choice rests on values closer than their uncertainty (the
+`remeasure`, `verify_actions` and `confidence` mechanisms act here)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import ClassVar
+
+import numpy as np
+
+from attribot.api.checks import check_patch
+from attribot.api.errors import ActionFailed, ApiArgumentError, PreconditionError
+from attribot.api.patch import ImagePatch
+from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _named, _own_sense
+from attribot.control.base import (
+    Target,
+)
+from attribot.sensors import (
+    Need,
+    Sense,
+    Sensor,
+    sense_of_method,
+)
+from attribot.sim.catalog import categories, find_category
+
+__all__ = ["Measuring"]
+
+
+class Measuring(SessionCore):
+    """The readings half of a robot session (see the module docstring)."""
+
+    # the readings a measurement combines and the least uncertainty it claims: the senses' records
+    FORCE_SAMPLES: ClassVar[int] = _own_sense("weight").readings
+    FORCE_SAMPLE_S: ClassVar[float] = 0.05
+    FORCE_MAX_SAMPLES: ClassVar[int] = 40  # re-measuring: until the standard error is small, at most this
+    FORCE_RESOLUTION_N: ClassVar[float] = round(_own_sense("weight").resolution * GRAVITY, 9)
+    RANGE_READINGS: ClassVar[int] = _own_sense("distance").readings
+    RANGE_RESOLUTION_M: ClassVar[float] = _own_sense("distance").resolution
+    BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
+    SETTLE_ROUNDS: ClassVar[int] = 3
+    SETTLE_Z: ClassVar[float] = 2.0  # a margin of this many standard deviations settles a comparison
+
+    def settle(self, chosen: ImagePatch) -> str | None:
+        """Host side, after a program chose `chosen`: with `confidence`, when the choice rests on measured
+        values (the chosen object's is the largest or smallest of its kind, or lies between two) and the
+        margin to the next one lies inside their uncertainty, measure both again (up to SETTLE_ROUNDS),
+        combining the readings. None when settled (or nothing to settle); otherwise the sentence that says
+        it cannot tell, naming both values."""
+        if not self.safeguards.on("confidence"):
+            return None
+        mine = [(m, p) for m, p in self._measured if p.same_object(chosen) or p is chosen]
+        if not mine:
+            return None
+        last = mine[-1][0]
+        kind, unit = last.kind, last.unit
+        for round_ in range(self.SETTLE_ROUNDS + 1):
+            values = self._combined(kind)
+            me = next((v for v in values if v[2].same_object(chosen) or v[2] is chosen), None)
+            if me is None or len(values) < 2:
+                return None
+            rivals = _neighbours(values, me)
+            close = [r for r in rivals if abs(r[0] - me[0]) <= self.SETTLE_Z * math.hypot(r[1], me[1])]
+            call = f"answer({chosen.label or 'patch'})"
+            if not close:
+                if round_ > 0:
+                    self.safeguards.note("confidence", call, "caught", "settled after measuring again")
+                return None
+            if round_ == self.SETTLE_ROUNDS:
+                rival = close[0]
+                text = (
+                    f"cannot tell {_named(chosen)} ({me[0]:.3f} +/- {me[1]:.3f} {unit}) from "
+                    f"{_named(rival[2])} ({rival[0]:.3f} +/- {rival[1]:.3f} {unit}): "
+                    "the difference lies inside the measurements' uncertainty"
+                )
+                self.safeguards.note("confidence", call, "unsettled", text)
+                return text
+            for _value, _error, patch in [me, *close]:
+                self._measure_again(last.method or _own_sense(kind).method, patch)
+        return None
+
+    def _combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
+        """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
+        groups: list[list[tuple[Measurement, ImagePatch]]] = []
+        for m, p in self._measured:
+            if m.kind != kind:
+                continue
+            home = next((g for g in groups if g[0][1].same_object(p) or g[0][1] is p), None)
+            if home is None:
+                groups.append([(m, p)])
+            else:
+                home.append((m, p))
+        out = []
+        for g in groups:
+            weights = [1.0 / max(m.uncertainty, 1e-6) ** 2 for m, _ in g]
+            value = sum(w * m.value for w, (m, _) in zip(weights, g, strict=True)) / sum(weights)
+            out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
+        return out
+
+    def _measure_again(self, method: str, patch: ImagePatch) -> None:
+        """Measure `patch` again with `method`, arranging first what its reading needs."""
+        found = sense_of_method(method)
+        needs = found[1].needs if found is not None else Need.NOTHING
+        if found is not None and not hasattr(self, method):  # a sense read through read_sensor
+            sensor, sense = found
+            measure: Callable[[ImagePatch], float] = lambda p: self._sense(sensor, sense, p)  # noqa: E731
+        else:
+            measure = getattr(self, method)
+        if needs is Need.GRASP:
+            if self.held is not None:
+                self.put_down()
+            self.go_to_object(patch)
+            self.pick_up(patch)
+            measure(patch)
+            self.put_down()
+            return
+        if needs is Need.REACH:
+            self.go_to_object(patch)
+        elif needs is Need.AIM and method != "measure_distance":  # which centres the camera itself
+            self.focus_on_patch(patch)
+        measure(patch)
+
+    def measure_distance(self, patch: ImagePatch) -> float:
+        """The session's side of `Robot.measure_distance` (its docstring is the one programs read)."""
+        self._need("measure_distance")
+        p, target = self._target(patch, "measure_distance")
+        self._focus(p, target)
+        assert self.world is not None  # _target checked it
+        metres, spread, samples = self._read_range(p)
+        self._record(
+            p,
+            kind="distance",
+            value=metres,
+            unit="m",
+            samples=samples,
+            uncertainty=spread,
+            method="measure_distance",
+        )
+        return metres
+
+    def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
+        """The rangefinder's reading of the object the camera is centred on: (metres, one standard
+        deviation, readings used). With `remeasure`, several readings are combined (dropouts left out);
+        with `verify_actions`, readings where the beam did not hit the object (it disagrees with the depth
+        in the object's middle: an edge, the wall behind) are left out, re-aiming once if none is left."""
+        assert self.world is not None
+        guards = self.safeguards
+        count = self.RANGE_READINGS if guards.on("remeasure") else 1
+        call = f"measure_distance({p.label or 'patch'})"
+        for aim in range(2):
+            readings = []
+            for _ in range(count):
+                r = float(self.world.read_distance())
+                if math.isfinite(r) and r >= 0:
+                    readings.append(r)
+                if count > 1:
+                    self.world.step(0.02)
+            if count > 1:
+                empty = count - len(readings)
+                detail = f"{count} readings, {empty} empty"
+                guards.note("remeasure", call, "caught" if empty else "confirmed", detail)
+            depth = self._centre_depth() if guards.on("verify_actions") else None
+            if depth is not None and readings:
+                tol = max(0.04, self.BEAM_TOLERANCE * depth)
+                hits = [r for r in readings if abs(r - depth) <= tol]
+                if len(hits) < len(readings):
+                    guards.note(
+                        "verify_actions",
+                        call,
+                        "caught",
+                        f"{len(readings) - len(hits)} beam readings off the object "
+                        f"(depth there {depth:.3f} m)",
+                    )
+                readings = hits
+            if readings:
+                break
+            if aim == 0 and (guards.on("verify_actions") or guards.on("remeasure")):
+                self._focus(p, p.target() or self._target(p, "measure_distance")[1])  # aim again, read again
+                continue
+            break
+        if not readings:
+            raise ActionFailed(
+                f"the distance sensor saw nothing within range when pointed at {p.label or 'the object'}",
+                "the object may be too far away or hidden; compare the objects another way",
+            )
+        values = sorted(readings)
+        metres = values[len(values) // 2] if len(values) % 2 else sum(values[len(values) // 2 - 1 :][:2]) / 2
+        spread = _std(values) / math.sqrt(len(values)) if len(values) > 1 else 0.0
+        floor = self.RANGE_RESOLUTION_M + (0.01 * metres if len(values) == 1 else 0.0)
+        return metres, max(spread, floor), len(values)
+
+    def _centre_depth(self) -> float | None:
+        """The depth camera's distance to the surface at the image centre (where the object is, once
+        focused): the nearest surface in a small window, along the optical axis. None without depth."""
+        assert self.world is not None
+        frame = self.world.observe()
+        if frame.depth is None:
+            return None
+        h, w = frame.depth.shape
+        win = frame.depth[h // 2 - 2 : h // 2 + 3, w // 2 - 2 : w // 2 + 3]
+        finite = win[np.isfinite(win) & (win > 0.05)]
+        # the nearest surface, not the middle one: a thin object (a lamp's pole) fills a few pixels of the
+        # window, and the wall behind the rest
+        return float(np.percentile(finite, 10)) if finite.size else None
+
+    def measure_weight(self, patch: ImagePatch) -> float:
+        """The session's side of `Robot.measure_weight` (its docstring is the one programs read)."""
+        self._need("measure_weight")
+        p, target = self._target(patch, "measure_weight")
+        self._held_for(p, target, "measure_weight")
+        assert self.world is not None
+        newtons, error, samples = self._weigh(p)
+        kg = newtons / GRAVITY
+        self._record(
+            p,
+            kind="weight",
+            value=kg,
+            unit="kg",
+            newtons=newtons,
+            samples=samples,
+            uncertainty=error / GRAVITY,
+            method="measure_weight",
+        )
+        return kg
+
+    def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
+        """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
+        robot a program made picks it up instead."""
+        if self.held is not None and self.held.same_object(p):
+            return
+        if self._arranging:
+            self.pick_up(p)
+            return
+        holding = (
+            f"the robot holds {self.held.label or 'another object'}"
+            if self.held
+            else "the robot holds nothing"
+        )
+        raise PreconditionError(
+            f"robot.{method}() needs {target.describe()} in the gripper, and {holding}",
+            ("call robot.put_down() first, then " if self.held else "call ")
+            + f"robot.go_to_object(patch) and robot.pick_up(patch) before robot.{method}(patch)",
+        )
+
+    def measure_fullness(self, patch: ImagePatch) -> float:
+        """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
+        self._need("measure_fullness")
+        p, target = self._target(patch, "measure_fullness")
+        kind = find_category(p.label or "")
+        if kind is None or not kind.container or kind.empty_kg is None:
+            known = ", ".join(c.name for c in categories() if c.container)
+            raise ApiArgumentError(
+                f"robot.measure_fullness() knows how much an empty {known} weighs, and not a "
+                f"{p.label or 'patch without a name'}",
+                "weigh it with robot.measure_weight(patch) and compare it with others of its kind",
+            )
+        self._held_for(p, target, "measure_fullness")
+        newtons, error, samples = self._weigh(p)
+        lo, hi = kind.empty_kg
+        empty_sd = (hi - lo) / math.sqrt(12.0)  # the empty mass of one such container, uniform in its range
+        fill = (newtons / GRAVITY - (lo + hi) / 2.0) / kind.capacity_kg
+        spread = math.hypot(error / GRAVITY, empty_sd) / kind.capacity_kg
+        value = min(max(fill, 0.0), 1.0)
+        self._record(
+            p,
+            kind="fullness",
+            value=value,
+            unit=FULL,
+            newtons=newtons,
+            samples=samples,
+            uncertainty=spread,
+            method="measure_fullness",
+        )
+        return value
+
+    def _sense(self, sensor: Sensor, sense: Sense, patch: ImagePatch) -> float:
+        """A reading of a registered sensor through its method: checks the sensor, the object and what the
+        reading needs, then reads (several readings with `remeasure`) and records the measurement."""
+        method = sense.method
+        self._need(method)
+        p, target = self._target(patch, method)
+        assert self.world is not None  # _target checked it
+        arrange = self._arranging
+        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)) and arrange:
+            self._focus(p, target)
+        elif sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
+            self.go_to_object(p)
+        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
+            raise PreconditionError(
+                f"robot.{method}() reads whatever the camera is centred on, and it is not centred on "
+                f"{target.describe()}",
+                f"call robot.focus_on_patch(patch) right before robot.{method}(patch)",
+            )
+        if sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)):
+            raise PreconditionError(
+                f"robot.{method}() needs the robot next to {target.describe()}",
+                f"call robot.go_to_object(patch) right before robot.{method}(patch)",
+            )
+        if sense.needs is Need.GRASP:
+            self._held_for(p, target, method)
+        value, spread, count = self._read_sensor(sensor, sense, p)
+        self._record(
+            p,
+            kind=sense.quantity,
+            value=value,
+            unit=sense.unit,
+            samples=count,
+            uncertainty=spread,
+            method=method,
+        )
+        return value
+
+    def _read_sensor(self, sensor: Sensor, sense: Sense, p: ImagePatch) -> tuple[float, float, int]:
+        """The sensor's reading of `p`: (value, one standard deviation, readings used). With `remeasure`,
+        `sense.readings` readings are combined (the ones that read nothing left out)."""
+        assert self.world is not None
+        guards = self.safeguards
+        count = sense.readings if guards.on("remeasure") else 1
+        call = f"{sense.method}({p.label or 'patch'})"
+        readings = []
+        for i in range(count):
+            value = float(self.world.read_sensor(sensor.name))
+            if math.isfinite(value):
+                readings.append(value)
+            if count > 1 and i + 1 < count and sense.needs is not Need.GRASP:
+                self.world.step(0.02)
+        if count > 1:
+            empty = count - len(readings)
+            guards.note(
+                "remeasure", call, "caught" if empty else "confirmed", f"{count} readings, {empty} empty"
+            )
+        if not readings:
+            raise ActionFailed(
+                f"the {sensor.name} sensor read nothing from {p.label or 'the object'}",
+                "check what the reading needs (" + str(sense.needs) + "), or compare the objects another way",
+            )
+        mean = sum(readings) / len(readings)
+        spread = _std(readings) / math.sqrt(len(readings)) if len(readings) > 1 else 0.0
+        return mean, max(spread, sense.resolution, sense.relative * abs(mean)), len(readings)
+
+    def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
+        """The held load in newtons, its standard error and the readings used. A short window is averaged
+        (the reading sways while the arm settles and carries sensor noise); with `remeasure`, readings are
+        added until the standard error is small or FORCE_MAX_SAMPLES are taken; with `verify_actions`, a
+        load too small to be an object means it slipped out: it is picked up again and weighed again."""
+        assert self.world is not None
+        guards = self.safeguards
+        call = f"measure_weight({p.label or 'patch'})"
+        for attempt in range(2):
+            readings = []
+            while True:
+                for _ in range(self.FORCE_SAMPLES):
+                    self.world.step(self.FORCE_SAMPLE_S)
+                    # signed: a held load pulls down (world -z); folding each noisy reading about zero
+                    # would bias a light object upward by as much as the noise
+                    readings.append(-float(self.world.read_force()[2]))
+                mean = sum(readings) / len(readings)
+                error = _std(readings) / math.sqrt(len(readings))
+                small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
+                if not guards.on("remeasure") or small or len(readings) >= self.FORCE_MAX_SAMPLES:
+                    break
+            if guards.on("remeasure") and len(readings) > self.FORCE_SAMPLES:
+                guards.note("remeasure", call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
+            empty = self._gripper_empty()
+            if not guards.on("verify_actions") or (mean > 0.05 and not empty) or attempt == 1:
+                # a weight is never negative: a mean below zero is zero within its error
+                return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
+            why = "the gripper has closed on nothing" if empty else f"no load ({mean:.3f} N)"
+            guards.note("verify_actions", call, "caught", f"{why}: it slipped; lifting it again")
+            self.put_down()
+            self.go_to_object(p)
+            self.pick_up(p)
+        raise AssertionError("unreachable")
+
+    def uncertainty(self, patch: ImagePatch) -> float:
+        """The session's side of `Robot.uncertainty` (its docstring is the one programs read)."""
+        p = check_patch(patch, ImagePatch, "patch", "uncertainty")
+        m = next((m for m, q in reversed(self._measured) if q is p or q.same_object(p)), None)
+        if m is None:
+            raise PreconditionError(
+                f"robot.uncertainty() has no measurement of {p.label or 'this patch'} yet",
+                "call robot.measure_distance(patch) or robot.measure_weight(patch) first",
+            )
+        return m.uncertainty
+
+
+def _neighbours(
+    values: list[tuple[float, float, ImagePatch]], me: tuple[float, float, ImagePatch]
+) -> list[tuple[float, float, ImagePatch]]:
+    """The measured objects next to `me` in order of value: the one the choice was made against."""
+    ranked = sorted(values, key=lambda v: v[0])
+    i = next(k for k, v in enumerate(ranked) if v is me)
+    return [ranked[k] for k in (i - 1, i + 1) if 0 <= k < len(ranked)]
+
+
+def _std(values: Sequence[float]) -> float:
+    if len(values) < 2:
+        return 0.0
+    mean = sum(values) / len(values)
+    return math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))

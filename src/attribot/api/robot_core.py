@@ -1,0 +1,482 @@
+"""The host side of a robot session, its core: the state a program's robot acts on (the world, the
+controller, what it holds, its measurements, its last look), how a call's patch or name becomes the object
+acted on, what a call needs from the robot's sensors, looking (and looking harder), and focusing the camera
+on an object. `attribot.api.measuring` and `attribot.api.acting` add the readings and the actions;
+`attribot.api.robot_session.RobotSession` is all three; `attribot.api.robot.Robot` is what programs see.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict
+
+from attribot.api.checks import check_patch
+from attribot.api.errors import ApiArgumentError, MissingSensor
+from attribot.api.harder import acting_find, carried_back
+from attribot.api.looking import Survey, View, capture_now
+from attribot.api.patch import ImagePatch
+from attribot.api.perception import Perception
+from attribot.api.safeguards import Safeguards
+from attribot.boxes import iou, overlap_of_smaller
+from attribot.control.base import (
+    Capture,
+    ControlError,
+    Controller,
+    Target,
+    build_controller,
+)
+from attribot.control.candidates import Candidate
+from attribot.control.focus import correct_aim
+from attribot.embodiments.base import Embodiment
+from attribot.errors import UnsupportedAction
+from attribot.frame import CameraInfo
+from attribot.lexicon import GENERIC_NOUNS
+from attribot.models.base import Detection
+from attribot.sensors import (
+    Sense,
+    check_sensors,
+    sense_of,
+    sense_of_method,
+)
+
+__all__ = ["SessionCore", "Measurement", "GRAVITY", "FULL", "OWN_REQUIRES", "object_name"]
+
+GRAVITY = 9.81
+"""m/s^2, as MuJoCo's default gravity; converts the measured weight (newtons) to mass (kilograms)."""
+
+
+class Measurement(BaseModel):
+    """One sensor reading a program asked for, kept for the answer and the trace."""
+
+    model_config = ConfigDict(frozen=True)
+
+    kind: str  # the quantity: distance, weight, temperature, stiffness, fullness, or a plug-in sensor's
+    object_id: str | None
+    label: str
+    value: float  # in `unit`
+    unit: str  # m, kg, °C, N/mm, "full" (a share of the container's capacity), or a plug-in sensor's
+    newtons: float | None = None  # the weight as the force sensor measured it
+    samples: int = 1
+    uncertainty: float = 0.0  # one standard deviation, in `unit`
+    method: str = ""  # the Robot method that measured it: how `settle` measures again
+
+    def reading(self) -> str:
+        """The value as a person reads it, as its sense shows it (`attribot.sensors.Sense.show`): "0.308 kg
+        (3.02 N)", "1.211 m", "84.6 °C", "95% full"."""
+        found = sense_of(self.kind)
+        shown = found[1].show(self.value) if found is not None else f"{self.value:.3f} {self.unit}"
+        return shown if self.newtons is None or self.kind != "weight" else f"{shown} ({self.newtons:.2f} N)"
+
+    def describe(self) -> str:
+        """The object and its value: "mug 0: 0.308 kg (3.02 N)"."""
+        return f"{object_name(self.object_id, self.label)}: {self.reading()}"
+
+
+def object_name(object_id: str | None, label: str | None) -> str:
+    """What a caption calls an object: its detector id made readable ("computer mouse 1"), else its label."""
+    if object_id:
+        return object_id.replace("_", " ")
+    return label or "the object"
+
+
+def _own_sense(quantity: str) -> Sense:
+    """The record of a sense whose methods Robot defines itself (distance, weight, fullness)."""
+    found = sense_of(quantity)
+    assert found is not None, f"the built-in {quantity} sense is registered (attribot.sensors.builtin)"
+    return found[1]
+
+
+FULL = _own_sense("fullness").unit
+"""The unit of a fullness: the share of a container's capacity its contents fill (0 empty, 1 full)."""
+
+
+_DOING = {
+    "focus_on_patch": "turning the camera to",
+    "go_to_object": "driving to",
+    "pick_up": "picking up",
+    "put_on": "putting the held object on",
+    "push": "pushing",
+}
+"""What an episode video's caption says a robot method is doing, before the object's name (a sense's
+method: its record's `doing`)."""
+
+
+def _doing(method: str) -> str:
+    found = sense_of_method(method)
+    return found[1].doing or method if found is not None else _DOING.get(method, method)
+
+
+OWN_REQUIRES: dict[str, str] = {"focus_on_patch": "camera"}
+"""The sensor each of the robot's own methods needs beyond the senses' (a sense's method needs its sensor)."""
+
+
+class SessionCore:
+    """The state and the core of a robot session (see the module docstring)."""
+
+    FOCUS_CORRECTIONS: ClassVar[int] = 3
+    FOCUS_TOL_PX: ClassVar[float] = 1.5
+    NEARER_VISITS: ClassVar[int] = 2  # look_harder: places driven nearer to for one find, at most
+    NEARER_M: ClassVar[float] = 0.9  # ...and how far from them it stops to look
+    GRIPPER_EMPTY_M: ClassVar[float] = 0.0003  # fingers closer than this hold nothing
+
+    def __init__(
+        self,
+        sensors: Sequence[str] = ("camera",),
+        world: Embodiment | None = None,
+        controller: Controller | None = None,
+        safeguards: Safeguards | None = None,
+    ) -> None:
+        """A robot session with `sensors` in `world` (None: a still image, every action refused), acting
+        through `controller` (default: the one registered for the world, see attribot.control.base), with
+        the error-catching mechanisms of `safeguards` (default: all on)."""
+        self._sensors: list[str] = check_sensors(sensors)
+        self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
+        if world is not None and not isinstance(world, Embodiment):
+            raise TypeError(
+                f"Robot needs an attribot.embodiments.base.Embodiment, got {type(world).__name__}"
+            )
+        if world is not None:
+            have = world.sensors()
+            for sensor in self.sensors:
+                if sensor not in have:
+                    raise UnsupportedAction(
+                        f"the world {world.name!r} has no {sensor} sensor",
+                        f"leave {sensor!r} out of --sensors; this world offers: "
+                        f"{', '.join(sorted(have)) or 'nothing'}",
+                    )
+        self.world = world
+        self.controller: Controller = controller if controller is not None else build_controller(world)
+        self.held: ImagePatch | None = None
+        self.safeguards = safeguards if safeguards is not None else Safeguards()
+        self.measurements: list[Measurement] = []
+        self._measured: list[tuple[Measurement, ImagePatch]] = []
+        self.capture: Capture | None = None
+        self._near: ImagePatch | None = None
+        self._aimed: ImagePatch | None = None  # what the camera was last centred on, since the robot moved
+        self._captures = 0
+        self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
+        self.activity = ""  # the action under way, naming its object ("weighing mug 0"): videos show it
+        self.acting_on = ""  # the name of the object of that action
+        self.acting_on_id: str | None = None  # and its detector id, when the detector gives one
+        self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
+        # a call through the robot a program made (the paper's dialect): it arranges what an action or a
+        # reading needs (turning to the object, going to it, picking it up) where this robot would refuse
+        self._arranging = False
+
+    @property
+    def sensors(self) -> list[str]:
+        """the robot's sensors, e.g. ["camera", "distance", "force"]"""
+        return list(self._sensors)
+
+    # ---- host side ---------------------------------------------------------------------------------
+    def look(self, perception: Perception, survey: bool = True) -> ImagePatch:
+        """Host side: take a camera frame now and return its whole-image patch, remembering the head
+        angles and base pose so that boxes in it can be acted on later. With `look_again` on and `survey`,
+        the head also turns around it to take the views that finds are checked against; without `survey`
+        (the image is all a program may see) finds are checked on the image itself."""
+        if self.world is None:
+            raise UnsupportedAction(
+                "a robot without a world has no camera to look with", "build Robot(world=...)"
+            )
+        frame = self.world.observe()
+        caps = {str(c) for c in self.world.capabilities()}
+        camera = frame.camera if frame.camera is not None else _camera_info(self.world)
+        if "pose" in caps:
+            self.capture = capture_now(self.world, frame, self._captures, camera)
+        else:
+            self.capture = Capture(index=self._captures, camera=camera, depth=frame.depth)
+        self._captures += 1
+        self._image = ImagePatch(frame, perception, capture=self.capture)
+        if self.safeguards.on("look_again") or self.safeguards.on("look_harder"):
+            self._image.safeguards = self.safeguards
+        if self.safeguards.on("look_harder") and {"base", "pose"} <= caps and frame.depth is not None:
+            self._image.nearer = self._nearer
+        if self.safeguards.on("look_again"):
+            if survey and {"head", "pose"} <= caps and frame.depth is not None:
+                try:
+                    body = self.world.body()
+                except UnsupportedAction:  # a robot that does not state where its camera sits
+                    body = None
+                if body is not None:
+                    self._image.survey = Survey.take(self.world, View(frame, self.capture), body)
+        self._acted_on = []
+        self._aimed = None
+        return self._image
+
+    def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
+        """Host side, for `look_harder`: drive nearer to each candidate of the image in turn (at most
+        `NEARER_VISITS`), look for `name` there and carry what is seen back into the image; then drive back
+        to where the robot was. Returns the detections in the image and the places visited."""
+        image, world = self._image, self.world
+        look, back = (
+            getattr(self.controller, "look_nearer", None),
+            getattr(self.controller, "return_to", None),
+        )
+        if image is None or image.capture is None or world is None or look is None or back is None:
+            return [], 0
+        if self.held is not None:
+            return [], 0  # it does not drive about with something in the gripper to look
+        first, detector = image.capture, image.perception.detector
+        found: list[Detection] = []
+        visits = 0
+        try:
+            for cand in candidates[: self.NEARER_VISITS]:
+                try:
+                    look(Target(box=cand.box, capture=first), self.NEARER_M)
+                except (ControlError, UnsupportedAction):
+                    continue  # no way there, or stopped on the way: the next place, and back from there
+                visits += 1
+                frame = world.observe()
+                seen = capture_now(world, frame, -1, frame.camera or first.camera)
+                for det in acting_find(detector, frame, name):
+                    box = carried_back(det.box, frame, seen, first)
+                    if box is not None and overlap_of_smaller(box, cand.box) >= 0.3:
+                        found.append(Detection(box=box, score=det.score, label=det.label))
+                if found:
+                    break
+        finally:
+            try:
+                back()
+            except ControlError as exc:
+                raise ControlError(
+                    f"looking harder for {name!r}, the robot drove nearer to look and could not drive back "
+                    f"to where it took the image: {exc.message}",
+                    "take a new image (robot.look) where it stands, or switch the mechanism off "
+                    "(--checks all,-look_harder)",
+                ) from exc
+        return found, visits
+
+    def snapshot(self) -> Any:
+        """Host side: the robot's state now (pose, head, arm, gripper), or None where the world cannot
+        put it back."""
+        return None if self.world is None else self.world.snapshot()
+
+    def restore(self, snapshot: Any, image: ImagePatch) -> None:
+        """Host side: back to `snapshot` with `image` as the camera's last look: how a retry starts from
+        the state the first try started from."""
+        assert self.world is not None
+        self.world.restore(snapshot)
+        self.held = None
+        self._near = None
+        self._aimed = None
+        self._image = image
+        self.capture = image.capture
+        self._acted_on = []
+
+    def called_on(self, patch: ImagePatch) -> None:
+        """Host side: the program called one of this robot's methods on `patch` (`book_patch.pick_up("book")`,
+        `apple_patch.measure_distance("desk")`), or named an object right after looking at `patch` (a loop
+        over patches that asks each a question, then `go_to_object("object")`): a name in that call stands
+        for it when it answers to the name (see `_named`), as for the latest object the program acted on."""
+        if (
+            isinstance(patch, ImagePatch)
+            and patch.label
+            and (not self._acted_on or self._acted_on[-1] is not patch)
+        ):
+            self._acted_on.append(patch)
+
+    def backend_name(self) -> str:
+        """Host side: the controller's name, reported as the "robot" backend of an answer."""
+        return str(getattr(self.controller, "name", type(self.controller).__name__))
+
+    def _need(self, method: str) -> None:
+        found = sense_of_method(method)
+        sensor = found[0].name if found is not None else OWN_REQUIRES.get(method)
+        if sensor is not None and sensor not in self.sensors:
+            if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
+                wanted = [*self.sensors, sensor]
+                fix = f"name it in the program's Robot(sensors=[...]), e.g. Robot(sensors={wanted})"
+            else:
+                fix = (
+                    f"add it with --sensors {','.join([*self.sensors, sensor])}, "
+                    f"or answer without robot.{method}"
+                )
+            raise MissingSensor(
+                f"robot.{method}() needs the {sensor!r} sensor, and this robot has only: "
+                f"{', '.join(self.sensors)}",
+                fix,
+            )
+
+    def _named(self, name: str, method: str) -> ImagePatch:
+        """The patch an object's name stands for, as the paper's Robot took names (`robot.pick_up("book")`):
+        the last patch the program acted on with that name (or any name, for a generic noun such as
+        "object"), else the very last one when the camera finds it under that name, else the one such
+        object in the camera image. Several in view is ambiguous: refused, naming them."""
+        key = _name_key(name)
+        if not key:
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}) names no object",
+                f'pass a patch or a name, e.g. robot.{method}("cup")',
+            )
+        for done in reversed(self._acted_on):
+            if key in GENERIC_NOUNS or _name_key(done.label) == key:  # "object": the one acted on last
+                return done
+        last = self._acted_on[-1] if self._acted_on else None  # found as "object", named now as a "jar"
+        if last is not None and any(
+            f.same_object(last) or iou(f.box, last.box) >= _SAME_BOX for f in last.find(name)
+        ):
+            return last
+        if self._image is None:
+            raise UnsupportedAction(
+                f"robot.{method}({name!r}) is not available here: there is no camera image of a world",
+                "run the query in a world (--layout) to use robot actions",
+            )
+        found = self._image.find(name)
+        if not found:
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}): the robot's camera sees no {name!r}",
+                f'find it first: patches = image.find("{name}")',
+            )
+        if len(found) > 1:
+            seen = ", ".join(_named(p) for p in found[:4]) + (", ..." if len(found) > 4 else "")
+            raise ApiArgumentError(
+                f"robot.{method}({name!r}) is ambiguous: the robot's camera sees {len(found)} of them "
+                f"({seen})",
+                f"pass the patch you mean instead of its name, e.g. for patch in image.find({name!r}): ... "
+                f"{method}(patch)",
+            )
+        return found[0]
+
+    def _target(self, patch: object, method: str) -> tuple[ImagePatch, Target]:
+        if isinstance(patch, str):
+            patch = self._named(patch, method)
+        elif isinstance(patch, list | tuple) and all(isinstance(p, ImagePatch) for p in patch):
+            patch = _one_of(patch, method)  # the list find returned, as the paper's prompt passes it
+        p = check_patch(patch, ImagePatch, "patch", method)
+        self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
+        self.activity = f"{_doing(method)} {self.acting_on}"
+        if p.label and (not self._acted_on or self._acted_on[-1] is not p):
+            self._acted_on.append(p)
+        target = p.target()
+        if target is None or self.world is None:
+            raise UnsupportedAction(
+                f"robot.{method}() is not available here: the patch comes from a still image, not from the "
+                "robot's camera",
+                "run the query in a world (--layout) to use robot actions, or answer from the image alone",
+            )
+        return p, target
+
+    def _focus(self, patch: ImagePatch, target: Target) -> None:
+        """Point the camera at `target`, then centre the object by what fresh images show
+        (`attribot.control.focus.correct_aim`, up to FOCUS_CORRECTIONS times)."""
+        self.controller.focus_on(target)
+        self._aimed = patch
+        assert self.world is not None  # _target checked it
+        headless = "head" not in {str(c) for c in self.world.capabilities()}
+        correct_aim(
+            self.controller,
+            lambda: self._reacquire(patch),
+            self.FOCUS_CORRECTIONS,
+            self.FOCUS_TOL_PX,
+            headless=headless,
+        )
+
+    def _reacquire(self, patch: ImagePatch, by_id: bool = True) -> Target | None:
+        """The object of `patch` in a new camera image: by world id when known (and `by_id`), else the
+        detection of the same name nearest the image centre (where the aim put it), within a quarter of
+        the image."""
+        if not patch.label or self.world is None or "pose" not in {str(c) for c in self.world.capabilities()}:
+            return None
+        frame = self.world.observe()
+        cam = frame.camera or _camera_info(self.world)
+        if cam is None:
+            return None
+        capture = capture_now(self.world, frame, self._captures, cam)
+        self._captures += 1
+        detections = patch.perception.detector.detect(frame, [patch.label])
+        if by_id and patch.object_id is not None:
+            same = [d for d in detections if d.object_id == patch.object_id]
+        else:
+            radius = min(cam.width, cam.height) / 4.0
+            same = sorted(
+                (d for d in detections if _dist_to_center(d.box, cam) <= radius),
+                key=lambda d: _dist_to_center(d.box, cam),
+            )
+        if not same:
+            return None
+        d = same[0]
+        return Target(box=d.box, capture=capture, object_id=patch.object_id, label=patch.label)
+
+    def focus_on_patch(self, patch: ImagePatch) -> None:
+        """The session's side of `Robot.focus_on_patch` (its docstring is the one programs read)."""
+        self._need("focus_on_patch")
+        p, target = self._target(patch, "focus_on_patch")
+        self._focus(p, target)
+
+    def _gripper_empty(self) -> bool:
+        """The fingers have closed (almost) all the way: nothing is between them."""
+        assert self.world is not None
+        try:
+            opening = self.world.joint_states().get("gripper")
+        except UnsupportedAction:
+            return False
+        return opening is not None and float(opening) < self.GRIPPER_EMPTY_M
+
+    def _record(self, p: ImagePatch, **reading: Any) -> None:
+        """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
+        m = Measurement(object_id=p.object_id, label=p.label, **reading)
+        self.measurements.append(m)
+        self._measured.append((m, p))
+
+    # ---- what the readings and the actions (the other halves of the session) provide to each other ----
+    def go_to_object(self, patch: ImagePatch) -> None:
+        raise NotImplementedError  # attribot.api.acting
+
+    def pick_up(self, patch: ImagePatch) -> None:
+        raise NotImplementedError  # attribot.api.acting
+
+    def put_down(self) -> None:
+        raise NotImplementedError  # attribot.api.acting
+
+
+_SAME_BOX = 0.5
+"""Two boxes of one image that overlap this much (IoU) show one object: a name and a patch found under
+another word meet there when the detector gives no ids."""
+
+
+def _one_of(patches: Sequence[ImagePatch], method: str) -> ImagePatch:
+    """The one patch of a list `image.find` returned, passed where a patch belongs; none or several are
+    refused, naming them."""
+    if len(patches) == 1:
+        return patches[0]
+    if not patches:
+        raise ApiArgumentError(
+            f"robot.{method}() got an empty list: image.find found nothing there",
+            "check the list before acting (if patches: ...), or find the object under another name",
+        )
+    seen = ", ".join(_named(p) for p in patches[:4]) + (", ..." if len(patches) > 4 else "")
+    raise ApiArgumentError(
+        f"robot.{method}() got a list of {len(patches)} patches ({seen}) and acts on one object",
+        f"pass the one you mean: patches[0], max(patches, key=...), or {method}(patch) in a loop over them",
+    )
+
+
+def _named(patch: ImagePatch) -> str:
+    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
+    objects found under one word, "object", are told apart by where they are)."""
+    ident = f" ({patch.object_id})" if patch.object_id else ""
+    box = ", ".join(str(round(v)) for v in patch.box)
+    return f"the {patch.label or 'object'}{ident} at [{box}]"
+
+
+def _dist_to_center(box: tuple[float, float, float, float], cam: CameraInfo) -> float:
+    return math.hypot((box[0] + box[2]) / 2.0 - cam.cx, (box[1] + box[3]) / 2.0 - cam.cy)
+
+
+def _camera_info(world: Embodiment) -> Any:
+    try:
+        return world.camera_info()
+    except UnsupportedAction:
+        return None
+
+
+def _name_key(name: str) -> str:
+    """An object's name as compared: lower case, no article, singular ("the Books" -> "book")."""
+    words = name.lower().split()
+    while words and words[0] in ("the", "a", "an"):
+        words = words[1:]
+    text = " ".join(words)
+    return text[:-1] if text.endswith("s") and not text.endswith("ss") else text

@@ -1,0 +1,15 @@
+"""The host side of a program's robot: one `RobotSession` per session, holding the state a program's
+calls act on and doing what they ask (`attribot.api.robot.Robot` is the facade programs see).
+"""
+
+from __future__ import annotations
+
+from attribot.api.acting import Acting
+from attribot.api.measuring import Measuring
+
+__all__ = ["RobotSession"]
+
+
+class RobotSession(Measuring, Acting):
+    """A robot session: its state and core (`attribot.api.robot_core`), its readings
+    (`attribot.api.measuring`) and its actions (`attribot.api.acting`)."""
