@@ -238,7 +238,7 @@ def test_the_prompt_says_what_the_detector_can_find_here():
 def test_a_program_facing_class_is_checked_as_it_is_defined():
     """The facade programs see is checked when its class is defined: a public method it does not declare
     (host work belongs to the session) or a program method without an example program is refused."""
-    from attribot.api.robot import check_facade
+    from attribot.api.checks import check_facade
 
     def documented(self):
         """Does it.

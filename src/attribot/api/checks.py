@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from attribot.api.errors import ApiArgumentError
 
-__all__ = ["check_text", "check_number", "check_patch", "MAX_TEXT"]
+__all__ = ["check_text", "check_number", "check_patch", "check_facade", "MAX_TEXT"]
 
 MAX_TEXT = {"detector": 300, "vqa": 1000, "language": 2000}
 """Longest text accepted per backend role, in characters: an object name for the detector, a question for
@@ -70,3 +70,22 @@ def check_patch(value: object, cls: type[T], arg: str, method: str) -> T:
             f'pass a patch returned by image.find(...), e.g. {method}(image.find("cup")[0])',
         )
     return value
+
+
+def check_facade(cls: type, namespace: dict[str, Any]) -> None:
+    """Checked as a program-facing class is defined: each method it offers programs is documented for the
+    LLM with an example program, and it names nothing public it does not declare (the host side lives in
+    its session); a `TypeError` names what is wrong."""
+    declared = {
+        *namespace.get("OWN_METHODS", namespace.get("API_METHODS", ())),
+        *namespace.get("API_ATTRIBUTES", ()),
+        *namespace.get("HOST_METHODS", ()),
+        *namespace.get("HOST_ATTRIBUTES", ()),
+    }
+    public = {n for n in namespace if not n.startswith("_") and not n.isupper()}
+    if public - declared:
+        raise TypeError(f"{cls.__name__} defines {sorted(public - declared)} without declaring them")
+    for method in namespace.get("OWN_METHODS", namespace.get("API_METHODS", ())):
+        doc = getattr(namespace.get(method), "__doc__", None) or ""
+        if "def execute_command(" not in doc:
+            raise TypeError(f"{cls.__name__}.{method} has no docstring with an example program for the LLM")

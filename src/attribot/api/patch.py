@@ -14,22 +14,20 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from attribot.api.checks import check_number, check_patch, check_text
+from attribot.api.checks import check_facade, check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.harder import Nearer, acting_find, look_harder
-from attribot.api.looking import Survey, ask_again, reexamine
+from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program, target_of
+from attribot.api.harder import Nearer
+from attribot.api.looking import Survey, ask_again
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
-from attribot.boxes import from_upward, to_upward
+from attribot.boxes import to_upward
 from attribot.control.base import Capture, Target
 from attribot.errors import BackendError
 from attribot.frame import Frame, load_image
 from attribot.models.base import Detection
-from attribot.models.cache import cacheable
 
 __all__ = ["ImagePatch"]
-
-_EDGE_TOL = 1e-6  # pixels: boxes may touch the image border, not cross it
 
 
 class ImagePatch:
@@ -142,20 +140,7 @@ class ImagePatch:
         """Host side: `ImagePatch(image)` written in a program, as the paper's and ViperGPT's programs do.
         The image given to execute_command is already a patch, so it is returned as it is; ViperGPT's
         `ImagePatch(image, left, lower, right, upper)` is its crop."""
-        if not isinstance(image, ImagePatch):
-            raise ApiArgumentError(
-                f"ImagePatch(...) takes the image given to execute_command, not {_kind(image)}",
-                "write image_patch = ImagePatch(image), or use the image argument directly",
-            )
-        box = (left, lower, right, upper)
-        if all(v is None for v in box):
-            return image
-        if any(v is None for v in box):
-            raise ApiArgumentError(
-                "ImagePatch(image, left, lower, right, upper) needs all four coordinates",
-                "give all four (y growing upward), or call image.crop(left, lower, right, upper)",
-            )
-        return image.crop(left, lower, right, upper)  # type: ignore[arg-type]
+        return patch_from_program(self, image, left, lower, right, upper)
 
     def summary(self) -> dict[str, Any]:
         """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""
@@ -168,23 +153,7 @@ class ImagePatch:
 
     def target(self) -> Target | None:
         """Host side: what a controller needs to act on this patch; None when it has no capture."""
-        if self.capture is None:
-            return None
-        find = None
-        if self.label:
-            detector, label = self.perception.detector, self.label
-
-            def find(frame: Frame) -> list[tuple[float, float, float, float]]:
-                return [d.box for d in acting_find(detector, frame, label)]
-
-        return Target(
-            box=self.box,
-            capture=self.capture,
-            object_id=self.object_id,
-            label=self.label,
-            find=find,
-            by_depth=self.by_depth,
-        )
+        return target_of(self)
 
     def same_object(self, other: ImagePatch) -> bool:
         """Host side: True when both patches show the same object (same world id, else same box and image)."""
@@ -283,81 +252,7 @@ class ImagePatch:
         >>>     bottom_row.sort(key=lambda w: w.horizontal_center)
         >>>     return bottom_row[len(bottom_row) // 2]
         """
-        name = check_text(object_name, "object_name", "find", "detector")
-        pixels = self._crop_frame()
-        detections = self.perception.detector.detect(pixels, [name])
-        if not isinstance(detections, list) or not all(isinstance(d, Detection) for d in detections):
-            raise BackendError(
-                f"the detector {self.perception.detector.name!r} did not return a list of Detection",
-                "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
-            )
-        if self.safeguards is not None and self.safeguards.on("look_again"):
-            first = len(detections)
-            # the image itself looked at again (its boxes averaged), then the views around it
-            detections, report = reexamine(self.perception.detector, pixels, name, detections)
-            reports = [report]
-            if self.survey is not None and self._whole():
-                detections = self.survey.fuse(self.perception.detector, name, detections)
-                reports.append(self.survey.reports[-1])
-            changed = any(r.dropped or r.added or r.conflicts for r in reports)
-            doubtful = any(r.unconfirmed for r in reports)
-            self.safeguards.note(
-                "look_again",
-                f"find({name!r})",
-                "caught" if changed else "unsettled" if doubtful else "confirmed",
-                "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
-            )
-        detections, by_depth = self._look_harder(name, pixels, detections)
-        dx = pixels.origin[0] - self.frame.origin[0]
-        dy = pixels.origin[1] - self.frame.origin[1]
-        found: list[ImagePatch] = []
-        for det in sorted(detections, key=lambda d: -d.score):
-            x0, y0, x1, y1 = det.box
-            box = (
-                min(max(x0 + dx, 0.0), self.frame.width),
-                min(max(y0 + dy, 0.0), self.frame.height),
-                min(max(x1 + dx, 0.0), self.frame.width),
-                min(max(y1 + dy, 0.0), self.frame.height),
-            )
-            child = ImagePatch(
-                self.frame,
-                self.perception,
-                box,
-                capture=self.capture,
-                object_id=det.object_id,
-                label=det.label or name,
-                score=det.score,
-                by_depth=det in by_depth,
-            )
-            child.safeguards = self.safeguards  # its own finds and questions are checked the same way
-            found.append(child)
-        return found
-
-    def _look_harder(
-        self, name: str, pixels: Frame, detections: list[Detection]
-    ) -> tuple[list[Detection], list[Detection]]:
-        """Host side: the find's detections after looking harder (`attribot.api.harder`), where that is on,
-        the patch is a robot's whole image with depth, and the detector reads pixels; and those of them it
-        took on weaker evidence than the detector's (a faint box, elimination)."""
-        guards, detector = self.safeguards, self.perception.detector
-        if guards is None or not guards.on("look_harder") or not self._whole() or self.capture is None:
-            return detections, []
-        if not cacheable(detector):
-            return detections, []
-        claimed = [d for n, d in self.named.items() if n.lower() != name.lower()]
-        sought = sorted(self.sought - {n.lower() for n in (name, *self.named)})
-        looked = look_harder(detector, pixels, self.capture, name, detections, self.nearer, claimed, sought)
-        if looked is None:
-            return detections, []
-        harder, report = looked
-        if harder:
-            self.named[name] = max(harder, key=lambda d: d.score)
-        if report.views or report.set_aside:
-            caught = report.added or report.set_aside or report.found_nearer or report.taken
-            guards.note(
-                "look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe()
-            )
-        return harder, (harder if report.taken else [])
+        return find_in(self, object_name)
 
     def exists(self, object_name: str) -> bool:
         """Returns True if an object called `object_name` is found inside this patch, else False.
@@ -424,38 +319,7 @@ class ImagePatch:
         >>>     top_half = shelf.crop(shelf.left, shelf.vertical_center, shelf.right, shelf.upper)
         >>>     return top_half.exists("book")
         """
-        values = [
-            check_number(v, n, "crop")
-            for v, n in zip((left, lower, right, upper), ("left", "lower", "right", "upper"), strict=True)
-        ]
-        left, lower, right, upper = values
-        w, h = self.frame.width, self.frame.height
-        if right <= left or upper <= lower:
-            raise ApiArgumentError(
-                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) is empty: "
-                "it needs right > left and upper > lower",
-                "pass (left, lower, right, upper) with y growing upward, "
-                "e.g. patch.crop(patch.left, patch.lower, "
-                "patch.right, patch.vertical_center)",
-            )
-        if left < -_EDGE_TOL or lower < -_EDGE_TOL or right > w + _EDGE_TOL or upper > h + _EDGE_TOL:
-            raise ApiArgumentError(
-                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) reaches outside the image, which spans "
-                f"left=0, lower=0, right={w}, upper={h}",
-                "keep the box inside the image (use max/min with 0, image.right, image.upper)",
-            )
-        il, ilo = max(left, self.left), max(lower, self.lower)
-        ir, iu = min(right, self.right), min(upper, self.upper)
-        if ir <= il or iu <= ilo:
-            raise ApiArgumentError(
-                f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) does not overlap this patch "
-                f"({self.left:g}, "
-                f"{self.lower:g}, {self.right:g}, {self.upper:g})",
-                "crop a region inside the patch, or crop the whole image instead",
-            )
-        part = ImagePatch(self.frame, self.perception, from_upward(il, ilo, ir, iu, h), capture=self.capture)
-        part.safeguards = self.safeguards
-        return part
+        return crop_of(self, left, lower, right, upper)
 
     def overlaps(self, other: ImagePatch) -> bool:
         """Returns True if this patch and `other` share some area (touching edges do not count).
@@ -510,6 +374,9 @@ class ImagePatch:
         return (self.width * d / camera.fx, self.height * d / camera.fy)
 
 
+check_facade(ImagePatch, dict(vars(ImagePatch)))  # the facade programs see, checked as it is defined
+
+
 def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float, float, float]:
     w, h = frame.width, frame.height
     if box is None:
@@ -525,7 +392,7 @@ def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float,
             f"a patch box must be finite with x1 >= x0 and y1 >= y0; got {box!r}",
             "pass an xyxy box in pixels",
         )
-    if x0 < -_EDGE_TOL or y0 < -_EDGE_TOL or x1 > w + _EDGE_TOL or y1 > h + _EDGE_TOL:
+    if x0 < -EDGE_TOL or y0 < -EDGE_TOL or x1 > w + EDGE_TOL or y1 > h + EDGE_TOL:
         raise ApiArgumentError(
             f"the box {tuple(box)!r} lies outside the {w}x{h} image",
             "clip boxes to [0, width] x [0, height] (attribot.boxes.clip)",
@@ -540,7 +407,3 @@ def _answer(value: object, backend: str) -> str:
             "fix the backend: answer() and complete() must return str",
         )
     return value
-
-
-def _kind(value: object) -> str:
-    return "nothing" if value is None else f"a {type(value).__name__}"

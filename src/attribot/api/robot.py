@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
+from attribot.api.checks import check_facade
 from attribot.api.errors import MissingSensor
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
@@ -27,25 +28,6 @@ from attribot.errors import ConfigError
 from attribot.sensors import Sense, Sensor, check_sensors, senses, sensor_method_doc, sensor_names
 
 __all__ = ["Robot", "Measurement", "GRAVITY", "check_sensors", "sensor_names", "object_name"]
-
-
-def check_facade(cls: type, namespace: dict[str, Any]) -> None:
-    """Checked as a program-facing class is defined: each method it offers programs is documented for the
-    LLM with an example program, and it names nothing public it does not declare (the host side lives in
-    its session); a `TypeError` names what is wrong."""
-    declared = {
-        *namespace.get("OWN_METHODS", namespace.get("API_METHODS", ())),
-        *namespace.get("API_ATTRIBUTES", ()),
-        *namespace.get("HOST_METHODS", ()),
-        *namespace.get("HOST_ATTRIBUTES", ()),
-    }
-    public = {n for n in namespace if not n.startswith("_") and not n.isupper()}
-    if public - declared:
-        raise TypeError(f"{cls.__name__} defines {sorted(public - declared)} without declaring them")
-    for method in namespace.get("OWN_METHODS", ()):
-        doc = getattr(namespace.get(method), "__doc__", None) or ""
-        if "def execute_command(" not in doc:
-            raise TypeError(f"{cls.__name__}.{method} has no docstring with an example program for the LLM")
 
 
 class _RobotApi(type):
