@@ -109,6 +109,43 @@ class Survey:
         if not self.others:
             return first
         views = [self.first, *self.others]
+        groups = self._group(detector, name, first, views)
+        # an object the first image cannot show (seen past its edge from a turned head) is not one of its
+        groups = [g for g in groups if 0 in g.members or self._visible(g.centre, self.first)]
+        support = {id(g): _support(g, views, self._visible) for g in groups}
+        confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
+        # two calls disagree: a box found, as well or better, under another name before is not this one
+        disputed = {
+            id(g)
+            for g in groups
+            if any(n != name and iou(g.box, b) >= 0.5 and s >= support[id(g)] for n, b, s in self.claims)
+        }
+        conflicts = sum(1 for g in confirmed if id(g) in disputed)
+        confirmed = [g for g in confirmed if id(g) not in disputed]
+        fallback: _Group | None = None
+        if not confirmed and groups:
+            # nothing confirmed: what one image would have given, the first image's best box (the best
+            # sighting elsewhere where it saw none), passing over what another name settled on before
+            undisputed = [g for g in groups if id(g) not in disputed] or groups
+            in_first_image = [g for g in undisputed if 0 in g.members] or undisputed
+            fallback = max(in_first_image, key=lambda g: max(m.det.score for m in g.members.values()))
+            confirmed = [fallback]
+        kept, added = self._kept(confirmed, groups, first)
+        # the detector's order, best match first, as find promises
+        result = sorted(kept, key=lambda d: -d.score)
+        settled = max(
+            (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
+        )
+        if settled is not None:
+            self.claims.append((name, settled.box, support[id(settled)]))
+        self._report(len(views), first, result, added, conflicts, fallback)
+        return result
+
+    def _group(
+        self, detector: Detector, name: str, first: list[Detection], views: list[View]
+    ) -> list[_Group]:
+        """The sightings of `name` in every view, grouped by the object they show (placed in the world by
+        depth, boxed where the first image shows them)."""
         groups: list[_Group] = []
         for v, view in enumerate(views):
             found = first if v == 0 else detector.detect(view.frame, [name])
@@ -131,26 +168,14 @@ class Survey:
                     group = _Group()
                     groups.append(group)
                 group.add(v, _Sighting(det, point, points, box))
-        # an object the first image cannot show (seen past its edge from a turned head) is not one of its
-        groups = [g for g in groups if 0 in g.members or self._visible(g.centre, self.first)]
-        support = {id(g): _support(g, views, self._visible) for g in groups}
-        confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
-        # two calls disagree: a box found, as well or better, under another name before is not this one
-        disputed = {
-            id(g)
-            for g in groups
-            if any(n != name and iou(g.box, b) >= 0.5 and s >= support[id(g)] for n, b, s in self.claims)
-        }
-        conflicts = sum(1 for g in confirmed if id(g) in disputed)
-        confirmed = [g for g in confirmed if id(g) not in disputed]
-        fallback: _Group | None = None
-        if not confirmed and groups:
-            # nothing confirmed: what one image would have given, the first image's best box (the best
-            # sighting elsewhere where it saw none), passing over what another name settled on before
-            undisputed = [g for g in groups if id(g) not in disputed] or groups
-            in_first_image = [g for g in undisputed if 0 in g.members] or undisputed
-            fallback = max(in_first_image, key=lambda g: max(m.det.score for m in g.members.values()))
-            confirmed = [fallback]
+        return groups
+
+    def _kept(
+        self, confirmed: list[_Group], groups: list[_Group], first: list[Detection]
+    ) -> tuple[list[Detection], int]:
+        """The detections the confirmed groups keep (the first image's own box, or the least turned view's
+        carried into it for an object only other views show) and how many of them are new; the first
+        image's boxes with no depth to check them against are kept as seen."""
         kept: list[Detection] = []
         added = 0
         in_first = [g.members[0].box for g in confirmed if 0 in g.members]
@@ -168,22 +193,27 @@ class Survey:
         placed = {id(m.det) for g in groups for m in g.members.values()}
         # no depth where the box is: nothing to check it against, kept as seen
         kept += [d for d in first if id(d) not in placed]
-        # the detector's order, best match first, as find promises
-        result = sorted(kept, key=lambda d: -d.score)
+        return kept, added
+
+    def _report(
+        self,
+        views: int,
+        first: list[Detection],
+        result: list[Detection],
+        added: int,
+        conflicts: int,
+        fallback: _Group | None,
+    ) -> None:
+        """Add what one fuse did to `reports`."""
         kept_first = sum(1 for d in result if any(d is f for f in first))
         # a box kept for want of better is neither confirmed nor added (nor dropped)
         unconfirmed = int(fallback is not None)
         fallback_in_first = fallback is not None and 0 in fallback.members
         kept_first -= int(fallback_in_first)
         added -= unconfirmed - int(fallback_in_first)
-        settled = max(
-            (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
-        )
-        if settled is not None:
-            self.claims.append((name, settled.box, support[id(settled)]))
         self.reports.append(
             LookAgainReport(
-                views=len(views),
+                views=views,
                 first=len(first),
                 kept=kept_first,
                 dropped=len(first) - kept_first - int(fallback_in_first),
@@ -192,7 +222,6 @@ class Survey:
                 unconfirmed=unconfirmed,
             )
         )
-        return result
 
     def _place(
         self, box: tuple[float, float, float, float], view: View
@@ -350,31 +379,8 @@ def reexamine(
                 for d in detector.detect(crop, [name])
             ]
         )
-    clusters: list[dict[int, Detection]] = []
-    for v, found in enumerate(answers):
-        for det in found:
-            near = [c for c in clusters if v not in c and max(iou(det.box, o.box) for o in c.values()) >= 0.5]
-            home = max(near, key=lambda c: max(iou(det.box, o.box) for o in c.values())) if near else None
-            if home is None:
-                clusters.append({v: det})
-            else:
-                home[v] = det
-    kept: list[Detection] = []
-    for c in clusters:
-        if len(c) < 2:
-            continue
-        boxes = np.array([d.box for d in c.values()])
-        ids = [d.object_id for d in c.values()]
-        best = c.get(0) or max(c.values(), key=lambda d: d.score)
-        x0, y0, x1, y1 = (float(v) for v in boxes.mean(axis=0))
-        kept.append(
-            Detection(
-                box=(x0, y0, x1, y1),
-                score=float(np.mean([d.score for d in c.values()])),
-                label=best.label,
-                object_id=max(set(ids), key=lambda i: (ids.count(i), i == best.object_id)),
-            )
-        )
+    clusters = _clusters(answers)
+    kept = [_mean_of(c) for c in clusters if len(c) >= 2]
     if not kept and first:  # nothing seen twice: the first answer, as one look would have given
         return first, LookAgainReport(
             views=3, first=len(first), kept=len(first), dropped=0, added=0, how=_CROPS
@@ -389,6 +395,36 @@ def reexamine(
         how=_CROPS,
     )
     return sorted(kept, key=lambda d: -d.score), report
+
+
+def _clusters(answers: list[list[Detection]]) -> list[dict[int, Detection]]:
+    """The boxes of several answers (one per look) grouped by object: each joins the group it overlaps most
+    (IoU 0.5 or more) that has no box of its own look yet."""
+    clusters: list[dict[int, Detection]] = []
+    for v, found in enumerate(answers):
+        for det in found:
+            near = [c for c in clusters if v not in c and max(iou(det.box, o.box) for o in c.values()) >= 0.5]
+            home = max(near, key=lambda c: max(iou(det.box, o.box) for o in c.values())) if near else None
+            if home is None:
+                clusters.append({v: det})
+            else:
+                home[v] = det
+    return clusters
+
+
+def _mean_of(cluster: dict[int, Detection]) -> Detection:
+    """One object's boxes from several looks as one: their mean box and score, the first look's label (or
+    the best one's), the id most of them give."""
+    boxes = np.array([d.box for d in cluster.values()])
+    ids = [d.object_id for d in cluster.values()]
+    best = cluster.get(0) or max(cluster.values(), key=lambda d: d.score)
+    x0, y0, x1, y1 = (float(v) for v in boxes.mean(axis=0))
+    return Detection(
+        box=(x0, y0, x1, y1),
+        score=float(np.mean([d.score for d in cluster.values()])),
+        label=best.label,
+        object_id=max(set(ids), key=lambda i: (ids.count(i), i == best.object_id)),
+    )
 
 
 def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
