@@ -127,8 +127,18 @@ def rangefinder_sensor(spec: mujoco.MjSpec) -> None:
 
 def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     """Add the robot to `spec` at the world origin; its start pose is set in the data (base_x/y/yaw)."""
-    g = geometry
     root = spec.worldbody.add_body(name="robot", pos=[0, 0, 0])
+    _add_base(root, geometry)
+    _add_mast(root, geometry)
+    _add_head(root, geometry)
+    wrist = _add_lift_and_arm(root, geometry)
+    _add_gripper(wrist, geometry)
+    _add_actuators(spec, geometry)
+    _add_sensors(spec)
+
+
+def _add_base(root: mujoco.MjsBody, g: RobotGeometry) -> None:
+    """The holonomic base: planar x, y and yaw joints, the colliding body box, its top plate and wheels."""
     root.add_joint(name="base_x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1, 0, 0], armature=1.0)
     root.add_joint(name="base_y", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0], armature=1.0)
     root.add_joint(name="base_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1], armature=0.5)
@@ -148,6 +158,10 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
             w.contype = w.conaffinity = 0
             w.group = 1
             w.mass = 0.3
+
+
+def _add_mast(root: mujoco.MjsBody, g: RobotGeometry) -> None:
+    """The mast from the base's top up to just below the head."""
     mx, my = g.mast_xy
     mast = _box(
         root,
@@ -157,7 +171,11 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     )
     mast.mass = 2.0
 
-    # head: pan about z, tilt about -y (up positive); camera and rangefinder at the axes' crossing
+
+def _add_head(root: mujoco.MjsBody, g: RobotGeometry) -> None:
+    """The pan-tilt head on top of the mast, with the camera and the rangefinder at the axes' crossing."""
+    # pan about z, tilt about -y (up positive)
+    mx, my = g.mast_xy
     pan = root.add_body(name="head_pan", pos=[mx, my, g.head_height])
     pan.add_joint(
         name="head_pan",
@@ -192,7 +210,10 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
         group=4,
     )
 
-    # lift carriage on the mast, telescoping arm forward, wrist with the force sensor, two fingers
+
+def _add_lift_and_arm(root: mujoco.MjsBody, g: RobotGeometry) -> mujoco.MjsBody:
+    """The lift carriage on the mast and the telescoping arm forward from it; returns the wrist body."""
+    mx, my = g.mast_xy
     lo, hi = g.lift_range
     carriage = root.add_body(name="carriage", pos=[mx, my, 0])
     carriage.add_joint(
@@ -216,7 +237,11 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
         armature=1.0,
     )
     _box(arm, (sleeve_len / 2, 0.02, 0.015), (0.06 + sleeve_len / 2, 0, 0), _GRAY).mass = 0.5
-    wrist = arm.add_body(name="wrist", pos=[g.arm_reach0, 0, 0])
+    return arm.add_body(name="wrist", pos=[g.arm_reach0, 0, 0])
+
+
+def _add_gripper(wrist: mujoco.MjsBody, g: RobotGeometry) -> None:
+    """The wrist's force/torque site and housing, two sliding fingers, and the grip point between them."""
     wrist.add_site(name="ft_site", pos=[0, 0, 0], size=[0.01, 0.01, 0.01], group=4)
     _box(wrist, (0.02, 0.03, 0.03), (0.0, 0, 0), _DARK).mass = 0.2
     _box(wrist, (0.01, 0.075, 0.02), (0.025, 0, 0), _GRAY).mass = 0.1
@@ -244,27 +269,27 @@ def add_robot(spec: mujoco.MjSpec, geometry: RobotGeometry = GEOMETRY) -> None:
     probe.group = 5
     probe.mass = 0.001
 
-    # actuators
-    velocity_actuator(spec, "base_x", 400.0, 400.0)
-    velocity_actuator(spec, "base_y", 400.0, 400.0)
-    velocity_actuator(spec, "base_yaw", 80.0, 150.0)
-    position_actuator(spec, "head_pan", 30.0, g.pan_range, 20.0)
-    position_actuator(spec, "head_tilt", 30.0, g.tilt_range, 20.0)
-    position_actuator(spec, "lift", 6000.0, g.lift_range, 600.0)
-    position_actuator(spec, "arm", 2500.0, g.arm_range, 300.0)
-    position_actuator(spec, "finger_l", 300.0, g.finger_range, 30.0)
-    position_actuator(spec, "finger_r", 300.0, g.finger_range, 30.0)
 
+def _add_actuators(spec: mujoco.MjSpec, g: RobotGeometry) -> None:
+    """Velocity servos on the base's joints, position servos on the head, lift, arm and fingers."""
+    for joint, kv, force in (("base_x", 400.0, 400.0), ("base_y", 400.0, 400.0), ("base_yaw", 80.0, 150.0)):
+        velocity_actuator(spec, joint, kv, force)
+    for joint, kp, ctrl, force in (
+        ("head_pan", 30.0, g.pan_range, 20.0),
+        ("head_tilt", 30.0, g.tilt_range, 20.0),
+        ("lift", 6000.0, g.lift_range, 600.0),
+        ("arm", 2500.0, g.arm_range, 300.0),
+        ("finger_l", 300.0, g.finger_range, 30.0),
+        ("finger_r", 300.0, g.finger_range, 30.0),
+    ):
+        position_actuator(spec, joint, kp, ctrl, force)
+
+
+def _add_sensors(spec: mujoco.MjSpec) -> None:
+    """The rangefinder, then the wrist's force and torque at "ft_site"."""
     rangefinder_sensor(spec)
-    spec.add_sensor(
-        name="wrist_force",
-        type=mujoco.mjtSensor.mjSENS_FORCE,
-        objtype=mujoco.mjtObj.mjOBJ_SITE,
-        objname="ft_site",
-    )
-    spec.add_sensor(
-        name="wrist_torque",
-        type=mujoco.mjtSensor.mjSENS_TORQUE,
-        objtype=mujoco.mjtObj.mjOBJ_SITE,
-        objname="ft_site",
-    )
+    for name, kind in (
+        ("wrist_force", mujoco.mjtSensor.mjSENS_FORCE),
+        ("wrist_torque", mujoco.mjtSensor.mjSENS_TORQUE),
+    ):
+        spec.add_sensor(name=name, type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft_site")

@@ -466,8 +466,30 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
     rows, cols = _pattern_shape(pattern, n)
     pool = _pool(request, _small)
     main = pool[int(rng.integers(len(pool)))] if not request.categories else pool[0]
+    odd_kind = _odd_kind(rng, request, main)
+    variation = _size_variation(request)
+    lo, hi = main.size_range_m
+    common = float(rng.uniform(lo, hi))
+    color = str(main.colors[int(rng.integers(len(main.colors)))])
+    odd_index = int(rng.integers(n))
+    objs: list[PlacedObject] = []
+    for i in range(n):
+        size = common * (1 + float(rng.uniform(-variation, variation)))
+        cat, col = main, color
+        if i == odd_index:
+            cat, size, col = _odd_one(rng, request, pool, odd_kind, (main, size, color), common)
+        o = _make_object(rng, i, cat, size=size, color=col)
+        o.extras.update(odd_one_out=(i == odd_index), odd_kind=odd_kind if i == odd_index else "")
+        objs.append(o)
+    if not _fits_table(objs, rows, cols):
+        pattern, rows, cols = _fitting_pattern(objs, pattern, "pattern" in request.options)
+    return _row_plan(rng, "arrangement", objs, rows, cols)
+
+
+def _odd_kind(rng: np.random.Generator, request: SceneRequest, main: Category) -> str:
+    """What sets the odd one out apart (option "odd", or drawn); refused when the request cannot show it."""
     odd_kinds = ["category", "size"] + (["color"] if len(main.colors) > 1 else [])
-    odd_kind = request.option("odd", str(rng.choice(odd_kinds)), ("category", "size", "color"))
+    odd_kind: str = request.option("odd", str(rng.choice(odd_kinds)), ("category", "size", "color"))
     if request.categories and len(request.categories) > 1 and odd_kind != "category":
         raise InputError(
             f"an arrangement with odd={odd_kind} shows one category; the other "
@@ -478,45 +500,55 @@ def arrangement(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         raise InputError(
             f"{main.name} comes in one colour only, so it cannot have an odd colour", "use odd=size"
         )
+    return odd_kind
+
+
+def _size_variation(request: SceneRequest) -> float:
+    """The option size_variation: how far each size may differ from the common size, as a fraction."""
     variation = float(request.option("size_variation", 0.08))
     if not 0 <= variation <= 0.3:
         raise InputError(f"size_variation={variation} is out of range", "give a fraction between 0 and 0.3")
-    lo, hi = main.size_range_m
-    common = float(rng.uniform(lo, hi))
-    color = str(main.colors[int(rng.integers(len(main.colors)))])
-    odd_index = int(rng.integers(n))
-    objs: list[PlacedObject] = []
-    for i in range(n):
-        size = common * (1 + float(rng.uniform(-variation, variation)))
-        if i == odd_index and odd_kind == "size":
-            size = common * (1.6 if rng.uniform() < 0.5 else 0.6)
-        cat, col = main, color
-        if i == odd_index and odd_kind == "category":
-            others = [
-                c
-                for c in (
-                    pool[1:]
-                    if request.categories and len(pool) > 1
-                    else _pool(SceneRequest(vocabulary=request.vocabulary), _small)
-                )
-                if c.name != main.name
-            ]
-            if not others:
-                raise InputError(
-                    f"an arrangement with odd=category needs a second category besides {main.name}",
-                    "use --option odd=size or odd=color, or draw from more categories",
-                )
-            cat = others[int(rng.integers(len(others)))]
-            size = float(np.clip(common, *cat.size_range_m))
-            col = str(cat.colors[int(rng.integers(len(cat.colors)))])
-        if i == odd_index and odd_kind == "color":
-            col = str(rng.choice([c for c in main.colors if c != color]))
-        o = _make_object(rng, i, cat, size=size, color=col)
-        o.extras.update(odd_one_out=(i == odd_index), odd_kind=odd_kind if i == odd_index else "")
-        objs.append(o)
-    if not _fits_table(objs, rows, cols):
-        pattern, rows, cols = _fitting_pattern(objs, pattern, "pattern" in request.options)
-    return _row_plan(rng, "arrangement", objs, rows, cols)
+    return variation
+
+
+def _odd_one(
+    rng: np.random.Generator,
+    request: SceneRequest,
+    pool: list[Category],
+    odd_kind: str,
+    usual: tuple[Category, float, str],
+    common: float,
+) -> tuple[Category, float, str]:
+    """The odd one out's category, size and colour: those of the others (`usual`) but for `odd_kind`."""
+    main, size, color = usual
+    if odd_kind == "size":
+        return main, common * (1.6 if rng.uniform() < 0.5 else 0.6), color
+    if odd_kind == "category":
+        cat = _odd_category(rng, request, pool, main)
+        size = float(np.clip(common, *cat.size_range_m))
+        return cat, size, str(cat.colors[int(rng.integers(len(cat.colors)))])
+    return main, size, str(rng.choice([c for c in main.colors if c != color]))
+
+
+def _odd_category(
+    rng: np.random.Generator, request: SceneRequest, pool: list[Category], main: Category
+) -> Category:
+    """A category other than `main` for the odd one out: from the other categories asked for, if any."""
+    others = [
+        c
+        for c in (
+            pool[1:]
+            if request.categories and len(pool) > 1
+            else _pool(SceneRequest(vocabulary=request.vocabulary), _small)
+        )
+        if c.name != main.name
+    ]
+    if not others:
+        raise InputError(
+            f"an arrangement with odd=category needs a second category besides {main.name}",
+            "use --option odd=size or odd=color, or draw from more categories",
+        )
+    return others[int(rng.integers(len(others)))]
 
 
 _PATTERNS = ("row", "grid", "column")
@@ -620,42 +652,78 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         return _floor_household(rng, request)
     n = _count(request, int(rng.integers(2, 7)), 1, 12, "a household scene")
     min_gap = float(request.option("min_gap", 0.15))
-    robot = (
+    robot = _robot_start(rng)
+    cam = camera_position(robot)
+    furniture = _household_furniture(rng, robot[0], robot[1])
+    surfaces = [s for f in furniture for s in f.surfaces()]
+    floor = _standing_floor(robot[0], furniture)
+    picks = _draw_categories(rng, _pool(request, lambda c: c.pickable), n)
+    objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
+    placed: dict[str, list[tuple[float, float, float]]] = {}
+    dists: list[float] = []
+    for o in objs:
+        choices = [floor] if o.category.placement == "floor" else surfaces
+        if not _place_in_view(rng, o, choices, robot, cam, placed, dists, min_gap):
+            raise InputError(
+                f"cannot place {n} objects in a household scene with distances {min_gap} m apart "
+                f"(object {o.key}, a {o.category.name}, found no free spot)",
+                "ask for fewer objects, smaller categories, or a smaller min_gap",
+            )
+    return ScenePlan("household", furniture, objs, robot, _household_head(cam, robot, objs))
+
+
+def _robot_start(rng: np.random.Generator) -> tuple[float, float, float]:
+    """The base pose (x, y, yaw) a household scene starts the robot at: the back of the room, facing +x."""
+    return (
         -2.0 + float(rng.uniform(-0.2, 0.2)),
         float(rng.uniform(-0.3, 0.3)),
         float(rng.uniform(-0.12, 0.12)),
     )
-    cam = camera_position(robot)
-    rx = robot[0]
-    ry = robot[1]
-    for _ in range(200):  # furniture with room for the robot to drive between the pieces
-        slots = [
-            ("coffee_table", (rx + rng.uniform(0.85, 1.0), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
-            (
-                "table",
-                (rx + rng.uniform(1.55, 1.9), ry + rng.choice([-1, 1]) * rng.uniform(0.85, 1.1)),
-                (0.7, 0.9, 0.75),
-            ),
-            (
-                str(rng.choice(["counter", "shelf"])),
-                (rx + rng.uniform(2.3, 2.6), ry + rng.uniform(-0.5, 0.5)),
-                (0.45, 1.2, 0.9),
-            ),
-        ]
-        keep = sorted(rng.choice(3, size=int(rng.integers(2, 4)), replace=False).tolist())
-        furniture = [
-            _table(f"{kind}_{i}", float(x), float(y), size, kind)
-            for i, (kind, (x, y), size) in enumerate(slots)
-            if i in keep
-        ]
-        if all(_gap(a, b) >= 0.6 for i, a in enumerate(furniture) for b in furniture[i + 1 :]) and all(
-            max(abs(v) for v in f.footprint()) < ROOM_HALF - 0.6 for f in furniture
-        ):
-            break
-    else:  # never seen: each draw fits about half the time
-        raise InputError("no furniture layout with room to drive fits in 200 draws", "try another seed")
-    surfaces = [s for f in furniture for s in f.surfaces()]
-    floor = Surface(
+
+
+def _household_furniture(rng: np.random.Generator, rx: float, ry: float) -> list[Furniture]:
+    """Two or three pieces of furniture before the robot at (rx, ry), with room to drive between them."""
+    for _ in range(200):
+        furniture = _draw_furniture(rng, rx, ry)
+        if _room_to_drive(furniture):
+            return furniture
+    # never seen: each draw fits about half the time
+    raise InputError("no furniture layout with room to drive fits in 200 draws", "try another seed")
+
+
+def _draw_furniture(rng: np.random.Generator, rx: float, ry: float) -> list[Furniture]:
+    """A coffee table, a table to one side and a counter or shelf at the back; two or three of them."""
+    slots = [
+        ("coffee_table", (rx + rng.uniform(0.85, 1.0), ry + rng.uniform(-0.25, 0.25)), (0.45, 0.8, 0.45)),
+        (
+            "table",
+            (rx + rng.uniform(1.55, 1.9), ry + rng.choice([-1, 1]) * rng.uniform(0.85, 1.1)),
+            (0.7, 0.9, 0.75),
+        ),
+        (
+            str(rng.choice(["counter", "shelf"])),
+            (rx + rng.uniform(2.3, 2.6), ry + rng.uniform(-0.5, 0.5)),
+            (0.45, 1.2, 0.9),
+        ),
+    ]
+    keep = sorted(rng.choice(3, size=int(rng.integers(2, 4)), replace=False).tolist())
+    return [
+        _table(f"{kind}_{i}", float(x), float(y), size, kind)
+        for i, (kind, (x, y), size) in enumerate(slots)
+        if i in keep
+    ]
+
+
+def _room_to_drive(furniture: list[Furniture]) -> bool:
+    """Whether the pieces stand 0.6 m apart and 0.6 m off the walls."""
+    return all(_gap(a, b) >= 0.6 for i, a in enumerate(furniture) for b in furniture[i + 1 :]) and all(
+        max(abs(v) for v in f.footprint()) < ROOM_HALF - 0.6 for f in furniture
+    )
+
+
+def _standing_floor(rx: float, furniture: list[Furniture]) -> Surface:
+    """The floor before the robot at x `rx`, off the standing room at each piece of furniture."""
+    return Surface(
         "floor",
         rx + 0.75,
         -ROOM_HALF + 0.3,
@@ -663,58 +731,92 @@ def household(rng: np.random.Generator, request: SceneRequest) -> ScenePlan:
         ROOM_HALF - 0.3,
         0.0,
         tuple(f.footprint(0.55) for f in furniture),
-    )  # standing room at furniture
-    pool = _pool(request, lambda c: c.pickable)
-    picks: list[Category] = []
+    )
+
+
+def _draw_categories(rng: np.random.Generator, pool: list[Category], n: int) -> list[Category]:
+    """`n` categories from `pool`: each once in a shuffled order while the pool has enough, else drawn."""
     order = rng.permutation(len(pool)).tolist()
-    for i in range(n):
-        picks.append(pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))])
-    objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
-    placed: dict[str, list[tuple[float, float, float]]] = {}
-    dists: list[float] = []
+    return [
+        pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))] for i in range(n)
+    ]
+
+
+def _place_in_view(
+    rng: np.random.Generator,
+    o: PlacedObject,
+    choices: list[Surface],
+    robot: tuple[float, float, float],
+    cam: np.ndarray,
+    placed: dict[str, list[tuple[float, float, float]]],
+    dists: list[float],
+    min_gap: float,
+) -> bool:
+    """Put `o` at a free spot on one of `choices`, in the first view and at a distance from the camera
+    `min_gap` off the others' (`dists`); record it in `placed` and `dists`. False when 400 draws find none."""
+    r = o.shape.footprint_radius
+    for _ in range(400):
+        s = choices[int(rng.integers(len(choices)))]
+        x, y = _draw_spot(rng, s, robot)
+        if not _fits(x, y, r, s, placed.get(s.name, []), 0.04):
+            continue
+        o.x, o.y, o.z, o.surface = x, y, s.z, s.name
+        _face(o, (cam[0], cam[1]), rng, 0.4)
+        d = _distance_in_view(o, s, robot, cam, dists, min_gap)
+        if d is None:
+            continue
+        placed.setdefault(s.name, []).append((x, y, r))
+        dists.append(d)
+        return True
+    return False
+
+
+def _draw_spot(
+    rng: np.random.Generator, s: Surface, robot: tuple[float, float, float]
+) -> tuple[float, float]:
+    """A point on `s`; on the floor, one in front of the robot and within view."""
+    rx = robot[0]
+    if s.name == "floor":
+        x = float(rng.uniform(rx + 0.9, rx + 2.8))
+        return x, float(robot[1] + rng.uniform(-0.9, 0.9) * (x - rx) * 0.45)
+    return float(rng.uniform(s.x0, s.x1)), float(rng.uniform(s.y0, s.y1))
+
+
+def _distance_in_view(
+    o: PlacedObject,
+    s: Surface,
+    robot: tuple[float, float, float],
+    cam: np.ndarray,
+    dists: list[float],
+    min_gap: float,
+) -> float | None:
+    """The camera's distance to `o` as placed on `s`, or None where it does not do: too tall for a lower
+    shelf, within `min_gap` of another candidate's distance, too small to see, or out of the field of view."""
+    # lower shelf: keep objects short enough to stand under the top board
+    if s.name.endswith("_low") and o.shape.height - o.shape.lo[2] > 0.9 - _SHELF_LOW - 0.16:
+        return None
+    d = float(np.linalg.norm(object_center(o) - cam))
+    if any(abs(d - e) < min_gap for e in dists):
+        return None
+    # big enough to see from here, whatever the image size: thin things (pencils) stay near
+    if _apparent_pixels(o, cam) < 60:
+        return None
+    # in the horizontal field of view of a head turned towards the candidates' middle
     half_h = math.radians(GEOMETRY.fovy_deg) / 2
-    for o in objs:
-        choices = [floor] if o.category.placement == "floor" else surfaces
-        r = o.shape.footprint_radius
-        for _ in range(400):
-            s = choices[int(rng.integers(len(choices)))]
-            if s is floor:  # the floor in front of the robot and within view
-                x = float(rng.uniform(rx + 0.9, rx + 2.8))
-                y = float(robot[1] + rng.uniform(-0.9, 0.9) * (x - rx) * 0.45)
-            else:
-                x, y = float(rng.uniform(s.x0, s.x1)), float(rng.uniform(s.y0, s.y1))
-            if not _fits(x, y, r, s, placed.get(s.name, []), 0.04):
-                continue
-            o.x, o.y, o.z, o.surface = x, y, s.z, s.name
-            _face(o, (cam[0], cam[1]), rng, 0.4)
-            # lower shelf: keep objects short enough to stand under the top board
-            if s.name.endswith("_low") and o.shape.height - o.shape.lo[2] > 0.9 - _SHELF_LOW - 0.16:
-                continue
-            d = float(np.linalg.norm(object_center(o) - cam))
-            if any(abs(d - e) < min_gap for e in dists):
-                continue
-            # big enough to see from here, whatever the image size: thin things (pencils) stay near
-            if _apparent_pixels(o, cam) < 60:
-                continue
-            # in the horizontal field of view of a head turned towards the candidates' middle
-            if abs(math.remainder(math.atan2(y - robot[1], x - rx) - robot[2], math.tau)) > half_h * 1.1:
-                continue
-            placed.setdefault(s.name, []).append((x, y, r))
-            dists.append(d)
-            break
-        else:
-            raise InputError(
-                f"cannot place {n} objects in a household scene with distances {min_gap} m apart "
-                f"(object {o.key}, a {o.category.name}, found no free spot)",
-                "ask for fewer objects, smaller categories, or a smaller min_gap",
-            )
+    if abs(math.remainder(math.atan2(o.y - robot[1], o.x - robot[0]) - robot[2], math.tau)) > half_h * 1.1:
+        return None
+    return d
+
+
+def _household_head(
+    cam: np.ndarray, robot: tuple[float, float, float], objs: list[PlacedObject]
+) -> tuple[float, float]:
+    """Head (pan, tilt) towards the candidates' middle, tilted so the nearest and farthest are in view."""
     centers = np.array([object_center(o) for o in objs])
     lo, hi = centers.min(axis=0), centers.max(axis=0)
-    pan, tilt = _aim(cam, robot[2], (lo + hi) / 2)
-    # tilt so that the nearest and farthest candidates both fall in view
+    pan, _ = _aim(cam, robot[2], (lo + hi) / 2)
     tilts = [math.atan2(c[2] - cam[2], math.hypot(c[0] - cam[0], c[1] - cam[1])) for c in centers]
-    tilt = float(np.clip((min(tilts) + max(tilts)) / 2, *GEOMETRY.tilt_range))
-    return ScenePlan("household", furniture, objs, robot, (pan, tilt))
+    return pan, float(np.clip((min(tilts) + max(tilts)) / 2, *GEOMETRY.tilt_range))
 
 
 # --- a body whose gripper reaches only the floor (the RoboMaster-EP-like robot): candidates there ------
@@ -758,11 +860,7 @@ def _floor_household(rng: np.random.Generator, request: SceneRequest) -> ScenePl
     body = request.body
     n = _count(request, int(rng.integers(2, 5)), 1, 6, f"a household scene for {body.called}")
     min_gap = float(request.option("min_gap", 0.15))
-    robot = (
-        -2.0 + float(rng.uniform(-0.2, 0.2)),
-        float(rng.uniform(-0.3, 0.3)),
-        float(rng.uniform(-0.12, 0.12)),
-    )
+    robot = _robot_start(rng)
     rx, ry, _ = robot
     back = str(rng.choice(["counter", "shelf"]))
     side = float(rng.choice([-1.0, 1.0]))
@@ -772,11 +870,7 @@ def _floor_household(rng: np.random.Generator, request: SceneRequest) -> ScenePl
         _table("table_0", *table_xy, (0.7, 0.9, 0.75)),
         _table(f"{back}_1", *back_xy, (0.45, 1.2, 0.9), back),
     ]
-    pool = _pool(request, body.holds)
-    order = rng.permutation(len(pool)).tolist()
-    picks = [
-        pool[order[i % len(pool)]] if len(pool) >= n else pool[int(rng.integers(len(pool)))] for i in range(n)
-    ]
+    picks = _draw_categories(rng, _pool(request, body.holds), n)
     objs = [_make_object(rng, i, c) for i, c in enumerate(picks)]
     cam = _floor_camera(robot, body)
     placed: list[tuple[float, float, float]] = []
@@ -941,7 +1035,48 @@ def _rgba(rgb: tuple[float, float, float], a: float = 1.0) -> list[float]:
     return [*rgb, a]
 
 
+_WALL_T = 0.05  # half the walls' thickness
+_WALLS = (
+    (
+        "wall_front",
+        (ROOM_HALF + _WALL_T, 0, WALL_HEIGHT / 2),
+        (_WALL_T, ROOM_HALF + 2 * _WALL_T, WALL_HEIGHT / 2),
+    ),
+    (
+        "wall_back",
+        (-ROOM_HALF - _WALL_T, 0, WALL_HEIGHT / 2),
+        (_WALL_T, ROOM_HALF + 2 * _WALL_T, WALL_HEIGHT / 2),
+    ),
+    ("wall_left", (0, ROOM_HALF + _WALL_T, WALL_HEIGHT / 2), (ROOM_HALF, _WALL_T, WALL_HEIGHT / 2)),
+    ("wall_right", (0, -ROOM_HALF - _WALL_T, WALL_HEIGHT / 2), (ROOM_HALF, _WALL_T, WALL_HEIGHT / 2)),
+)
+"""Each wall's name, centre and half-size, just outside the floor."""
+
+_SKIRTING = (
+    ("skirt_front", (ROOM_HALF - 0.005, 0, 0.05), (0.006, ROOM_HALF, 0.05)),
+    ("skirt_left", (0, ROOM_HALF - 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
+    ("skirt_right", (0, -ROOM_HALF + 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
+)
+"""Each skirting board's name, centre and half-size (none on the back wall)."""
+
+
 def _add_room(spec: mujoco.MjSpec) -> None:
+    """The floor, walls and skirting boards, the sky, and the room's lights."""
+    _add_room_textures(spec)
+    wb = spec.worldbody
+    floor = wb.add_geom(
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[ROOM_HALF, ROOM_HALF, 0.05],
+        material="floor_mat",
+    )
+    floor.contype = floor.conaffinity = 1
+    _add_walls(wb)
+    _add_lights(wb)
+
+
+def _add_room_textures(spec: mujoco.MjSpec) -> None:
+    """The floor's checker texture and material, and the sky's gradient."""
     spec.add_texture(
         name="floor_tex",
         type=mujoco.mjtTexture.mjTEXTURE_2D,
@@ -962,36 +1097,23 @@ def _add_room(spec: mujoco.MjSpec) -> None:
         width=64,
         height=64,
     )
-    wb = spec.worldbody
-    floor = wb.add_geom(
-        name="floor",
-        type=mujoco.mjtGeom.mjGEOM_PLANE,
-        size=[ROOM_HALF, ROOM_HALF, 0.05],
-        material="floor_mat",
-    )
-    floor.contype = floor.conaffinity = 1
-    wall_rgb = [0.86, 0.84, 0.78, 1.0]
-    t = 0.05
-    for name, pos, size in (
-        ("wall_front", (ROOM_HALF + t, 0, WALL_HEIGHT / 2), (t, ROOM_HALF + 2 * t, WALL_HEIGHT / 2)),
-        ("wall_back", (-ROOM_HALF - t, 0, WALL_HEIGHT / 2), (t, ROOM_HALF + 2 * t, WALL_HEIGHT / 2)),
-        ("wall_left", (0, ROOM_HALF + t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
-        ("wall_right", (0, -ROOM_HALF - t, WALL_HEIGHT / 2), (ROOM_HALF, t, WALL_HEIGHT / 2)),
+
+
+def _add_walls(wb: mujoco.MjsBody) -> None:
+    """The walls, which things collide with, and the skirting boards, which they do not."""
+    for contype, rgba, boards in (
+        (1, [0.86, 0.84, 0.78, 1.0], _WALLS),
+        (0, [0.45, 0.40, 0.35, 1.0], _SKIRTING),
     ):
-        g = wb.add_geom(
-            name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=wall_rgb
-        )
-        g.contype = g.conaffinity = 1
-    skirting = [0.45, 0.40, 0.35, 1.0]
-    for name, pos, size in (
-        ("skirt_front", (ROOM_HALF - 0.005, 0, 0.05), (0.006, ROOM_HALF, 0.05)),
-        ("skirt_left", (0, ROOM_HALF - 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
-        ("skirt_right", (0, -ROOM_HALF + 0.005, 0.05), (ROOM_HALF, 0.006, 0.05)),
-    ):
-        g = wb.add_geom(
-            name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=skirting
-        )
-        g.contype = g.conaffinity = 0
+        for name, pos, size in boards:
+            g = wb.add_geom(
+                name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=list(size), pos=list(pos), rgba=rgba
+            )
+            g.contype = g.conaffinity = contype
+
+
+def _add_lights(wb: mujoco.MjsBody) -> None:
+    """A shadow-casting ceiling light, and a fill light from the back of the room without shadows."""
     wb.add_light(
         name="ceiling",
         pos=[0, 0, WALL_HEIGHT - 0.05],

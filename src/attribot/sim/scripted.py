@@ -20,6 +20,7 @@ import numpy as np
 from attribot.errors import AttribotError, UnknownName
 from attribot.gridpath import Cell, astar, shortcut
 from attribot.sim.robot import GEOMETRY
+from attribot.sim.scene import Furniture
 from attribot.sim.world import SimWorld
 
 __all__ = ["ManipulationError", "approach_object", "pick_object", "place_back", "drive_to", "in_reach"]
@@ -158,48 +159,9 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
     name = obj.surface[:-4] if obj.surface.endswith("_low") else obj.surface
     reach0 = g.mast_xy[0] + g.arm_reach0 + g.grip_offset  # grip point x at zero extension
     if name in furniture:
-        x0, y0, x1, y1 = furniture[name].footprint()
-        # stand at the side of the furniture nearest the object, among those the robot can stand at
-        sides = [
-            (np.array([-1.0, 0.0]), pos[0] - x0),
-            (np.array([1.0, 0.0]), x1 - pos[0]),
-            (np.array([0.0, -1.0]), pos[1] - y0),
-            (np.array([0.0, 1.0]), y1 - pos[1]),
-        ]
-        if furniture[name].kind == "shelf":
-            sides = sides[:1]  # shelves open towards -x
-        room = 3.0 - 0.3
-        radius = math.hypot(*g.base_half) + 0.03
-        others = [f.footprint(radius) for f in sim.plan.furniture if f.name != name]
-        feasible = []
-        for n, depth in sides:
-            along = depth + _STAND_OFF + g.base_half[0]  # object to base centre along the normal
-            centre = pos[:2] + n * along
-            clear = not any(r[0] < centre[0] < r[2] and r[1] < centre[1] < r[3] for r in others)
-            if abs(centre[0]) < room and abs(centre[1]) < room and clear:
-                feasible.append((depth, math.hypot(centre[0] - bx, centre[1] - by), n, along))
-        if not feasible:
-            raise ManipulationError(f"no side of the {name} leaves room for the robot", "move the furniture")
-        depth, _, n, along = min(feasible, key=lambda f: (f[0] > 0.5, f[0] + 0.5 * f[1]))
-        ext = float(along - reach0)
+        n, ext = _furniture_side(sim, furniture[name], pos, (bx, by), reach0)
     else:  # on the floor: come at it from the robot's side, or turned as little as needed to stand clear
-        radius = float(np.max(np.abs(sim.object_bounds(key)[:, :2] - pos[:2])))
-        along = max(reach0 + 0.1, g.base_half[0] + 0.06 + radius)
-        ext = float(along - reach0)
-        towards = math.atan2(by - pos[1], bx - pos[0])
-        clearance = math.hypot(*g.base_half) + 0.03
-        blocked = [f.footprint(clearance) for f in sim.plan.furniture]
-        for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.6, -1.6, 2.2, -2.2, math.pi):
-            n = np.array([math.cos(towards + turn), math.sin(towards + turn)])
-            c = pos[:2] + n * along
-            if (
-                abs(c[0]) < 2.7
-                and abs(c[1]) < 2.7
-                and not any(r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in blocked)
-            ):
-                break
-        else:
-            raise ManipulationError(f"no free spot to stand at next to {obj.id}", "choose another object")
+        n, ext = _floor_side(sim, key, pos, (bx, by), reach0)
     if ext > g.arm_range[1]:
         raise ManipulationError(
             f"{obj.id} is {ext - g.arm_range[1]:.2f} m beyond the arm's reach "
@@ -216,6 +178,65 @@ def _standing_pose(sim: SimWorld, key: int) -> tuple[float, float, float, float]
         float(pos[1] - (sin_yaw * lx + cos_yaw * ly)),
         yaw,
         ext,
+    )
+
+
+def _furniture_side(
+    sim: SimWorld, furniture: Furniture, pos: np.ndarray, base_xy: tuple[float, float], reach0: float
+) -> tuple[np.ndarray, float]:
+    """The outward normal of the side of `furniture` to stand at for the object at `pos`, and the arm
+    extension needed from there; `reach0` is the grip point's x in the base frame at zero extension."""
+    g = GEOMETRY
+    x0, y0, x1, y1 = furniture.footprint()
+    # stand at the side of the furniture nearest the object, among those the robot can stand at
+    sides = [
+        (np.array([-1.0, 0.0]), pos[0] - x0),
+        (np.array([1.0, 0.0]), x1 - pos[0]),
+        (np.array([0.0, -1.0]), pos[1] - y0),
+        (np.array([0.0, 1.0]), y1 - pos[1]),
+    ]
+    if furniture.kind == "shelf":
+        sides = sides[:1]  # shelves open towards -x
+    room = 3.0 - 0.3
+    radius = math.hypot(*g.base_half) + 0.03
+    others = [f.footprint(radius) for f in sim.plan.furniture if f.name != furniture.name]
+    feasible = []
+    for n, depth in sides:
+        along = depth + _STAND_OFF + g.base_half[0]  # object to base centre along the normal
+        centre = pos[:2] + n * along
+        clear = not any(r[0] < centre[0] < r[2] and r[1] < centre[1] < r[3] for r in others)
+        if abs(centre[0]) < room and abs(centre[1]) < room and clear:
+            feasible.append((depth, math.hypot(centre[0] - base_xy[0], centre[1] - base_xy[1]), n, along))
+    if not feasible:
+        raise ManipulationError(
+            f"no side of the {furniture.name} leaves room for the robot", "move the furniture"
+        )
+    _, _, n, along = min(feasible, key=lambda f: (f[0] > 0.5, f[0] + 0.5 * f[1]))
+    return n, float(along - reach0)
+
+
+def _floor_side(
+    sim: SimWorld, key: int, pos: np.ndarray, base_xy: tuple[float, float], reach0: float
+) -> tuple[np.ndarray, float]:
+    """The direction from the object `key` on the floor (at `pos`) to where the base stands, turned as
+    little as needed from the robot's side to stand clear of the furniture, and the arm extension needed."""
+    g = GEOMETRY
+    radius = float(np.max(np.abs(sim.object_bounds(key)[:, :2] - pos[:2])))
+    along = max(reach0 + 0.1, g.base_half[0] + 0.06 + radius)
+    towards = math.atan2(base_xy[1] - pos[1], base_xy[0] - pos[0])
+    clearance = math.hypot(*g.base_half) + 0.03
+    blocked = [f.footprint(clearance) for f in sim.plan.furniture]
+    for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.6, -1.6, 2.2, -2.2, math.pi):
+        n = np.array([math.cos(towards + turn), math.sin(towards + turn)])
+        c = pos[:2] + n * along
+        if (
+            abs(c[0]) < 2.7
+            and abs(c[1]) < 2.7
+            and not any(r[0] < c[0] < r[2] and r[1] < c[1] < r[3] for r in blocked)
+        ):
+            return n, float(along - reach0)
+    raise ManipulationError(
+        f"no free spot to stand at next to {sim.objects[key].id}", "choose another object"
     )
 
 

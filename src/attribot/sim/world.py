@@ -120,6 +120,18 @@ def _name2id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
     return i
 
 
+def _scene_request(config: SceneConfig) -> SceneRequest:
+    """What `config` asks of the scene's layout."""
+    vocabulary = config.vocabulary
+    return SceneRequest(
+        config.objects,
+        resolve_categories(config.categories),
+        dict(config.options),
+        config.robot,
+        None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
+    )
+
+
 class SimWorld:
     """One seeded scene with the robot in it. See the module docstring; close it to free the renderer."""
 
@@ -130,22 +142,29 @@ class SimWorld:
         elif fields:
             raise TypeError("give a SceneConfig or its fields, not both")
         self.config = config
-        layout, seed, width, height = config.layout, config.seed, config.width, config.height
         self.robot = config.robot
         self.body = body_named(config.robot)
         self._joints = self.body.joints
         self.finger_open = self.body.finger_open
-        vocabulary = config.vocabulary
-        request = SceneRequest(
-            config.objects,
-            resolve_categories(config.categories),
-            dict(config.options),
-            config.robot,
-            None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
-        )
-        self.width, self.height, self.profile = width, height, config.profile
+        request = _scene_request(config)
+        self.width, self.height, self.profile = config.width, config.height, config.profile
         self.force_noise_std = config.force_noise_std
         self.noise = config.noise
+        self._seed_generators(config)
+        self._renderer: SceneRenderer | None = None
+        self._build_scene(request)
+        self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
+        self._slip_at: float | None = None  # when a held object that will slip falls out
+        self._draw_lasting_errors()
+        self.step(settle_s)
+        self._tare = np.zeros(3)
+        self._held: int | None = None
+        self.pick_record: Any = None  # where the last pick happened, for putting the object back
+
+    def _seed_generators(self, config: SceneConfig) -> None:
+        """The generators of the world's draws, seeded by the scene seed (and the noise seed), and the
+        thermometer's bias."""
+        seed = config.seed
         self._rng = np.random.default_rng([int(seed), 1])
         self._noise_rng = np.random.default_rng([int(config.noise.seed), int(seed), 7])
         # the thermometer's and the gripper's draws come from a generator of their own, so that reading them
@@ -154,7 +173,10 @@ class SimWorld:
         self.temp_bias = (
             float(self.sense_rng.normal(0.0, config.noise.temp_bias)) if config.noise.temp_bias else 0.0
         )
-        self._renderer: SceneRenderer | None = None
+
+    def _build_scene(self, request: SceneRequest) -> None:
+        """Plan the scene, build its model and put the robot at its start."""
+        layout, seed = self.config.layout, self.config.seed
         # a plan whose candidates the first view cannot all see is redrawn (same seed, next attempt)
         error: InputError | None = None
         for attempt, asked in scene_requests(layout, request, _ATTEMPTS):
@@ -166,21 +188,21 @@ class SimWorld:
                 error = exc
                 continue
             self.plan.width, self.plan.height = self.width, self.height
-            self.model = build_model(self.plan, looks=config.looks)
+            self.model = build_model(self.plan, looks=self.config.looks)
             self.data = mujoco.MjData(self.model)
             self._index()
             self._start()
             if self._fixed(layout) or all(self._in_view(k) for k in self.objects):
-                break
+                return
             error = InputError(
                 f"no {layout} scene for seed {seed} shows all {len(self.objects)} objects to the camera",
                 "ask for fewer objects or another seed",
             )
-        else:
-            assert error is not None
-            raise InputError(error.message, what_fits(layout, seed, request, _ATTEMPTS)) from error
-        self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
-        self._slip_at: float | None = None  # when a held object that will slip falls out
+        assert error is not None
+        raise InputError(error.message, what_fits(layout, seed, request, _ATTEMPTS)) from error
+
+    def _draw_lasting_errors(self) -> None:
+        """The odometry's and the force sensor's errors that last the whole run; odometry starts true."""
         n = self.noise
         # odometry: a wheel scale error and a heading bias, drawn once, so drift grows with distance
         self._odom_scale = 1.0 + float(self._noise_rng.normal(0.0, n.odom_drift))
@@ -190,10 +212,6 @@ class SimWorld:
         self._force_bias = self._noise_rng.normal(0.0, n.force_bias, 3) if n.force_bias else np.zeros(3)
         self._drift_rate = np.zeros(3)
         self._tare_time = 0.0
-        self.step(settle_s)
-        self._tare = np.zeros(3)
-        self._held: int | None = None
-        self.pick_record: Any = None  # where the last pick happened, for putting the object back
 
     # --- set-up -----------------------------------------------------------------------------------
     @staticmethod
