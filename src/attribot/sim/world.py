@@ -14,6 +14,10 @@ small pointing error, reads whatever it really hits; the force sensor carries a 
 last tare; a grasp can close on nothing, or slip as the lift starts and leave the object behind; odometry
 (`odometry()`, what a controller reads) drifts in proportion to the distance travelled, while
 `base_pose()` stays the truth.
+
+`SimWorld` keeps the model, the motion and the camera; it hands the rangefinder, force sensor and odometry
+to `attribot.sim.readings`, grasping to `attribot.sim.grasping`, and the truth and scene info to
+`attribot.sim.truth`.
 """
 
 from __future__ import annotations
@@ -24,16 +28,18 @@ from typing import Any
 
 import mujoco
 import numpy as np
-from pydantic import BaseModel
 
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
-from attribot.sim import senses
+from attribot.sim import senses, truth
 from attribot.sim.bodies import body_named
+from attribot.sim.grasping import Gripper
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
+from attribot.sim.readings import ForceSensor, Odometry, Rangefinder
 from attribot.sim.render import SceneRenderer
 from attribot.sim.scene import (
+    LAYOUTS,
     ROOM_CAMERA,
     ScenePlan,
     SceneRequest,
@@ -43,6 +49,7 @@ from attribot.sim.scene import (
     scene_requests,
     what_fits,
 )
+from attribot.sim.truth import MIN_VISIBLE_PIXELS, ObjectInfo, RobotInfo, SceneInfo, box_from_mask, name2id
 
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]
 
@@ -52,72 +59,7 @@ _ATTEMPTS = 30
 # whatever objects look like
 _RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP)) for g in range(6)], np.uint8)
 assert _RAY_GROUPS[LOOK_GROUP] == 0
-MIN_VISIBLE_PIXELS = 20  # fewer visible pixels than this and an object counts as not in view
 GRAVITY = 9.81
-
-
-class ObjectInfo(BaseModel):
-    """Truth about one object, as `attribot scene info` prints it (metres, kilograms, pixels)."""
-
-    id: str
-    key: int
-    category: str
-    color: str
-    mass_kg: float
-    position: list[float]
-    box: list[float] | None
-    visible_pixels: int
-    pickable: bool
-    size_m: float
-    variant: str = ""
-    deceptive: bool = False
-    distance_m: float
-    surface: str = ""
-    row: int | None = None
-    col: int | None = None
-    odd_one_out: bool | None = None
-    odd_kind: str | None = None
-    weight_rank: int | None = None
-    # what no camera sees (`attribot.sim.catalog`): the world's own state, which the new senses read
-    temperature_c: float | None = None  # its surface temperature
-    thermal: str = ""  # the word for its temperature (`attribot.lexicon.temperature_state`)
-    stiffness_n_per_mm: float | None = None  # force per millimetre of gripper closure
-    softness: str = ""  # soft, firm, hard, rigid
-    fill: float | None = None  # a container's contents as a share of its capacity (None: no container)
-    contents_kg: float | None = None  # the mass of those contents
-
-
-class RobotInfo(BaseModel):
-    base: list[float]  # x, y, yaw
-    camera_position: list[float]
-    head: list[float]  # pan, tilt
-
-
-class SceneInfo(BaseModel):
-    """What `attribot scene info` prints: the scene's truth in the world frame and the camera's pixels."""
-
-    layout: str
-    seed: int
-    image_size: list[int]
-    objects: list[ObjectInfo]
-    robot: RobotInfo
-    furniture: list[str]
-    room_temperature_c: float | None = None
-
-
-def box_from_mask(mask: np.ndarray) -> tuple[float, float, float, float] | None:
-    """xyxy pixel box (x1, y1 exclusive) around the True pixels of a mask, or None when empty."""
-    ys, xs = np.nonzero(mask)
-    if xs.size == 0:
-        return None
-    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
-
-
-def _name2id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
-    i = mujoco.mj_name2id(model, kind, name)
-    if i < 0:
-        raise RuntimeError(f"the model has no {kind.name} {name!r}")
-    return i
 
 
 def _scene_request(config: SceneConfig) -> SceneRequest:
@@ -130,6 +72,11 @@ def _scene_request(config: SceneConfig) -> SceneRequest:
         config.robot,
         None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
     )
+
+
+def _fixed(layout: str) -> bool:
+    """Layouts whose plan is exact (no rejection): arrangement and triplet."""
+    return LAYOUTS.get(layout) is not LAYOUTS.get("household")
 
 
 class SimWorld:
@@ -154,13 +101,15 @@ class SimWorld:
         self._renderer: SceneRenderer | None = None
         self._build_scene(request)
         self.step_hooks: list[Callable[[float], None]] = []  # called with the sim time after every step
-        self._slip_at: float | None = None  # when a held object that will slip falls out
-        self._draw_lasting_errors()
+        self._gripper = Gripper(self, self._noise_rng)
+        self._rangefinder = Rangefinder(self, self._noise_rng)
+        # drawn once, in this order, from the noise generator: odometry's errors, then the force sensor's bias
+        self._odometry = Odometry(self, self._noise_rng)
+        self._force = ForceSensor(self, self._rng, self._noise_rng)
         self.step(settle_s)
-        self._tare = np.zeros(3)
-        self._held: int | None = None
         self.pick_record: Any = None  # where the last pick happened, for putting the object back
 
+    # --- set-up -----------------------------------------------------------------------------------
     def _seed_generators(self, config: SceneConfig) -> None:
         """The generators of the world's draws, seeded by the scene seed (and the noise seed), and the
         thermometer's bias."""
@@ -183,7 +132,7 @@ class SimWorld:
             try:
                 self.plan: ScenePlan = plan_scene(layout, seed, asked, attempt)
             except InputError as exc:
-                if self._fixed(layout):
+                if _fixed(layout):
                     raise
                 error = exc
                 continue
@@ -192,7 +141,7 @@ class SimWorld:
             self.data = mujoco.MjData(self.model)
             self._index()
             self._start()
-            if self._fixed(layout) or all(self._in_view(k) for k in self.objects):
+            if _fixed(layout) or all(truth.in_view(self, k) for k in self.objects):
                 return
             error = InputError(
                 f"no {layout} scene for seed {seed} shows all {len(self.objects)} objects to the camera",
@@ -201,96 +150,27 @@ class SimWorld:
         assert error is not None
         raise InputError(error.message, what_fits(layout, seed, request, _ATTEMPTS)) from error
 
-    def _draw_lasting_errors(self) -> None:
-        """The odometry's and the force sensor's errors that last the whole run; odometry starts true."""
-        n = self.noise
-        # odometry: a wheel scale error and a heading bias, drawn once, so drift grows with distance
-        self._odom_scale = 1.0 + float(self._noise_rng.normal(0.0, n.odom_drift))
-        self._odom_bias = float(self._noise_rng.normal(0.0, n.odom_drift))
-        self._odom = np.array(self.base_pose(), float)
-        self._odom_last = self._odom.copy()
-        self._force_bias = self._noise_rng.normal(0.0, n.force_bias, 3) if n.force_bias else np.zeros(3)
-        self._drift_rate = np.zeros(3)
-        self._tare_time = 0.0
-
-    # --- set-up -----------------------------------------------------------------------------------
-    @staticmethod
-    def _fixed(layout: str) -> bool:
-        """Layouts whose plan is exact (no rejection): arrangement and triplet."""
-        from attribot.sim.scene import LAYOUTS
-
-        return LAYOUTS.get(layout) is not LAYOUTS.get("household")
-
-    def _in_view(self, key: int, margin: float = 0.04) -> bool:
-        """True when rays from the optical centre reach the object first and its centre is in the image."""
-        cam, rot = self.camera_pose()
-        info = self.camera_info()
-        lo, hi = self.object_bounds(key)
-        centre = (lo + hi) / 2
-        top = np.array([centre[0], centre[1], hi[2] - 0.01 * (hi[2] - lo[2])])
-        p = rot.T @ (centre - cam)  # camera frame: x right, y up, z backward
-        if p[2] >= -0.05:
-            return False
-        u = info.cx + info.fx * p[0] / -p[2]
-        v = info.cy - info.fy * p[1] / -p[2]
-        if not (
-            margin * info.width <= u <= (1 - margin) * info.width
-            and margin * info.height <= v <= (1 - margin) * info.height
-        ):
-            return False
-        groups = _RAY_GROUPS
-        head = int(self.model.cam_bodyid[self.camera_id])  # the camera's own housing is not in the way
-        seen = 0
-        for target in (centre, top):
-            vec = target - cam
-            geom = np.array([-1], np.int32)
-            mujoco.mj_ray(self.model, self.data, cam, vec / np.linalg.norm(vec), groups, 1, head, geom)
-            seen += int(geom[0] >= 0 and self.geom_key[geom[0]] == key)
-        return seen >= 1
-
     def _index(self) -> None:
         m = self.model
         J = mujoco.mjtObj.mjOBJ_JOINT
         A = mujoco.mjtObj.mjOBJ_ACTUATOR
-        self._qadr = {n: int(m.jnt_qposadr[_name2id(m, J, n)]) for n in self._joints}
-        self._dadr = {n: int(m.jnt_dofadr[_name2id(m, J, n)]) for n in self._qadr}
-        self._act = {n: _name2id(m, A, n) for n in self._joints}
-        self.camera_id = _name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, self.body.camera)
-        self._range_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "rangefinder")])
-        self._force_adr = int(m.sensor_adr[_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "wrist_force")])
-        self._ft_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "ft_site")
-        self._probe = _name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "grip_probe")
-        self._pads = [_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{n}_pad") for n in ("finger_l", "finger_r")]
-        self.pads = np.array(self._pads)
+        self._qadr = {n: int(m.jnt_qposadr[name2id(m, J, n)]) for n in self._joints}
+        self._dadr = {n: int(m.jnt_dofadr[name2id(m, J, n)]) for n in self._qadr}
+        self._act = {n: name2id(m, A, n) for n in self._joints}
+        self.camera_id = name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, self.body.camera)
+        self.pads = np.array(
+            [name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{n}_pad") for n in ("finger_l", "finger_r")]
+        )
         # when the pads squeeze an object, its contact parameters alone say how it gives (`sim.senses`)
         m.geom_solmix[self.pads] = 0.0
         m.geom_solimp[self.pads] = [senses.SQUEEZE_IMPEDANCE, senses.SQUEEZE_IMPEDANCE, 0.001, 0.5, 2.0]
-        self.range_site = _name2id(m, mujoco.mjtObj.mjOBJ_SITE, "range_site")
+        self.range_site = name2id(m, mujoco.mjtObj.mjOBJ_SITE, "range_site")
         self.ray_groups = _RAY_GROUPS
-        self.wrist_body = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, "wrist")
-        # objects: key -> body id, geoms; geom id -> object key (-1 for everything else)
+        self.wrist_body = name2id(m, mujoco.mjtObj.mjOBJ_BODY, "wrist")
         self.objects = {o.key: o for o in self.plan.objects}
-        self.body_of: dict[int, int] = {}
-        self.geoms_of: dict[int, list[int]] = {}
-        self.weld_of: dict[int, int] = {}
-        self.geom_key = np.full(m.ngeom, -1, np.int32)
-        for o in self.plan.objects:
-            b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"obj:{o.id}")
-            self.body_of[o.key] = b
-            gs = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
-            # the body parts (drawn or not), never the look drawn over them nor the collision box
-            self.geoms_of[o.key] = [g for g in gs if m.geom_group[g] in (0, BODY_GROUP)]
-            self.geom_key[gs] = o.key
-            if o.category.pickable:
-                self.weld_of[o.key] = _name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp:{o.id}")
+        self.body_of, self.geoms_of, self.weld_of, self.geom_key = truth.index_objects(m, self.plan.objects)
         self.key_of_id = {o.id: o.key for o in self.plan.objects}
-        # furniture and the floor: geom id -> index into surface_names (-1 for everything else)
-        self.surface_names = (*(f.name for f in self.plan.furniture), "floor")
-        self.geom_surface = np.full(m.ngeom, -1, np.int16)
-        for i, f in enumerate(self.plan.furniture):
-            b = _name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"furniture:{f.name}")
-            self.geom_surface[m.geom_bodyid == b] = i
-        self.geom_surface[_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")] = len(self.plan.furniture)
+        self.surface_names, self.geom_surface = truth.index_surfaces(m, self.plan.furniture)
         senses.set_softness(self)  # how each object gives when squeezed: contact parameters of its parts
         self.truth = {
             o.key: ObjectTruth(id=o.id, category=o.category.name, color=o.color, synonyms=o.category.synonyms)
@@ -329,35 +209,10 @@ class SimWorld:
                 k = min(chunk, n)
                 mujoco.mj_step(m, d, nstep=k)
                 n -= k
-        self._track_odometry()
-        if self._slip_at is not None and d.time >= self._slip_at and self._held is not None:
-            self._let_go()  # the grip gives: it falls out
-            self._slip_at = None
-            self.set_gripper(0.0)  # and the fingers, still closing, meet each other
+        self._odometry.track()
+        self._gripper.slip_if_due(d.time)
         for hook in getattr(self, "step_hooks", ()):
             hook(float(d.time))
-
-    def _track_odometry(self) -> None:
-        """Add this step's motion to the odometry, through the wheels' scale error and heading bias (nothing
-        to do without drift: odometry is then the truth)."""
-        if not self.noise.odom_drift or not hasattr(self, "_odom"):
-            return
-        true = np.array(self.base_pose(), float)
-        delta = true - self._odom_last
-        delta[2] = math.remainder(delta[2], math.tau)
-        self._odom_last = true
-        if not delta.any():
-            return
-        # the displacement in the robot's frame, as the wheels measure it, turned into the odometry frame
-        yaw_true = true[2] - delta[2] / 2
-        c, s = math.cos(yaw_true), math.sin(yaw_true)
-        fwd, left = c * delta[0] + s * delta[1], -s * delta[0] + c * delta[1]
-        fwd, left = fwd * self._odom_scale, left * self._odom_scale
-        turn = delta[2] * self._odom_scale + self._odom_bias * math.hypot(fwd, left)
-        c, s = math.cos(self._odom[2] + turn / 2), math.sin(self._odom[2] + turn / 2)
-        self._odom[0] += c * fwd - s * left
-        self._odom[1] += s * fwd + c * left
-        self._odom[2] = math.remainder(self._odom[2] + turn, math.tau)
 
     def robot_state(self) -> dict[str, Any]:
         """The robot's own state (joints, targets, odometry, tare), for `restore_robot`; no objects."""
@@ -365,14 +220,14 @@ class SimWorld:
         return {
             "qpos": {n: float(self.data.qpos[a]) for n, a in q.items()},
             "targets": dict(self._targets),
-            "odom": self._odom.copy(),
-            "tare": (self._tare.copy(), self._tare_time, self._drift_rate.copy()),
+            "odom": self._odometry.pose.copy(),
+            "tare": self._force.state(),
         }
 
     def restore_robot(self, state: dict[str, Any]) -> None:
         """Put the robot back into `state` (from `robot_state`): where it stood, its head, arm and open
         gripper, and what its odometry believed. What it holds is let go first; objects stay put."""
-        if self._held is not None:
+        if self.held is not None:
             self.release()
         for name, value in state["qpos"].items():
             self.data.qpos[self._qadr[name]] = value
@@ -382,17 +237,13 @@ class SimWorld:
         self._base_cmd = (0.0, 0.0, 0.0)
         self._set_base_ctrl()
         mujoco.mj_forward(self.model, self.data)
-        self._odom = np.array(state["odom"], float)
-        self._odom_last = np.array(self.base_pose(), float)
-        tare, self._tare_time, drift = state["tare"]
-        self._tare, self._drift_rate = np.array(tare), np.array(drift)
+        self._odometry.restore(state["odom"])
+        self._force.restore(state["tare"])
         self.step(0.3)
 
     def odometry(self) -> tuple[float, float, float]:
         """The base pose as the robot believes it (x, y, yaw): the truth plus the drift of its odometry."""
-        if not self.noise.odom_drift:
-            return self.base_pose()
-        return float(self._odom[0]), float(self._odom[1]), float(self._odom[2])
+        return self._odometry.read()
 
     def _set_base_ctrl(self) -> None:
         vx, vy, wz = self._base_cmd
@@ -452,138 +303,28 @@ class SimWorld:
         return float(self.data.actuator_force[self._act[name]]), float(self.data.qpos[self._qadr[name]])
 
     # --- grasping ------------------------------------------------------------------------------------
-    def _geom_distance(self, g1: int, g2: int, cap: float = 0.2) -> float:
-        fromto = np.zeros(6)
-        return float(mujoco.mj_geomDistance(self.model, self.data, g1, g2, cap, fromto))
-
-    def _object_distance(self, geom: int, key: int, cap: float = 0.2) -> float:
-        return min(self._geom_distance(geom, g, cap) for g in self.geoms_of[key])
-
     def grasp(self) -> bool:
         """Close the fingers on what lies between them; weld it to the wrist when both fingers touch it.
 
         Returns True when an object is now held. A pickable object counts only when the point between the
         fingertips is within 3 cm of it; the fingers stop where they meet its surface.
         """
-        if self._held is not None:
-            return True
-        near = [(self._object_distance(self._probe, k), k) for k in self.weld_of]
-        near = [(dist, k) for dist, k in near if dist < 0.03]
-        if near and self.noise.grasp_fail and self._noise_rng.random() < self.noise.grasp_fail:
-            near = []  # the fingers slide off: they close on nothing
-        if not near:
-            self.set_gripper(0.0)
-            self.step(0.4)
-            return False
-        _, key = min(near)
-        moving = {0: True, 1: True}
-        names = ("finger_l", "finger_r")
-        for _ in range(150):
-            for i, name in enumerate(names):
-                if not moving[i]:
-                    continue
-                if self._object_distance(self._pads[i], key) <= 0.001:
-                    moving[i] = False
-                    self._target(name, float(self.data.qpos[self._qadr[name]]))
-                else:
-                    self._target(name, max(self._targets[name] - 0.004, 0.0))
-                    if self._targets[name] == 0.0 and self.data.qpos[self._qadr[name]] < 0.002:
-                        moving[i] = False
-            self.step(0.012)
-            if not any(moving.values()):
-                break
-        gaps = [self._object_distance(p, key) for p in self._pads]
-        # both fingers on it; or a thin object off the centre line: one finger on it, the other closed
-        # past it, and the point between the fingertips at the object
-        off_centre = min(gaps) < 0.006 and self._object_distance(self._probe, key) < 0.012
-        if not (max(gaps) < 0.006 or off_centre):
-            return False
-        self._weld(key)
-        if self.noise.slip and self._noise_rng.random() < self.noise.slip:
-            # the grip is too weak: as the lift starts, the object stays behind on its support
-            self._slip_at = float(self.data.time) + float(self._noise_rng.uniform(0.05, 0.25))
-        self.step(0.3)
-        return True
-
-    def _weld(self, key: int) -> None:
-        """Activate the weld between wrist and object at their current relative pose."""
-        m, d = self.model, self.data
-        eq = self.weld_of[key]
-        b1, b2 = self.wrist_body, self.body_of[key]
-        p1, p2 = d.xpos[b1], d.xpos[b2]
-        r1 = d.xmat[b1].reshape(3, 3)
-        q1, q2 = d.xquat[b1].copy(), d.xquat[b2].copy()
-        rel_pos = r1.T @ (p2 - p1)
-        q1inv = np.zeros(4)
-        mujoco.mju_negQuat(q1inv, q1)
-        rel_q = np.zeros(4)
-        mujoco.mju_mulQuat(rel_q, q1inv, q2)
-        m.eq_data[eq, 0:3] = 0.0  # anchor at the object's origin
-        m.eq_data[eq, 3:6] = rel_pos
-        m.eq_data[eq, 6:10] = rel_q
-        m.eq_data[eq, 10] = 1.0
-        d.eq_active[eq] = 1
-        self._held = key
+        return self._gripper.grasp()
 
     def release(self) -> None:
         """Drop the weld and open the fingers."""
-        if self._held is not None:
-            self._let_go()
-        self._slip_at = None
-        self.set_gripper(self.finger_open)
-        self.step(0.3)
-
-    def _let_go(self) -> None:
-        """Drop the weld of the held object and wake it. Held still in the gripper, it was ready to sleep;
-        unwelded, it would fall asleep at once where it hangs instead of falling onto what is below."""
-        assert self._held is not None
-        m, d = self.model, self.data
-        d.eq_active[self.weld_of[self._held]] = 0
-        tree = int(m.body_treeid[self.body_of[self._held]])
-        if d.tree_asleep[tree] < 0:
-            d.tree_asleep[tree] = -(1 + mujoco.mjMINAWAKE)  # as awake as a tree gets: counting down anew
-        else:
-            dof = int(m.body_dofadr[self.body_of[self._held]])
-            d.qvel[dof : dof + 6] = -0.0  # MuJoCo's documented wake signal (not 0.0 bytewise), no push
-        self._held = None
+        self._gripper.release()
 
     @property
     def held(self) -> int | None:
         """Key of the object held now, or None."""
-        return self._held
+        return self._gripper.held
 
     # --- sensors ------------------------------------------------------------------------------------
     def read_distance(self) -> float:
         """Rangefinder along the optical axis, metres from the optical centre; inf when nothing in range
         (and, with noise, when the reading drops out)."""
-        mujoco.mj_forward(self.model, self.data)
-        n, rng = self.noise, self._noise_rng
-        if n.beam_deg:
-            r = self._beam(math.radians(n.beam_deg))
-        else:
-            r = float(self.data.sensordata[self._range_adr])
-        range_max = min(self.body.range_max, n.range_max or math.inf)
-        if r < 0 or r > range_max:
-            return math.inf
-        if n.range_dropout and rng.random() < n.range_dropout:
-            return math.inf
-        if n.range_std:
-            r = max(0.0, r + float(rng.normal(0.0, n.range_std * r)))
-        return r
-
-    def _beam(self, sigma: float) -> float:
-        """What the beam hits, cast along the optical axis turned by a pointing error of `sigma` radians."""
-        site = _name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, "range_site")
-        origin = self.data.site_xpos[site].copy()
-        frame = self.data.site_xmat[site].reshape(3, 3)
-        ex, ey = self._noise_rng.normal(0.0, sigma, 2)
-        direction = frame @ np.array([math.tan(ex), math.tan(ey), 1.0])
-        direction /= np.linalg.norm(direction)
-        geom = np.zeros(1, np.int32)
-        body = int(self.model.site_bodyid[site])
-        visible = _RAY_GROUPS  # bodies, furniture, room, robot: not collision boxes, not looks
-        r = mujoco.mj_ray(self.model, self.data, origin, direction, visible, 1, body, geom)
-        return float(r)
+        return self._rangefinder.read()
 
     def read_temperature(self) -> float:
         """The infrared thermometer along the optical axis, degrees Celsius (`attribot.sim.senses`)."""
@@ -594,31 +335,14 @@ class SimWorld:
         (`attribot.sim.senses`)."""
         return senses.squeeze(self)
 
-    def _raw_force(self) -> np.ndarray:
-        mujoco.mj_rnePostConstraint(self.model, self.data)
-        mujoco.mj_sensorAcc(self.model, self.data)
-        f_site = self.data.sensordata[self._force_adr : self._force_adr + 3].copy()
-        # MuJoCo reports, in the site frame, the force with which the arm holds the wrist's subtree up;
-        # its opposite is the load on the wrist, so that a held mass m adds (0, 0, -m*g) in the world frame
-        return -(self.data.site_xmat[self._ft_site].reshape(3, 3) @ f_site)
-
     def tare_force(self) -> None:
         """Zero the wrist force sensor with what it carries now (the gripper, and anything it holds)."""
-        self._tare = self._raw_force() + self._force_bias
-        self._tare_time = float(self.data.time)
-        if self.noise.force_drift:  # each tare starts a new slow drift
-            self._drift_rate = self._noise_rng.normal(0.0, self.noise.force_drift, 3)
+        self._force.tare()
 
     def read_force(self) -> np.ndarray:
         """Wrist force in newtons, world frame, relative to the last tare, with the configured noise (a bias
         that the tare removes, a drift since the tare, noise on every reading)."""
-        since = float(self.data.time) - self._tare_time
-        f = self._raw_force() + self._force_bias + self._drift_rate * since - self._tare
-        if self.force_noise_std > 0:
-            f = f + self._rng.normal(0.0, self.force_noise_std, 3)
-        if self.noise.force_std:
-            f = f + self._noise_rng.normal(0.0, self.noise.force_std, 3)
-        return f
+        return self._force.read()
 
     def joint_states(self) -> dict[str, float]:
         """Joint positions by name; the EP-like robot's arm as its links' elevations (upper_arm, forearm)
@@ -669,7 +393,7 @@ class SimWorld:
     def room_view(self) -> np.ndarray:
         """RGB (H, W, 3) of the fixed third-person room camera: for episode videos, never for the robot."""
         mujoco.mj_forward(self.model, self.data)
-        cam = _name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, ROOM_CAMERA)
+        cam = name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, ROOM_CAMERA)
         out = self.renderer.render(self.data, cam, rgb=True)
         assert out.rgb is not None
         return out.rgb
@@ -708,91 +432,22 @@ class SimWorld:
 
     def object_bounds(self, key: int) -> np.ndarray:
         """World axis-aligned bounds (2, 3) of the object's visible geoms."""
-        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        m, d = self.model, self.data
-        for g in self.geoms_of[key]:
-            r = np.abs(d.geom_xmat[g].reshape(3, 3)) @ _half_extents(m, g)
-            lo = np.minimum(lo, d.geom_xpos[g] - r)
-            hi = np.maximum(hi, d.geom_xpos[g] + r)
-        return np.stack([lo, hi])
+        return truth.object_bounds(self.model, self.data, self.geoms_of[key])
 
     def support_of(self, key: int, tol: float = 0.01) -> str | None:
         """The name of the surface the object stands on now: a piece of furniture's top or board (as the
         plan names its surfaces: "shelf_2", "shelf_2_low"), or "floor"; its lowest point within `tol` of
         the surface's height and its middle over the furniture. None when it stands on none of them (held,
         in the air, on another object)."""
-        lo, hi = self.object_bounds(key)
-        x, y = (lo[:2] + hi[:2]) / 2
-        for f in self.plan.furniture:
-            x0, y0, x1, y1 = f.footprint()
-            if not (x0 <= x <= x1 and y0 <= y <= y1):
-                continue
-            for surface in f.surfaces():
-                if abs(lo[2] - surface.z) <= tol:
-                    return surface.name
-        return "floor" if abs(lo[2]) <= tol else None
+        return truth.support_of(self.plan.furniture, self.object_bounds(key), tol)
 
     def top_of(self, key: int, x: float, y: float) -> float | None:
         """Height of the object's upper surface at world (x, y) by a ray cast downward, or None if missed."""
-        groups = _RAY_GROUPS
-        lo, hi = self.object_bounds(key)
-        start = np.array([x, y, hi[2] + 0.05])
-        geom = np.array([-1], np.int32)
-        dist = mujoco.mj_ray(self.model, self.data, start, np.array([0.0, 0.0, -1.0]), groups, 1, -1, geom)
-        if geom[0] < 0 or self.geom_key[geom[0]] != key:
-            return None
-        return float(start[2] - dist)
+        return truth.top_of(self, key, x, y)
 
     def scene_info(self, frame: Frame | None = None) -> SceneInfo:
         """The truth of the scene now, with boxes from the segmentation of `frame` (or a fresh frame)."""
-        frame = frame or self.observe()
-        cam, _ = self.camera_pose()
-        objects = []
-        for o in self.plan.objects:
-            mask = frame.segmentation == o.key if frame.segmentation is not None else np.zeros((1, 1), bool)
-            n_px = int(mask.sum())
-            box = box_from_mask(mask) if n_px >= MIN_VISIBLE_PIXELS else None
-            pos = self.object_position(o.key)
-            extras = {k: v for k, v in o.extras.items() if k in ObjectInfo.model_fields}
-            objects.append(
-                ObjectInfo(
-                    id=o.id,
-                    key=o.key,
-                    category=o.category.name,
-                    color=o.color,
-                    mass_kg=round(float(self.model.body_mass[self.body_of[o.key]]), 4),
-                    position=[round(float(v), 4) for v in pos],
-                    box=list(box) if box else None,
-                    visible_pixels=n_px,
-                    pickable=o.category.pickable,
-                    size_m=o.size_m,
-                    variant=o.variant,
-                    deceptive=o.category.deceptive,
-                    distance_m=round(float(np.linalg.norm(pos - cam)), 4),
-                    surface=o.surface,
-                    temperature_c=o.temperature_c,
-                    thermal=o.thermal,
-                    stiffness_n_per_mm=o.stiffness_n_per_mm,
-                    softness=o.softness,
-                    fill=o.fill,
-                    contents_kg=None if o.fill is None else round(o.fill * o.category.capacity_kg, 4),
-                    **extras,
-                )
-            )
-        x, y, yaw = self.base_pose()
-        return SceneInfo(
-            layout=self.plan.layout,
-            seed=self.plan.seed,
-            image_size=[self.width, self.height],
-            objects=objects,
-            robot=RobotInfo(
-                base=[round(x, 4), round(y, 4), round(yaw, 4)],
-                camera_position=[round(float(v), 4) for v in cam],
-                head=[round(v, 4) for v in self.head()],
-            ),
-            furniture=[f.name for f in self.plan.furniture],
-            room_temperature_c=self.plan.room_temperature_c,
-        )
+        return truth.scene_info(self, frame)
 
     def close(self) -> None:
         """Free the renderer; safe to call twice."""
@@ -805,15 +460,3 @@ class SimWorld:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _half_extents(m: mujoco.MjModel, g: int) -> np.ndarray:
-    s = m.geom_size[g]
-    t = m.geom_type[g]
-    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return np.array([s[0]] * 3)
-    if t == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return np.array([s[0], s[0], s[1]])
-    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return np.array([s[0], s[0], s[1] + s[0]])
-    return np.array(s[:3])
