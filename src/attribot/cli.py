@@ -317,6 +317,18 @@ def _naming() -> Any:
     return FieldNaming(_flag_name, _flag_example)
 
 
+def _only(group: tuple[_Flag, ...], *names: str) -> tuple[_Flag, ...]:
+    """The flags of `group` named `names`, in the group's order; a name the group lacks is a bug here."""
+    unknown = set(names) - {f.name for f in group}
+    assert not unknown, f"no such flags: {sorted(unknown)}"
+    return tuple(f for f in group if f.name in names)
+
+
+def _without(group: tuple[_Flag, ...], *names: str) -> tuple[_Flag, ...]:
+    """The flags of `group` but those named `names`."""
+    return _only(group, *(f.name for f in group if f.name not in names))
+
+
 def _with_flags(*groups: tuple[_Flag, ...]) -> Any:
     """Add the flags of `groups` to a command; the command receives them together as `given`."""
 
@@ -439,7 +451,7 @@ def _scene_world(config: Any) -> Any:
 
 
 @scene_app.command("render", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:8], *SCENE_FLAGS[9:]))
+@_with_flags(_without(SCENE_FLAGS, "world_noise"))
 def scene_render(
     out: Path = typer.Option(..., "--out", metavar="FILE", help="Image file to write (.png or .jpg)."),
     boxes: bool = typer.Option(False, "--boxes", help="Draw the ground-truth boxes and labels."),
@@ -476,7 +488,7 @@ def scene_render(
 
 
 @scene_app.command("info", cls=_Command)
-@_with_flags((*SCENE_FLAGS[:7], *SCENE_FLAGS[9:]))
+@_with_flags(_without(SCENE_FLAGS, "profile", "world_noise"))
 def scene_info(given: Any = None) -> None:
     """Print a scene's ground truth as JSON: objects (category, colour, mass, position, box) and the robot."""
     with _scene_world(_scene_config(given)) as world:
@@ -981,7 +993,7 @@ _EVAL_FINDABLE_BY = typer.Option(
 
 
 @app.command("eval", cls=_Command)
-@_with_flags(PLANNER_FLAGS, (*BACKEND_FLAGS[:3], BACKEND_FLAGS[4]))
+@_with_flags(PLANNER_FLAGS, _without(BACKEND_FLAGS, "checks"))
 def evaluate(
     out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
     suite: str = _SUITE,
@@ -1290,7 +1302,7 @@ app.add_typer(bridge_app, name="bridge")
 
 
 @bridge_app.command("serve", cls=_Command)
-@_with_flags(tuple(SCENE_FLAGS[i] for i in (0, 1, 4, 5, 6, 9)))
+@_with_flags(_only(SCENE_FLAGS, "layout", "seed", "option", "width", "height", "robot"))
 def bridge_serve(
     driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
     token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),
