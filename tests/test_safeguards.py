@@ -16,7 +16,7 @@ from attribot.boxes import iou
 from attribot.config import SceneConfig, Settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
-from attribot.eval.methods import ablations, check_condition
+from attribot.eval.methods import Condition, ablations, check_condition
 from attribot.frame import Frame
 from attribot.models.base import Detection
 from attribot.models.noise import DetectorNoise, NoisyDetector
@@ -74,6 +74,18 @@ def test_checks_parse_and_refuse_unknown_names():
     assert len(ablations()) == len(MECHANISMS)
     with pytest.raises(InputError):
         check_condition("realistic-no-telepathy")
+
+
+def test_a_run_condition_is_typed_and_names_itself_as_records_do():
+    ablated = Condition.parse("realistic-no-remeasure")
+    assert (ablated.preset, ablated.without, ablated.ablation) == ("realistic", "remeasure", True)
+    assert ablated.name == "realistic-no-remeasure" and ablated.checks == "all,-remeasure"
+    plain = Condition("clean")
+    assert plain.name == "clean" and plain.checks == "all" and not plain.ablation
+    assert [Condition.parse(n).without for n in ablations()] == list(MECHANISMS)
+    for bad in ("noisy", "realistic-no-", "-no-remeasure", "realistic-no-remeasure-no-reset"):
+        with pytest.raises(InputError, match="unknown noise level"):
+            Condition.parse(bad)
 
 
 # ---- the world's imperfect sensing and acting ----------------------------------------------------------

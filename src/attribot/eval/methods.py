@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import re
 import time
+from dataclasses import dataclass
 from typing import Any
 
 from pydantic import BaseModel, FiniteFloat, field_validator
@@ -39,6 +40,7 @@ __all__ = [
     "run_method",
     "noisy_settings",
     "check_condition",
+    "Condition",
     "PROGRAM_METHODS",
     "ablations",
     "paper_methods",
@@ -48,21 +50,55 @@ NOISE_LEVELS = tuple(NOISE_PRESETS)
 _WITHOUT = "-no-"
 
 
+@dataclass(frozen=True)
+class Condition:
+    """A run condition: a noise preset (`attribot.noise.NOISE_PRESETS`) and, for an ablation, the one
+    error-catching mechanism left off. Records and run folders name it `PRESET` or `PRESET-no-MECHANISM`
+    (`name`), read back with `parse`."""
+
+    preset: str
+    without: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.preset not in NOISE_LEVELS or (self.without is not None and self.without not in MECHANISMS):
+            raise InputError(
+                f"unknown noise level {self.name!r}",
+                f"choose from: {', '.join(NOISE_LEVELS)}, or PRESET{_WITHOUT}MECHANISM for an ablation "
+                f"(mechanisms: {', '.join(MECHANISMS)})",
+            )
+
+    @classmethod
+    def parse(cls, name: str) -> Condition:
+        """The condition a record or `--noise` names; an unknown one is an `InputError`."""
+        preset, _, mechanism = name.partition(_WITHOUT)
+        condition = cls(preset, mechanism or None)
+        if condition.name != name:  # "realistic-no-": it names no mechanism
+            raise InputError(f"unknown noise level {name!r}", f"give PRESET or PRESET{_WITHOUT}MECHANISM")
+        return condition
+
+    @property
+    def name(self) -> str:
+        return f"{self.preset}{_WITHOUT}{self.without}" if self.without else self.preset
+
+    @property
+    def checks(self) -> str:
+        """The `--checks` spec of the condition: all mechanisms, or all but the one left off."""
+        return f"all,-{self.without}" if self.without else "all"
+
+    @property
+    def ablation(self) -> bool:
+        return self.without is not None
+
+
 def check_condition(condition: str) -> tuple[str, str]:
     """A run condition, `PRESET` or `PRESET-no-MECHANISM` (an ablation): (preset, the checks spec)."""
-    preset, _, mechanism = condition.partition(_WITHOUT)
-    if preset not in NOISE_LEVELS or (mechanism and mechanism not in MECHANISMS):
-        raise InputError(
-            f"unknown noise level {condition!r}",
-            f"choose from: {', '.join(NOISE_LEVELS)}, or PRESET{_WITHOUT}MECHANISM for an ablation "
-            f"(mechanisms: {', '.join(MECHANISMS)})",
-        )
-    return preset, f"all,-{mechanism}" if mechanism else "all"
+    parsed = Condition.parse(condition)
+    return parsed.preset, parsed.checks
 
 
 def ablations(preset: str = "realistic") -> tuple[str, ...]:
     """The conditions of the ablation table: `preset` with each mechanism off in turn."""
-    return tuple(f"{preset}{_WITHOUT}{m}" for m in MECHANISMS)
+    return tuple(Condition(preset, m).name for m in MECHANISMS)
 
 
 class Record(BaseModel):
@@ -108,8 +144,9 @@ class Record(BaseModel):
 def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
     """The settings with the condition's noise preset on the oracle backends, drawn from the item's seed,
     and its mechanisms (an ablation leaves one out)."""
-    preset, checks = check_condition(noise)
-    update: dict[str, str] = {} if checks == "all" else {"checks": checks}
+    condition = Condition.parse(noise)
+    preset, checks = condition.preset, condition.checks
+    update: dict[str, str] = {"checks": checks} if condition.ablation else {}
     if preset == "clean":
         return settings.model_copy(update=update) if update else settings
     for role in ("detector", "vqa"):
@@ -266,7 +303,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
     from attribot.session import Scene, ask
 
     sensors = item.sensors if method == "pa-api" else ["camera"]
-    scene = item.scene().model_copy(update={"noise": world_noise(check_condition(noise)[0], item.seed)})
+    scene = item.scene().model_copy(update={"noise": world_noise(Condition.parse(noise).preset, item.seed)})
     try:
         answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
     except InputError as exc:  # the planner refused it: what the camera alone cannot settle, say

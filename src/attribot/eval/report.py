@@ -27,7 +27,7 @@ from attribot.api.safeguards import MECHANISMS
 from attribot.eval.compare import Runs, read_runs
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.hypotheses import hypotheses
-from attribot.eval.methods import NOISE_LEVELS, PROGRAM_METHODS, Record
+from attribot.eval.methods import NOISE_LEVELS, PROGRAM_METHODS, Condition, Record
 from attribot.eval.stats import wilson
 from attribot.eval.suite import METHODS, TASKS, paper_numbers, tagged, task_names
 from attribot.eval.tables import (
@@ -129,7 +129,9 @@ def _figure_groups(task: str, rows: list[dict[str, Any]]) -> list[Group]:
         ran = [
             r
             for r in rows
-            if r["method"] == method and r["accuracy"] is not None and "-no-" not in r["noise"]
+            if r["method"] == method
+            and r["accuracy"] is not None
+            and not Condition.parse(r["noise"]).ablation
         ]
         if not ran:
             continue  # not run: no empty slot

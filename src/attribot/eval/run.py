@@ -37,8 +37,8 @@ from attribot.eval.datasets import (
 )
 from attribot.eval.methods import (
     PROGRAM_METHODS,
+    Condition,
     Record,
-    check_condition,
     paper_methods,
     run_method,
 )
@@ -81,7 +81,7 @@ class EvalPlan:
 
     def __post_init__(self) -> None:
         for condition in self.noise:
-            check_condition(condition)
+            Condition.parse(condition)
         for name, given, known in (
             ("task", self.tasks, task_names(None)),
             ("method", self.methods or (), METHODS.names()),
@@ -411,7 +411,7 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
     for item in items:
         for method in plan.methods_for(item.task):
             for noise in plan.noise:
-                if check_condition(noise)[1] != "all" and method not in PROGRAM_METHODS:
+                if Condition.parse(noise).ablation and method not in PROGRAM_METHODS:
                     continue  # an ablation of the error-catching mechanisms: only programs have them
                 path = records_path(out, item.task, method, noise)
                 if path not in done:

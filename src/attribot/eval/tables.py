@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from attribot.api.safeguards import MECHANISMS
-from attribot.eval.methods import NOISE_LEVELS, Record
+from attribot.eval.methods import NOISE_LEVELS, Condition, Record
 from attribot.eval.suite import METHODS, paper_numbers
 
 __all__ = [
@@ -143,8 +143,8 @@ def checks_table(records: list[Record], program_methods: tuple[str, ...]) -> lis
 def ablation_table(rows: list[dict[str, Any]], fmt: Callable[[dict[str, Any] | None], str]) -> dict[str, Any]:
     """Accuracy with each mechanism off in turn, beside the preset with all of them on (a row per task,
     method and detector)."""
-    ablated = sorted({r["noise"] for r in rows if "-no-" in r["noise"]})
-    base = sorted({n.partition("-no-")[0] for n in ablated})
+    ablated = sorted({r["noise"] for r in rows if Condition.parse(r["noise"]).ablation})
+    base = sorted({Condition.parse(n).preset for n in ablated})
     columns = [*base, *ablated]
 
     def cell(task: str, method: str, detector: str, noise: str) -> dict[str, Any] | None:
