@@ -16,6 +16,8 @@ from attribot.config import load_settings
 from attribot.errors import ConfigError, InputError
 from attribot.eval.datasets import (
     DATASET_VERSION,
+    MAX_ROOT_SEED,
+    SEED_STRIDE,
     build_items,
     read_dataset,
     scene_info,
@@ -416,3 +418,32 @@ def test_pool_workers_exit_when_the_parent_is_killed(tmp_path):
         for p in children:
             if alive(p):
                 os.kill(p, signal.SIGKILL)
+
+
+def test_a_root_seed_draws_other_items_for_every_task_and_is_kept_by_the_run(tmp_path):
+    """Every item's seeds derive from one root: 0 gives the suite's own items, another root other scenes,
+    each still with its truth from the world; a run folder keeps its root and refuses another."""
+    own = build_items(["weight_embodied", "distance_embodied"], limit=2)
+    assert build_items(["weight_embodied", "distance_embodied"], limit=2, seed=0) == own
+    other = build_items(["weight_embodied", "distance_embodied"], limit=2, seed=3)
+    assert [i.id for i in other] == [i.id for i in own]
+    assert not {i.seed for i in other} & {i.seed for i in own}
+    assert all(i.seed > 3 * SEED_STRIDE for i in other)
+    for item in other:  # the truth is the world's: the true object is one of the scene's, in view
+        info = scene_info(item.scene())
+        assert item.true_id in {o.id for o in info.objects if o.box is not None}
+    with pytest.raises(InputError, match="root seed"):
+        build_items(["weight_embodied"], limit=1, seed=MAX_ROOT_SEED + 1)
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1, seed=3)
+    run_eval(plan, settings, tmp_path)
+    assert json.loads((tmp_path / "run.json").read_text())["seed"] == 3
+    assert {r.query for r in read_records(tmp_path)} == {
+        i.query for i in build_items(["weight_image"], 1, seed=3)
+    }
+    with pytest.raises(ConfigError, match="seed: this run 0, the directory 3"):
+        run_eval(EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1), settings, tmp_path)
+    plain = tmp_path / "plain"  # a run made with the root 0 writes no seed: older run folders still resume
+    run_eval(EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1), settings, plain)
+    assert "seed" not in json.loads((plain / "run.json").read_text())
+    assert run_eval(EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1), settings, plain).done == 0

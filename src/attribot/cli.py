@@ -822,6 +822,13 @@ _SUITE = typer.Option(
 )
 _TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all of the suite's).")
 _LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")
+_ROOT_SEED = typer.Option(
+    0,
+    "--seed",
+    metavar="INT",
+    help="The root seed every item's scene and noise seeds derive from: 0 (default) draws the suite's own "
+    "items, another number other scenes for every task (0 to 4000).",
+)
 
 
 def _writable_folder(folder: Path, flag: str) -> None:
@@ -867,6 +874,7 @@ def dataset_build(
         help="Draw the embodied tasks' scenes with only objects this closed-set detector can find, as "
         "`attribot eval --detector SPEC` (or --findable-by SPEC) does, e.g. coco.",
     ),
+    seed: int = _ROOT_SEED,
 ) -> None:
     """Generate the suite's items in the embedded world and write the manifest and the rendered images."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -886,7 +894,9 @@ def dataset_build(
         console=err_console,
     ) as bar:
         made = bar.add_task("generating items", total=total)
-        items = build_items(chosen, limit, on_item=lambda _item: bar.advance(made), vocabulary=vocabulary)
+        items = build_items(
+            chosen, limit, on_item=lambda _item: bar.advance(made), vocabulary=vocabulary, seed=seed
+        )
         drawn = bar.add_task("rendering images", total=len(items))
         write_dataset(
             items,
@@ -1006,6 +1016,7 @@ def evaluate(
     executor: str = typer.Option("local", "--executor", help="local, or ray (the cluster at RAY_ADDRESS)."),
     dataset: Path | None = _EVAL_DATASET,
     findable_by: str | None = _EVAL_FINDABLE_BY,
+    seed: int = _ROOT_SEED,
     given: Any = None,
 ) -> None:
     """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
@@ -1018,6 +1029,7 @@ def evaluate(
         noise=tuple(n.strip() for n in noise.split(",") if n.strip()) + (ablations() if ablation else ()),
         limit=limit,
         findable_by=findable_by,
+        seed=seed,
     )
     settings = _settings(given)
     summary = _run_eval_shown(plan, settings, out, workers=workers, executor=executor, dataset=dataset)

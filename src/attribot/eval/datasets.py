@@ -174,16 +174,35 @@ def drawn_in(task: str, vocabulary: tuple[str, ...] | None) -> list[str] | None:
     return list(vocabulary)
 
 
+SEED_STRIDE = 1_000_000
+"""How far apart the seeds of two root seeds lie: each task draws its scenes from its `seed_base` upward,
+far fewer than this many."""
+MAX_ROOT_SEED = 4000
+"""The largest root seed: its scenes' seeds stay within the simulator's (`attribot.config.MAX_SEED`)."""
+
+
+def task_seeds(task: str, root: int = 0) -> int:
+    """Where `task`'s scene seeds start for the root seed `root` (0: the suite's own items). Every seed of
+    an item (its scene, its world's and its perception's noise) derives from this one."""
+    if not isinstance(root, int) or isinstance(root, bool) or not 0 <= root <= MAX_ROOT_SEED:
+        raise InputError(
+            f"the root seed {root!r} is out of range", f"give a whole number from 0 to {MAX_ROOT_SEED}"
+        )
+    return TASKS.get(task).seed_base + root * SEED_STRIDE
+
+
 def build_items(
     tasks: list[str] | None = None,
     limit: int | None = None,
     on_item: Callable[[Item], None] | None = None,
     vocabulary: tuple[str, ...] | None = None,
+    seed: int = 0,
 ) -> list[Item]:
     """The suite's items, task by task (`limit`: at most that many queries per task). Deterministic.
     `on_item` is called as each item is made (generation takes minutes: a progress bar). `vocabulary`: the
     categories a closed-set detector can find; the tasks that can be drawn in it are (see the module
-    docstring), the others are built as always."""
+    docstring), the others are built as always. `seed`: the root seed (0: the suite's own items; another
+    draws other scenes for every task, `task_seeds`)."""
     chosen = task_names() if tasks is None else tasks
     unknown = [t for t in chosen if t not in TASKS]
     if unknown:
@@ -193,10 +212,11 @@ def build_items(
         task = TASKS.get(name)
         n = task.size if limit is None else min(limit, task.size)
         within = drawn_in(name, vocabulary)
+        start = task_seeds(name, seed)
         built = (
-            task.build(n, task.seed_base)
+            task.build(n, start)
             if within is None or task.build_in_vocabulary is None
-            else task.build_in_vocabulary(n, task.seed_base, tuple(within))
+            else task.build_in_vocabulary(n, start, tuple(within))
         )
         for item in built:
             items.append(item)

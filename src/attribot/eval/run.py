@@ -33,6 +33,7 @@ from attribot.eval.datasets import (
     item_count,
     read_dataset,
     read_jsonl,
+    task_seeds,
     write_dataset,
 )
 from attribot.eval.methods import (
@@ -78,6 +79,7 @@ class EvalPlan:
     noise: tuple[str, ...] = ("clean",)
     limit: int | None = None
     findable_by: str | None = None
+    seed: int = 0  # the root seed every item's seeds derive from (`attribot.eval.datasets.task_seeds`)
 
     def __post_init__(self) -> None:
         for condition in self.noise:
@@ -91,6 +93,8 @@ class EvalPlan:
                 raise InputError(f"unknown {name} {', '.join(unknown)}", f"choose from: {', '.join(known)}")
         if self.limit is not None and self.limit < 1:
             raise InputError(f"--limit {self.limit} runs nothing", "give a limit of 1 or more")
+        for task in self.tasks[:1]:
+            task_seeds(task, self.seed)  # a root out of range fails before any work
 
     def methods_for(self, task: str) -> tuple[str, ...]:
         return self.methods if self.methods is not None else paper_methods(task)
@@ -106,12 +110,25 @@ class RunSummary:
 
 
 def fingerprint(
-    settings: Settings, subset: str | None = None, vocabulary: tuple[str, ...] | None = None
+    settings: Settings,
+    subset: str | None = None,
+    vocabulary: tuple[str, ...] | None = None,
+    seed: int = 0,
 ) -> dict[str, Any]:
     """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
     the closed-set detector whose classes chose the items (None: every item); `vocabulary`: the categories
-    it can find, in which the embodied tasks' items are drawn (None: the catalog's)."""
+    it can find, in which the embodied tasks' items are drawn (None: the catalog's); `seed`: the root seed
+    of the items (written only when it is not 0, so that runs made before it was one still resume)."""
     base_url = getattr(settings, "llm_base_url", None)
+    return {
+        **_settings_fingerprint(settings, base_url, subset, vocabulary),
+        **({"seed": seed} if seed else {}),
+    }
+
+
+def _settings_fingerprint(
+    settings: Settings, base_url: str | None, subset: str | None, vocabulary: tuple[str, ...] | None
+) -> dict[str, Any]:
     return {  # a password in a URL is not written down (shown_url)
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
@@ -264,14 +281,18 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 120 else text[:117] + "..."
 
 
-def _check_run(out: Path, settings: Settings, subset: str | None, vocabulary: tuple[str, ...] | None) -> None:
-    want = fingerprint(settings, subset, vocabulary)
+def _check_run(
+    out: Path, settings: Settings, subset: str | None, vocabulary: tuple[str, ...] | None, seed: int
+) -> None:
+    want = fingerprint(settings, subset, vocabulary, seed)
     have = read_about(out)
     if have:
-        differ = [k for k in want if have.get(k) != want[k]]
+        # a run folder without a root seed was made with 0: it was the only one
+        ours, theirs = {**want, "seed": seed}, {"seed": 0, **have}
+        differ = [k for k in ours if theirs.get(k) != ours[k]]
         if differ:
             detail = "; ".join(
-                f"{k}: this run {_shown(want[k])}, the directory {_shown(have.get(k))}" for k in differ
+                f"{k}: this run {_shown(ours[k])}, the directory {_shown(theirs.get(k))}" for k in differ
             )
             raise ConfigError(
                 f"{out} holds a run made with other settings ({detail})",
@@ -344,6 +365,7 @@ def _dataset(
                 plan.limit,
                 on_item=_counter(progress, f"generating {task} items", need),
                 vocabulary=vocabulary,
+                seed=plan.seed,
             )
         items += built
         missing += [i for i in built if have.get(i.id) != i]
@@ -482,7 +504,7 @@ def run_eval(
     closed = closed_set_detector(chooser, settings)
     vocabulary = None if closed is None else findable_categories(closed)
     with RunLock(out):
-        _check_run(out, settings, chooser if closed is not None else None, vocabulary)
+        _check_run(out, settings, chooser if closed is not None else None, vocabulary, plan.seed)
         summary = _run_locked(plan, settings, out, workers, executor, say, on_record, dataset, given, started,
                               _Chooser(chooser, closed, note or say, vocabulary))  # fmt: skip
     return summary
