@@ -20,7 +20,7 @@ from attribot.cli import app
 from attribot.config import SceneConfig
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.errors import InputError, UnsupportedAction
+from attribot.errors import BadPlugin, InputError, UnsupportedAction
 from attribot.sensors import (
     SENSORS,
     Need,
@@ -250,6 +250,18 @@ def test_names_and_aliases_resolve_through_the_registry():
     assert sensor_names()[:3] == ["camera", "distance", "force"]
     with pytest.raises(ValueError, match="registered twice"):
         register_sensor(Sensor(name="thermo", measures="", aliases=("thermometer",)))
+
+
+def test_a_sense_that_takes_another_senses_words_is_refused():
+    """A lab's sense that says "hotter" would be read as temperature: refused, naming the word and both."""
+    grill = Sensor(
+        name="grill probe",
+        measures="a probe",
+        senses=(Sense("doneness", "%", more=("done/more done/most done", "hot/hotter/hottest")),),
+    )
+    with pytest.raises(BadPlugin, match=r"'hot', 'hotter', 'hottest' already says the temperature"):
+        register_sensor(grill)
+    assert "grill probe" not in SENSORS
 
 
 def test_a_sensor_method_that_robot_has_already_is_refused():

@@ -278,12 +278,22 @@ def register_sensor(sensor: Sensor) -> Sensor:
             "give the sensor another name",
         )
     mine = [(s.quantity, s.method) for s in sensor.senses]
+    words = {w: s.quantity for s in sensor.senses for w in s.words}
     for other, sense in senses():
+        if other.name == sensor.name:
+            continue
         clash = [x for pair in mine for x in pair if x in (sense.quantity, sense.method)]
-        if clash and other.name != sensor.name:
+        if clash:
             raise BadPlugin(
                 f"sensor {sensor.name!r}: the {other.name} sensor settles {clash[0]!r} already",
                 "name the sense's quantity and method otherwise",
+            )
+        said = sorted(set(words) & set(sense.words))
+        if said:  # one word, two meanings: a question would be read as the first sense's
+            raise BadPlugin(
+                f"sensor {sensor.name!r}: {', '.join(map(repr, said[:3]))} already says the "
+                f"{sense.quantity} of the {other.name} sensor",
+                f"give the {words[said[0]]} sense other words",
             )
     if len({q for q, _ in mine}) < len(mine) or len({m for _, m in mine}) < len(mine):
         raise BadPlugin(
