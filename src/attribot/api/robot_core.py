@@ -36,6 +36,7 @@ from attribot.frame import CameraInfo
 from attribot.lexicon import GENERIC_NOUNS
 from attribot.models.base import Detection
 from attribot.sensors import (
+    GRAVITY,
     Sense,
     check_sensors,
     sense_of,
@@ -43,9 +44,6 @@ from attribot.sensors import (
 )
 
 __all__ = ["SessionCore", "Measurement", "GRAVITY", "FULL", "OWN_REQUIRES", "object_name"]
-
-GRAVITY = 9.81
-"""m/s^2, as MuJoCo's default gravity; converts the measured weight (newtons) to mass (kilograms)."""
 
 
 class Measurement(BaseModel):

@@ -27,10 +27,10 @@ from attribot.deps import install_line
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment, Pose2D
 from attribot.errors import AttribotError, MissingDependency, UnsupportedAction
 from attribot.frame import CameraInfo, Frame, ObjectTruth
+from attribot.sensors import GRAVITY
 
 __all__ = ["Ai2ThorWorld", "Ai2ThorController", "Ai2ThorError"]
 
-GRAVITY = 9.81
 _ACTIONS = (
     "MoveAhead", "MoveBack", "MoveLeft", "MoveRight", "RotateLeft", "RotateRight", "LookUp", "LookDown",
     "PickupObject", "PutObject", "PushObject", "DropHandObject",

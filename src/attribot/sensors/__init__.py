@@ -37,6 +37,7 @@ from attribot.errors import BadPlugin, InputError
 from attribot.registry import Registry
 
 __all__ = [
+    "GRAVITY",
     "Need",
     "State",
     "Sense",
@@ -55,6 +56,10 @@ __all__ = [
     "sensor_method_doc",
     "vocabulary",
 ]
+
+
+GRAVITY = 9.81
+"""m/s^2, as MuJoCo's default gravity: what turns a force sensor's newtons into the kilograms of a weight."""
 
 
 class Need(StrEnum):

@@ -3,7 +3,7 @@ proposed adding (an infrared thermometer, and a gripper that feels how hard it s
 
 from __future__ import annotations
 
-from attribot.sensors import Need, Sense, Sensor, State, register_sensor
+from attribot.sensors import GRAVITY, Need, Sense, Sensor, State, register_sensor
 
 __all__: list[str] = []
 
@@ -74,7 +74,7 @@ register_sensor(
                 unit="kg",
                 needs=Need.GRASP,
                 readings=10,
-                resolution=0.02 / 9.81,
+                resolution=0.02 / GRAVITY,
                 more=("heavy/heavier/heaviest",),
                 less=("light/lighter/lightest", "lightweight/more lightweight/most lightweight"),
                 nouns=("weight", "mass"),

@@ -59,7 +59,6 @@ _ATTEMPTS = 30
 # whatever objects look like
 _RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP)) for g in range(6)], np.uint8)
 assert _RAY_GROUPS[LOOK_GROUP] == 0
-GRAVITY = 9.81
 
 
 def _scene_request(config: SceneConfig) -> SceneRequest:
