@@ -19,7 +19,7 @@ from attribot.api.checks import check_facade
 from attribot.api.errors import MissingSensor
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
-from attribot.api.robot_core import GRAVITY, OWN_REQUIRES, Measurement, object_name
+from attribot.api.robot_core import GRAVITY, OWN_REQUIRES, Measurement, object_name, required_sensors
 from attribot.api.robot_session import RobotSession
 from attribot.api.safeguards import Safeguards
 from attribot.control.base import Capture, Controller
@@ -60,7 +60,7 @@ class _RobotApi(type):
         """The sensor each method needs (methods not listed need none); the prompt offers a method only
         when the robot has its sensor."""
         _install_sensor_methods()
-        return {**Robot.OWN_REQUIRES, **{sense.method: sensor.name for sensor, sense in senses()}}
+        return required_sensors()
 
 
 class Robot(metaclass=_RobotApi):

@@ -41,9 +41,10 @@ from attribot.sensors import (
     check_sensors,
     sense_of,
     sense_of_method,
+    senses,
 )
 
-__all__ = ["SessionCore", "Measurement", "GRAVITY", "FULL", "OWN_REQUIRES", "object_name"]
+__all__ = ["SessionCore", "Measurement", "GRAVITY", "FULL", "OWN_REQUIRES", "object_name", "required_sensors"]
 
 
 class Measurement(BaseModel):
@@ -109,6 +110,12 @@ def _doing(method: str) -> str:
 
 OWN_REQUIRES: dict[str, str] = {"focus_on_patch": "camera"}
 """The sensor each of the robot's own methods needs beyond the senses' (a sense's method needs its sensor)."""
+
+
+def required_sensors() -> dict[str, str]:
+    """The sensor each robot method needs (methods not listed need none): the robot's own, and each
+    registered sense's method its sensor. What the prompt offers and what a call checks both read it."""
+    return {**OWN_REQUIRES, **{sense.method: sensor.name for sensor, sense in senses()}}
 
 
 class SessionCore:
@@ -281,8 +288,7 @@ class SessionCore:
         return str(getattr(self.controller, "name", type(self.controller).__name__))
 
     def _need(self, method: str) -> None:
-        found = sense_of_method(method)
-        sensor = found[0].name if found is not None else OWN_REQUIRES.get(method)
+        sensor = required_sensors().get(method)
         if sensor is not None and sensor not in self.sensors:
             if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
                 wanted = [*self.sensors, sensor]

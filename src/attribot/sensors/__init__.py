@@ -54,6 +54,7 @@ __all__ = [
     "sense_of",
     "sense_of_method",
     "sensor_method_doc",
+    "program_steps",
     "vocabulary",
 ]
 
@@ -396,11 +397,18 @@ _PRECONDITION = {
     "and robot.put_down() afterwards.",
 }
 _STEPS = {
-    Need.NOTHING: [],
-    Need.AIM: ["robot.focus_on_patch(patch)"],
-    Need.REACH: ["robot.go_to_object(patch)"],
-    Need.GRASP: ["robot.go_to_object(patch)", "robot.pick_up(patch)"],
+    Need.NOTHING: (),
+    Need.AIM: ("robot.focus_on_patch({})",),
+    Need.REACH: ("robot.go_to_object({})",),
+    Need.GRASP: ("robot.go_to_object({})", "robot.pick_up({})"),
 }
+
+
+def program_steps(needs: Need, patch: str) -> tuple[list[str], list[str]]:
+    """The lines a program writes around a reading that `needs` it, on the patch named `patch`: before it
+    (turning to the object, going to it, picking it up) and after it (putting it down)."""
+    after = ["robot.put_down()"] if needs is Need.GRASP else []
+    return [step.format(patch) for step in _STEPS[needs]], after
 
 
 def sensor_method_doc(sensor: Sensor, sense: Sense) -> str:
@@ -408,6 +416,7 @@ def sensor_method_doc(sensor: Sensor, sense: Sense) -> str:
     returns, what the reading needs, an example program)."""
     if sense.doc:
         return sense.doc
+    before, after = program_steps(sense.needs, "patch")
     lines = [
         f"Returns the {sense.quantity} of the object in `patch`, in {sense.unit}, read with the "
         f"{sensor.name} sensor. {_PRECONDITION[sense.needs]}".rstrip(),
@@ -416,11 +425,10 @@ def sensor_method_doc(sensor: Sensor, sense: Sense) -> str:
         ">>> def execute_command(image, robot):",
         ">>>     best, best_value = None, 0.0",
         '>>>     for patch in image.find("object"):',
-        *(f">>>         {step}" for step in _STEPS[sense.needs]),
+        *(f">>>         {step}" for step in before),
         f">>>         value = robot.{sense.method}(patch)",
+        *(f">>>         {step}" for step in after),
     ]
-    if sense.needs is Need.GRASP:
-        lines.append(">>>         robot.put_down()")
     lines += [
         ">>>         if best is None or value > best_value:",
         ">>>             best, best_value = patch, value",

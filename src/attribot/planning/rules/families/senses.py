@@ -33,7 +33,7 @@ from attribot.planning.rules.normalise import (
     rx,
 )
 from attribot.planning.rules.write import _find, _q, _Writer
-from attribot.sensors import Need, Sense, Sensor, sense_of, senses
+from attribot.sensors import Need, Sense, Sensor, program_steps, sense_of, senses
 
 __all__ = ["parse_sense"]
 
@@ -217,25 +217,14 @@ def _write_sense(w: _Writer, q: SenseQuery) -> None:
         _write_which(w, q)
 
 
-_BEFORE = {
-    Need.NOTHING: (),
-    Need.AIM: ("robot.focus_on_patch({})",),
-    Need.REACH: ("robot.go_to_object({})",),
-    Need.GRASP: ("robot.go_to_object({})", "robot.pick_up({})"),
-}
-"""What a program does before a reading that needs it (`attribot.sensors.Need`)."""
-
-
 def _write_measure(w: _Writer | _Indented, attribute: str, patch: str, into: str) -> None:
     """Lines that measure `attribute` of `patch` into `into` (a list to append to, or a name to set), first
     arranging what the reading needs."""
     sense = _sense(attribute)[1]
     keep = f"{into}.append({{}})" if into.endswith("s") else f"{into} = {{}}"
-    for step in _BEFORE[sense.needs]:
-        w.line(step.format(patch))
-    w.line(keep.format(f"robot.{sense.method}({patch})"))
-    if sense.needs is Need.GRASP:
-        w.line("robot.put_down()")
+    before, after = program_steps(sense.needs, patch)
+    for line in (*before, keep.format(f"robot.{sense.method}({patch})"), *after):
+        w.line(line)
 
 
 _READ = {
