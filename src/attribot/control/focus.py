@@ -236,7 +236,7 @@ def correct_aim(
     check against: the geometric aim stands."""
     for _ in range(corrections):
         seen = find_again()
-        if seen is None or seen.capture is None or seen.capture.camera is None:
+        if seen is None or seen.capture.camera is None:
             return
         cam = seen.capture.camera
         u, v = seen.center

@@ -181,14 +181,19 @@ MAX_ROOT_SEED = 4000
 """The largest root seed: its scenes' seeds stay within the simulator's (`attribot.config.MAX_SEED`)."""
 
 
-def task_seeds(task: str, root: int = 0) -> int:
-    """Where `task`'s scene seeds start for the root seed `root` (0: the suite's own items). Every seed of
-    an item (its scene, its world's and its perception's noise) derives from this one."""
+def check_root_seed(root: int) -> int:
+    """`root` if it is a root seed (a whole number from 0 to MAX_ROOT_SEED), else an `InputError`."""
     if not isinstance(root, int) or isinstance(root, bool) or not 0 <= root <= MAX_ROOT_SEED:
         raise InputError(
             f"the root seed {root!r} is out of range", f"give a whole number from 0 to {MAX_ROOT_SEED}"
         )
-    return TASKS.get(task).seed_base + root * SEED_STRIDE
+    return root
+
+
+def task_seeds(task: str, root: int = 0) -> int:
+    """Where `task`'s scene seeds start for the root seed `root` (0: the suite's own items). Every seed of
+    an item (its scene, its world's and its perception's noise) derives from this one."""
+    return TASKS.get(task).seed_base + check_root_seed(root) * SEED_STRIDE
 
 
 def build_items(

@@ -29,11 +29,11 @@ from attribot.eval.datasets import (
     DATASET_VERSION,
     Item,
     build_items,
+    check_root_seed,
     drawn_in,
     item_count,
     read_dataset,
     read_jsonl,
-    task_seeds,
     write_dataset,
 )
 from attribot.eval.methods import (
@@ -93,8 +93,7 @@ class EvalPlan:
                 raise InputError(f"unknown {name} {', '.join(unknown)}", f"choose from: {', '.join(known)}")
         if self.limit is not None and self.limit < 1:
             raise InputError(f"--limit {self.limit} runs nothing", "give a limit of 1 or more")
-        for task in self.tasks[:1]:
-            task_seeds(task, self.seed)  # a root out of range fails before any work
+        check_root_seed(self.seed)  # a root out of range fails before any work
 
     def methods_for(self, task: str) -> tuple[str, ...]:
         return self.methods if self.methods is not None else paper_methods(task)
@@ -120,16 +119,7 @@ def fingerprint(
     it can find, in which the embodied tasks' items are drawn (None: the catalog's); `seed`: the root seed
     of the items (written only when it is not 0, so that runs made before it was one still resume)."""
     base_url = getattr(settings, "llm_base_url", None)
-    return {
-        **_settings_fingerprint(settings, base_url, subset, vocabulary),
-        **({"seed": seed} if seed else {}),
-    }
-
-
-def _settings_fingerprint(
-    settings: Settings, base_url: str | None, subset: str | None, vocabulary: tuple[str, ...] | None
-) -> dict[str, Any]:
-    return {  # a password in a URL is not written down (shown_url)
+    about = {  # a password in a URL is not written down (shown_url)
         "dataset_version": DATASET_VERSION,
         "planner": settings.planner,
         "detector": shown_url(str(settings.detector)),
@@ -143,6 +133,7 @@ def _settings_fingerprint(
         "subset": subset,
         "vocabulary": None if vocabulary is None else list(vocabulary),
     }
+    return {**about, "seed": seed} if seed else about
 
 
 def records_path(out: Path, task: str, method: str, noise: str) -> Path:
