@@ -91,6 +91,9 @@ class Frame:
     origin: `(x, y)` of this frame's top-left pixel in the full frame it was cropped from.
     surfaces: int16 (H, W) indices into `surface_names` (furniture and the floor, e.g. "table_1", "floor"),
     -1 elsewhere, or None: what a simulator knows of the surfaces objects stand on.
+    own_body: bool (H, W), True where the robot sees its own body (its gripper, its arm), or None: what a
+    robot knows from its joint angles and its model (a simulator renders it), so that no detector's box on
+    the robot's own fingers is taken for an object.
     """
 
     rgb: np.ndarray
@@ -101,10 +104,11 @@ class Frame:
     origin: tuple[int, int] = (0, 0)
     surfaces: np.ndarray | None = None
     surface_names: tuple[str, ...] = ()
+    own_body: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         check_rgb(self.rgb)
-        for name in ("depth", "segmentation", "surfaces"):
+        for name in ("depth", "segmentation", "surfaces", "own_body"):
             layer = getattr(self, name)
             if layer is not None and layer.shape[:2] != self.rgb.shape[:2]:
                 raise ValueError(f"{name} has shape {layer.shape[:2]}, the image {self.rgb.shape[:2]}")
@@ -137,6 +141,7 @@ class Frame:
             origin=(self.origin[0] + x0, self.origin[1] + y0),
             surfaces=None if self.surfaces is None else crop_array(self.surfaces, box),
             surface_names=self.surface_names,
+            own_body=None if self.own_body is None else crop_array(self.own_body, box),
         )
 
 

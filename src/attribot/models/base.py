@@ -34,6 +34,9 @@ __all__ = [
     "UNKNOWN",
     "detect_many",
     "detect_in_views",
+    "off_own_body",
+    "OWN_BODY_SHARE",
+    "OWN_BODY_MARGIN",
     "answer_many",
     "can_find",
     "findable_categories",
@@ -112,6 +115,30 @@ def detect_many(
     if batch is not None:
         return batch(frames, queries)
     return [detector.detect(f, q) for f, q in zip(frames, queries, strict=True)]
+
+
+OWN_BODY_SHARE = 0.5
+"""A box whose pixels are the robot's own body for at least this share is no object (a gripper's orange
+fingertips at the image's foot look like a carrot); an object held in the gripper still shows itself."""
+OWN_BODY_MARGIN = 0.2
+"""The share of a box's width (and height) left out on each side when it is measured for the body."""
+
+
+def off_own_body(detections: list[Detection], frame: Frame) -> list[Detection]:
+    """`detections` less those on the robot's own body (`Frame.own_body`), where the frame shows it."""
+    own = frame.own_body
+    if own is None or not own.any():
+        return detections
+    kept = []
+    for det in detections:
+        # the box's middle: a detector's box runs a few pixels past what it frames
+        x0, y0, x1, y1 = det.box
+        dx, dy = (x1 - x0) * OWN_BODY_MARGIN, (y1 - y0) * OWN_BODY_MARGIN
+        x0, y0, x1, y1 = (int(round(v)) for v in (x0 + dx, y0 + dy, x1 - dx, y1 - dy))
+        inside = own[max(y0, 0) : max(y1, y0 + 1), max(x0, 0) : max(x1, x0 + 1)]
+        if inside.size == 0 or float(inside.mean()) < OWN_BODY_SHARE:
+            kept.append(det)
+    return kept
 
 
 def detect_in_views(

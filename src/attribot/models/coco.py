@@ -35,7 +35,7 @@ from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, pixel_digest
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
-from attribot.models.base import DETECTORS, Detection
+from attribot.models.base import DETECTORS, Detection, off_own_body
 from attribot.models.noise import split_options
 from attribot.sim.catalog import find_category
 
@@ -404,8 +404,8 @@ class CocoDetector:
         digests = [pixel_digest(img) for img in images]
         views = [self._views(img.shape[1], img.shape[0]) for img in images]
         boxes = self._outputs([(img, d, v[0]) for img, d, v in zip(images, digests, views, strict=True)])
-        found = [self._select(*b, img.shape[1], img.shape[0], want)
-                 for b, img, want in zip(boxes, images, wanted, strict=True)]  # fmt: skip
+        found = [off_own_body(self._select(*b, img.shape[1], img.shape[0], want), f)
+                 for b, img, want, f in zip(boxes, images, wanted, frames, strict=True)]  # fmt: skip
         again = [i for i, (f, want) in enumerate(zip(found, wanted, strict=True)) if not _sure(f, want)]
         tiles = [(i, v) for i in again for v in views[i][1:]]
         if tiles:
@@ -413,7 +413,8 @@ class CocoDetector:
             for i in again:
                 own = [boxes[i], *(b for (k, _), b in zip(tiles, more, strict=True) if k == i)]
                 xyxy, scores = _stack(own)
-                found[i] = self._select(xyxy, scores, images[i].shape[1], images[i].shape[0], wanted[i])
+                selected = self._select(xyxy, scores, images[i].shape[1], images[i].shape[0], wanted[i])
+                found[i] = off_own_body(selected, frames[i])
         return found
 
     def detect_views(
@@ -440,7 +441,7 @@ class CocoDetector:
             return []
         xyxy, scores = _stack(self._outputs([(image, digest, v) for v in clipped]))
         at_least = self.threshold if threshold is None else max(threshold, self.floor)
-        return self._select(xyxy, scores, width, height, want, at_least)
+        return off_own_body(self._select(xyxy, scores, width, height, want, at_least), frame)
 
     def counts(self) -> dict[str, int]:
         """Views (whole images and tiles) run through the network, and those whose kept output served."""

@@ -36,7 +36,7 @@ from attribot import boxes as boxmath
 from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame
-from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection
+from attribot.models.base import DETECTORS, UNKNOWN, VQAS, Detection, off_own_body
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -369,7 +369,7 @@ class HFDetector:
             raw = self._run_owl(rgbs, labels) if self.family == "owlv2" else self._run_gdino(rgbs, labels)
             for i, (_, scale), lab, (bx, sc, li) in zip(chunk, fitted, labels, raw, strict=True):
                 h, w = frames[i].rgb.shape[:2]
-                results[i] = self._finish(bx / scale, sc, li, lab, width=w, height=h)
+                results[i] = off_own_body(self._finish(bx / scale, sc, li, lab, width=w, height=h), frames[i])
         return results
 
     def _chunks(self, frames: Sequence[Frame], todo: list[int]) -> list[list[int]]:

@@ -26,7 +26,7 @@ from attribot.config import revealed
 from attribot.deps import require
 from attribot.errors import AttribotError, BackendError, ConfigError, InputError
 from attribot.frame import Frame
-from attribot.models.base import DETECTORS, LANGUAGE_MODELS, VQAS, Detection
+from attribot.models.base import DETECTORS, LANGUAGE_MODELS, VQAS, Detection, off_own_body
 from attribot.models.wire import (
     IMAGE_FORMATS,
     PATHS,
@@ -309,7 +309,7 @@ class RemoteDetector:
             )
         response = self.client.detect(_rgb(frame), qs)
         self.served_by = response.backend
-        return response.detections
+        return off_own_body(response.detections, frame)
 
     def detect_batch(
         self, frames: Sequence[Frame], queries: Sequence[Sequence[str]]

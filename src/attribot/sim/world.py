@@ -170,6 +170,8 @@ class SimWorld:
         self.body_of, self.geoms_of, self.weld_of, self.geom_key = truth.index_objects(m, self.plan.objects)
         self.key_of_id = {o.id: o.key for o in self.plan.objects}
         self.surface_names, self.geom_surface = truth.index_surfaces(m, self.plan.furniture)
+        # the robot's own geoms: a robot knows where its body is from its joint angles and its model
+        self.geom_own = m.body_rootid[m.geom_bodyid] == name2id(m, mujoco.mjtObj.mjOBJ_BODY, "robot")
         senses.set_softness(self)  # how each object gives when squeezed: contact parameters of its parts
         self.truth = {
             o.key: ObjectTruth(id=o.id, category=o.category.name, color=o.color, synonyms=o.category.synonyms)
@@ -408,11 +410,12 @@ class SimWorld:
             segmentation=segmentation,
             rays=self.body.beam_in_view,
         )
-        seg = surfaces = None
+        seg = surfaces = own = None
         if out.geom_ids is not None:
             ids = out.geom_ids
             seg = np.where(ids >= 0, self.geom_key[np.clip(ids, 0, None)], -1).astype(np.int32)
             surfaces = np.where(ids >= 0, self.geom_surface[np.clip(ids, 0, None)], -1).astype(np.int16)
+            own = (ids >= 0) & self.geom_own[np.clip(ids, 0, None)]
         assert out.rgb is not None
         return Frame(
             rgb=out.rgb,
@@ -422,6 +425,7 @@ class SimWorld:
             camera=self.camera_info(),
             surfaces=surfaces,
             surface_names=self.surface_names,
+            own_body=own,
         )
 
     # --- ground truth ---------------------------------------------------------------------------------
