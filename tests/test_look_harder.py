@@ -17,7 +17,7 @@ from attribot.control.body import CameraPose
 from attribot.control.candidates import StandingMap
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.frame import CameraInfo, Frame
-from attribot.models.base import Detection, detect_in_views
+from attribot.models.base import Detection, detect_in_views, findable_categories
 
 SCENES = [
     SceneConfig(layout="household", seed=seed, categories=categories, objects=len(categories))
@@ -418,3 +418,67 @@ def test_the_names_a_program_looks_for_are_read_from_its_text():
     assert names_sought(program) == {"red mug", "book"}
     assert names_sought("def execute_command(image, robot) return") == frozenset()  # does not parse
     assert names_sought('x = image.find("mug")\n' + "#" * 10**6) == frozenset()  # too long to read
+
+
+def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
+    """YOLOv3-tiny boxes a computer mouse as a clock (0.19) and as a mouse (0.18), beside the alarm clock
+    it boxes at 0.63: the program looks for both, so the mouse's place is the mouse's."""
+    from attribot.api.harder import one_name_each
+
+    clock = Detection(box=(350, 243, 383, 274), score=0.63, label="alarm clock")
+    on_mouse = Detection(box=(267, 213, 290, 236), score=0.19, label="alarm clock")
+    mouse = Detection(box=(266, 214, 291, 237), score=0.18, label="computer mouse")
+    assert one_name_each([clock, on_mouse], [mouse]) == [clock]
+    # a second clock where no other name's best box is: two clocks
+    elsewhere = Detection(box=(100, 100, 130, 130), score=0.19, label="alarm clock")
+    assert one_name_each([clock, elsewhere], [mouse]) == [clock, elsewhere]
+    # the best box is kept even where another name's best box is (each find keeps its own best)
+    assert one_name_each([on_mouse], [mouse]) == [on_mouse]
+
+
+def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
+    from attribot.api.harder import _fits_class, class_sizes
+    from attribot.models.coco import CocoDetector
+
+    detector = CocoDetector()
+    # a sports ball is a tennis ball to a basketball; a mug is a cup
+    assert class_sizes(detector, "sports ball") == (0.065, 0.24)
+    assert class_sizes(detector, "cup") == (0.09, 0.11)
+    assert class_sizes(detector, "zebra") is None  # no category of the catalog reaches it
+    camera = CameraInfo(width=640, height=480, fx=500.0, fy=500.0, cx=320.0, cy=240.0)
+    depth = np.full((480, 640), 3.0, np.float32)
+    frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8), depth=depth, camera=camera)
+    small = Detection(box=(340, 200, 352, 206), score=0.45, label="carrot")  # 12 px at 3 m: 7 cm
+    assert not _fits_class(detector, small, frame, camera)  # a carrot is 15 to 20 cm
+    long = Detection(box=(300, 200, 330, 210), score=0.45, label="carrot")  # 30 px at 3 m: 18 cm
+    assert _fits_class(detector, long, frame, camera)
+    # the depth of the object, not of what is behind it, sizes the box
+    depth[200:210, 300:318] = 1.0
+    assert not _fits_class(detector, long, frame, camera)  # 30 px at 1 m: 6 cm
+    zebra = Detection(box=(0, 0, 5, 5), score=0.9, label="zebra")
+    assert _fits_class(detector, zebra, frame, camera)  # nothing says how large a zebra is
+
+
+def test_one_faint_box_framing_an_object_depth_sees_in_two_parts_points_at_one_place():
+    from attribot.api.harder import faint_pick
+    from attribot.control.candidates import Candidate
+
+    body = Candidate((340, 204, 352, 210), 0.02, 8, 0.07)
+    rim = Candidate((342, 198, 350, 200), 0.01, 4, 0.04)
+    bowl = Detection(box=(334, 196, 357, 210), score=0.017, label="bowl")
+    assert faint_pick([bowl], [body, rim]) == bowl
+
+
+def test_an_object_before_a_shelfs_back_panel_is_split_from_it():
+    """A bowl on a bookcase's middle board 3 m away stands 10 cm before the back panel: under the depth
+    jump that parts objects from what is behind them there, so the panel and the bowl were one region
+    too wide for an object, and the bowl no candidate."""
+    from attribot.models.coco import CocoDetector
+
+    config = SceneConfig(layout="household", seed=50007, vocabulary=findable_categories(CocoDetector()))
+    with MujocoWorld(config) as world:
+        _, image = _look(world, ZoomOnlyDetector())
+        bowl = next(o for o in world.scene_info().objects if o.category == "bowl")
+    cap = image.capture
+    candidates = StandingMap.of(image.frame.depth, cap.camera, cap.view).candidates()
+    assert any(_inside(((c.box[0] + c.box[2]) / 2, (c.box[1] + c.box[3]) / 2), bowl.box) for c in candidates)

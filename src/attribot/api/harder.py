@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -31,18 +32,20 @@ from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
 from attribot.errors import InputError
-from attribot.frame import Frame
+from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
-from attribot.sim.catalog import find_category
+from attribot.sim.catalog import categories, find_category
 
 __all__ = [
     "LookHarderReport",
     "Nearer",
     "acting_find",
     "by_elimination",
+    "class_sizes",
     "carried_back",
     "faint_pick",
+    "one_name_each",
     "look_harder",
     "visit_order",
     "zoom_views",
@@ -145,6 +148,8 @@ def look_harder(
         small = frame.width * frame.height * SMALL_BOX
         kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
+    if sought and len(kept) > 1:
+        kept = one_name_each(kept, _best_of(detector, frame, name, sought, []))
     if any(d.score >= UNSURE for d in kept) or not candidates:
         return kept, report
     views = zoom_views(candidates, frame.width, frame.height)
@@ -156,7 +161,7 @@ def look_harder(
     report.views, report.added = len(views), len(merged) - len(kept)
     if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
         claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-        merged = _unseen(detector, frame, name, candidates, views, nearer, claimed, report)
+        merged = _unseen(detector, frame, capture.camera, name, candidates, views, nearer, claimed, report)
     merged.sort(key=lambda d: -d.score)
     return merged, report
 
@@ -164,6 +169,7 @@ def look_harder(
 def _unseen(
     detector: Detector,
     frame: Frame,
+    camera: CameraInfo,
     name: str,
     candidates: list[Candidate],
     views: list[tuple[int, int, int, int]],
@@ -181,8 +187,13 @@ def _unseen(
         report.faint = faint.score
         return [faint]
     whole = (0, 0, frame.width, frame.height)
-    others = [d for d in detect_in_views(detector, frame, ["object"], [whole, *views]) if d.label != name]
-    # what another name's find took is that object, whatever its score
+    # a box of the name's own class, or of a class another name of the program stands for, explains no
+    # place: each of those names is one object, its best box (in `claimed`), which explains its place
+    # whatever its score
+    mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
+    seen = detect_in_views(detector, frame, ["object"], [whole, *views])
+    # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
+    others = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera)]
     others += [d.model_copy(update={"score": 1.0}) for d in claimed]
     category = find_category(name)
     sizes = None if category is None else category.size_range_m
@@ -223,6 +234,51 @@ def _best_of(
     return best
 
 
+def one_name_each(found: list[Detection], rivals: list[Detection]) -> list[Detection]:
+    """`found` (one name's boxes) less those, but its best, that frame the best box of another name the
+    program looks for: one object, one name (YOLOv3-tiny boxes a computer mouse as a clock at 0.19 and as
+    a mouse at 0.18, beside the alarm clock it boxes at 0.63)."""
+    best = max(found, key=lambda d: d.score)
+    return [d for d in found if d is best or all(iou(d.box, r.box) < 0.5 for r in rivals)]
+
+
+def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo) -> bool:
+    """Whether the box's longer side, in metres at the depth of what it frames, fits an object of its class
+    (the sizes of the catalog's categories that reach it, from half the smallest to 1.5 times the
+    largest); True where the class or the depth does not say."""
+    sizes = class_sizes(detector, det.label)
+    if sizes is None or frame.depth is None:
+        return True
+    x0, y0, x1, y1 = (int(v) for v in det.box)
+    depth = frame.depth[max(y0, 0) : max(y1, y0 + 1), max(x0, 0) : max(x1, x0 + 1)]
+    depth = depth[np.isfinite(depth) & (depth > 0)]
+    if depth.size == 0:
+        return True
+    # the nearer quarter of what the box holds: the object, not the wall behind it
+    metres = float(np.percentile(depth, 25)) * max(x1 - x0, y1 - y0) / camera.fx
+    return sizes[0] * 0.5 <= metres <= sizes[1] * 1.5
+
+
+@cache
+def _class_sizes(class_of: Callable[[str], str | None], label: str) -> tuple[float, float] | None:
+    ranges = [c.size_range_m for c in categories() if class_of(c.name) == label]
+    return (min(r[0] for r in ranges), max(r[1] for r in ranges)) if ranges else None
+
+
+def class_sizes(detector: Detector, label: str | None) -> tuple[float, float] | None:
+    """The smallest and largest size (metres) of the catalog's categories that reach the closed-set class
+    `label` (a sports ball: a tennis ball to a basketball); None for an open-vocabulary detector or a class
+    no category reaches."""
+    class_of = getattr(detector, "class_of", None)
+    return None if class_of is None or not label else _class_sizes(class_of, label)
+
+
+def _class(detector: Detector, name: str | None) -> str | None:
+    """The one class a closed-set detector reaches with `name` (a mug: "cup"), else the name itself."""
+    class_of = getattr(detector, "class_of", None)
+    return (class_of(name) if class_of is not None and name else None) or name
+
+
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
     """The best of `faint` (boxes of one name under the detector's threshold) where it frames a candidate,
     and the name's best box on every other candidate scores under 1 / `FAINT_MARGIN` of it; else None."""
@@ -231,7 +287,8 @@ def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection
         for at in _framed(det, candidates):
             if at not in best or det.score > best[at].score:
                 best[at] = det
-    ranked = sorted(best.values(), key=lambda d: -d.score)
+    # one box framing two candidates (an object depth sees in two parts) points at one place
+    ranked = sorted({id(d): d for d in best.values()}.values(), key=lambda d: -d.score)
     if not ranked or (len(ranked) > 1 and ranked[1].score * FAINT_MARGIN > ranked[0].score):
         return None
     return ranked[0]

@@ -35,6 +35,12 @@ RISE_M = (0.006, 0.6)
 MAX_EXTENT_M = 0.7
 """A candidate spans at most this much across the floor: wider is furniture or a wall."""
 MIN_PIXELS = 3
+FINER_JUMP = 0.4
+SLIVER = 2.5
+SPLIT_MIN_SIDE = 3
+"""A region too wide for an object is split again where depth jumps by this share of the usual tolerance;
+of its parts, those more than `SLIVER` times taller than wide in the image, or under `SPLIT_MIN_SIDE` map
+pixels across, are panels' edges."""
 
 
 @dataclass(frozen=True)
@@ -72,9 +78,27 @@ class StandingMap:
             return []
         valid = np.isfinite(pts[..., 2])
         d = np.where(valid, self.depth[::STRIDE, ::STRIDE].astype(np.float64), np.nan)
-        mask = _standing(rise) & ~_jumps(d)
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+        standing = _standing(rise)
         found: list[Candidate] = []
+        wide = self._regions(standing & ~_jumps(d), found)
+        # a region too wide for an object is most often furniture with an object before it (a bowl 10 cm
+        # before a shelf's back panel, 3 m away): split it again where depth jumps less
+        split: list[Candidate] = []
+        self._regions(wide & standing & ~_jumps(d, FINER_JUMP), split)
+        # what the finer split leaves as a sliver or a crumb is the edge of a panel, not an object
+        for c in split:
+            w, h = c.box[2] - c.box[0], c.box[3] - c.box[1]
+            if min(w, h) >= SPLIT_MIN_SIDE * STRIDE and h <= SLIVER * w:
+                found.append(c)
+        found.sort(key=lambda c: -c.pixels)
+        return found
+
+    def _regions(self, mask: np.ndarray, found: list[Candidate]) -> np.ndarray:
+        """Adds the connected regions of `mask` an object can be to `found`; the mask of those too wide."""
+        pts, rise = self.points, self.rise
+        assert rise is not None
+        wide = np.zeros(mask.shape, bool)
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
         for k in range(1, count):
             x, y, w, h, area = (int(v) for v in stats[k])
             if area < MIN_PIXELS:
@@ -83,12 +107,12 @@ class StandingMap:
             xy = pts[y : y + h, x : x + w][inside][:, :2]
             span = float(np.ptp(xy, axis=0).max())
             if span > MAX_EXTENT_M:
+                wide[y : y + h, x : x + w] |= inside
                 continue
             top = float(rise[y : y + h, x : x + w][inside].max())
             box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
             found.append(Candidate(box, top, area, max(span, top)))
-        found.sort(key=lambda c: -c.pixels)
-        return found
+        return wide
 
     def stands_out(self, box: Box) -> bool | None:
         """Whether depth sees something stand on a level inside `box` (pixels, xyxy): a few of its pixels
@@ -169,10 +193,11 @@ def _levels(points: np.ndarray) -> np.ndarray:
     return np.array(sorted(out))
 
 
-def _jumps(d: np.ndarray) -> np.ndarray:
-    """Where depth jumps between neighbouring map pixels (an object's outline against what is behind it)."""
+def _jumps(d: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """Where depth jumps between neighbouring map pixels (an object's outline against what is behind it),
+    by more than `scale` times the usual tolerance."""
     jump = np.zeros(d.shape, bool)
-    tol = 0.04 + 0.03 * np.nan_to_num(d, nan=0.0)
+    tol = (0.04 + 0.03 * np.nan_to_num(d, nan=0.0)) * scale
     dx = np.abs(np.diff(d, axis=1))
     dy = np.abs(np.diff(d, axis=0))
     jx, jy = np.nan_to_num(dx, nan=0.0) > tol[:, 1:], np.nan_to_num(dy, nan=0.0) > tol[1:, :]
