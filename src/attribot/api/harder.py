@@ -141,15 +141,20 @@ def look_harder(
     names the program looks for, whose best boxes will explain theirs."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
-    standing = StandingMap.of(frame.depth, capture.camera, capture.view)
+    standing = StandingMap.of(frame.depth, capture.camera, capture.view, frame.rgb)
     candidates = standing.candidates()
     kept = detections
     if name.lower() not in SURFACE_WORDS:
         small = frame.width * frame.height * SMALL_BOX
         kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
-    if sought and len(kept) > 1:
-        kept = one_name_each(kept, _best_of(detector, frame, name, sought, []))
+
+    def one_each(found: list[Detection]) -> list[Detection]:
+        if not sought or len(found) < 2:
+            return found
+        return one_name_each(found, _best_of(detector, frame, name, sought, []))
+
+    kept = one_each(kept)
     if any(d.score >= UNSURE for d in kept) or not candidates:
         return kept, report
     views = zoom_views(candidates, frame.width, frame.height)
@@ -163,7 +168,7 @@ def look_harder(
         claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
         merged = _unseen(detector, frame, capture.camera, name, candidates, views, nearer, claimed, report)
     merged.sort(key=lambda d: -d.score)
-    return merged, report
+    return one_each(merged), report
 
 
 def _unseen(
@@ -197,8 +202,9 @@ def _unseen(
     others += [d.model_copy(update={"score": 1.0}) for d in claimed]
     category = find_category(name)
     sizes = None if category is None else category.size_range_m
+    placement = None if category is None else category.placement
     if nearer is not None:
-        seen, report.visits = nearer(name, visit_order(candidates, others, sizes))
+        seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement))
         # boxes of one object seen from two places land on each other: one object
         kept_seen: list[Detection] = []
         for det in seen:
@@ -207,7 +213,7 @@ def _unseen(
         report.found_nearer = len(kept_seen)
         if kept_seen:
             return kept_seen
-    left = by_elimination(candidates, others, sizes, frame.width, frame.height)
+    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement)
     if left is None:
         return []
     report.eliminated = 1
@@ -235,11 +241,18 @@ def _best_of(
 
 
 def one_name_each(found: list[Detection], rivals: list[Detection]) -> list[Detection]:
-    """`found` (one name's boxes) less those, but its best, that frame the best box of another name the
-    program looks for: one object, one name (YOLOv3-tiny boxes a computer mouse as a clock at 0.19 and as
-    a mouse at 0.18, beside the alarm clock it boxes at 0.63)."""
+    """`found` (one name's boxes) less those that frame the best box of another name the program looks for,
+    one object, one name: a box that is not the name's best yields to the other name there (YOLOv3-tiny
+    boxes a computer mouse as a clock at 0.19 and as a mouse at 0.18, beside the alarm clock it boxes at
+    0.63), and so does its best where the other name scores higher there (an orange boxed as an apple at
+    0.17 and as an orange at 0.31, beside an apple boxed at 0.11). One box at least is kept."""
     best = max(found, key=lambda d: d.score)
-    return [d for d in found if d is best or all(iou(d.box, r.box) < 0.5 for r in rivals)]
+
+    def yields(d: Detection) -> bool:
+        return any(iou(d.box, r.box) >= 0.5 and (d is not best or r.score > d.score) for r in rivals)
+
+    kept = [d for d in found if not yields(d)]
+    return kept or [best]
 
 
 def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo) -> bool:
@@ -300,11 +313,13 @@ def by_elimination(
     size_range: tuple[float, float] | None,
     width: int,
     height: int,
+    placement: str | None = None,
 ) -> Candidate | None:
     """The one candidate that can be the object looked for by elimination, or None where none or several
     can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
     size as depth sees it fits `size_range` (as in `visit_order`), whole in the image (a candidate cut by
-    the image's edge is most often the furniture the robot stands at) and no furniture leg."""
+    the image's edge is most often the furniture the robot stands at), no part of the furniture, and
+    where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere)."""
     if size_range is None:
         return None
     lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
@@ -313,7 +328,8 @@ def by_elimination(
         c
         for c in candidates
         if lo <= c.size <= hi
-        and not _leg(c)
+        and not _furniture(c)
+        and not _misplaced(c, placement)
         and not _at_edge(c.box, width, height)
         and not any(_inside(_middle(c.box), d.box) for d in sure)
     ]
@@ -323,10 +339,17 @@ def by_elimination(
 LEG_RISE_M, LEG_ASPECT = 0.35, 2.5
 """A candidate this tall over its level and this many times taller than wide (in the image) is a leg of the
 furniture it stands under, not an object: not worth a drive."""
+FLOOR_LEG_RISE_M = 0.15
+"""...or this tall where it stands on the floor (a low table's leg)."""
+PANEL_ACROSS = 0.03
+"""Metres across the floor under which a candidate that stands is the edge of a panel (a bookcase's side)."""
 
 
 def visit_order(
-    candidates: list[Candidate], others: list[Detection], size_range: tuple[float, float] | None = None
+    candidates: list[Candidate],
+    others: list[Detection],
+    size_range: tuple[float, float] | None = None,
+    placement: str | None = None,
 ) -> list[Candidate]:
     """The candidates worth driving nearer to, in the order to visit them: those no other name explains
     first (by the best score of a box of another name over their middle), then those whose size as depth
@@ -344,8 +367,8 @@ def visit_order(
         lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
         return round(abs(math.log(min(max(cand.size, lo), hi) / cand.size)), 1)
 
-    worth = [c for c in candidates if not _leg(c)]
-    return sorted(worth, key=lambda c: (explained(c), misfit(c), c.pixels))
+    worth = [c for c in candidates if not _furniture(c)]
+    return sorted(worth, key=lambda c: (_misplaced(c, placement), explained(c), misfit(c), c.pixels))
 
 
 def carried_back(
@@ -403,10 +426,30 @@ def _inside(point: tuple[float, float], box: tuple[float, float, float, float]) 
     return box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
 
 
-def _leg(cand: Candidate) -> bool:
-    """A candidate this tall over its level and this much taller than wide in the image: a furniture leg."""
+FLOOR_M = 0.05
+"""A candidate whose lowest point is this high at most stands on the floor (a leg reaches it too)."""
+
+
+def _misplaced(cand: Candidate, placement: str | None) -> bool:
+    """Whether a candidate stands where the object is not put: on the floor for what is put on furniture
+    (a fork, a mug), on furniture for what stands on the floor (a basketball); False where either is not
+    known."""
+    if placement is None or cand.bottom is None:
+        return False
+    return (cand.bottom <= FLOOR_M) != (placement == "floor")
+
+
+def _furniture(cand: Candidate) -> bool:
+    """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
+    the floor, and this much taller than wide in the image), or a panel's edge (under `PANEL_ACROSS`
+    across the floor and rising more than `LEG_ASPECT` times that: no object of the catalog is so thin
+    and stands)."""
     x0, y0, x1, y1 = cand.box
-    return cand.rise > LEG_RISE_M and (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0)
+    if (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0):
+        on_floor = cand.bottom is not None and cand.bottom <= FLOOR_M
+        if cand.rise > (FLOOR_LEG_RISE_M if on_floor else LEG_RISE_M):
+            return True
+    return 0.0 < cand.across < PANEL_ACROSS and cand.rise > LEG_ASPECT * cand.across
 
 
 EDGE_PX = 2

@@ -8,7 +8,7 @@ reads a simulator's truth: only depth, the pinhole intrinsics and where the came
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -35,6 +35,19 @@ RISE_M = (0.006, 0.6)
 MAX_EXTENT_M = 0.7
 """A candidate spans at most this much across the floor: wider is furniture or a wall."""
 MIN_PIXELS = 3
+LYING_WINDOW = 11
+LYING_CONTRAST = 45.0
+LYING_LEVEL_SHARE = 0.6
+"""A pixel of a level lies out of it where its colour is this far (RGB, 0-255 each) from the mean colour of
+the level's pixels in the window of map pixels around it, where the window holds at least this share of
+the level (a grey fork on a dark table: about 90; a table's grain and light: under 30)."""
+LYING_MIN_PIXELS = 4
+LYING_MAX_M = 0.4
+SHADOW_PX = 6
+LOW_RISE_M = 0.03
+"""What lies flat is at least this many map pixels and at most this long (a rug or a board is longer), and
+no nearer than this many pixels to something standing (its shadow, its foot), unless that rises under
+`LOW_RISE_M` (then it is that thing's flat part)."""
 FINER_JUMP = 0.4
 SLIVER = 2.5
 SPLIT_MIN_SIDE = 3
@@ -46,13 +59,16 @@ pixels across, are panels' edges."""
 @dataclass(frozen=True)
 class Candidate:
     """A region of the image where depth sees something stand on a level: its box (pixels, xyxy, y down),
-    how high it rises over the level (metres), how many map pixels it holds, and its longest side as depth
-    sees it (its rise or its span across the floor, metres; 0 where not measured)."""
+    how high it rises over the level (metres), how many map pixels it holds, its longest side as depth
+    sees it (its rise or its span across the floor, metres; 0 where not measured), that span across the
+    floor, and the height of its lowest point over the floor (metres; None where not measured)."""
 
     box: Box
     rise: float
     pixels: int
     size: float = 0.0
+    across: float = 0.0
+    bottom: float | None = None
 
 
 @dataclass(frozen=True)
@@ -64,11 +80,15 @@ class StandingMap:
     points: np.ndarray
     rise: np.ndarray | None
     depth: np.ndarray
+    rgb: np.ndarray | None = None
 
     @classmethod
-    def of(cls, depth: np.ndarray, camera: CameraInfo, view: CameraPose) -> StandingMap:
+    def of(
+        cls, depth: np.ndarray, camera: CameraInfo, view: CameraPose, rgb: np.ndarray | None = None
+    ) -> StandingMap:
+        """The map of one depth image; given the image's `rgb` too, its candidates hold what lies flat."""
         points, rise = _rise_map(depth, camera, view)
-        return cls(points, rise, depth)
+        return cls(points, rise, depth, None if rgb is None else rgb[::STRIDE, ::STRIDE])
 
     def candidates(self) -> list[Candidate]:
         """Regions of the image where something stands on a horizontal level (see the module docstring),
@@ -90,8 +110,84 @@ class StandingMap:
             w, h = c.box[2] - c.box[0], c.box[3] - c.box[1]
             if min(w, h) >= SPLIT_MIN_SIDE * STRIDE and h <= SLIVER * w:
                 found.append(c)
+        lying = self._lying(found)
+        found = sorted((c for c in found if c.pixels), key=lambda c: -c.pixels)
+        return found + lying
+
+    def _lying(self, standing: list[Candidate]) -> list[Candidate]:
+        """What lies flat on a level (a fork, a knife: too thin to rise out of it in depth), seen by its
+        colour (`_odd_on_levels`), in regions no longer than an object. A region beside something low that
+        stands is that thing's flat part (a knife's blade beside its raised handle): the two are one
+        candidate; beside anything else, it is a shadow or a foot, and left out. `standing` (those
+        candidates) is updated in place; the regions on their own are returned, largest first."""
+        odd = self._odd_on_levels()
+        if odd is None:
+            return []
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(odd, connectivity=8)
+        found: list[Candidate] = []
+        for k in range(1, count):
+            x, y, w, h, area = (int(v) for v in stats[k])
+            box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
+            near = [i for i, c in enumerate(standing) if _overlaps(box, _grown(c.box, SHADOW_PX))]
+            xyz = self.points[y : y + h, x : x + w][labels[y : y + h, x : x + w] == k]
+            xyz = xyz[np.isfinite(xyz).all(axis=1)]
+            if area < LYING_MIN_PIXELS or len(xyz) == 0:
+                continue
+            if near:
+                if all(standing[i].rise < LOW_RISE_M for i in near):
+                    parts = [xyz, *(self._points_in(standing[i].box) for i in near[1:])]
+                    boxes = [box, *(standing[i].box for i in near[1:])]
+                    standing[near[0]] = self._joined(standing[near[0]], boxes, np.concatenate(parts))
+                    for i in near[1:]:
+                        standing[i] = replace(standing[i], pixels=0)  # joined: dropped below
+                continue
+            span = float(np.ptp(xyz[:, :2], axis=0).max())
+            if 0.0 < span <= LYING_MAX_M:
+                found.append(Candidate(box, 0.0, area, span, span, float(np.percentile(xyz[:, 2], 5))))
         found.sort(key=lambda c: -c.pixels)
         return found
+
+    def _odd_on_levels(self) -> np.ndarray | None:
+        """Map pixels of a level whose colour stands out from the level's own around them (uint8 mask), or
+        None without the image's colours or a level."""
+        if self.rgb is None or self.rise is None:
+            return None
+        rise, rgb = self.rise, self.rgb.astype(np.float32)
+        with np.errstate(invalid="ignore"):
+            on = np.isfinite(rise) & (np.abs(rise) < RISE_M[0])
+            level = np.where(on, np.round((self.points[..., 2] - rise) / LEVEL_BIN_M), np.nan)
+        odd = np.zeros(on.shape, bool)
+        window = (LYING_WINDOW, LYING_WINDOW)
+        for value in np.unique(level[on]):
+            mine = on & (level == value)
+            if int(mine.sum()) < LYING_WINDOW**2:
+                continue
+            weight = cv2.blur(mine.astype(np.float32), window)
+            around = cv2.blur(rgb * mine[..., None], window) / np.maximum(weight, 1e-6)[..., None]
+            contrast = np.linalg.norm(rgb - around, axis=-1)
+            # within a level, away from its edges (where the window holds little of it)
+            odd |= mine & (weight >= LYING_LEVEL_SHARE) & (contrast > LYING_CONTRAST)
+        return cv2.morphologyEx(odd.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+
+    def _points_in(self, box: Box) -> np.ndarray:
+        """The points (N, 3) that stand on a level inside `box`."""
+        assert self.rise is not None
+        c0, r0, c1, r1 = (int(v) // STRIDE for v in box)
+        inside = self.points[r0:r1, c0:c1][_standing(self.rise[r0:r1, c0:c1])]
+        return inside[np.isfinite(inside).all(axis=1)]
+
+    def _joined(self, cand: Candidate, boxes: list[Box], xyz: np.ndarray) -> Candidate:
+        """`cand` with the regions of `boxes` and their points `xyz` (N, 3) joined to it."""
+        both = np.concatenate([self._points_in(cand.box), xyz])
+        span = float(np.ptp(both[:, :2], axis=0).max())
+        every = [cand.box, *boxes]
+        union = (
+            min(b[0] for b in every),
+            min(b[1] for b in every),
+            max(b[2] for b in every),
+            max(b[3] for b in every),
+        )
+        return Candidate(union, cand.rise, cand.pixels + len(xyz), max(span, cand.rise), span, cand.bottom)
 
     def _regions(self, mask: np.ndarray, found: list[Candidate]) -> np.ndarray:
         """Adds the connected regions of `mask` an object can be to `found`; the mask of those too wide."""
@@ -110,8 +206,9 @@ class StandingMap:
                 wide[y : y + h, x : x + w] |= inside
                 continue
             top = float(rise[y : y + h, x : x + w][inside].max())
+            bottom = float(np.percentile(pts[y : y + h, x : x + w][inside][:, 2], 5))
             box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
-            found.append(Candidate(box, top, area, max(span, top)))
+            found.append(Candidate(box, top, area, max(span, top), span, bottom))
         return wide
 
     def stands_out(self, box: Box) -> bool | None:
@@ -206,3 +303,11 @@ def _jumps(d: np.ndarray, scale: float = 1.0) -> np.ndarray:
     jump[1:, :] |= jy
     jump[:-1, :] |= jy
     return jump
+
+
+def _grown(box: Box, by: float) -> Box:
+    return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
+
+
+def _overlaps(a: Box, b: Box) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
