@@ -559,3 +559,26 @@ def test_a_knifes_raised_handle_and_its_blade_lying_flat_are_one_candidate_of_it
     best = max(joined, key=lambda c: iou(c.box, knife.box))
     assert best_alone.size < 0.1 and iou(best_alone.box, knife.box) < 0.5
     assert 0.2 <= best.size <= 0.28 and iou(best.box, knife.box) >= 0.7
+
+
+def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
+    from attribot.api.harder import by_elimination, colour_fits
+    from attribot.control.candidates import Candidate
+
+    rgb = np.full((120, 200, 3), (70, 45, 30), np.uint8)  # a dark wooden table
+    rgb[40:80, 20:30] = (240, 130, 20)  # an orange carrot lying on it
+    rgb[40:80, 120:126] = (185, 185, 190)  # a steel spoon
+    carrot_box, spoon_box, bare_box = (10, 30, 40, 90), (110, 30, 136, 90), (150, 30, 190, 90)
+    assert colour_fits(rgb, carrot_box, ("orange",)) and not colour_fits(rgb, carrot_box, ("silver",))
+    assert colour_fits(rgb, spoon_box, ("silver",)) and not colour_fits(rgb, spoon_box, ("orange",))
+    assert not colour_fits(rgb, bare_box, ("brown", "orange"))  # nothing stands out of the table there
+    carrot = Candidate(carrot_box, 0.03, 60, 0.16, 0.16, 0.45)
+    spoon = Candidate(spoon_box, 0.01, 30, 0.14, 0.14, 0.45)
+
+    def orange(cand):
+        return colour_fits(rgb, cand.box, ("orange",))
+
+    assert by_elimination([carrot, spoon], [], (0.15, 0.2), 200, 120) is None  # two of a carrot's size
+    assert by_elimination([carrot, spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == carrot
+    # the colour only chooses among those left: it never rules out the one left
+    assert by_elimination([spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == spoon

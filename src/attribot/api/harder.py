@@ -20,6 +20,7 @@ more); the oracle reads the simulator's segmentation.
 
 from __future__ import annotations
 
+import colorsys
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
-from attribot.sim.catalog import categories, find_category
+from attribot.sim.catalog import COLORS, categories, find_category
 
 __all__ = [
     "LookHarderReport",
@@ -43,6 +44,7 @@ __all__ = [
     "acting_find",
     "by_elimination",
     "class_sizes",
+    "colour_fits",
     "carried_back",
     "faint_pick",
     "one_name_each",
@@ -213,7 +215,12 @@ def _unseen(
         report.found_nearer = len(kept_seen)
         if kept_seen:
             return kept_seen
-    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement)
+    colours = () if category is None else category.colors
+
+    def coloured(cand: Candidate) -> bool:
+        return colour_fits(frame.rgb, cand.box, colours)
+
+    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement, coloured)
     if left is None:
         return []
     report.eliminated = 1
@@ -314,12 +321,14 @@ def by_elimination(
     width: int,
     height: int,
     placement: str | None = None,
+    coloured: Callable[[Candidate], bool] | None = None,
 ) -> Candidate | None:
     """The one candidate that can be the object looked for by elimination, or None where none or several
     can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
     size as depth sees it fits `size_range` (as in `visit_order`), whole in the image (a candidate cut by
     the image's edge is most often the furniture the robot stands at), no part of the furniture, and
-    where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere)."""
+    where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several
+    are left, the one of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
     if size_range is None:
         return None
     lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
@@ -333,7 +342,50 @@ def by_elimination(
         and not _at_edge(c.box, width, height)
         and not any(_inside(_middle(c.box), d.box) for d in sure)
     ]
+    if len(left) > 1 and coloured is not None:
+        left = [c for c in left if coloured(c)] or left
     return left[0] if len(left) == 1 else None
+
+
+COLOUR_OFF = 40.0
+"""A pixel of a box whose colour is this far (RGB, 0-255) from the median of the box's rim is the object's."""
+HUE_TOLERANCE = 25.0
+CHROMATIC = 0.3
+"""An object's colour is a named colour's where, both saturated over `CHROMATIC`, their hues lie within
+`HUE_TOLERANCE` degrees, or where both are under it (silver, white, grey, black: light tells them apart)."""
+
+
+def colour_fits(rgb: np.ndarray, box: tuple[float, float, float, float], colours: tuple[str, ...]) -> bool:
+    """Whether what stands out in `box` of the image from the box's rim has one of the named `colours`
+    (`attribot.sim.catalog.COLORS`, the catalog's colour words); False where nothing stands out or no
+    colour is named."""
+    x0, y0, x1, y1 = (int(round(v)) for v in box)
+    patch = rgb[max(y0, 0) : y1, max(x0, 0) : x1].reshape(-1, 3).astype(np.float64)
+    h, w = min(y1, rgb.shape[0]) - max(y0, 0), min(x1, rgb.shape[1]) - max(x0, 0)
+    if not colours or h < 3 or w < 3:
+        return False
+    grid = patch.reshape(h, w, 3)
+    rim = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
+    own = patch[np.linalg.norm(patch - np.median(rim, axis=0), axis=1) > COLOUR_OFF]
+    if len(own) < 3:
+        return False
+    hue, sat = _hue_sat(np.median(own, axis=0) / 255.0)
+    for name in colours:
+        if name not in COLORS:
+            continue
+        # the catalog's colours are linear; the image's are sRGB
+        ref_hue, ref_sat = _hue_sat(np.power(np.asarray(COLORS[name]), 1 / 2.2))
+        if (sat >= CHROMATIC) != (ref_sat >= CHROMATIC):
+            continue
+        if sat < CHROMATIC or min(abs(hue - ref_hue), 360 - abs(hue - ref_hue)) <= HUE_TOLERANCE:
+            return True
+    return False
+
+
+def _hue_sat(rgb: np.ndarray) -> tuple[float, float]:
+    """Hue (degrees) and saturation (0-1) of an RGB colour in 0-1."""
+    h, _, s = colorsys.rgb_to_hsv(float(rgb[0]), float(rgb[1]), float(rgb[2]))
+    return h * 360.0, s
 
 
 LEG_RISE_M, LEG_ASPECT = 0.35, 2.5

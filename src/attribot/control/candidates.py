@@ -1,9 +1,12 @@
-"""Where objects may stand, from depth alone: the candidates a detector is asked to look at more closely.
+"""Where objects may stand, from depth (and what lies flat, from colour): the candidates a detector is asked
+to look at more closely.
 
 A household object stands on something horizontal (the floor, a table's top, a shelf's board) and rises a
 little above it. In a depth image that shows as points a few millimetres to a few decimetres above one of
-the horizontal levels the image holds, cut off from what is behind them by a jump in depth. Nothing here
-reads a simulator's truth: only depth, the pinhole intrinsics and where the camera looked from.
+the horizontal levels the image holds, cut off from what is behind them by a jump in depth. A fork or a
+knife lying on a table rises too little for depth: given the image's colours, a region of a level whose
+colour stands out from that level's own around it is one too. Nothing here reads a simulator's truth: only
+depth, colour, the pinhole intrinsics and where the camera looked from.
 """
 
 from __future__ import annotations
@@ -128,7 +131,9 @@ class StandingMap:
         for k in range(1, count):
             x, y, w, h, area = (int(v) for v in stats[k])
             box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
-            near = [i for i, c in enumerate(standing) if _overlaps(box, _grown(c.box, SHADOW_PX))]
+            near = [
+                i for i, c in enumerate(standing) if c.pixels and _overlaps(box, _grown(c.box, SHADOW_PX))
+            ]
             xyz = self.points[y : y + h, x : x + w][labels[y : y + h, x : x + w] == k]
             xyz = xyz[np.isfinite(xyz).all(axis=1)]
             if area < LYING_MIN_PIXELS or len(xyz) == 0:
