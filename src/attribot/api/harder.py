@@ -28,7 +28,7 @@ from functools import cache
 
 import numpy as np
 
-from attribot.boxes import iou, overlap_of_smaller
+from attribot.boxes import crop_array, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
@@ -151,10 +151,15 @@ def look_harder(
         kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
 
+    rivals: list[Detection] | None = None  # the other sought names' best boxes, looked for once
+
     def one_each(found: list[Detection]) -> list[Detection]:
+        nonlocal rivals
         if not sought or len(found) < 2:
             return found
-        return one_name_each(found, _best_of(detector, frame, name, sought, []))
+        if rivals is None:
+            rivals = _best_of(detector, frame, name, sought, [])
+        return one_name_each(found, rivals)
 
     kept = one_each(kept)
     if any(d.score >= UNSURE for d in kept) or not candidates:
@@ -275,7 +280,7 @@ def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: Camera
     if depth.size == 0:
         return True
     # the nearer quarter of what the box holds: the object, not the wall behind it
-    metres = float(np.percentile(depth, 25)) * max(x1 - x0, y1 - y0) / camera.fx
+    metres = float(np.percentile(depth, 25)) * max((x1 - x0) / camera.fx, (y1 - y0) / camera.fy)
     return sizes[0] * 0.5 <= metres <= sizes[1] * 1.5
 
 
@@ -359,12 +364,10 @@ def colour_fits(rgb: np.ndarray, box: tuple[float, float, float, float], colours
     """Whether what stands out in `box` of the image from the box's rim has one of the named `colours`
     (`attribot.sim.catalog.COLORS`, the catalog's colour words); False where nothing stands out or no
     colour is named."""
-    x0, y0, x1, y1 = (int(round(v)) for v in box)
-    patch = rgb[max(y0, 0) : y1, max(x0, 0) : x1].reshape(-1, 3).astype(np.float64)
-    h, w = min(y1, rgb.shape[0]) - max(y0, 0), min(x1, rgb.shape[1]) - max(x0, 0)
-    if not colours or h < 3 or w < 3:
+    grid = crop_array(rgb, box).astype(np.float64)
+    if not colours or grid.shape[0] < 3 or grid.shape[1] < 3:
         return False
-    grid = patch.reshape(h, w, 3)
+    patch = grid.reshape(-1, 3)
     rim = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
     own = patch[np.linalg.norm(patch - np.median(rim, axis=0), axis=1) > COLOUR_OFF]
     if len(own) < 3:

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from attribot.boxes import overlap_of_smaller
 from attribot.control.body import CameraPose
 from attribot.control.spatial import point_map
 from attribot.frame import CameraInfo
@@ -132,7 +133,9 @@ class StandingMap:
             x, y, w, h, area = (int(v) for v in stats[k])
             box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
             near = [
-                i for i, c in enumerate(standing) if c.pixels and _overlaps(box, _grown(c.box, SHADOW_PX))
+                i
+                for i, c in enumerate(standing)
+                if c.pixels and overlap_of_smaller(box, _grown(c.box, SHADOW_PX)) > 0
             ]
             xyz = self.points[y : y + h, x : x + w][labels[y : y + h, x : x + w] == k]
             xyz = xyz[np.isfinite(xyz).all(axis=1)]
@@ -312,7 +315,3 @@ def _jumps(d: np.ndarray, scale: float = 1.0) -> np.ndarray:
 
 def _grown(box: Box, by: float) -> Box:
     return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
-
-
-def _overlaps(a: Box, b: Box) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
