@@ -408,7 +408,7 @@ def visit_order(
 ) -> list[Candidate]:
     """The candidates worth driving nearer to, in the order to visit them: those no other name explains
     first (by the best score of a box of another name over their middle), then those whose size as depth
-    sees it fits the size of what is looked for (`size_range`, metres: a mug is 8 to 12 cm), then the
+    sees it is nearest the size of what is looked for (`size_range`, metres: a mug is 8 to 12 cm), then the
     smaller (a detector misses the small ones); furniture legs left out."""
 
     def explained(cand: Candidate) -> float:
@@ -418,8 +418,9 @@ def visit_order(
     def misfit(cand: Candidate) -> float:
         if size_range is None or cand.size <= 0:
             return 0.0
-        # depth sees part of an object (its near side, its top): half the smallest size still fits
-        lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
+        # how far outside the size range (as a ratio): depth may see only part of an object (its near
+        # side, its top), so a candidate somewhat smaller comes next, not last
+        lo, hi = size_range
         return round(abs(math.log(min(max(cand.size, lo), hi) / cand.size)), 1)
 
     worth = [c for c in candidates if not _furniture(c)]

@@ -32,8 +32,14 @@ FLAT_NZ = 0.9
 LEVEL_BIN_M = 0.01
 LEVEL_MIN_PIXELS = 12
 LEVEL_MIN_SPAN_M = 0.45
-"""A level is a 1 cm band of heights holding at least this many horizontal pixels of the map, spread over
-at least this much of the floor plan (a book lying flat is an object on a level, not a level)."""
+"""A level is a piece of a 1 cm band of heights holding at least this many horizontal pixels of the map,
+spread over at least this much of the floor plan (a book lying flat is an object on a level, not a level)."""
+LEVEL_CELL_M = 0.05
+PLAN_MAX_CELLS = 400
+LEVEL_MARGIN_CELLS = 3
+"""Levels are told apart on a floor plan of cells this wide (at most this many along a side), a piece of
+a band being the points in touching cells; a level covers its points' hull and this many cells around it
+(15 cm: an object standing at a table's edge hides the top under it)."""
 RISE_M = (0.006, 0.6)
 """An object's points stand this far above the level under them (a knife lying flat to a backpack)."""
 MAX_EXTENT_M = 0.7
@@ -253,15 +259,26 @@ def _rise_map(
     depth: np.ndarray, camera: CameraInfo, view: CameraPose
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The point map and each of its pixels' height over the level under it (NaN where depth is not valid
-    or no level is under it); None for the heights where the image holds no level."""
+    or no level is under it); None for the heights where the image holds no level. The level under a point
+    is the highest one below it whose place on the floor plan holds the point; where none within an
+    object's height does (a level hidden by what stands on it), the highest level below it anywhere."""
     pts = point_map(depth, camera, view, STRIDE)
     valid = np.isfinite(pts[..., 2])
-    levels = _levels(pts[_horizontal(pts) & valid])
-    if len(levels) == 0:
+    plan = _Plan.of(pts[valid])
+    levels = _levels(pts[_horizontal(pts) & valid], plan)
+    if not levels:
         return pts, None
     z = np.where(valid, pts[..., 2], -np.inf)
-    under = np.searchsorted(levels, z + LEVEL_BIN_M / 2, side="right") - 1
-    rise = np.where(valid & (under >= 0), z - levels[np.clip(under, 0, None)], np.nan)
+    cells = plan.cells_of(np.where(valid[..., None], pts, 0.0))
+    under = np.full(z.shape, np.nan)
+    for height, place in levels:  # ascending: a higher level under the point replaces a lower one
+        under = np.where((z + LEVEL_BIN_M / 2 >= height) & place[cells], height, under)
+    heights = np.array(sorted(h for h, _ in levels))
+    anywhere = np.searchsorted(heights, z + LEVEL_BIN_M / 2, side="right") - 1
+    nearest = np.where(anywhere >= 0, heights[np.clip(anywhere, 0, None)], np.nan)
+    with np.errstate(invalid="ignore"):
+        under = np.where(np.isnan(under) | (z - under > RISE_M[1]), nearest, under)
+    rise = np.where(valid, z - under, np.nan)
     return pts, rise
 
 
@@ -283,19 +300,60 @@ def _horizontal(pts: np.ndarray) -> np.ndarray:
     return flat
 
 
-def _levels(points: np.ndarray) -> np.ndarray:
-    """The heights of the horizontal levels among horizontal surface points (N, 3): 1 cm bands holding
-    enough of them over enough of the floor plan, each at the middle of its points' heights, ascending."""
+@dataclass(frozen=True)
+class _Plan:
+    """A grid of cells over the floor plan of an image's points (x, y in the base frame), `LEVEL_CELL_M`
+    wide (wider where the points span too far for `PLAN_MAX_CELLS` of them)."""
+
+    origin: tuple[float, float]
+    cell: float
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, points: np.ndarray) -> _Plan:
+        if len(points) == 0:
+            return cls((0.0, 0.0), LEVEL_CELL_M, (1, 1))
+        low, high = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
+        cell = max(LEVEL_CELL_M, float((high - low).max()) / PLAN_MAX_CELLS)
+        rows, cols = (int((high - low)[k] // cell) + 1 for k in (1, 0))
+        return cls((float(low[0]), float(low[1])), cell, (rows, cols))
+
+    def cells_of(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The (row, column) cell of each point (..., 3), clipped to the grid."""
+        col = np.clip(((points[..., 0] - self.origin[0]) // self.cell).astype(np.int64), 0, self.shape[1] - 1)
+        row = np.clip(((points[..., 1] - self.origin[1]) // self.cell).astype(np.int64), 0, self.shape[0] - 1)
+        return row, col
+
+
+def _levels(points: np.ndarray, plan: _Plan) -> list[tuple[float, np.ndarray]]:
+    """The horizontal levels among horizontal surface points (N, 3), ascending: in each 1 cm band of
+    heights, each piece whose points touch on the floor plan, holding enough of them over enough of it
+    (a book lying flat is not a level, even where a shelf elsewhere stands at the height of its top). A
+    level is its height (the middle of its points') and the cells of the plan it covers: its points' hull,
+    grown by `LEVEL_MARGIN_CELLS` (an object at its edge hides what is under it)."""
     if len(points) == 0:
-        return np.zeros(0)
+        return []
     bins = np.floor(points[:, 2] / LEVEL_BIN_M).astype(np.int64)
     values, counts = np.unique(bins, return_counts=True)
+    near = np.ones((3, 3), np.uint8)
+    margin = np.ones((2 * LEVEL_MARGIN_CELLS + 1,) * 2, np.uint8)
     out = []
     for value in values[counts >= LEVEL_MIN_PIXELS]:
         band = points[bins == value]
-        if float(np.ptp(band[:, :2], axis=0).max()) >= LEVEL_MIN_SPAN_M:
-            out.append(float(np.median(band[:, 2])))
-    return np.array(sorted(out))
+        row, col = plan.cells_of(band)
+        occupied = np.zeros(plan.shape, np.uint8)
+        occupied[row, col] = 1
+        count, labels = cv2.connectedComponents(cv2.dilate(occupied, near), connectivity=8)
+        piece_of = labels[row, col]
+        for k in range(1, count):
+            piece = band[piece_of == k]
+            if len(piece) < LEVEL_MIN_PIXELS or float(np.ptp(piece[:, :2], axis=0).max()) < LEVEL_MIN_SPAN_M:
+                continue
+            hull = cv2.convexHull(cv2.findNonZero(((labels == k) & (occupied > 0)).astype(np.uint8)))
+            place = np.zeros(plan.shape, np.uint8)
+            cv2.fillConvexPoly(place, hull, 1)
+            out.append((float(np.median(piece[:, 2])), cv2.dilate(place, margin).astype(bool)))
+    return sorted(out, key=lambda level: level[0])
 
 
 def _jumps(d: np.ndarray, scale: float = 1.0) -> np.ndarray:

@@ -162,8 +162,13 @@ class Locator:
         self.aim(np.array(est.centre), body, target, holding)
         camera = self.plant.world.camera_info()
         where = self.near(est, camera, body, holding)
-        frame, box = self.look_again(target, camera, search, where)
-        if box is None and self.plant.has("base") and self.plant.tuning.back_off_m > 0:
+        # a target depth placed (the detector never saw it surely) is looked at once from here, where it is
+        # nearer and larger: turning the camera for a detection the detector never gave costs passes in vain
+        persist = not target.by_depth
+        frame, box = self.look_again(
+            target, camera, search, where, aside=persist, nudges=None if persist else 0
+        )
+        if box is None and persist and self.plant.has("base") and self.plant.tuning.back_off_m > 0:
             # missed from here at every turn of the camera (a viewpoint the detector fails from): step
             # back and look again from farther away, before giving it up
             self.driver.straight(-self.plant.tuning.back_off_m)
@@ -195,26 +200,35 @@ class Locator:
         return located if located is not None else est
 
     def look_again(
-        self, target: Target, camera: CameraInfo, search: float, accept: Accept | None = None
+        self,
+        target: Target,
+        camera: CameraInfo,
+        search: float,
+        accept: Accept | None = None,
+        aside: bool = True,
+        nudges: int | None = None,
     ) -> tuple[Frame, Box | None]:
         """The frame and the target's box nearest the image centre (of those `accept` takes). A detector
-        that misses the object in this view is given up to `max_misses` more views, the head turned a
-        little each time, then a third of the view to either side (the same view would often be missed,
-        or mistaken, the same way)."""
+        that misses the object in this view is given up to `nudges` (default `max_misses`) more views, the
+        head turned a little each time, then (with `aside`) a third of the view to either side (the same
+        view would often be missed, or mistaken, the same way)."""
         t, world = self.plant.tuning, self.plant.world
         home = self.plant.pose() if self.plant.headless else self.plant.head()
+        nudges = t.max_misses if nudges is None else nudges
 
         def first(frame: Frame, boxes: list[Box]) -> Box | None:
             return next((b for b in boxes if accept is None or accept(frame, b) is not None), None)
 
-        for k in range(t.max_misses + 1 if target.find is not None else 1):
+        for k in range(nudges + 1 if target.find is not None else 1):
             if k:  # a nudge to one side, then the other, then further
                 self.turn(home, (1 if k % 2 else -1) * t.nudge_rad * ((k + 1) // 2), t.nudge_settle_s)
             frame = world.observe()
             box = first(frame, by_centre(target.find(frame) if target.find else [], camera, search))
             if box is not None:
                 return frame, box
-        if target.find is None:
+        if target.find is None or not aside:
+            if target.find is not None and nudges:  # the head back where it looked from
+                self.turn(home, 0.0, t.look_back_settle_s)
             return frame, None
         # a detector that misses an object from one viewpoint may not from another: turn a third of the
         # view to each side, where the object sits elsewhere in the image, and look for it where it must be

@@ -125,7 +125,10 @@ class Manipulator:
             elsewhere.append(est)
             return None
 
-        _, box = self.locator.look_again(target, camera, 0.5, in_gripper)
+        # the object is where the gripper is: the head nudged around it, not turned aside (and once only
+        # for a target depth placed, which the detector never saw surely)
+        nudges = 0 if target.by_depth else None
+        _, box = self.locator.look_again(target, camera, 0.5, in_gripper, aside=False, nudges=nudges)
         if box is not None:
             return True, f"the camera sees the {hold.label} rise with the gripper"
         unseen = f"the camera does not see the {hold.label} in the gripper"
