@@ -5,6 +5,8 @@ boxes and ids); the detectors here are fakes that read pixels, so that what zoom
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -389,6 +391,53 @@ def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
     # gripper and once where it stood (the whole image and its middle each time), not at every turn of the
     # head and again from a step back, as for an object the detector once saw
     assert len(detector.asked) - before <= 6
+
+
+class BlindAfterDetector(NearOnlyDetector):
+    """The simulator's own detector, blind to one name once `blind` is set: one that found the object from
+    where the robot stood and misses it from wherever it goes next (YOLOv3-tiny and a backpack seen from
+    above, a metre away)."""
+
+    name = "blind-after"
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self.name_blind, self.blind = name, False
+
+    def detect(self, frame: Frame, queries):
+        found = self.inner.detect(frame, queries)
+        return [d for d in found if not (self.blind and d.label == self.name_blind)]
+
+
+@pytest.mark.parametrize("moved", [False, True])
+def test_an_object_the_detector_no_longer_sees_is_gone_to_by_depth_and_lost_only_when_gone(moved):
+    """Driving to an object the detector found from where the robot stood, the robot looks for it again
+    where it goes, and this detector misses it there: depth still sees something of its height where it
+    was, so that is it, and the robot gets there. Moved away while the robot drove, it is lost, as before."""
+    import mujoco
+
+    from attribot.control.base import ControlError, Failure
+
+    with MujocoWorld(SCENES[0]) as world:
+        detector = BlindAfterDetector("apple")
+        robot, image = _look(world, detector)
+        apple = next(p for p in image.find("apple"))  # seen from where the robot stands
+        detector.blind = True
+        if moved:  # to the floor behind the robot
+            sim, at = world.sim, world.base_pose()
+            body = next(sim.body_of[o.key] for o in sim.plan.objects if o.category.name == "apple")
+            adr = int(sim.model.jnt_qposadr[sim.model.body_jntadr[body]])
+            behind = (at.x - math.cos(at.yaw), at.y - math.sin(at.yaw), 0.05)
+            sim.data.qpos[adr : adr + 3] = behind
+            mujoco.mj_forward(sim.model, sim.data)
+            with pytest.raises(ControlError) as lost:
+                robot.go_to_object(apple)
+            assert lost.value.reason is Failure.TARGET_LOST
+            return
+        robot.go_to_object(apple)
+        truth = next(o for o in world.scene_info().objects if o.category == "apple")
+        at = world.base_pose()
+    assert 0.3 <= math.hypot(truth.position[0] - at.x, truth.position[1] - at.y) <= 1.2
 
 
 class UnsureDetector:

@@ -27,6 +27,7 @@ from attribot.control.spatial import (
     estimate_object,
     head_towards,
     point_from_range,
+    projected_box,
     to_base,
     to_world,
 )
@@ -35,6 +36,10 @@ from attribot.frame import CameraInfo, Frame
 __all__ = ["Locator", "view_of"]
 
 Accept = Callable[[Frame, Box], ObjectEstimate | None]
+
+STILL_THERE_HEIGHT = 0.3
+"""An object the detector no longer sees is still where it was when depth sees something there whose top is
+within this share of its height (at least 5 cm) of its top before."""
 
 
 @dataclass
@@ -178,6 +183,11 @@ class Locator:
             # the detector never saw it surely: where depth placed it is all there is to go on
             return est
         if box is None:
+            # the detector misses it from every view here (a backpack close up, seen from above), though it
+            # found it from afar: where depth still sees something of its height where it was, that is it
+            held_by_depth = self.still_there(est, camera, body, where)
+            if held_by_depth is not None:
+                return held_by_depth
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "
                 f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
@@ -198,6 +208,26 @@ class Locator:
         # centred, the detector sees it no better (a viewpoint it misses the object from): where it was
         # found before centring
         return located if located is not None else est
+
+    def still_there(
+        self, est: ObjectEstimate, camera: CameraInfo, body: BodyGeometry, where: Accept
+    ) -> ObjectEstimate | None:
+        """The object of `est` as depth sees it now where `est` puts it (its box in the view projected from
+        its place and size), if something stands there about as high as it (`STILL_THERE_HEIGHT`); None
+        without depth, or where nothing of its height is there (it was moved, or it is hidden)."""
+        frame = self.plant.world.observe()
+        if frame.depth is None:
+            return None
+        (x, y, _), r = est.centre, est.radius
+        corners = np.array(
+            [(x + dx, y + dy, z) for dx in (-r, r) for dy in (-r, r) for z in (est.support_z, est.top_z)]
+        )
+        box = projected_box(to_base(corners, self.plant.pose()), camera, self.plant.view(body))
+        now = None if box is None else where(frame, box)
+        if now is None:
+            return None
+        height = est.top_z - est.support_z
+        return now if abs(now.top_z - est.top_z) <= STILL_THERE_HEIGHT * max(height, 0.05) else None
 
     def look_again(
         self,
