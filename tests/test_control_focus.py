@@ -122,3 +122,26 @@ def test_the_step_budget_ends_a_focus_that_does_not_converge():
     with pytest.raises(ControlError, match="did not centre ball within 2 control steps"):
         loop.run()
     assert loop.steps == 2 and loop.phase is Phase.DETECTING
+
+
+def test_reacquire_takes_the_id_where_known_else_the_box_nearest_the_centre():
+    """A target seen again in a new frame: the box of its world id where the detector gives ids, else the
+    box of its name nearest the image centre, within a quarter of the image; none there, none at all."""
+    from attribot.control.sighting import reacquire
+
+    world = BallWorld(BALLS)
+    boxes = {d.object_id: d.box for d in world.boxes()}
+
+    def sightings(frame: Frame):
+        return [(d.box, d.object_id) for d in world.boxes()]
+
+    off_centre = max(boxes, key=lambda i: abs((boxes[i][0] + boxes[i][2]) / 2 - CAM.cx))
+    by_id = reacquire(world, sightings, "ball", off_centre, index=3)
+    assert by_id is not None and by_id.box == boxes[off_centre] and by_id.capture.index == 3
+    assert by_id.capture.head == (world.pan, world.tilt) and by_id.object_id == off_centre
+    central = reacquire(world, sightings, "ball", off_centre, index=4, by_id=False)
+    nearest = min(
+        boxes.values(), key=lambda b: abs((b[0] + b[2]) / 2 - CAM.cx) + abs((b[1] + b[3]) / 2 - CAM.cy)
+    )
+    assert central is not None and central.box == nearest and central.object_id == off_centre
+    assert reacquire(world, lambda frame: [], "ball", None, index=5) is None

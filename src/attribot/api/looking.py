@@ -24,6 +24,7 @@ import numpy as np
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
+from attribot.control.sighting import capture_now
 from attribot.control.spatial import (
     nearest_surface,
     point_from_range,
@@ -33,11 +34,10 @@ from attribot.control.spatial import (
     to_world,
 )
 from attribot.embodiments.base import Embodiment
-from attribot.errors import UnsupportedAction
-from attribot.frame import CameraInfo, Frame
+from attribot.frame import Frame
 from attribot.models.base import Detection, Detector
 
-__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "capture_now"]
+__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again"]
 
 _SETTLE_S = 0.05
 _SETTLE_STEPS = 30
@@ -441,27 +441,6 @@ def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
 
     best = max(range(len(answers)), key=lambda i: (round(agreement(i), 6), i == 0))
     return answers[best], sum(1 for n in names[1:] if n != names[0])
-
-
-def capture_now(world: Embodiment, frame: Frame, index: int, camera: CameraInfo | None) -> Capture:
-    """What is known of `frame`, taken just now: the head's angles (on a head), the base's odometry pose,
-    where the camera was (where the robot states its body) and the arm's pose (a camera may ride on it)."""
-    js, pose = world.joint_states(), world.base_pose()
-    head = (float(js["head_pan"]), float(js["head_tilt"])) if "head_pan" in js and "head_tilt" in js else None
-    arm = (float(js["lift"]), float(js["arm"])) if "lift" in js and "arm" in js else None
-    try:
-        view = world.body().camera_pose(js)
-    except UnsupportedAction:  # a robot that does not state where its camera sits
-        view = None
-    return Capture(
-        index=index,
-        camera=camera,
-        head=head,
-        base=(float(pose.x), float(pose.y), float(pose.yaw)),
-        depth=frame.depth,
-        view=view,
-        arm=arm,
-    )
 
 
 def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float]:

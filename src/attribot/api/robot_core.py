@@ -7,7 +7,6 @@ on an object. `attribot.api.measuring` and `attribot.api.acting` add the reading
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
@@ -16,7 +15,7 @@ from pydantic import BaseModel, ConfigDict
 from attribot.api.checks import check_patch
 from attribot.api.errors import ApiArgumentError, MissingSensor
 from attribot.api.harder import acting_find, carried_back
-from attribot.api.looking import Survey, View, capture_now
+from attribot.api.looking import Survey, View
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
@@ -30,9 +29,10 @@ from attribot.control.base import (
 )
 from attribot.control.candidates import Candidate
 from attribot.control.focus import correct_aim
+from attribot.control.sighting import Box, capture_now, reacquire
 from attribot.embodiments.base import Embodiment
 from attribot.errors import UnsupportedAction
-from attribot.frame import CameraInfo
+from attribot.frame import Frame
 from attribot.lexicon import GENERIC_NOUNS
 from attribot.models.base import Detection
 from attribot.sensors import (
@@ -379,30 +379,18 @@ class SessionCore:
         )
 
     def _reacquire(self, patch: ImagePatch, by_id: bool = True) -> Target | None:
-        """The object of `patch` in a new camera image: by world id when known (and `by_id`), else the
-        detection of the same name nearest the image centre (where the aim put it), within a quarter of
-        the image."""
-        if not patch.label or self.world is None or "pose" not in {str(c) for c in self.world.capabilities()}:
+        """The object of `patch` in a new camera image (`attribot.control.sighting.reacquire`): by world id
+        when known (and `by_id`), else the detection of its name nearest the image centre."""
+        label, world = patch.label, self.world
+        if not label or world is None or "pose" not in {str(c) for c in world.capabilities()}:
             return None
-        frame = self.world.observe()
-        cam = frame.camera or _camera_info(self.world)
-        if cam is None:
-            return None
-        capture = capture_now(self.world, frame, self._captures, cam)
+        detector = patch.perception.detector
+
+        def sightings(frame: Frame) -> list[tuple[Box, str | None]]:
+            return [(d.box, d.object_id) for d in detector.detect(frame, [label])]
+
         self._captures += 1
-        detections = patch.perception.detector.detect(frame, [patch.label])
-        if by_id and patch.object_id is not None:
-            same = [d for d in detections if d.object_id == patch.object_id]
-        else:
-            radius = min(cam.width, cam.height) / 4.0
-            same = sorted(
-                (d for d in detections if _dist_to_center(d.box, cam) <= radius),
-                key=lambda d: _dist_to_center(d.box, cam),
-            )
-        if not same:
-            return None
-        d = same[0]
-        return Target(box=d.box, capture=capture, object_id=patch.object_id, label=patch.label)
+        return reacquire(world, sightings, label, patch.object_id, self._captures - 1, by_id)
 
     def focus_on_patch(self, patch: ImagePatch) -> None:
         """The session's side of `Robot.focus_on_patch` (its docstring is the one programs read)."""
@@ -464,10 +452,6 @@ def _named(patch: ImagePatch) -> str:
     ident = f" ({patch.object_id})" if patch.object_id else ""
     box = ", ".join(str(round(v)) for v in patch.box)
     return f"the {patch.label or 'object'}{ident} at [{box}]"
-
-
-def _dist_to_center(box: tuple[float, float, float, float], cam: CameraInfo) -> float:
-    return math.hypot((box[0] + box[2]) / 2.0 - cam.cx, (box[1] + box[3]) / 2.0 - cam.cy)
 
 
 def _camera_info(world: Embodiment) -> Any:
