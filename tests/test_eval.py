@@ -180,6 +180,32 @@ def test_a_crashed_run_resumes_where_it_stopped(tmp_path):
         )
 
 
+def test_a_run_keeps_every_setting_its_records_depend_on_and_resumes_one_made_before_they_were_kept(tmp_path):
+    """run.json holds every setting but the secrets and where files live: a resume with another detector
+    threshold or LLM temperature is refused, naming it. A run folder written before those were kept was
+    made with their defaults, and resumes with them."""
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog", llm_api_key="sk-not-kept")
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=2)
+    run_eval(plan, settings, tmp_path)
+    about = json.loads((tmp_path / "run.json").read_text())
+    assert (
+        about["detector_threshold"] == 0.1 and about["llm_temperature"] == 0.0 and about["hf_dtype"] == "auto"
+    )
+    assert "llm_api_key" not in about and "cache_dir" not in about and "sk-not-kept" not in json.dumps(about)
+    for other, name in (
+        ({"detector_threshold": 0.3}, "detector_threshold"),
+        ({"llm_temperature": 0.7}, "llm_temperature"),
+    ):
+        with pytest.raises(ConfigError, match=name):
+            run_eval(plan, settings.model_copy(update=other), tmp_path)
+    # as an older run wrote it: without the settings kept since
+    older = {k: v for k, v in about.items() if k not in ("detector_threshold", "llm_temperature", "hf_dtype")}
+    (tmp_path / "run.json").write_text(json.dumps(older))
+    assert run_eval(plan, settings, tmp_path).skipped == 2
+    with pytest.raises(ConfigError, match="detector_threshold"):
+        run_eval(plan, settings.model_copy(update={"detector_threshold": 0.3}), tmp_path)
+
+
 def test_two_workers_and_ray_give_the_same_records_as_one(tmp_path):
     settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
     plan = EvalPlan(

@@ -23,7 +23,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from attribot.config import Settings
+from attribot.config import SECRETS, Settings
 from attribot.errors import ConfigError, InputError
 from attribot.eval.datasets import (
     DATASET_VERSION,
@@ -108,28 +108,32 @@ class RunSummary:
     subset: Subset | None = None  # the items a closed-set detector kept, per task; None: every item
 
 
+MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "hf_device"})
+"""Settings no record depends on: where files are kept and which device runs a model (the same weights,
+hash-checked, anywhere): a run resumes on another machine."""
+RECORDED = tuple(n for n in Settings.model_fields if n not in set(SECRETS) | MACHINE_LOCAL)
+"""The settings a run keeps in its run.json: every one but the secrets and the machine-local ones."""
+_URLS = ("detector", "vqa", "language", "llm_base_url")
+
+
 def fingerprint(
     settings: Settings,
     subset: str | None = None,
     vocabulary: tuple[str, ...] | None = None,
     seed: int = 0,
 ) -> dict[str, Any]:
-    """The settings a record depends on: a run refuses to mix records made with different ones. `subset`:
-    the closed-set detector whose classes chose the items (None: every item); `vocabulary`: the categories
-    it can find, in which the embodied tasks' items are drawn (None: the catalog's); `seed`: the root seed
-    of the items (written only when it is not 0, so that runs made before it was one still resume)."""
-    base_url = getattr(settings, "llm_base_url", None)
-    about = {  # a password in a URL is not written down (shown_url)
+    """The settings a record depends on (`RECORDED`: a run refuses to mix records made with different
+    ones), the dataset's version, `subset` (the closed-set detector whose classes chose the items; None:
+    every item), `vocabulary` (the categories it can find, in which the embodied tasks' items are drawn;
+    None: the catalog's) and `seed`, the root seed of the items (written only when it is not 0, so that
+    runs made before it was one still resume). A password in a URL is not written down (`shown_url`)."""
+    values = settings.model_dump(mode="json", include=set(RECORDED))
+    for key in _URLS:
+        if values.get(key) is not None:
+            values[key] = shown_url(str(values[key]))
+    about = {
         "dataset_version": DATASET_VERSION,
-        "planner": settings.planner,
-        "detector": shown_url(str(settings.detector)),
-        "vqa": shown_url(str(settings.vqa)),
-        "language": shown_url(str(settings.language)),
-        "checks": settings.checks,
-        "program_wall_s": settings.program_wall_s,
-        "prompt": settings.prompt,
-        "llm_model": getattr(settings, "llm_model", None),
-        "llm_base_url": None if base_url is None else shown_url(base_url),
+        **{key: values[key] for key in RECORDED},
         "subset": subset,
         "vocabulary": None if vocabulary is None else list(vocabulary),
     }
@@ -254,7 +258,8 @@ def read_about(out: Path) -> dict[str, Any]:
     about = read_json(inside(out, "run.json", "the run's settings", _RUN_FIX), "the run's settings", _RUN_FIX)
     if not isinstance(about, dict):
         raise InputError(f"the run's settings {str(out / 'run.json')!r} are not a table", _RUN_FIX)
-    return about
+    # a run made before a setting was kept was made with its default (there was no other way then)
+    return {**{key: Settings.model_fields[key].default for key in RECORDED}, **about} if about else about
 
 
 def _records_files(out: Path) -> list[Path]:
