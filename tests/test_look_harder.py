@@ -349,6 +349,23 @@ def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
     assert faint_pick([nowhere], [apple, orange]) is None
 
 
+def test_a_faint_box_grows_to_the_candidate_it_frames_where_that_is_the_names_size():
+    """A faint box of a book framing its spine (a part of it) is taken with the extent depth sees of the book
+    it frames; a candidate it frames that no book can be (a table's edge) does not grow it."""
+    from attribot.api.harder import grown_to_candidates
+    from attribot.control.candidates import Candidate
+
+    spine = Detection(box=(176, 226, 199, 233), score=0.02, label="book")
+    book = Candidate((168, 226, 204, 238), 0.03, 70, 0.21)
+    table_edge = Candidate((150, 228, 400, 236), 0.02, 300, 1.2)
+    book_size = (0.18, 0.26)
+    assert grown_to_candidates(spine, [book], book_size).box == (168, 226, 204, 238)
+    assert grown_to_candidates(spine, [table_edge], book_size).box == spine.box
+    assert grown_to_candidates(spine, [book], None).box == spine.box  # a name of no known size
+    elsewhere = Candidate((400, 100, 430, 120), 0.03, 40, 0.2)
+    assert grown_to_candidates(spine, [elsewhere], book_size).box == spine.box
+
+
 def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
     from attribot.api.harder import by_elimination
     from attribot.control.candidates import Candidate

@@ -194,10 +194,12 @@ def _unseen(
     `report`)."""
     # a place another name's find took holds that object
     free = [c for c in candidates if not any(_inside(_middle(c.box), d.box) for d in claimed)]
+    category = find_category(name)
+    sizes = None if category is None else category.size_range_m
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
     if faint is not None:
         report.faint = faint.score
-        return [faint]
+        return [grown_to_candidates(faint, free, sizes)]
     whole = (0, 0, frame.width, frame.height)
     # a box of the name's own class, or of a class another name of the program stands for, explains no
     # place: each of those names is one object, its best box (in `claimed`), which explains its place
@@ -207,8 +209,6 @@ def _unseen(
     # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
     others = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera)]
     others += [d.model_copy(update={"score": 1.0}) for d in claimed]
-    category = find_category(name)
-    sizes = None if category is None else category.size_range_m
     placement = None if category is None else category.placement
     if nearer is not None:
         seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement))
@@ -281,7 +281,7 @@ def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: Camera
         return True
     # the nearer quarter of what the box holds: the object, not the wall behind it
     metres = float(np.percentile(depth, 25)) * max((x1 - x0) / camera.fx, (y1 - y0) / camera.fy)
-    return sizes[0] * 0.5 <= metres <= sizes[1] * 1.5
+    return fits_size(metres, sizes)
 
 
 @cache
@@ -302,6 +302,39 @@ def _class(detector: Detector, name: str | None) -> str | None:
     """The one class a closed-set detector reaches with `name` (a mug: "cup"), else the name itself."""
     class_of = getattr(detector, "class_of", None)
     return (class_of(name) if class_of is not None and name else None) or name
+
+
+SIZE_SLACK = (0.5, 1.5)
+"""A size as depth sees it fits a name's size range from this share of its smallest (depth may see only a
+part: an object's near side, its top) to this share of its largest."""
+
+
+def fits_size(size: float, size_range: tuple[float, float]) -> bool:
+    """Whether `size` (metres, as depth sees it) fits `size_range` within `SIZE_SLACK`."""
+    return size_range[0] * SIZE_SLACK[0] <= size <= size_range[1] * SIZE_SLACK[1]
+
+
+def grown_to_candidates(
+    det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
+) -> Detection:
+    """`det` (a faint box) grown to hold the candidates it frames whose size fits the name's: a faint box
+    often frames a part of the object (a thin book's spine, the scissors' handles), where depth and colour
+    see its whole extent."""
+    if size_range is None:
+        return det
+    boxes = [
+        det.box,
+        *(candidates[i].box for i in _framed(det, candidates) if fits_size(candidates[i].size, size_range)),
+    ]
+    if len(boxes) == 1:
+        return det
+    union = (
+        min(b[0] for b in boxes),
+        min(b[1] for b in boxes),
+        max(b[2] for b in boxes),
+        max(b[3] for b in boxes),
+    )
+    return det.model_copy(update={"box": union})
 
 
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
@@ -330,18 +363,17 @@ def by_elimination(
 ) -> Candidate | None:
     """The one candidate that can be the object looked for by elimination, or None where none or several
     can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
-    size as depth sees it fits `size_range` (as in `visit_order`), whole in the image (a candidate cut by
+    size as depth sees it fits `size_range` (`fits_size`), whole in the image (a candidate cut by
     the image's edge is most often the furniture the robot stands at), no part of the furniture, and
     where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several
     are left, the one of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
     if size_range is None:
         return None
-    lo, hi = size_range[0] * 0.5, size_range[1] * 1.5
     sure = [d for d in others if d.score >= UNSURE]
     left = [
         c
         for c in candidates
-        if lo <= c.size <= hi
+        if fits_size(c.size, size_range)
         and not _furniture(c)
         and not _misplaced(c, placement)
         and not _at_edge(c.box, width, height)
