@@ -557,16 +557,23 @@ def test_one_faint_box_framing_an_object_depth_sees_in_two_parts_points_at_one_p
     assert faint_pick([bowl], [body, rim]) == bowl
 
 
+def _first_look(seed: int, category: str):
+    """The robot's first look at a household scene drawn in coco's classes, and the truth of its object of
+    `category`."""
+    from attribot.models.coco import CocoDetector
+
+    config = SceneConfig(layout="household", seed=seed, vocabulary=findable_categories(CocoDetector()))
+    with MujocoWorld(config) as world:
+        _, image = _look(world, ZoomOnlyDetector())
+        truth = next(o for o in world.scene_info().objects if o.category == category)
+    return image, truth
+
+
 def test_an_object_before_a_shelfs_back_panel_is_split_from_it():
     """A bowl on a bookcase's middle board 3 m away stands 10 cm before the back panel: under the depth
     jump that parts objects from what is behind them there, so the panel and the bowl were one region
     too wide for an object, and the bowl no candidate."""
-    from attribot.models.coco import CocoDetector
-
-    config = SceneConfig(layout="household", seed=50007, vocabulary=findable_categories(CocoDetector()))
-    with MujocoWorld(config) as world:
-        _, image = _look(world, ZoomOnlyDetector())
-        bowl = next(o for o in world.scene_info().objects if o.category == "bowl")
+    image, bowl = _first_look(50007, "bowl")
     cap = image.capture
     candidates = StandingMap.of(image.frame.depth, cap.camera, cap.view).candidates()
     assert any(_inside(((c.box[0] + c.box[2]) / 2, (c.box[1] + c.box[3]) / 2), bowl.box) for c in candidates)
@@ -578,12 +585,8 @@ def test_a_book_lying_on_a_table_stands_on_the_table_not_on_a_level_elsewhere_at
     that one and only its front face stood out: a box of a third of the book. Over the level under it on
     the floor plan (the table's), the whole book is one candidate."""
     from attribot.boxes import iou
-    from attribot.models.coco import CocoDetector
 
-    config = SceneConfig(layout="household", seed=50013, vocabulary=findable_categories(CocoDetector()))
-    with MujocoWorld(config) as world:
-        _, image = _look(world, ZoomOnlyDetector())
-        book = next(o for o in world.scene_info().objects if o.category == "book")
+    image, book = _first_look(50013, "book")
     cap = image.capture
     candidates = StandingMap.of(image.frame.depth, cap.camera, cap.view).candidates()
     best = max(candidates, key=lambda c: iou(c.box, book.box))
@@ -596,12 +599,7 @@ def test_what_lies_flat_on_a_table_is_a_candidate_by_its_colour(seed, flat):
     """A fork or a knife lying on a table rises a few millimetres: depth alone does not see it stand (or sees
     only a knife's raised handle). Its colour stands out from the table's around it, so the image's colours
     make it a candidate; the table's grain, its light and the floor's tiles do not."""
-    from attribot.models.coco import CocoDetector
-
-    config = SceneConfig(layout="household", seed=seed, vocabulary=findable_categories(CocoDetector()))
-    with MujocoWorld(config) as world:
-        _, image = _look(world, ZoomOnlyDetector())
-        truth = next(o for o in world.scene_info().objects if o.category == flat)
+    image, truth = _first_look(seed, flat)
     cap, frame = image.capture, image.frame
     depth_only = StandingMap.of(frame.depth, cap.camera, cap.view).candidates()
     with_colour = StandingMap.of(frame.depth, cap.camera, cap.view, frame.rgb).candidates()
@@ -658,12 +656,8 @@ def test_a_knifes_raised_handle_and_its_blade_lying_flat_are_one_candidate_of_it
     """Depth sees the handle of this knife rise a centimetre, and its blade not at all: on depth alone the
     candidate is 10 cm long, under half a knife. The blade's colour joins it to the handle."""
     from attribot.boxes import iou
-    from attribot.models.coco import CocoDetector
 
-    config = SceneConfig(layout="household", seed=40012, vocabulary=findable_categories(CocoDetector()))
-    with MujocoWorld(config) as world:
-        _, image = _look(world, ZoomOnlyDetector())
-        knife = next(o for o in world.scene_info().objects if o.category == "knife")
+    image, knife = _first_look(40012, "knife")
     cap, frame = image.capture, image.frame
     alone = StandingMap.of(frame.depth, cap.camera, cap.view).candidates()
     joined = StandingMap.of(frame.depth, cap.camera, cap.view, frame.rgb).candidates()
