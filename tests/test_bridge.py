@@ -719,6 +719,72 @@ def test_a_robot_that_answers_a_deep_message_is_a_bridge_error_on_the_host():
         thread.join(timeout=10)
 
 
+class PartsDriver(RecordingDriver):
+    """A robot whose frames carry the per-pixel parts given, as it sends them (well formed or not)."""
+
+    def __init__(self, **parts: Any) -> None:
+        super().__init__()
+        self.parts = parts
+
+    def capabilities(self) -> list[str]:
+        return ["camera"]
+
+    def frame(self) -> CameraFrame:
+        frame = super().frame()
+        for name, value in self.parts.items():
+            setattr(frame, name, value)
+        return frame
+
+
+@pytest.mark.parametrize(
+    "parts, named",
+    [
+        ({"own_body": np.ones((3, 4), bool)}, "own_body part of shape"),  # not the frame's 2 x 4
+        ({"depth": np.ones((2, 5), np.float32)}, "depth part of shape"),
+        ({"segmentation": np.full((2, 4), -1, np.int32)}, None),  # well formed: kept
+        ({"own_body": np.eye(2, 4, dtype=bool)}, None),
+    ],
+)
+def test_a_frames_per_pixel_parts_must_be_the_frames_size(parts, named):
+    """Depth, segmentation and the robot's own pixels come at the camera frame's size, or the frame is
+    refused naming the part (a robot's reply is read within bounds, as a request is)."""
+    with (
+        serving(lambda: PartsDriver(**parts)) as (server, _),
+        BridgeWorld(url=url(server), token=TOKEN) as bridge,
+    ):
+        if named is not None:
+            with pytest.raises(BridgeError, match=named):
+                bridge.observe()
+            return
+        frame = bridge.observe()
+    if "own_body" in parts:
+        assert np.array_equal(frame.own_body, parts["own_body"])
+    else:
+        assert np.array_equal(frame.segmentation, parts["segmentation"]) and frame.own_body is None
+
+
+def test_a_compressed_part_is_never_inflated_past_the_frames_size(monkeypatch):
+    """A segmentation that inflates to far more than a frame's worth (a zip bomb) is refused after
+    reading one byte more than the frame's size."""
+    import zlib
+
+    from attribot.bridge import server as robot_side
+
+    real = robot_side._frame
+
+    def bomb(driver, frame):
+        header, payload = real(driver, frame)
+        huge = zlib.compress(b"\0" * (64 << 20), 9)  # 64 MiB of zeros in about 64 kB
+        header["parts"] = [["jpeg", header["parts"][0][1]], ["segmentation", len(huge)]]
+        header["segmentation_shape"] = [2, 4]
+        return header, payload[: header["parts"][0][1]] + huge
+
+    monkeypatch.setattr(robot_side, "_frame", bomb)
+    with serving(lambda: PartsDriver()) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as bridge:
+        with pytest.raises(BridgeError, match="segmentation part holds 33 bytes where 32 were due"):
+            bridge.observe()
+
+
 # --- the mujoco driver end to end ----------------------------------------------------------------
 
 
@@ -749,6 +815,19 @@ def test_frames_and_sensors_over_the_bridge_match_the_direct_world(mujoco_server
         assert np.array_equal(got.segmentation, want.segmentation) and got.objects == want.objects
         assert bridge.read_distance() == direct.read_distance()
         assert bridge.joint_states() == direct.joint_states()
+        # the robot's own pixels travel too (the head looking down at its gripper): detectors on the host
+        # set aside a box on it
+        joints = bridge.joint_states()
+        for world in (bridge, direct):
+            world.set_head(0.0, -1.0)
+            world.step(1.0)
+        got, want = bridge.observe(), direct.observe()
+        bridge.set_head(
+            joints["head_pan"], joints["head_tilt"]
+        )  # the server's world as the next test expects
+        bridge.step(1.0)
+        assert want.own_body is not None and want.own_body.any()
+        assert got.own_body is not None and np.array_equal(got.own_body, want.own_body)
 
 
 class _PrivilegedThroughBridge:

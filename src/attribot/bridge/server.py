@@ -42,7 +42,9 @@ log = logging.getLogger("attribot.bridge")
 
 
 class CameraFrame:
-    """What a driver's camera gives: JPEG bytes, capture time, optional depth / segmentation / objects."""
+    """What a driver's camera gives: JPEG bytes, capture time, optional depth / segmentation / objects, and
+    optionally where the robot sees its own body (`own_body`: bool [H, W], from its joint angles and model:
+    the host's detectors set aside a box on the gripper)."""
 
     def __init__(
         self,
@@ -51,12 +53,14 @@ class CameraFrame:
         depth: np.ndarray | None = None,
         segmentation: np.ndarray | None = None,
         objects: list[dict[str, Any]] | None = None,
+        own_body: np.ndarray | None = None,
     ) -> None:
         self.jpeg = jpeg
         self.timestamp = timestamp
         self.depth = depth
         self.segmentation = segmentation
         self.objects = objects
+        self.own_body = own_body
 
 
 class Driver:
@@ -674,6 +678,12 @@ def _frame(driver: Driver, frame: CameraFrame) -> tuple[dict[str, Any], bytes]:
         parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
         header["segmentation_shape"] = list(seg.shape)
         header["objects"] = frame.objects or []
+    if frame.own_body is not None:
+        import numpy as np
+
+        own = np.asarray(frame.own_body, dtype=bool)
+        parts.append(("own_body", zlib.compress(np.packbits(own).tobytes(), 1)))
+        header["own_body_shape"] = list(own.shape)
     header["parts"] = [[name, len(data)] for name, data in parts]
     return header, b"".join(data for _, data in parts)
 

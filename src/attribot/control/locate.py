@@ -2,8 +2,9 @@
 after centring on it (along the optical axis, or, on a camera riding on an arm, by the beam at the gripper:
 `attribot.control.ranging`), or by looking where it should be and finding it again with the detector
 (turning the camera a little, then a third of the view aside, then backing off, when the detector misses
-it; then depth, where something of its height still stands where it was). A camera without a pan-tilt head is turned by turning the base, and raised or lowered with the arm
-that carries it. Also the floor map built from depth images and the floor point under a pixel."""
+it; then depth, where something of its height still stands where it was). A camera without a pan-tilt
+head is turned by turning the base, and raised or lowered with the arm that carries it. Also the floor map
+built from depth images and the floor point under a pixel."""
 
 from __future__ import annotations
 

@@ -182,14 +182,18 @@ class BridgeWorld(Embodiment):
         if bgr is None:
             raise BridgeError("the robot sent a frame that is not a JPEG image", "check the robot's camera")
         rgb = np.ascontiguousarray(bgr[:, :, ::-1])
+        size = rgb.shape[:2]
         depth = None
         if "depth" in parts:
-            depth = np.frombuffer(parts["depth"], "<f4").reshape(head["depth_shape"]).astype(np.float32)
+            depth = _image_part(parts, head, "depth", size, "<f4").astype(np.float32)
+        own = None
+        if "own_body" in parts:  # packed bits, row-major: the robot's own pixels
+            bits = _image_part(parts, head, "own_body", size, "u1", packed_bits=True)
+            own = np.unpackbits(bits)[: size[0] * size[1]].reshape(size).astype(bool)
         seg = None
         objects: dict[int, ObjectTruth] = {}
         if "segmentation" in parts:
-            raw = zlib.decompress(parts["segmentation"])
-            seg = np.frombuffer(raw, "<i4").reshape(head["segmentation_shape"]).astype(np.int32)
+            seg = _image_part(parts, head, "segmentation", size, "<i4", compressed=True).astype(np.int32)
             for item in head.get("objects", []):
                 objects[int(item["key"])] = ObjectTruth(
                     id=item["id"],
@@ -204,7 +208,7 @@ class BridgeWorld(Embodiment):
             else CameraInfo(**{k: cam[k] for k in CameraInfo.__dataclass_fields__})
         )
         self.last_timestamp = float(head.get("timestamp", time.time()))
-        return Frame(rgb=rgb, depth=depth, segmentation=seg, objects=objects, camera=camera)
+        return Frame(rgb=rgb, depth=depth, segmentation=seg, objects=objects, camera=camera, own_body=own)
 
     def body(self) -> BodyGeometry:
         if self._body is None:
@@ -300,6 +304,7 @@ class EmbodimentDriver(Driver):
             depth=frame.depth,
             segmentation=frame.segmentation,
             objects=objects if frame.segmentation is not None else None,
+            own_body=frame.own_body,
         )
 
     def clock(self) -> float:
@@ -363,3 +368,41 @@ class EmbodimentDriver(Driver):
 def _bridge_controller(world: object) -> ServoController:
     """A robot behind the bridge is driven by what it perceives: the servo controller, by default."""
     return ServoController(world)
+
+
+def _image_part(
+    parts: dict[str, bytes],
+    head: dict[str, Any],
+    name: str,
+    size: tuple[int, int],
+    dtype: str,
+    compressed: bool = False,
+    packed_bits: bool = False,
+) -> np.ndarray:
+    """A per-pixel part of an `observe` reply (`depth`, `segmentation`, `own_body`) as an [H, W] array (with
+    `packed_bits`: its bytes, one bit a pixel, row-major; zlib-compressed like `compressed` ones, which are
+    never inflated past the frame's size). Its stated shape must be the frame's [H, W] and its bytes
+    exactly that many values, else a BridgeError naming the part."""
+    shape = head.get(f"{name}_shape")
+    if shape != list(size):
+        raise BridgeError(
+            f"the robot sent a {name} part of shape {str(shape)[:40]} for a frame of {size[0]}x{size[1]}",
+            "send depth, segmentation and own_body at the camera frame's size (see docs/bridge-protocol.md)",
+        )
+    pixels = size[0] * size[1]
+    want = (pixels + 7) // 8 if packed_bits else pixels * np.dtype(dtype).itemsize
+    data = parts[name]
+    if compressed or packed_bits:
+        inflate = zlib.decompressobj()
+        try:
+            data = inflate.decompress(data, want + 1)
+        except zlib.error:
+            data = b""
+    if len(data) != want:
+        raise BridgeError(
+            f"the robot's {name} part holds {len(data)} bytes where {want} were due",
+            "send the part as docs/bridge-protocol.md describes",
+        )
+    if packed_bits:
+        return np.frombuffer(data, np.uint8)
+    return np.frombuffer(data, dtype).reshape(size)
