@@ -21,6 +21,7 @@ __all__ = [
     "nms",
     "clip",
     "center",
+    "enclosing",
     "crop_array",
     "to_upward",
     "from_upward",
@@ -115,6 +116,16 @@ def center(box: Sequence[float]) -> tuple[float, float]:
     """Centre `(x, y)` of an xyxy box, in pixels, y down."""
     x0, y0, x1, y1 = box
     return (x0 + x1) / 2.0, (y0 + y1) / 2.0
+
+
+def enclosing(boxes: Sequence[Sequence[float]]) -> Box:
+    """The smallest xyxy box holding all of `boxes` (at least one)."""
+    return (
+        float(min(b[0] for b in boxes)),
+        float(min(b[1] for b in boxes)),
+        float(max(b[2] for b in boxes)),
+        float(max(b[3] for b in boxes)),
+    )
 
 
 def crop_array(array: np.ndarray, box: Sequence[float]) -> np.ndarray:

@@ -28,7 +28,7 @@ from functools import cache
 
 import numpy as np
 
-from attribot.boxes import crop_array, iou, overlap_of_smaller
+from attribot.boxes import center, crop_array, enclosing, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
@@ -193,7 +193,7 @@ def _unseen(
     find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
     `report`)."""
     # a place another name's find took holds that object
-    free = [c for c in candidates if not any(_inside(_middle(c.box), d.box) for d in claimed)]
+    free = [c for c in candidates if not any(_inside(center(c.box), d.box) for d in claimed)]
     category = find_category(name)
     sizes = None if category is None else category.size_range_m
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
@@ -328,13 +328,7 @@ def grown_to_candidates(
     ]
     if len(boxes) == 1:
         return det
-    union = (
-        min(b[0] for b in boxes),
-        min(b[1] for b in boxes),
-        max(b[2] for b in boxes),
-        max(b[3] for b in boxes),
-    )
-    return det.model_copy(update={"box": union})
+    return det.model_copy(update={"box": enclosing(boxes)})
 
 
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
@@ -377,7 +371,7 @@ def by_elimination(
         and not _furniture(c)
         and not _misplaced(c, placement)
         and not _at_edge(c.box, width, height)
-        and not any(_inside(_middle(c.box), d.box) for d in sure)
+        and not any(_inside(center(c.box), d.box) for d in sure)
     ]
     if len(left) > 1 and coloured is not None:
         left = [c for c in left if coloured(c)] or left
@@ -444,7 +438,7 @@ def visit_order(
     smaller (a detector misses the small ones); furniture legs left out."""
 
     def explained(cand: Candidate) -> float:
-        middle = _middle(cand.box)
+        middle = center(cand.box)
         return round(max((d.score for d in others if _inside(middle, d.box)), default=0.0), 1)
 
     def misfit(cand: Candidate) -> float:
@@ -498,16 +492,12 @@ def _on_candidate(det: Detection, candidates: list[Candidate]) -> bool:
 def _framed(det: Detection, candidates: list[Candidate]) -> list[int]:
     """The indices of the candidates a detection frames: the candidate's middle inside the box, or the
     box's middle inside the candidate's box."""
-    middle = _middle(det.box)
+    middle = center(det.box)
     return [
         i
         for i, cand in enumerate(candidates)
-        if _inside(_middle(cand.box), det.box) or _inside(middle, cand.box)
+        if _inside(center(cand.box), det.box) or _inside(middle, cand.box)
     ]
-
-
-def _middle(box: tuple[float, float, float, float]) -> tuple[float, float]:
-    return (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
 
 
 def _inside(point: tuple[float, float], box: tuple[float, float, float, float]) -> bool:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from attribot.boxes import overlap_of_smaller
+from attribot.boxes import enclosing, overlap_of_smaller
 from attribot.control.body import CameraPose
 from attribot.control.spatial import point_map
 from attribot.frame import CameraInfo
@@ -194,13 +194,7 @@ class StandingMap:
         """`cand` with the regions of `boxes` and their points `xyz` (N, 3) joined to it."""
         both = np.concatenate([self._points_in(cand.box), xyz])
         span = float(np.ptp(both[:, :2], axis=0).max())
-        every = [cand.box, *boxes]
-        union = (
-            min(b[0] for b in every),
-            min(b[1] for b in every),
-            max(b[2] for b in every),
-            max(b[3] for b in every),
-        )
+        union = enclosing([cand.box, *boxes])
         return Candidate(union, cand.rise, cand.pixels + len(xyz), max(span, cand.rise), span, cand.bottom)
 
     def _regions(self, mask: np.ndarray, found: list[Candidate]) -> np.ndarray:
