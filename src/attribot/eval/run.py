@@ -48,7 +48,6 @@ from attribot.eval.suite import METHODS, task_names
 from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
 from attribot.shutdown import die_with_parent
-from attribot.text import shown_url
 
 __all__ = [
     "EvalPlan",
@@ -113,7 +112,6 @@ MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "hf_device"})
 hash-checked, anywhere): a run resumes on another machine."""
 RECORDED = tuple(n for n in Settings.model_fields if n not in set(SECRETS) | MACHINE_LOCAL)
 """The settings a run keeps in its run.json: every one but the secrets and the machine-local ones."""
-_URLS = ("detector", "vqa", "language", "llm_base_url")
 
 
 def fingerprint(
@@ -126,11 +124,9 @@ def fingerprint(
     ones), the dataset's version, `subset` (the closed-set detector whose classes chose the items; None:
     every item), `vocabulary` (the categories it can find, in which the embodied tasks' items are drawn;
     None: the catalog's) and `seed`, the root seed of the items (written only when it is not 0, so that
-    runs made before it was one still resume). A password in a URL is not written down (`shown_url`)."""
-    values = settings.model_dump(mode="json", include=set(RECORDED))
-    for key in _URLS:
-        if values.get(key) is not None:
-            values[key] = shown_url(str(values[key]))
+    runs made before it was one still resume). A password in a URL is not written down
+    (`Settings.public_dict`)."""
+    values = settings.public_dict()
     about = {
         "dataset_version": DATASET_VERSION,
         **{key: values[key] for key in RECORDED},
