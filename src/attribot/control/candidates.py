@@ -267,7 +267,7 @@ def _rise_map(
     under = np.full(z.shape, np.nan)
     for height, place in levels:  # ascending: a higher level under the point replaces a lower one
         under = np.where((z + LEVEL_BIN_M / 2 >= height) & place[cells], height, under)
-    heights = np.array(sorted(h for h, _ in levels))
+    heights = np.array([h for h, _ in levels])  # ascending, as `_levels` gives them
     anywhere = np.searchsorted(heights, z + LEVEL_BIN_M / 2, side="right") - 1
     nearest = np.where(anywhere >= 0, heights[np.clip(anywhere, 0, None)], np.nan)
     with np.errstate(invalid="ignore"):

@@ -188,7 +188,7 @@ class BridgeWorld(Embodiment):
             depth = _image_part(parts, head, "depth", size, "<f4").astype(np.float32)
         own = None
         if "own_body" in parts:  # packed bits, row-major: the robot's own pixels
-            bits = _image_part(parts, head, "own_body", size, "u1", packed_bits=True)
+            bits = _image_part(parts, head, "own_body", size, "u1", compressed=True, packed_bits=True)
             own = np.unpackbits(bits)[: size[0] * size[1]].reshape(size).astype(bool)
         seg = None
         objects: dict[int, ObjectTruth] = {}
@@ -380,9 +380,9 @@ def _image_part(
     packed_bits: bool = False,
 ) -> np.ndarray:
     """A per-pixel part of an `observe` reply (`depth`, `segmentation`, `own_body`) as an [H, W] array (with
-    `packed_bits`: its bytes, one bit a pixel, row-major; zlib-compressed like `compressed` ones, which are
-    never inflated past the frame's size). Its stated shape must be the frame's [H, W] and its bytes
-    exactly that many values, else a BridgeError naming the part."""
+    `packed_bits`: its bytes, one bit a pixel, row-major). A `compressed` part (zlib) is never inflated past
+    the frame's size. Its stated shape must be the frame's [H, W] and its bytes exactly that many values,
+    else a BridgeError naming the part."""
     shape = head.get(f"{name}_shape")
     if shape != list(size):
         raise BridgeError(
@@ -392,7 +392,7 @@ def _image_part(
     pixels = size[0] * size[1]
     want = (pixels + 7) // 8 if packed_bits else pixels * np.dtype(dtype).itemsize
     data = parts[name]
-    if compressed or packed_bits:
+    if compressed:
         inflate = zlib.decompressobj()
         try:
             data = inflate.decompress(data, want + 1)
