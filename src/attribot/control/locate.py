@@ -174,21 +174,28 @@ class Locator:
         frame, box = self.look_again(
             target, camera, search, where, aside=persist, nudges=None if persist else 0
         )
-        if box is None and persist and self.plant.has("base") and self.plant.tuning.back_off_m > 0:
-            # missed from here at every turn of the camera (a viewpoint the detector fails from): step
-            # back and look again from farther away, before giving it up
-            self.driver.straight(-self.plant.tuning.back_off_m)
-            self.aim(np.array(est.centre), body, target, holding)
-            frame, box = self.look_again(target, camera, search, where)
         if box is None and target.by_depth:
-            # the detector never saw it surely: where depth placed it is all there is to go on
-            return est
-        if box is None:
-            # the detector misses it from every view here (a backpack close up, seen from above), though it
-            # found it from afar: where depth still sees something of its height where it was, that is it
+            # the detector never saw it surely: where depth placed it is all there is to go on, seen again
+            # from here (odometry that drifted on the way puts the old place a few centimetres off)
+            return self.still_there(est, camera, body, where) or est
+        # the detector misses it from every view here (a backpack close up, seen from above), though it
+        # found it from afar: where depth still sees something of its height where it was, that is it.
+        # Depth is asked before backing off: a base that backs off to see stands elsewhere than where it
+        # must reach from, and lining up would back off again at every correction
+        can_back_off = self.plant.has("base") and self.plant.tuning.back_off_m > 0
+        for backed_off in (False, True) if can_back_off else (False,):
+            if box is not None:
+                break
+            if backed_off:  # a viewpoint the detector fails from: look again from farther away
+                self.driver.straight(-self.plant.tuning.back_off_m)
+                self.aim(np.array(est.centre), body, target, holding)
+                frame, box = self.look_again(target, camera, search, where)
+                if box is not None:
+                    break
             held_by_depth = self.still_there(est, camera, body, where)
             if held_by_depth is not None:
                 return held_by_depth
+        if box is None:
             raise ControlError(
                 f"target lost: the camera no longer sees {target.describe()} where it was "
                 f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
