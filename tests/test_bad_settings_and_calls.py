@@ -58,6 +58,8 @@ def refused(result, *words: str) -> str:
         ('llm_model = "gpt\\n4"\n', ["llm_model", "control characters"]),
         (f'llm_model = "{"x" * 5000}"\n', ["llm_model", "5000 characters"]),
         ('cache_dir = "a\\u0000b"\n', ["cache_dir", "control characters (\\x00)"]),
+        # refused where the settings are read, not when the first query runs
+        ('checks = "all,-look_agian"\n', ["checks", "unknown check", "look_again, look_harder"]),
     ],
 )
 def test_bad_values_in_the_settings_file_are_refused_never_echoing_a_secret(tmp_path, content, words):

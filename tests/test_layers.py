@@ -27,6 +27,7 @@ LEVELS: list[set[str]] = [
         "video",
         "gridpath",
         "noise",  # noise presets and the world's imperfections: plain data (pydantic)
+        "mechanisms",  # the error-catching mechanisms' names and `--checks` parsing: plain data
         "sensors",  # sensor plug-ins: names, units, what a reading needs (plain records)
         "bridge",  # the robot side: standard library, numpy and the SDK only, nothing of attribot
     },

@@ -503,7 +503,7 @@ def _checks(spec: str | None) -> str | None:
     """`--checks` checked now (an unknown name is a usage error before any world is built)."""
     if spec is None:
         return None
-    from attribot.api.safeguards import parse_checks
+    from attribot.mechanisms import parse_checks
 
     return ",".join(parse_checks(spec)) or "none"
 

@@ -43,6 +43,7 @@ from pydantic_settings import (
 
 from attribot.errors import ConfigError, InputError, InvalidSetting, InvalidValue
 from attribot.files import not_a_file, read_capped
+from attribot.mechanisms import Mechanism, parse_checks
 from attribot.noise import WorldNoise
 from attribot.registry import Registry
 from attribot.text import plain_value, shown_url
@@ -179,6 +180,20 @@ class Settings(BaseSettings):
         if len(value) > MAX_TEXT_SETTING_CHARS:
             raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
         return value
+
+    @field_validator("checks")
+    @classmethod
+    def _known_checks(cls, value: str) -> str:
+        try:
+            parse_checks(value)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+        return value
+
+    @property
+    def mechanisms(self) -> frozenset[Mechanism]:
+        """The error-catching mechanisms `checks` switches on."""
+        return frozenset(parse_checks(self.checks))
 
     @field_validator("llm_base_url")
     @classmethod

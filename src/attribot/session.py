@@ -31,6 +31,7 @@ from attribot.config import (
 from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file, check_writable, inside, read_capped, read_json, write_whole
 from attribot.frame import load_image
+from attribot.mechanisms import Mechanism
 from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 from attribot.text import shown_url
@@ -265,11 +266,11 @@ class Session:
         title: str = "",
     ) -> None:
         from attribot.api.perception import Perception
-        from attribot.api.safeguards import Safeguards, parse_checks
+        from attribot.api.safeguards import Safeguards
 
         self.scene = scene
         self.settings = settings
-        self.safeguards = Safeguards(parse_checks(settings.checks))
+        self.safeguards = Safeguards(settings.mechanisms)
         self.start: Any = None  # the robot's state when the first try started, for the next tries
         self.first_image: Any = None
         self.runs = 0
@@ -307,7 +308,7 @@ class Session:
         self.sensors = list(self.scene.sensors or ["camera"])
         self.robot = Robot(sensors=self.sensors)
         self.image = ImagePatch.from_image(rgb, self.perception)
-        if self.safeguards.on("look_again"):  # a still image is looked at again within itself
+        if self.safeguards.on(Mechanism.LOOK_AGAIN):  # a still image is looked at again within itself
             self.image.safeguards = self.safeguards
 
     def _world(self, record: bool) -> None:
@@ -340,7 +341,7 @@ class Session:
             )
         self.image = self.robot.look(self.perception, survey=not self.scene.still)
         self.first_image = self.image
-        if self.safeguards.on("reset"):
+        if self.safeguards.on(Mechanism.RESET):
             self.start = self.robot.snapshot()
 
     def findable(self) -> str:
@@ -370,12 +371,14 @@ class Session:
             self.robot.restore(self.start, self.first_image)
             self.image = self.first_image
             self.safeguards.note(
-                "reset", try_name, "caught", "the robot was put back where the first try started"
+                Mechanism.RESET, try_name, "caught", "the robot was put back where the first try started"
             )
         else:  # a world that cannot put its robot back: start with empty hands from what it sees now
             self.image = self.robot.look(self.perception, survey=not self.scene.still)
-            if self.safeguards.on("reset"):
-                self.safeguards.note("reset", try_name, "unsettled", "this world cannot put the robot back")
+            if self.safeguards.on(Mechanism.RESET):
+                self.safeguards.note(
+                    Mechanism.RESET, try_name, "unsettled", "this world cannot put the robot back"
+                )
 
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
@@ -386,7 +389,9 @@ class Session:
         try:
             return self.robot.settle(chosen)
         except Exception as exc:  # noqa: BLE001 (measuring again failed: keep the program's own answer)
-            self.safeguards.note("confidence", "answer", "unsettled", f"measuring again failed: {exc}")
+            self.safeguards.note(
+                Mechanism.CONFIDENCE, "answer", "unsettled", f"measuring again failed: {exc}"
+            )
             return None
 
     def backends(self) -> dict[str, str]:

@@ -11,6 +11,7 @@ from attribot.api.checks import check_number, check_text
 from attribot.api.errors import ApiArgumentError
 from attribot.api.harder import acting_find, look_harder
 from attribot.api.looking import reexamine
+from attribot.api.safeguards import Mechanism
 from attribot.boxes import from_upward
 from attribot.control.base import Target
 from attribot.errors import BackendError
@@ -36,7 +37,7 @@ def find_in(patch: ImagePatch, object_name: str) -> list[ImagePatch]:
             f"the detector {patch.perception.detector.name!r} did not return a list of Detection",
             "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
         )
-    if patch.safeguards is not None and patch.safeguards.on("look_again"):
+    if patch.safeguards is not None and patch.safeguards.on(Mechanism.LOOK_AGAIN):
         first = len(detections)
         # the image itself looked at again (its boxes averaged), then the views around it
         detections, report = reexamine(patch.perception.detector, pixels, name, detections)
@@ -47,7 +48,7 @@ def find_in(patch: ImagePatch, object_name: str) -> list[ImagePatch]:
         changed = any(r.dropped or r.added or r.conflicts for r in reports)
         doubtful = any(r.unconfirmed for r in reports)
         patch.safeguards.note(
-            "look_again",
+            Mechanism.LOOK_AGAIN,
             f"find({name!r})",
             "caught" if changed else "unsettled" if doubtful else "confirmed",
             "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
@@ -86,7 +87,7 @@ def _looked_harder(
     robot's whole image with depth, and the detector reads pixels; and those of them it took on weaker
     evidence than the detector's (a faint box, elimination)."""
     guards, detector = patch.safeguards, patch.perception.detector
-    if guards is None or not guards.on("look_harder") or not patch._whole() or patch.capture is None:
+    if guards is None or not guards.on(Mechanism.LOOK_HARDER) or not patch._whole() or patch.capture is None:
         return detections, []
     if not cacheable(detector):
         return detections, []
@@ -100,7 +101,9 @@ def _looked_harder(
         patch.named[name] = max(harder, key=lambda d: d.score)
     if report.views or report.set_aside:
         caught = report.added or report.set_aside or report.found_nearer or report.taken
-        guards.note("look_harder", f"find({name!r})", "caught" if caught else "unsettled", report.describe())
+        guards.note(
+            Mechanism.LOOK_HARDER, f"find({name!r})", "caught" if caught else "unsettled", report.describe()
+        )
     return harder, (harder if report.taken else [])
 
 

@@ -15,6 +15,7 @@ from attribot.api.checks import check_patch
 from attribot.api.errors import ActionFailed, ApiArgumentError, PreconditionError
 from attribot.api.patch import ImagePatch
 from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _named, _own_sense
+from attribot.api.safeguards import Mechanism
 from attribot.control.base import (
     Target,
 )
@@ -49,7 +50,7 @@ class Measuring(SessionCore):
         margin to the next one lies inside their uncertainty, measure both again (up to SETTLE_ROUNDS),
         combining the readings. None when settled (or nothing to settle); otherwise the sentence that says
         it cannot tell, naming both values."""
-        if not self.safeguards.on("confidence"):
+        if not self.safeguards.on(Mechanism.CONFIDENCE):
             return None
         mine = [(m, p) for m, p in self._measured if p.same_object(chosen) or p is chosen]
         if not mine:
@@ -66,7 +67,9 @@ class Measuring(SessionCore):
             call = f"answer({chosen.label or 'patch'})"
             if not close:
                 if round_ > 0:
-                    self.safeguards.note("confidence", call, "caught", "settled after measuring again")
+                    self.safeguards.note(
+                        Mechanism.CONFIDENCE, call, "caught", "settled after measuring again"
+                    )
                 return None
             if round_ == self.SETTLE_ROUNDS:
                 rival = close[0]
@@ -75,7 +78,7 @@ class Measuring(SessionCore):
                     f"{_named(rival[2])} ({rival[0]:.3f} +/- {rival[1]:.3f} {unit}): "
                     "the difference lies inside the measurements' uncertainty"
                 )
-                self.safeguards.note("confidence", call, "unsettled", text)
+                self.safeguards.note(Mechanism.CONFIDENCE, call, "unsettled", text)
                 return text
             for _value, _error, patch in [me, *close]:
                 self._measure_again(last.method or _own_sense(kind).method, patch)
@@ -147,7 +150,7 @@ class Measuring(SessionCore):
         in the object's middle: an edge, the wall behind) are left out, re-aiming once if none is left."""
         assert self.world is not None
         guards = self.safeguards
-        count = self.RANGE_READINGS if guards.on("remeasure") else 1
+        count = self.RANGE_READINGS if guards.on(Mechanism.REMEASURE) else 1
         call = f"measure_distance({p.label or 'patch'})"
         for aim in range(2):
             readings = []
@@ -160,14 +163,14 @@ class Measuring(SessionCore):
             if count > 1:
                 empty = count - len(readings)
                 detail = f"{count} readings, {empty} empty"
-                guards.note("remeasure", call, "caught" if empty else "confirmed", detail)
-            depth = self._centre_depth() if guards.on("verify_actions") else None
+                guards.note(Mechanism.REMEASURE, call, "caught" if empty else "confirmed", detail)
+            depth = self._centre_depth() if guards.on(Mechanism.VERIFY_ACTIONS) else None
             if depth is not None and readings:
                 tol = max(0.04, self.BEAM_TOLERANCE * depth)
                 hits = [r for r in readings if abs(r - depth) <= tol]
                 if len(hits) < len(readings):
                     guards.note(
-                        "verify_actions",
+                        Mechanism.VERIFY_ACTIONS,
                         call,
                         "caught",
                         f"{len(readings) - len(hits)} beam readings off the object "
@@ -176,7 +179,7 @@ class Measuring(SessionCore):
                 readings = hits
             if readings:
                 break
-            if aim == 0 and (guards.on("verify_actions") or guards.on("remeasure")):
+            if aim == 0 and (guards.on(Mechanism.VERIFY_ACTIONS) or guards.on(Mechanism.REMEASURE)):
                 self._focus(p, p.target() or self._target(p, "measure_distance")[1])  # aim again, read again
                 continue
             break
@@ -317,7 +320,7 @@ class Measuring(SessionCore):
         `sense.readings` readings are combined (the ones that read nothing left out)."""
         assert self.world is not None
         guards = self.safeguards
-        count = sense.readings if guards.on("remeasure") else 1
+        count = sense.readings if guards.on(Mechanism.REMEASURE) else 1
         call = f"{sense.method}({p.label or 'patch'})"
         readings = []
         for i in range(count):
@@ -329,7 +332,10 @@ class Measuring(SessionCore):
         if count > 1:
             empty = count - len(readings)
             guards.note(
-                "remeasure", call, "caught" if empty else "confirmed", f"{count} readings, {empty} empty"
+                Mechanism.REMEASURE,
+                call,
+                "caught" if empty else "confirmed",
+                f"{count} readings, {empty} empty",
             )
         if not readings:
             raise ActionFailed(
@@ -359,16 +365,18 @@ class Measuring(SessionCore):
                 mean = sum(readings) / len(readings)
                 error = _std(readings) / math.sqrt(len(readings))
                 small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
-                if not guards.on("remeasure") or small or len(readings) >= self.FORCE_MAX_SAMPLES:
+                if not guards.on(Mechanism.REMEASURE) or small or len(readings) >= self.FORCE_MAX_SAMPLES:
                     break
-            if guards.on("remeasure") and len(readings) > self.FORCE_SAMPLES:
-                guards.note("remeasure", call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
+            if guards.on(Mechanism.REMEASURE) and len(readings) > self.FORCE_SAMPLES:
+                guards.note(
+                    Mechanism.REMEASURE, call, "caught", f"{len(readings)} force readings for {mean:.3f} N"
+                )
             empty = self._gripper_empty()
-            if not guards.on("verify_actions") or (mean > 0.05 and not empty) or attempt == 1:
+            if not guards.on(Mechanism.VERIFY_ACTIONS) or (mean > 0.05 and not empty) or attempt == 1:
                 # a weight is never negative: a mean below zero is zero within its error
                 return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
             why = "the gripper has closed on nothing" if empty else f"no load ({mean:.3f} N)"
-            guards.note("verify_actions", call, "caught", f"{why}: it slipped; lifting it again")
+            guards.note(Mechanism.VERIFY_ACTIONS, call, "caught", f"{why}: it slipped; lifting it again")
             self.put_down()
             self.go_to_object(p)
             self.pick_up(p)

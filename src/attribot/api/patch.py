@@ -20,7 +20,7 @@ from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program,
 from attribot.api.harder import Nearer
 from attribot.api.looking import Survey, ask_again
 from attribot.api.perception import Perception
-from attribot.api.safeguards import Safeguards
+from attribot.api.safeguards import Mechanism, Safeguards
 from attribot.boxes import to_upward
 from attribot.control.base import Capture, Target
 from attribot.errors import BackendError
@@ -282,11 +282,11 @@ class ImagePatch:
         """
         q = check_text(question, "question", "visual_query", "vqa")
         vqa = self.perception.vqa
-        if self.safeguards is None or not self.safeguards.on("look_again"):
+        if self.safeguards is None or not self.safeguards.on(Mechanism.LOOK_AGAIN):
             return _answer(vqa.answer(self._crop_frame(), q), vqa.name)
         said, disagreed = ask_again(lambda frame: _answer(vqa.answer(frame, q), vqa.name), self._crop_frame())
         self.safeguards.note(
-            "look_again",
+            Mechanism.LOOK_AGAIN,
             f"visual_query({q[:40]!r})",
             "caught" if disagreed else "confirmed",
             f"asked again on two crops a few pixels in: {disagreed} of 2 disagreed with the first answer",

@@ -18,7 +18,7 @@ from attribot.api.harder import acting_find, carried_back
 from attribot.api.looking import Survey, View
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
-from attribot.api.safeguards import Safeguards
+from attribot.api.safeguards import Mechanism, Safeguards
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import (
     Capture,
@@ -195,11 +195,11 @@ class SessionCore:
             self.capture = Capture(index=self._captures, camera=camera, depth=frame.depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
-        if self.safeguards.on("look_again") or self.safeguards.on("look_harder"):
+        if self.safeguards.on(Mechanism.LOOK_AGAIN) or self.safeguards.on(Mechanism.LOOK_HARDER):
             self._image.safeguards = self.safeguards
-        if self.safeguards.on("look_harder") and {"base", "pose"} <= caps and frame.depth is not None:
+        if self.safeguards.on(Mechanism.LOOK_HARDER) and {"base", "pose"} <= caps and frame.depth is not None:
             self._image.nearer = self._nearer
-        if self.safeguards.on("look_again"):
+        if self.safeguards.on(Mechanism.LOOK_AGAIN):
             if survey and {"head", "pose"} <= caps and frame.depth is not None:
                 try:
                     body = self.world.body()

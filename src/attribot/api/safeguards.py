@@ -23,18 +23,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
 
-from attribot.errors import InputError
+from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
 
-__all__ = ["MECHANISMS", "CheckEvent", "Safeguards", "parse_checks"]
-
-MECHANISMS: tuple[str, ...] = (
-    "look_again",
-    "look_harder",
-    "verify_actions",
-    "remeasure",
-    "confidence",
-    "reset",
-)
+__all__ = ["Mechanism", "MECHANISMS", "CheckEvent", "Safeguards", "parse_checks"]
 
 
 class CheckEvent(BaseModel):
@@ -42,7 +33,7 @@ class CheckEvent(BaseModel):
 
     model_config = ConfigDict(frozen=True)
 
-    mechanism: str
+    mechanism: Mechanism
     call: str
     outcome: Literal["confirmed", "caught", "unsettled"]
     detail: str
@@ -55,34 +46,14 @@ class Safeguards:
         self.enabled = frozenset(parse_checks(enabled if isinstance(enabled, str) else list(enabled)))
         self.events: list[CheckEvent] = []
 
-    def on(self, mechanism: str) -> bool:
+    def on(self, mechanism: Mechanism) -> bool:
         return mechanism in self.enabled
 
     def note(
-        self, mechanism: str, call: str, outcome: Literal["confirmed", "caught", "unsettled"], detail: str
+        self,
+        mechanism: Mechanism,
+        call: str,
+        outcome: Literal["confirmed", "caught", "unsettled"],
+        detail: str,
     ) -> None:
         self.events.append(CheckEvent(mechanism=mechanism, call=call, outcome=outcome, detail=detail))
-
-
-def parse_checks(spec: str | list[str] | tuple[str, ...] | None) -> tuple[str, ...]:
-    """The mechanisms named by `spec`: "all" (default), "none", names, and "-name" to leave one out
-    ("all,-look_again"), comma-separated or as a list."""
-    if spec is None:
-        spec = "all"
-    parts = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else list(spec)
-    chosen: list[str] = []
-    for part in (p for p in parts if p):
-        drop = part.startswith("-")
-        name = part.lstrip("-+").replace("-", "_")
-        names = list(MECHANISMS) if name == "all" else [] if name == "none" else [name]
-        for n in names:
-            if n not in MECHANISMS:
-                raise InputError(
-                    f"unknown check {part!r}",
-                    f"choose from: all, none, {', '.join(MECHANISMS)} (prefix - to leave one out)",
-                )
-            if drop and n in chosen:
-                chosen.remove(n)
-            elif not drop and n not in chosen:
-                chosen.append(n)
-    return tuple(n for n in MECHANISMS if n in chosen)

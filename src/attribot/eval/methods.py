@@ -26,12 +26,13 @@ from typing import Any
 
 from pydantic import BaseModel, FiniteFloat, field_validator
 
-from attribot.api.safeguards import MECHANISMS, CheckEvent
+from attribot.api.safeguards import CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
 from attribot.eval.datasets import Box, Item, Name
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
+from attribot.mechanisms import MECHANISMS
 from attribot.noise import NOISE_PRESETS, world_noise
 from attribot.text import shown_url
 

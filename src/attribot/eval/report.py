@@ -23,7 +23,6 @@ from typing import Any, TypeVar
 import jinja2
 from PIL import Image, ImageDraw
 
-from attribot.api.safeguards import MECHANISMS
 from attribot.eval.compare import Runs, read_runs
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.hypotheses import hypotheses
@@ -40,6 +39,7 @@ from attribot.eval.tables import (
 )
 from attribot.files import inside, write_whole
 from attribot.frame import load_image
+from attribot.mechanisms import MECHANISMS
 from attribot.noise import NOISE_PRESETS
 
 __all__ = ["wilson", "summarize", "write_report", "default_out", "paper_numbers"]

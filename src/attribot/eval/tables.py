@@ -7,9 +7,9 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
 
-from attribot.api.safeguards import MECHANISMS
 from attribot.eval.methods import NOISE_LEVELS, Condition, Record
 from attribot.eval.suite import METHODS, paper_numbers
+from attribot.mechanisms import MECHANISMS
 
 __all__ = [
     "FAILURE_KINDS",
