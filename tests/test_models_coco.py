@@ -270,23 +270,6 @@ def test_a_batch_of_views_gives_the_same_boxes_as_one_pass_per_view(household_fr
         CocoDetector(batch=0)
 
 
-def test_a_view_is_seen_in_its_own_proportions_and_a_batch_of_shapes_gives_the_same_boxes(household_frame):
-    """The network sees a view with its long side at the input size and its short side in proportion (a
-    multiple of 32): a 4:3 frame is not stretched square. Views of several shapes in one batch are each
-    seen at their own shape, as one pass per view sees them."""
-    det = CocoDetector(input_size=608)
-    assert det.input_shape(640, 480) == (608, 448)
-    assert det.input_shape(100, 300) == (192, 608)
-    assert det.input_shape(200, 200) == (608, 608)
-    assert det.input_shape(600, 10) == (608, 32)  # never under the network's stride
-    views = [(0, 0, 640, 480), (200, 100, 400, 300), (250, 0, 350, 480), (0, 200, 640, 300)]
-    one_by_one, batched = CocoDetector(batch=1, input_size=SMALL), CocoDetector(batch=10, input_size=SMALL)
-    a = one_by_one.detect_views(household_frame, ["object"], views)
-    b = batched.detect_views(household_frame, ["object"], views)
-    assert a and _same(a, b)
-    assert one_by_one.forwarded == batched.forwarded == len(views)
-
-
 def test_chosen_views_are_looked_at_alone_and_mapped_back_to_the_image(remote_frame):
     """`detect_views` shows the network only the views asked for: the whole image alone is what the detector
     with no tiles sees, and a square view around the remote still frames it in the image's pixels."""

@@ -297,10 +297,9 @@ class CocoDetector:
     overlapping a better one by more than `nms_iou` are dropped. `detect_batch` looks at the whole images,
     then (`tiles` > 1) at the tiles of those where some wanted class was not found with a score of `SURE`,
     `batch` views per forward pass; each view's output is kept for other queries about the same pixels
-    (`counts()` says how many views ran and how many were served from memory). `input_size` is the long
-    side the network sees a view at (the short one in proportion, `input_shape`): 608 rather than
-    Darknet's default 416, because household objects a few metres away are 20-40 pixels tall in a 640x480
-    frame and YOLOv3-tiny misses most of them at 416.
+    (`counts()` says how many views ran and how many were served from memory). `input_size` is the side
+    the network sees: 608 rather than Darknet's default 416, because household objects a few metres away
+    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416.
     """
 
     def __init__(
@@ -478,33 +477,15 @@ class CocoDetector:
         return [out[(digest, view)] for _, digest, view in views]
 
     def _forward(self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]]) -> list[np.ndarray]:
-        """The network's output rows (boxes, classes) for each (image, view) given: views of one input
-        shape in one pass."""
+        """The network's output rows (boxes, classes) for each (image, view) given, in one pass."""
         cv2 = _cv2()
         crops = [img[y0:y1, x0:x1] for img, (x0, y0, x1, y1) in views]
-        shapes = [self.input_shape(c.shape[1], c.shape[0]) for c in crops]
-        rows: list[np.ndarray] = [np.empty(0)] * len(crops)
-        for shape in dict.fromkeys(shapes):
-            same = [i for i, s in enumerate(shapes) if s == shape]
-            blob = cv2.dnn.blobFromImages(
-                [crops[i] for i in same], 1 / 255.0, shape, swapRB=False, crop=False
-            )
-            self.net.setInput(blob)
-            outs = self.net.forward(self._outputs_names)
-            out = np.concatenate([o.reshape(len(same), -1, o.shape[-1]) for o in outs], axis=1)
-            for i, r in zip(same, out, strict=True):
-                rows[i] = r
-        return rows
-
-    def input_shape(self, width: int, height: int) -> tuple[int, int]:
-        """The (width, height) the network sees a view of `width` x `height` pixels at: its long side
-        `input_size`, its short side in proportion (a multiple of 32, the network's stride). Kept in
-        proportion, an object is not stretched, and a 4:3 view costs three quarters of a square one's
-        pixels; the held-out recall rose from 0.561 to 0.593 against square 608x608 views
-        (`benchmarks/bench_coco.py --set held-out`)."""
-        long_side = self.input_size
-        short = max(32, round(long_side * min(width, height) / max(width, height, 1) / 32) * 32)
-        return (long_side, short) if width >= height else (short, long_side)
+        side = self.input_size
+        blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
+        self.net.setInput(blob)
+        outs = self.net.forward(self._outputs_names)
+        rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
+        return list(rows)
 
     def _views(self, width: int, height: int) -> list[tuple[int, int, int, int]]:
         """The whole image, then (with `tiles` > 1) a grid of overlapping tiles, each shown to the network
