@@ -178,10 +178,8 @@ class Locator:
             # the detector never saw it surely: where depth placed it is all there is to go on, seen again
             # from here (odometry that drifted on the way puts the old place a few centimetres off)
             return self.still_there(est, camera, body, where) or est
-        # the detector misses it from every view here (a backpack close up, seen from above), though it
-        # found it from afar: where depth still sees something of its height where it was, that is it.
-        # Depth is asked before backing off: a base that backs off to see stands elsewhere than where it
-        # must reach from, and lining up would back off again at every correction
+        # missed from every view here (a backpack close up, seen from above): what depth sees of its height
+        # where it was is it. Asked before backing off, which would leave the base away from where it reaches
         can_back_off = self.plant.has("base") and self.plant.tuning.back_off_m > 0
         for backed_off in (False, True) if can_back_off else (False,):
             if box is not None:
