@@ -103,3 +103,24 @@ def test_unscripted_actions_and_id_less_patches_are_refused(perception):
         with pytest.raises(UnsupportedAction, match="needs the world's id") as exc:
             robot.go_to_object(anonymous)
         assert "--detector oracle" in exc.value.fix
+
+
+# a household scene whose bowl, on a low table 1.3 m away, the camera sees into from above
+BOWL_SCENE = dict(layout="household", seed=40005, width=640, height=480)
+BOWL_VOCABULARY = ("apple", "carrot", "banana", "orange", "mug", "bowl", "knife", "fork", "spoon", "toaster",
+                   "bottle", "laptop", "book", "cell phone", "remote control", "vase", "cactus", "alarm clock",
+                   "scissors", "computer mouse", "keyboard", "basketball", "tennis racket", "suitcase",
+                   "backpack")  # fmt: skip
+
+
+def test_the_beam_on_a_bowls_rim_is_the_bowl_though_the_camera_sees_into_it(perception):
+    """The camera's centre looks into a bowl, past its rim, where the beam meets the rim: nearer than the
+    depth there, by less than the bowl's own width. That reading is the bowl's, not one set aside as the
+    beam missing it (only a reading farther than the depth, or nearer than the object's front, is)."""
+    with MujocoWorld(**BOWL_SCENE, vocabulary=BOWL_VOCABULARY) as world:
+        robot = Robot(ALL, world=world)
+        bowl = next(o for o in world.scene_info().objects if o.category == "bowl")
+        image = robot.look(perception)
+        patch = next(p for p in image.find("bowl") if p.object_id == bowl.id)
+        metres = robot.measure_distance(patch)
+    assert bowl.distance_m - bowl.size_m / 2 - 0.02 <= metres <= bowl.distance_m + 0.02

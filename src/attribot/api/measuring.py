@@ -146,8 +146,9 @@ class Measuring(SessionCore):
     def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
         """The rangefinder's reading of the object the camera is centred on: (metres, one standard
         deviation, readings used). With `remeasure`, several readings are combined (dropouts left out);
-        with `verify_actions`, readings where the beam did not hit the object (it disagrees with the depth
-        in the object's middle: an edge, the wall behind) are left out, re-aiming once if none is left."""
+        with `verify_actions`, readings where the beam did not hit the object (farther than the depth in
+        the object's middle, or nearer than its front: an edge, the wall behind) are left out, re-aiming
+        once if none is left."""
         assert self.world is not None
         guards = self.safeguards
         count = self.RANGE_READINGS if guards.on(Mechanism.REMEASURE) else 1
@@ -167,7 +168,10 @@ class Measuring(SessionCore):
             depth = self._centre_depth() if guards.on(Mechanism.VERIFY_ACTIONS) else None
             if depth is not None and readings:
                 tol = max(0.04, self.BEAM_TOLERANCE * depth)
-                hits = [r for r in readings if abs(r - depth) <= tol]
+                # the beam may meet the object's front nearer than what the camera's centre sees (a bowl's
+                # rim before its inside): nearer by up to the object's own width is still the object
+                front = p.size_at(depth)[0] if p.frame.camera is not None else 0.0
+                hits = [r for r in readings if depth - front - tol <= r <= depth + tol]
                 if len(hits) < len(readings):
                     guards.note(
                         Mechanism.VERIFY_ACTIONS,
