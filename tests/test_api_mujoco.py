@@ -107,10 +107,11 @@ def test_unscripted_actions_and_id_less_patches_are_refused(perception):
 
 # a household scene whose bowl, on a low table 1.3 m away, the camera sees into from above
 BOWL_SCENE = dict(layout="household", seed=40005, width=640, height=480)
-BOWL_VOCABULARY = ("apple", "carrot", "banana", "orange", "mug", "bowl", "knife", "fork", "spoon", "toaster",
-                   "bottle", "laptop", "book", "cell phone", "remote control", "vase", "cactus", "alarm clock",
-                   "scissors", "computer mouse", "keyboard", "basketball", "tennis racket", "suitcase",
-                   "backpack")  # fmt: skip
+BOWL_VOCABULARY = (
+    "apple", "carrot", "banana", "orange", "mug", "bowl", "knife", "fork", "spoon", "toaster", "bottle",
+    "laptop", "book", "cell phone", "remote control", "vase", "cactus", "alarm clock", "scissors",
+    "computer mouse", "keyboard", "basketball", "tennis racket", "suitcase", "backpack",
+)  # fmt: skip
 
 
 def test_the_beam_on_a_bowls_rim_is_the_bowl_though_the_camera_sees_into_it(perception):
