@@ -61,6 +61,11 @@ class CameraInfo:
         """The vertical field of view, radians."""
         return 2.0 * math.atan(self.height / (2.0 * self.fy))
 
+    def metres_across(self, box: tuple[float, float, float, float], distance: float) -> tuple[float, float]:
+        """The (width, height) in metres that `box` (pixels) spans at `distance` metres from the camera."""
+        x0, y0, x1, y1 = box
+        return (x1 - x0) / self.fx * distance, (y1 - y0) / self.fy * distance
+
 
 def check_rgb(rgb: np.ndarray) -> np.ndarray:
     """`rgb` if it is a uint8 (H, W, 3) array with H, W > 0; otherwise a ValueError that says what it is."""

@@ -280,7 +280,7 @@ def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: Camera
     if depth.size == 0:
         return True
     # the nearer quarter of what the box holds: the object, not the wall behind it
-    metres = float(np.percentile(depth, 25)) * max((x1 - x0) / camera.fx, (y1 - y0) / camera.fy)
+    metres = max(camera.metres_across((x0, y0, x1, y1), float(np.percentile(depth, 25))))
     return fits_size(metres, sizes)
 
 

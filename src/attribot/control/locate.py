@@ -89,8 +89,7 @@ class Locator:
             return self.beam_range(metres, camera, body)
         view = self.plant.view(body)
         p = to_world(point_from_range(metres, camera, view, camera.cx, camera.cy), self.plant.pose())
-        w = (box[2] - box[0]) / camera.fx * metres
-        h = (box[3] - box[1]) / camera.fy * metres
+        w, h = camera.metres_across(box, metres)
         return ObjectEstimate((float(p[0]), float(p[1]), float(p[2])), p[2] - h / 2, p[2] + h / 2, w / 2, 1)
 
     def read_range(self) -> float:

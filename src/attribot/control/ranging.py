@@ -70,7 +70,7 @@ def _silhouette(box: Box, camera: CameraInfo, view: CameraPose, front: float) ->
     tilt, pan = view.tilt, view.pan
     axis = np.array([np.cos(tilt) * np.cos(pan), np.cos(tilt) * np.sin(pan), np.sin(tilt)])
     depth = float((middle - eye) @ axis)  # along the optical axis, as the box's width scales with
-    radius = max((x1 - x0) / 2 / camera.fx * depth, 0.01)
+    radius = max(camera.metres_across(box, depth)[0] / 2, 0.01)
     up = ray_through(camera, view, u, y0)
     top = at(up, front + 2 * radius if up[2] < 0 else front)
     if top is None:

@@ -212,7 +212,7 @@ def estimate_object(
     d0 = float(np.percentile(np.linalg.norm(middle - cam, axis=1), 15))
     ranges = np.linalg.norm(pts - cam, axis=1)
     # the box's metric size bounds how far behind the middle the object may reach
-    span = max((x1 - x0) / camera.fx, (y1 - y0) / camera.fy) * d0
+    span = max(camera.metres_across((x0, y0, x1, y1), d0))
     near = pts[np.abs(ranges - d0) <= max(0.12, span)]
     if len(near) < 3:
         near = pts
