@@ -718,3 +718,29 @@ def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
     assert by_elimination([carrot, spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == carrot
     # the colour only chooses among those left: it never rules out the one left
     assert by_elimination([spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == spoon
+
+
+def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():
+    """A detector that boxes an object whole under one name and its lower half under another (a cactus and
+    its pot, boxed as a vase) gives two patches of one object: depth places both at one spot, so they are
+    one object, and measuring both is not comparing two. Two objects' boxes are not one, nor are boxes of an
+    image without depth to place them."""
+    from attribot.api.finding import one_object
+
+    with MujocoWorld(SCENES[0]) as world:
+        robot, image = _look(world, FixedBoxDetector((0.0, 0.0, 1.0, 1.0)))
+        objects = [o for o in world.scene_info().objects if o.box is not None]
+    assert len(objects) >= 2
+    whole = objects[0].box
+    pot = (whole[0] + 2, (whole[1] + whole[3]) / 2, whole[2] - 2, whole[3])
+    assert one_object(image.capture, whole, pot)
+    assert not one_object(image.capture, whole, objects[1].box)
+    named_twice = [_patch(image, whole, "cactus"), _patch(image, pot, "vase")]
+    assert named_twice[0].same_object(named_twice[1])
+    assert not named_twice[0].same_object(_patch(image, objects[1].box, "vase"))
+    blind = image.capture.__class__(index=0, camera=image.capture.camera, view=image.capture.view)
+    assert not one_object(blind, whole, pot)
+
+
+def _patch(image, box, label):
+    return type(image)(image.frame, image.perception, box, capture=image.capture, label=label)

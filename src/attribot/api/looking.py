@@ -286,9 +286,9 @@ class Survey:
         return projected_box(rim_here, cap.camera, self.body.head_view(cap.head))
 
 
-_SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
+SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
 # or, a thin thing's box inside the wider one another view gives it, both at the same place in the world
-_SAME_INSIDE, _SAME_PLACE_M = 0.6, 0.1
+SAME_INSIDE, SAME_PLACE_M = 0.6, 0.1
 
 
 def _support(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> float:
@@ -326,10 +326,10 @@ class _Group:
 
     def same(self, box: tuple[float, float, float, float], point: np.ndarray) -> bool:
         """A sighting at `box` (in the first image) and `point` (in the world) shows this group's object."""
-        if iou(self.box, box) >= _SAME_IOU:
+        if iou(self.box, box) >= SAME_IOU:
             return True
-        near = float(np.linalg.norm(self.centre - point)) <= _SAME_PLACE_M
-        return near and overlap_of_smaller(self.box, box) >= _SAME_INSIDE
+        near = float(np.linalg.norm(self.centre - point)) <= SAME_PLACE_M
+        return near and overlap_of_smaller(self.box, box) >= SAME_INSIDE
 
     def add(self, view: int, sighting: _Sighting) -> None:
         self.members[view] = sighting

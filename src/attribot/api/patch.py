@@ -16,7 +16,7 @@ import numpy as np
 
 from attribot.api.checks import check_facade, check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program, target_of
+from attribot.api.finding import EDGE_TOL, crop_of, find_in, one_object, patch_from_program, target_of
 from attribot.api.harder import Nearer
 from attribot.api.looking import Survey, ask_again
 from attribot.api.perception import Perception
@@ -156,10 +156,14 @@ class ImagePatch:
         return target_of(self)
 
     def same_object(self, other: ImagePatch) -> bool:
-        """Host side: True when both patches show the same object (same world id, else same box and image)."""
+        """Host side: True when both patches show the same object: the same world id where the detector
+        gives ids; else boxes of one image that are the same box, or that frame one object as depth places
+        it (`one_object`: a cactus boxed whole as a cactus and its pot as a vase)."""
         if self.object_id is not None and other.object_id is not None:
             return self.object_id == other.object_id
-        return self.frame is other.frame and np.allclose(self.box, other.box)
+        if self.frame is not other.frame:
+            return False
+        return bool(np.allclose(self.box, other.box)) or one_object(self.capture, self.box, other.box)
 
     def _crop_frame(self) -> Frame:
         if self._pixels is None:
@@ -371,7 +375,7 @@ class ImagePatch:
             )
         if not d > 0:
             raise ApiArgumentError(f"size_at needs a distance above 0 metres; got {d:g}", "pass metres")
-        return (self.width * d / camera.fx, self.height * d / camera.fy)
+        return camera.metres_across(self.box, d)
 
 
 check_facade(ImagePatch, dict(vars(ImagePatch)))  # the facade programs see, checked as it is defined
