@@ -179,26 +179,23 @@ class Locator:
             return self.still_there(est, camera, body, where) or est
         # missed from every view here (a backpack close up, seen from above): what depth sees of its height
         # where it was is it. Asked before backing off, which would leave the base away from where it reaches
-        can_back_off = self.plant.has("base") and self.plant.tuning.back_off_m > 0
-        for backed_off in (False, True) if can_back_off else (False,):
-            if box is not None:
-                break
-            if backed_off:  # a viewpoint the detector fails from: look again from farther away
-                self.driver.straight(-self.plant.tuning.back_off_m)
-                self.aim(np.array(est.centre), body, target, holding)
-                frame, box = self.look_again(target, camera, search, where)
-                if box is not None:
-                    break
+        may_back_off = self.plant.has("base") and self.plant.tuning.back_off_m > 0
+        while box is None:
             held_by_depth = self.still_there(est, camera, body, where)
             if held_by_depth is not None:
                 return held_by_depth
-        if box is None:
-            raise ControlError(
-                f"target lost: the camera no longer sees {target.describe()} where it was "
-                f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
-                "find the object again in a new image and retry",
-                reason=Failure.TARGET_LOST,
-            )
+            if not may_back_off:
+                raise ControlError(
+                    f"target lost: the camera no longer sees {target.describe()} where it was "
+                    f"({est.centre[0]:.2f}, {est.centre[1]:.2f})",
+                    "find the object again in a new image and retry",
+                    reason=Failure.TARGET_LOST,
+                )
+            # a viewpoint the detector fails from: look again from farther away (once)
+            may_back_off = False
+            self.driver.straight(-self.plant.tuning.back_off_m)
+            self.aim(np.array(est.centre), body, target, holding)
+            frame, box = self.look_again(target, camera, search, where)
         located = where(frame, box)
         self.focus(Target(box, self.capture(frame, camera, body), label=target.label, find=target.find))
         frame = self.plant.world.observe()
