@@ -725,7 +725,7 @@ def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():
     its pot, boxed as a vase) gives two patches of one object: depth places both at one spot, so they are
     one object, and measuring both is not comparing two. Two objects' boxes are not one, nor are boxes of an
     image without depth to place them."""
-    from attribot.api.finding import one_object
+    from attribot.api.looking import one_object
 
     with MujocoWorld(SCENES[0]) as world:
         robot, image = _look(world, FixedBoxDetector((0.0, 0.0, 1.0, 1.0)))

@@ -7,16 +7,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from attribot.api.checks import check_number, check_text
 from attribot.api.errors import ApiArgumentError
 from attribot.api.harder import acting_find, look_harder
-from attribot.api.looking import SAME_INSIDE, SAME_IOU, SAME_PLACE_M, reexamine
+from attribot.api.looking import reexamine
 from attribot.api.safeguards import Mechanism
-from attribot.boxes import Box, from_upward, iou, overlap_of_smaller
-from attribot.control.base import Capture, Target
-from attribot.control.spatial import nearest_surface
+from attribot.boxes import from_upward
+from attribot.control.base import Target
 from attribot.errors import BackendError
 from attribot.frame import Frame
 from attribot.models.base import Detection
@@ -25,7 +22,7 @@ from attribot.models.cache import cacheable
 if TYPE_CHECKING:
     from attribot.api.patch import ImagePatch
 
-__all__ = ["find_in", "crop_of", "patch_from_program", "target_of", "one_object"]
+__all__ = ["find_in", "crop_of", "patch_from_program", "target_of"]
 
 EDGE_TOL = 1e-6  # pixels: boxes may touch the image border, not cross it
 
@@ -190,22 +187,6 @@ def target_of(patch: ImagePatch) -> Target | None:
         find=find,
         by_depth=patch.by_depth,
     )
-
-
-def one_object(capture: Capture | None, a: Box, b: Box) -> bool:
-    """Two boxes of one robot image frame one object: they overlap (IoU 0.3), or one lies mostly inside the
-    other, and depth puts the nearest surfaces in their middles within 10 cm of each other. A detector
-    that names one object twice (a cactus boxed whole as a cactus at 0.74, its pot as a vase at 0.76)
-    gives a program two patches of it; measured twice, they are one object, not two that cannot be told
-    apart. False without depth or a known camera pose."""
-    if capture is None or capture.depth is None or capture.camera is None or capture.view is None:
-        return False
-    if iou(a, b) < SAME_IOU and overlap_of_smaller(a, b) < SAME_INSIDE:
-        return False
-    near = [nearest_surface(capture.depth, capture.camera, capture.view, box) for box in (a, b)]
-    if near[0] is None or near[1] is None:
-        return False
-    return float(np.linalg.norm(near[0].mean(axis=0) - near[1].mean(axis=0))) <= SAME_PLACE_M
 
 
 def kind_of(value: object) -> str:

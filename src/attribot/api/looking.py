@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from attribot.boxes import iou, overlap_of_smaller
+from attribot.boxes import Box, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
 from attribot.control.sighting import capture_now
@@ -37,7 +37,7 @@ from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
 from attribot.models.base import Detection, Detector
 
-__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again"]
+__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object"]
 
 _SETTLE_S = 0.05
 _SETTLE_STEPS = 30
@@ -286,9 +286,9 @@ class Survey:
         return projected_box(rim_here, cap.camera, self.body.head_view(cap.head))
 
 
-SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
+_SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
 # or, a thin thing's box inside the wider one another view gives it, both at the same place in the world
-SAME_INSIDE, SAME_PLACE_M = 0.6, 0.1
+_SAME_INSIDE, _SAME_PLACE_M = 0.6, 0.1
 
 
 def _support(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> float:
@@ -326,13 +326,30 @@ class _Group:
 
     def same(self, box: tuple[float, float, float, float], point: np.ndarray) -> bool:
         """A sighting at `box` (in the first image) and `point` (in the world) shows this group's object."""
-        if iou(self.box, box) >= SAME_IOU:
+        if iou(self.box, box) >= _SAME_IOU:
             return True
-        near = float(np.linalg.norm(self.centre - point)) <= SAME_PLACE_M
-        return near and overlap_of_smaller(self.box, box) >= SAME_INSIDE
+        near = float(np.linalg.norm(self.centre - point)) <= _SAME_PLACE_M
+        return near and overlap_of_smaller(self.box, box) >= _SAME_INSIDE
 
     def add(self, view: int, sighting: _Sighting) -> None:
         self.members[view] = sighting
+
+
+def one_object(capture: Capture | None, a: Box, b: Box) -> bool:
+    """Two boxes of one robot image frame one object: they overlap (IoU 0.3), or one lies mostly inside the
+    other, and depth puts the nearest surfaces in their middles within 10 cm of each other. A detector
+    that names one object twice (a cactus boxed whole as a cactus at 0.74, its pot as a vase at 0.76)
+    gives a program two patches of it; measured twice, they are one object, not two that cannot be told
+    apart. The survey's groups (`_Group.same`) take boxes that overlap as one object without depth; here
+    depth must agree either way. False without depth or a known camera pose."""
+    if capture is None or capture.depth is None or capture.camera is None or capture.view is None:
+        return False
+    if iou(a, b) < _SAME_IOU and overlap_of_smaller(a, b) < _SAME_INSIDE:
+        return False
+    near = [nearest_surface(capture.depth, capture.camera, capture.view, box) for box in (a, b)]
+    if near[0] is None or near[1] is None:
+        return False
+    return float(np.linalg.norm(near[0].mean(axis=0) - near[1].mean(axis=0))) <= _SAME_PLACE_M
 
 
 _CROPS = "crops of the image a few pixels in"

@@ -16,9 +16,9 @@ import numpy as np
 
 from attribot.api.checks import check_facade, check_number, check_patch, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.finding import EDGE_TOL, crop_of, find_in, one_object, patch_from_program, target_of
+from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program, target_of
 from attribot.api.harder import Nearer
-from attribot.api.looking import Survey, ask_again
+from attribot.api.looking import Survey, ask_again, one_object
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Mechanism, Safeguards
 from attribot.boxes import to_upward
