@@ -8,9 +8,12 @@ import pytest
 
 from attribot.config import SceneConfig, Settings, load_settings
 from attribot.errors import ConfigError
+from attribot.eval.methods import Condition
 from attribot.frame import Frame, ObjectTruth
+from attribot.mechanisms import Mechanism
 from attribot.models.base import Detection, build_backend, parse_spec, probe_backend
 from attribot.models.noise import DetectorNoise, NoisyDetector, NoisyVQA, VQANoise
+from attribot.noise import PerceptionNoise
 from attribot.session import Scene, ask
 from conftest import random_frame
 
@@ -57,6 +60,29 @@ def test_specs_carry_options_to_the_oracle_builders():
     vqa = build_backend("vqa", "oracle:40?noise=realistic", Settings())
     assert isinstance(vqa, NoisyVQA) and vqa.noise.wrong == 0.1 and vqa.inner.min_pixels == 40
     assert build_backend("detector", "oracle?noise=clean", Settings()).name == "oracle"  # no wrapper
+
+
+def test_a_condition_puts_typed_noise_on_any_oracle_spec_as_the_spec_string_would():
+    condition = Condition.parse("realistic-no-remeasure")
+    assert condition.without is Mechanism.REMEASURE
+    settings = condition.settings_for(Settings(detector="oracle:50?miss=0.3"), seed=7)
+    assert settings.perception_noise == PerceptionNoise(preset="realistic", seed=7)
+    assert Mechanism.REMEASURE not in settings.mechanisms and Mechanism.LOOK_AGAIN in settings.mechanisms
+    typed = build_backend("detector", settings.detector, settings)
+    # the preset's noise, drawn from the item's seed, under the spec's own pixels and its own miss rate
+    assert isinstance(typed, NoisyDetector) and typed.inner.min_pixels == 50
+    assert (
+        typed.noise == build_backend("detector", "oracle?noise=realistic&miss=0.3&seed=7", Settings()).noise
+    )
+    vqa = build_backend("vqa", "oracle", settings)
+    assert isinstance(vqa, NoisyVQA) and vqa.noise == VQANoise(wrong=0.1, seed=7)
+    # clean adds none, and a coco spec is not the oracle's: the noise reaches no other backend
+    assert Condition.parse("clean").settings_for(Settings(), seed=7).perception_noise is None
+    assert (
+        build_backend("detector", "oracle", Condition("clean").settings_for(Settings(), 7)).name == "oracle"
+    )
+    with pytest.raises(ValueError, match="unknown noise preset"):
+        PerceptionNoise(preset="awful")
 
 
 def test_miss_rate_and_reruns_give_the_same_errors():

@@ -44,7 +44,7 @@ from pydantic_settings import (
 from attribot.errors import ConfigError, InputError, InvalidSetting, InvalidValue
 from attribot.files import not_a_file, read_capped
 from attribot.mechanisms import Mechanism, parse_checks
-from attribot.noise import WorldNoise
+from attribot.noise import PerceptionNoise, WorldNoise
 from attribot.registry import Registry
 from attribot.text import plain_value, shown_url
 
@@ -153,6 +153,9 @@ class Settings(BaseSettings):
     # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
     # names, or "all,-look_again" to leave one out
     checks: str = "all"
+    # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and
+    # the item's seed); None: only what their specs ask for (`oracle?noise=realistic`)
+    perception_noise: PerceptionNoise | None = None
     # the wall-clock seconds one program may run, its API calls and the robot's actions included: a real
     # robot, or a real detector on a CPU, needs more than the simulator with the oracle
     program_wall_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)

@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from attribot.errors import ConfigError
 from attribot.text import plain_value
 
-__all__ = ["WorldNoise", "NOISE_PRESETS", "preset", "world_noise"]
+__all__ = ["WorldNoise", "PerceptionNoise", "NOISE_PRESETS", "preset", "world_noise"]
 
 
 class WorldNoise(BaseModel):
@@ -116,6 +116,29 @@ NOISE_PRESETS: dict[str, dict[str, float]] = {
     "realistic": {**_PERCEPTION, **_SENSING, **_ACTING},
 }
 """Named levels (`--noise NAME`, `oracle?noise=NAME`); each part takes the options that are its own."""
+
+
+class PerceptionNoise(BaseModel):
+    """A preset's perception noise on the oracle backends (`Settings.perception_noise`), drawn from `seed`:
+    what an evaluation condition puts on them for one item, typed rather than written into the backends'
+    spec strings. Options a spec gives (`oracle?miss=0.2`) win over the preset's."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    preset: str
+    seed: int = Field(0, ge=0, le=2**32 - 1, strict=True)
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, value: str) -> str:
+        if value not in NOISE_PRESETS:
+            raise ValueError(f"unknown noise preset; choose one of: {', '.join(NOISE_PRESETS)}")
+        return value
+
+    def options(self, known: set[str] | frozenset[str]) -> dict[str, float | int]:
+        """The preset's options among `known` (a backend's noise fields), with the seed."""
+        values: dict[str, float | int] = {k: v for k, v in NOISE_PRESETS[self.preset].items() if k in known}
+        return {**values, "seed": self.seed}
 
 
 def preset(name: str) -> dict[str, float]:

@@ -32,14 +32,13 @@ from attribot.config import Settings
 from attribot.errors import InputError
 from attribot.eval.datasets import Box, Item, Name
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
-from attribot.mechanisms import MECHANISMS
-from attribot.noise import NOISE_PRESETS, world_noise
+from attribot.mechanisms import MECHANISMS, Mechanism
+from attribot.noise import NOISE_PRESETS, PerceptionNoise, WorldNoise, world_noise
 from attribot.text import shown_url
 
 __all__ = [
     "Record",
     "run_method",
-    "noisy_settings",
     "check_condition",
     "Condition",
     "PROGRAM_METHODS",
@@ -55,10 +54,11 @@ _WITHOUT = "-no-"
 class Condition:
     """A run condition: a noise preset (`attribot.noise.NOISE_PRESETS`) and, for an ablation, the one
     error-catching mechanism left off. Records and run folders name it `PRESET` or `PRESET-no-MECHANISM`
-    (`name`), read back with `parse`."""
+    (`name`), read back with `parse`; `settings_for` and `world_noise` give an item's run its typed
+    noise and mechanisms."""
 
     preset: str
-    without: str | None = None
+    without: Mechanism | None = None
 
     def __post_init__(self) -> None:
         if self.preset not in NOISE_LEVELS or (self.without is not None and self.without not in MECHANISMS):
@@ -67,14 +67,20 @@ class Condition:
                 f"choose from: {', '.join(NOISE_LEVELS)}, or PRESET{_WITHOUT}MECHANISM for an ablation "
                 f"(mechanisms: {', '.join(MECHANISMS)})",
             )
+        if self.without is not None:  # a mechanism's name given as text is the mechanism
+            object.__setattr__(self, "without", Mechanism(self.without))
 
     @classmethod
     def parse(cls, name: str) -> Condition:
         """The condition a record or `--noise` names; an unknown one is an `InputError`."""
         preset, _, mechanism = name.partition(_WITHOUT)
-        condition = cls(preset, mechanism or None)
-        if condition.name != name:  # "realistic-no-": it names no mechanism
-            raise InputError(f"unknown noise level {name!r}", f"give PRESET or PRESET{_WITHOUT}MECHANISM")
+        known = mechanism in MECHANISMS
+        condition = cls(preset, Mechanism(mechanism) if known else None)
+        if condition.name != name:  # "realistic-no-": no mechanism, or one that is none
+            raise InputError(
+                f"unknown noise level {name!r}",
+                f"give PRESET or PRESET{_WITHOUT}MECHANISM (mechanisms: {', '.join(MECHANISMS)})",
+            )
         return condition
 
     @property
@@ -90,6 +96,19 @@ class Condition:
     def ablation(self) -> bool:
         return self.without is not None
 
+    def settings_for(self, settings: Settings, seed: int) -> Settings:
+        """`settings` for one item under this condition: its preset's perception noise on the oracle
+        backends, drawn from the item's `seed` (a clean preset adds none), and its mechanisms (an ablation
+        leaves one out)."""
+        update: dict[str, Any] = {"checks": self.checks} if self.ablation else {}
+        if self.preset != "clean":
+            update["perception_noise"] = PerceptionNoise(preset=self.preset, seed=seed)
+        return settings.model_copy(update=update) if update else settings
+
+    def world_noise(self, seed: int) -> WorldNoise:
+        """The world's imperfections of sensing and acting under this condition, drawn from `seed`."""
+        return world_noise(self.preset, seed)
+
 
 def check_condition(condition: str) -> tuple[str, str]:
     """A run condition, `PRESET` or `PRESET-no-MECHANISM` (an ablation): (preset, the checks spec)."""
@@ -99,7 +118,7 @@ def check_condition(condition: str) -> tuple[str, str]:
 
 def ablations(preset: str = "realistic") -> tuple[str, ...]:
     """The conditions of the ablation table: `preset` with each mechanism off in turn."""
-    return tuple(Condition(preset, m).name for m in MECHANISMS)
+    return tuple(Condition(preset, m).name for m in Mechanism)
 
 
 class Record(BaseModel):
@@ -140,21 +159,6 @@ class Record(BaseModel):
     def _events(cls, checks: list[dict[str, Any]]) -> list[dict[str, Any]]:
         # each one a mechanism's event, so that the report's tables can read its fields
         return [CheckEvent.model_validate(c).model_dump() for c in checks]
-
-
-def noisy_settings(settings: Settings, noise: str, seed: int) -> Settings:
-    """The settings with the condition's noise preset on the oracle backends, drawn from the item's seed,
-    and its mechanisms (an ablation leaves one out)."""
-    condition = Condition.parse(noise)
-    preset, checks = condition.preset, condition.checks
-    update: dict[str, str] = {"checks": checks} if condition.ablation else {}
-    if preset == "clean":
-        return settings.model_copy(update=update) if update else settings
-    for role in ("detector", "vqa"):
-        spec = str(getattr(settings, role))
-        if spec.split("?")[0] == "oracle":
-            update[role] = f"oracle?noise={preset}&seed={seed}"
-    return settings.model_copy(update=update)
 
 
 def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
@@ -244,7 +248,7 @@ def run_method(item: Item, method: str, settings: Settings, noise: str = "clean"
     started = time.perf_counter()
     runner = METHODS.get(method)
     try:
-        record = runner.run(item, noisy_settings(settings, noise, item.seed), noise)
+        record = runner.run(item, Condition.parse(noise).settings_for(settings, item.seed), noise)
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
         record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
     record.wall_s = time.perf_counter() - started
@@ -304,7 +308,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
     from attribot.session import Scene, ask
 
     sensors = item.sensors if method == "pa-api" else ["camera"]
-    scene = item.scene().model_copy(update={"noise": world_noise(Condition.parse(noise).preset, item.seed)})
+    scene = item.scene().model_copy(update={"noise": Condition.parse(noise).world_noise(item.seed)})
     try:
         answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
     except InputError as exc:  # the planner refused it: what the camera alone cannot settle, say

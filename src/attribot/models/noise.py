@@ -41,7 +41,7 @@ from attribot.errors import ConfigError
 from attribot.frame import Frame
 from attribot.lexicon import COLOR_WORDS
 from attribot.models.base import Detection
-from attribot.noise import preset
+from attribot.noise import PerceptionNoise, preset
 
 __all__ = ["DetectorNoise", "VQANoise", "NoisyDetector", "NoisyVQA", "split_options"]
 
@@ -86,10 +86,16 @@ def split_options(arg: str | None) -> tuple[str | None, dict[str, str]]:
     return (head or None), dict(pairs)
 
 
-def noise_options(options: dict[str, str], kind: type[DetectorNoise] | type[VQANoise], role: str) -> dict:
-    """The noise fields of `kind` from spec options (a preset first, then the explicit values)."""
+def noise_options(
+    options: dict[str, str],
+    kind: type[DetectorNoise] | type[VQANoise],
+    role: str,
+    base: PerceptionNoise | None = None,
+) -> dict:
+    """The noise fields of `kind`: those of `base` (the settings' typed noise: a preset and its seed), then
+    the spec's options (a preset first, then the explicit values)."""
     known = {f.name for f in fields(kind)}
-    values: dict[str, float] = {}
+    values: dict[str, float] = {} if base is None else dict(base.options(known))
     named = options.get("noise")
     if named is not None:
         values.update({k: v for k, v in preset(named).items() if k in known})

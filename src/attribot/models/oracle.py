@@ -459,7 +459,7 @@ def _build_detector(arg: str | None, settings: Settings) -> OracleDetector | Noi
     `oracle?miss=0.1&false_pos=0.05&jitter_px=4&confuse=0.05&seed=0` or `oracle?noise=realistic`."""
     head, options = split_options(arg)
     detector = OracleDetector(_min_pixels_from(head))
-    noise = DetectorNoise(**noise_options(options, DetectorNoise, "detector"))
+    noise = DetectorNoise(**noise_options(options, DetectorNoise, "detector", settings.perception_noise))
     return detector if noise.clean else NoisyDetector(detector, noise)
 
 
@@ -469,7 +469,7 @@ def _build_vqa(arg: str | None, settings: Settings) -> OracleVQA | NoisyVQA:
     `oracle?wrong=0.1&seed=0` or `oracle?noise=realistic`."""
     head, options = split_options(arg)
     vqa = OracleVQA(_min_pixels_from(head))
-    noise = VQANoise(**noise_options(options, VQANoise, "vqa"))
+    noise = VQANoise(**noise_options(options, VQANoise, "vqa", settings.perception_noise))
     return vqa if noise.clean else NoisyVQA(vqa, noise)
 
 
