@@ -9,17 +9,34 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from pydantic import TypeAdapter
 
 from attribot.api import Robot
-from attribot.config import ROBOTS, WORLD_CONFIGS, SceneConfig, load_settings
+from attribot.config import (
+    ROBOTS,
+    WORLD_CONFIGS,
+    BridgeConfig,
+    SceneConfig,
+    WorldConfig,
+    load_settings,
+    world_config,
+)
 from attribot.embodiments.base import EMBODIMENTS, Capability, Embodiment
-from attribot.errors import AttribotError, ConfigError, InputError, MissingDependency, UnsupportedAction
+from attribot.errors import (
+    AttribotError,
+    ConfigError,
+    InputError,
+    MissingDependency,
+    UnknownName,
+    UnsupportedAction,
+)
 from attribot.frame import Frame
 from attribot.models.base import ROLES, BackendStatus, LanguageModel, VisualQA, build_backend, probe_backend
 from attribot.models.base import Detector as DetectorProtocol
 from attribot.planning import PLANNERS, PlanRequest, build_planner
 from attribot.runner import check_program
 from attribot.sensors import SENSORS, Need, check_sensors, senses, sensor_method_doc
+from attribot.session import Scene
 from attribot.sim.bodies import BODIES, body_named
 from attribot.sim.catalog import find_category
 from attribot.sim.scene import LAYOUTS
@@ -47,6 +64,30 @@ def test_every_layout_is_deterministic_and_finite(layout):
 def test_every_world_has_one_typed_config_registered_under_its_name():
     assert sorted(WORLD_CONFIGS.names()) == sorted(EMBODIMENTS.names())
     assert len({id(WORLD_CONFIGS.get(name)) for name in WORLD_CONFIGS.names()}) == len(WORLD_CONFIGS.names())
+    for name in WORLD_CONFIGS.names():
+        assert WORLD_CONFIGS.get(name).world_name() == name  # its tag is its name
+
+
+def test_world_configs_are_one_union_told_apart_by_their_world_tag(tmp_path):
+    bridge = {"world": "bridge", "url": "tcp://127.0.0.1:7777"}
+    assert isinstance(TypeAdapter(WorldConfig).validate_python(bridge), BridgeConfig)
+    assert world_config({"seed": 3}) == SceneConfig(seed=3) == world_config({"world": "sim", "seed": 3})
+    assert world_config(bridge) == BridgeConfig(url="tcp://127.0.0.1:7777")
+    with pytest.raises(UnknownName, match="ai2thor"):  # an unknown world lists the known ones
+        world_config({"world": "moon"})
+    with pytest.raises(InputError, match="layout"):  # the tag chose the bridge's config, which has no layout
+        world_config({**bridge, "layout": "triplet"})
+    with pytest.raises(InputError, match="configured by a SceneConfig, not a BridgeConfig"):
+        Scene(config=BridgeConfig(url="tcp://127.0.0.1:7777"), world="mujoco")
+    # a saved scene from before the tag loads; a tag inside it does not choose another world than the one
+    # the folder names (whose place the trust check reads)
+    assert Scene.from_saved({"world": "mujoco", "config": {"seed": 3}}, tmp_path).config == SceneConfig(
+        seed=3
+    )
+    with pytest.raises(InputError):
+        Scene.from_saved({"world": "mujoco", "config": bridge}, tmp_path)
+    with pytest.raises(ConfigError, match="ATTRIBOT_BRIDGE_TOKEN"):
+        Scene.from_saved({"world": "bridge", "config": {**bridge, "world": "mujoco"}}, tmp_path)
 
 
 @pytest.mark.parametrize("name", EMBODIMENTS.names())

@@ -589,11 +589,11 @@ def _world_config(name: str, given: Any) -> Any:
             f"--world-noise makes the simulator imperfect, and --world {name} is not the simulator",
             "drop --world-noise (a real robot brings its own), or use --world mujoco",
         )
-    unknown = [field for field in fields if field not in kind.model_fields]
+    unknown = [field for field in fields if field not in kind.settable()]
     if unknown:
         raise fail(
             f"{', '.join(_flag_name(f).rstrip('=') for f in unknown)} does not apply to --world {name}",
-            f"its settings are: {', '.join(_flag_name(f).rstrip('=') for f in kind.model_fields)}",
+            f"its settings are: {', '.join(_flag_name(f).rstrip('=') for f in kind.settable())}",
         )
     required = [f for f, info in kind.model_fields.items() if info.is_required() and f not in fields]
     if required:

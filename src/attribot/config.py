@@ -6,9 +6,10 @@ The file is `./attribot.toml`, or the path in `ATTRIBOT_CONFIG`. Nothing is read
 
 `SceneConfig` is the one description of a simulated scene (layout, seed, objects, options, camera size,
 render profile): the CLI builds it from its flags, datasets store it, and the MuJoCo world is built from it.
-Every world has one typed config, registered in `WORLD_CONFIGS` under the world's name (mujoco:
-`SceneConfig`, bridge: `BridgeConfig`, ai2thor: `Ai2ThorConfig`); the world of the same name in
-`attribot.embodiments.base.EMBODIMENTS` is built from it.
+Every world has one typed config, tagged with the world's name in its `world` field and registered under
+it in `WORLD_CONFIGS` (mujoco: `SceneConfig`, bridge: `BridgeConfig`, ai2thor: `Ai2ThorConfig`); the world
+of the same name in `attribot.embodiments.base.EMBODIMENTS` is built from it. `WorldConfig` is their union,
+told apart by the tag; `world_config(data)` reads any registered world's config from data the same way.
 
 Errors name a field as the caller spells it: `create(..., naming=...)` takes a `FieldNaming` (the CLI's
 names its flags, the Python API's its keywords), so that no flag name lives here.
@@ -23,13 +24,15 @@ import typing
 import urllib.parse
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
     SecretStr,
+    Tag,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -55,7 +58,10 @@ __all__ = [
     "SceneConfig",
     "BridgeConfig",
     "Ai2ThorConfig",
+    "WorldConfig",
     "WORLD_CONFIGS",
+    "register_world_config",
+    "world_config",
     "FieldNaming",
     "KEYWORDS",
     "MAX_OBJECTS",
@@ -415,6 +421,16 @@ class _WorldConfig(BaseModel):
     def _plain(cls, value: Any, info: ValidationInfo) -> Any:
         return plain_input(cls, info.field_name, value)
 
+    @classmethod
+    def world_name(cls) -> str:
+        """The world this config is for: its `world` tag, which tells the configs of a `WorldConfig` apart."""
+        return str(cls.model_fields["world"].default)
+
+    @classmethod
+    def settable(cls) -> tuple[str, ...]:
+        """The fields a caller sets: all but the `world` tag."""
+        return tuple(name for name in cls.model_fields if name != "world")
+
 
 class SceneConfig(_WorldConfig):
     """Where a query runs in the embedded world: the layout and seed, and what overrides the layout's choice.
@@ -436,6 +452,7 @@ class SceneConfig(_WorldConfig):
     WHAT: ClassVar[str] = "scene"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
+    world: Literal["mujoco"] = "mujoco"
     layout: str = "household"
     seed: int = Field(0, ge=0, le=MAX_SEED, strict=True)
     objects: int | None = Field(None, ge=1, strict=True)  # the upper bound is each layout's own
@@ -485,6 +502,7 @@ class BridgeConfig(_WorldConfig):
     WHAT: ClassVar[str] = "bridge"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
+    world: Literal["bridge"] = "bridge"
     url: str = Field(pattern=r"^tcp://[^:/]+:\d+$")
     timeout_s: float = Field(10.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
@@ -498,6 +516,7 @@ class Ai2ThorConfig(_WorldConfig):
     WHAT: ClassVar[str] = "ai2thor"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
+    world: Literal["ai2thor"] = "ai2thor"
     scene: str = "FloorPlan1"
     width: int = Field(640, ge=16, le=4096, strict=True)
     height: int = Field(480, ge=16, le=4096, strict=True)
@@ -507,12 +526,43 @@ class Ai2ThorConfig(_WorldConfig):
         return {"scene": self.scene, **self.model_dump(mode="json", exclude_defaults=True)}
 
 
-WorldConfig = SceneConfig | BridgeConfig | Ai2ThorConfig
-WORLD_CONFIGS: Registry[type[BaseModel]] = Registry("world")
-"""The typed config of each world, under the world's name (the same names as `EMBODIMENTS`)."""
-WORLD_CONFIGS.register("mujoco", aliases=("sim",))(SceneConfig)
-WORLD_CONFIGS.register("bridge")(BridgeConfig)
-WORLD_CONFIGS.register("ai2thor")(Ai2ThorConfig)
+def _world_tag(value: Any) -> str:
+    """A world config's tag, given as data (none: mujoco's) or as a config."""
+    if isinstance(value, dict):
+        return str(value.get("world") or "mujoco")
+    return str(getattr(value, "world", "mujoco"))
+
+
+WorldConfig = Annotated[
+    Annotated[SceneConfig, Tag("mujoco")] | Annotated[BridgeConfig, Tag("bridge")]
+    | Annotated[Ai2ThorConfig, Tag("ai2thor")],
+    Discriminator(_world_tag),
+]  # fmt: skip
+"""The built-in worlds' configs, told apart by their `world` tag (a plug-in world's too: `world_config`)."""
+WORLD_CONFIGS: Registry[type[_WorldConfig]] = Registry("world")
+"""The typed config of each world, under its `world` tag (the same names as `EMBODIMENTS`)."""
+
+
+def register_world_config(kind: type[_WorldConfig], aliases: tuple[str, ...] = ()) -> type[_WorldConfig]:
+    """Register a world's config under its `world` tag (a `Literal` field with that default)."""
+    if "world" not in kind.model_fields or not isinstance(kind.model_fields["world"].default, str):
+        raise ConfigError(
+            f"{kind.__name__} has no world tag", 'give it a field world: Literal["NAME"] = "NAME"'
+        )
+    return WORLD_CONFIGS.register(kind.world_name(), aliases=aliases)(kind)
+
+
+register_world_config(SceneConfig, aliases=("sim",))
+register_world_config(BridgeConfig)
+register_world_config(Ai2ThorConfig)
+
+
+def world_config(data: dict[str, Any], naming: FieldNaming | None = None) -> Any:
+    """The typed config `data` describes: its `world` tag (default mujoco) chooses the config, which
+    checks the rest; an unknown world lists the known ones, a bad field is an `InvalidValue`."""
+    fields = dict(data)
+    kind = WORLD_CONFIGS.get(str(fields.pop("world", None) or "mujoco"))
+    return kind.create(naming, **fields)
 
 
 def _invalid(cls: Any, exc: ValidationError, naming: FieldNaming) -> InvalidValue:
@@ -528,7 +578,7 @@ def _invalid(cls: Any, exc: ValidationError, naming: FieldNaming) -> InvalidValu
     value = value if len(value) <= 200 else value[:197] + "..."
     return InvalidValue(
         f"{what} setting {name} ({shown}) = {value} is not valid: {message}",
-        fix(naming) if fix else f"the {what} settings are: {', '.join(cls.model_fields)}",
+        fix(naming) if fix else f"the {what} settings are: {', '.join(cls.settable())}",
     )
 
 

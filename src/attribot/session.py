@@ -27,6 +27,7 @@ from attribot.config import (
     WorldConfig,
     load_settings,
     plain_input,
+    world_config,
 )
 from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file, check_writable, inside, read_capped, read_json, write_whole
@@ -123,26 +124,24 @@ class Scene:
             )
 
     def _world_name(self) -> str:
-        """The world's registered name: the one given (checked against its config), or the config's."""
-        if self.world is not None:
-            name = self.world
-            kind = WORLD_CONFIGS.get(name)  # an unknown world lists the known ones
-            if self.config is not None and not isinstance(self.config, kind):
-                raise InputError(
-                    f"the {name} world is configured by a {kind.__name__}, not a "
-                    f"{type(self.config).__name__}",
-                    f"give config={kind.__name__}(...), or the world the config is for",
-                )
-            return next(n for n, c in WORLD_CONFIGS.items() if c is kind)
-        if self.config is None:
-            return "mujoco"
-        for name, kind in WORLD_CONFIGS.items():
-            if isinstance(self.config, kind):
-                return name
-        raise InputError(
-            f"{type(self.config).__name__} is no world's config",
-            f"give one of: {', '.join(c.__name__ for _, c in WORLD_CONFIGS.items())}",
-        )
+        """The world's registered name: the config's `world` tag, or the one given (checked against it)."""
+        kinds = [kind for _, kind in WORLD_CONFIGS.items()]
+        if self.config is not None and type(self.config) not in kinds:
+            raise InputError(
+                f"{type(self.config).__name__} is no world's config",
+                f"give one of: {', '.join(dict.fromkeys(c.__name__ for c in kinds))}",
+            )
+        tag = None if self.config is None else self.config.world_name()
+        if self.world is None:
+            return tag or "mujoco"
+        kind = WORLD_CONFIGS.get(self.world)  # an unknown world lists the known ones
+        if tag is not None and tag != kind.world_name():
+            raise InputError(
+                f"the {self.world} world is configured by a {kind.__name__}, not a "
+                f"{type(self.config).__name__}",
+                f"give config={kind.__name__}(...), or the world the config is for",
+            )
+        return kind.world_name()
 
     def describe(self) -> dict[str, Any]:
         """What answers record under `world`: the image file, or the world and the config's own fields."""
@@ -173,7 +172,10 @@ class Scene:
             )
         world = str(data.get("world") or "mujoco")
         kind: Any = WORLD_CONFIGS.get(world)
-        config = kind.create(**data["config"]) if data.get("config") is not None else None
+        saved = data.get("config")
+        # the world beside the config names it (folders saved before configs carried their world's tag),
+        # and is the one whose place the trust check below reads: a tag inside the config does not choose
+        config = None if saved is None else world_config({**saved, "world": kind.world_name()})
         if "url" in kind.model_fields and not trusted:
             where = shown_url(str(getattr(config, "url", "")))
             raise ConfigError(
