@@ -5,6 +5,7 @@ coming from the registered configs (issue 19)."""
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from typer.testing import CliRunner
@@ -50,6 +51,25 @@ def test_ask_help_lists_the_registered_worlds_and_one_copy_of_each_flag():
         "--planner",
         "--json",
     } <= set(flags)
+
+
+def test_flags_of_settings_and_scene_fields_take_their_type_and_help_from_the_model():
+    from attribot import config
+    from attribot.cli import BACKEND_FLAGS, PLANNER_FLAGS, SCENE_FLAGS, _help_text
+
+    from_model = 0
+    for flag in (*SCENE_FLAGS, *BACKEND_FLAGS, *PLANNER_FLAGS):
+        match = re.fullmatch(r"\{(\w+)\.(\w+)\}", flag.option.help)
+        if match is None:  # a flag the CLI shapes itself (--option, --world-noise, --findable-by)
+            continue
+        from_model += 1
+        field = getattr(config, match[1]).model_fields[match[2]]
+        assert flag.name == match[2] and flag.annotation == field.annotation | None
+        assert field.description and _help_text(flag.option.help) == field.description
+    assert from_model == 16  # every backend and planner flag, and the scene's own fields
+    text = " ".join(_invoke(["ask", "-h"]).output.replace("│", " ").split())
+    assert "{Settings" not in text and "{SceneConfig" not in text
+    assert "Detector backend spec (oracle, coco, hf:MODEL, remote:URL)." in text
 
 
 def test_a_missing_image_is_said_as_such_with_its_path(tmp_path, empty_settings):

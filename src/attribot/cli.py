@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import inspect
+import re
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -29,19 +30,30 @@ __all__ = ["app", "main"]
 
 
 class _PlainFlags:
-    """In --help, a plain flag (--json, --help) shows no value type: it takes none; and `{worlds}` in a
-    help text is the registered worlds, read when the help is shown (not when `attribot` starts)."""
+    """In --help, a plain flag (--json, --help) shows no value type: it takes none; and a help text's
+    `{worlds}` and `{MODEL.FIELD}` are read when the help is shown, not when `attribot` starts
+    (`_help_text`)."""
 
     def get_params(self, ctx: Any) -> list[Any]:
         params: list[Any] = super().get_params(ctx)  # type: ignore[misc]
         for param in params:
             if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
                 param.metavar = ""
-            if "{worlds}" in (getattr(param, "help", None) or ""):
-                from attribot.config import WORLD_CONFIGS
-
-                param.help = param.help.replace("{worlds}", ", ".join(WORLD_CONFIGS.names()))
+            if "{" in (getattr(param, "help", None) or ""):
+                param.help = _help_text(param.help)
         return params
+
+
+def _help_text(text: str) -> str:
+    """A help text with `{worlds}` (the registered worlds) and `{MODEL.FIELD}` (a field's description in
+    `attribot.config`) filled in."""
+    from attribot import config
+
+    text = text.replace("{worlds}", ", ".join(config.WORLD_CONFIGS.names()))
+    return _MODEL_FIELD.sub(lambda m: str(getattr(config, m[1]).model_fields[m[2]].description), text)
+
+
+_MODEL_FIELD = re.compile(r"\{(\w+)\.(\w+)\}")
 
 
 class _Command(_PlainFlags, TyperCommand):
@@ -222,32 +234,39 @@ def _flag(name: str, annotation: Any, *decls: str, metavar: str | None = None, *
     return _Flag(name, annotation, typer.Option(default, *decls, metavar=metavar, **kwargs))
 
 
-SCENE_FLAGS = (
-    _flag("layout", str | None, "--layout", metavar="NAME", help="Scene layout: household (default), "
-          "arrangement or triplet."),
-    _flag("seed", int | None, "--seed", metavar="INT", help="Scene seed (0 to 4294967295, default 0): the "
-          "same seed gives the same scene and pixels."),
-    _flag("objects", int | None, "--objects", metavar="INT", help="Number of objects (default: the layout "
-          "chooses)."),
-    _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object categories "
-          "to draw from, e.g. mug,apple."),
-    _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
-          "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
-          "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
-    _flag("width", int | None, "--width", metavar="PX", help="Image width in pixels (default 640)."),
-    _flag("height", int | None, "--height", metavar="PX", help="Image height in pixels (default 480)."),
-    _flag("profile", str | None, "--profile", metavar="NAME", help="Render profile: fast (no shadows, "
-          "default) or pretty."),
-    _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and acting in "
-          "the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or KEY=VALUE pairs, e.g. "
-          "realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
-    _flag("robot", str | None, "--robot", metavar="NAME", help="The simulated robot: mast (default; a "
-          "pan-tilt head and a telescoping arm) or ep (RoboMaster-EP-like: its camera on its arm, objects on "
-          "the floor)."),
-    _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the detector "
-          "SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it can find; an "
-          "open-vocabulary one finds them all)."),
-)  # fmt: skip
+def _model_flag(model: str, field: str, annotation: Any, metavar: str) -> _Flag:
+    """The flag of a field of the settings or of a config (`model`: its class in `attribot.config`):
+    `--FIELD`, unset by default (the config's default, or the settings file's), and its help, the field's
+    own description, read when the help is shown (`_PlainFlags`: `attribot` starts without the models)."""
+    return _flag(
+        field, annotation, "--" + field.replace("_", "-"), metavar=metavar, help=f"{{{model}.{field}}}"
+    )
+
+
+def _scene_flags() -> tuple[_Flag, ...]:
+    return (
+        _model_flag("SceneConfig", "layout", str | None, "NAME"),
+        _model_flag("SceneConfig", "seed", int | None, "INT"),
+        _model_flag("SceneConfig", "objects", int | None, "INT"),
+        _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object "
+              "categories to draw from, e.g. mug,apple."),
+        _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
+              "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
+              "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
+        _model_flag("SceneConfig", "width", int | None, "PX"),
+        _model_flag("SceneConfig", "height", int | None, "PX"),
+        _model_flag("SceneConfig", "profile", str | None, "NAME"),
+        _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and "
+              "acting in the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or "
+              "KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
+        _model_flag("SceneConfig", "robot", str | None, "NAME"),
+        _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the "
+              "detector SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it "
+              "can find; an open-vocabulary one finds them all)."),
+    )  # fmt: skip
+
+
+SCENE_FLAGS = _scene_flags()
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
           "the embedded scene; bridge: a robot)."),
@@ -262,28 +281,21 @@ WORLD_FLAGS = (
           "(default; in MuJoCo 'servo', which acts on what the camera and sensors perceive) or 'privileged' "
           "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
 )  # fmt: skip
+
+
 BACKEND_FLAGS = (
-    _flag("detector", str | None, "--detector", metavar="SPEC", help="Detector backend spec (oracle, coco, "
-          "hf:MODEL, remote:URL)."),
-    _flag("vqa", str | None, "--vqa", metavar="SPEC", help="VQA backend spec (oracle, hf:MODEL, "
-          "openai:MODEL, remote:URL)."),
-    _flag("language", str | None, "--language", metavar="SPEC", help="Language backend spec (catalog, "
-          "openai:MODEL, remote:URL)."),
-    _flag("checks", str | None, "--checks", metavar="NAMES", help="Error-catching mechanisms: all (default), "
-          "none, or names (look_again, verify_actions, remeasure, confidence, reset); all,-NAME leaves one "
-          "out."),
-    _flag("program_wall_s", float | None, "--program-wall-s", metavar="SECONDS", help="Wall-clock seconds "
-          "one program may run, API calls and robot actions included (default 60; more on a real robot or "
-          "with a real detector on a CPU)."),
-)  # fmt: skip
+    _model_flag("Settings", "detector", str | None, "SPEC"),
+    _model_flag("Settings", "vqa", str | None, "SPEC"),
+    _model_flag("Settings", "language", str | None, "SPEC"),
+    _model_flag("Settings", "checks", str | None, "NAMES"),
+    _model_flag("Settings", "program_wall_s", float | None, "SECONDS"),
+)
 PLANNER_FLAGS = (
-    _flag("planner", str | None, "--planner", metavar="NAME", help="rules (offline, default) or llm."),
-    _flag("llm_base_url", str | None, "--llm-base-url", metavar="URL", help="OpenAI-compatible endpoint."),
-    _flag("llm_model", str | None, "--llm-model", metavar="NAME", help="Model name at that endpoint."),
-    _flag("prompt", str | None, "--prompt", metavar="NAME", help="The prompt the llm planner shows: "
-          "attribot (default; generated from the API) or paper (the structure of the paper authors' released "
-          "prompt)."),
-)  # fmt: skip
+    _model_flag("Settings", "planner", str | None, "NAME"),
+    _model_flag("Settings", "llm_base_url", str | None, "URL"),
+    _model_flag("Settings", "llm_model", str | None, "NAME"),
+    _model_flag("Settings", "prompt", str | None, "NAME"),
+)
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
     _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "

@@ -130,20 +130,24 @@ class Settings(BaseSettings):
     )
 
     # perception backends, one spec per role
-    detector: str = "oracle"
-    vqa: str = "oracle"
-    language: str = "catalog"
+    detector: str = Field("oracle", description="Detector backend spec (oracle, coco, hf:MODEL, remote:URL).")
+    vqa: str = Field("oracle", description="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
+    language: str = Field("catalog", description="Language backend spec (catalog, openai:MODEL, remote:URL).")
 
     # planner and the OpenAI-compatible endpoint it (and openai: backends) talk to
-    planner: str = "rules"
-    llm_base_url: str | None = None
-    llm_model: str = "gpt-4o"
+    planner: str = Field("rules", description="rules (offline, default) or llm.")
+    llm_base_url: str | None = Field(None, description="OpenAI-compatible endpoint.")
+    llm_model: str = Field("gpt-4o", description="Model name at that endpoint.")
     llm_api_key: SecretStr | None = Field(default=None, repr=False)  # see SECRETS
     llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
     llm_max_tries: int = Field(3, ge=1, le=100)
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
     # the prompt the LLM planner shows (PROMPTS): recorded with every answer and evaluation record
-    prompt: str = "attribot"
+    prompt: str = Field(
+        "attribot",
+        description="The prompt the llm planner shows: attribot (default; generated from the API) or paper "
+        "(the structure of the paper authors' released prompt).",
+    )
 
     # transformers backends
     hf_device: str = "auto"
@@ -156,15 +160,23 @@ class Settings(BaseSettings):
     remote_token: SecretStr | None = Field(default=None, repr=False)
     remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
-    # the mechanisms that catch perception and action errors (attribot.api.safeguards): "all", "none",
-    # names, or "all,-look_again" to leave one out
-    checks: str = "all"
+    # the mechanisms that catch perception and action errors (attribot.api.safeguards)
+    checks: str = Field(
+        "all",
+        description="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
+        "remeasure, confidence, reset); all,-NAME leaves one out.",
+    )
     # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and
     # the item's seed); None: only what their specs ask for (`oracle?noise=realistic`)
     perception_noise: PerceptionNoise | None = None
-    # the wall-clock seconds one program may run, its API calls and the robot's actions included: a real
-    # robot, or a real detector on a CPU, needs more than the simulator with the oracle
-    program_wall_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
+    program_wall_s: float = Field(
+        60.0,
+        gt=0,
+        le=MAX_TIME_S,
+        allow_inf_nan=False,
+        description="Wall-clock seconds one program may run, API calls and robot actions included (default "
+        "60; more on a real robot or with a real detector on a CPU).",
+    )
 
     cache_dir: Path = Path(".attribot-cache")
 
@@ -453,19 +465,33 @@ class SceneConfig(_WorldConfig):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     world: Literal["mujoco"] = "mujoco"
-    layout: str = "household"
-    seed: int = Field(0, ge=0, le=MAX_SEED, strict=True)
-    objects: int | None = Field(None, ge=1, strict=True)  # the upper bound is each layout's own
+    layout: str = Field("household", description="Scene layout: household (default), arrangement or triplet.")
+    seed: int = Field(
+        0,
+        ge=0,
+        le=MAX_SEED,
+        strict=True,
+        description=f"Scene seed (0 to {MAX_SEED}, default 0): the same seed gives the same scene and "
+        "pixels.",
+    )
+    # the upper bound is each layout's own
+    objects: int | None = Field(
+        None, ge=1, strict=True, description="Number of objects (default: the layout chooses)."
+    )
     categories: tuple[str, ...] | None = None
     vocabulary: tuple[str, ...] | None = None
     options: dict[str, OptionValue] = Field(default_factory=dict)
-    width: int = Field(640, ge=16, le=4096, strict=True)
-    height: int = Field(480, ge=16, le=4096, strict=True)
-    profile: str = "fast"
+    width: int = Field(640, ge=16, le=4096, strict=True, description="Image width in pixels (default 640).")
+    height: int = Field(480, ge=16, le=4096, strict=True, description="Image height in pixels (default 480).")
+    profile: str = Field("fast", description="Render profile: fast (no shadows, default) or pretty.")
     force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     noise: WorldNoise = Field(default_factory=WorldNoise)
     looks: str = "detailed"
-    robot: str = "mast"
+    robot: str = Field(
+        "mast",
+        description="The simulated robot: mast (default; a pan-tilt head and a telescoping arm) or ep "
+        "(RoboMaster-EP-like: its camera on its arm, objects on the floor).",
+    )
 
     @field_validator("robot")
     @classmethod
