@@ -49,7 +49,7 @@ from attribot.files import not_a_file, read_capped
 from attribot.mechanisms import Mechanism, parse_checks
 from attribot.noise import PerceptionNoise, WorldNoise
 from attribot.registry import Registry
-from attribot.text import plain_value, shown_url
+from attribot.text import one_of, plain_value, shown_url
 
 __all__ = [
     "Settings",
@@ -269,9 +269,7 @@ class Settings(BaseSettings):
     @field_validator("prompt")
     @classmethod
     def _known_prompt(cls, value: str) -> str:
-        if value not in PROMPTS:
-            raise ValueError(f"unknown prompt; choose one of: {', '.join(PROMPTS)}")
-        return value
+        return one_of(value, PROMPTS, "prompt")
 
     def public_dict(self) -> dict[str, Any]:
         """The settings as JSON-ready data, with secrets left out: what a run saves."""
@@ -496,23 +494,17 @@ class SceneConfig(_WorldConfig):
     @field_validator("robot")
     @classmethod
     def _known_robot(cls, value: str) -> str:
-        if value not in ROBOTS:
-            raise ValueError(f"unknown robot; choose one of: {', '.join(ROBOTS)}")
-        return value
+        return one_of(value, ROBOTS, "robot")
 
     @field_validator("looks")
     @classmethod
     def _known_looks(cls, value: str) -> str:
-        if value not in OBJECT_LOOKS:
-            raise ValueError(f"unknown object looks; choose one of: {', '.join(OBJECT_LOOKS)}")
-        return value
+        return one_of(value, OBJECT_LOOKS, "object looks")
 
     @field_validator("profile")
     @classmethod
     def _known_profile(cls, value: str) -> str:
-        if value not in RENDER_PROFILES:
-            raise ValueError(f"unknown render profile; choose one of: {', '.join(RENDER_PROFILES)}")
-        return value
+        return one_of(value, RENDER_PROFILES, "render profile")
 
     def describe(self) -> dict[str, Any]:
         """The fields that differ from the defaults, always with layout and seed: what answers record."""

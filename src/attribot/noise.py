@@ -25,7 +25,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from attribot.errors import ConfigError
-from attribot.text import plain_value
+from attribot.text import one_of, plain_value
 
 __all__ = ["WorldNoise", "PerceptionNoise", "NOISE_PRESETS", "preset", "world_noise"]
 
@@ -131,9 +131,7 @@ class PerceptionNoise(BaseModel):
     @field_validator("preset")
     @classmethod
     def _known_preset(cls, value: str) -> str:
-        if value not in NOISE_PRESETS:
-            raise ValueError(f"unknown noise preset; choose one of: {', '.join(NOISE_PRESETS)}")
-        return value
+        return one_of(value, NOISE_PRESETS, "noise preset")
 
     def options(self, known: set[str] | frozenset[str]) -> dict[str, float | int]:
         """The preset's options among `known` (a backend's noise fields), with the seed."""

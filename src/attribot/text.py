@@ -4,6 +4,7 @@ file (no lone surrogates) and a terminal (no control characters that act)."""
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from typing import Any
 
 __all__ = [
@@ -89,4 +90,13 @@ def plain_value(value: Any, number: bool = False) -> Any:
         controls = control_characters(value) + [_escape(m) for m in re.finditer("[\t\n]", value)][:1]
         if controls:
             raise ValueError(f"it holds control characters ({', '.join(dict.fromkeys(controls))})")
+    return value
+
+
+def one_of(value: str, names: Iterable[str], what: str) -> str:
+    """`value` when it is one of `names`; else a ValueError naming `what` it was to be and the choices
+    (pydantic reports it under the field's name)."""
+    choices = list(names)
+    if value not in choices:
+        raise ValueError(f"unknown {what}; choose one of: {', '.join(choices)}")
     return value
