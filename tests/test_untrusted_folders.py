@@ -19,6 +19,7 @@ import attribot
 from attribot.cli import app
 from attribot.config import SceneConfig, load_settings
 from attribot.errors import AttribotError
+from attribot.noise import PerceptionNoise
 from attribot.planning.answer import Answer
 from attribot.session import Scene, load_saved, save_answer
 from conftest import serve_chat_replies
@@ -122,6 +123,7 @@ def test_the_folders_own_offline_choices_are_replayed_as_saved(tmp_path, empty_s
         detector="oracle?miss=0.2&seed=3",
         checks="none",
         program_wall_s=12.5,
+        perception_noise={"preset": "realistic", "seed": 7},
         planner="llm",
         llm_base_url="http://127.0.0.1:9/v1",
         cache_dir="/tmp/elsewhere",
@@ -133,6 +135,7 @@ def test_the_folders_own_offline_choices_are_replayed_as_saved(tmp_path, empty_s
         "none",
         12.5,
     )
+    assert settings.perception_noise == PerceptionNoise(preset="realistic", seed=7)
     # what a replay does not need, and what names a place, stays the user's own
     mine = load_settings()
     assert (settings.planner, settings.llm_base_url, settings.cache_dir, settings.coco_dir) == (
