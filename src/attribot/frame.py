@@ -119,6 +119,14 @@ class Frame:
                 raise ValueError(f"{name} has shape {layer.shape[:2]}, the image {self.rgb.shape[:2]}")
 
     @property
+    def scene_depth(self) -> np.ndarray | None:
+        """The depth image with the robot's own body left out (NaN where `own_body` is set), or None without
+        depth: what places objects, so that the arm or gripper in front of one is not taken for part of it."""
+        if self.depth is None or self.own_body is None or not self.own_body.any():
+            return self.depth
+        return np.where(self.own_body, np.float32(np.nan), self.depth).astype(self.depth.dtype, copy=False)
+
+    @property
     def width(self) -> int:
         return int(self.rgb.shape[1])
 

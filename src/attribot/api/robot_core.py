@@ -192,7 +192,7 @@ class SessionCore:
         if "pose" in caps:
             self.capture = capture_now(self.world, frame, self._captures, camera)
         else:
-            self.capture = Capture(index=self._captures, camera=camera, depth=frame.depth)
+            self.capture = Capture(index=self._captures, camera=camera, depth=frame.scene_depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
         if self.safeguards.on(Mechanism.LOOK_AGAIN) or self.safeguards.on(Mechanism.LOOK_HARDER):

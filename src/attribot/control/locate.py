@@ -144,10 +144,11 @@ class Locator:
         reach = max(0.25, 3.0 * est.radius)
 
         def where(frame: Frame, box: Box) -> ObjectEstimate | None:
-            if frame.depth is None:
+            depth = frame.scene_depth  # the arm in front of the object is not part of it
+            if depth is None:
                 return est
             pose = self.plant.pose()
-            new = estimate_object(frame.depth, camera, self.plant.view(body), pose, box, ignore)
+            new = estimate_object(depth, camera, self.plant.view(body), pose, box, ignore)
             near = new is not None and float(np.linalg.norm(new.xy() - est.xy())) <= reach
             return new if near else None
 
@@ -331,7 +332,7 @@ class Locator:
             camera,
             head,
             self.plant.pose(),
-            depth=frame.depth,
+            depth=frame.scene_depth,
             view=self.plant.view(body),
             arm=self.plant.arm(),
         )

@@ -26,6 +26,13 @@ __all__ = ["Reacher"]
 _STANDING_TURNS = (0.0, 0.35, -0.35, 0.7, -0.7, 1.05, -1.05, 1.4, -1.4, 1.75, -1.75, 2.1, -2.1, math.pi)
 
 
+WIDE_TOL_SHARE = 0.25
+"""The arm's line may pass this share of a wide object's radius from its middle (a backpack's 13 cm: 3 cm).
+Depth places a wide object's middle from the side it sees, which shifts by a centimetre or two with each
+correction of the base: lined up to `arrive_tol`, the corrections chase it, while the fingers close on the
+object anywhere near its middle."""
+
+
 @dataclass
 class Reacher:
     """Brings the arm to objects (see the module docstring)."""
@@ -84,10 +91,10 @@ class Reacher:
         relocate: Callable[[ObjectEstimate], ObjectEstimate] | None = None,
     ) -> Reach:
         """Find the object again from here (by the detector; or by `relocate`, which sees where `est` is
-        now) and correct the base until the arm's line passes within `tol` (default `arrive_tol`) of it,
-        `short` metres short of the grasp; then drive those straight."""
+        now) and correct the base until the arm's line passes within `tol` of it, `short` metres short of
+        the grasp; then drive those straight. `tol` by default: `arrive_tol`, or, for a wide object, a share
+        of its radius (`WIDE_TOL_SHARE`)."""
         tuning = self.plant.tuning
-        tol = tuning.arrive_tol if tol is None else tol
         side = ext = math.nan
         for _ in range(tuning.align_tries):
             if relocate is not None:
@@ -98,8 +105,9 @@ class Reacher:
             ext = float(local[0] - body.reach_x(0.0) - short)
             side = float(local[1] - body.arm_xy[1])
             lo, hi = body.arm_range
+            within = max(tuning.arrive_tol, WIDE_TOL_SHARE * est.radius) if tol is None else tol
             # a centimetre beyond the telescope's ends still closes the fingers on the object
-            if abs(side) <= tol and lo - 0.015 <= ext <= hi + 0.015:
+            if abs(side) <= within and lo - 0.015 <= ext <= hi + 0.015:
                 if short:
                     self.driver.straight(short)
                 return Reach(target.label, est, float(np.clip(ext, lo, hi)))

@@ -85,7 +85,7 @@ def capture_now(world: ServoWorld, frame: Frame, index: int, camera: CameraInfo 
         camera=camera,
         head=head,
         base=(float(pose.x), float(pose.y), float(pose.yaw)),
-        depth=frame.depth,
+        depth=frame.scene_depth,
         view=view,
         arm=arm,
     )
