@@ -16,7 +16,7 @@ from attribot.boxes import iou
 from attribot.config import SceneConfig, Settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError
-from attribot.eval.methods import Condition, ablations, check_condition
+from attribot.eval.methods import Condition, ablations
 from attribot.frame import Frame
 from attribot.models.base import Detection
 from attribot.models.noise import DetectorNoise, NoisyDetector
@@ -70,10 +70,11 @@ def test_checks_parse_and_refuse_unknown_names():
     assert parse_checks("remeasure,confidence") == ("remeasure", "confidence")
     with pytest.raises(InputError, match="unknown check"):
         parse_checks("all,-telepathy")
-    assert check_condition("realistic-no-reset") == ("realistic", "all,-reset")
+    reset_off = Condition.parse("realistic-no-reset")
+    assert (reset_off.preset, reset_off.checks) == ("realistic", "all,-reset")
     assert len(ablations()) == len(MECHANISMS)
     with pytest.raises(InputError):
-        check_condition("realistic-no-telepathy")
+        Condition.parse("realistic-no-telepathy")
 
 
 def test_a_run_condition_is_typed_and_names_itself_as_records_do():

@@ -243,30 +243,26 @@ def _model_flag(model: str, field: str, annotation: Any, metavar: str) -> _Flag:
     )
 
 
-def _scene_flags() -> tuple[_Flag, ...]:
-    return (
-        _model_flag("SceneConfig", "layout", str | None, "NAME"),
-        _model_flag("SceneConfig", "seed", int | None, "INT"),
-        _model_flag("SceneConfig", "objects", int | None, "INT"),
-        _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object "
-              "categories to draw from, e.g. mug,apple."),
-        _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
-              "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
-              "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
-        _model_flag("SceneConfig", "width", int | None, "PX"),
-        _model_flag("SceneConfig", "height", int | None, "PX"),
-        _model_flag("SceneConfig", "profile", str | None, "NAME"),
-        _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and "
-              "acting in the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or "
-              "KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
-        _model_flag("SceneConfig", "robot", str | None, "NAME"),
-        _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the "
-              "detector SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it "
-              "can find; an open-vocabulary one finds them all)."),
-    )  # fmt: skip
-
-
-SCENE_FLAGS = _scene_flags()
+SCENE_FLAGS = (
+    _model_flag("SceneConfig", "layout", str | None, "NAME"),
+    _model_flag("SceneConfig", "seed", int | None, "INT"),
+    _model_flag("SceneConfig", "objects", int | None, "INT"),
+    _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object "
+          "categories to draw from, e.g. mug,apple."),
+    _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
+          "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
+          "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
+    _model_flag("SceneConfig", "width", int | None, "PX"),
+    _model_flag("SceneConfig", "height", int | None, "PX"),
+    _model_flag("SceneConfig", "profile", str | None, "NAME"),
+    _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and "
+          "acting in the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or "
+          "KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
+    _model_flag("SceneConfig", "robot", str | None, "NAME"),
+    _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the "
+          "detector SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it "
+          "can find; an open-vocabulary one finds them all)."),
+)  # fmt: skip
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
           "the embedded scene; bridge: a robot)."),

@@ -39,7 +39,6 @@ from attribot.text import shown_url
 __all__ = [
     "Record",
     "run_method",
-    "check_condition",
     "Condition",
     "PROGRAM_METHODS",
     "ablations",
@@ -108,12 +107,6 @@ class Condition:
     def world_noise(self, seed: int) -> WorldNoise:
         """The world's imperfections of sensing and acting under this condition, drawn from `seed`."""
         return world_noise(self.preset, seed)
-
-
-def check_condition(condition: str) -> tuple[str, str]:
-    """A run condition, `PRESET` or `PRESET-no-MECHANISM` (an ablation): (preset, the checks spec)."""
-    parsed = Condition.parse(condition)
-    return parsed.preset, parsed.checks
 
 
 def ablations(preset: str = "realistic") -> tuple[str, ...]:
