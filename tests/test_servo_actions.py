@@ -5,6 +5,7 @@ program can act on. The simulator's truth only checks the outcome."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -316,4 +317,8 @@ def test_after_a_lift_the_camera_tells_the_object_meant_from_another(seed):
         servo.approach(right)
         servo.pick_up(right)
         assert world.held_object() == meant.id
-        assert servo.check_held(right, right)[0] is True
+        looks: list[object] = []
+        counted = dataclasses.replace(right, find=lambda frame: looks.append(frame) or right.find(frame))
+        # closed where the image showed it: nothing seen elsewhere could be nearer, so it needs no look
+        verdict, detail = servo.check_held(counted, counted)
+        assert verdict is True and "where the image showed" in detail and looks == []
