@@ -26,18 +26,6 @@ from attribot.frame import Frame
 __all__ = ["Manipulator"]
 
 
-def closed_where_seen(hold: Hold, grasped: np.ndarray, first: ObjectEstimate | None) -> str | None:
-    """Why a lift needs no look, where the gripper closed within the object's radius of where the program's
-    image put it (`first`): no sighting of its name elsewhere could then be nearer to there than the grasp,
-    which `Manipulator.check_held` asks of one that says another object was lifted. None otherwise."""
-    if first is None:
-        return None
-    off = float(np.linalg.norm(grasped[:2] - first.xy()))
-    if off > max(0.03, hold.radius):
-        return None
-    return f"the gripper closed {off * 100:.0f} cm from where the image showed the {hold.label}"
-
-
 @dataclass
 class Manipulator:
     """Picks, places and pushes (see the module docstring); `holding` is what the gripper holds."""
@@ -113,9 +101,8 @@ class Manipulator:
         rose with the gripper (True); or detections of its name only elsewhere, nearer to where the image
         the program chose it from (`seen_first`) put it than the grasp was, so that another object was lifted
         (False). None when it cannot tell: no finder or depth, its name not seen at all, or seen only
-        farther away (another object of its kind, while the detector misses the held one). True without
-        looking where the gripper closed within the object's radius of where that image put it: no sighting
-        elsewhere could then be nearer to there than the grasp."""
+        farther away (another object of its kind, while the detector misses the held one). True without a
+        look where the gripper closed within `slack` of where that image put it: no sighting can be nearer."""
         hold = self.holding
         body = self.plant.body("pick_up")
         if hold is None or target.find is None or not self.plant.has("pose"):
@@ -125,9 +112,10 @@ class Manipulator:
         grip = self.locator.grip_point(body, lift, float(js.get("arm", hold.extension)))
         grasped = self.locator.grip_point(body, hold.lift, hold.extension, hold.pose)
         first = self.locator.where_seen(seen_first, body)
-        closed_there = closed_where_seen(hold, grasped, first)
-        if closed_there is not None:
-            return True, closed_there
+        off_grasp = None if first is None else float(np.linalg.norm(grasped[:2] - first.xy()))
+        slack = max(0.03, hold.radius)  # a sighting of the name must be this much nearer to say "another"
+        if off_grasp is not None and off_grasp <= slack:
+            return True, f"the gripper closed {off_grasp * 100:.0f} cm from where the image showed it"
         self.locator.aim(grip, body, target, hold)
         camera = self.plant.world.camera_info()
         elsewhere: list[ObjectEstimate] = []
@@ -150,7 +138,7 @@ class Manipulator:
         if box is not None:
             return True, f"the camera sees the {hold.label} rise with the gripper"
         unseen = f"the camera does not see the {hold.label} in the gripper"
-        if first is None:
+        if first is None or off_grasp is None:
             return None, unseen
         if not elsewhere:  # look where the image showed it: still standing there, it was not lifted
             self.locator.aim(np.array(first.centre), body, target, hold)
@@ -160,9 +148,8 @@ class Manipulator:
         if not elsewhere:
             return None, unseen
         other = min(elsewhere, key=lambda e: float(np.linalg.norm(e.xy() - first.xy())))
-        off_grasp = float(np.linalg.norm(grasped[:2] - first.xy()))
         off_other = float(np.linalg.norm(other.xy() - first.xy()))
-        if off_other + max(0.03, hold.radius) >= off_grasp:  # as near: the same object, or as likely not
+        if off_other + slack >= off_grasp:  # as near: the same object, or as likely not
             return None, unseen
         return False, (
             f"the camera sees the {hold.label} {off_other * 100:.0f} cm from where the image showed it, and "
