@@ -20,6 +20,7 @@ every rerun.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -133,17 +134,18 @@ class PerceptionNoise(BaseModel):
     def _known_preset(cls, value: str) -> str:
         return one_of(value, NOISE_PRESETS, "noise preset")
 
-    def options(self, known: set[str] | frozenset[str]) -> dict[str, float | int]:
+    def options(self, known: Iterable[str]) -> dict[str, float | int]:
         """The preset's options among `known` (a backend's noise fields), with the seed."""
-        values: dict[str, float | int] = {k: v for k, v in NOISE_PRESETS[self.preset].items() if k in known}
-        return {**values, "seed": self.seed}
+        return {**preset(self.preset, among=known), "seed": self.seed}
 
 
-def preset(name: str) -> dict[str, float]:
-    """The options of preset `name`; an unknown name raises a `ConfigError` listing the presets."""
+def preset(name: str, among: Iterable[str] | None = None) -> dict[str, float]:
+    """The options of preset `name` (those named in `among` only: a part's own fields); an unknown name raises
+    a `ConfigError` listing the presets."""
     if name not in NOISE_PRESETS:
         raise ConfigError(f"unknown noise preset {name!r}", f"choose one of: {', '.join(NOISE_PRESETS)}")
-    return dict(NOISE_PRESETS[name])
+    own = None if among is None else set(among)
+    return {k: v for k, v in NOISE_PRESETS[name].items() if own is None or k in own}
 
 
 def world_noise(spec: str | dict[str, Any] | None, seed: int = 0) -> WorldNoise:
@@ -155,8 +157,7 @@ def world_noise(spec: str | dict[str, Any] | None, seed: int = 0) -> WorldNoise:
     elif spec:
         for part in (p.strip() for p in spec.split(",") if p.strip()):
             if "=" not in part:
-                known = set(WorldNoise.model_fields)
-                values.update({k: v for k, v in preset(part).items() if k in known})
+                values.update(preset(part, among=WorldNoise.model_fields))
                 continue
             key, _, raw = part.partition("=")
             values[key.strip()] = raw.strip()

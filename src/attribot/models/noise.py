@@ -98,7 +98,7 @@ def noise_options(
     values: dict[str, float] = {} if base is None else dict(base.options(known))
     named = options.get("noise")
     if named is not None:
-        values.update({k: v for k, v in preset(named).items() if k in known})
+        values.update(preset(named, among=known))
     for key, raw in options.items():
         if key == "noise":
             continue
