@@ -8,6 +8,7 @@ A crop keeps all layers aligned and remembers where it sits in the full frame.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from dataclasses import dataclass, field
@@ -118,10 +119,11 @@ class Frame:
             if layer is not None and layer.shape[:2] != self.rgb.shape[:2]:
                 raise ValueError(f"{name} has shape {layer.shape[:2]}, the image {self.rgb.shape[:2]}")
 
-    @property
+    @functools.cached_property
     def scene_depth(self) -> np.ndarray | None:
         """The depth image with the robot's own body left out (NaN where `own_body` is set), or None without
-        depth: what places objects, so that the arm or gripper in front of one is not taken for part of it."""
+        depth: what places objects, so that the arm or gripper in front of one is not taken for part of it.
+        Made once per frame: each box a controller checks in it reads it."""
         if self.depth is None or self.own_body is None or not self.own_body.any():
             return self.depth
         return np.where(self.own_body, np.float32(np.nan), self.depth).astype(self.depth.dtype, copy=False)
