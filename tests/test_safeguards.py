@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.safeguards import MECHANISMS, Safeguards, parse_checks
+from attribot.api.safeguards import (
+    MECHANISMS,
+    Mechanism,
+    Remeasure,
+    Safeguards,
+    WithoutLookAgain,
+    WithoutRemeasure,
+    parse_checks,
+)
 from attribot.boxes import iou
 from attribot.config import SceneConfig, Settings
 from attribot.embodiments.mujoco import MujocoWorld
@@ -268,6 +276,44 @@ def test_distance_is_measured_again_with_its_uncertainty(perception):
         m = robot.measurements[-1]
         assert m.samples > 1 and 0.0 < m.uncertainty < 0.05
         assert truth.distance_m - truth.size_m / 2 - 0.05 <= metres <= truth.distance_m + 0.05
+
+
+class _TwoReadings(Remeasure):
+    """A lab's own way of measuring again: always two readings."""
+
+    def readings(self, wanted: int) -> int:
+        return 2
+
+
+@pytest.mark.parametrize("checks", ["all", "all,-remeasure"])
+def test_a_plugged_in_strategy_measures_its_way_and_an_ablation_still_switches_it_off(perception, checks):
+    with world(range_std=0.02, seed=9) as w:
+        truth = next(o for o in w.scene_info().objects if o.box is not None)
+        guards = Safeguards(checks, strategies={Mechanism.REMEASURE: _TwoReadings})
+        robot = Robot(["camera", "distance"], world=w, safeguards=guards)
+        robot.measure_distance(robot.look(perception).find(truth.category)[0])
+        expected = 2 if checks == "all" else 1
+        assert robot.measurements[-1].samples == expected
+        assert isinstance(guards.remeasure, _TwoReadings if checks == "all" else WithoutRemeasure)
+        said = [e.detail for e in guards.events if e.mechanism == "remeasure"]
+        assert said == (["2 readings, 0 empty"] if checks == "all" else [])
+
+
+def test_a_strategy_plugged_in_for_the_wrong_or_no_mechanism_is_refused():
+    with pytest.raises(InputError, match="not a Remeasure") as wrong:
+        Safeguards(strategies={Mechanism.REMEASURE: WithoutLookAgain})
+    assert "subclass attribot.api.safeguards.Remeasure" in (wrong.value.fix or "")
+    with pytest.raises(InputError, match="sixth_sense"):
+        Safeguards(strategies={"sixth_sense": Remeasure})  # type: ignore[dict-item]
+
+
+def test_every_mechanism_is_a_strategy_on_and_its_without_class_off():
+    on, off = Safeguards("all"), Safeguards("none")
+    for mechanism in Mechanism:
+        strategy, idle = getattr(on, mechanism.value), getattr(off, mechanism.value)
+        assert strategy.mechanism is idle.mechanism is mechanism
+        assert type(idle).__name__.startswith("Without") and isinstance(idle, type(strategy))
+    assert on.aims_again() and not off.aims_again()
 
 
 def test_the_beam_check_takes_the_nearest_surface_so_a_thin_pole_is_measured(perception):

@@ -32,7 +32,6 @@ from attribot.config import (
 from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file, check_writable, inside, read_capped, read_json, write_whole
 from attribot.frame import load_image
-from attribot.mechanisms import Mechanism
 from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 from attribot.text import shown_url
@@ -310,8 +309,7 @@ class Session:
         self.sensors = list(self.scene.sensors or ["camera"])
         self.robot = Robot(sensors=self.sensors)
         self.image = ImagePatch.from_image(rgb, self.perception)
-        if self.safeguards.on(Mechanism.LOOK_AGAIN):  # a still image is looked at again within itself
-            self.image.safeguards = self.safeguards
+        self.image.safeguards = self.safeguards  # a still image is looked at again within itself
 
     def _world(self, record: bool) -> None:
         from attribot.api.robot import Robot
@@ -343,8 +341,7 @@ class Session:
             )
         self.image = self.robot.look(self.perception, survey=not self.scene.still)
         self.first_image = self.image
-        if self.safeguards.on(Mechanism.RESET):
-            self.start = self.robot.snapshot()
+        self.start = self.safeguards.reset.start(self.robot)
 
     def findable(self) -> str:
         """What `image.find` can find here, in words for the prompt."""
@@ -372,15 +369,10 @@ class Session:
         if self.start is not None:  # back to where the first try started, with its first image
             self.robot.restore(self.start, self.first_image)
             self.image = self.first_image
-            self.safeguards.note(
-                Mechanism.RESET, try_name, "caught", "the robot was put back where the first try started"
-            )
+            self.safeguards.reset.restored(try_name)
         else:  # a world that cannot put its robot back: start with empty hands from what it sees now
             self.image = self.robot.look(self.perception, survey=not self.scene.still)
-            if self.safeguards.on(Mechanism.RESET):
-                self.safeguards.note(
-                    Mechanism.RESET, try_name, "unsettled", "this world cannot put the robot back"
-                )
+            self.safeguards.reset.not_restored(try_name)
 
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
@@ -391,9 +383,7 @@ class Session:
         try:
             return self.robot.settle(chosen)
         except Exception as exc:  # noqa: BLE001 (measuring again failed: keep the program's own answer)
-            self.safeguards.note(
-                Mechanism.CONFIDENCE, "answer", "unsettled", f"measuring again failed: {exc}"
-            )
+            self.safeguards.confidence.note("answer", "unsettled", f"measuring again failed: {exc}")
             return None
 
     def backends(self) -> dict[str, str]:

@@ -10,7 +10,6 @@ from attribot.api.checks import check_number
 from attribot.api.errors import ApiArgumentError, PreconditionError
 from attribot.api.patch import ImagePatch
 from attribot.api.robot_core import SessionCore, object_name
-from attribot.api.safeguards import Mechanism
 from attribot.control.base import (
     RETRY_FROM_HERE,
     ControlError,
@@ -57,7 +56,7 @@ class Acting(SessionCore):
             # comes here, put_on reaches its receptacle), and driving with a load in view loses the target
             self._near = self._aimed = None
             return
-        tries = self.APPROACH_TRIES if self.safeguards.on(Mechanism.VERIFY_ACTIONS) else 1
+        tries = self.safeguards.verify_actions.tries(self.APPROACH_TRIES)
         for attempt in range(tries):
             try:
                 self.controller.approach(target)
@@ -69,7 +68,7 @@ class Acting(SessionCore):
                 # from where it stopped, the robot sees the object anew: approach what it sees now
                 fresh = self._seen_from_here(p, target)
                 how = "from a new look at it" if fresh is not target else "again"
-                self.safeguards.note(Mechanism.VERIFY_ACTIONS, call, "caught", f"{exc.message}; trying {how}")
+                self.safeguards.verify_actions.note(call, "caught", f"{exc.message}; trying {how}")
                 target = fresh
         self._near = p
         self._aimed = None
@@ -108,7 +107,7 @@ class Acting(SessionCore):
                 f"robot.pick_up() needs the robot next to {target.describe()}",
                 "call robot.go_to_object(patch) right before robot.pick_up(patch)",
             )
-        tries = self.GRASP_TRIES if self.safeguards.on(Mechanism.VERIFY_ACTIONS) else 1
+        tries = self.safeguards.verify_actions.tries(self.GRASP_TRIES)
         seen_first = target
         for attempt in range(tries):
             if "force" in self.sensors:
@@ -122,7 +121,7 @@ class Acting(SessionCore):
                 if attempt + 1 == tries or exc.reason is not Failure.GRASP_FAILED:
                     raise
                 call = f"pick_up({p.label or 'patch'})"
-                self.safeguards.note(Mechanism.VERIFY_ACTIONS, call, "caught", f"{exc.message}; trying again")
+                self.safeguards.verify_actions.note(call, "caught", f"{exc.message}; trying again")
                 target = self._seen_from_here(p, target)  # a failed grasp may have moved it
                 self.controller.approach(target)
         self.held = p
@@ -133,12 +132,8 @@ class Acting(SessionCore):
         name is seen rising with the gripper). When another object was lifted, it is put back and the grasp
         counts as failed, to be tried again; when the camera cannot tell, the grasp stands."""
         check = getattr(self.controller, "check_held", None)
-        if check is None or not self.safeguards.on(Mechanism.VERIFY_ACTIONS):
-            return
-        verdict, detail = check(target, seen_first)
         call = f"pick_up({p.label or 'patch'})"
-        if verdict is True:
-            self.safeguards.note(Mechanism.VERIFY_ACTIONS, call, "confirmed", detail)
+        verdict, detail = self.safeguards.verify_actions.held(check, target, seen_first, call)
         if verdict is not False:
             return
         self.controller.put_down()

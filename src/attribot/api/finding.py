@@ -9,15 +9,12 @@ from typing import TYPE_CHECKING
 
 from attribot.api.checks import check_number, check_text
 from attribot.api.errors import ApiArgumentError
-from attribot.api.harder import acting_find, look_harder
-from attribot.api.looking import reexamine
-from attribot.api.safeguards import Mechanism
+from attribot.api.harder import acting_find
 from attribot.boxes import from_upward
 from attribot.control.base import Target
 from attribot.errors import BackendError
 from attribot.frame import Frame
 from attribot.models.base import Detection
-from attribot.models.cache import cacheable
 
 if TYPE_CHECKING:
     from attribot.api.patch import ImagePatch
@@ -37,23 +34,9 @@ def find_in(patch: ImagePatch, object_name: str) -> list[ImagePatch]:
             f"the detector {patch.perception.detector.name!r} did not return a list of Detection",
             "fix the detector backend: detect() must return list[attribot.models.base.Detection]",
         )
-    if patch.safeguards is not None and patch.safeguards.on(Mechanism.LOOK_AGAIN):
-        first = len(detections)
-        # the image itself looked at again (its boxes averaged), then the views around it
-        detections, report = reexamine(patch.perception.detector, pixels, name, detections)
-        reports = [report]
-        if patch.survey is not None and patch._whole():
-            detections = patch.survey.fuse(patch.perception.detector, name, detections)
-            reports.append(patch.survey.reports[-1])
-        changed = any(r.dropped or r.added or r.conflicts for r in reports)
-        doubtful = any(r.unconfirmed for r in reports)
-        patch.safeguards.note(
-            Mechanism.LOOK_AGAIN,
-            f"find({name!r})",
-            "caught" if changed else "unsettled" if doubtful else "confirmed",
-            "; ".join(r.describe() for r in reports) + f" ({first} -> {len(detections)})",
-        )
-    detections, by_depth = _looked_harder(patch, name, pixels, detections)
+    survey = patch.survey if patch._whole() else None
+    detections = patch.safeguards.look_again.find(patch.perception.detector, pixels, name, detections, survey)
+    detections, by_depth = patch.safeguards.look_harder.find(patch, name, pixels, detections)
     dx = pixels.origin[0] - patch.frame.origin[0]
     dy = pixels.origin[1] - patch.frame.origin[1]
     found: list[ImagePatch] = []
@@ -78,33 +61,6 @@ def find_in(patch: ImagePatch, object_name: str) -> list[ImagePatch]:
         child.safeguards = patch.safeguards  # its own finds and questions are checked the same way
         found.append(child)
     return found
-
-
-def _looked_harder(
-    patch: ImagePatch, name: str, pixels: Frame, detections: list[Detection]
-) -> tuple[list[Detection], list[Detection]]:
-    """The find's detections after looking harder (`attribot.api.harder`), where that is on, the patch is a
-    robot's whole image with depth, and the detector reads pixels; and those of them it took on weaker
-    evidence than the detector's (a faint box, elimination)."""
-    guards, detector = patch.safeguards, patch.perception.detector
-    if guards is None or not guards.on(Mechanism.LOOK_HARDER) or not patch._whole() or patch.capture is None:
-        return detections, []
-    if not cacheable(detector):
-        return detections, []
-    claimed = [d for n, d in patch.named.items() if n.lower() != name.lower()]
-    sought = sorted(patch.sought - {n.lower() for n in (name, *patch.named)})
-    looked = look_harder(detector, pixels, patch.capture, name, detections, patch.nearer, claimed, sought)
-    if looked is None:
-        return detections, []
-    harder, report = looked
-    if harder:
-        patch.named[name] = max(harder, key=lambda d: d.score)
-    if report.views or report.set_aside:
-        caught = report.added or report.set_aside or report.found_nearer or report.taken
-        guards.note(
-            Mechanism.LOOK_HARDER, f"find({name!r})", "caught" if caught else "unsettled", report.describe()
-        )
-    return harder, (harder if report.taken else [])
 
 
 def crop_of(patch: ImagePatch, left: float, lower: float, right: float, upper: float) -> ImagePatch:

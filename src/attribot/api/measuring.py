@@ -14,8 +14,7 @@ import numpy as np
 from attribot.api.checks import check_patch
 from attribot.api.errors import ActionFailed, ApiArgumentError, PreconditionError
 from attribot.api.patch import ImagePatch
-from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _named, _own_sense
-from attribot.api.safeguards import Mechanism
+from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
 from attribot.control.base import (
     Target,
 )
@@ -40,51 +39,18 @@ class Measuring(SessionCore):
     FORCE_RESOLUTION_N: ClassVar[float] = round(_own_sense("weight").resolution * GRAVITY, 9)
     RANGE_READINGS: ClassVar[int] = _own_sense("distance").readings
     RANGE_RESOLUTION_M: ClassVar[float] = _own_sense("distance").resolution
-    BEAM_TOLERANCE: ClassVar[float] = 0.06  # the beam agrees with depth within this fraction (or 4 cm)
-    SETTLE_ROUNDS: ClassVar[int] = 3
-    SETTLE_Z: ClassVar[float] = 2.0  # a margin of this many standard deviations settles a comparison
 
     def settle(self, chosen: ImagePatch) -> str | None:
-        """Host side, after a program chose `chosen`: with `confidence`, when the choice rests on measured
-        values (the chosen object's is the largest or smallest of its kind, or lies between two) and the
-        margin to the next one lies inside their uncertainty, measure both again (up to SETTLE_ROUNDS),
-        combining the readings. None when settled (or nothing to settle); otherwise the sentence that says
-        it cannot tell, naming both values."""
-        if not self.safeguards.on(Mechanism.CONFIDENCE):
-            return None
-        mine = [(m, p) for m, p in self._measured if p.same_object(chosen) or p is chosen]
-        if not mine:
-            return None
-        last = mine[-1][0]
-        kind, unit = last.kind, last.unit
-        for round_ in range(self.SETTLE_ROUNDS + 1):
-            values = self._combined(kind)
-            me = next((v for v in values if v[2].same_object(chosen) or v[2] is chosen), None)
-            if me is None or len(values) < 2:
-                return None
-            rivals = _neighbours(values, me)
-            close = [r for r in rivals if abs(r[0] - me[0]) <= self.SETTLE_Z * math.hypot(r[1], me[1])]
-            call = f"answer({chosen.label or 'patch'})"
-            if not close:
-                if round_ > 0:
-                    self.safeguards.note(
-                        Mechanism.CONFIDENCE, call, "caught", "settled after measuring again"
-                    )
-                return None
-            if round_ == self.SETTLE_ROUNDS:
-                rival = close[0]
-                text = (
-                    f"cannot tell {_named(chosen)} ({me[0]:.3f} +/- {me[1]:.3f} {unit}) from "
-                    f"{_named(rival[2])} ({rival[0]:.3f} +/- {rival[1]:.3f} {unit}): "
-                    "the difference lies inside the measurements' uncertainty"
-                )
-                self.safeguards.note(Mechanism.CONFIDENCE, call, "unsettled", text)
-                return text
-            for _value, _error, patch in [me, *close]:
-                self._measure_again(last.method or _own_sense(kind).method, patch)
-        return None
+        """Host side, after a program chose `chosen`: `confidence` measures again where the choice rests on
+        values closer than their uncertainty (`attribot.api.safeguards.Confidence`); None when settled,
+        otherwise the sentence that says it cannot tell."""
+        return self.safeguards.confidence.settle(chosen, self)
 
-    def _combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
+    def last_measurement(self, patch: ImagePatch) -> Measurement | None:
+        """The latest measurement of the object of `patch`."""
+        return next((m for m, p in reversed(self._measured) if p is patch or p.same_object(patch)), None)
+
+    def combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
         """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
         groups: list[list[tuple[Measurement, ImagePatch]]] = []
         for m, p in self._measured:
@@ -102,8 +68,9 @@ class Measuring(SessionCore):
             out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
         return out
 
-    def _measure_again(self, method: str, patch: ImagePatch) -> None:
-        """Measure `patch` again with `method`, arranging first what its reading needs."""
+    def measure_again(self, measurement: Measurement, patch: ImagePatch) -> None:
+        """Measure `patch` again as `measurement` was measured, arranging first what its reading needs."""
+        method = measurement.method or _own_sense(measurement.kind).method
         found = sense_of_method(method)
         needs = found[1].needs if found is not None else Need.NOTHING
         if found is not None and not hasattr(self, method):  # a sense read through read_sensor
@@ -151,7 +118,7 @@ class Measuring(SessionCore):
         once if none is left."""
         assert self.world is not None
         guards = self.safeguards
-        count = self.RANGE_READINGS if guards.on(Mechanism.REMEASURE) else 1
+        count = guards.remeasure.readings(self.RANGE_READINGS)
         call = f"measure_distance({p.label or 'patch'})"
         for aim in range(2):
             readings = []
@@ -164,26 +131,16 @@ class Measuring(SessionCore):
             if count > 1:
                 empty = count - len(readings)
                 detail = f"{count} readings, {empty} empty"
-                guards.note(Mechanism.REMEASURE, call, "caught" if empty else "confirmed", detail)
-            depth = self._centre_depth() if guards.on(Mechanism.VERIFY_ACTIONS) else None
-            if depth is not None and readings:
-                tol = max(0.04, self.BEAM_TOLERANCE * depth)
-                # the beam may meet the object's front nearer than what the camera's centre sees (a bowl's
-                # rim before its inside): nearer by up to the object's own width is still the object
-                front = p.size_at(depth)[0] if p.frame.camera is not None else 0.0
-                hits = [r for r in readings if depth - front - tol <= r <= depth + tol]
-                if len(hits) < len(readings):
-                    guards.note(
-                        Mechanism.VERIFY_ACTIONS,
-                        call,
-                        "caught",
-                        f"{len(readings) - len(hits)} beam readings off the object "
-                        f"(depth there {depth:.3f} m)",
-                    )
-                readings = hits
+                guards.remeasure.note(call, "caught" if empty else "confirmed", detail)
+            readings = guards.verify_actions.on_object(
+                readings,
+                self._centre_depth,
+                lambda depth: p.size_at(depth)[0] if p.frame.camera is not None else 0.0,
+                call,
+            )
             if readings:
                 break
-            if aim == 0 and (guards.on(Mechanism.VERIFY_ACTIONS) or guards.on(Mechanism.REMEASURE)):
+            if aim == 0 and guards.aims_again():
                 self._focus(p, p.target() or self._target(p, "measure_distance")[1])  # aim again, read again
                 continue
             break
@@ -324,7 +281,7 @@ class Measuring(SessionCore):
         `sense.readings` readings are combined (the ones that read nothing left out)."""
         assert self.world is not None
         guards = self.safeguards
-        count = sense.readings if guards.on(Mechanism.REMEASURE) else 1
+        count = guards.remeasure.readings(sense.readings)
         call = f"{sense.method}({p.label or 'patch'})"
         readings = []
         for i in range(count):
@@ -335,11 +292,8 @@ class Measuring(SessionCore):
                 self.world.step(0.02)
         if count > 1:
             empty = count - len(readings)
-            guards.note(
-                Mechanism.REMEASURE,
-                call,
-                "caught" if empty else "confirmed",
-                f"{count} readings, {empty} empty",
+            guards.remeasure.note(
+                call, "caught" if empty else "confirmed", f"{count} readings, {empty} empty"
             )
         if not readings:
             raise ActionFailed(
@@ -369,18 +323,13 @@ class Measuring(SessionCore):
                 mean = sum(readings) / len(readings)
                 error = _std(readings) / math.sqrt(len(readings))
                 small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
-                if not guards.on(Mechanism.REMEASURE) or small or len(readings) >= self.FORCE_MAX_SAMPLES:
+                if not guards.remeasure.more(len(readings), small, self.FORCE_MAX_SAMPLES):
                     break
-            if guards.on(Mechanism.REMEASURE) and len(readings) > self.FORCE_SAMPLES:
-                guards.note(
-                    Mechanism.REMEASURE, call, "caught", f"{len(readings)} force readings for {mean:.3f} N"
-                )
-            empty = self._gripper_empty()
-            if not guards.on(Mechanism.VERIFY_ACTIONS) or (mean > 0.05 and not empty) or attempt == 1:
+            if len(readings) > self.FORCE_SAMPLES:
+                guards.remeasure.note(call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
+            if not guards.verify_actions.slipped(mean, self._gripper_empty(), attempt, call):
                 # a weight is never negative: a mean below zero is zero within its error
                 return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
-            why = "the gripper has closed on nothing" if empty else f"no load ({mean:.3f} N)"
-            guards.note(Mechanism.VERIFY_ACTIONS, call, "caught", f"{why}: it slipped; lifting it again")
             self.put_down()
             self.go_to_object(p)
             self.pick_up(p)
@@ -389,22 +338,13 @@ class Measuring(SessionCore):
     def uncertainty(self, patch: ImagePatch) -> float:
         """The session's side of `Robot.uncertainty` (its docstring is the one programs read)."""
         p = check_patch(patch, ImagePatch, "patch", "uncertainty")
-        m = next((m for m, q in reversed(self._measured) if q is p or q.same_object(p)), None)
+        m = self.last_measurement(p)
         if m is None:
             raise PreconditionError(
                 f"robot.uncertainty() has no measurement of {p.label or 'this patch'} yet",
                 "call robot.measure_distance(patch) or robot.measure_weight(patch) first",
             )
         return m.uncertainty
-
-
-def _neighbours(
-    values: list[tuple[float, float, ImagePatch]], me: tuple[float, float, ImagePatch]
-) -> list[tuple[float, float, ImagePatch]]:
-    """The measured objects next to `me` in order of value: the one the choice was made against."""
-    ranked = sorted(values, key=lambda v: v[0])
-    i = next(k for k, v in enumerate(ranked) if v is me)
-    return [ranked[k] for k in (i - 1, i + 1) if 0 <= k < len(ranked)]
 
 
 def _std(values: Sequence[float]) -> float:

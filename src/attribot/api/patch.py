@@ -18,16 +18,16 @@ from attribot.api.checks import check_facade, check_number, check_patch, check_t
 from attribot.api.errors import ApiArgumentError
 from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program, target_of
 from attribot.api.harder import Nearer
-from attribot.api.looking import Survey, ask_again, one_object
+from attribot.api.looking import Survey, one_object
 from attribot.api.perception import Perception
-from attribot.api.safeguards import Mechanism, Safeguards
+from attribot.api.safeguards import Safeguards
 from attribot.boxes import to_upward
 from attribot.control.base import Capture, Target
 from attribot.errors import BackendError
 from attribot.frame import Frame, load_image
 from attribot.models.base import Detection
 
-__all__ = ["ImagePatch"]
+__all__ = ["ImagePatch", "patch_named"]
 
 
 class ImagePatch:
@@ -118,7 +118,8 @@ class ImagePatch:
         # look_harder: the best box each name's find took in this image, which explains that object
         self.named: dict[str, Detection] = {}
         self.sought: frozenset[str] = frozenset()  # look_harder: the names the program looks for
-        self.safeguards: Safeguards | None = None
+        # the error-catching mechanisms its finds and questions go through (a robot's image: the session's)
+        self.safeguards = Safeguards("none")
         self._pixels: Frame | None = None
         self._upward = to_upward(self.box, frame.height)
 
@@ -286,16 +287,9 @@ class ImagePatch:
         """
         q = check_text(question, "question", "visual_query", "vqa")
         vqa = self.perception.vqa
-        if self.safeguards is None or not self.safeguards.on(Mechanism.LOOK_AGAIN):
-            return _answer(vqa.answer(self._crop_frame(), q), vqa.name)
-        said, disagreed = ask_again(lambda frame: _answer(vqa.answer(frame, q), vqa.name), self._crop_frame())
-        self.safeguards.note(
-            Mechanism.LOOK_AGAIN,
-            f"visual_query({q[:40]!r})",
-            "caught" if disagreed else "confirmed",
-            f"asked again on two crops a few pixels in: {disagreed} of 2 disagreed with the first answer",
+        return self.safeguards.look_again.answer(
+            lambda frame: _answer(vqa.answer(frame, q), vqa.name), self._crop_frame(), q
         )
-        return said
 
     def language_query(self, question: str) -> str:
         """Returns a language model's answer to a text question: commonsense and factual knowledge (which
@@ -411,3 +405,11 @@ def _answer(value: object, backend: str) -> str:
             "fix the backend: answer() and complete() must return str",
         )
     return value
+
+
+def patch_named(patch: ImagePatch) -> str:
+    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
+    objects found under one word, "object", are told apart by where they are)."""
+    ident = f" ({patch.object_id})" if patch.object_id else ""
+    box = ", ".join(str(round(v)) for v in patch.box)
+    return f"the {patch.label or 'object'}{ident} at [{box}]"

@@ -15,10 +15,10 @@ from pydantic import BaseModel, ConfigDict
 from attribot.api.checks import check_patch
 from attribot.api.errors import ApiArgumentError, MissingSensor
 from attribot.api.harder import acting_find, carried_back
-from attribot.api.looking import Survey, View
-from attribot.api.patch import ImagePatch
+from attribot.api.looking import View
+from attribot.api.patch import ImagePatch, patch_named
 from attribot.api.perception import Perception
-from attribot.api.safeguards import Mechanism, Safeguards
+from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import (
     Capture,
@@ -195,18 +195,11 @@ class SessionCore:
             self.capture = Capture(index=self._captures, camera=camera, depth=frame.scene_depth)
         self._captures += 1
         self._image = ImagePatch(frame, perception, capture=self.capture)
-        if self.safeguards.on(Mechanism.LOOK_AGAIN) or self.safeguards.on(Mechanism.LOOK_HARDER):
-            self._image.safeguards = self.safeguards
-        if self.safeguards.on(Mechanism.LOOK_HARDER) and {"base", "pose"} <= caps and frame.depth is not None:
-            self._image.nearer = self._nearer
-        if self.safeguards.on(Mechanism.LOOK_AGAIN):
-            if survey and {"head", "pose"} <= caps and frame.depth is not None:
-                try:
-                    body = self.world.body()
-                except UnsupportedAction:  # a robot that does not state where its camera sits
-                    body = None
-                if body is not None:
-                    self._image.survey = Survey.take(self.world, View(frame, self.capture), body)
+        self._image.safeguards = self.safeguards
+        if {"base", "pose"} <= caps and frame.depth is not None:
+            self._image.nearer = self.safeguards.look_harder.nearer(self._nearer)
+        if survey and {"head", "pose"} <= caps and frame.depth is not None:
+            self._image.survey = self.safeguards.look_again.survey(self.world, View(frame, self.capture))
         self._acted_on = []
         self._aimed = None
         return self._image
@@ -335,7 +328,7 @@ class SessionCore:
                 f'find it first: patches = image.find("{name}")',
             )
         if len(found) > 1:
-            seen = ", ".join(_named(p) for p in found[:4]) + (", ..." if len(found) > 4 else "")
+            seen = ", ".join(patch_named(p) for p in found[:4]) + (", ..." if len(found) > 4 else "")
             raise ApiArgumentError(
                 f"robot.{method}({name!r}) is ambiguous: the robot's camera sees {len(found)} of them "
                 f"({seen})",
@@ -439,19 +432,11 @@ def _one_of(patches: Sequence[ImagePatch], method: str) -> ImagePatch:
             f"robot.{method}() got an empty list: image.find found nothing there",
             "check the list before acting (if patches: ...), or find the object under another name",
         )
-    seen = ", ".join(_named(p) for p in patches[:4]) + (", ..." if len(patches) > 4 else "")
+    seen = ", ".join(patch_named(p) for p in patches[:4]) + (", ..." if len(patches) > 4 else "")
     raise ApiArgumentError(
         f"robot.{method}() got a list of {len(patches)} patches ({seen}) and acts on one object",
         f"pass the one you mean: patches[0], max(patches, key=...), or {method}(patch) in a loop over them",
     )
-
-
-def _named(patch: ImagePatch) -> str:
-    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
-    objects found under one word, "object", are told apart by where they are)."""
-    ident = f" ({patch.object_id})" if patch.object_id else ""
-    box = ", ".join(str(round(v)) for v in patch.box)
-    return f"the {patch.label or 'object'}{ident} at [{box}]"
 
 
 def _camera_info(world: Embodiment) -> Any:
