@@ -34,6 +34,7 @@ from attribot.frame import CameraInfo
 from attribot.planning.answer import Answer
 from attribot.session import Scene, ask
 from attribot.sim.bodies import BODIES
+from attribot.sim.scene import SceneRequest, plan_scene
 from attribot.sim.world import SceneInfo, SimWorld
 from conftest import EMPTY_SETTINGS, wait_listening
 
@@ -112,11 +113,15 @@ def test_ep_scenes_put_objects_its_gripper_holds_on_the_floor_in_its_view(layout
 
 
 def test_what_the_ep_cannot_do_is_refused_naming_the_fix():
+    # refused as the config is made (its validator), before any world is built
     with pytest.raises(InputError, match="arrangement layout is not made for the EP-like robot") as exc:
-        SimWorld(SceneConfig(layout="arrangement", seed=1, robot="ep"))
+        SceneConfig(layout="arrangement", seed=1, robot="ep")
     assert "household or triplet" in (exc.value.fix or "")
     with pytest.raises(InputError, match="cannot hold laptop"):
-        SimWorld(SceneConfig(layout="household", seed=1, robot="ep", categories=("laptop", "mug")))
+        SceneConfig(layout="household", seed=1, robot="ep", categories=("laptop", "mug"))
+    # and by the same check where a layout is asked directly
+    with pytest.raises(InputError, match="arrangement layout is not made for the EP-like robot"):
+        plan_scene("arrangement", 1, SceneRequest(robot="ep"))
     with pytest.raises(InputError, match="robot") as bad:
         SceneConfig.create(robot="walle")
     assert "mast, ep" in (bad.value.fix or "")

@@ -36,6 +36,7 @@ from pydantic import (
     ValidationError,
     ValidationInfo,
     field_validator,
+    model_validator,
 )
 from pydantic_settings import (
     BaseSettings,
@@ -56,6 +57,7 @@ __all__ = [
     "load_settings",
     "config_path",
     "SceneConfig",
+    "SCENE_CHECKS",
     "BridgeConfig",
     "Ai2ThorConfig",
     "WorldConfig",
@@ -506,10 +508,25 @@ class SceneConfig(_WorldConfig):
     def _known_profile(cls, value: str) -> str:
         return one_of(value, RENDER_PROFILES, "render profile")
 
+    @model_validator(mode="after")
+    def _drawable(self) -> SceneConfig:
+        # the checks across fields (the layout's options, what the robot's body fits and holds, the
+        # vocabulary) read the simulator's catalog and layouts, above this layer: they are registered there
+        for _name, check in SCENE_CHECKS.items():
+            check(self)
+        return self
+
     def describe(self) -> dict[str, Any]:
         """The fields that differ from the defaults, always with layout and seed: what answers record."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         return {"layout": self.layout, "seed": self.seed, **data}
+
+
+SCENE_CHECKS: Registry[Callable[[SceneConfig], None]] = Registry(
+    "scene check", modules=("attribot.sim.world",)
+)
+"""The checks across a `SceneConfig`'s fields, each raising an `InputError` that names the fix; every
+`SceneConfig` passes them as it is made."""
 
 
 class BridgeConfig(_WorldConfig):

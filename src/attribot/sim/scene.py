@@ -65,6 +65,7 @@ __all__ = [
     "SceneRequest",
     "LAYOUTS",
     "plan_scene",
+    "check_request",
     "build_model",
     "MAX_OBJECTS",
     "LAYOUT_OPTIONS",
@@ -940,12 +941,11 @@ def check_seed(seed: object) -> int:
     return int(seed)
 
 
-def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, attempt: int = 0) -> ScenePlan:
-    """The plan of `layout` for `seed` (and `attempt`, for layouts whose plans can be rejected and redrawn):
-    same arguments, same plan."""
-    check_seed(seed)
+def check_request(layout: str, req: SceneRequest) -> None:
+    """Refuse a request `layout` cannot draw, naming the fix: too few objects, an option the layout does not
+    read, a layout not made for the robot's body, a category its gripper cannot hold, or one outside the
+    vocabulary. `SceneConfig`'s validator and `plan_scene` both ask it."""
     fn = LAYOUTS.get(layout)
-    req = request or SceneRequest()
     if req.n_objects is not None and req.n_objects < 1:  # the upper bound is each layout's own
         raise InputError(f"{req.n_objects} objects requested", "ask for at least 1 object")
     known = LAYOUT_OPTIONS.get(fn.__name__, ())
@@ -971,6 +971,15 @@ def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, atte
                 f"{', '.join(outside)} is not among the categories this scene may draw from",
                 "leave it out of the categories, or draw from a vocabulary that holds it",
             )
+
+
+def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, attempt: int = 0) -> ScenePlan:
+    """The plan of `layout` for `seed` (and `attempt`, for layouts whose plans can be rejected and redrawn):
+    same arguments, same plan."""
+    check_seed(seed)
+    fn = LAYOUTS.get(layout)
+    req = request or SceneRequest()
+    check_request(layout, req)
     rng = np.random.default_rng(int(seed) if attempt == 0 else [int(seed), int(attempt)])
     plan = fn(rng, req)
     plan.seed = int(seed)

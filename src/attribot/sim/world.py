@@ -29,7 +29,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from attribot.config import SceneConfig
+from attribot.config import SCENE_CHECKS, SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
 from attribot.sim import senses, truth
@@ -44,6 +44,7 @@ from attribot.sim.scene import (
     ScenePlan,
     SceneRequest,
     build_model,
+    check_request,
     plan_scene,
     resolve_categories,
     scene_requests,
@@ -71,6 +72,12 @@ def _scene_request(config: SceneConfig) -> SceneRequest:
         config.robot,
         None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
     )
+
+
+@SCENE_CHECKS.register("drawable")
+def _drawable(config: SceneConfig) -> None:
+    """A config whose layout cannot draw what it asks (`check_request`) is refused as it is made."""
+    check_request(config.layout, _scene_request(config))
 
 
 def _fixed(layout: str) -> bool:
