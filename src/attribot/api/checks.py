@@ -1,4 +1,5 @@
-"""Argument checks shared by the API classes: each failure names the method, the argument and the fix."""
+"""Argument checks shared by the API classes (each failure names the method, the argument and the fix), and
+how a message names a patch."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from typing import Any, TypeVar
 
 from attribot.api.errors import ApiArgumentError
 
-__all__ = ["check_text", "check_number", "check_patch", "check_facade", "MAX_TEXT"]
+__all__ = ["check_text", "check_number", "check_patch", "check_facade", "patch_named", "MAX_TEXT"]
 
 MAX_TEXT = {"detector": 300, "vqa": 1000, "language": 2000}
 """Longest text accepted per backend role, in characters: an object name for the detector, a question for
@@ -89,3 +90,11 @@ def check_facade(cls: type, namespace: dict[str, Any]) -> None:
         doc = getattr(namespace.get(method), "__doc__", None) or ""
         if "def execute_command(" not in doc:
             raise TypeError(f"{cls.__name__}.{method} has no docstring with an example program for the LLM")
+
+
+def patch_named(patch: Any) -> str:
+    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
+    objects found under one word, "object", are told apart by where they are)."""
+    ident = f" ({patch.object_id})" if patch.object_id else ""
+    box = ", ".join(str(round(v)) for v in patch.box)
+    return f"the {patch.label or 'object'}{ident} at [{box}]"

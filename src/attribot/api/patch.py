@@ -27,7 +27,7 @@ from attribot.errors import BackendError
 from attribot.frame import Frame, load_image
 from attribot.models.base import Detection
 
-__all__ = ["ImagePatch", "patch_named"]
+__all__ = ["ImagePatch"]
 
 
 class ImagePatch:
@@ -405,11 +405,3 @@ def _answer(value: object, backend: str) -> str:
             "fix the backend: answer() and complete() must return str",
         )
     return value
-
-
-def patch_named(patch: ImagePatch) -> str:
-    """A patch as an answer names it: its label, its id where the detector gives one, and its box (two
-    objects found under one word, "object", are told apart by where they are)."""
-    ident = f" ({patch.object_id})" if patch.object_id else ""
-    box = ", ".join(str(round(v)) for v in patch.box)
-    return f"the {patch.label or 'object'}{ident} at [{box}]"

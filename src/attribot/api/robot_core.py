@@ -12,11 +12,11 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict
 
-from attribot.api.checks import check_patch
+from attribot.api.checks import check_patch, patch_named
 from attribot.api.errors import ApiArgumentError, MissingSensor
 from attribot.api.harder import acting_find, carried_back
 from attribot.api.looking import View
-from attribot.api.patch import ImagePatch, patch_named
+from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
 from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou, overlap_of_smaller

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, TypeVar
 
 from pydantic import BaseModel, ConfigDict
 
+from attribot.api.checks import patch_named
 from attribot.api.harder import Nearer, look_harder
 from attribot.api.looking import Survey, View, ask_again, reexamine
 from attribot.control.base import Target
@@ -337,8 +338,6 @@ class Confidence(Safeguard):
     def settle(self, chosen: ImagePatch, session: Measured) -> str | None:
         """None when the choice of `chosen` is settled (or there is nothing to settle); otherwise the
         sentence that says it cannot tell."""
-        from attribot.api.patch import patch_named
-
         last = session.last_measurement(chosen)
         if last is None:
             return None
