@@ -71,7 +71,6 @@ __all__ = [
     "MAX_SEED",
     "MAX_TIME_S",
     "RENDER_PROFILES",
-    "ROBOTS",
     "SECRETS",
     "MAX_SETTINGS_BYTES",
     "plain_input",
@@ -89,11 +88,6 @@ MAX_TIME_S = 86_400.0
 """The longest time setting accepted (a day): longer ones overflow the clocks and sockets they reach."""
 RENDER_PROFILES = ("fast", "pretty")
 """fast: no shadows or reflections; pretty: both (see `attribot.sim.render.PROFILES`)."""
-ROBOTS = ("mast", "ep")
-"""The names `SceneConfig(robot=...)` accepts, checked as the config is read: the bodies
-`attribot.sim.bodies` registers, whose records hold what each is (a test keeps the two in step). mast: the
-default mobile manipulator (a pan-tilt head on a mast, a telescoping arm on a lift); ep: a RoboMaster-EP-like
-robot (its camera on a two-link arm, a gripper that reaches the floor, no depth camera)."""
 PROMPTS = ("attribot", "paper")
 """The prompts the LLM planner can show (`attribot.api.prompt.PROMPTS`): attribot, generated from the API;
 paper, the structure of the paper authors' released prompt, in the paper's dialect."""
@@ -490,13 +484,9 @@ class SceneConfig(_WorldConfig):
     robot: str = Field(
         "mast",
         description="The simulated robot: mast (default; a pan-tilt head and a telescoping arm) or ep "
-        "(RoboMaster-EP-like: its camera on its arm, objects on the floor).",
+        "(RoboMaster-EP-like: its camera on its arm, objects on the floor); any body attribot.sim.bodies "
+        "registers.",
     )
-
-    @field_validator("robot")
-    @classmethod
-    def _known_robot(cls, value: str) -> str:
-        return one_of(value, ROBOTS, "robot")
 
     @field_validator("looks")
     @classmethod
@@ -625,7 +615,6 @@ _FIXES: dict[str, Callable[[FieldNaming], str]] = {
     "width": lambda n: "give a width and height from 16 to 4096 pixels",
     "height": lambda n: "give a width and height from 16 to 4096 pixels",
     "profile": lambda n: f"choose one of: {', '.join(RENDER_PROFILES)}",
-    "robot": lambda n: f"choose one of: {', '.join(ROBOTS)}, e.g. {n.example('robot', 'ep')}",
     "force_noise_std": lambda n: "give a finite standard deviation >= 0 N",
     "options": lambda n: f"write layout options as KEY=VALUE, e.g. {n.example('options', 'pattern=grid')}",
     "noise": lambda n: (

@@ -81,7 +81,8 @@ def body_named(name: str) -> SimBody:
     """The body registered as `name`; an unknown one is an `InputError` naming the registered ones."""
     if name not in BODIES:
         raise InputError(
-            f"unknown robot {name!r}", f"choose one of: {', '.join(BODIES.names())}, e.g. robot=ep"
+            f"unknown robot {name!r}",
+            f"choose one of: {', '.join(BODIES.names())} (the bodies attribot.sim.bodies registers)",
         )
     return BODIES.get(name)
 
