@@ -321,4 +321,4 @@ def test_after_a_lift_the_camera_tells_the_object_meant_from_another(seed):
         counted = dataclasses.replace(right, find=lambda frame: looks.append(frame) or right.find(frame))
         # closed where the image showed it: nothing seen elsewhere could be nearer, so it needs no look
         verdict, detail = servo.check_held(counted, counted)
-        assert verdict is True and "where the image showed" in detail and looks == []
+        assert verdict is True and "where the image showed the " in detail and looks == []

@@ -115,7 +115,10 @@ class Manipulator:
         off_grasp = None if first is None else float(np.linalg.norm(grasped[:2] - first.xy()))
         slack = max(0.03, hold.radius)  # a sighting of the name must be this much nearer to say "another"
         if off_grasp is not None and off_grasp <= slack:
-            return True, f"the gripper closed {off_grasp * 100:.0f} cm from where the image showed it"
+            return (
+                True,
+                f"the gripper closed {off_grasp * 100:.0f} cm from where the image showed the {hold.label}",
+            )
         self.locator.aim(grip, body, target, hold)
         camera = self.plant.world.camera_info()
         elsewhere: list[ObjectEstimate] = []
