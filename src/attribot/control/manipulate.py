@@ -97,12 +97,11 @@ class Manipulator:
             )
 
     def check_held(self, target: Target, seen_first: Target) -> tuple[bool | None, str]:
-        """Whether the object lifted is the target, by what the camera sees: a detection of its name that
-        rose with the gripper (True); or detections of its name only elsewhere, nearer to where the image
-        the program chose it from (`seen_first`) put it than the grasp was, so that another object was lifted
-        (False). None when it cannot tell: no finder or depth, its name not seen at all, or seen only
-        farther away (another object of its kind, while the detector misses the held one). True without a
-        look where the gripper closed within `slack` of where that image put it: no sighting can be nearer."""
+        """Whether the object lifted is the target, by what the camera sees: its name rising with the gripper
+        (True); or seen only elsewhere, nearer than the grasp to where the program's image (`seen_first`) put
+        it, so that another object was lifted (False). None when it cannot tell: no finder or depth, the name
+        not seen, or seen only farther away (another of its kind, the held one missed). True without a look
+        where the gripper closed within `slack` of where that image put it: no sighting can be nearer."""
         hold = self.holding
         body = self.plant.body("pick_up")
         if hold is None or target.find is None or not self.plant.has("pose"):
@@ -115,10 +114,8 @@ class Manipulator:
         off_grasp = None if first is None else float(np.linalg.norm(grasped[:2] - first.xy()))
         slack = max(0.03, hold.radius)  # a sighting of the name must be this much nearer to say "another"
         if off_grasp is not None and off_grasp <= slack:
-            return (
-                True,
-                f"the gripper closed {off_grasp * 100:.0f} cm from where the image showed the {hold.label}",
-            )
+            said = f"the gripper closed {off_grasp * 100:.0f} cm from where the image showed the {hold.label}"
+            return True, said
         self.locator.aim(grip, body, target, hold)
         camera = self.plant.world.camera_info()
         elsewhere: list[ObjectEstimate] = []
