@@ -263,15 +263,15 @@ def test_the_watchdog_stops_the_robot_when_commands_stop_arriving():
         serving(RecordingDriver, limits) as (server, driver),
         BridgeWorld(url=url(server), token=TOKEN) as world,
     ):
+        sent = time.monotonic()  # before the command: the server cannot have received it earlier
         world.command_base(0.2, 0.0, 0.0)
         time.sleep(0.1)
         assert driver.velocity[0] > 0
-        sent = time.monotonic()
         deadline = sent + 2.0
         while not driver.stopped_at and time.monotonic() < deadline:
             time.sleep(0.01)
         assert driver.stopped_at, "the watchdog never stopped the robot"
-        since_command = driver.stopped_at[0] - sent + 0.1
+        since_command = driver.stopped_at[0] - sent
         assert 0.3 <= since_command < 0.3 + 0.4  # 50 Hz watchdog; slack for a loaded machine
         assert driver.velocity == (0.0, 0.0, 0.0)
         assert any("watchdog" in why for _, why in server.stops)
@@ -362,6 +362,9 @@ def test_one_address_cannot_take_every_hello_slot():
         finally:
             for s in idle:
                 s.close()
+        deadline = time.monotonic() + 2.0
+        while server._greeting and time.monotonic() < deadline:  # its threads see the connections close
+            time.sleep(0.01)
         with BridgeWorld(url=url(server), token=TOKEN) as world:  # and once they are gone, a client is served
             assert world.observe().rgb.shape == (2, 4, 3)
 
