@@ -4,6 +4,7 @@ traceback, and never a command skipped with exit 0."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -102,3 +103,25 @@ def test_a_plugin_that_registers_a_new_sensor_still_works(tmp_path):
         + "register_sensor(Sensor(name='sonar', measures='x', senses=(Sense('range', 'm'),)))\n",
     )
     assert done.returncode == 0, done.stderr
+
+
+def test_a_plugin_backend_serves_an_evaluation_in_its_spawned_workers(tmp_path):
+    """Spawned workers inherit the environment, not the imports: each imports the plug-ins itself, or every
+    item would fail with an unknown backend."""
+    lab_detector = (
+        "from attribot.models.base import DETECTORS\n"
+        "DETECTORS.register('lab_eyes')(lambda arg, settings: DETECTORS.get('oracle')(arg, settings))\n"
+    )
+    out = tmp_path / "run"
+    done = run_with_plugin(
+        tmp_path,
+        "lab_eyes",
+        *("eval", "--suite", "paper", "--tasks", "weight_embodied", "--methods", "pa-api", "--limit", "2"),
+        *("--detector", "lab_eyes", "--workers", "2", "--out", str(out)),
+        lab_eyes=lab_detector,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = (out / "records" / "weight_embodied__pa-api__clean.jsonl").read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    assert len(records) == 2
+    assert all(r["detector"] == "lab_eyes" and r["error"] is None for r in records), records

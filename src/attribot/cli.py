@@ -100,23 +100,18 @@ class _Commands(_PlainFlags, TyperGroup):
                 raise
 
 
-PLUGINS_ENV = "ATTRIBOT_PLUGINS"
-"""Comma-separated modules to import before a command runs (a lab's sensors, worlds, layouts)."""
-
-
 def _load_plugins() -> None:
     """Import the modules named in ATTRIBOT_PLUGINS, then every registry's own plug-ins. Whatever a module
     does wrong as it is imported (a name that is no module, an exception, a syntax error, `sys.exit`, a
     name taken from attribot's own) is a `ConfigError` naming the module and what it did; what it prints
     goes to stderr, so that --json output stays JSON."""
     import importlib
-    import os
     import sys
 
     from attribot.errors import ConfigError
-    from attribot.registry import Registry
+    from attribot.registry import PLUGINS_ENV, Registry, plugin_modules
 
-    names = [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
+    names = plugin_modules()
     fix = f"fix the module, or take it out of {PLUGINS_ENV}"
     for name in names:
         if not all(part.isidentifier() for part in name.split(".")):

@@ -8,15 +8,32 @@ and free of side effects.
 from __future__ import annotations
 
 import importlib
+import os
 import weakref
 from collections.abc import Callable, Iterator
 from typing import Any, ClassVar, Generic, TypeVar
 
 from attribot.errors import BadPlugin, UnknownName
 
-__all__ = ["Registry"]
+__all__ = ["Registry", "PLUGINS_ENV", "plugin_modules", "import_plugins"]
 
 T = TypeVar("T")
+
+PLUGINS_ENV = "ATTRIBOT_PLUGINS"
+"""Comma-separated modules to import before a command runs (a lab's sensors, worlds, layouts, backends)."""
+
+
+def plugin_modules() -> list[str]:
+    """The modules `ATTRIBOT_PLUGINS` names, in order."""
+    return [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
+
+
+def import_plugins() -> None:
+    """Import the modules `ATTRIBOT_PLUGINS` names, in a process a command starts (an evaluation's spawned
+    worker): the command checked them as it started (`attribot.cli`), and the child inherits its
+    environment, not its imports, so without this a lab's backend or sensor is unknown there."""
+    for name in plugin_modules():
+        importlib.import_module(name)
 
 
 class Registry(Generic[T]):

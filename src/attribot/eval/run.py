@@ -47,6 +47,7 @@ from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
 from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
+from attribot.registry import import_plugins
 from attribot.shutdown import die_with_parent
 
 __all__ = [
@@ -610,9 +611,15 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
     return ProcessPoolExecutor(
         max_workers=workers,
         mp_context=get_context("spawn"),
-        initializer=die_with_parent,
+        initializer=_start_worker,
         initargs=(os.getpid(),),
     )
+
+
+def _start_worker(parent: int) -> None:
+    """A spawned worker dies with its parent and knows the parent's plug-ins (a lab's backend or sensor)."""
+    die_with_parent(parent)
+    import_plugins()
 
 
 def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -> Iterator[Record]:
