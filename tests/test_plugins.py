@@ -125,3 +125,28 @@ def test_a_plugin_backend_serves_an_evaluation_in_its_spawned_workers(tmp_path):
     records = [json.loads(line) for line in lines]
     assert len(records) == 2
     assert all(r["detector"] == "lab_eyes" and r["error"] is None for r in records), records
+
+
+def test_a_plugin_strategy_serves_an_evaluation_and_its_run_keeps_the_choice(tmp_path):
+    lab_strategy = (
+        "from attribot.api.safeguards import STRATEGIES, Remeasure\n"
+        "@STRATEGIES.register('lab_two')\n"
+        "class TwoReadings(Remeasure):\n"
+        "    def readings(self, wanted):\n"
+        "        return 2\n"
+    )
+    out = tmp_path / "run"
+    done = run_with_plugin(
+        tmp_path,
+        "lab_strategy",
+        *("eval", "--suite", "paper", "--tasks", "distance_embodied", "--methods", "pa-api", "--limit", "2"),
+        *("--strategies", "lab_two", "--workers", "2", "--out", str(out)),
+        lab_strategy=lab_strategy,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = (out / "records" / "distance_embodied__pa-api__clean.jsonl").read_text().splitlines()
+    said = {
+        c["detail"] for line in lines for c in json.loads(line)["checks"] if c["mechanism"] == "remeasure"
+    }
+    assert said == {"2 readings, 0 empty"}
+    assert json.loads((out / "run.json").read_text())["strategies"] == "lab_two"

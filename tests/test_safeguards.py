@@ -13,17 +13,19 @@ import pytest
 from attribot.api import Perception, Robot
 from attribot.api.safeguards import (
     MECHANISMS,
+    STRATEGIES,
     Mechanism,
     Remeasure,
     Safeguards,
     WithoutLookAgain,
     WithoutRemeasure,
     parse_checks,
+    strategies_named,
 )
 from attribot.boxes import iou
 from attribot.config import SceneConfig, Settings
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.errors import ConfigError, InputError
+from attribot.errors import ConfigError, InputError, UnknownName
 from attribot.eval.methods import Condition, ablations
 from attribot.frame import Frame
 from attribot.models.base import Detection
@@ -305,6 +307,32 @@ def test_a_strategy_plugged_in_for_the_wrong_or_no_mechanism_is_refused():
     assert "subclass attribot.api.safeguards.Remeasure" in (wrong.value.fix or "")
     with pytest.raises(InputError, match="sixth_sense"):
         Safeguards(strategies={"sixth_sense": Remeasure})  # type: ignore[dict-item]
+
+
+def test_a_registered_strategy_is_chosen_by_the_settings_and_refused_when_unknown_or_doubled(perception):
+    from attribot.session import Scene, run_program
+
+    STRATEGIES.register("two_readings")(_TwoReadings)
+    try:
+        config = SceneConfig(layout="triplet", seed=3, width=W, height=H)
+        with MujocoWorld(config) as w:
+            name = w.scene_info().objects[0].category
+        program = "def execute_command(image, robot):\n    return robot.measure_distance(image.find(NAME)[0])"
+        program = program.replace("NAME", repr(name))
+        scene = Scene(config, sensors=["camera", "distance"])
+
+        def remeasured(settings: Settings) -> list[str]:
+            answer = run_program(program, scene, settings)
+            return [e["detail"] for e in answer.checks if e["mechanism"] == "remeasure"]
+
+        assert remeasured(Settings(strategies="two_readings")) == ["2 readings, 0 empty"]
+        assert remeasured(Settings()) != ["2 readings, 0 empty"]
+        with pytest.raises(InputError, match="two strategies for remeasure"):
+            strategies_named("two_readings, two_readings")
+    finally:
+        STRATEGIES.unregister("two_readings")
+    with pytest.raises(UnknownName, match="unknown safeguard strategy 'two_readings'"):
+        strategies_named("two_readings")
 
 
 def test_every_mechanism_is_a_strategy_on_and_its_without_class_off():

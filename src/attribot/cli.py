@@ -279,6 +279,7 @@ BACKEND_FLAGS = (
     _model_flag("Settings", "vqa", str | None, "SPEC"),
     _model_flag("Settings", "language", str | None, "SPEC"),
     _model_flag("Settings", "checks", str | None, "NAMES"),
+    _model_flag("Settings", "strategies", str | None, "NAMES"),
     _model_flag("Settings", "program_wall_s", float | None, "SECONDS"),
 )
 PLANNER_FLAGS = (
@@ -616,6 +617,7 @@ def _settings(given: Any) -> Any:
         "vqa",
         "language",
         "program_wall_s",
+        "strategies",
         "planner",
         "llm_base_url",
         "llm_model",

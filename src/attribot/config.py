@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextvars
 import os
+import re
 import types
 import typing
 import urllib.parse
@@ -162,6 +163,11 @@ class Settings(BaseSettings):
         description="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
         "remeasure, confidence, reset); all,-NAME leaves one out.",
     )
+    strategies: str = Field(
+        "",
+        description="Registered strategies (attribot.api.safeguards.STRATEGIES, from a plug-in) to use in "
+        "place of their mechanisms' own, comma-separated names (default: none).",
+    )
     # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and
     # the item's seed); None: only what their specs ask for (`oracle?noise=realistic`)
     perception_noise: PerceptionNoise | None = None
@@ -191,7 +197,9 @@ class Settings(BaseSettings):
     def _plain(cls, value: Any, info: ValidationInfo) -> Any:
         return plain_input(cls, info.field_name, value)
 
-    @field_validator("detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "checks")
+    @field_validator(
+        "detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "checks", "strategies"
+    )
     @classmethod
     def _short_text(cls, value: str) -> str:
         if len(value) > MAX_TEXT_SETTING_CHARS:
@@ -205,6 +213,14 @@ class Settings(BaseSettings):
             parse_checks(value)
         except InputError as exc:
             raise ValueError(str(exc)) from None
+        return value
+
+    @field_validator("strategies")
+    @classmethod
+    def _strategy_names(cls, value: str) -> str:
+        bad = [n for n in (p.strip() for p in value.split(",")) if n and not re.fullmatch(r"[\w.-]+", n)]
+        if bad:
+            raise ValueError(f"{bad[0]!r} is no strategy name (letters, digits, _ . -, comma-separated)")
         return value
 
     @property

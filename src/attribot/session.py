@@ -267,11 +267,11 @@ class Session:
         title: str = "",
     ) -> None:
         from attribot.api.perception import Perception
-        from attribot.api.safeguards import Safeguards
+        from attribot.api.safeguards import Safeguards, strategies_named
 
         self.scene = scene
         self.settings = settings
-        self.safeguards = Safeguards(settings.mechanisms)
+        self.safeguards = Safeguards(settings.mechanisms, strategies_named(settings.strategies))
         self.start: Any = None  # the robot's state when the first try started, for the next tries
         self.first_image: Any = None
         self.runs = 0
@@ -664,7 +664,14 @@ def replay(
 TRUST_SAVED = "--trust-saved-backends"
 """The flag (and, as `trust_saved_backends=True`, the keyword) that lets a saved folder choose its
 endpoints, models and world: it decides where the user's keys, tokens and images go."""
-SAVED_CHOICES = ("checks", "program_wall_s", "detector_threshold", "llm_temperature", "perception_noise")
+SAVED_CHOICES = (
+    "checks",
+    "strategies",
+    "program_wall_s",
+    "detector_threshold",
+    "llm_temperature",
+    "perception_noise",
+)
 """The settings a saved folder decides on its own: how its program ran; none of them names a place."""
 TRUSTED_CHOICES = ("llm_base_url", "llm_model", "hf_device", "hf_dtype")
 """What a trusted saved folder decides besides its backends: the endpoint and model its openai: backends

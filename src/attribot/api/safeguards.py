@@ -35,11 +35,12 @@ from attribot.api.harder import Nearer, look_harder
 from attribot.api.looking import Survey, View, ask_again, reexamine
 from attribot.control.base import Target
 from attribot.embodiments.base import Embodiment
-from attribot.errors import InputError, UnsupportedAction
+from attribot.errors import InputError, UnknownName, UnsupportedAction
 from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
 from attribot.models.base import Detection, Detector
 from attribot.models.cache import cacheable
+from attribot.registry import Registry
 
 if TYPE_CHECKING:
     from attribot.api.patch import ImagePatch
@@ -62,6 +63,8 @@ __all__ = [
     "Reset",
     "WithoutReset",
     "Safeguards",
+    "STRATEGIES",
+    "strategies_named",
     "parse_checks",
 ]
 
@@ -413,6 +416,39 @@ def _neighbours(values: list[Value], me: Value) -> list[Value]:
     ranked = sorted(values, key=lambda v: v[0])
     i = next(k for k, v in enumerate(ranked) if v is me)
     return [ranked[k] for k in (i - 1, i + 1) if 0 <= k < len(ranked)]
+
+
+STRATEGIES: Registry[type[Safeguard]] = Registry("safeguard strategy")
+"""A lab's strategies by name, for the runs it does not build in Python (`attribot ask`, `attribot eval`):
+a plug-in module registers a subclass of a mechanism's class (`STRATEGIES.register("two")(TwoReadings)`), and
+the settings' `strategies` (`--strategies two`) put it in place of its mechanism's own."""
+
+
+def strategies_named(names: str) -> dict[Mechanism, type[Safeguard]]:
+    """The registered strategies `names` (comma-separated) chooses, by the mechanism each acts for; two for
+    one mechanism are refused."""
+    chosen: dict[Mechanism, type[Safeguard]] = {}
+    for name in (n.strip() for n in names.split(",") if n.strip()):
+        if name not in STRATEGIES:
+            raise UnknownName(
+                f"unknown safeguard strategy {name!r}",
+                "register it with attribot.api.safeguards.STRATEGIES in a module named in ATTRIBOT_PLUGINS "
+                f"(registered: {', '.join(STRATEGIES.names()) or 'none'})",
+            )
+        strategy = STRATEGIES.get(name)
+        mechanism = getattr(strategy, "mechanism", None)
+        if mechanism is None:
+            raise InputError(
+                f"the strategy {name!r} acts for no mechanism",
+                "register a subclass of LookAgain, LookHarder, VerifyActions, Remeasure, Confidence or Reset",
+            )
+        if mechanism in chosen:
+            raise InputError(
+                f"two strategies for {mechanism}: {chosen[mechanism].__name__} and {name}",
+                f"choose one strategy for {mechanism}",
+            )
+        chosen[mechanism] = strategy
+    return chosen
 
 
 S = TypeVar("S", bound=Safeguard)
