@@ -105,6 +105,22 @@ def test_a_plugin_that_registers_a_new_sensor_still_works(tmp_path):
     assert done.returncode == 0, done.stderr
 
 
+def eval_with_plugin(tmp_path: Path, module: str, source: str, task: str, *flags: str) -> list[dict]:
+    """The records of `attribot eval` on the first 2 items of `task`, pa-api, in 2 spawned workers, with
+    the plug-in `module` (its `source`) named in ATTRIBOT_PLUGINS; the run folder is `tmp_path / "run"`."""
+    out = tmp_path / "run"
+    done = run_with_plugin(
+        tmp_path,
+        module,
+        *("eval", "--suite", "paper", "--tasks", task, "--methods", "pa-api", "--limit", "2"),
+        *(*flags, "--workers", "2", "--out", str(out)),
+        **{module: source},
+    )
+    assert done.returncode == 0, done.stderr
+    lines = (out / "records" / f"{task}__pa-api__clean.jsonl").read_text().splitlines()
+    return [json.loads(line) for line in lines]
+
+
 def test_a_plugin_backend_serves_an_evaluation_in_its_spawned_workers(tmp_path):
     """Spawned workers inherit the environment, not the imports: each imports the plug-ins itself, or every
     item would fail with an unknown backend."""
@@ -112,17 +128,9 @@ def test_a_plugin_backend_serves_an_evaluation_in_its_spawned_workers(tmp_path):
         "from attribot.models.base import DETECTORS\n"
         "DETECTORS.register('lab_eyes')(lambda arg, settings: DETECTORS.get('oracle')(arg, settings))\n"
     )
-    out = tmp_path / "run"
-    done = run_with_plugin(
-        tmp_path,
-        "lab_eyes",
-        *("eval", "--suite", "paper", "--tasks", "weight_embodied", "--methods", "pa-api", "--limit", "2"),
-        *("--detector", "lab_eyes", "--workers", "2", "--out", str(out)),
-        lab_eyes=lab_detector,
+    records = eval_with_plugin(
+        tmp_path, "lab_eyes", lab_detector, "weight_embodied", "--detector", "lab_eyes"
     )
-    assert done.returncode == 0, done.stderr
-    lines = (out / "records" / "weight_embodied__pa-api__clean.jsonl").read_text().splitlines()
-    records = [json.loads(line) for line in lines]
     assert len(records) == 2
     assert all(r["detector"] == "lab_eyes" and r["error"] is None for r in records), records
 
@@ -135,18 +143,9 @@ def test_a_plugin_strategy_serves_an_evaluation_and_its_run_keeps_the_choice(tmp
         "    def readings(self, wanted):\n"
         "        return 2\n"
     )
-    out = tmp_path / "run"
-    done = run_with_plugin(
-        tmp_path,
-        "lab_strategy",
-        *("eval", "--suite", "paper", "--tasks", "distance_embodied", "--methods", "pa-api", "--limit", "2"),
-        *("--strategies", "lab_two", "--workers", "2", "--out", str(out)),
-        lab_strategy=lab_strategy,
+    records = eval_with_plugin(
+        tmp_path, "lab_strategy", lab_strategy, "distance_embodied", "--strategies", "lab_two"
     )
-    assert done.returncode == 0, done.stderr
-    lines = (out / "records" / "distance_embodied__pa-api__clean.jsonl").read_text().splitlines()
-    said = {
-        c["detail"] for line in lines for c in json.loads(line)["checks"] if c["mechanism"] == "remeasure"
-    }
-    assert said == {"2 readings, 0 empty"}
-    assert json.loads((out / "run.json").read_text())["strategies"] == "lab_two"
+    said = {c["detail"] for r in records for c in r["checks"] if c["mechanism"] == "remeasure"}
+    assert len(records) == 2 and said == {"2 readings, 0 empty"}
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["strategies"] == "lab_two"
