@@ -19,7 +19,8 @@ Each mechanism is a strategy object: its class's methods are what it does at the
 (`Remeasure.readings`, `VerifyActions.tries`, `LookAgain.find`, ...), and the robot session calls them
 there without asking whether the mechanism is on. Switched off, a mechanism is its `Without...`
 subclass, whose methods leave everything as it is. A lab plugs in its own way of doing one with a
-subclass: `Safeguards(strategies={Mechanism.REMEASURE: MyRemeasure})`.
+subclass: `Safeguards(strategies={Mechanism.REMEASURE: MyRemeasure})` from Python, or, for `attribot ask`
+and `attribot eval`, registered in `STRATEGIES` and chosen by the settings' `strategies`.
 """
 
 from __future__ import annotations
