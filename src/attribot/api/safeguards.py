@@ -472,29 +472,31 @@ class Safeguards:
         enabled: str | Iterable[str] = MECHANISMS,
         strategies: Mapping[Mechanism, type[Safeguard]] | None = None,
     ) -> None:
-        self.enabled = frozenset(parse_checks(enabled if isinstance(enabled, str) else list(enabled)))
+        on = frozenset(parse_checks(enabled if isinstance(enabled, str) else list(enabled)))
         self.events: list[CheckEvent] = []
         plugged = dict(strategies or {})
-        self.look_again = self._strategy(LookAgain, plugged)
-        self.look_harder = self._strategy(LookHarder, plugged)
-        self.verify_actions = self._strategy(VerifyActions, plugged)
-        self.remeasure = self._strategy(Remeasure, plugged)
-        self.confidence = self._strategy(Confidence, plugged)
-        self.reset = self._strategy(Reset, plugged)
+        self.look_again = self._strategy(LookAgain, on, plugged)
+        self.look_harder = self._strategy(LookHarder, on, plugged)
+        self.verify_actions = self._strategy(VerifyActions, on, plugged)
+        self.remeasure = self._strategy(Remeasure, on, plugged)
+        self.confidence = self._strategy(Confidence, on, plugged)
+        self.reset = self._strategy(Reset, on, plugged)
         if plugged:
             raise InputError(
                 f"no mechanism named {', '.join(map(str, plugged))} to plug a strategy in for",
                 f"plug strategies in for: {', '.join(MECHANISMS)}",
             )
 
-    def _strategy(self, kind: type[S], plugged: dict[Mechanism, type[Safeguard]]) -> S:
+    def _strategy(
+        self, kind: type[S], on: frozenset[Mechanism], plugged: dict[Mechanism, type[Safeguard]]
+    ) -> S:
         chosen = plugged.pop(kind.mechanism, kind)
         if not (isinstance(chosen, type) and issubclass(chosen, kind)):
             raise InputError(
                 f"the strategy plugged in for {kind.mechanism} is {chosen!r}, not a {kind.__name__}",
                 f"subclass attribot.api.safeguards.{kind.__name__} and override what it does",
             )
-        if kind.mechanism not in self.enabled:
+        if kind.mechanism not in on:
             chosen = _OFF[kind]
         return chosen(self)  # type: ignore[return-value]  # _OFF maps each kind to its own subclass
 
