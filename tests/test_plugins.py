@@ -105,15 +105,18 @@ def test_a_plugin_that_registers_a_new_sensor_still_works(tmp_path):
     assert done.returncode == 0, done.stderr
 
 
-def eval_with_plugin(tmp_path: Path, module: str, source: str, task: str, *flags: str) -> list[dict]:
-    """The records of `attribot eval` on the first 2 items of `task`, pa-api, in 2 spawned workers, with
-    the plug-in `module` (its `source`) named in ATTRIBOT_PLUGINS; the run folder is `tmp_path / "run"`."""
+def eval_with_plugin(
+    tmp_path: Path, module: str, source: str, task: str, *flags: str, executor: str = "--workers=2"
+) -> list[dict]:
+    """The records of `attribot eval` on the first 2 items of `task`, pa-api, in 2 spawned workers (or as
+    `executor` says), with the plug-in `module` (its `source`) named in ATTRIBOT_PLUGINS; the run folder is
+    `tmp_path / "run"`."""
     out = tmp_path / "run"
     done = run_with_plugin(
         tmp_path,
         module,
         *("eval", "--suite", "paper", "--tasks", task, "--methods", "pa-api", "--limit", "2"),
-        *(*flags, "--workers", "2", "--out", str(out)),
+        *(*flags, executor, "--out", str(out)),
         **{module: source},
     )
     assert done.returncode == 0, done.stderr
@@ -121,15 +124,18 @@ def eval_with_plugin(tmp_path: Path, module: str, source: str, task: str, *flags
     return [json.loads(line) for line in lines]
 
 
-def test_a_plugin_backend_serves_an_evaluation_in_its_spawned_workers(tmp_path):
-    """Spawned workers inherit the environment, not the imports: each imports the plug-ins itself, or every
-    item would fail with an unknown backend."""
+@pytest.mark.parametrize("executor", ["--workers=2", "--executor=ray"])
+def test_a_plugin_backend_serves_an_evaluation_in_its_workers(tmp_path, executor):
+    """Spawned workers and Ray tasks have none of the command's imports: each job imports the plug-ins it
+    names, or every item would fail with an unknown backend."""
+    if executor.endswith("ray"):
+        pytest.importorskip("ray", reason="the ray extra is not installed")
     lab_detector = (
         "from attribot.models.base import DETECTORS\n"
         "DETECTORS.register('lab_eyes')(lambda arg, settings: DETECTORS.get('oracle')(arg, settings))\n"
     )
     records = eval_with_plugin(
-        tmp_path, "lab_eyes", lab_detector, "weight_embodied", "--detector", "lab_eyes"
+        tmp_path, "lab_eyes", lab_detector, "weight_embodied", "--detector", "lab_eyes", executor=executor
     )
     assert len(records) == 2
     assert all(r["detector"] == "lab_eyes" and r["error"] is None for r in records), records

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import os
 import weakref
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, ClassVar, Generic, TypeVar
 
 from attribot.errors import BadPlugin, UnknownName
@@ -28,11 +28,12 @@ def plugin_modules() -> list[str]:
     return [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
 
 
-def import_plugins() -> None:
-    """Import the modules `ATTRIBOT_PLUGINS` names, in a process a command starts (an evaluation's spawned
-    worker): the command checked them as it started (`attribot.cli`), and the child inherits its
-    environment, not its imports, so without this a lab's backend or sensor is unknown there."""
-    for name in plugin_modules():
+def import_plugins(modules: Sequence[str] | None = None) -> None:
+    """Import plug-in `modules` (default: those `ATTRIBOT_PLUGINS` names) in a process a command starts
+    (an evaluation's spawned worker, a Ray task on another machine): the command checked them as it
+    started (`attribot.cli`), but a child has none of its imports, and a Ray node not even its
+    environment, so without this a lab's backend or sensor is unknown there."""
+    for name in plugin_modules() if modules is None else modules:
         importlib.import_module(name)
 
 

@@ -47,7 +47,7 @@ from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
 from attribot.files import disk_full, inside, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
-from attribot.registry import import_plugins
+from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
 
 __all__ = [
@@ -449,15 +449,19 @@ def _records_in(path: Path) -> Iterator[Record]:
 
 def _run_job(job_json: str, settings: Settings) -> str:
     """One job in a worker process or Ray task: the job's JSON and the settings (pickled, secrets and all:
-    JSON would mask them) in, the record's JSON out."""
+    JSON would mask them) in, the record's JSON out. The job names the command's plug-ins, imported here
+    first: a worker has none of the command's imports, and a Ray node not its environment either."""
     job = json.loads(job_json)
+    import_plugins(job["plugins"])
     item = Item.model_validate(job["item"])
     return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
 
 
 def _job_json(job: Job) -> str:
     item, method, noise = job
-    return json.dumps({"item": item.model_dump(mode="json"), "method": method, "noise": noise})
+    return json.dumps(
+        {"item": item.model_dump(mode="json"), "method": method, "noise": noise, "plugins": plugin_modules()}
+    )
 
 
 def run_eval(
@@ -611,15 +615,9 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
     return ProcessPoolExecutor(
         max_workers=workers,
         mp_context=get_context("spawn"),
-        initializer=_start_worker,
+        initializer=die_with_parent,
         initargs=(os.getpid(),),
     )
-
-
-def _start_worker(parent: int) -> None:
-    """A spawned worker dies with its parent and knows the parent's plug-ins (a lab's backend or sensor)."""
-    die_with_parent(parent)
-    import_plugins()
 
 
 def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -> Iterator[Record]:
