@@ -16,15 +16,18 @@ from types import SimpleNamespace
 import pytest
 from PIL import Image
 
-from attribot.config import load_settings
+from attribot.config import SceneConfig, load_settings
+from attribot.errors import InputError
 from attribot.eval.corpus import paper_queries, released_families
-from attribot.eval.datasets import build_items, item_count
+from attribot.eval.datasets import build_items, item_count, scene_info
 from attribot.eval.figures import Bar, Group, bar_figure
 from attribot.eval.methods import PROGRAM_METHODS, _category, paper_methods
 from attribot.eval.report import write_report
 from attribot.eval.run import EvalPlan, run_eval
 from attribot.eval.suite import METHODS, TASKS, tagged, task_names
+from attribot.eval.tasks import still
 from attribot.eval.tasks.still import Place, _in_scene, paper_extremes, paper_places, place_truth
+from attribot.sim.scene import NoRoomOnTable
 from attribot.sim.world import ObjectInfo
 
 EVAL = Path(__file__).resolve().parents[1] / "src" / "attribot" / "eval"
@@ -109,6 +112,28 @@ def test_a_place_is_read_off_the_arrangements_rows_and_columns(line, pick, expec
 def test_an_even_arrangement_has_no_middle():
     assert place_truth(Place(noun=None, pick="middle", line="row 1"), _grid(2, 4)) is None
     assert place_truth(Place(noun=None, pick="centre"), _grid(2, 2)) is None
+
+
+def test_an_arrangement_with_no_room_for_its_pattern_is_passed_over_for_the_next_seed(monkeypatch):
+    """Root seed 7's location items reach scene seed 7010048, whose three bowls do not fit in a column:
+    generation takes the next seed instead of stopping the whole evaluation."""
+    config = SceneConfig(layout="arrangement", seed=7010048, options={"pattern": "column", "odd": "size"})
+    with pytest.raises(NoRoomOnTable, match="do not fit on the table") as refused:
+        scene_info(config)
+    assert isinstance(refused.value, InputError) and "--option pattern=row" in str(refused.value.fix)
+    assert still._arrangement(7010048, "column") is None
+    drawn = still._arrangement
+    seen: list[int] = []
+
+    def first_has_no_room(seed: int, pattern: str):
+        seen.append(seed)
+        return None if len(seen) == 1 else drawn(seed, pattern)
+
+    monkeypatch.setattr(still, "_arrangement", first_has_no_room)
+    for make in (still._location_items, still._size_items):
+        seen.clear()
+        item = next(make(1, 20008))  # size: scene seed 20010 carries an item
+        assert seen[0] == 20009 and item.seed > 20009
 
 
 def test_every_released_location_and_size_phrasing_has_a_written_meaning():

@@ -66,6 +66,7 @@ __all__ = [
     "LAYOUTS",
     "plan_scene",
     "check_request",
+    "NoRoomOnTable",
     "build_model",
     "MAX_OBJECTS",
     "LAYOUT_OPTIONS",
@@ -381,6 +382,11 @@ _TABLE_FRONT = GEOMETRY.base_half[0] + 0.05  # gap between the robot and the tab
 _TABLE_MAX = (1.9, 1.2)  # the widest and deepest table a grid is put on (m)
 
 
+class NoRoomOnTable(InputError):
+    """An arrangement's objects do not fit on the largest table in the pattern asked for (three large bowls
+    in a column): a generator that draws arrangements by seed takes the next seed."""
+
+
 def _grid(
     objs: list[PlacedObject], rows: int, cols: int
 ) -> tuple[list[list[PlacedObject | None]], list[float], list[float]]:
@@ -422,7 +428,7 @@ def _row_plan(
     need_w, need_d = sum(col_w), sum(row_d)
     if not _fits_table(objs, rows, cols):
         max_w, max_d = _TABLE_MAX
-        raise InputError(
+        raise NoRoomOnTable(
             f"{len(objs)} objects in {rows} row(s) x {cols} column(s) do not fit on the table "
             f"(need {need_w:.2f} m x {need_d:.2f} m, at most {max_w:.2f} m x {max_d:.2f} m)",
             "ask for fewer objects, or smaller categories",
@@ -577,7 +583,7 @@ def _fitting_pattern(objs: list[PlacedObject], pattern: str, asked: bool) -> tup
         what_fits.append(f"--objects {fewer[0]}")
     rows, cols = _pattern_shape(pattern, len(objs))
     _, col_w, row_d = _grid(objs, rows, cols)
-    raise InputError(
+    raise NoRoomOnTable(
         f"{len(objs)} objects ({objs[0].category.name}) in a {pattern} ({rows} row(s) x {cols} column(s)) do "
         f"not fit on the table (need {sum(col_w):.2f} m x {sum(row_d):.2f} m, at most "
         f"{_TABLE_MAX[0]:.2f} m x {_TABLE_MAX[1]:.2f} m)",

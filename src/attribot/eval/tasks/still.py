@@ -23,6 +23,7 @@ from attribot.config import SceneConfig
 from attribot.eval.corpus import PaperQuery, paper_queries
 from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
+from attribot.sim.scene import NoRoomOnTable
 from attribot.sim.world import ObjectInfo
 
 __all__ = ["Place", "Extreme", "place_truth", "paper_places", "paper_extremes"]
@@ -213,8 +214,9 @@ def _pattern(place: Place) -> str:
     return "column" if place.side in ("top", "bottom") else "row"
 
 
-def _arrangement(seed: int, pattern: str) -> tuple[SceneConfig, list[ObjectInfo]]:
-    """An arrangement's scene and its objects, with their rows, columns and sizes (the world's truth)."""
+def _arrangement(seed: int, pattern: str) -> tuple[SceneConfig, list[ObjectInfo]] | None:
+    """An arrangement's scene and its objects, with their rows, columns and sizes (the world's truth); None
+    where the seed's objects do not fit on a table in `pattern` (three large bowls in a column)."""
     config = SceneConfig(
         layout="arrangement",
         seed=seed,
@@ -222,7 +224,10 @@ def _arrangement(seed: int, pattern: str) -> tuple[SceneConfig, list[ObjectInfo]
         width=WIDTH,
         height=HEIGHT,
     )
-    return config, scene_info(config).objects
+    try:
+        return config, scene_info(config).objects
+    except NoRoomOnTable:
+        return None
 
 
 def _location_query(made: int, tries: int, places: list[tuple[str, Place]]) -> tuple[str, Place, bool]:
@@ -242,7 +247,11 @@ def _location_items(n: int, start_seed: int) -> Iterator[Item]:
     while made < n:
         seed += 1
         text, place, released = _location_query(made, tries, places)
-        config, placed = _arrangement(seed, _pattern(place))
+        drawn = _arrangement(seed, _pattern(place))
+        if drawn is None:
+            tries += 1  # no room for this phrasing's pattern: the next phrasing, the next seed
+            continue
+        config, placed = drawn
         objects = [o for o in placed if o.row is not None]
         first = objects[0]
         same = [o for o in objects if place.noun is None or o.category == first.category]
@@ -314,7 +323,10 @@ def _size_items(n: int, start_seed: int) -> Iterator[Item]:
     while made < n:
         superlative, absolute, extreme = phrasings[made % len(phrasings)]
         seed += 1
-        config, placed = _arrangement(seed, "row")
+        drawn = _arrangement(seed, "row")
+        if drawn is None:
+            continue
+        config, placed = drawn
         objects = [o for o in placed if o.box is not None]
         ranked = _ranked(extreme, objects) if len(objects) == len(placed) else None
         if ranked is None:
