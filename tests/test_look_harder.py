@@ -744,3 +744,104 @@ def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():
 
 def _patch(image, box, label):
     return type(image)(image.frame, image.perception, box, capture=image.capture, label=label)
+
+
+class ClassNamingDetector:
+    """A closed-set detector (it has `class_of`) that answers chosen views with fixed boxes of other
+    classes for "object", and nothing for a name: what `alike` asks of a detector."""
+
+    name = "class-naming"
+    pixels_only = True
+
+    def __init__(self, others: list[Detection]) -> None:
+        self.others = others
+
+    def class_of(self, name: str) -> str | None:
+        return name
+
+    def detect(self, frame: Frame, queries):
+        return []
+
+    def detect_views(self, frame: Frame, queries, views, threshold=None):
+        return list(self.others) if list(queries) == ["object"] else []
+
+
+def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_nothing_else_explains():
+    """Three red things of a mug's size stand on a table and a blue one: the detector saw one red mug, so
+    the two other red ones are mugs as well (score `ALIKE_SCORE`), and the blue one is not. A red thing
+    another name the program looks for could be (a red apple is of a mug's size too), or that the detector
+    surely names as another class, is not taken; a class it gives the seen mug as well is its confusion
+    about mugs, and rules nothing out."""
+    from attribot.api.harder import ALIKE_SCORE, alike
+    from attribot.control.candidates import Candidate
+
+    rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)  # a dark wooden table
+    boxes = [(20, 40, 50, 80), (80, 40, 110, 80), (140, 40, 170, 80), (200, 40, 230, 80)]
+    for x0, y0, x1, y1 in boxes[:3]:
+        rgb[y0 + 5 : y1 - 5, x0 + 5 : x1 - 5] = (200, 20, 25)  # red mugs
+    rgb[45:75, 205:225] = (30, 40, 200)  # a blue one
+    places = [Candidate(b, 0.1, 60, 0.1, 0.08, 0.72) for b in boxes]
+    seen = [Detection(box=boxes[0], score=0.6, label="mug")]
+    detector = ClassNamingDetector([])
+
+    taken = alike(detector, Frame(rgb=rgb), "mug", places, seen, [])
+    assert [d.box for d in taken] == [boxes[1], boxes[2]]
+    assert all(d.score == ALIKE_SCORE and d.label == "mug" for d in taken)
+    assert alike(detector, Frame(rgb=rgb), "mug", places, seen, [], ["apple"]) == []
+    assert alike(detector, Frame(rgb=rgb), "mug", places, [], []) == []  # no example: nothing to look like
+    faint = [seen[0].model_copy(update={"score": 0.05})]
+    assert alike(detector, Frame(rgb=rgb), "mug", places, faint, []) == []  # nor a faint box
+
+    bowl = Detection(box=(75, 35, 115, 85), score=0.8, label="bowl")
+    assert [d.box for d in alike(ClassNamingDetector([bowl]), Frame(rgb=rgb), "mug", places, seen, [])] == [
+        boxes[2]
+    ]
+    confused = [bowl, Detection(box=(15, 35, 55, 85), score=0.5, label="bowl")]  # the seen mug too
+    taken = alike(ClassNamingDetector(confused), Frame(rgb=rgb), "mug", places, seen, [])
+    assert [d.box for d in taken] == [boxes[1], boxes[2]]
+
+
+class OneSeenDetector:
+    """The simulator's own boxes, but of one object only (the leftmost of the category asked for), scored
+    0.6, and named by class: a closed-set detector that sees one of a row of alike objects."""
+
+    name = "one-seen"
+    pixels_only = True
+
+    def __init__(self) -> None:
+        from attribot.models.oracle import OracleDetector
+
+        self.inner = OracleDetector()
+
+    def class_of(self, name: str) -> str | None:
+        return name
+
+    def detect(self, frame: Frame, queries):
+        if list(queries) == ["object"]:
+            return []
+        found = sorted(self.inner.detect(frame, queries), key=lambda d: d.box[0])
+        return [d.model_copy(update={"score": 0.6}) for d in found[:1]]
+
+    def detect_views(self, frame: Frame, queries, views, threshold=None):
+        return self.detect(frame, queries)
+
+
+def test_a_row_of_alike_objects_is_found_whole_where_the_detector_saw_one_of_them():
+    """In an arrangement of one category, the detector sees one object; looking harder takes the others
+    for their likeness, each where the world has one of them (its truth), by depth; off, the find has one."""
+    config = SceneConfig(layout="arrangement", seed=21, options={"pattern": "row", "odd": "size"})
+    with MujocoWorld(config) as world:
+        objects = [o for o in world.scene_info().objects if o.box is not None]
+        category = objects[0].category
+        row = [o for o in objects if o.category == category]
+        robot, image = _look(world, OneSeenDetector())
+        image.nearer = None
+        found = image.find(category)
+        _, plain = _look(world, OneSeenDetector(), "all,-look_again,-look_harder")
+        assert len(plain.find(category)) == 1
+    assert len(row) >= 3 and len(found) == len(row)
+    for o in row:
+        assert sum(_inside(((p.box[0] + p.box[2]) / 2, (p.box[1] + p.box[3]) / 2), o.box) for p in found) == 1
+    assert sum(p.by_depth for p in found) == len(row) - 1
+    events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+    assert events and "look like the one it saw" in events[-1].detail

@@ -13,19 +13,22 @@ there, carries what it sees back into the first image (`carried_back`) and drive
 `_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where it
 points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
 no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
-that no box of another name explains (`by_elimination`). What they give has the low score it earned, and
-the trace says how it was taken. Only detectors that read pixels look harder (a zoomed view shows them
-more); the oracle reads the simulator's segmentation.
+that no box of another name explains (`by_elimination`). And where the detector saw some objects of the
+name but not all (a row of carrots, one of them boxed), the places that look like one it saw, in colour
+and size, and that nothing else explains are more of it (`alike`). What they give has the low score it
+earned, and the trace says how it was taken. Only detectors that read pixels look harder (a zoomed view
+shows them more); the oracle reads the simulator's segmentation.
 """
 
 from __future__ import annotations
 
 import colorsys
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from functools import cache
 
+import cv2
 import numpy as np
 
 from attribot.boxes import center, crop_array, enclosing, iou, overlap_of_smaller
@@ -41,6 +44,7 @@ from attribot.sim.catalog import COLORS, categories, find_category
 __all__ = [
     "LookHarderReport",
     "Nearer",
+    "alike",
     "acting_find",
     "by_elimination",
     "class_sizes",
@@ -88,11 +92,13 @@ class LookHarderReport:
     found_nearer: int = 0  # detections seen from nearer
     faint: float | None = None  # the score of the faint box taken, where one was
     eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
+    alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
+    took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
 
     @property
     def taken(self) -> bool:
-        """Whether weaker evidence gave the find its object: a faint box, or elimination."""
-        return self.faint is not None or bool(self.eliminated)
+        """Whether weaker evidence gave the find an object: a faint box, elimination, or a likeness."""
+        return self.faint is not None or bool(self.eliminated) or bool(self.alike)
 
     def describe(self) -> str:
         text = f"depth sees {self.candidates} things stand"
@@ -104,6 +110,8 @@ class LookHarderReport:
             text += f"; took the one framed by a faint box of the name (score {self.faint:.3f})"
         if self.eliminated:
             text += "; took by elimination the one thing of the name's size that no other name explains"
+        if self.alike:
+            text += f"; took {self.alike} more that look like the one it saw (their colours, their size)"
         if self.set_aside:
             text += f"; {self.set_aside} set aside where depth sees nothing stand"
         return text
@@ -162,20 +170,29 @@ def look_harder(
         return one_name_each(found, rivals)
 
     kept = one_each(kept)
-    if any(d.score >= UNSURE for d in kept) or not candidates:
+    if not candidates:
         return kept, report
-    views = zoom_views(candidates, frame.width, frame.height)
-    zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
-    merged = list(kept)
-    for det in sorted(zoomed, key=lambda d: -d.score):
-        if all(iou(det.box, other.box) < 0.5 for other in merged):
-            merged.append(det)
-    report.views, report.added = len(views), len(merged) - len(kept)
-    if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
-        claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-        merged = _unseen(detector, frame, capture.camera, name, candidates, views, nearer, claimed, report)
-    merged.sort(key=lambda d: -d.score)
-    return one_each(merged), report
+    if all(d.score < UNSURE for d in kept):
+        views = zoom_views(candidates, frame.width, frame.height)
+        zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
+        merged = list(kept)
+        for det in sorted(zoomed, key=lambda d: -d.score):
+            if all(iou(det.box, other.box) < 0.5 for other in merged):
+                merged.append(det)
+        report.views, report.added = len(views), len(merged) - len(kept)
+        if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
+            claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
+            merged = _unseen(
+                detector, frame, capture.camera, name, candidates, views, nearer, claimed, report
+            )
+            report.took = list(merged) if report.taken else []
+        merged.sort(key=lambda d: -d.score)
+        kept = one_each(merged)
+    if sought and rivals is None and any(d.score >= EXEMPLAR for d in kept):
+        rivals = _best_of(detector, frame, name, sought, [])  # each explains its place, as in one_each
+    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *(rivals or [])], sought or [])
+    report.alike, report.took = len(more), [*report.took, *more]
+    return kept + more, report
 
 
 def _unseen(
@@ -309,9 +326,9 @@ SIZE_SLACK = (0.5, 1.5)
 part: an object's near side, its top) to this share of its largest."""
 
 
-def fits_size(size: float, size_range: tuple[float, float]) -> bool:
-    """Whether `size` (metres, as depth sees it) fits `size_range` within `SIZE_SLACK`."""
-    return size_range[0] * SIZE_SLACK[0] <= size <= size_range[1] * SIZE_SLACK[1]
+def fits_size(size: float, size_range: tuple[float, float], slack: tuple[float, float] = SIZE_SLACK) -> bool:
+    """Whether `size` (metres, as depth sees it) fits `size_range` within `slack`."""
+    return size_range[0] * slack[0] <= size <= size_range[1] * slack[1]
 
 
 def grown_to_candidates(
@@ -378,6 +395,101 @@ def by_elimination(
     return left[0] if len(left) == 1 else None
 
 
+ALIKE = 0.9
+"""A candidate looks like an object the detector saw where the hue-saturation histograms of what stands out
+in their boxes correlate at least this much: in arrangements of one category, another of it scores 0.95 to
+1.0 and other things under 0.5; a red apple beside a red mug scores over it, which is why what the detector
+names as another class, surely, is not taken."""
+EXEMPLAR = 0.1
+"""A detection is an example of its name to look for more of where it scores at least this (the coco
+detector's threshold: a faint box or elimination is no example)."""
+ALIKE_SCORE = 0.002
+"""The score of a candidate taken for its likeness: no detector saw it as the name."""
+ALIKE_SLACK = (SIZE_SLACK[0], 2.0)
+"""A candidate alike in colour is one more of the name where its size is within this share of the name's
+size range: things of one kind differ in size more than the catalog's typical range (a large stapler among
+small ones), and a thing over twice the largest of its kind is no longer one."""
+
+
+def alike(
+    detector: Detector,
+    frame: Frame,
+    name: str,
+    candidates: list[Candidate],
+    found: list[Detection],
+    claimed: list[Detection],
+    sought: Sequence[str] = (),
+) -> list[Detection]:
+    """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
+    colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
+    fits the name's (`ALIKE_SLACK`), whole in the image, no part of the furniture, where the object is put,
+    and that no box explains: none of `found`, none of `claimed` (what other names' finds took), and no box
+    the detector gives another class in the whole image with a score of `UNSURE`; nor one that could be
+    another of the `sought` names by its size and colour (a red apple beside a red mug). A closed-set
+    detector only: it names every class it knows in one pass, so a thing it calls something else surely
+    is that."""
+    mine = _class(detector, name)
+    category = find_category(name)
+    sizes = class_sizes(detector, mine) if category is None else category.size_range_m
+    if sizes is None or getattr(detector, "class_of", None) is None:
+        return []
+    exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
+    shown = [h for h in (_colours(frame.rgb, d.box) for d in exemplars) if h is not None]
+    if not shown:
+        return []
+    whole = (0, 0, frame.width, frame.height)
+    seen = [d for d in detect_in_views(detector, frame, ["object"], [whole]) if d.label != mine]
+    # a class the detector gives the examples too is its confusion about their kind (YOLOv3-tiny boxes
+    # a small apple as an orange at 0.7): it explains no candidate
+    confused = {d.label for d in seen for e in exemplars if _inside(center(e.box), d.box)}
+    explaining = [*found, *claimed, *(d for d in seen if d.label not in confused and d.score >= UNSURE)]
+    taken: list[Detection] = []
+    for cand in candidates:
+        if (
+            not fits_size(cand.size, sizes, ALIKE_SLACK)
+            or _furniture(cand)
+            or _misplaced(cand, None if category is None else category.placement)
+            or _at_edge(cand.box, frame.width, frame.height)
+            or any(
+                _inside(center(cand.box), d.box) or _inside(center(d.box), cand.box)
+                for d in [*explaining, *taken]
+            )
+            or any(_could_be(frame.rgb, cand, other) for other in sought)
+        ):
+            continue
+        colours = _colours(frame.rgb, cand.box)
+        if colours is not None and max(_correlation(colours, h) for h in shown) >= ALIKE:
+            taken.append(Detection(box=cand.box, score=ALIKE_SCORE, label=name))
+    return taken
+
+
+def _could_be(rgb: np.ndarray, cand: Candidate, name: str) -> bool:
+    """Whether a candidate may be an object called `name` by what the catalog knows of its kind: its size
+    and its colour fit (True for a name the catalog does not know: nothing rules it out)."""
+    category = find_category(name)
+    if category is None:
+        return True
+    return fits_size(cand.size, category.size_range_m) and colour_fits(rgb, cand.box, category.colors)
+
+
+def _colours(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray | None:
+    """The hue-saturation histogram (18 x 8 bins, unit length) of what stands out in `box` from its rim;
+    None where nothing does."""
+    own = _standing_out(rgb, box)
+    if own is None:
+        return None
+    hsv = cv2.cvtColor(own.astype(np.uint8)[None], cv2.COLOR_RGB2HSV)[0]
+    hist, _, _ = np.histogram2d(hsv[:, 0], hsv[:, 1], bins=(18, 8), range=((0, 180), (0, 256)))
+    flat = hist.ravel()
+    return flat / max(float(np.linalg.norm(flat)), 1e-9)
+
+
+def _correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson's correlation of two histograms (1: the same shape)."""
+    a, b = a - a.mean(), b - b.mean()
+    return float(a @ b / max(float(np.linalg.norm(a) * np.linalg.norm(b)), 1e-12))
+
+
 COLOUR_OFF = 40.0
 """A pixel of a box whose colour is this far (RGB, 0-255) from the median of the box's rim is the object's."""
 HUE_TOLERANCE = 25.0
@@ -390,13 +502,8 @@ def colour_fits(rgb: np.ndarray, box: tuple[float, float, float, float], colours
     """Whether what stands out in `box` of the image from the box's rim has one of the named `colours`
     (`attribot.sim.catalog.COLORS`, the catalog's colour words); False where nothing stands out or no
     colour is named."""
-    grid = crop_array(rgb, box).astype(np.float64)
-    if not colours or grid.shape[0] < 3 or grid.shape[1] < 3:
-        return False
-    patch = grid.reshape(-1, 3)
-    rim = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
-    own = patch[np.linalg.norm(patch - np.median(rim, axis=0), axis=1) > COLOUR_OFF]
-    if len(own) < 3:
+    own = _standing_out(rgb, box) if colours else None
+    if own is None:
         return False
     hue, sat = _hue_sat(np.median(own, axis=0) / 255.0)
     for name in colours:
@@ -409,6 +516,18 @@ def colour_fits(rgb: np.ndarray, box: tuple[float, float, float, float], colours
         if sat < CHROMATIC or min(abs(hue - ref_hue), 360 - abs(hue - ref_hue)) <= HUE_TOLERANCE:
             return True
     return False
+
+
+def _standing_out(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray | None:
+    """The pixels of `box` (RGB, 0-255, float) whose colour is `COLOUR_OFF` from the median of the box's
+    rim: the object's, not what lies around it; None where fewer than 3 do."""
+    grid = crop_array(rgb, box).astype(np.float64)
+    if grid.shape[0] < 3 or grid.shape[1] < 3:
+        return None
+    rim = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
+    patch = grid.reshape(-1, 3)
+    own = patch[np.linalg.norm(patch - np.median(rim, axis=0), axis=1) > COLOUR_OFF]
+    return own if len(own) >= 3 else None
 
 
 def _hue_sat(rgb: np.ndarray) -> tuple[float, float]:

@@ -180,10 +180,10 @@ class LookHarder(Safeguard):
         harder, report = looked
         if harder:
             patch.named[name] = max(harder, key=lambda d: d.score)
-        if report.views or report.set_aside:
+        if report.views or report.set_aside or report.alike:
             caught = report.added or report.set_aside or report.found_nearer or report.taken
             self.note(f"find({name!r})", "caught" if caught else "unsettled", report.describe())
-        return harder, (harder if report.taken else [])
+        return harder, report.took
 
     def nearer(self, drive: Nearer) -> Nearer | None:
         """How a find drives nearer to a candidate, for a robot that can drive (`drive`)."""
