@@ -6,6 +6,7 @@ boxes and ids); the detectors here are fakes that read pixels, so that what zoom
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -768,7 +769,8 @@ class ClassNamingDetector:
 
 def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_nothing_else_explains():
     """Three red things of a mug's size stand on a table and a blue one: the detector saw one red mug, so
-    the two other red ones are mugs as well (score `ALIKE_SCORE`), and the blue one is not. A red thing
+    the two other red ones are mugs as well (score `ALIKE_SCORE`), and the blue one is not, nor a red one
+    that stands on another level. A red thing
     another name the program looks for could be (a red apple is of a mug's size too), or that the detector
     surely names as another class, is not taken; a class it gives the seen mug as well is its confusion
     about mugs, and rules nothing out."""
@@ -788,6 +790,10 @@ def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_noth
     assert [d.box for d in taken] == [boxes[1], boxes[2]]
     assert all(d.score == ALIKE_SCORE and d.label == "mug" for d in taken)
     assert alike(detector, Frame(rgb=rgb), "mug", places, seen, [], ["apple"]) == []
+    # one on a shelf above the table (its lowest point 0.5 m higher), or where depth does not say
+    for elsewhere in (replace(places[2], bottom=1.22), replace(places[2], bottom=None)):
+        taken = alike(detector, Frame(rgb=rgb), "mug", [*places[:2], elsewhere, places[3]], seen, [])
+        assert [d.box for d in taken] == [boxes[1]]
     assert alike(detector, Frame(rgb=rgb), "mug", places, [], []) == []  # no example: nothing to look like
     faint = [seen[0].model_copy(update={"score": 0.05})]
     assert alike(detector, Frame(rgb=rgb), "mug", places, faint, []) == []  # nor a faint box

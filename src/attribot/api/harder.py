@@ -409,6 +409,10 @@ ALIKE_SLACK = (SIZE_SLACK[0], 2.0)
 """A candidate alike in colour is one more of the name where its size is within this share of the name's
 size range: things of one kind differ in size more than the catalog's typical range (a large stapler among
 small ones), and a thing over twice the largest of its kind is no longer one."""
+SAME_LEVEL_M = 0.05
+"""...and where it stands on the level one it saw stands on (within this): more of a kind seen together
+stand together (a row on a table), and a red toaster on a shelf is not one more of the red vase on the
+table below it."""
 
 
 def alike(
@@ -422,12 +426,12 @@ def alike(
 ) -> list[Detection]:
     """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
     colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
-    fits the name's (`ALIKE_SLACK`), whole in the image, no part of the furniture, where the object is put,
-    and that no box explains: none of `found`, none of `claimed` (what other names' finds took), and no box
-    the detector gives another class in the whole image with a score of `UNSURE`; nor one that could be
-    another of the `sought` names by its size and colour (a red apple beside a red mug). A closed-set
-    detector only: it names every class it knows in one pass, so a thing it calls something else surely
-    is that."""
+    fits the name's (`ALIKE_SLACK`), that stand on the level one of those stands on (`SAME_LEVEL_M`), whole
+    in the image, no part of the furniture, where the object is put, and that no box explains: none of
+    `found`, none of `claimed` (what other names' finds took), and no box the detector gives another class
+    in the whole image with a score of `UNSURE`; nor one that could be another of the `sought` names by its
+    size and colour (a red apple beside a red mug). A closed-set detector only: it names every class it
+    knows in one pass, so a thing it calls something else surely is that."""
     mine = _class(detector, name)
     category = find_category(name)
     sizes = class_sizes(detector, mine) if category is None else category.size_range_m
@@ -435,6 +439,7 @@ def alike(
         return []
     exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
     shown = [h for h in (_colours(frame.rgb, d.box) for d in exemplars) if h is not None]
+    levels = [candidates[i].bottom for d in exemplars for i in _framed(d, candidates)]
     if not shown:
         return []
     whole = (0, 0, frame.width, frame.height)
@@ -455,12 +460,21 @@ def alike(
                 for d in [*explaining, *taken]
             )
             or any(_could_be(frame.rgb, cand, other) for other in sought)
+            or not _on_level_of(cand, levels)
         ):
             continue
         colours = _colours(frame.rgb, cand.box)
         if colours is not None and max(_correlation(colours, h) for h in shown) >= ALIKE:
             taken.append(Detection(box=cand.box, score=ALIKE_SCORE, label=name))
     return taken
+
+
+def _on_level_of(cand: Candidate, levels: list[float | None]) -> bool:
+    """Whether a candidate stands on one of the `levels` (the heights over the floor the examples stand at,
+    within `SAME_LEVEL_M`); False where depth does not say."""
+    return cand.bottom is not None and any(
+        level is not None and abs(cand.bottom - level) <= SAME_LEVEL_M for level in levels
+    )
 
 
 def _could_be(rgb: np.ndarray, cand: Candidate, name: str) -> bool:
