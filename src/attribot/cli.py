@@ -25,6 +25,7 @@ from rich.markup import escape
 from typer.core import TyperCommand, TyperGroup
 
 from attribot.errors import AttribotError
+from attribot.text import comma_names
 
 __all__ = ["app", "main"]
 
@@ -396,7 +397,7 @@ def _layout_options(option: list[str] | None) -> dict[str, Any]:
 def _scene_fields(given: Any) -> dict[str, Any]:
     """The SceneConfig fields the scene flags give (options still as `--option` pairs)."""
     categories = _given(given, "categories")
-    names = None if categories is None else tuple(c.strip() for c in categories.split(",") if c.strip())
+    names = None if categories is None else tuple(comma_names(categories))
     if names == ():
         raise fail(
             "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
@@ -530,7 +531,7 @@ def _scene(given: Any) -> Any:
     from attribot.session import Scene
 
     sensors = _given(given, "sensors")
-    names = None if sensors is None else [s.strip() for s in sensors.split(",") if s.strip()]
+    names = None if sensors is None else comma_names(sensors)
     if names == []:
         raise fail("no sensor named: --sensors is empty", "name at least one, e.g. --sensors camera")
     if _given(given, "controller") is not None and image is not None:
@@ -857,7 +858,7 @@ def _suite_tasks(suite: str, tasks: str | None) -> list[str]:
     if suite not in suite_names():
         raise InputError(f"unknown suite {suite!r}", f"use --suite with one of: {', '.join(suite_names())}")
     known = task_names(suite)
-    chosen = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else known
+    chosen = comma_names(tasks) if tasks else known
     if not chosen:
         raise InputError("--tasks names no task", f"choose from: {', '.join(known)}")
     unknown = [t for t in chosen if t not in known]
@@ -1030,8 +1031,8 @@ def evaluate(
 
     plan = EvalPlan(
         tasks=tuple(_suite_tasks(suite, tasks)),
-        methods=tuple(m.strip() for m in methods.split(",") if m.strip()) if methods else None,
-        noise=tuple(n.strip() for n in noise.split(",") if n.strip()) + (ablations() if ablation else ()),
+        methods=tuple(comma_names(methods)) if methods else None,
+        noise=tuple(comma_names(noise)) + (ablations() if ablation else ()),
         limit=limit,
         findable_by=findable_by,
         seed=seed,

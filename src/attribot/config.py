@@ -51,7 +51,7 @@ from attribot.files import not_a_file, read_capped
 from attribot.mechanisms import Mechanism, parse_checks
 from attribot.noise import PerceptionNoise, WorldNoise
 from attribot.registry import Registry
-from attribot.text import one_of, plain_value, shown_url
+from attribot.text import comma_names, one_of, plain_value, shown_url
 
 __all__ = [
     "Settings",
@@ -218,7 +218,7 @@ class Settings(BaseSettings):
     @field_validator("strategies")
     @classmethod
     def _strategy_names(cls, value: str) -> str:
-        bad = [n for n in (p.strip() for p in value.split(",")) if n and not re.fullmatch(r"[\w.-]+", n)]
+        bad = [n for n in comma_names(value) if not re.fullmatch(r"[\w.-]+", n)]
         if bad:
             raise ValueError(f"{bad[0]!r} is no strategy name (letters, digits, _ . -, comma-separated)")
         return value

@@ -26,7 +26,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from attribot.errors import ConfigError
-from attribot.text import one_of, plain_value
+from attribot.text import comma_names, one_of, plain_value
 
 __all__ = ["WorldNoise", "PerceptionNoise", "NOISE_PRESETS", "preset", "world_noise"]
 
@@ -155,7 +155,7 @@ def world_noise(spec: str | dict[str, Any] | None, seed: int = 0) -> WorldNoise:
     if isinstance(spec, dict):
         values.update(spec)
     elif spec:
-        for part in (p.strip() for p in spec.split(",") if p.strip()):
+        for part in comma_names(spec):
             if "=" not in part:
                 values.update(preset(part, among=WorldNoise.model_fields))
                 continue

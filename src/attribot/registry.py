@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any, ClassVar, Generic, TypeVar
 
 from attribot.errors import BadPlugin, UnknownName
+from attribot.text import comma_names
 
 __all__ = ["Registry", "PLUGINS_ENV", "plugin_modules", "import_plugins"]
 
@@ -25,7 +26,7 @@ PLUGINS_ENV = "ATTRIBOT_PLUGINS"
 
 def plugin_modules() -> list[str]:
     """The modules `ATTRIBOT_PLUGINS` names, in order."""
-    return [m.strip() for m in os.environ.get(PLUGINS_ENV, "").split(",") if m.strip()]
+    return comma_names(os.environ.get(PLUGINS_ENV, ""))
 
 
 def import_plugins(modules: Sequence[str] | None = None) -> None:

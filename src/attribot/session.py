@@ -34,7 +34,7 @@ from attribot.files import check_regular_file, check_writable, inside, read_capp
 from attribot.frame import load_image
 from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
-from attribot.text import shown_url
+from attribot.text import comma_names, shown_url
 
 __all__ = [
     "Scene",
@@ -107,7 +107,7 @@ class Scene:
         if self.sensors is None:
             return
         if isinstance(self.sensors, str):
-            self.sensors = [s.strip() for s in self.sensors.split(",") if s.strip()]
+            self.sensors = comma_names(self.sensors)
         if not isinstance(self.sensors, list | tuple) or not all(isinstance(s, str) for s in self.sensors):
             raise InputError(
                 f"sensors={self.sensors!r} is not a list of sensor names"[:300],

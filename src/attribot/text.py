@@ -15,6 +15,7 @@ __all__ = [
     "terminal_json",
     "shown_url",
     "plain_value",
+    "comma_names",
 ]
 
 _SURROGATES = re.compile("[\ud800-\udfff]")
@@ -100,3 +101,8 @@ def one_of(value: str, names: Iterable[str], what: str) -> str:
     if value not in choices:
         raise ValueError(f"unknown {what}; choose one of: {', '.join(choices)}")
     return value
+
+
+def comma_names(text: str) -> list[str]:
+    """The names of a comma-separated list, in order, stripped, the empty ones left out ("a, ,b" -> a, b)."""
+    return [part.strip() for part in text.split(",") if part.strip()]

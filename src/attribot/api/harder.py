@@ -439,9 +439,9 @@ def alike(
         return []
     exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
     shown = [h for h in (_colours(frame.rgb, d.box) for d in exemplars) if h is not None]
-    levels = [candidates[i].bottom for d in exemplars for i in _framed(d, candidates)]
     if not shown:
         return []
+    levels = [candidates[i].bottom for d in exemplars for i in _framed(d, candidates)]
     whole = (0, 0, frame.width, frame.height)
     seen = [d for d in detect_in_views(detector, frame, ["object"], [whole]) if d.label != mine]
     # a class the detector gives the examples too is its confusion about their kind (YOLOv3-tiny boxes

@@ -42,6 +42,7 @@ from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
 from attribot.models.base import Detection, Detector
 from attribot.models.cache import cacheable
 from attribot.registry import Registry
+from attribot.text import comma_names
 
 if TYPE_CHECKING:
     from attribot.api.patch import ImagePatch
@@ -429,7 +430,7 @@ def strategies_named(names: str) -> dict[Mechanism, type[Safeguard]]:
     """The registered strategies `names` (comma-separated) chooses, by the mechanism each acts for; two for
     one mechanism are refused."""
     chosen: dict[Mechanism, type[Safeguard]] = {}
-    for name in (n.strip() for n in names.split(",") if n.strip()):
+    for name in comma_names(names):
         if name not in STRATEGIES:
             raise UnknownName(
                 f"unknown safeguard strategy {name!r}",
