@@ -323,6 +323,8 @@ def test_a_registered_strategy_is_chosen_by_the_settings_and_refused_when_unknow
 
         def remeasured(settings: Settings) -> list[str]:
             answer = run_program(program, scene, settings)
+            # the answer names the strategies it was measured with, as a saved run's settings do
+            assert answer.backends.get("strategies") == (settings.strategies or None)
             return [e["detail"] for e in answer.checks if e["mechanism"] == "remeasure"]
 
         assert remeasured(Settings(strategies="two_readings")) == ["2 readings, 0 empty"]

@@ -387,8 +387,12 @@ class Session:
             return None
 
     def backends(self) -> dict[str, str]:
+        """What answered: each model backend's name, the robot's, and the plug-in strategies chosen (only
+        when some were: the built-in ones are the default)."""
         names = self.perception.names()
         names["robot"] = self.robot.backend_name()
+        if self.settings.strategies:
+            names["strategies"] = ",".join(comma_names(self.settings.strategies))
         return names
 
     def finish(
