@@ -1,7 +1,7 @@
 """The coco detector's recall in the embedded world's robot-camera frames, on tuning and held-out seeds.
 
 Run: `MUJOCO_GL=egl .venv/bin/python benchmarks/bench_coco.py [--set tuning|held-out|both] [--seeds 60]
-[--quick] [--categories] [--looks detailed,primitive] [--tiles N] [--threshold T] [--verbose]`
+[--quick] [--categories] [--looks detailed,primitive] [--tiles N] [--threshold T] [--all-tiles] [--verbose]`
 
 Frames: the robot camera's first frame (640x480, fast profile) of household scenes and triplets drawn in the
 categories the coco detector can find (`SceneConfig.vocabulary`, as the embodied tasks are drawn for a coco
@@ -16,8 +16,8 @@ segmentation. An object is found when a detection of its class overlaps its box 
 detection matches one object at most). Prints one line per set, looks and layout, one per category (its
 recall, near and far of 1.5 m), and the ratio of the looks' recall to the primitives' (the objects drawn as
 their body primitives: the reference measured in the same run). The detector is the one `--detector coco`
-builds (its default tiles and threshold); `--tiles` and `--threshold` try others.
-"""
+builds (its default tiles and threshold); `--tiles` and `--threshold` try others, and `--all-tiles` looks at
+every tile (`coco?all_tiles=1`), not only at those where the whole image shows a trace."""
 
 from __future__ import annotations
 
@@ -102,8 +102,9 @@ def main() -> None:
     ap.add_argument("--verbose", action="store_true", help="one line per frame")
     ap.add_argument("--tiles", type=int, default=DEFAULT_TILES, help="views per side besides the whole image")
     ap.add_argument("--threshold", type=float, default=0.1, help="the detector's score threshold")
+    ap.add_argument("--all-tiles", action="store_true", help="every tile, not only those showing a trace")
     args = ap.parse_args()
-    detector = CocoDetector(tiles=args.tiles, threshold=args.threshold)
+    detector = CocoDetector(tiles=args.tiles, threshold=args.threshold, all_tiles=args.all_tiles)
     vocabulary = findable_categories(detector) or ()
     dealt = deal(6 if args.quick else args.seeds)
     sets = ["tuning", "held-out"] if args.set == "both" else [args.set]

@@ -171,6 +171,8 @@ def test_spec_options_choose_the_views_and_the_input_size(empty_settings):
     assert (det.tiles, det.input_size) == (1, 416)
     assert len(det._views(640, 480)) == 1
     assert len(build_backend("detector", "coco", settings)._views(640, 480)) == 1 + 3 * 3
+    assert build_backend("detector", "coco?all_tiles=1", settings).all_tiles
+    assert not build_backend("detector", "coco", settings).all_tiles
     with pytest.raises(ConfigError, match="tiles=N"):
         build_backend("detector", "coco?zoom=2", settings)
     assert probe_backend("detector", "coco?zoom=2", settings).available is False
@@ -247,16 +249,16 @@ SMALL = 320  # the network's input side in these tests: what they check holds at
 
 
 def test_another_query_about_the_same_pixels_runs_no_view_again(household_frame):
-    kept = CocoDetector(input_size=SMALL)
+    kept = CocoDetector(input_size=SMALL, all_tiles=True)
     first = kept.detect(household_frame, ["book"])  # not sure in the whole image: its tiles are looked at
     assert kept.forwarded == 1 + 9
     second = kept.detect(household_frame, ["cup", "apple"])
     again = kept.detect(Frame(rgb=household_frame.rgb.copy()), ["book"])  # another frame, the same pixels
     assert kept.forwarded == 10 and kept.reused >= 1 + 10
     # the very answers a detector that kept nothing gives
-    fresh = CocoDetector(input_size=SMALL)
+    fresh = CocoDetector(input_size=SMALL, all_tiles=True)
     assert _same(again, first) and _same(first, fresh.detect(household_frame, ["book"]))
-    fresh = CocoDetector(input_size=SMALL)
+    fresh = CocoDetector(input_size=SMALL, all_tiles=True)
     assert _same(second, fresh.detect(household_frame, ["cup", "apple"]))
 
 
@@ -302,3 +304,44 @@ def test_faint_boxes_come_only_to_a_caller_that_asks_for_them(remote_frame):
     assert any(FAINT <= d.score < detector.threshold for d in faint)
     below = detector.detect_views(frame, ["object"], whole, threshold=0.0)  # no lower than the network keeps
     assert min(d.score for d in below) >= FAINT
+
+
+def test_tiles_with_no_trace_of_the_wanted_class_are_not_looked_at(household_frame):
+    """A tile is looked at only where the whole image scores the wanted class at least faintly (or, where it
+    scores it nowhere, any class): a frame whose lower half is a blank wall runs some of the tiles above and
+    none of the three inside the wall, and what it finds is what looking at every tile finds."""
+    rgb = household_frame.rgb.copy()
+    rgb[240:] = 128
+    frame = Frame(rgb=rgb)
+    gated = CocoDetector(input_size=SMALL)
+    found = gated.detect(frame, ["cup"])
+    every = CocoDetector(input_size=SMALL)
+    views = every._views(frame.width, frame.height)
+    assert found and 1 < gated.forwarded < len(views)
+    assert all(view[1] < 240 for _, view in gated._kept)  # no view of the blank half alone
+    assert _same(found, every.detect_views(frame, ["cup"], views))
+    every_tile = CocoDetector(input_size=SMALL, all_tiles=True)  # coco?all_tiles=1: every tile, as before
+    assert _same(every_tile.detect(frame, ["cup"]), found) and every_tile.forwarded == len(views)
+    # a class it shows no trace of anywhere (no book here): the tiles where it shows a trace of anything
+    unseen = CocoDetector(input_size=SMALL)
+    whole = unseen.detect_views(frame, ["book"], [views[0]], threshold=0.0)
+    assert whole == [] and unseen.detect(frame, ["book"]) == []
+    assert 1 < unseen.forwarded < len(views) and all(view[1] < 240 for _, view in unseen._kept)
+    # nothing to look at closer: no tile at all
+    blank = CocoDetector(input_size=SMALL)
+    assert blank.detect(Frame(rgb=np.full_like(rgb, 128)), ["cup"]) == [] and blank.forwarded == 1
+
+
+def test_detectors_of_one_thread_share_the_network_and_another_thread_has_its_own():
+    """Reading the files and the first pass cost about 0.3 s: an evaluation worker's detectors read them
+    once. OpenCV's network must not run two passes at once, so a thread reads its own."""
+    import threading
+
+    first, second = CocoDetector(), CocoDetector(threshold=0.3)
+    assert first.net is second.net  # both keep scores down to FAINT: one network
+    assert CocoDetector(threshold=0.001).net is not first.net  # a lower floor is another network
+    other: list[object] = []
+    thread = threading.Thread(target=lambda: other.append(CocoDetector().net))
+    thread.start()
+    thread.join()
+    assert other and other[0] is not first.net
