@@ -159,15 +159,14 @@ def look_harder(
         kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
 
-    rivals: list[Detection] | None = None  # the other sought names' best boxes, looked for once
+    @cache
+    def best_rivals() -> list[Detection]:  # the other sought names' best boxes, looked for once
+        return _best_of(detector, frame, name, sought or [], [])
 
     def one_each(found: list[Detection]) -> list[Detection]:
-        nonlocal rivals
         if not sought or len(found) < 2:
             return found
-        if rivals is None:
-            rivals = _best_of(detector, frame, name, sought, [])
-        return one_name_each(found, rivals)
+        return one_name_each(found, best_rivals())
 
     kept = one_each(kept)
     if not candidates:
@@ -188,9 +187,9 @@ def look_harder(
             report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
-    if sought and rivals is None and any(d.score >= EXEMPLAR for d in kept):
-        rivals = _best_of(detector, frame, name, sought, [])  # each explains its place, as in one_each
-    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *(rivals or [])], sought or [])
+    # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
+    explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
+    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [])
     report.alike, report.took = len(more), [*report.took, *more]
     return kept + more, report
 

@@ -301,7 +301,7 @@ def _loaded(cv2: Any, folder: Path, floor: float) -> tuple[Any, list[str]]:
     item. Per thread, because one OpenCV network must not run two passes at once; a file changed on disk
     (its size or time) is read again."""
     files = [folder / "yolov3-tiny.cfg", folder / "yolov3-tiny.weights"]
-    key = (str(folder.resolve()), floor, *((f.stat().st_size, f.stat().st_mtime_ns) for f in files))
+    key = (str(folder.resolve()), floor, *((s.st_size, s.st_mtime_ns) for s in (f.stat() for f in files)))
     networks: dict[tuple[Any, ...], tuple[Any, list[str]]] = _THIS_THREAD.__dict__.setdefault("networks", {})
     if key not in networks:
         net = cv2.dnn.readNetFromDarknet(
