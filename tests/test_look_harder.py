@@ -851,3 +851,38 @@ def test_a_row_of_alike_objects_is_found_whole_where_the_detector_saw_one_of_the
     assert sum(p.by_depth for p in found) == len(row) - 1
     events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
     assert events and "look like the one it saw" in events[-1].detail
+
+
+class ViewsDetector:
+    """A detector that looks at chosen views (as coco does): one box per view, in the image's pixels,
+    scored by the view it was found in; it records the views asked."""
+
+    name = "views"
+    pixels_only = True
+
+    def __init__(self, box: tuple[float, float, float, float], scores: dict[str, float]) -> None:
+        self.box, self.scores, self.asked = box, scores, []
+
+    def detect(self, frame: Frame, queries):
+        return self.detect_views(frame, queries, [(0, 0, frame.width, frame.height)])
+
+    def detect_views(self, frame: Frame, queries, views, threshold=None):
+        self.asked.append([tuple(v) for v in views])
+        kind = ["whole" if v == (0, 0, frame.width, frame.height) else "middle" for v in views]
+        return [Detection(box=self.box, score=max(self.scores[k] for k in kind), label=queries[0])]
+
+
+def test_acting_looks_at_the_middle_half_first_and_at_the_whole_image_only_where_that_is_unsure():
+    frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8))
+    middle, whole = (160, 120, 480, 360), (0, 0, 640, 480)
+    # the camera aims at what it acts on: seen surely and whole in the middle half, one look
+    sure = ViewsDetector((300, 220, 340, 260), {"middle": 0.6, "whole": 0.2})
+    assert [d.score for d in acting_find(sure, frame, "cup")] == [0.6] and sure.asked == [[middle]]
+    # unsure there: the whole image too, with the middle half
+    unsure = ViewsDetector((300, 220, 340, 260), {"middle": 0.2, "whole": 0.15})
+    acting_find(unsure, frame, "cup")
+    assert unsure.asked == [[middle], [whole, middle]]
+    # sure, but cut by the middle half's edge (the object goes on past it): the whole image too
+    cut = ViewsDetector((161, 200, 300, 300), {"middle": 0.6, "whole": 0.5})
+    acting_find(cut, frame, "cup")
+    assert cut.asked == [[middle], [whole, middle]]

@@ -603,17 +603,28 @@ def carried_back(
 
 def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:
     """The detections a controller acts on while it servos, reaches and checks: the detector's own `detect`,
-    except for a detector that looks at chosen views (`detect_views`: coco), which looks at the whole image
-    and, where that leaves the object unsure, at the middle half of it, twice as large (the controller aims
-    the camera at what it acts on): two forward passes at most, where tiling the whole image took ten."""
+    except for a detector that looks at chosen views (`detect_views`: coco). The controller aims the camera
+    at what it acts on, so that looks at the middle half of the image first, twice as large: where it shows
+    the object surely and whole (not cut by the half's edge), that is the answer, one forward pass; else
+    the whole image is looked at too, and both answers merged: two passes at most, where tiling the whole
+    image took ten."""
     if getattr(detector, "detect_views", None) is None:
         return detector.detect(frame, [name])
-    whole = (0, 0, frame.width, frame.height)
-    found = detect_in_views(detector, frame, [name], [whole])
-    if any(d.score >= UNSURE for d in found):
-        return found
     middle = (frame.width // 4, frame.height // 4, frame.width * 3 // 4, frame.height * 3 // 4)
+    found = detect_in_views(detector, frame, [name], [middle])
+    if any(d.score >= UNSURE and not _cut_by(d.box, middle) for d in found):
+        return found
+    whole = (0, 0, frame.width, frame.height)
     return detect_in_views(detector, frame, [name], [whole, middle])
+
+
+def _cut_by(box: tuple[float, float, float, float], view: tuple[int, int, int, int]) -> bool:
+    """Whether a box found in `view` reaches its edge (the object may go on past it)."""
+    return _at_edge(
+        (box[0] - view[0], box[1] - view[1], box[2] - view[0], box[3] - view[1]),
+        view[2] - view[0],
+        view[3] - view[1],
+    )
 
 
 def _on_candidate(det: Detection, candidates: list[Candidate]) -> bool:
