@@ -52,6 +52,7 @@ __all__ = [
     "carried_back",
     "faint_pick",
     "one_name_each",
+    "one_object",
     "look_harder",
     "visit_order",
     "zoom_views",
@@ -93,6 +94,7 @@ class LookHarderReport:
     faint: float | None = None  # the score of the faint box taken, where one was
     eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
     alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
+    yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
     took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
 
     @property
@@ -114,6 +116,8 @@ class LookHarderReport:
             text += f"; took {self.alike} more that look like the one it saw (their colours, their size)"
         if self.set_aside:
             text += f"; {self.set_aside} set aside where depth sees nothing stand"
+        if self.yielded:
+            text += f"; {self.yielded} left to another name whose object is there"
         return text
 
 
@@ -164,9 +168,15 @@ def look_harder(
         return _best_of(detector, frame, name, sought or [], [])
 
     def one_each(found: list[Detection]) -> list[Detection]:
-        if not sought or len(found) < 2:
+        if len(found) < 2:
             return found
-        return one_name_each(found, best_rivals())
+        # what the other names' finds took (of another class: "the red mug" and "the blue mug" share one)
+        mine = _class(detector, name)
+        taken = [d for d in claimed or [] if _class(detector, d.label) != mine]
+        rivals = [*taken, *(best_rivals() if sought else [])]
+        left = one_name_each(found, rivals, candidates) if rivals else found
+        report.yielded += len(found) - len(left)
+        return left
 
     kept = one_each(kept)
     if not candidates:
@@ -175,8 +185,8 @@ def look_harder(
         views = zoom_views(candidates, frame.width, frame.height)
         zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
         merged = list(kept)
-        for det in sorted(zoomed, key=lambda d: -d.score):
-            if all(iou(det.box, other.box) < 0.5 for other in merged):
+        for det in sorted(zoomed, key=lambda d: -d.score):  # a box on an object kept already is that one
+            if not any(one_object(det, other, candidates) for other in merged):
                 merged.append(det)
         report.views, report.added = len(views), len(merged) - len(kept)
         if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
@@ -268,19 +278,33 @@ def _best_of(
     return best
 
 
-def one_name_each(found: list[Detection], rivals: list[Detection]) -> list[Detection]:
-    """`found` (one name's boxes) less those that frame the best box of another name the program looks for,
-    one object, one name: a box that is not the name's best yields to the other name there (YOLOv3-tiny
-    boxes a computer mouse as a clock at 0.19 and as a mouse at 0.18, beside the alarm clock it boxes at
-    0.63), and so does its best where the other name scores higher there (an orange boxed as an apple at
-    0.17 and as an orange at 0.31, beside an apple boxed at 0.11). One box at least is kept."""
+def one_name_each(
+    found: list[Detection], rivals: list[Detection], candidates: Sequence[Candidate] = ()
+) -> list[Detection]:
+    """`found` (one name's boxes) less those on the object of another name's box in `rivals` (the best box
+    of another name the program looks for, or what another name's find took), one object, one name: a box
+    that is not the name's best yields to the other name there (YOLOv3-tiny boxes a computer mouse as a
+    clock at 0.19 and as a mouse at 0.18, beside the alarm clock it boxes at 0.63; a bowl as a sports ball
+    at 0.18, beside a basketball it boxes at 0.29), and so does its best where the other name scores
+    higher there (an orange boxed as an apple at 0.17 and as an orange at 0.31, beside an apple boxed at
+    0.11; a cactus's pot boxed as a vase, under the cactus's box: `one_object`). One box at least is
+    kept."""
     best = max(found, key=lambda d: d.score)
 
     def yields(d: Detection) -> bool:
-        return any(iou(d.box, r.box) >= 0.5 and (d is not best or r.score > d.score) for r in rivals)
+        return any(one_object(d, r, candidates) and (d is not best or r.score > d.score) for r in rivals)
 
     kept = [d for d in found if not yields(d)]
     return kept or [best]
+
+
+def one_object(a: Detection, b: Detection, candidates: Sequence[Candidate] = ()) -> bool:
+    """Whether two boxes are on one object: they overlap by IoU 0.5 or more, or each frames one place depth
+    sees stand (`candidates`), the same one (a cactus's pot and the cactus)."""
+    if iou(a.box, b.box) >= 0.5:
+        return True
+    places = [_framed(d, list(candidates)) for d in (a, b)]
+    return len(places[0]) == 1 and places[0] == places[1]
 
 
 def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo) -> bool:
