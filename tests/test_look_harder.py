@@ -215,9 +215,9 @@ class NearOnlyDetector:
 
 
 def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back():
-    """Driving nearer makes a far object large enough for a detector that misses it from afar; its box is
-    carried back into the first image (where the world's truth puts it), and the robot returns to where it
-    looked from."""
+    """Driving nearer makes a far object large enough for a detector that misses it from afar; seen on the
+    place depth found, that place's box is its box in the first image (where the world's truth puts it),
+    and the robot returns to where it looked from."""
     config = SceneConfig(
         layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
     )
@@ -239,6 +239,10 @@ def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back(
     events = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
     assert found, [e.detail for e in events]
     assert any("drove nearer" in e.detail for e in events)
+    # its box in the first image is what depth sees of it whole, not the surface in its middle alone
+    from attribot.boxes import iou
+
+    assert iou(found[0].box, target.box) >= 0.5, (found[0].box, target.box)
     assert abs(back.x - start.x) < 0.05 and abs(back.y - start.y) < 0.05 and abs(back.yaw - start.yaw) < 0.05
     assert abs(head_back["head_pan"] - head["head_pan"]) < 0.02
 

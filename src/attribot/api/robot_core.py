@@ -206,8 +206,9 @@ class SessionCore:
 
     def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
         """Host side, for `look_harder`: drive nearer to each candidate of the image in turn (at most
-        `NEARER_VISITS`), look for `name` there and carry what is seen back into the image; then drive back
-        to where the robot was. Returns the detections in the image and the places visited."""
+        `NEARER_VISITS`), look for `name` there until it is seen on the candidate (carried back into the
+        image): the candidate's box is then its box in the image; then drive back to where the robot was.
+        Returns the detections in the image and the places visited."""
         image, world = self._image, self.world
         look, back = (
             getattr(self.controller, "look_nearer", None),
@@ -229,11 +230,17 @@ class SessionCore:
                 visits += 1
                 frame = world.observe()
                 seen = capture_now(world, frame, -1, frame.camera or first.camera)
-                for det in acting_find(detector, frame, name):
-                    box = carried_back(det.box, frame, seen, first)
-                    if box is not None and overlap_of_smaller(box, cand.box) >= 0.3:
-                        found.append(Detection(box=box, score=det.score, label=det.label))
-                if found:
+                here = [
+                    det
+                    for det in acting_find(detector, frame, name)
+                    if (box := carried_back(det.box, frame, seen, first)) is not None
+                    and overlap_of_smaller(box, cand.box) >= 0.3
+                ]
+                if here:
+                    # the object is the candidate: what depth sees of it whole in the image (carried back,
+                    # the detector's box is only the surface in its middle, a part of the object)
+                    best = max(here, key=lambda d: d.score)
+                    found.append(Detection(box=cand.box, score=best.score, label=best.label))
                     break
         finally:
             try:
