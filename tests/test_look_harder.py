@@ -395,6 +395,28 @@ def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
     assert by_elimination(every, seen, None, 640, 480) is None
 
 
+def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_sees():
+    """A knife and a toaster, neither seen by the detector, are both of a knife's length as depth sees it:
+    by size alone neither is eliminated. A knife lies flat (its catalog shape rises a centimetre or two), a
+    toaster stands (16-20 cm), and depth sees each rise as high as it is."""
+    from attribot.api.harder import by_elimination, fits_height
+    from attribot.control.candidates import Candidate
+    from attribot.sim.catalog import get_category
+
+    knife, toaster = get_category("knife"), get_category("toaster")
+    assert knife.height_range_m[1] < 0.03 and toaster.height_range_m[0] > 0.15
+    lying = Candidate((320, 312, 330, 358), 0.012, 60, 0.2)
+    standing = Candidate((300, 134, 340, 164), 0.184, 300, 0.23)
+    both = [lying, standing]
+    assert by_elimination(both, [], knife.size_range_m, 640, 480) is None  # by size, either
+    assert by_elimination(both, [], knife.size_range_m, 640, 480, height_range=knife.height_range_m) == lying
+    assert by_elimination(both, [], toaster.size_range_m, 640, 480, height_range=toaster.height_range_m) == (
+        standing
+    )
+    # depth's noise: a flat thing seen a centimetre or two higher is still flat
+    assert fits_height(0.04, knife.height_range_m) and not fits_height(0.06, knife.height_range_m)
+
+
 def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
     """The detector never sees the apple surely, from anywhere: the robot re-finds it by name nowhere on its
     way, so it acts on where depth placed it in the first image, and lifts the apple (the world's truth)."""

@@ -1,23 +1,23 @@
-"""Looking harder: when `find` comes back empty or unsure for a named object, the robot looks more closely
-at where depth says objects stand, and sets aside what depth says is no object.
+"""Looking harder: when `find` comes back empty or unsure for a named object, the robot looks more closely at
+where depth says objects stand, and sets aside what depth says is no object.
 
-A real detector misses objects that are small in the frame (YOLOv3-tiny sees a 25-pixel apple poorly at
-its 608-pixel input). Depth does not need to know what an object is to see that something stands on a
-table (`control.candidates`): each such region is shown to the detector on its own, in a view a few times
-its size, so that the object fills the detector's input ("zooming by cropping"). A detection found this
-way counts only where depth sees something stand; and any detection of the find inside whose box depth
-sees nothing rise from a level (a box on a wall, on the floor's tiles) is set aside, unless it is sure and
-its box lies on a level (a phone lying on a table rises too little to stand out). Where zooming finds
-nothing and the robot can drive, it drives nearer to a few of the places in turn (`visit_order`), looks
-there, carries what it sees back into the first image (`carried_back`) and drives back (the Robot's
-`_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where it
-points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
+A real detector misses objects that are small in the frame (YOLOv3-tiny sees a 25-pixel apple poorly at its
+608-pixel input). Depth does not need to know what an object is to see that something stands on a table
+(`control.candidates`): each such region is shown to the detector on its own, in a view a few times its size,
+so that the object fills the detector's input ("zooming by cropping"). A detection found this way counts only
+where depth sees something stand; and any detection of the find inside whose box depth sees nothing rise from
+a level (a box on a wall, on the floor's tiles) is set aside, unless it is sure and its box lies on a level (a
+phone lying on a table rises too little to stand out). Where zooming finds nothing and the robot can drive, it
+drives nearer to a few of the places in turn (`visit_order`), looks there, carries what it sees back into the
+first image (`carried_back`: where it lands on the place, the place's box is its box) and drives back (the
+Robot's `_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where
+it points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
 no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
-that no box of another name explains (`by_elimination`). And where the detector saw some objects of the
-name but not all (a row of carrots, one of them boxed), the places that look like one it saw, in colour
-and size, and that nothing else explains are more of it (`alike`). What they give has the low score it
-earned, and the trace says how it was taken. Only detectors that read pixels look harder (a zoomed view
-shows them more); the oracle reads the simulator's segmentation.
+and height (a knife lies flat, a toaster stands) that no box of another name explains (`by_elimination`). And
+where the detector saw some objects of the name but not all (a row of carrots, one of them boxed), the places
+that look like one it saw, in colour and size, and that nothing else explains are more of it (`alike`). What
+they give has the low score it earned, and the trace says how it was taken. Only detectors that read pixels
+look harder (a zoomed view shows them more); the oracle reads the simulator's segmentation.
 """
 
 from __future__ import annotations
@@ -251,7 +251,8 @@ def _unseen(
     def coloured(cand: Candidate) -> bool:
         return colour_fits(frame.rgb, cand.box, colours)
 
-    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement, coloured)
+    heights = None if category is None else category.height_range_m
+    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement, coloured, heights)
     if left is None:
         return []
     report.eliminated = 1
@@ -354,6 +355,18 @@ def fits_size(size: float, size_range: tuple[float, float], slack: tuple[float, 
     return size_range[0] * slack[0] <= size <= size_range[1] * slack[1]
 
 
+HEIGHT_MARGIN = 0.02
+"""A rise as depth sees it fits a name's height range (`SIZE_SLACK` of it) give or take this much (metres):
+depth's noise, a level that is not quite flat."""
+
+
+def fits_height(rise: float, height_range: tuple[float, float]) -> bool:
+    """Whether what depth sees rise `rise` metres over its level can be an object of `height_range` as it
+    is put: a knife lying flat rises a centimetre or two, a toaster standing twenty."""
+    low, high = height_range[0] * SIZE_SLACK[0], height_range[1] * SIZE_SLACK[1]
+    return low - HEIGHT_MARGIN <= rise <= high + HEIGHT_MARGIN
+
+
 def grown_to_candidates(
     det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
 ) -> Detection:
@@ -394,13 +407,15 @@ def by_elimination(
     height: int,
     placement: str | None = None,
     coloured: Callable[[Candidate], bool] | None = None,
+    height_range: tuple[float, float] | None = None,
 ) -> Candidate | None:
     """The one candidate that can be the object looked for by elimination, or None where none or several
     can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
-    size as depth sees it fits `size_range` (`fits_size`), whole in the image (a candidate cut by
-    the image's edge is most often the furniture the robot stands at), no part of the furniture, and
-    where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several
-    are left, the one of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
+    size as depth sees it fits `size_range` (`fits_size`) and whose rise fits `height_range` (`fits_height`:
+    a knife lies flat, a toaster stands; None: any), whole in the image (a candidate cut by the image's
+    edge is most often the furniture the robot stands at), no part of the furniture, and where the object
+    is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several are left, the one
+    of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
     if size_range is None:
         return None
     sure = [d for d in others if d.score >= UNSURE]
@@ -408,6 +423,7 @@ def by_elimination(
         c
         for c in candidates
         if fits_size(c.size, size_range)
+        and (height_range is None or fits_height(c.rise, height_range))
         and not _furniture(c)
         and not _misplaced(c, placement)
         and not _at_edge(c.box, width, height)

@@ -28,6 +28,7 @@ from functools import cache
 
 from attribot.errors import UnknownName
 from attribot.lexicon import singular_forms
+from attribot.sim.shapes import build_shape
 
 __all__ = [
     "COLORS",
@@ -109,6 +110,12 @@ class Category:
     def words(self) -> tuple[str, ...]:
         """The name and synonyms, lower case."""
         return (self.name, *self.synonyms)
+
+    @property
+    def height_range_m(self) -> tuple[float, float]:
+        """(min, max) of its height standing as it is put (a knife lies flat: 1 to 2 cm; a toaster stands
+        16 to 20 cm): its shape's height at the smallest and largest size."""
+        return _heights(self.shape, self.size_range_m)
 
 
 def _c(
@@ -434,6 +441,12 @@ _DATA: tuple[Category, ...] = (
         drawn=False,
     ),
 )
+
+
+@cache
+def _heights(shape: str, size_range: tuple[float, float]) -> tuple[float, float]:
+    low, high = (build_shape(shape, size).height for size in size_range)
+    return min(low, high), max(low, high)
 
 
 @cache
