@@ -148,11 +148,10 @@ def look_harder(
     claimed: list[Detection] | None = None,
     sought: list[str] | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
-    """The find's detections after looking harder (see the module docstring), and what it did; None where
-    the capture gives no depth and camera pose to look by. `nearer`, where the robot can drive, is asked
-    to look from nearer at the candidates in `visit_order` when zooming found nothing sure. `claimed`: the
-    boxes the finds of other names took in this image (each explains its object); `sought`: the other
-    names the program looks for, whose best boxes will explain theirs."""
+    """The find's detections after looking harder (module docstring) and what it did; None without depth and
+    a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order` where
+    zooming found nothing sure; `claimed`: the boxes other names' finds took here, each its object's (if of
+    another class: "the red mug" and "the blue mug" share boxes); `sought`: the other names looked for."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     standing = StandingMap.of(frame.depth, capture.camera, capture.view, frame.rgb)
@@ -170,11 +169,8 @@ def look_harder(
     def one_each(found: list[Detection]) -> list[Detection]:
         if len(found) < 2:
             return found
-        # what the other names' finds took (of another class: "the red mug" and "the blue mug" share one)
-        mine = _class(detector, name)
-        taken = [d for d in claimed or [] if _class(detector, d.label) != mine]
-        rivals = [*taken, *(best_rivals() if sought else [])]
-        left = one_name_each(found, rivals, candidates) if rivals else found
+        taken = [d for d in claimed or [] if _class(detector, d.label) != _class(detector, name)]
+        left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates)
         report.yielded += len(found) - len(left)
         return left
 
