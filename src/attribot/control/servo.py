@@ -45,6 +45,10 @@ from attribot.frame import CameraInfo, Frame
 
 __all__ = ["ServoController", "FocusReport"]
 
+NEAR_CAPTURE_M = 0.05
+"""A robot within this many metres (and radians) of where an image was taken stands there, give or take what
+its drives back leave: a look nearer from there comes back to exactly where the image was taken."""
+
 
 @dataclass
 class ServoController(PointingController):
@@ -214,7 +218,13 @@ class ServoController(PointingController):
         then only aims the camera). `return_to` drives back the way it came."""
         body = self.plant.body("look_harder")
         if self.nearer_from is None:
-            self.nearer_from = (self.plant.pose(), self.plant.head() if self.plant.has("head") else None)
+            here, cap = self.plant.pose(), target.capture
+            head = self.plant.head() if self.plant.has("head") else None
+            # standing about where the image was taken (a look nearer before came back a few millimetres
+            # off), back to exactly there: coming back to where each look started adds their errors up
+            if cap.base is not None and not moved(here, cap.base, NEAR_CAPTURE_M, NEAR_CAPTURE_M):
+                here, head = cap.base, cap.head or head
+            self.nearer_from = (here, head)
         est = self.locator.locate(target, "look_harder")
         here = self.plant.pose()
         centre = est.xy()
