@@ -927,8 +927,8 @@ def test_a_second_box_on_the_object_another_names_find_took_yields_to_it(same_cl
 
 
 class ViewsDetector:
-    """A detector that looks at chosen views (as coco does): one box per view, in the image's pixels,
-    scored by the view it was found in; it records the views asked."""
+    """A detector that looks at chosen views (as coco does): one box, found in the views that hold its middle,
+    in the image's pixels, scored by the best view it was found in; it records the views asked."""
 
     name = "views"
     pixels_only = True
@@ -941,21 +941,28 @@ class ViewsDetector:
 
     def detect_views(self, frame: Frame, queries, views, threshold=None):
         self.asked.append([tuple(v) for v in views])
-        kind = ["whole" if v == (0, 0, frame.width, frame.height) else "middle" for v in views]
-        return [Detection(box=self.box, score=max(self.scores[k] for k in kind), label=queries[0])]
+        cx, cy = (self.box[0] + self.box[2]) / 2, (self.box[1] + self.box[3]) / 2
+        seen = [v for v in views if v[0] <= cx <= v[2] and v[1] <= cy <= v[3]]
+        kind = ["whole" if v == (0, 0, frame.width, frame.height) else "middle" for v in seen]
+        return (
+            [Detection(box=self.box, score=max(self.scores[k] for k in kind), label=queries[0])]
+            if seen
+            else []
+        )
 
 
-def test_acting_looks_at_the_middle_half_first_and_at_the_whole_image_only_where_that_is_unsure():
+def test_acting_looks_at_the_middle_half_first_and_at_the_whole_image_only_where_that_shows_no_whole_box():
     frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8))
     middle, whole = (160, 120, 480, 360), (0, 0, 640, 480)
-    # the camera aims at what it acts on: seen surely and whole in the middle half, one look
-    sure = ViewsDetector((300, 220, 340, 260), {"middle": 0.6, "whole": 0.2})
-    assert [d.score for d in acting_find(sure, frame, "cup")] == [0.6] and sure.asked == [[middle]]
-    # unsure there: the whole image too, with the middle half
-    unsure = ViewsDetector((300, 220, 340, 260), {"middle": 0.2, "whole": 0.15})
-    acting_find(unsure, frame, "cup")
-    assert unsure.asked == [[middle], [whole, middle]]
-    # sure, but cut by the middle half's edge (the object goes on past it): the whole image too
+    # the camera aims at what it acts on: seen whole in the middle half, one look, faint or sure
+    for score in (0.6, 0.12):
+        aimed = ViewsDetector((300, 220, 340, 260), {"middle": score, "whole": 0.2})
+        assert [d.score for d in acting_find(aimed, frame, "cup")] == [score] and aimed.asked == [[middle]]
+    # nothing in the middle half (the object is off to a side): the whole image too, where it is found
+    aside = ViewsDetector((20, 40, 80, 100), {"middle": 0.6, "whole": 0.3})
+    assert [d.box for d in acting_find(aside, frame, "cup")] == [(20, 40, 80, 100)]
+    assert aside.asked == [[middle], [whole, middle]]
+    # seen, but cut by the middle half's edge (the object goes on past it): the whole image too
     cut = ViewsDetector((161, 200, 300, 300), {"middle": 0.6, "whole": 0.5})
     acting_find(cut, frame, "cup")
     assert cut.asked == [[middle], [whole, middle]]
