@@ -16,6 +16,7 @@ from attribot.frame import Frame
 from attribot.models.base import DETECTORS, build_backend, probe_backend
 from attribot.models.coco import (
     COCO_CLASS_OF,
+    FAINT,
     FILES,
     CocoDetector,
     coco_classes_for,
@@ -287,12 +288,42 @@ def test_chosen_views_are_looked_at_alone_and_mapped_back_to_the_image(remote_fr
     assert detector.detect_views(frame, ["remote control"], [(0, 0, 4, 4)]) == []  # too small to look at
 
 
+def test_a_part_of_the_image_is_seen_at_the_part_size_on_a_network_of_its_own(remote_frame):
+    """A tile or a crop is already larger in the frame than in the whole image: the network may see it at a
+    smaller `part_size` (384: under half the cost of a 608 pass), on a network of its own, as a detector of
+    that input size sees the part given alone; the whole image is still seen at `input_size`."""
+    from attribot.models.coco import _cv2, _loaded
+
+    frame, truth = remote_frame
+    part_size = 384
+    detector = CocoDetector(part_size=part_size)
+    cx = (truth[0] + truth[2]) / 2
+    x0 = int(min(max(cx - 240, 0), frame.width - 480))
+    view = (x0, 0, x0 + 480, 480)
+    part = detector.detect_views(frame, ["remote control"], [view])
+    alone = CocoDetector(input_size=part_size, tiles=1).detect(frame.crop(view), ["remote control"])
+    assert part and boxmath.iou(part[0].box, truth) >= 0.5
+    moved = [(d.box[0] + x0, d.box[1], d.box[2] + x0, d.box[3]) for d in alone]
+    assert np.allclose(part[0].box, moved[0], atol=1e-3) and part[0].score == pytest.approx(alone[0].score)
+    # the same view at the whole image's side scores the remote otherwise: the part size is what changed
+    assert CocoDetector().detect_views(frame, ["remote control"], [view])[0].score != pytest.approx(
+        part[0].score
+    )
+    whole = [(0, 0, frame.width, frame.height)]
+    assert _same(
+        detector.detect_views(frame, ["object"], whole), CocoDetector().detect_views(frame, ["object"], whole)
+    )
+    # a network of its own for each side: one given another input shape sizes its buffers again
+    assert _loaded(_cv2(), detector.folder, FAINT, part_size)[0] is not detector.net
+    assert build_backend("detector", "coco?part_size=416", load_settings()).part_size == 416
+    with pytest.raises(ConfigError, match="multiple of 32"):
+        CocoDetector(part_size=500)
+
+
 def test_faint_boxes_come_only_to_a_caller_that_asks_for_them(remote_frame):
     """The network keeps class scores down to `FAINT`, but `detect` and `detect_views` answer at the
     detector's threshold as before; a caller that asks with a lower `threshold` gets the fainter boxes too,
     from the same forward pass."""
-    from attribot.models.coco import FAINT
-
     frame, _ = remote_frame
     detector = CocoDetector()
     whole = [(0, 0, frame.width, frame.height)]

@@ -8,7 +8,7 @@ and copies the three files, each checked by its own hash, into a folder this bac
 downloaded when a detector is built.
 
 Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`, with
-options `?tiles=N`, `?size=S` and `?batch=B` (see `build_coco_detector`). The
+options `?tiles=N`, `?size=S`, `?part_size=S` and `?batch=B` (see `build_coco_detector`). The
 detector is closed-set: a noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a
 cup, a cactus a potted plant, a basketball a sports ball), generic words ("object", "item") to every class
 of a thing one could pick up, and a name with no class is refused with an error that names an
@@ -75,6 +75,13 @@ triplet seeds). The nine tiles are looked at only when the whole image
 leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass, and only
 the tiles where the whole image shows a faint trace of the class, or of anything where it shows none of the
 class (`CocoDetector._traced`)."""
+DEFAULT_PART_SIZE = 608
+"""The side the network sees a part of an image at (a tile, a crop around a candidate, the middle half an
+acting look sees first), on a network of its own. The same as the whole image's by default: a tile of a
+640x480 frame seen at 416 costs half a 608 pass (27 against 52 ms here), and `coco?part_size=416` takes an
+embodied weight item from 5.0x to 3.9-4.2x the oracle's wall time (`benchmarks/bench_real_eyes.py`), but
+small objects of the classes YOLOv3-tiny knows least grow less in a tile: no toaster was found in three
+items that 608 answers, and the clean embodied runs fell from 47 to 45 of 50 on each task."""
 DEFAULT_BATCH = 1
 """Views per forward pass. One view at a time: on a 2-core CPU OpenCV's DNN takes longer for a batch of ten
 608x608 views than for the ten one after another (1.2 s against 0.8 s, measured in one process); the boxes
@@ -294,24 +301,28 @@ def _network(cfg: str, floor: float) -> np.ndarray:
 _THIS_THREAD = threading.local()
 
 
-def _loaded(cv2: Any, folder: Path, floor: float) -> tuple[Any, list[str]]:
+def _loaded(cv2: Any, folder: Path, floor: float, side: int = 0) -> tuple[Any, list[str]]:
     """The network read from `folder` (keeping class scores down to `floor`) and its output layers' names,
     read once per thread: an evaluation worker answers item after item, each with a detector of its own,
     and reading the files and the first forward pass (which sizes OpenCV's buffers) cost about 0.3 s an
     item. Per thread, because one OpenCV network must not run two passes at once; a file changed on disk
-    (its size or time) is read again."""
+    (its size or time) is read again. One network per input `side`: a network given an input of another
+    shape sizes its buffers again, about 17 ms a pass, so the whole images and their parts each keep their
+    own."""
     files = [folder / "yolov3-tiny.cfg", folder / "yolov3-tiny.weights"]
     key = (str(folder.resolve()), floor, *((s.st_size, s.st_mtime_ns) for s in (f.stat() for f in files)))
-    networks: dict[tuple[Any, ...], tuple[Any, list[str]]] = _THIS_THREAD.__dict__.setdefault("networks", {})
-    if key not in networks:
+    networks: dict[Any, Any] = _THIS_THREAD.__dict__.setdefault("networks", {})
+    if networks.get("files") != key:  # another folder or floor replaces them all
+        networks.clear()
+        networks["files"] = key
+    if side not in networks:
         net = cv2.dnn.readNetFromDarknet(
             _network(files[0].read_text(encoding="utf-8"), floor), np.fromfile(files[1], np.uint8)
         )
         net.setPreferableBackend(cv2.dnn.DNN_BACKEND_OPENCV)
         net.setPreferableTarget(cv2.dnn.DNN_TARGET_CPU)
-        networks.clear()  # one network a thread: another folder or floor replaces it
-        networks[key] = (net, list(net.getUnconnectedOutLayersNames()))
-    return networks[key]
+        networks[side] = (net, list(net.getUnconnectedOutLayersNames()))
+    return networks[side]
 
 
 class CocoDetector:
@@ -326,7 +337,8 @@ class CocoDetector:
     `batch` views per forward pass; each view's output is kept for other queries about the same pixels
     (`counts()` says how many views ran and how many were served from memory). `input_size` is the side
     the network sees: 608 rather than Darknet's default 416, because household objects a few metres away
-    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416.
+    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416. `part_size` is the
+    side a part of an image (a tile, a crop) is seen at (`DEFAULT_PART_SIZE`).
     """
 
     def __init__(
@@ -336,6 +348,7 @@ class CocoDetector:
         threshold: float = 0.1,
         nms_iou: float = 0.45,
         input_size: int = 608,
+        part_size: int = DEFAULT_PART_SIZE,
         tiles: int = DEFAULT_TILES,
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
@@ -344,8 +357,11 @@ class CocoDetector:
             raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
         if not 0.0 < nms_iou <= 1.0:
             raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.45")
-        if input_size % 32 or not 64 <= input_size <= 1024:
-            raise ConfigError(f"input size {input_size} is not a multiple of 32 in [64, 1024]", "use 608")
+        for side, example in ((input_size, 608), (part_size, DEFAULT_PART_SIZE)):
+            if side % 32 or not 64 <= side <= 1024:
+                raise ConfigError(
+                    f"input size {side} is not a multiple of 32 in [64, 1024]", f"use {example}"
+                )
         cv2 = _cv2()
         self.folder = (folder or default_folder()).expanduser()
         if not weights_present(self.folder):
@@ -353,7 +369,7 @@ class CocoDetector:
                 f"the YOLOv3-tiny files are not in {str(self.folder)!r}",
                 f"fetch them once: `attribot fetch coco` (or {_INSTALL}); give another folder as coco:FOLDER",
             )
-        self.net, self._outputs_names = _loaded(cv2, self.folder, min(threshold, FAINT))
+        self.net, self._outputs_names = _loaded(cv2, self.folder, min(threshold, FAINT), input_size)
         self.classes = _class_names(self.folder)
         self.vocabulary = tuple(self.classes)  # closed-set: what the prompt says `find` can find
         self.name = "coco:yolov3-tiny"
@@ -362,6 +378,7 @@ class CocoDetector:
         self.floor = max(min(self.threshold, FAINT), 1e-6)  # the lowest score the network keeps
         self.nms_iou = float(nms_iou)
         self.input_size = int(input_size)
+        self.part_size = int(part_size)
         if not 1 <= tiles <= 4:
             raise ConfigError(f"tiles {tiles} is outside 1 to 4", "use 1 (the whole image only) to 4")
         self.tiles = int(tiles)
@@ -516,28 +533,40 @@ class CocoDetector:
                 self.reused += 1
             else:
                 todo.setdefault(key, img)
-        pending = list(todo.items())
-        for at in range(0, len(pending), self.batch):
-            chunk = pending[at : at + self.batch]
-            rows = self._forward([(img, view) for (_, view), img in chunk])
-            for (key, _), r in zip(chunk, rows, strict=True):
-                xyxy, scores = self._boxes(r, key[1])
-                # a row under the floor in every class is never selected: only the others are kept
-                live = scores.max(axis=1) >= self.floor
-                out[key] = self._kept[key] = (xyxy[live], scores[live])
-        self.forwarded += len(pending)
+        by_side: dict[int, list[tuple[tuple[bytes, tuple[int, int, int, int]], np.ndarray]]] = {}
+        for key, img in todo.items():
+            by_side.setdefault(self._side(img, key[1]), []).append((key, img))
+        for side, pending in by_side.items():
+            for at in range(0, len(pending), self.batch):
+                chunk = pending[at : at + self.batch]
+                rows = self._forward([(img, view) for (_, view), img in chunk], side)
+                for (key, _), r in zip(chunk, rows, strict=True):
+                    xyxy, scores = self._boxes(r, key[1])
+                    # a row under the floor in every class is never selected: only the others are kept
+                    live = scores.max(axis=1) >= self.floor
+                    out[key] = self._kept[key] = (xyxy[live], scores[live])
+        self.forwarded += len(todo)
         while len(self._kept) > self.keep:
             self._kept.popitem(last=False)
         return [out[(digest, view)] for _, digest, view in views]
 
-    def _forward(self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]]) -> list[np.ndarray]:
-        """The network's output rows (boxes, classes) for each (image, view) given, in one pass."""
+    def _side(self, image: np.ndarray, view: tuple[int, int, int, int]) -> int:
+        """The side the network sees a view at: `input_size` for a whole image, `part_size` for a part of
+        one (a tile, a crop), which is already larger in the frame than in the whole image."""
+        x0, y0, x1, y1 = view
+        whole = x1 - x0 >= image.shape[1] and y1 - y0 >= image.shape[0]
+        return self.input_size if whole else self.part_size
+
+    def _forward(
+        self, views: list[tuple[np.ndarray, tuple[int, int, int, int]]], side: int
+    ) -> list[np.ndarray]:
+        """The network's output rows (boxes, classes) for each (image, view) given, in one pass at `side`."""
         cv2 = _cv2()
         crops = [img[y0:y1, x0:x1] for img, (x0, y0, x1, y1) in views]
-        side = self.input_size
         blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
-        self.net.setInput(blob)
-        outs = self.net.forward(self._outputs_names)
+        net, names = _loaded(cv2, self.folder, min(self.threshold, FAINT), side)
+        net.setInput(blob)
+        outs = net.forward(names)
         rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
         return list(rows)
 
@@ -619,20 +648,21 @@ def _rgb_of(frame: Frame) -> np.ndarray:
     return np.ascontiguousarray(frame.rgb)
 
 
-_OPTIONS = ("tiles", "size", "batch", "all_tiles")
+_OPTIONS = ("tiles", "size", "part_size", "batch", "all_tiles")
 
 
 def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
-    """The folder and the options (`tiles`, `size`, `batch`, `all_tiles`) of a
-    `coco[:FOLDER][?tiles=N&size=S&batch=B&all_tiles=1]` spec."""
+    """The folder and the options (`tiles`, `size`, `part_size`, `batch`, `all_tiles`) of a
+    `coco[:FOLDER][?tiles=N&size=S&part_size=S&batch=B&all_tiles=1]` spec."""
     head, raw = split_options(arg)
     options: dict[str, int] = {}
     for key, text in raw.items():
         if key not in _OPTIONS or not text.isdigit():
             raise ConfigError(
                 f"coco option {key}={text!r} is not known",
-                "write coco?tiles=N (1 to 4), coco?size=S (e.g. 416), coco?batch=B (views per pass) or "
-                "coco?all_tiles=1 (every tile, not only those with a trace of the class)",
+                "write coco?tiles=N (1 to 4), coco?size=S (e.g. 416), coco?part_size=S (a tile's side), "
+                "coco?batch=B (views per pass) or coco?all_tiles=1 (every tile, not only those with a trace "
+                "of the class)",
             )
         options[key] = int(text)
     if head:
@@ -659,7 +689,8 @@ def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
 def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
     """`coco` (the files in the default folder, or the `coco_dir` setting) or `coco:FOLDER`, with options
     `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest), `?size=S`
-    (the network's input side, a multiple of 32), `?batch=B` (views per forward pass) and `?all_tiles=1`
+    (the network's input side, a multiple of 32), `?part_size=S` (the side a tile or a crop is seen at: 416
+    is faster and finds fewer small objects), `?batch=B` (views per forward pass) and `?all_tiles=1`
     (look at every tile where the whole image leaves a class unsure, not only at those that show a trace of
     it: slower, and it finds a few more small objects)."""
     folder, options = _parse(arg, settings)
@@ -668,6 +699,7 @@ def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
         threshold=settings.detector_threshold,
         tiles=options.get("tiles", DEFAULT_TILES),
         input_size=options.get("size", 608),
+        part_size=options.get("part_size", DEFAULT_PART_SIZE),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
     )
