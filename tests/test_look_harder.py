@@ -833,6 +833,32 @@ def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_noth
     assert [d.box for d in taken] == [boxes[1], boxes[2]]
 
 
+def test_a_thing_of_other_proportions_is_not_one_more_of_what_the_detector_saw():
+    """An orange carrot lying flat beside an orange the detector saw: of the colour, of a size the orange's
+    range lets through, on the same level, but four times as long as it rises where the orange is round;
+    not one more orange. Another round one is, and a place whose span depth did not measure is not ruled
+    out."""
+    from attribot.api.harder import alike
+    from attribot.control.candidates import Candidate
+
+    rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
+    boxes = [(20, 40, 50, 80), (80, 40, 110, 80), (140, 50, 230, 80)]
+    for x0, y0, x1, y1 in boxes:
+        rgb[y0 + 5 : y1 - 5, x0 + 5 : x1 - 5] = (235, 120, 20)  # orange things
+    orange, round_one = (
+        Candidate(boxes[0], 0.08, 60, 0.08, 0.08, 0.72),
+        Candidate(boxes[1], 0.07, 60, 0.075, 0.075, 0.72),
+    )
+    carrot = Candidate(boxes[2], 0.03, 60, 0.17, 0.17, 0.72)
+    seen = [Detection(box=boxes[0], score=0.6, label="orange")]
+    detector = ClassNamingDetector([])
+    taken = alike(detector, Frame(rgb=rgb), "orange", [orange, round_one, carrot], seen, [])
+    assert [d.box for d in taken] == [boxes[1]]
+    unmeasured = replace(carrot, across=0.0)
+    taken = alike(detector, Frame(rgb=rgb), "orange", [orange, round_one, unmeasured], seen, [])
+    assert [d.box for d in taken] == [boxes[1], boxes[2]]
+
+
 class OneSeenDetector:
     """The simulator's own boxes, but of one object only (the leftmost of the category asked for), scored
     0.6, and named by class: a closed-set detector that sees one of a row of alike objects."""

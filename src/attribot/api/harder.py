@@ -448,6 +448,10 @@ SAME_LEVEL_M = 0.05
 """...and where it stands on the level one it saw stands on (within this): more of a kind seen together
 stand together (a row on a table), and a red toaster on a shelf is not one more of the red vase on the
 table below it."""
+ALIKE_SHAPE = 2.0
+"""...and where its proportions are one's it saw, within this factor (`_proportion`): things of one kind
+share a shape, and an orange carrot lying flat (four times as long as it rises) is not one more of a round
+orange that the size range alone lets through."""
 
 
 def alike(
@@ -461,7 +465,8 @@ def alike(
 ) -> list[Detection]:
     """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
     colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
-    fits the name's (`ALIKE_SLACK`), that stand on the level one of those stands on (`SAME_LEVEL_M`), whole
+    fits the name's (`ALIKE_SLACK`), that stand on the level one of those stands on (`SAME_LEVEL_M`) and are
+    of its proportions (`ALIKE_SHAPE`), whole
     in the image, no part of the furniture, where the object is put, and that no box explains: none of
     `found`, none of `claimed` (what other names' finds took), and no box the detector gives another class
     in the whole image with a score of `UNSURE`; nor one that could be another of the `sought` names by its
@@ -476,7 +481,8 @@ def alike(
     shown = [h for h in (_colours(frame.rgb, d.box) for d in exemplars) if h is not None]
     if not shown:
         return []
-    levels = [candidates[i].bottom for d in exemplars for i in _framed(d, candidates)]
+    examples = [candidates[i] for d in exemplars for i in _framed(d, candidates)]
+    levels = [c.bottom for c in examples]
     whole = (0, 0, frame.width, frame.height)
     seen = [d for d in detect_in_views(detector, frame, ["object"], [whole]) if d.label != mine]
     # a class the detector gives the examples too is its confusion about their kind (YOLOv3-tiny boxes
@@ -496,6 +502,7 @@ def alike(
             )
             or any(_could_be(frame.rgb, cand, other) for other in sought)
             or not _on_level_of(cand, levels)
+            or not _shaped_like(cand, examples)
         ):
             continue
         colours = _colours(frame.rgb, cand.box)
@@ -510,6 +517,24 @@ def _on_level_of(cand: Candidate, levels: list[float | None]) -> bool:
     return cand.bottom is not None and any(
         level is not None and abs(cand.bottom - level) <= SAME_LEVEL_M for level in levels
     )
+
+
+def _proportion(cand: Candidate) -> float | None:
+    """How much longer a candidate spans across its level than it rises, each with `HEIGHT_MARGIN` added
+    (depth's noise on what lies flat); None where its span is not measured."""
+    if cand.across <= 0.0:
+        return None
+    return (cand.across + HEIGHT_MARGIN) / (cand.rise + HEIGHT_MARGIN)
+
+
+def _shaped_like(cand: Candidate, examples: list[Candidate]) -> bool:
+    """Whether a candidate's proportions are within `ALIKE_SHAPE` of one of the `examples`' (True where
+    neither says: nothing rules it out)."""
+    mine = _proportion(cand)
+    theirs = [p for p in map(_proportion, examples) if p is not None]
+    if mine is None or not theirs:
+        return True
+    return any(max(mine / p, p / mine) <= ALIKE_SHAPE for p in theirs)
 
 
 def _could_be(rgb: np.ndarray, cand: Candidate, name: str) -> bool:
