@@ -29,7 +29,7 @@ from attribot import boxes as boxmath
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.models.base import can_find, findable_categories
-from attribot.models.coco import DEFAULT_PART_SIZE, DEFAULT_TILES, CocoDetector
+from attribot.models.coco import DEFAULT_TILES, CocoDetector
 from attribot.models.oracle import visible_objects
 from attribot.sim.catalog import categories
 from attribot.sim.world import SimWorld
@@ -103,7 +103,7 @@ def main() -> None:
     ap.add_argument("--tiles", type=int, default=DEFAULT_TILES, help="views per side besides the whole image")
     ap.add_argument("--threshold", type=float, default=0.1, help="the detector's score threshold")
     ap.add_argument("--all-tiles", action="store_true", help="every tile, not only those showing a trace")
-    ap.add_argument("--part-size", type=int, default=DEFAULT_PART_SIZE, help="the side a tile is seen at")
+    ap.add_argument("--part-size", type=int, help="the side a tile is seen at (default: the whole image's)")
     args = ap.parse_args()
     detector = CocoDetector(
         tiles=args.tiles, threshold=args.threshold, all_tiles=args.all_tiles, part_size=args.part_size

@@ -316,6 +316,7 @@ def test_a_part_of_the_image_is_seen_at_the_part_size_on_a_network_of_its_own(re
     # a network of its own for each side: one given another input shape sizes its buffers again
     assert _loaded(_cv2(), detector.folder, FAINT, part_size)[0] is not detector.net
     assert build_backend("detector", "coco?part_size=416", load_settings()).part_size == 416
+    assert build_backend("detector", "coco?size=416", load_settings()).part_size == 416  # every view at S
     with pytest.raises(ConfigError, match="multiple of 32"):
         CocoDetector(part_size=500)
 

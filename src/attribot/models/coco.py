@@ -75,13 +75,6 @@ triplet seeds). The nine tiles are looked at only when the whole image
 leaves a wanted class unfound, so a servo re-finding an object it sees well pays one forward pass, and only
 the tiles where the whole image shows a faint trace of the class, or of anything where it shows none of the
 class (`CocoDetector._traced`)."""
-DEFAULT_PART_SIZE = 608
-"""The side the network sees a part of an image at (a tile, a crop around a candidate, the middle half an
-acting look sees first), on a network of its own. The same as the whole image's by default: a tile of a
-640x480 frame seen at 416 costs half a 608 pass (27 against 52 ms here), and `coco?part_size=416` takes an
-embodied weight item from 5.0x to 3.9-4.2x the oracle's wall time (`benchmarks/bench_real_eyes.py`), but
-small objects of the classes YOLOv3-tiny knows least grow less in a tile: no toaster was found in three
-items that 608 answers, and the clean embodied runs fell from 47 to 45 of 50 on each task."""
 DEFAULT_BATCH = 1
 """Views per forward pass. One view at a time: on a 2-core CPU OpenCV's DNN takes longer for a batch of ten
 608x608 views than for the ten one after another (1.2 s against 0.8 s, measured in one process); the boxes
@@ -301,7 +294,7 @@ def _network(cfg: str, floor: float) -> np.ndarray:
 _THIS_THREAD = threading.local()
 
 
-def _loaded(cv2: Any, folder: Path, floor: float, side: int = 0) -> tuple[Any, list[str]]:
+def _loaded(cv2: Any, folder: Path, floor: float, side: int) -> tuple[Any, list[str]]:
     """The network read from `folder` (keeping class scores down to `floor`) and its output layers' names,
     read once per thread: an evaluation worker answers item after item, each with a detector of its own,
     and reading the files and the first forward pass (which sizes OpenCV's buffers) cost about 0.3 s an
@@ -337,8 +330,13 @@ class CocoDetector:
     `batch` views per forward pass; each view's output is kept for other queries about the same pixels
     (`counts()` says how many views ran and how many were served from memory). `input_size` is the side
     the network sees: 608 rather than Darknet's default 416, because household objects a few metres away
-    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416. `part_size` is the
-    side a part of an image (a tile, a crop) is seen at (`DEFAULT_PART_SIZE`).
+    are 20-40 pixels tall in a 640x480 frame and YOLOv3-tiny misses most of them at 416. `part_size`
+    (default: `input_size`) is the side a part of an image is seen at (a tile, a crop around a candidate, the
+    middle half an acting look sees first), on a network of its own: a tile of a 640x480 frame seen at 416
+    costs half a 608 pass (27 against 52 ms here), and `coco?part_size=416` takes an embodied weight item
+    from 5.0-5.2x to 4.1-4.5x the oracle's wall time (`benchmarks/bench_real_eyes.py`), but small objects of
+    the classes YOLOv3-tiny knows least grow less in a tile: no toaster was found in three items that 608
+    answers, and the clean embodied runs fell from 47 to 45 of 50 on each task.
     """
 
     def __init__(
@@ -348,7 +346,7 @@ class CocoDetector:
         threshold: float = 0.1,
         nms_iou: float = 0.45,
         input_size: int = 608,
-        part_size: int = DEFAULT_PART_SIZE,
+        part_size: int | None = None,
         tiles: int = DEFAULT_TILES,
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
@@ -357,7 +355,8 @@ class CocoDetector:
             raise ConfigError(f"detector threshold {threshold} is outside [0, 1]", "use e.g. 0.1")
         if not 0.0 < nms_iou <= 1.0:
             raise ConfigError(f"NMS IoU {nms_iou} is outside (0, 1]", "use e.g. 0.45")
-        for side, example in ((input_size, 608), (part_size, DEFAULT_PART_SIZE)):
+        part_size = input_size if part_size is None else part_size
+        for side, example in ((input_size, 608), (part_size, 416)):
             if side % 32 or not 64 <= side <= 1024:
                 raise ConfigError(
                     f"input size {side} is not a multiple of 32 in [64, 1024]", f"use {example}"
@@ -699,7 +698,7 @@ def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
         threshold=settings.detector_threshold,
         tiles=options.get("tiles", DEFAULT_TILES),
         input_size=options.get("size", 608),
-        part_size=options.get("part_size", DEFAULT_PART_SIZE),
+        part_size=options.get("part_size"),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
     )
