@@ -304,10 +304,11 @@ def _loaded(cv2: Any, folder: Path, floor: float, side: int) -> tuple[Any, list[
     own."""
     files = [folder / "yolov3-tiny.cfg", folder / "yolov3-tiny.weights"]
     key = (str(folder.resolve()), floor, *((s.st_size, s.st_mtime_ns) for s in (f.stat() for f in files)))
-    networks: dict[Any, Any] = _THIS_THREAD.__dict__.setdefault("networks", {})
-    if networks.get("files") != key:  # another folder or floor replaces them all
-        networks.clear()
-        networks["files"] = key
+    networks: dict[int, tuple[Any, list[str]]]
+    read_from, networks = getattr(_THIS_THREAD, "networks", (None, {}))
+    if read_from != key:  # another folder or floor replaces them all
+        networks = {}
+        _THIS_THREAD.networks = (key, networks)
     if side not in networks:
         net = cv2.dnn.readNetFromDarknet(
             _network(files[0].read_text(encoding="utf-8"), floor), np.fromfile(files[1], np.uint8)
@@ -368,7 +369,9 @@ class CocoDetector:
                 f"the YOLOv3-tiny files are not in {str(self.folder)!r}",
                 f"fetch them once: `attribot fetch coco` (or {_INSTALL}); give another folder as coco:FOLDER",
             )
-        self.net, self._outputs_names = _loaded(cv2, self.folder, min(threshold, FAINT), input_size)
+        self.net, names = _loaded(cv2, self.folder, min(threshold, FAINT), input_size)
+        # this detector's network for each side it sees views at, read (or shared) when first needed
+        self._networks: dict[int, tuple[Any, list[str]]] = {int(input_size): (self.net, names)}
         self.classes = _class_names(self.folder)
         self.vocabulary = tuple(self.classes)  # closed-set: what the prompt says `find` can find
         self.name = "coco:yolov3-tiny"
@@ -563,7 +566,9 @@ class CocoDetector:
         cv2 = _cv2()
         crops = [img[y0:y1, x0:x1] for img, (x0, y0, x1, y1) in views]
         blob = cv2.dnn.blobFromImages(crops, 1 / 255.0, (side, side), swapRB=False, crop=False)
-        net, names = _loaded(cv2, self.folder, min(self.threshold, FAINT), side)
+        if side not in self._networks:
+            self._networks[side] = _loaded(cv2, self.folder, min(self.threshold, FAINT), side)
+        net, names = self._networks[side]
         net.setInput(blob)
         outs = net.forward(names)
         rows = np.concatenate([o.reshape(len(crops), -1, o.shape[-1]) for o in outs], axis=1)
