@@ -95,6 +95,7 @@ class LookHarderReport:
     eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
     alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
     yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
+    fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
     took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
 
     @property
@@ -118,6 +119,8 @@ class LookHarderReport:
             text += f"; {self.set_aside} set aside where depth sees nothing stand"
         if self.yielded:
             text += f"; {self.yielded} left to another name whose object is there"
+        if self.fitted:
+            text += f"; {self.fitted} boxes cut to what depth sees of the object in them"
         return text
 
 
@@ -178,12 +181,7 @@ def look_harder(
     if not candidates:
         return kept, report
     if all(d.score < UNSURE for d in kept):
-        views = zoom_views(candidates, frame.width, frame.height)
-        zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
-        merged = list(kept)
-        for det in sorted(zoomed, key=lambda d: -d.score):  # a box on an object kept already is that one
-            if not any(one_object(det, other, candidates) for other in merged):
-                merged.append(det)
+        merged, views = _zoomed_in(detector, frame, name, candidates, kept)
         report.views, report.added = len(views), len(merged) - len(kept)
         if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
@@ -193,11 +191,41 @@ def look_harder(
             report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
+    kept = _fitted(detector, name, kept, candidates, report)
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
     explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
     more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [])
     report.alike, report.took = len(more), [*report.took, *more]
     return kept + more, report
+
+
+def _zoomed_in(
+    detector: Detector, frame: Frame, name: str, candidates: list[Candidate], kept: list[Detection]
+) -> tuple[list[Detection], list[tuple[int, int, int, int]]]:
+    """`kept` and the boxes of the name that views zoomed in on the candidates show on them (a box on an
+    object kept already is that one), and those views."""
+    views = zoom_views(candidates, frame.width, frame.height)
+    zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
+    merged = list(kept)
+    for det in sorted(zoomed, key=lambda d: -d.score):
+        if not any(one_object(det, other, candidates) for other in merged):
+            merged.append(det)
+    return merged, views
+
+
+def _fitted(
+    detector: Detector,
+    name: str,
+    kept: list[Detection],
+    candidates: list[Candidate],
+    report: LookHarderReport,
+) -> list[Detection]:
+    """`kept` with what the detector boxed cut to what depth sees (`fitted_to_depth`), counted in `report`;
+    what weaker evidence took (a candidate's box, a faint box grown to it) as it was taken."""
+    sizes = name_sizes(detector, name)
+    fitted = [d if any(d is t for t in report.took) else fitted_to_depth(d, candidates, sizes) for d in kept]
+    report.fitted = sum(1 for d, f in zip(kept, fitted, strict=True) if f is not d)
+    return fitted
 
 
 def _unseen(
@@ -335,6 +363,13 @@ def class_sizes(detector: Detector, label: str | None) -> tuple[float, float] | 
     return None if class_of is None or not label else _class_sizes(class_of, label)
 
 
+def name_sizes(detector: Detector, name: str) -> tuple[float, float] | None:
+    """The sizes an object called `name` has: its category's in the catalog, else those of the catalog's
+    categories of the class the detector gives it; None where neither is known."""
+    category = find_category(name)
+    return class_sizes(detector, _class(detector, name)) if category is None else category.size_range_m
+
+
 def _class(detector: Detector, name: str | None) -> str | None:
     """The one class a closed-set detector reaches with `name` (a mug: "cup"), else the name itself."""
     class_of = getattr(detector, "class_of", None)
@@ -378,6 +413,36 @@ def grown_to_candidates(
     if len(boxes) == 1:
         return det
     return det.model_copy(update={"box": enclosing(boxes)})
+
+
+FIT_KEEPS = 0.25
+"""A box is cut to its candidates only where the cut keeps this share of its area at least: less, and the
+candidates are a part of the object or another thing in its box."""
+
+
+def fitted_to_depth(
+    det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
+) -> Detection:
+    """`det` cut to the candidates it frames whose size fits the name's as a look-alike's must (`ALIKE_SLACK`:
+    things of one kind differ in size more than the catalog's range). YOLOv3-tiny boxes a fork or a knife
+    lying on a table up to twice as wide as it is, where depth and colour see its extent. A box is never
+    grown here; one framing no such candidate, or one the cut would leave under `FIT_KEEPS` of its area, is
+    kept as the detector gave it."""
+    if size_range is None:
+        return det
+    framed = [
+        candidates[i].box
+        for i in _framed(det, candidates)
+        if fits_size(candidates[i].size, size_range, ALIKE_SLACK)
+    ]
+    if not framed:
+        return det
+    x0, y0, x1, y1 = det.box
+    e0, f0, e1, f1 = enclosing(framed)
+    cut = (max(x0, e0), max(y0, f0), min(x1, e1), min(y1, f1))
+    if cut == det.box or cut[2] <= cut[0] or cut[3] <= cut[1] or _area(cut) < FIT_KEEPS * _area(det.box):
+        return det
+    return det.model_copy(update={"box": cut})
 
 
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
@@ -474,7 +539,7 @@ def alike(
     knows in one pass, so a thing it calls something else surely is that."""
     mine = _class(detector, name)
     category = find_category(name)
-    sizes = class_sizes(detector, mine) if category is None else category.size_range_m
+    sizes = name_sizes(detector, name)
     if sizes is None or getattr(detector, "class_of", None) is None:
         return []
     exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
