@@ -443,6 +443,10 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
 
     knife, toaster = get_category("knife"), get_category("toaster")
     assert knife.height_range_m[1] < 0.03 and toaster.height_range_m[0] > 0.15
+    # and across what it stands on, a knife spans its length, a bottle standing its girth
+    bottle = get_category("bottle")
+    assert knife.across_range_m[0] >= 0.9 * knife.size_range_m[0]
+    assert bottle.across_range_m[1] < 0.5 * bottle.height_range_m[0]
     lying = Candidate((320, 312, 330, 358), 0.012, 60, 0.2)
     standing = Candidate((300, 134, 340, 164), 0.184, 300, 0.23)
     both = [lying, standing]
@@ -862,11 +866,11 @@ def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_noth
     faint = [seen[0].model_copy(update={"score": 0.05})]
     assert alike(detector, Frame(rgb=rgb), "mug", places, faint, []) == []  # nor a faint box
 
-    bowl = Detection(box=(75, 35, 115, 85), score=0.8, label="bowl")
-    assert [d.box for d in alike(ClassNamingDetector([bowl]), Frame(rgb=rgb), "mug", places, seen, [])] == [
+    vase = Detection(box=(75, 35, 115, 85), score=0.8, label="vase")
+    assert [d.box for d in alike(ClassNamingDetector([vase]), Frame(rgb=rgb), "mug", places, seen, [])] == [
         boxes[2]
     ]
-    confused = [bowl, Detection(box=(15, 35, 55, 85), score=0.5, label="bowl")]  # the seen mug too
+    confused = [vase, Detection(box=(15, 35, 55, 85), score=0.5, label="vase")]  # the seen mug too
     taken = alike(ClassNamingDetector(confused), Frame(rgb=rgb), "mug", places, seen, [])
     assert [d.box for d in taken] == [boxes[1], boxes[2]]
 
@@ -895,6 +899,28 @@ def test_a_thing_of_other_proportions_is_not_one_more_of_what_the_detector_saw()
     unmeasured = replace(carrot, across=0.0)
     taken = alike(detector, Frame(rgb=rgb), "orange", [orange, round_one, unmeasured], seen, [])
     assert [d.box for d in taken] == [boxes[1], boxes[2]]
+
+
+def test_another_class_explains_a_place_only_where_it_is_of_that_class_s_shape():
+    """A row of white bowls, one of them small: the detector saw a bowl and surely calls the small one a
+    ball. Depth sees it lie three times wider than it rises, as no ball does: it is one more bowl. A place
+    as wide as it is high under such a box is the ball's."""
+    from attribot.api.harder import alike
+    from attribot.control.candidates import Candidate
+
+    rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
+    boxes = [(20, 40, 70, 80), (100, 50, 130, 80), (170, 50, 200, 80)]
+    for x0, y0, x1, y1 in boxes:
+        rgb[y0 + 5 : y1 - 5, x0 + 5 : x1 - 5] = (235, 235, 230)  # white bowls
+    bowl = Candidate(boxes[0], 0.06, 90, 0.16, 0.16, 0.72)
+    small_bowl = Candidate(boxes[1], 0.02, 60, 0.1, 0.1, 0.72)
+    rounder = Candidate(boxes[2], 0.05, 60, 0.1, 0.1, 0.72)
+    seen = [Detection(box=boxes[0], score=0.6, label="bowl")]
+    balls = ClassNamingDetector([Detection(box=b, score=0.6, label="ball") for b in boxes[1:]])
+    taken = alike(balls, Frame(rgb=rgb), "bowl", [bowl, small_bowl, rounder], seen, [])
+    assert [d.box for d in taken] == [boxes[1]]
+    taken = alike(ClassNamingDetector([]), Frame(rgb=rgb), "bowl", [bowl, small_bowl, rounder], seen, [])
+    assert [d.box for d in taken] == [boxes[1], boxes[2]]  # with no ball seen, both are bowls
 
 
 class OneSeenDetector:

@@ -531,12 +531,12 @@ def alike(
     """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
     colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
     fits the name's (`ALIKE_SLACK`), that stand on the level one of those stands on (`SAME_LEVEL_M`) and are
-    of its proportions (`ALIKE_SHAPE`), whole
-    in the image, no part of the furniture, where the object is put, and that no box explains: none of
-    `found`, none of `claimed` (what other names' finds took), and no box the detector gives another class
-    in the whole image with a score of `UNSURE`; nor one that could be another of the `sought` names by its
-    size and colour (a red apple beside a red mug). A closed-set detector only: it names every class it
-    knows in one pass, so a thing it calls something else surely is that."""
+    of its proportions (`ALIKE_SHAPE`), whole in the image, no part of the furniture, where the object is
+    put, and that no box explains: none of `found`, none of `claimed` (what other names' finds took), and no
+    box the detector gives another class in the whole image with a score of `UNSURE` where the candidate is
+    of that class's proportions; nor one that could be another of the `sought` names by its size and colour
+    (a red apple beside a red mug). A closed-set detector only: it names every class it knows in one pass,
+    so a thing it calls something else surely is that."""
     mine = _class(detector, name)
     category = find_category(name)
     sizes = name_sizes(detector, name)
@@ -553,7 +553,7 @@ def alike(
     # a class the detector gives the examples too is its confusion about their kind (YOLOv3-tiny boxes
     # a small apple as an orange at 0.7): it explains no candidate
     confused = {d.label for d in seen for e in exemplars if _inside(center(e.box), d.box)}
-    explaining = [*found, *claimed, *(d for d in seen if d.label not in confused and d.score >= UNSURE)]
+    rivals = [d for d in seen if d.label not in confused and d.score >= UNSURE]
     taken: list[Detection] = []
     for cand in candidates:
         if (
@@ -561,10 +561,10 @@ def alike(
             or _furniture(cand)
             or _misplaced(cand, None if category is None else category.placement)
             or _at_edge(cand.box, frame.width, frame.height)
-            or any(
-                _inside(center(cand.box), d.box) or _inside(center(d.box), cand.box)
-                for d in [*explaining, *taken]
-            )
+            or any(_on(cand, d) for d in [*found, *claimed, *taken])
+            # another class's box explains a place depth sees shaped as that class's objects can be only
+            # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies four times wider than it rises)
+            or any(_on(cand, d) and _shaped_as_class(detector, d.label, cand) for d in rivals)
             or any(_could_be(frame.rgb, cand, other) for other in sought)
             or not _on_level_of(cand, levels)
             or not _shaped_like(cand, examples)
@@ -590,6 +590,33 @@ def _proportion(cand: Candidate) -> float | None:
     if cand.across <= 0.0:
         return None
     return (cand.across + HEIGHT_MARGIN) / (cand.rise + HEIGHT_MARGIN)
+
+
+def _on(cand: Candidate, det: Detection) -> bool:
+    """Whether a box explains a candidate: either's middle inside the other's box."""
+    return _inside(center(cand.box), det.box) or _inside(center(det.box), cand.box)
+
+
+def _shaped_as_class(detector: Detector, label: str, cand: Candidate) -> bool:
+    """Whether a candidate's proportions (`_proportion`) are within `ALIKE_SHAPE` of those the catalog's
+    categories of the closed-set class `label` have as they are put; True where neither says."""
+    class_of = getattr(detector, "class_of", None)
+    mine = _proportion(cand)
+    shapes = None if class_of is None else _class_proportions(class_of, label)
+    if mine is None or shapes is None:
+        return True
+    return shapes[0] / ALIKE_SHAPE <= mine <= shapes[1] * ALIKE_SHAPE
+
+
+@cache
+def _class_proportions(class_of: Callable[[str], str | None], label: str) -> tuple[float, float] | None:
+    reached = [c for c in categories() if class_of(c.name) == label]
+    shapes = [
+        (across + HEIGHT_MARGIN) / (height + HEIGHT_MARGIN)
+        for c in reached
+        for across, height in zip(c.across_range_m, c.height_range_m, strict=True)
+    ]
+    return (min(shapes), max(shapes)) if shapes else None
 
 
 def _shaped_like(cand: Candidate, examples: list[Candidate]) -> bool:
@@ -763,12 +790,7 @@ def _on_candidate(det: Detection, candidates: list[Candidate]) -> bool:
 def _framed(det: Detection, candidates: list[Candidate]) -> list[int]:
     """The indices of the candidates a detection frames: the candidate's middle inside the box, or the
     box's middle inside the candidate's box."""
-    middle = center(det.box)
-    return [
-        i
-        for i, cand in enumerate(candidates)
-        if _inside(center(cand.box), det.box) or _inside(middle, cand.box)
-    ]
+    return [i for i, cand in enumerate(candidates) if _on(cand, det)]
 
 
 def _inside(point: tuple[float, float], box: tuple[float, float, float, float]) -> bool:

@@ -117,6 +117,12 @@ class Category:
         16 to 20 cm): its shape's height at the smallest and largest size."""
         return _heights(self.shape, self.size_range_m)
 
+    @property
+    def across_range_m(self) -> tuple[float, float]:
+        """(min, max) of its longest span across what it stands on, as it is put (a knife lying flat: its
+        length; a bottle standing: its girth): its shape's at the smallest and largest size."""
+        return _acrosses(self.shape, self.size_range_m)
+
 
 def _c(
     name: str,
@@ -441,6 +447,13 @@ _DATA: tuple[Category, ...] = (
         drawn=False,
     ),
 )
+
+
+@cache
+def _acrosses(shape: str, size_range: tuple[float, float]) -> tuple[float, float]:
+    shapes = [build_shape(shape, size) for size in size_range]
+    low, high = (max(s.hi[0] - s.lo[0], s.hi[1] - s.lo[1]) for s in shapes)
+    return min(low, high), max(low, high)
 
 
 @cache
