@@ -389,6 +389,9 @@ def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in
     assert fitted_to_depth(loose, [sliver], fork_size).box == loose.box
     elsewhere = Candidate((400, 193, 420, 300), 0.01, 90, 0.18)
     assert fitted_to_depth(loose, [elsewhere], fork_size).box == loose.box
+    # short of the box both ways, by a third: a piece of the object depth sees, not the object
+    piece = Candidate((300, 220, 336, 285), 0.01, 60, 0.12)
+    assert fitted_to_depth(loose, [piece], fork_size).box == loose.box
     assert fitted_to_depth(loose, [fork], None).box == loose.box  # a name of no known size
     # two forks side by side in one box: the box holds both, as it did
     other = Candidate((289, 195, 303, 298), 0.01, 80, 0.18)

@@ -418,6 +418,10 @@ def grown_to_candidates(
 FIT_KEEPS = 0.25
 """A box is cut to its candidates only where the cut keeps this share of its area at least: less, and the
 candidates are a part of the object or another thing in its box."""
+FIT_ALONG = 0.8
+"""...and this share of its extent along one of its sides at least: a detector's loose box errs along one
+side (across a fork, along a knife: kept 0.99 and 0.83 of the other), where depth seeing only a piece of a
+far, thin, curved thing (a banana 15 pixels long) is short of the box both ways (0.60 and 0.58)."""
 
 
 def fitted_to_depth(
@@ -426,8 +430,8 @@ def fitted_to_depth(
     """`det` cut to the candidates it frames whose size fits the name's as a look-alike's must (`ALIKE_SLACK`:
     things of one kind differ in size more than the catalog's range). YOLOv3-tiny boxes a fork or a knife
     lying on a table up to twice as wide as it is, where depth and colour see its extent. A box is never
-    grown here; one framing no such candidate, or one the cut would leave under `FIT_KEEPS` of its area, is
-    kept as the detector gave it."""
+    grown here; one framing no such candidate, or one the cut would leave under `FIT_KEEPS` of its area or
+    short of it both ways (`FIT_ALONG`), is kept as the detector gave it."""
     if size_range is None:
         return det
     framed = [
@@ -442,7 +446,8 @@ def fitted_to_depth(
     cut = (max(x0, e0), max(y0, f0), min(x1, e1), min(y1, f1))
     if cut == det.box or cut[2] <= cut[0] or cut[3] <= cut[1] or _area(cut) < FIT_KEEPS * _area(det.box):
         return det
-    return det.model_copy(update={"box": cut})
+    along = max((cut[2] - cut[0]) / (x1 - x0), (cut[3] - cut[1]) / (y1 - y0))
+    return det if along < FIT_ALONG else det.model_copy(update={"box": cut})
 
 
 def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
