@@ -568,7 +568,7 @@ def alike(
             or _at_edge(cand.box, frame.width, frame.height)
             or any(_on(cand, d) for d in [*found, *claimed, *taken])
             # another class's box explains a place depth sees shaped as that class's objects can be only
-            # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies four times wider than it rises)
+            # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies three times wider than it rises)
             or any(_on(cand, d) and _shaped_as_class(detector, d.label, cand) for d in rivals)
             or any(_could_be(frame.rgb, cand, other) for other in sought)
             or not _on_level_of(cand, levels)
@@ -598,7 +598,7 @@ def _proportion(cand: Candidate) -> float | None:
 
 
 def _on(cand: Candidate, det: Detection) -> bool:
-    """Whether a box explains a candidate: either's middle inside the other's box."""
+    """Whether a box is on a candidate's place: either's middle inside the other's box."""
     return _inside(center(cand.box), det.box) or _inside(center(det.box), cand.box)
 
 
