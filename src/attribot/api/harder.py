@@ -590,11 +590,15 @@ def _on_level_of(cand: Candidate, levels: list[float | None]) -> bool:
 
 
 def _proportion(cand: Candidate) -> float | None:
-    """How much longer a candidate spans across its level than it rises, each with `HEIGHT_MARGIN` added
-    (depth's noise on what lies flat); None where its span is not measured."""
-    if cand.across <= 0.0:
-        return None
-    return (cand.across + HEIGHT_MARGIN) / (cand.rise + HEIGHT_MARGIN)
+    """A candidate's `_proportion_of`; None where its span is not measured."""
+    return _proportion_of(cand.across, cand.rise) if cand.across > 0.0 else None
+
+
+def _proportion_of(across: float, rise: float) -> float:
+    """How much longer a thing spans across its level than it rises, each with `HEIGHT_MARGIN` added
+    (depth's noise on what lies flat): what depth sees of a place and what the catalog says of a kind are
+    set side by side in one measure."""
+    return (across + HEIGHT_MARGIN) / (rise + HEIGHT_MARGIN)
 
 
 def _on(cand: Candidate, det: Detection) -> bool:
@@ -617,7 +621,7 @@ def _shaped_as_class(detector: Detector, label: str, cand: Candidate) -> bool:
 def _class_proportions(class_of: Callable[[str], str | None], label: str) -> tuple[float, float] | None:
     reached = [c for c in categories() if class_of(c.name) == label]
     shapes = [
-        (across + HEIGHT_MARGIN) / (height + HEIGHT_MARGIN)
+        _proportion_of(across, height)
         for c in reached
         for across, height in zip(c.across_range_m, c.height_range_m, strict=True)
     ]

@@ -182,8 +182,14 @@ class LookHarder(Safeguard):
         if harder:
             patch.named[name] = max(harder, key=lambda d: d.score)
         if report.views or report.set_aside or report.alike or report.yielded or report.fitted:
-            caught = report.added or report.set_aside or report.found_nearer or report.taken or report.yielded
-            caught = caught or report.fitted
+            caught = (
+                report.added
+                or report.set_aside
+                or report.found_nearer
+                or report.taken
+                or report.yielded
+                or report.fitted
+            )
             self.note(f"find({name!r})", "caught" if caught else "unsettled", report.describe())
         return harder, report.took
 
