@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.harder import acting_find, zoom_views
+from attribot.api.harder import acting_find, standing_in, zoom_views
 from attribot.api.safeguards import Safeguards
 from attribot.boxes import center, iou
 from attribot.config import SceneConfig, load_settings
@@ -92,6 +92,20 @@ def test_depth_finds_where_the_objects_stand_and_not_the_walls(config):
     assert all(standing.stands_out(o.box) for o in truth)
     # no candidate is the size of a wall or a piece of furniture
     assert all((c.box[2] - c.box[0]) * (c.box[3] - c.box[1]) < 0.25 * 640 * 480 for c in candidates)
+
+
+def test_what_stands_in_a_frame_is_read_once_for_every_find_of_it():
+    """`standing_in`: every find of the program's image reads the same map, and gets the same candidates in
+    a list of its own; another capture of the frame (another pose) is read anew."""
+    with MujocoWorld(SCENES[0]) as world:
+        _, image = _look(world, ZoomOnlyDetector())
+    frame, cap = image.frame, image.capture
+    standing, candidates = standing_in(frame, cap)
+    again, more = standing_in(frame, cap)
+    assert again is standing and more == candidates and more is not candidates
+    fresh = StandingMap.of(frame.depth, cap.camera, cap.view, frame.rgb).candidates()
+    assert [c.box for c in candidates] == [c.box for c in fresh]
+    assert standing_in(frame, replace(cap))[0] is not standing
 
 
 def test_a_depth_image_with_no_level_has_no_candidates_and_cannot_tell():
@@ -179,7 +193,7 @@ def test_zoomed_views_stay_inside_the_image_and_are_not_repeated():
     from attribot.control.candidates import Candidate
 
     cands = [Candidate((600, 440, 630, 470), 0.1, 40), Candidate((602, 441, 631, 471), 0.1, 30)]
-    views = zoom_views(cands, 640, 480)
+    views = zoom_views([c.box for c in cands], 640, 480)
     assert len(views) == 1
     x0, y0, x1, y1 = views[0]
     assert 0 <= x0 < x1 <= 640 and 0 <= y0 < y1 <= 480 and x1 - x0 == y1 - y0 >= 112

@@ -118,6 +118,16 @@ def center(box: Sequence[float]) -> tuple[float, float]:
     return (x0 + x1) / 2.0, (y0 + y1) / 2.0
 
 
+EDGE_PX = 2
+"""A box within this many pixels of the image's edge is cut by it: the object may go on past it."""
+
+
+def at_edge(box: Sequence[float], width: int, height: int) -> bool:
+    """Whether an xyxy box reaches the edge of a `width` x `height` image (within `EDGE_PX`)."""
+    x0, y0, x1, y1 = box
+    return x0 <= EDGE_PX or y0 <= EDGE_PX or x1 >= width - EDGE_PX or y1 >= height - EDGE_PX
+
+
 def enclosing(boxes: Sequence[Sequence[float]]) -> Box:
     """The smallest xyxy box holding all of `boxes` (at least one)."""
     return (

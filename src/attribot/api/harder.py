@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import colorsys
 import math
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cache
@@ -31,7 +32,7 @@ from functools import cache
 import cv2
 import numpy as np
 
-from attribot.boxes import center, crop_array, enclosing, iou, overlap_of_smaller
+from attribot.boxes import at_edge, center, crop_array, enclosing, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
@@ -124,12 +125,13 @@ class LookHarderReport:
         return text
 
 
-def zoom_views(candidates: list[Candidate], width: int, height: int) -> list[tuple[int, int, int, int]]:
-    """Square views around the candidates, inside the image, the largest candidates first; a view much
-    like one already chosen is left out."""
+def zoom_views(
+    boxes: Sequence[tuple[float, float, float, float]], width: int, height: int
+) -> list[tuple[int, int, int, int]]:
+    """Square views around the boxes (the candidates', largest first), inside the image; a view much like
+    one already chosen is left out."""
     views: list[tuple[int, int, int, int]] = []
-    for cand in candidates:
-        x0, y0, x1, y1 = cand.box
+    for x0, y0, x1, y1 in boxes:
         side = int(min(max(ZOOM * max(x1 - x0, y1 - y0), MIN_VIEW), width, height))
         left = int(np.clip((x0 + x1) / 2 - side / 2, 0, width - side))
         top = int(np.clip((y0 + y1) / 2 - side / 2, 0, height - side))
@@ -139,6 +141,21 @@ def zoom_views(candidates: list[Candidate], width: int, height: int) -> list[tup
         if len(views) >= MAX_VIEWS:
             break
     return views
+
+
+_STANDING: weakref.WeakKeyDictionary[Frame, tuple[Capture, StandingMap, list[Candidate]]]
+_STANDING = weakref.WeakKeyDictionary()
+
+
+def standing_in(frame: Frame, capture: Capture) -> tuple[StandingMap, list[Candidate]]:
+    """What depth sees stand in a frame taken as `capture` says, and its candidates: read once per frame
+    (while the frame lives), since every find of a program's image asks for the same map."""
+    kept = _STANDING.get(frame)
+    if kept is None or kept[0] is not capture:
+        assert frame.depth is not None and capture.camera is not None and capture.view is not None
+        standing = StandingMap.of(frame.depth, capture.camera, capture.view, frame.rgb)
+        kept = _STANDING[frame] = (capture, standing, standing.candidates())
+    return kept[1], list(kept[2])
 
 
 def look_harder(
@@ -157,8 +174,7 @@ def look_harder(
     another class: "the red mug" and "the blue mug" share boxes); `sought`: the other names looked for."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
-    standing = StandingMap.of(frame.depth, capture.camera, capture.view, frame.rgb)
-    candidates = standing.candidates()
+    standing, candidates = standing_in(frame, capture)
     kept = detections
     if name.lower() not in SURFACE_WORDS:
         small = frame.width * frame.height * SMALL_BOX
@@ -204,7 +220,7 @@ def _zoomed_in(
 ) -> tuple[list[Detection], list[tuple[int, int, int, int]]]:
     """`kept` and the boxes of the name that views zoomed in on the candidates show on them (a box on an
     object kept already is that one), and those views."""
-    views = zoom_views(candidates, frame.width, frame.height)
+    views = zoom_views([c.box for c in candidates], frame.width, frame.height)
     zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
     merged = list(kept)
     for det in sorted(zoomed, key=lambda d: -d.score):
@@ -492,7 +508,7 @@ def by_elimination(
         and (height_range is None or fits_height(c.rise, height_range))
         and not _furniture(c)
         and not _misplaced(c, placement)
-        and not _at_edge(c.box, width, height)
+        and not at_edge(c.box, width, height)
         and not any(_inside(center(c.box), d.box) for d in sure)
     ]
     if len(left) > 1 and coloured is not None:
@@ -565,7 +581,7 @@ def alike(
             not fits_size(cand.size, sizes, ALIKE_SLACK)
             or _furniture(cand)
             or _misplaced(cand, None if category is None else category.placement)
-            or _at_edge(cand.box, frame.width, frame.height)
+            or at_edge(cand.box, frame.width, frame.height)
             or any(_on(cand, d) for d in [*found, *claimed, *taken])
             # another class's box explains a place depth sees shaped as that class's objects can be only
             # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies three times wider than it rises)
@@ -784,7 +800,7 @@ def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:
 
 def _cut_by(box: tuple[float, float, float, float], view: tuple[int, int, int, int]) -> bool:
     """Whether a box found in `view` reaches its edge (the object may go on past it)."""
-    return _at_edge(
+    return at_edge(
         (box[0] - view[0], box[1] - view[1], box[2] - view[0], box[3] - view[1]),
         view[2] - view[0],
         view[3] - view[1],
@@ -830,14 +846,6 @@ def _furniture(cand: Candidate) -> bool:
         if cand.rise > (FLOOR_LEG_RISE_M if on_floor else LEG_RISE_M):
             return True
     return 0.0 < cand.across < PANEL_ACROSS and cand.rise > LEG_ASPECT * cand.across
-
-
-EDGE_PX = 2
-"""A candidate's box within this many pixels of the image's edge is cut by it."""
-
-
-def _at_edge(box: tuple[float, float, float, float], width: int, height: int) -> bool:
-    return box[0] <= EDGE_PX or box[1] <= EDGE_PX or box[2] >= width - EDGE_PX or box[3] >= height - EDGE_PX
 
 
 def _stands(det: Detection, standing: StandingMap) -> bool:
