@@ -13,7 +13,7 @@ from attribot import boxes as boxmath
 from attribot.config import load_settings
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame
-from attribot.models.base import DETECTORS, build_backend, probe_backend
+from attribot.models.base import DETECTORS, build_backend, detect_confirming, probe_backend
 from attribot.models.coco import (
     COCO_CLASS_OF,
     FAINT,
@@ -362,6 +362,36 @@ def test_tiles_with_no_trace_of_the_wanted_class_are_not_looked_at(household_fra
     # nothing to look at closer: no tile at all
     blank = CocoDetector(input_size=SMALL)
     assert blank.detect(Frame(rgb=np.full_like(rgb, 128)), ["cup"]) == [] and blank.forwarded == 1
+
+
+def test_a_view_that_confirms_looks_closer_only_where_it_shows_a_trace_of_the_class(household_frame):
+    """`detect_confirming` (a survey view checking what the first image found): tiles only where the whole
+    image shows a trace of the wanted class; where it shows none, no tile, not those with a trace of
+    anything, which `detect` looks at to find what no view has found yet."""
+    rgb = household_frame.rgb.copy()
+    rgb[240:] = 128
+    frame = Frame(rgb=rgb)
+    finding, confirming = CocoDetector(input_size=SMALL), CocoDetector(input_size=SMALL)
+    assert finding.detect(frame, ["book"]) == [] and finding.forwarded > 1  # tiles with a trace of anything
+    assert confirming.detect_confirming(frame, ["book"]) == [] and confirming.forwarded == 1  # the whole only
+    # a class it shows a trace of: the very tiles, and the very boxes, `detect` gives
+    traced, plain = CocoDetector(input_size=SMALL), CocoDetector(input_size=SMALL)
+    found = traced.detect_confirming(frame, ["cup"])
+    assert found and _same(found, plain.detect(frame, ["cup"]))
+    assert traced.forwarded == plain.forwarded > 1
+    # a detector without its own way to confirm is asked as it always is
+    assert detect_confirming(plain, frame, ["cup"]) == found
+    assert detect_confirming(_Plain(plain), frame, ["cup"]) == found
+
+
+class _Plain:
+    """A detector with `detect` only."""
+
+    def __init__(self, inner: CocoDetector) -> None:
+        self.inner, self.name = inner, "plain"
+
+    def detect(self, frame: Frame, queries: list[str]) -> list:
+        return self.inner.detect(frame, queries)
 
 
 def test_detectors_of_one_thread_share_the_network_and_another_thread_has_its_own():

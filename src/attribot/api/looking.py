@@ -35,7 +35,7 @@ from attribot.control.spatial import (
 )
 from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
-from attribot.models.base import Detection, Detector
+from attribot.models.base import Detection, Detector, detect_confirming
 
 __all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object"]
 
@@ -105,14 +105,30 @@ class Survey:
         return survey
 
     def fuse(self, detector: Detector, name: str, first: list[Detection]) -> list[Detection]:
-        """`first` (the detector's answer for `name` in the first image) checked against the other views."""
+        """`first` (the detector's answer for `name` in the first image) checked against the views to either
+        side, and against those up and down too where the side views leave an object undecided; what it
+        did is added to `reports`, and the object it settled on to `claims`."""
+        result, report, claim = self.fused(detector, name, first)
+        self.settle(report, claim)
+        return result
+
+    def settle(
+        self, report: LookAgainReport, claim: tuple[str, tuple[float, float, float, float], float] | None
+    ) -> None:
+        """Record what a find's look again did (`fused`)."""
+        self.reports.append(report)
+        if claim is not None:
+            self.claims.append(claim)
+
+    def fused(
+        self, detector: Detector, name: str, first: list[Detection]
+    ) -> tuple[list[Detection], LookAgainReport, tuple[str, tuple[float, float, float, float], float] | None]:
+        """`fuse`'s answer, what it did, and the object it settled on, recorded nowhere."""
         if not self.others:
-            return first
-        views = [self.first, *self.others]
-        groups = self._group(detector, name, first, views)
-        # an object the first image cannot show (seen past its edge from a turned head) is not one of its
-        groups = [g for g in groups if 0 in g.members or self._visible(g.centre, self.first)]
-        support = {id(g): _support(g, views, self._visible) for g in groups}
+            return first, LookAgainReport(1, len(first), len(first), 0, 0), None
+        views, groups, support = self._grouped(detector, name, first, self.others[:SIDE_VIEWS])
+        if len(self.others) > SIDE_VIEWS and any(_undecided(g, support[id(g)]) for g in groups):
+            views, groups, support = self._grouped(detector, name, first, self.others)
         confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
         # two calls disagree: a box found, as well or better, under another name before is not this one
         disputed = {
@@ -136,10 +152,18 @@ class Survey:
         settled = max(
             (g for g in confirmed if id(g) not in disputed), key=lambda g: support[id(g)], default=None
         )
-        if settled is not None:
-            self.claims.append((name, settled.box, support[id(settled)]))
-        self._report(len(views), first, result, added, conflicts, fallback)
-        return result
+        claim = None if settled is None else (name, settled.box, support[id(settled)])
+        return result, self._report(len(views), first, result, added, conflicts, fallback), claim
+
+    def _grouped(
+        self, detector: Detector, name: str, first: list[Detection], others: list[View]
+    ) -> tuple[list[View], list[_Group], dict[int, float]]:
+        """The views (the first and `others`), the groups of `name`'s sightings in them that the first image
+        can show (not one seen past its edge from a turned head), and each group's support by id."""
+        views = [self.first, *others]
+        groups = self._group(detector, name, first, views)
+        groups = [g for g in groups if 0 in g.members or self._visible(g.centre, self.first)]
+        return views, groups, {id(g): _support(g, views, self._visible) for g in groups}
 
     def _group(
         self, detector: Detector, name: str, first: list[Detection], views: list[View]
@@ -148,7 +172,7 @@ class Survey:
         depth, boxed where the first image shows them)."""
         groups: list[_Group] = []
         for v, view in enumerate(views):
-            found = first if v == 0 else detector.detect(view.frame, [name])
+            found = first if v == 0 else self._sightings(detector, name, first, view)
             for det in found:
                 where = self._place(det.box, view)
                 if where is None:
@@ -169,6 +193,14 @@ class Survey:
                     groups.append(group)
                 group.add(v, _Sighting(det, point, points, box))
         return groups
+
+    @staticmethod
+    def _sightings(detector: Detector, name: str, first: list[Detection], view: View) -> list[Detection]:
+        """The detector's boxes of `name` in another view: where the first image found some, to confirm them
+        (a view that shows no trace of the name confirms none), else to find what it missed."""
+        if first:
+            return detect_confirming(detector, view.frame, [name])
+        return detector.detect(view.frame, [name])
 
     def _kept(
         self, confirmed: list[_Group], groups: list[_Group], first: list[Detection]
@@ -203,24 +235,22 @@ class Survey:
         added: int,
         conflicts: int,
         fallback: _Group | None,
-    ) -> None:
-        """Add what one fuse did to `reports`."""
+    ) -> LookAgainReport:
+        """What one fuse did."""
         kept_first = sum(1 for d in result if any(d is f for f in first))
         # a box kept for want of better is neither confirmed nor added (nor dropped)
         unconfirmed = int(fallback is not None)
         fallback_in_first = fallback is not None and 0 in fallback.members
         kept_first -= int(fallback_in_first)
         added -= unconfirmed - int(fallback_in_first)
-        self.reports.append(
-            LookAgainReport(
-                views=views,
-                first=len(first),
-                kept=kept_first,
-                dropped=len(first) - kept_first - int(fallback_in_first),
-                added=added,
-                conflicts=conflicts,
-                unconfirmed=unconfirmed,
-            )
+        return LookAgainReport(
+            views=views,
+            first=len(first),
+            kept=kept_first,
+            dropped=len(first) - kept_first - int(fallback_in_first),
+            added=added,
+            conflicts=conflicts,
+            unconfirmed=unconfirmed,
         )
 
     def _place(
@@ -289,6 +319,18 @@ class Survey:
 _SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
 # or, a thin thing's box inside the wider one another view gives it, both at the same place in the world
 _SAME_INSIDE, _SAME_PLACE_M = 0.6, 0.1
+
+
+SIDE_VIEWS = 2
+"""The survey views every find asks (the head turned to either side); the views up and down are asked only
+where those leave an object undecided (`_undecided`): asked on every find, they doubled its passes."""
+
+
+def _undecided(group: _Group, support: float) -> bool:
+    """One view alone saw the group's object, where another could see it too: that view's mistake, or an
+    object the others missed (one in the first image's side third, missed there and seen from the side it
+    was turned to; one a detector's noise hid in two views): more views decide."""
+    return len(group.members) == 1 and support < 1.0
 
 
 def _support(group: _Group, views: list[View], visible: Callable[[np.ndarray, View], bool]) -> float:

@@ -34,6 +34,7 @@ __all__ = [
     "UNKNOWN",
     "detect_many",
     "detect_in_views",
+    "detect_confirming",
     "off_own_body",
     "OWN_BODY_SHARE",
     "OWN_BODY_MARGIN",
@@ -115,6 +116,14 @@ def detect_many(
     if batch is not None:
         return batch(frames, queries)
     return [detector.detect(f, q) for f, q in zip(frames, queries, strict=True)]
+
+
+def detect_confirming(detector: Detector, frame: Frame, queries: Sequence[str]) -> list[Detection]:
+    """Detections of `queries` in a frame taken to confirm what another view of the same place found: the
+    backend's own `detect_confirming` when it has one (it looks closer only where this frame shows a trace
+    of them: coco), else `detect`."""
+    own = getattr(detector, "detect_confirming", None)
+    return detector.detect(frame, queries) if own is None else own(frame, queries)
 
 
 OWN_BODY_SHARE = 0.5
