@@ -266,6 +266,38 @@ def test_looking_again_changes_nothing_for_a_perfect_detector(perception, layout
             assert [(p.object_id, p.box) for p in image.find(category)] == boxes
 
 
+class _Counting:
+    """Wraps a detector: the frames each call was asked about (their pixels' digests) and their sizes."""
+
+    def __init__(self, inner: object) -> None:
+        self.inner, self.name = inner, "counting"
+        self.asked: list[tuple[bytes, tuple[int, int]]] = []
+
+    def detect(self, frame: Frame, queries: list[str]) -> list[Detection]:
+        self.asked.append((frame.rgb.tobytes(), (frame.width, frame.height)))
+        return self.inner.detect(frame, queries)  # type: ignore[attr-defined]
+
+
+def test_the_first_image_is_looked_at_again_from_the_side_views_not_in_crops_of_itself(perception):
+    """A find on the robot's first image asks the detector in the two views the head turned to either side
+    (a third of the view): no crop of the first image, and the views up and down only where an object is
+    tied (the miss test above needs them: seen from one side only, missed in the first image)."""
+    with world() as w:
+        counting = _Counting(perception.detector)
+        image = Robot(["camera"], world=w).look(dataclasses.replace(perception, detector=counting))
+        survey = image.survey
+        assert survey is not None and len(survey.others) == 4  # all four taken, for the tied
+        for obj in w.scene_info().objects:
+            before = len(counting.asked)
+            image.find(obj.category)
+            asked = counting.asked[before:]
+            assert all(size == (W, H) for _, size in asked)  # whole frames only: no crops
+            side = {v.frame.rgb.tobytes() for v in survey.others[:2]}
+            assert side <= {digest for digest, _ in asked}
+            if len(asked) > 3:  # the views up and down: only for a tie, as the trace says
+                assert "from 4 other head poses" in image.safeguards.events[-1].detail
+
+
 # ---- measuring again, checking after acting, confidence -------------------------------------------------
 
 
@@ -724,6 +756,11 @@ def test_lifting_another_object_than_the_one_meant_is_caught_put_back_and_tried_
         mouse = robot.look(dataclasses.replace(perception, detector=confused)).find("computer mouse")[0]
         assert mouse.object_id == "computer_mouse_0"
         confused.on = True  # the approach's views take the spoon for the mouse: the robot reaches the spoon
+        # where depth still sees the mouse the approach goes by depth and never asks the confused views: here
+        # it is made blind while they are confused, so that they decide
+        locator = robot.controller.locator
+        depth_sees = locator.still_there
+        locator.still_there = lambda *args: None if confused.on else depth_sees(*args)  # type: ignore[method-assign]
         robot.go_to_object(mouse)
         grasp = robot.controller.pick_up
 

@@ -380,14 +380,16 @@ class SessionCore:
 
     def _reacquire(self, patch: ImagePatch, by_id: bool = True) -> Target | None:
         """The object of `patch` in a new camera image (`attribot.control.sighting.reacquire`): by world id
-        when known (and `by_id`), else the detection of its name nearest the image centre."""
+        when known (and `by_id`), else the detection of its name nearest the image centre. The camera has
+        been aimed at it, so it is looked for as a controller looks (`acting_find`: the middle half first),
+        not in every tile of the image."""
         label, world = patch.label, self.world
         if not label or world is None or "pose" not in {str(c) for c in world.capabilities()}:
             return None
         detector = patch.perception.detector
 
         def sightings(frame: Frame) -> list[tuple[Box, str | None]]:
-            return [(d.box, d.object_id) for d in detector.detect(frame, [label])]
+            return [(d.box, d.object_id) for d in acting_find(detector, frame, label)]
 
         self._captures += 1
         return reacquire(world, sightings, label, patch.object_id, self._captures - 1, by_id)
