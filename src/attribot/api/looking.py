@@ -17,10 +17,11 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from attribot.api.harder import zoom_views
 from attribot.boxes import Box, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
@@ -35,7 +36,7 @@ from attribot.control.spatial import (
 )
 from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
-from attribot.models.base import Detection, Detector, detect_confirming
+from attribot.models.base import Detection, Detector, detect_confirming, detect_in_views
 
 __all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object"]
 
@@ -107,20 +108,25 @@ class Survey:
     def fuse(self, detector: Detector, name: str, first: list[Detection]) -> list[Detection]:
         """`first` (the detector's answer for `name` in the first image) checked against the views to either
         side, and against those up and down too where the side views leave an object undecided; what it
-        did is added to `reports`, and the object it settled on to `claims`."""
-        result, report, claim = self.fused(detector, name, first)
-        self.settle(report, claim)
-        return result
-
-    def settle(
-        self, report: LookAgainReport, claim: tuple[str, tuple[float, float, float, float], float] | None
-    ) -> None:
-        """Record what a find's look again did (`fused`)."""
+        did is added to `reports`, and the object it settled on to `claims`. Where the views see an object
+        the first image missed, its box there would be carried from a turned view: the first image is
+        looked at again zoomed in on it, to box it itself."""
+        result, report, claim = self._fused(detector, name, first)
+        added = [d.box for d in result if not any(d is f for f in first)]
+        if added:
+            frame = self.first.frame
+            zoomed = detect_in_views(detector, frame, [name], zoom_views(added, frame.width, frame.height))
+            new = [z for z in zoomed if all(iou(z.box, d.box) < 0.5 for d in first)]
+            result, report, claim = self._fused(detector, name, [*first, *new])
+            # a box the zoomed look found is one the first look missed: added, not in the first image
+            found = sum(1 for d in result if any(d is z for z in new))
+            report = replace(report, first=len(first), kept=report.kept - found, added=report.added + found)
         self.reports.append(report)
         if claim is not None:
             self.claims.append(claim)
+        return result
 
-    def fused(
+    def _fused(
         self, detector: Detector, name: str, first: list[Detection]
     ) -> tuple[list[Detection], LookAgainReport, tuple[str, tuple[float, float, float, float], float] | None]:
         """`fuse`'s answer, what it did, and the object it settled on, recorded nowhere."""

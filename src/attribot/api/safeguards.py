@@ -27,21 +27,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, TypeVar
 
 from pydantic import BaseModel, ConfigDict
 
 from attribot.api.checks import patch_named
-from attribot.api.harder import Nearer, look_harder, zoom_views
+from attribot.api.harder import Nearer, look_harder
 from attribot.api.looking import Survey, View, ask_again, reexamine
-from attribot.boxes import iou
 from attribot.control.base import Target
 from attribot.embodiments.base import Embodiment
 from attribot.errors import InputError, UnknownName, UnsupportedAction
 from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
-from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.models.base import Detection, Detector
 from attribot.models.cache import cacheable
 from attribot.registry import Registry
 from attribot.text import comma_names
@@ -112,26 +110,13 @@ class LookAgain(Safeguard):
         """The detections of `name` in `pixels` once the survey's views around it have looked again; without
         a survey, once the image has, a few pixels in (its boxes averaged). Not both: the views show every
         object anew, pixels and viewpoint, and the crops cost two more detections (and their tiles) per
-        find. Where the views see an object the first image missed, its box there would be carried from a
-        turned view: the first image is looked at again zoomed in on it, to box it itself."""
+        find."""
         first = len(detections)
         if survey is None:
             detections, report = reexamine(detector, pixels, name, detections)
         else:
-            fused, report, claim = survey.fused(detector, name, detections)
-            added = [d.box for d in fused if not any(d is f for f in detections)]
-            if added:
-                views = zoom_views(added, pixels.width, pixels.height)
-                zoomed = detect_in_views(detector, pixels, [name], views)
-                new = [z for z in zoomed if all(iou(z.box, d.box) < 0.5 for d in detections)]
-                fused, report, claim = survey.fused(detector, name, [*detections, *new])
-                # a box the zoomed look found is one the first look missed: added, not in the first image
-                found = sum(1 for d in fused if any(d is z for z in new))
-                report = replace(
-                    report, first=len(detections), kept=report.kept - found, added=report.added + found
-                )
-            survey.settle(report, claim)
-            detections = fused
+            detections = survey.fuse(detector, name, detections)
+            report = survey.reports[-1]
         changed = report.dropped or report.added or report.conflicts
         outcome: Outcome = "caught" if changed else "unsettled" if report.unconfirmed else "confirmed"
         self.note(f"find({name!r})", outcome, f"{report.describe()} ({first} -> {len(detections)})")
