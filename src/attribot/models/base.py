@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Literal, Protocol, TypeVar, runtime_checkable
 
 from pydantic import BaseModel, ConfigDict, field_validator
 
@@ -44,10 +44,23 @@ __all__ = [
     "BackendStatus",
     "probe_backend",
     "reaches_out",
+    "Evidence",
+    "INFERRED",
+    "SURE_SCORE",
+    "evidence_of",
 ]
 
 UNKNOWN = "unknown"
 """What a VQA or language backend answers when it cannot tell."""
+
+Evidence = Literal["sure box", "faint box", "seen nearer", "elimination", "look-alike"]
+"""What a detection rests on: the detector's own box (sure, or fainter than `SURE_SCORE`), the detector's box
+seen from nearer by a robot that drove there, or an inference that names an object the detector never named
+(by elimination, or for its likeness to one it did name)."""
+INFERRED: frozenset[str] = frozenset({"elimination", "look-alike"})
+"""The evidence of an inference: an answer resting on it unconfirmed is a guess."""
+SURE_SCORE = 0.25
+"""A detector's box at least this sure is a sure box; under it, a faint one."""
 
 
 class Detection(BaseModel):
@@ -59,6 +72,7 @@ class Detection(BaseModel):
     score: float
     label: str
     object_id: str | None = None  # the world's id, when the backend knows it (oracle)
+    evidence: Evidence | None = None  # None: the detector's own box (`evidence_of` says sure or faint)
 
     @field_validator("box")
     @classmethod
@@ -73,6 +87,13 @@ class Detection(BaseModel):
         if not 0.0 <= score <= 1.0:
             raise ValueError(f"score must lie in [0, 1]; got {score}")
         return score
+
+
+def evidence_of(det: Detection) -> str:
+    """What `det` rests on (`Evidence`): its own, or the detector's box, sure or faint by its score."""
+    if det.evidence is not None:
+        return det.evidence
+    return "sure box" if det.score >= SURE_SCORE else "faint box"
 
 
 @runtime_checkable
