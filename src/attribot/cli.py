@@ -824,7 +824,8 @@ app.add_typer(dataset_app, name="dataset")
 _SUITE = typer.Option(
     "paper",
     "--suite",
-    help="The suite: paper (the paper's five tasks) or senses (temperature, softness, fullness).",
+    help="The suite: paper (the paper's five tasks), senses (temperature, softness, fullness) or realroom "
+    "(rooms with things a closed-set detector cannot name, and questions about objects not there).",
 )
 _TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all of the suite's).")
 _LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")

@@ -99,6 +99,9 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "low": lo,
                 "high": hi,
                 "failures": dict(Counter(r.error_category or "wrong answer" for r in ran if not r.right)),
+                "refused": sum(r.refused for r in ran),
+                "wrong_guess": sum(r.status == "wrong" and r.guess for r in ran),
+                "confidently_wrong": sum(r.confidently_wrong for r in ran),
                 "not_run": len(rs) - len(ran),
                 "wall_s": sum(r.wall_s for r in ran) / len(ran) if ran else None,
                 "sim_s": sum(simulated) / len(simulated) if simulated else None,
@@ -374,6 +377,7 @@ def _page(runs: Runs, rows: list[dict[str, Any]], out: Path, gallery_noise: str)
         "failures": [
             (r, [r["failures"].get(k, 0) for k in FAILURE_KINDS]) for r in rows if r["accuracy"] is not None
         ],
+        "answers": [r for r in rows if r["accuracy"] is not None],
         "checks": checks_table(records, PROGRAM_METHODS),
         "mechanisms": MECHANISMS,
         "ablation": ablation_table(rows, fmt),
