@@ -48,6 +48,7 @@ __all__ = [
     "INFERRED",
     "SURE_SCORE",
     "evidence_of",
+    "NoVQA",
 ]
 
 UNKNOWN = "unknown"
@@ -350,3 +351,23 @@ def probe_backend(role: str, spec: str, settings: Settings) -> BackendStatus:
     return BackendStatus(
         role=role, spec=spec, kind=kind, arg=arg, registered=True, available=available, detail=detail
     )
+
+
+class NoVQA:
+    """`--vqa none`: no visual question answering. A program that asks a question gets an error naming a
+    real backend. An evaluation with a real detector uses it unless given another, so that no answer of a
+    real-eyes run rests on the simulator's truth (the oracle VQA reads it)."""
+
+    name = "none"
+
+    def answer(self, frame: Frame, question: str) -> str:
+        from attribot.errors import BackendError
+
+        raise BackendError(
+            f"no VQA backend to answer {question[:80]!r} (this run uses --vqa none)",
+            "give a real one (--vqa hf:MODEL, openai:MODEL or remote:URL), or write the program without "
+            "visual_query",
+        )
+
+
+VQAS.register("none")(lambda arg, settings: NoVQA())
