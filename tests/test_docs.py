@@ -36,6 +36,25 @@ def test_relative_links_are_read_from_markdown(text, expected):
     assert relative_links(text) == expected
 
 
+def test_the_readme_is_short():
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 300, f"README.md has {len(lines)} lines; move depth to a page under docs/"
+
+
+def test_every_relative_link_in_the_readme_points_at_a_file():
+    text = README.read_text(encoding="utf-8")
+    links = relative_links(text)
+    assert links, "the README links to the docs pages"
+    missing = [t for t in links if not (ROOT / t.split("#", 1)[0]).exists()]
+    assert not missing, f"README.md links to files that do not exist: {missing}"
+
+
+def test_the_readmes_test_command_is_the_one_ci_runs():
+    """`.ci/run` runs exactly the README's set-up-and-test command."""
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").strip().splitlines()[-1]
+    assert f"    {ci}\n" in README.read_text(encoding="utf-8")
+
+
 def test_the_docs_site_builds_in_strict_mode(tmp_path):
     if importlib.util.find_spec("mkdocs") is None:
         pytest.fail("mkdocs is not installed: pip install -e '.[test]'")
