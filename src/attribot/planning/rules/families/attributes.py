@@ -253,9 +253,7 @@ def _size_query(obj: ObjectSpec, adjective: str, degree: str | None, rank: int, 
 
 
 def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
-    """Candidates from several named objects ("the laptop or the tv"): the best patch of each, since each
-    name in such a list stands for one object (a can the detector also boxes faintly as a cup is not a
-    second mug to weigh)."""
+    """Candidates from several named objects ("the laptop or the tv"): every patch of each."""
     if len(objects) == 1:
         _find(w, objects[0])
         return
@@ -263,7 +261,7 @@ def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
     for index, obj in enumerate(objects):
         var = f"found{index + 1}"
         _find(w, obj, var)
-        w.line(f"candidates = candidates + {var}[:1]")
+        w.line(f"candidates = candidates + {var}")
 
 
 def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -> None:
