@@ -162,3 +162,19 @@ def test_a_question_about_an_absent_object_is_right_only_when_no_object_is_named
     assert refused.right and refused.status == "right"
     assert not named.right and named.status == "wrong" and named.confidently_wrong
     assert guessed.status == "wrong" and not guessed.confidently_wrong
+
+
+def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_guesses():
+    from attribot.eval.report import answer_lines, summarize
+
+    item = _absent_item()
+    records = [
+        _record(item, "pa-api", "clean", error="no toaster found in the image"),
+        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0]),
+        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True),
+    ]
+    (row,) = summarize(records)
+    assert (row["n"], row["right"], row["refused"], row["wrong_guess"], row["confidently_wrong"]) == (3, 1, 0, 1, 1)
+    assert answer_lines([row]) == [
+        "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
+    ]

@@ -1098,13 +1098,16 @@ def report(
 ) -> None:
     """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
-    from attribot.eval.report import default_out, write_report
+    from attribot.eval.compare import read_runs
+    from attribot.eval.report import answer_lines, default_out, summarize, write_report
 
     for run in runs:
         if not (run / "records").is_dir():
             raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
     _writable_folder((out or default_out(runs)).parent, "--out")
     path = write_report(runs, out)
+    for line in answer_lines(summarize(read_runs(list(runs)).records)):
+        console.print(line, highlight=False)
     console.print(f"report -> {path}", highlight=False)
 
 

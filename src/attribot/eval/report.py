@@ -112,6 +112,18 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
     return rows
 
 
+def answer_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """One line per row that ran, for the console: right of n, and the wrong answers kept apart from the
+    refusals ("weight_realroom pa-api clean: 44/50 right (0.88), 5 refused, 0 wrong as a guess, 1 confidently
+    wrong")."""
+    return [
+        f"{r['task']} {r['method']} {r['series']}: {r['right']}/{r['n']} right ({r['accuracy']:.2f}), "
+        f"{r['refused']} refused, {r['wrong_guess']} wrong as a guess, {r['confidently_wrong']} confidently wrong"
+        for r in rows
+        if r["accuracy"] is not None
+    ]
+
+
 def fmt(row: dict[str, Any] | None) -> str:
     """An accuracy with its interval and n, or why there is none."""
     if row is None:
