@@ -40,7 +40,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from attribot.config import MAX_OBJECTS, MAX_SEED
+from attribot.config import MAX_OBJECTS, MAX_SEED, SCENE_CHECKS, SceneConfig
 from attribot.errors import InputError
 from attribot.lexicon import temperature_state
 from attribot.registry import Registry
@@ -66,6 +66,7 @@ __all__ = [
     "LAYOUTS",
     "plan_scene",
     "check_request",
+    "scene_request",
     "NoRoomOnTable",
     "build_model",
     "MAX_OBJECTS",
@@ -977,6 +978,25 @@ def check_request(layout: str, req: SceneRequest) -> None:
                 f"{', '.join(outside)} is not among the categories this scene may draw from",
                 "leave it out of the categories, or draw from a vocabulary that holds it",
             )
+
+
+def scene_request(config: SceneConfig) -> SceneRequest:
+    """What `config` asks of the scene's layout."""
+    vocabulary = config.vocabulary
+    return SceneRequest(
+        config.objects,
+        resolve_categories(config.categories),
+        dict(config.options),
+        config.robot,
+        None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
+    )
+
+
+@SCENE_CHECKS.register("drawable")
+def _drawable(config: SceneConfig) -> None:
+    """A config whose layout cannot draw what it asks (`check_request`) is refused as it is made: the check
+    lives here, with the layouts, so that making a config imports no more of the simulator than them."""
+    check_request(config.layout, scene_request(config))
 
 
 def plan_scene(layout: str, seed: int, request: SceneRequest | None = None, attempt: int = 0) -> ScenePlan:
