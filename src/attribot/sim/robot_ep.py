@@ -14,6 +14,9 @@ Joint angles: `upper_arm` is the upper arm's elevation above the base's forward 
 angle from the upper arm (so the forearm's elevation is their sum) and `wrist` the bracket's angle from the
 forearm. As with the mast robot, only the base collides; the arm and gripper pass through things and a grasp
 is a weld made when the closing fingers touch an object.
+
+The module registers the body as "ep" in `attribot.sim.bodies.BODIES`, so that only a scene that asks for
+this robot imports it (and the bridge's record of the EP it reads).
 """
 
 from __future__ import annotations
