@@ -93,18 +93,19 @@ def test_the_cli_ask_imports_no_other_backend_or_world():
     assert unused_in(modules) == []
 
 
-def test_making_a_scene_config_imports_the_layouts_not_the_world():
+def test_making_a_scene_config_imports_the_layouts_not_the_world_nor_mujoco():
     # its checks live with the layouts they check (attribot.sim.scene), not in the world that builds them
     modules = modules_after(
         """
+        import sys
         from attribot.config import SceneConfig
-        SceneConfig(layout="household", seed=1)
+        SceneConfig(layout="household", seed=1, categories=("mug", "apple"))
+        assert "mujoco" not in sys.modules, "making a config loaded MuJoCo"
         """
     )
     assert "attribot.sim.scene" in modules
-    assert [
-        m for m in modules if m in ("attribot.sim.world", "attribot.sim.render", "attribot.sim.robot_ep")
-    ] == []
+    world = ("attribot.sim.world", "attribot.sim.model", "attribot.sim.render", "attribot.sim.robot_ep")
+    assert [m for m in modules if m in world] == []
     assert unused_in(modules) == []
 
 

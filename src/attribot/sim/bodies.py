@@ -13,14 +13,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-
-import mujoco
+from typing import TYPE_CHECKING
 
 from attribot.control.body import BodyGeometry
 from attribot.errors import InputError
 from attribot.registry import Registry
-from attribot.sim import robot
 from attribot.sim.catalog import Category
+from attribot.sim.robot_geometry import GEOMETRY, JOINTS
+
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["SimBody", "BODIES", "body_named"]
 
@@ -90,7 +92,7 @@ def body_named(name: str) -> SimBody:
 
 # ---- the mast robot: a pan-tilt head on a mast, a telescoping arm on a lift -------------------------
 
-_MAST = robot.GEOMETRY
+_MAST = GEOMETRY
 
 
 def _mast_rest(head: tuple[float, float], arm: tuple[float, float], open_: float) -> dict[str, float]:
@@ -99,11 +101,19 @@ def _mast_rest(head: tuple[float, float], arm: tuple[float, float], open_: float
             "finger_r": open_}  # fmt: skip
 
 
+def _build_mast(spec: mujoco.MjSpec, width: int, height: int) -> None:
+    from attribot.sim.robot import (
+        add_robot,  # MuJoCo's code, loaded when a model is built, not to check a config
+    )
+
+    add_robot(spec)
+
+
 BODIES.register("mast")(
     SimBody(
         name="mast",
         called="the mast robot",
-        joints=robot.JOINTS,
+        joints=JOINTS,
         camera="head_camera",
         geometry=BodyGeometry(
             camera_xyz=(_MAST.mast_xy[0], _MAST.mast_xy[1], _MAST.head_height),
@@ -119,7 +129,7 @@ BODIES.register("mast")(
         depth=True,
         beam_in_view=True,
         scripted=True,
-        build=lambda spec, width, height: robot.add_robot(spec),
+        build=_build_mast,
         rest=_mast_rest,
         arm=lambda lift, extension: {"lift": lift, "arm": extension},
         reported=dict,

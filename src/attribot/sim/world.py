@@ -36,14 +36,13 @@ from attribot.sim import senses, truth
 from attribot.sim.bodies import body_named
 from attribot.sim.grasping import Gripper
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
+from attribot.sim.model import ROOM_CAMERA, build_model
 from attribot.sim.readings import ForceSensor, Odometry, Rangefinder
 from attribot.sim.render import SceneRenderer
 from attribot.sim.scene import (
     LAYOUTS,
-    ROOM_CAMERA,
     ScenePlan,
     SceneRequest,
-    build_model,
     plan_scene,
     scene_request,
     scene_requests,
