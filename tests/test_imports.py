@@ -109,6 +109,19 @@ def test_making_a_scene_config_imports_the_layouts_not_the_world_nor_mujoco():
     assert unused_in(modules) == []
 
 
+OPTIONAL_HOMES = (
+    "attribot.models.hf",
+    "attribot.models.coco",
+    "attribot.models.remote",
+    "attribot.models.openai_chat",
+    "attribot.embodiments.ai2thor",
+    "attribot.embodiments.bridge",
+    "attribot.planning.llm",
+    "attribot.sim.robot_ep",
+)
+"""Homes that a look-up of another name must leave unimported."""
+
+
 @pytest.mark.parametrize(
     ("registry", "name", "home"),
     [
@@ -134,21 +147,8 @@ def test_a_look_up_imports_only_the_module_that_registers_the_name(registry, nam
         """
     )
     assert home in found
-    # the other homes stay unimported, unless the one asked for imports them itself (mujoco's world: its
-    # controller; a body: the mast's own module)
-    assert [m for m in found if m in _OTHER_HOMES_NOT_WANTED and m != home] == []
-
-
-_OTHER_HOMES_NOT_WANTED = (
-    "attribot.models.hf",
-    "attribot.models.coco",
-    "attribot.models.remote",
-    "attribot.models.openai_chat",
-    "attribot.embodiments.ai2thor",
-    "attribot.embodiments.bridge",
-    "attribot.planning.llm",
-    "attribot.sim.robot_ep",
-)
+    # no other backend, planner, world or body comes with it
+    assert [m for m in found if m in OPTIONAL_HOMES and m != home] == []
 
 
 def test_every_built_in_name_has_the_home_that_registers_it():
