@@ -529,7 +529,7 @@ class SceneConfig(_WorldConfig):
 
 
 SCENE_CHECKS: Registry[Callable[[SceneConfig], None]] = Registry(
-    "scene check", modules=("attribot.sim.world",)
+    "scene check", modules=("attribot.sim.scene",)
 )
 """The checks across a `SceneConfig`'s fields, each raising an `InputError` that names the fix; every
 `SceneConfig` passes them as it is made."""

@@ -240,19 +240,20 @@ def findable_categories(detector: Detector) -> tuple[str, ...] | None:
 Builder = Callable[[str | None, "Settings"], Any]
 B = TypeVar("B")
 
-_BACKEND_MODULES = (
-    "attribot.models.oracle",
-    "attribot.models.catalog",
-    "attribot.models.hf",
-    "attribot.models.coco",
-    "attribot.models.openai_chat",
-    "attribot.models.remote",
-)
+_BACKEND_MODULES = {
+    "oracle": "attribot.models.oracle",
+    "catalog": "attribot.models.catalog",
+    "hf": "attribot.models.hf",
+    "coco": "attribot.models.coco",
+    "openai": "attribot.models.openai_chat",
+    "remote": "attribot.models.remote",
+}
+"""The module of each built-in backend kind, whatever its roles: building one imports that module alone."""
 
 
-DETECTORS: Registry[Builder] = Registry("detector backend", _BACKEND_MODULES)
-VQAS: Registry[Builder] = Registry("vqa backend", _BACKEND_MODULES)
-LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", _BACKEND_MODULES)
+DETECTORS: Registry[Builder] = Registry("detector backend", homes=_BACKEND_MODULES)
+VQAS: Registry[Builder] = Registry("vqa backend", homes=_BACKEND_MODULES)
+LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", homes=_BACKEND_MODULES)
 
 ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "language": LANGUAGE_MODELS}
 
