@@ -247,6 +247,7 @@ _BACKEND_MODULES = {
     "coco": "attribot.models.coco",
     "openai": "attribot.models.openai_chat",
     "remote": "attribot.models.remote",
+    "none": "attribot.models.base",  # `NoVQA`, below
 }
 """The module of each built-in backend kind, whatever its roles: building one imports that module alone."""
 
