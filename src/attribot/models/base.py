@@ -223,6 +223,7 @@ _BACKEND_MODULES = (
     "attribot.models.catalog",
     "attribot.models.hf",
     "attribot.models.coco",
+    "attribot.models.yolov5",
     "attribot.models.openai_chat",
     "attribot.models.remote",
 )
