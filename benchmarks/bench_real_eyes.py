@@ -6,6 +6,8 @@ as `attribot eval --detector coco` draws them) are answered by the rules planner
 with the simulator's own `oracle`, one after the other, each item in a fresh world. Each figure is the median
 wall time per item, and the coco figure is printed as a ratio to the oracle's of the same run (the machine
 is shared and noisy). Issue "Right with real eyes" asks for at most 3x, and no item at the program limit.
+Each backend's right answers are counted as an evaluation counts them (the chosen object, its box at IoU
+>= 0.5 with the truth's).
 
     .venv/bin/python benchmarks/bench_real_eyes.py [--items 4] [--checks all] [--clock cpu] [--detector SPEC]
 """
@@ -16,6 +18,7 @@ import argparse
 import statistics
 import time
 
+from attribot.boxes import iou
 from attribot.config import load_settings
 from attribot.eval.datasets import build_items
 from attribot.models.base import build_backend, findable_categories
@@ -39,6 +42,7 @@ def main() -> None:
     ][: args.items]
     times: dict[str, list[float]] = {"oracle": [], args.detector: []}
     limit = 0
+    right = dict.fromkeys(times, 0)
     for item in items:
         for name in ("oracle", args.detector):
             settings = load_settings(detector=name, checks=args.checks)
@@ -47,6 +51,9 @@ def main() -> None:
             times[name].append(clock() - start)
             if answer.error is not None and "longer than" in answer.error.message:
                 limit += 1
+            chosen = answer.object
+            if chosen is not None and iou(chosen.box, item.true_box) >= 0.5:
+                right[name] += chosen.id is None or chosen.id == item.true_id
     oracle, real = statistics.median(times["oracle"]), statistics.median(times[args.detector])
     print(
         f"reference oracle: {oracle:.2f} s per weight item of three objects "
@@ -54,6 +61,7 @@ def main() -> None:
     )
     print(f"{args.detector}: {real:.2f} s per item = {real / oracle:.1f}x the oracle (target <= 3x)")
     print(f"items at the program limit: {limit} of {len(items)} (target 0)")
+    print(f"right answers: oracle {right['oracle']}, {args.detector} {right[args.detector]} of {len(items)}")
 
 
 if __name__ == "__main__":
