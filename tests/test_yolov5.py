@@ -327,3 +327,16 @@ def test_the_real_weights_find_coco_objects_in_a_rendered_scene():
     for name in wanted:
         found = detector.detect(frame, [name])
         assert found and boxmath.iou(found[0].box, truth[name]) >= 0.5, (name, found)
+
+
+def test_the_torch_path_a_gpu_takes_answers_as_onnxruntime_does(folder, checkpoint, random_net):
+    # no GPU here: the torch branch runs on the CPU, the same code a CUDA device runs
+    onnx_side = YoloV5Detector(folder, tiles=1, device="cpu", source_sha256=checkpoint[1])
+    torch_side = YoloV5Detector(folder, tiles=1, device="cpu", source_sha256=checkpoint[1])
+    torch_side._net, torch_side.device = net_mod.load_state(net_mod.read_checkpoint(folder / PT)), "cpu"
+    rgb = np.random.default_rng(1).integers(0, 255, (96, 128, 3), dtype=np.uint8)
+    view = [(rgb, (0, 0, 128, 96))]
+    for a, b in zip(onnx_side._forward(view, 128), torch_side._forward(view, 128), strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-4, rtol=1e-3)
+    with pytest.raises(ConfigError, match="not a device"):
+        YoloV5Detector(folder, device="tpu", source_sha256=checkpoint[1])
