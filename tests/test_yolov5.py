@@ -253,6 +253,8 @@ def test_the_spec_builds_it_with_the_options_of_coco(folder, checkpoint, monkeyp
     detector = build_backend("detector", f"yolov5s:{folder}?tiles=2&part_size=320", settings)
     assert isinstance(detector, YoloV5Detector)
     assert (detector.tiles, detector.input_size, detector.part_size) == (2, 640, 320)
+    plain = build_backend("detector", f"yolov5s:{folder}", settings)
+    assert (plain.tiles, plain.input_size, plain.part_size) == (3, 640, 416)
     assert detector.class_of("mug") == "cup" and "pottedplant" in detector.vocabulary
     with pytest.raises(ConfigError, match="yolov5s option"):
         build_backend("detector", f"yolov5s:{folder}?scale=2", settings)

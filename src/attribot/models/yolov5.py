@@ -52,6 +52,7 @@ __all__ = [
     "PT_SHA256",
     "LICENSE_NOTE",
     "DEFAULT_TILES",
+    "DEFAULT_PART_SIZE",
     "YoloV5Detector",
     "default_folder",
     "fetch_weights",
@@ -76,6 +77,11 @@ DEFAULT_TILES = 3
 DEFAULT_SIZE = 640
 """The side YOLOv5s v6.1 was trained at; a 640x480 frame is seen at 640x480 (letterboxed to multiples of 32,
 not to a square)."""
+DEFAULT_PART_SIZE = 416
+"""The side a tile or a crop is seen at. A tile of a 640x480 frame is 267x200 pixels: at 416 it grows 1.6
+times, at 640 2.4 times, and YOLOv5s found more at 416, in less time: on the tuning seeds of
+`benchmarks/bench_coco.py` (20 household and 20 triplet frames) 78 of 109 objects at 416, 77 at 320, 74
+at 640, and 67 from the whole image alone (`?tiles=1`); 416 took 0.55 of coco's time a frame and 640 0.98."""
 _PURPOSE = "the yolov5s detector (YOLOv5s v6.1 on onnxruntime)"
 _INSTALL = f"{install_line('coco')}, then attribot fetch yolov5s"
 
@@ -307,7 +313,7 @@ class YoloV5Detector(ClosedSetDetector):
         threshold: float = 0.1,
         nms_iou: float = 0.45,
         input_size: int = DEFAULT_SIZE,
-        part_size: int | None = None,
+        part_size: int | None = DEFAULT_PART_SIZE,
         tiles: int = DEFAULT_TILES,
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
@@ -410,16 +416,16 @@ def build_yolov5_detector(arg: str | None, settings: Settings) -> YoloV5Detector
     """`yolov5s` (the files in the default folder, or the `yolov5_dir` setting) or `yolov5s:FOLDER`, with
     options `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest),
     `?size=S` (the side a whole image is seen at, a multiple of 32; 640 by default), `?part_size=S` (the side
-    a tile or a crop is seen at), `?batch=B` (views per forward pass) and `?all_tiles=1` (look at every tile
-    where the whole image leaves a class unsure). The device is the `hf_device` setting's (auto: a CUDA GPU
-    where torch sees one, else onnxruntime on the CPU)."""
+    a tile or a crop is seen at; `DEFAULT_PART_SIZE`, 416), `?batch=B` (views per forward pass) and
+    `?all_tiles=1` (look at every tile where the whole image leaves a class unsure). The device is the
+    `hf_device` setting's (auto: a CUDA GPU where torch sees one, else onnxruntime on the CPU)."""
     folder, options = _parse(arg, settings)
     return YoloV5Detector(
         folder,
         threshold=settings.detector_threshold,
         tiles=options.get("tiles", DEFAULT_TILES),
         input_size=options.get("size", DEFAULT_SIZE),
-        part_size=options.get("part_size"),
+        part_size=options.get("part_size", DEFAULT_PART_SIZE),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
         device=getattr(settings, "hf_device", "auto"),
