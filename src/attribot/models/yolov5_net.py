@@ -125,6 +125,8 @@ class Detect(nn.Module):
     """One 1x1 convolution per stride to 3 anchors x (4 box + 1 objectness + classes); `anchors` (a buffer,
     in grid cells of each stride, as Ultralytics keeps it) come from the checkpoint."""
 
+    anchors: torch.Tensor
+
     def __init__(self, classes: int, channels: tuple[int, ...]) -> None:
         super().__init__()
         self.no = classes + 5
@@ -191,7 +193,7 @@ class YoloV5(nn.Module):
                 y = module(y)
             if i in self.saved:
                 outs[i] = y
-        return y  # type: ignore[no-any-return]
+        return y
 
     @property
     def detect(self) -> Detect:
