@@ -108,7 +108,7 @@ class RunSummary:
     subset: Subset | None = None  # the items a closed-set detector kept, per task; None: every item
 
 
-MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "hf_device"})
+MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "yolov5_dir", "hf_device"})
 """Settings no record depends on: where files are kept and which device runs a model (the same weights,
 hash-checked, anywhere): a run resumes on another machine."""
 RECORDED = tuple(n for n in Settings.model_fields if n not in set(SECRETS) | MACHINE_LOCAL)

@@ -245,6 +245,7 @@ _BACKEND_MODULES = {
     "catalog": "attribot.models.catalog",
     "hf": "attribot.models.hf",
     "coco": "attribot.models.coco",
+    "yolov5s": "attribot.models.yolov5",
     "openai": "attribot.models.openai_chat",
     "remote": "attribot.models.remote",
     "none": "attribot.models.base",  # `NoVQA`, below
