@@ -1324,52 +1324,66 @@ app.add_typer(bridge_app, name="bridge")
 def bridge_serve(
     driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
     token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),
-    port: int = typer.Option(7777, "--port", help="TCP port to listen on."),
-    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface)."),
-    max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s."),
-    max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s."),
-    max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2."),
+    port: int = typer.Option(7777, "--port", help="TCP port to listen on (1 to 65535)."),
+    host: str = typer.Option(
+        "127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface; then a strong --token)."
+    ),
+    max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s (0.01 to 3.5)."),
+    max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s (0.01 to 10)."),
+    max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2 (0.01 to 10)."),
     watchdog: float = typer.Option(
-        0.5, "--watchdog", help="Stop base and arm after this many s without a command."
+        0.5, "--watchdog", help="Stop base and arm after this many s without a command (0.05 to 5)."
     ),
     given: Any = None,
 ) -> None:
     """Serve a robot (or the embedded world) to `attribot ask --world bridge` until interrupted."""
     import logging
 
+    from attribot.bridge.guard import TOKEN_FIX, bind_problem
     from attribot.bridge.server import Limits, RobotServer
 
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     if not token.strip():
         raise fail(
             "--token is blank",
             "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
         )
+    if not 0 < port < 65536:
+        raise fail(f"--port must lie in 1..65535, got {port}", "use e.g. --port 7777")
+    problem = bind_problem(host, token)
+    if problem is not None:
+        raise fail(f"{problem}", f"give a stronger --token ({TOKEN_FIX}), or listen on 127.0.0.1")
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
-        raise fail(str(exc), "give positive limits, e.g. --watchdog 0.5") from None
+        raise fail(str(exc), "give a limit within its safe range, e.g. --watchdog 0.5") from None
+    if driver not in ("mujoco", "robomaster"):
+        raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     if driver == "mujoco":
         world = _scene_world(_scene_config(given))
         from attribot.embodiments.bridge import EmbodimentDriver
 
         robot: Any = EmbodimentDriver(world)
-    elif driver == "robomaster":
-        from attribot.bridge.robomaster import RoboMasterDriver, driver_options
+    else:
+        from attribot.bridge.robomaster import SDK_MISSING, RoboMasterDriver, SdkMissing, driver_options
 
         raw = {k: v for item in given.option or [] for k, _, v in [item.partition("=")]}
         try:
             kwargs = driver_options(raw)
         except ValueError as exc:
             raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
-        robot = RoboMasterDriver.connect(**kwargs)
-    else:
-        raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
+        try:
+            robot = RoboMasterDriver.connect(**kwargs)
+        except SdkMissing:
+            raise fail(SDK_MISSING) from None  # one line: what is missing and how to install it
     try:
         server = RobotServer(robot, token, host=host, port=port, limits=limits)
     except OSError as exc:
         robot.close()
         raise fail(f"cannot listen on {host}:{port} ({exc.strerror})", "choose another --port") from None
+    except ValueError as exc:
+        robot.close()
+        raise fail(str(exc), TOKEN_FIX) from None
     err_console.print(f"bridge: serving {robot.name} on tcp://{host}:{server.address[1]}", highlight=False)
     try:
         server.serve_forever()
