@@ -160,14 +160,14 @@ def test_every_answer_forbids_framing_sniffing_and_referrers(demo):
 # ---- tokens ------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("token", ["   ", "\t\n", " ", "short"])
+@pytest.mark.parametrize("token", ["   ", "\t\n", " ", "short", "a", "password", "passwordpassword1"])
 def test_a_blank_or_short_token_is_refused_beyond_this_machine(tmp_path, token):
     # issue 28: a whitespace-only --token was accepted for binding beyond 127.0.0.1
     config = DemoConfig(settings=load_settings(), runs_dir=tmp_path, token=token)
     with socket.socket() as taken:  # were the token taken, the port in use would end the call at once
         taken.bind(("0.0.0.0", 0))
         taken.listen()
-        with pytest.raises(ConfigError, match="blank|shorter than 8") as refused:
+        with pytest.raises(ConfigError, match="blank|at least 16|'password'") as refused:
             serve_demo(config, host="0.0.0.0", port=taken.getsockname()[1])
     assert "--token" in (refused.value.fix or "")
 
@@ -181,6 +181,27 @@ def test_the_command_refuses_a_blank_token_with_error_and_fix():
     )  # fmt: skip
     assert done.returncode == 2 and "error: the demo's --token is blank" in done.stderr
     assert "fix:" in done.stderr
+
+
+def test_wrong_tokens_from_one_address_are_slowed_then_blocked(tmp_path, monkeypatch):
+    # issue 49: the demo answered about 1,300 wrong tokens a second without throttling
+    import functools
+    import time
+
+    import attribot.demo.app as demo_app
+
+    slowed = functools.partial(demo_app.WrongTokens, free=2, block_after=5, max_delay_s=0.05)
+    monkeypatch.setattr(demo_app, "WrongTokens", slowed)
+    token = "correct-horse-battery-9"
+    with ServerThread(_app(tmp_path, token=token)) as server:
+        plain = httpx.Client(base_url=server.url)
+        statuses, waits = [], []
+        for i in range(8):
+            began = time.monotonic()
+            statuses.append(plain.get(f"/api/options?token=guess{i}").status_code)
+            waits.append(time.monotonic() - began)
+        assert statuses == [401] * 5 + [429] * 3 and min(waits[2:5]) >= 0.04
+        assert plain.get("/?token=" + token).status_code == 429  # blocked, even with the right one
 
 
 def test_the_token_is_checked_on_every_route_and_never_kept_as_it_is(tmp_path):

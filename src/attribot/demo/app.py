@@ -28,6 +28,7 @@ import asyncio
 import hashlib
 import hmac
 import ipaddress
+import logging
 import re
 import secrets
 from dataclasses import dataclass, field
@@ -37,12 +38,15 @@ from urllib.parse import urlsplit
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from attribot.bridge.guard import WrongTokens
 from attribot.config import MAX_QUERY_CHARS, Settings
 from attribot.demo.runs import KEPT_RUNS, MAX_WAITING, Busy, Crowded, NoSpace, Run, Runs
 from attribot.deps import require
 from attribot.errors import AttribotError, InputError
 
 __all__ = ["DemoConfig", "create_app", "MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "KEPT_RUNS", "MAX_WAITING"]
+
+log = logging.getLogger("attribot.demo")
 
 MAX_IMAGE_BYTES = 10 * 1024 * 1024
 """The largest image file a visitor may upload."""
@@ -144,6 +148,7 @@ class _Guard:
         self.cookie = (
             None if self.token is None else hmac.new(self.token, b"cookie", hashlib.sha256).hexdigest()
         )
+        self.wrong_tokens = WrongTokens(log=log, what="demo")
 
     async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
         if scope["type"] != "http":
@@ -155,7 +160,9 @@ class _Guard:
         extra: list[tuple[str, str]] = []
         refusal = self._refusal(scope, headers)
         if refusal is None and self.token is not None:
-            refusal, extra = self._token(scope, headers)
+            refusal, extra, wait_s = self._token(scope, headers)
+            if wait_s > 0:  # a peer guessing tokens is answered more and more slowly
+                await asyncio.sleep(wait_s)
 
         async def guarded(message: Any) -> None:
             if message["type"] == "http.response.start":
@@ -188,12 +195,27 @@ class _Guard:
             return _problem(403, "this request comes from another site", "ask from the demo's own page")
         return None
 
-    def _token(self, scope: Any, headers: Any) -> tuple[Any, list[tuple[str, str]]]:
-        """A refusal (or the redirect that takes the token out of the address), and the headers to add."""
+    def _token(self, scope: Any, headers: Any) -> tuple[Any, list[tuple[str, str]], float]:
+        """A refusal (or the redirect that takes the token out of the address), the headers to add, and how
+        long to hold the answer (wrong tokens from one address are slowed, then that address is blocked)."""
         from starlette.datastructures import QueryParams
         from starlette.requests import cookie_parser
 
         assert self.token is not None and self.cookie is not None
+        client = scope.get("client")
+        peer = str(client[0]) if client else "?"
+        left = self.wrong_tokens.blocked(peer)
+        if left > 0:
+            return (
+                _problem(
+                    429,
+                    f"too many wrong tokens from this address: refused for {left:.0f} s more",
+                    "open the address the demo printed, with ?token=TOKEN, once the wait is over",
+                    {"Retry-After": str(int(left) + 1)},
+                ),
+                [],
+                0.0,
+            )
         query = QueryParams(scope["query_string"])
         given = query.get("token")
         auth = headers.get("authorization", "")
@@ -201,9 +223,11 @@ class _Guard:
             given = auth[7:].strip()
         if given is not None:
             ok = hmac.compare_digest(given.encode("utf-8", "surrogatepass"), self.token)
+            guessed = True
         else:
             cookie = cookie_parser(headers.get("cookie", "")).get(_TOKEN, "")
             ok = hmac.compare_digest(cookie.encode("utf-8", "surrogatepass"), self.cookie.encode())
+            guessed = bool(cookie)
         if not ok:
             return (
                 _problem(
@@ -212,16 +236,19 @@ class _Guard:
                     "open the address the demo printed, with ?token=TOKEN",
                 ),
                 [],
+                self.wrong_tokens.wrong(peer) if guessed else 0.0,
             )
+        if guessed:
+            self.wrong_tokens.right(peer)
         if "token" not in query:
-            return None, []
+            return None, [], 0.0
         kept = [("set-cookie", f"{_TOKEN}={self.cookie}; HttpOnly; Path=/; SameSite=strict")]
         if scope["path"] == "/" and scope["method"] == "GET":
             # the token leaves the address bar (and the history) at once: the page is kept by the cookie
             from starlette.responses import RedirectResponse
 
-            return RedirectResponse("/", status_code=303), kept
-        return None, kept
+            return RedirectResponse("/", status_code=303), kept, 0.0
+        return None, kept, 0.0
 
 
 def _upload(image: _Upload) -> tuple[str, bytes]:
