@@ -257,7 +257,7 @@ def test_urls_survive_the_path_scrubber():
 @pytest.mark.parametrize(
     ("args", "words"),
     [
-        (["--objects", "1000"], "a household scene takes 1 to 12 objects, not 1000"),
+        (["--objects", "25"], "a household scene takes 1 to 12 objects, not 25"),
         (["--layout", "triplet", "--objects", "20"], "a triplet takes exactly 3 objects"),
         (["--layout", "arrangement", "--option", "pattern=row", "--objects", "25"], "takes 3 to 20 objects"),
         (["--option", "foo=1"], "household layout has no option foo"),
