@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import inspect
+import json
 import re
 import time
 from collections.abc import Iterator
@@ -74,7 +75,7 @@ class _Commands(_PlainFlags, TyperGroup):
         command = getattr(ctx, "_protected_args", None) or getattr(ctx, "protected_args", [])
         args = [*command, *ctx.args]  # read now: the group consumes them
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
-        with termination_as_exit():
+        with termination_as_exit(), _stdout_for_json("--json" in args):
             try:
                 _load_plugins()
                 return super().invoke(ctx)
@@ -101,6 +102,44 @@ class _Commands(_PlainFlags, TyperGroup):
                 raise
 
 
+_JSON_STDOUT: list[Any] = []
+"""The real stdout while a --json command runs: only the JSON goes there (`_json_echo`), and anything else
+printed meanwhile (a plug-in's or a backend's `print`) goes to stderr, so that the output stays JSON."""
+
+
+@contextlib.contextmanager
+def _stdout_for_json(on: bool) -> Iterator[None]:
+    if not on:
+        yield
+        return
+    import sys
+
+    _JSON_STDOUT.append(sys.stdout)
+    sys.stdout = sys.stderr
+    try:
+        yield
+    finally:
+        sys.stdout = _JSON_STDOUT.pop()
+
+
+def _json_echo(text: str) -> None:
+    """Print JSON on the command's stdout (see `_JSON_STDOUT`); a stream that cannot encode every character
+    (an ASCII locale) gets the same JSON with `\\u` escapes, which read back to the same data."""
+    import sys
+
+    out = _JSON_STDOUT[-1] if _JSON_STDOUT else sys.stdout
+    try:
+        text.encode(getattr(out, "encoding", None) or "utf-8")
+    except (UnicodeEncodeError, LookupError):
+        text = json.dumps(json.loads(text), indent=2, ensure_ascii=True)
+    typer.echo(text, file=out)
+
+
+def _brief(text: str, limit: int = 120) -> str:
+    """`text` cut to `limit` characters for a message (a 5,000-character variable is not echoed whole)."""
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _load_plugins() -> None:
     """Import the modules named in ATTRIBOT_PLUGINS, then every registry's own plug-ins. Whatever a module
     does wrong as it is imported (a name that is no module, an exception, a syntax error, `sys.exit`, a
@@ -120,7 +159,7 @@ def _load_plugins() -> None:
                 " (a relative name: there is no package for it to be relative to)" if name[0] == "." else ""
             )
             raise ConfigError(
-                f"{PLUGINS_ENV} names {name[:100]!r}, which is no module name{relative}",
+                f"{PLUGINS_ENV} names {_brief(name)!r}, which is no module name{relative}",
                 f"give absolute module names separated by commas, e.g. {PLUGINS_ENV}=lab_sensors,lab.worlds",
             )
         try:
@@ -129,20 +168,21 @@ def _load_plugins() -> None:
         except ModuleNotFoundError as exc:
             if exc.name == name or name.startswith(f"{exc.name}."):  # the module itself, not one it imports
                 raise ConfigError(
-                    f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                    f"{PLUGINS_ENV} names the module {_brief(name)!r}, which cannot be imported "
+                    f"({_brief(str(exc), 200)})",
                     f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
                 ) from None
             raise ConfigError(
-                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+                f"the plug-in module {_brief(name)!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
         except SystemExit as exc:
             raise ConfigError(
-                f"the plug-in module {name!r} called sys.exit({exc.code!r}) as it was imported"[:300],
+                f"the plug-in module {_brief(name)!r} called sys.exit({exc.code!r}) as it was imported"[:300],
                 f"a plug-in registers what it adds and returns; {fix}",
             ) from None
         except BaseException as exc:  # noqa: BLE001 (anything a module does as it is imported is its own)
             raise ConfigError(
-                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+                f"the plug-in module {_brief(name)!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
     if names:
         try:  # a plug-in that took a built-in's name, or a method Robot has, is said now, not later
@@ -152,7 +192,8 @@ def _load_plugins() -> None:
             Robot.API_METHODS  # noqa: B018 (installs the plug-ins' sensor methods, refusing a clash)
         except AttribotError as exc:
             raise ConfigError(
-                f"a plug-in of {PLUGINS_ENV} ({', '.join(names)}) clashes with attribot's own: {exc.message}",
+                f"a plug-in of {PLUGINS_ENV} ({_brief(', '.join(names), 200)}) clashes with attribot's own: "
+                f"{_brief(exc.message, 300)}",
                 exc.fix or fix,
             ) from None
 
@@ -662,7 +703,7 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
     )
     from attribot.text import terminal_json
 
-    typer.echo(terminal_json(answer.model_dump_json(indent=2)))
+    _json_echo(terminal_json(answer.model_dump_json(indent=2)))
 
 
 def _show(answer: Any, as_json: bool) -> None:
@@ -671,7 +712,7 @@ def _show(answer: Any, as_json: bool) -> None:
     from attribot.text import terminal_json, visible
 
     if as_json:
-        typer.echo(terminal_json(answer.model_dump_json(indent=2)))
+        _json_echo(terminal_json(answer.model_dump_json(indent=2)))
     else:
         out = Console(soft_wrap=True)
         if answer.error is None:
@@ -1128,7 +1169,7 @@ def backends(
     statuses = [probe_backend(role, getattr(settings, role), settings) for role in ROLES]
     statuses.append(_planner_status(settings, BackendStatus))
     if as_json:
-        typer.echo(json.dumps([s.model_dump() for s in statuses], indent=2))
+        _json_echo(json.dumps([s.model_dump() for s in statuses], indent=2))
     else:
         source = os.environ.get("ATTRIBOT_CONFIG", "attribot.toml")
         found = "" if os.path.isfile(source) else ", not found: defaults"
@@ -1443,8 +1484,23 @@ def demo(
         serve_demo(config, host=host, port=port, announce=announce)
 
 
+def _survive_any_locale() -> None:
+    """Output that survives any locale: a stream that cannot encode a character (an ASCII locale, "°C" or
+    "é" in an answer) writes it as a backslash escape instead of ending the command in a traceback."""
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            "°é—".encode(getattr(stream, "encoding", None) or "utf-8")
+        except (UnicodeEncodeError, LookupError):
+            reconfigure = getattr(stream, "reconfigure", None)
+            if reconfigure is not None:
+                reconfigure(errors="backslashreplace")
+
+
 def main() -> None:
     """Console-script entry point."""
+    _survive_any_locale()
     app()
 
 

@@ -447,14 +447,58 @@ def _records_in(path: Path) -> Iterator[Record]:
         yield record
 
 
+class WorkerFailed(Exception):
+    """What ended a job in a worker process or Ray task, as one line of text (an exception of a plug-in's
+    own class may not unpickle in the parent; `sys.exit` there is a failure, never the run's success)."""
+
+
+def _worker_line(exc: BaseException, what: str) -> str:
+    if isinstance(exc, SystemExit):
+        text = f"{what} called sys.exit({exc.code!r})"
+    else:
+        told = getattr(exc, "message", None) or str(exc)
+        text = (
+            f"{what} failed: {type(exc).__name__}: {told}" if told else f"{what} failed: {type(exc).__name__}"
+        )
+    text = " ".join(text.split())
+    return text if len(text) <= 400 else text[:397] + "..."
+
+
 def _run_job(job_json: str, settings: Settings) -> str:
     """One job in a worker process or Ray task: the job's JSON and the settings (pickled, secrets and all:
     JSON would mask them) in, the record's JSON out. The job names the command's plug-ins, imported here
-    first: a worker has none of the command's imports, and a Ray node not its environment either."""
+    first: a worker has none of the command's imports, and a Ray node not its environment either. Anything
+    that ends the job otherwise (a plug-in that fails to import, `sys.exit` anywhere) is a `WorkerFailed`."""
     job = json.loads(job_json)
-    import_plugins(job["plugins"])
-    item = Item.model_validate(job["item"])
-    return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
+    try:
+        import_plugins(job["plugins"])
+    except BaseException as exc:  # noqa: BLE001 (a plug-in's failure, whatever it is, is told in one line)
+        names = ", ".join(job["plugins"])
+        raise WorkerFailed(
+            _worker_line(exc, f"a plug-in ({names[:100]}) imported in an eval worker")
+        ) from None
+    try:
+        item = Item.model_validate(job["item"])
+        return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
+    except BaseException as exc:  # noqa: BLE001
+        raise WorkerFailed(_worker_line(exc, f"{job['method']} on item {job['item'].get('id')}")) from None
+
+
+def _worker_result(future: Any) -> Record:
+    """The record a worker sent back; a worker that failed or ended early is a `ConfigError` in one line
+    (never a traceback, never a success with no records)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    fix = "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again: it resumes"
+    try:
+        return Record.model_validate_json(future.result())
+    except WorkerFailed as exc:
+        raise ConfigError(f"an eval worker stopped the run: {exc}", fix) from None
+    except BrokenProcessPool:
+        raise ConfigError(
+            "an eval worker process ended early (os._exit, a crash, or killed) before sending its record",
+            fix,
+        ) from None
 
 
 def _job_json(job: Job) -> str:
@@ -628,7 +672,14 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
         return
     if workers == 1:
         for item, method, noise in jobs:
-            yield run_method(item, method, settings, noise)
+            try:
+                record = run_method(item, method, settings, noise)
+            except SystemExit as exc:  # a plug-in's sys.exit: a failure, never the run's success
+                raise ConfigError(
+                    _worker_line(exc, f"{method} on item {item.id}"),
+                    "a plug-in returns or raises; fix it, or take it out of ATTRIBOT_PLUGINS",
+                ) from None
+            yield record
         return
     with worker_pool(workers) as pool:
         pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
@@ -636,7 +687,7 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
-                yield Record.model_validate_json(future.result())
+                yield _worker_result(future)
                 if queued:
                     pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
 
@@ -655,7 +706,15 @@ def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
-                yield Record.model_validate_json(ray.get(ref))
+                try:
+                    text = ray.get(ref)
+                except Exception as exc:  # noqa: BLE001 (Ray wraps the task's WorkerFailed)
+                    cause = getattr(exc, "cause", None) or exc
+                    raise ConfigError(
+                        f"an eval task stopped the run: {' '.join(str(cause).split())[:400]}",
+                        "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again",
+                    ) from None
+                yield Record.model_validate_json(text)
     finally:
         if started_here:
             ray.shutdown()
