@@ -141,21 +141,43 @@ def records_path(out: Path, task: str, method: str, noise: str) -> Path:
     return out / "records" / f"{task}__{method}__{noise}.jsonl"
 
 
-def read_records(out: Path) -> list[Record]:
-    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped).
+def _identity(record: Record) -> tuple[str, str, str, str]:
+    """What makes a record the one record of its kind in a run: its item, task, method and noise level
+    (read from the record itself, never from the name of the file it sits in)."""
+    return (record.task, record.id, record.method, record.noise)
 
-    An item recorded twice for one method and noise level (two runs that wrote into one folder) is an
-    `InputError`: counted twice, it would narrow every interval of the report."""
-    records = []
+
+def read_records(out: Path) -> list[Record]:
+    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped), each counted
+    once whatever the names of the files it sits in: a copy of a records file under another noise level's
+    name adds nothing.
+
+    An item recorded twice with different results for one method and noise level (two runs that wrote into
+    one folder) is an `InputError`: counted twice, it would narrow every interval of the report."""
+    records: list[Record] = []
+    seen: dict[tuple[str, str, str, str], tuple[Path, str]] = {}
     for path in _records_files(out):
-        seen: dict[str, int] = {}
+        in_file: dict[str, int] = {}
+        twice: list[str] = []
         for record in _records_in(path):
-            seen[record.id] = seen.get(record.id, 0) + 1
+            key = _identity(record)
+            in_file[record.id] = in_file.get(record.id, 0) + 1
+            if in_file[record.id] == 2:
+                twice.append(record.id)
+            text = record.model_dump_json()
+            if key in seen:
+                if seen[key][1] != text and in_file[record.id] == 1:
+                    raise InputError(
+                        f"{path} and {seen[key][0]} record {record.id} ({record.method}, {record.noise}) "
+                        f"with different results: two runs wrote into {out}",
+                        "run the evaluation again into a new --out (one run per folder)",
+                    )
+                continue  # the same record again (a copied file): counted once
+            seen[key] = (path, text)
             records.append(record)
-        twice = sorted(i for i, n in seen.items() if n > 1)
         if twice:
             raise InputError(
-                f"{path} records {len(twice)} item(s) more than once ({', '.join(twice[:3])}"
+                f"{path} records {len(twice)} item(s) more than once ({', '.join(sorted(twice)[:3])}"
                 f"{', ...' if len(twice) > 3 else ''}): two runs wrote into {out}",
                 "run the evaluation again into a new --out (one run per folder; attribot eval now locks it)",
             )
@@ -279,6 +301,14 @@ def _check_run(
 ) -> None:
     want = fingerprint(settings, subset, vocabulary, seed)
     have = read_about(out)
+    newer = sorted(set(have) - set(want) - {"seed", "items"})
+    if newer:
+        shown = ", ".join(_shown(k) for k in newer[:5]) + (", ..." if len(newer) > 5 else "")
+        raise ConfigError(
+            f"{out / 'run.json'} holds setting(s) this release of attribot does not know ({shown}): a newer "
+            "release made the run, and resuming it here would ignore them",
+            "resume it with the release that made it, or give another --out",
+        )
     if have:
         # a run folder without a root seed was made with 0: it was the only one
         ours, theirs = {**want, "seed": seed}, {"seed": 0, **have}
@@ -421,17 +451,14 @@ def _add_to_dataset(
 
 
 def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], int]:
-    done: dict[Path, set[str]] = {}
+    done = {_identity(r) for r in read_records(out)}  # by what each record says, whatever its file's name
     jobs, skipped = [], 0
     for item in items:
         for method in plan.methods_for(item.task):
             for noise in plan.noise:
                 if Condition.parse(noise).ablation and method not in PROGRAM_METHODS:
                     continue  # an ablation of the error-catching mechanisms: only programs have them
-                path = records_path(out, item.task, method, noise)
-                if path not in done:
-                    done[path] = {r.id for r in _records_in(path)}
-                if item.id in done[path]:
+                if (item.task, item.id, method, noise) in done:
                     skipped += 1
                 else:
                     jobs.append((item, method, noise))
