@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import inspect
+import io
 import json
 import re
 import time
@@ -987,16 +988,21 @@ def dataset_show(
     if (folder / "images" / f"{item_id}.png").exists():
         from PIL import Image, ImageDraw
 
-        from attribot.files import inside
+        from attribot.files import check_target, inside, make_folder, write_whole
         from attribot.frame import load_image
 
         fix = "build the dataset again with attribot dataset build"
         image = inside(folder, f"images/{item_id}.png", "the item's image", fix)  # never a file elsewhere
         target = _shown_path(out, folder, item_id)
+        if out is None:  # the dataset's own shown/: never a link planted to lead the image elsewhere
+            make_folder(target.parent, "the dataset's shown folder", "remove it, or give --out PATH")
         _writable_folder(target.parent, "--out")
+        check_target(target, "the image", "give another --out, or remove what is there")
         img = Image.fromarray(load_image(image))
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
-        img.save(target)
+        png = io.BytesIO()
+        img.save(png, format="PNG")
+        write_whole(target, png.getvalue(), "the image", "give another --out, or remove what is there")
         err_console.print(f"image with the true box -> {target}", highlight=False)
 
 
@@ -1139,11 +1145,13 @@ def report(
     """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
     from attribot.eval.report import default_out, write_report
+    from attribot.files import check_target
 
     for run in runs:
         if not (run / "records").is_dir():
             raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
     _writable_folder((out or default_out(runs)).parent, "--out")
+    check_target(out or default_out(runs), "--out", "give --out a path where an HTML file can be written")
     path = write_report(runs, out)
     console.print(f"report -> {path}", highlight=False)
 
