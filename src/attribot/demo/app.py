@@ -52,6 +52,12 @@ MAX_IMAGE_BYTES = 10 * 1024 * 1024
 """The largest image file a visitor may upload."""
 MAX_IMAGE_PIXELS = 25_000_000
 """The most pixels an uploaded image may have (read from its header before it is decoded)."""
+MAX_UPLOADS_IN_FLIGHT = 4
+"""Queries whose request body is read and decoded at once: each holds up to a few times `MAX_IMAGE_BYTES`
+(the base64 text, its bytes, the decoded pixels); the others wait for a slot unread, so that many uploads
+at once cannot grow the process without bound."""
+UPLOAD_WAIT_S = 15.0
+"""How long a query waits for an upload slot before it is told to try again (HTTP 503)."""
 BODY_TIMEOUT_S = 60.0
 """How long a query's request body may take to arrive (a client trickling it must not hold a task)."""
 SECRET_HEADER = "X-Attribot-Secret"
@@ -337,6 +343,7 @@ class _Shared:
     runs: Runs
     page_html: str
     key: bytes = field(repr=False)
+    uploads: asyncio.Semaphore = field(default_factory=lambda: asyncio.Semaphore(MAX_UPLOADS_IN_FLIGHT))
 
     def secret_of(self, visitor: str) -> str:
         return hmac.new(self.key, visitor.encode(), hashlib.sha256).hexdigest()
@@ -448,10 +455,16 @@ def _refusal_of_sender(request: Any, shared: _Shared) -> tuple[str | None, Any]:
 async def _form_of(request: Any, limit: int, too_large: str) -> tuple[_RunRequest | None, Any]:
     """The page's form in the request's body, or the refusal of a body that is slow, too large or not the
     form."""
+    from starlette.requests import ClientDisconnect
+
     try:
         body = await _body_of(request, limit)
     except TimeoutError:
         return None, _problem(408, f"the request took over {BODY_TIMEOUT_S:g} s to arrive", "send it again")
+    except ClientDisconnect:  # the visitor left mid-upload: nobody reads an answer, and it is no error here
+        from starlette.responses import Response
+
+        return None, Response(status_code=499)
     if body is None:
         return None, _problem(413, too_large, "send a smaller image")
     try:
@@ -482,6 +495,21 @@ def _add_start_route(app: Any, shared: _Shared) -> None:
         visitor, refusal = _refusal_of_sender(request, shared)
         if visitor is None:
             return refusal
+        try:  # its body is read only with a slot: uploads in flight are bounded, the others wait unread
+            await asyncio.wait_for(shared.uploads.acquire(), UPLOAD_WAIT_S)
+        except TimeoutError:
+            return _problem(
+                503,
+                f"{MAX_UPLOADS_IN_FLIGHT} other queries are being uploaded",
+                "send the query again in a moment",
+                {"Retry-After": "10"},
+            )
+        try:
+            return await _start(request, visitor)
+        finally:
+            shared.uploads.release()
+
+    async def _start(request: Any, visitor: str) -> Any:
         form, refusal = await _form_of(request, limit, too_large)
         if form is None:
             return refusal
