@@ -78,6 +78,7 @@ class _Commands(_PlainFlags, TyperGroup):
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
         with termination_as_exit(), _stdout_for_json("--json" in args):
             try:
+                _refuse_empty_values(args)
                 _load_plugins()
                 return super().invoke(ctx)
             except AttribotError as exc:
@@ -102,6 +103,43 @@ class _Commands(_PlainFlags, TyperGroup):
                     )
                 raise
 
+
+_NEVER_EMPTY = (
+    *("--out", "--save", "--runs-dir", "--dataset", "--image"),
+    *("--allow-host", "--host", "--bridge-url"),
+)
+"""Flags whose value names a place: an empty one is refused before any work (`--out ''` would be the
+current folder, and a whole suite would run into it)."""
+
+
+def _refuse_empty_values(args: list[str]) -> None:
+    """Refuse `--out ''`, `--out=` or `--out '  '` (and the other flags of `_NEVER_EMPTY`), naming it."""
+    from attribot.errors import InputError
+
+    for i, arg in enumerate(args):
+        flag, sep, value = arg.partition("=")
+        if flag not in _NEVER_EMPTY:
+            continue
+        if not sep:
+            if i + 1 >= len(args):
+                continue
+            value = args[i + 1]
+        if not value.strip():
+            raise InputError(
+                f"{flag} is empty", f"give {flag} a value, e.g. {flag} {_EXAMPLES.get(flag, 'VALUE')}"
+            )
+
+
+_EXAMPLES = {
+    "--out": "results/run1",
+    "--save": "answers/q1",
+    "--runs-dir": "demo-runs",
+    "--dataset": "data/paper",
+    "--image": "photo.jpg",
+    "--allow-host": "lab-pc.local",
+    "--host": "127.0.0.1",
+    "--bridge-url": "tcp://ROBOT:7777",
+}
 
 _JSON_STDOUT: list[Any] = []
 """The real stdout while a --json command runs: only the JSON goes there (`_json_echo`), and anything else
@@ -931,6 +969,8 @@ def dataset_build(
 
     chosen = _suite_tasks(suite, tasks)
     vocabulary = None if findable_by is None else _vocabulary(findable_by)
+    if limit is not None and limit < 1:
+        raise fail(f"--limit {limit} builds nothing", "give a limit of 1 or more, e.g. --limit 10")
     _writable_folder(out, "--out")
     total = sum(item_count(task, limit) for task in chosen)
     # generation and rendering take minutes for the whole suite: say how far they are

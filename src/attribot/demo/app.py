@@ -42,7 +42,7 @@ from attribot.bridge.guard import WrongTokens
 from attribot.config import MAX_QUERY_CHARS, Settings
 from attribot.demo.runs import KEPT_RUNS, MAX_WAITING, Busy, Crowded, NoSpace, Run, Runs
 from attribot.deps import require
-from attribot.errors import AttribotError, InputError
+from attribot.errors import AttribotError, ConfigError, InputError
 
 __all__ = ["DemoConfig", "create_app", "MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "KEPT_RUNS", "MAX_WAITING"]
 
@@ -65,6 +65,8 @@ SECRET_HEADER = "X-Attribot-Secret"
 _VISITOR = "attribot_demo_visitor"
 _TOKEN = "attribot_demo_token"
 _VISITOR_FORMAT = re.compile(r"[0-9a-f]{32}")
+_LABEL = r"[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+_HOST_NAME = re.compile(rf"(?=.{{1,253}}\Z){_LABEL}(?:\.{_LABEL})*\.?")
 _SECURITY_HEADERS = [
     ("x-content-type-options", "nosniff"),
     ("x-frame-options", "DENY"),
@@ -93,6 +95,16 @@ class DemoConfig:
     keep_runs: bool = False
     min_free_bytes: int = 256 << 20
     max_streams_per_run: int = 4
+
+    def __post_init__(self) -> None:
+        for host in self.hosts:
+            if not isinstance(host, str) or not (_HOST_NAME.fullmatch(host) or is_ip(host)):
+                shown = repr(host) if len(repr(host)) <= 80 else repr(host)[:77] + "..."
+                raise ConfigError(
+                    f"--allow-host {shown} is not a host name",
+                    "give a name visitors type, e.g. --allow-host lab-pc.local (letters, digits, '-' and "
+                    "dots; no spaces, ports or schemes)",
+                )
 
 
 class _Upload(BaseModel):
