@@ -100,39 +100,42 @@ def _right_hello(address: tuple[str, int]) -> None:
 
 
 def throttle_cost(hellos: int, rounds: int) -> None:
-    """Right hellos with the wrong-token throttle on and off, alternating rounds: the ratio of medians."""
+    """Right hellos to a server with the wrong-token throttle on, one with it off, and a second one with it
+    off (the noise floor: two identical servers), each hello of a triple back to back in a rotating order.
+    The figure is the median of the per-triple ratios on/off, beside the same for off/off."""
     logging.getLogger("attribot.bridge").setLevel(logging.ERROR)  # a line a hello would be the cost measured
-    servers = {}
+    servers: dict[str, RobotServer] = {}
     threads = []
-    for on in (True, False):
+    for name, on in (("off", False), ("on", True), ("off2", False)):  # created in this order
         server, _, thread = serve_in_thread(_Idle, TOKEN, throttle=on)
-        servers[on] = server
+        servers[name] = server
         threads.append(thread)
-    throttle = servers[True].wrong_tokens
+    throttle = servers["on"].wrong_tokens
     assert throttle is not None
     for i in range(1000):  # a table with other peers in it: the right hello still pays one lookup
         throttle.wrong(f"10.9.{i // 256}.{i % 256}")
-    per: dict[bool, list[float]] = {True: [], False: []}
+    times: dict[str, list[float]] = {name: [] for name in servers}
+    names = list(servers)
     try:
-        for on in (True, False):
-            _right_hello(servers[on].address)  # warm
-        for r in range(rounds):  # each hello alternates between the two servers: the noise falls on both
-            for i in range(hellos):
-                for on in (True, False) if (r + i) % 2 == 0 else (False, True):
-                    t0 = time.perf_counter()
-                    _right_hello(servers[on].address)
-                    per[on].append(time.perf_counter() - t0)
+        for name in names:
+            _right_hello(servers[name].address)  # warm
+        for n in range(rounds * hellos):
+            order = names[n % 3 :] + names[: n % 3]
+            for name in order:
+                t0 = time.perf_counter()
+                _right_hello(servers[name].address)
+                times[name].append(time.perf_counter() - t0)
     finally:
         for server in servers.values():
             server.close()
         for thread in threads:
             thread.join(timeout=30)
-    with_, without = statistics.median(per[True]), statistics.median(per[False])
-    q = [statistics.quantiles(per[on], n=4) for on in (True, False)]
+    on_off = statistics.median(a / b for a, b in zip(times["on"], times["off"], strict=True))
+    floor = statistics.median(a / b for a, b in zip(times["off2"], times["off"], strict=True))
     print(
-        f"right hello with the token throttle {with_ * 1e3:.3f} ms, without {without * 1e3:.3f} ms (medians "
-        f"of {len(per[True])} each, interleaved), ratio {with_ / without:.3f}; quartiles with "
-        f"{q[0][0] * 1e3:.3f}-{q[0][2] * 1e3:.3f} ms, without {q[1][0] * 1e3:.3f}-{q[1][2] * 1e3:.3f} ms"
+        f"right hello: throttle on {statistics.median(times['on']) * 1e3:.3f} ms, off "
+        f"{statistics.median(times['off']) * 1e3:.3f} ms (medians of {len(times['on'])}); ratio on/off "
+        f"{on_off:.3f} (median of back-to-back pairs), noise floor off/off {floor:.3f}"
     )
 
 

@@ -496,6 +496,9 @@ def test_cli_serve_models_serves_and_stops(tmp_path):
         (["--host", "0.0.0.0"], "without a token"),
         (["--detector", "oracle"], "cannot serve the detector backend 'oracle'"),
         (["--max-batch", "0"], "--max-batch"),
+        (["--max-queue", "1000000000"], "less than or equal to 100000"),
+        (["--max-image-mb", "1e9"], "less than or equal to 200"),
+        (["--batch-window-ms", "nan"], "--batch-window-ms"),
         (["--port", "0"], "--port"),
     ],
 )

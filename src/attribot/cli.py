@@ -1319,15 +1319,19 @@ def serve_models(
     vqa: str | None = _SERVE_VQA,
     language: str | None = _SERVE_LANGUAGE,
     max_batch: int = typer.Option(
-        32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."
+        32, "--max-batch", help="Most requests of one role in one backend call (1 to 1024; 1: no batching)."
     ),
     batch_window_ms: float = typer.Option(
-        2.0, "--batch-window-ms", help="Longest wait for a batch to fill, from its oldest request's arrival."
+        2.0,
+        "--batch-window-ms",
+        help="Longest wait for a batch to fill, from its oldest request's arrival (0 to 10000).",
     ),
     max_image_mb: float = typer.Option(
-        10.0, "--max-image-mb", help="Largest image file accepted (413 beyond)."
+        10.0, "--max-image-mb", help="Largest image file accepted, 0 to 200 MB (413 beyond)."
     ),
-    max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
+    max_queue: int = typer.Option(
+        1024, "--max-queue", help="Most requests queued per role, 1 to 100000 (429 beyond)."
+    ),
     log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
     model_process: bool = _SERVE_MODEL_PROCESS,
 ) -> None:
