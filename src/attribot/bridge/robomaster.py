@@ -101,7 +101,7 @@ def checked(name: str, value: Any, integer: bool = False) -> float:
     if integer and isinstance(number, float):
         number = int(number) if number.is_integer() else None
     size = None if number is None else abs(number) if name.endswith("_per_count") else number
-    if size is None or not math.isfinite(size) or not low <= size <= high:
+    if number is None or size is None or not math.isfinite(size) or not low <= size <= high:
         raise ValueError(f"{what} (got {str(value)[:40] if isinstance(value, str) else value!r})")
     return number
 

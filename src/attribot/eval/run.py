@@ -45,7 +45,7 @@ from attribot.eval.methods import (
 )
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
-from attribot.files import disk_full, inside, read_capped, read_json, write_whole
+from attribot.files import disk_full, inside, not_a_file, read_capped, read_json, write_whole
 from attribot.models.base import findable_categories
 from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
@@ -451,7 +451,8 @@ def _add_to_dataset(
 
 
 def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], int]:
-    done = {_identity(r) for r in read_records(out)}  # by what each record says, whatever its file's name
+    # by what each record says, whatever its file's name; what is no file (a FIFO) holds no record to skip
+    done = {_identity(r) for p in _records_files(out) if not_a_file(p) is None for r in _records_in(p)}
     jobs, skipped = [], 0
     for item in items:
         for method in plan.methods_for(item.task):
