@@ -141,6 +141,9 @@ class WrongTokens:
         # peer -> [window start, wrong tokens in it, blocked until, refused while blocked]
         self._peers = OrderedDict()  # type: OrderedDict[str, list[float]]
 
+    BLOCKED_WAIT_S = 0.5
+    """How long a blocked peer waits for its refusal: a blocked address is not answered at full speed."""
+
     def blocked(self, peer: str) -> float:
         """Seconds left of `peer`'s block (0: not blocked). A blocked peer's attempts are counted, not
         logged."""

@@ -617,6 +617,7 @@ class RobotServer:
         if throttle is not None:
             left = throttle.blocked(address)
             if left > 0:
+                time.sleep(throttle.BLOCKED_WAIT_S)  # this hello's thread waits; the robot serves on
                 raise _Refused(
                     "blocked",
                     f"the robot refuses {address} for {left:.0f} s more: too many wrong tokens",

@@ -232,7 +232,7 @@ class _Guard:
                     {"Retry-After": str(int(left) + 1)},
                 ),
                 [],
-                0.0,
+                self.wrong_tokens.BLOCKED_WAIT_S,
             )
         query = QueryParams(scope["query_string"])
         given = query.get("token")

@@ -45,7 +45,15 @@ from attribot.eval.methods import (
 )
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
-from attribot.files import disk_full, inside, not_a_file, read_capped, read_json, write_whole
+from attribot.files import (
+    disk_full,
+    inside,
+    make_folder,
+    not_a_file,
+    read_capped,
+    read_json,
+    write_whole,
+)
 from attribot.models.base import findable_categories
 from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
@@ -424,7 +432,9 @@ def _add_to_dataset(
 ) -> None:
     """Add `missing` to the run's dataset at `folder`: their images copied from the built dataset at
     `source`, or rendered; the manifest rewritten with every item, in the suite's order."""
-    (folder / "images").mkdir(parents=True, exist_ok=True)
+    fix = "give a run folder written by attribot eval, unchanged, or another --out"
+    make_folder(folder, "the run's dataset folder", fix)  # never a link planted to lead the images out
+    make_folder(folder / "images", "the run's dataset images folder", fix)
     if source is not None:
         for item in missing:
             name = f"images/{item.id}.png"
@@ -436,6 +446,7 @@ def _add_to_dataset(
             )
     else:
         rendered = _counter(progress, "rendering images", len(missing))
+        make_folder(folder / "new", "the run's dataset folder", fix)
         write_dataset(missing, folder / "new", images=True, on_image=rendered)
         for image in (folder / "new" / "images").glob("*.png"):
             image.replace(folder / "images" / image.name)
@@ -709,15 +720,24 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
                 ) from None
             yield record
         return
+    from concurrent.futures.process import BrokenProcessPool
+
     with worker_pool(workers) as pool:
-        pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
-        queued = jobs[workers * 4 :]
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield _worker_result(future)
-                if queued:
-                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
+        try:
+            pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
+            queued = jobs[workers * 4 :]
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield _worker_result(future)
+                    if queued:
+                        pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
+        except BrokenProcessPool:  # a worker that ended early, seen as the next job was handed over
+            raise ConfigError(
+                "an eval worker process ended early (os._exit, a crash, or killed) before sending its record",
+                "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again: it "
+                "resumes",
+            ) from None
 
 
 def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:

@@ -221,6 +221,7 @@ class _ModelServer:
                 "auth",
                 f"too many wrong tokens from {peer}: refused for {left:.0f} s more",
                 "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with, then wait",
+                wait_s=self.wrong_tokens.BLOCKED_WAIT_S,
             )
         header = request.headers.get("authorization", "")
         scheme, _, given = header.partition(" ")
