@@ -259,3 +259,13 @@ def test_a_5000_character_plugins_variable_gives_a_bounded_error_line(tmp_path):
         done = run_with_plugin(tmp_path, plugins)
         assert done.returncode == 2 and "Traceback" not in done.stderr
         assert max(len(line) for line in done.stderr.splitlines()) < 600, done.stderr[:300]
+
+
+def test_a_worker_that_ends_itself_with_os_exit_is_an_error(tmp_path):
+    source = (
+        ORACLE_AS
+        + "    def detect(self, frame, queries):\n        import os\n        os._exit(0)\n"
+        + "DETECTORS.register('lab_eyes')(LabEyes)\n"
+    )
+    said = _eval_refused(tmp_path, "lab_gone", source, "--detector", "lab_eyes", "--workers=2")
+    assert "ended early" in said

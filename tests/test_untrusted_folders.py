@@ -526,3 +526,18 @@ def test_dataset_show_draws_no_image_from_outside_the_dataset(a_run, tmp_path, e
     )
     refused(done, "leads outside")
     assert not (tmp_path / "o").exists()
+
+
+def test_a_run_folders_dataset_link_does_not_lead_its_images_out(tmp_path, empty_settings):
+    # issue 49: nothing attribot writes follows a link it did not make
+    from attribot.eval.run import EvalPlan, run_eval
+
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "dataset").symlink_to(outside)
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=1)
+    with pytest.raises(AttribotError, match="is a link"):
+        run_eval(plan, load_settings(), run)
+    assert list(outside.iterdir()) == []
