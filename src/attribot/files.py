@@ -86,7 +86,9 @@ def make_folder(path: Path, what: str = "the folder", fix: str = _TARGET_FIX) ->
             f"{what} {str(path)!r} is a link: attribot does not write through a link it did not make", fix
         )
     if mode is not None and not stat.S_ISDIR(mode):
-        raise InputError(f"{what} {str(path)!r} is {_kind(mode)}, not a folder", fix)
+        raise InputError(
+            f"{what} {str(path)!r} is {_kind(mode) or 'a file'}, not a folder", f"check that path; {fix}"
+        )
     if mode is None:
         try:
             path.mkdir(parents=True, exist_ok=True)
