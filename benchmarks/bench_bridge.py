@@ -9,15 +9,22 @@
    watchdog at 0.5 s (target under 0.5 s; a dropped connection stops it at once).
 4. The same embodied distance and weight queries (held-out seeds) over the bridge and directly, with the
    servo controller on both sides: answers compared, and the wall time of each side.
+5. What the wrong-token throttle costs a right hello (connect, hello, reply, bye): the time of one with
+   the throttle on (its table holding 1,000 other peers' wrong tokens) against one with it off, measured
+   in alternating rounds in the same run; the ratio is the figure (target: within noise of 1.00).
 
     .venv/bin/python benchmarks/bench_bridge.py [--frames 30] [--steps 60] [--seeds 10,11,12,13,14]
+    .venv/bin/python benchmarks/bench_bridge.py --throttle-only [--hellos 300 --rounds 7]
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import signal
+import socket
+import statistics
 import subprocess
 import sys
 import textwrap
@@ -25,7 +32,8 @@ import threading
 import time
 from typing import Any
 
-from attribot.bridge.server import Limits, RobotServer, serve_in_thread
+from attribot.bridge.protocol import PROTOCOL_VERSION, recv_message, send_message
+from attribot.bridge.server import Driver, Limits, RobotServer, serve_in_thread
 from attribot.config import BridgeConfig, SceneConfig, load_settings
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld
@@ -72,14 +80,79 @@ _CLIENT = textwrap.dedent(
 )
 
 
+class _Idle(Driver):
+    name = "idle"
+
+    def capabilities(self) -> list[str]:
+        return ["base"]
+
+    def drive(self, vx: float, vy: float, wz: float) -> None:
+        pass
+
+
+def _right_hello(address: tuple[str, int]) -> None:
+    with socket.create_connection(address, timeout=10) as sock:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        send_message(sock, {"op": "hello", "version": PROTOCOL_VERSION, "token": TOKEN})
+        assert recv_message(sock)[0]["ok"] is True
+        send_message(sock, {"op": "bye"})
+        recv_message(sock)
+
+
+def throttle_cost(hellos: int, rounds: int) -> None:
+    """Right hellos to a server with the wrong-token throttle on, one with it off, and a second one with it
+    off (the noise floor: two identical servers), each hello of a triple back to back in a rotating order.
+    The figure is the median of the per-triple ratios on/off, beside the same for off/off."""
+    logging.getLogger("attribot.bridge").setLevel(logging.ERROR)  # a line a hello would be the cost measured
+    servers: dict[str, RobotServer] = {}
+    threads = []
+    for name, on in (("off", False), ("on", True), ("off2", False)):  # created in this order
+        server, _, thread = serve_in_thread(_Idle, TOKEN, throttle=on)
+        servers[name] = server
+        threads.append(thread)
+    throttle = servers["on"].wrong_tokens
+    assert throttle is not None
+    for i in range(1000):  # a table with other peers in it: the right hello still pays one lookup
+        throttle.wrong(f"10.9.{i // 256}.{i % 256}")
+    times: dict[str, list[float]] = {name: [] for name in servers}
+    names = list(servers)
+    try:
+        for name in names:
+            _right_hello(servers[name].address)  # warm
+        for n in range(rounds * hellos):
+            order = names[n % 3 :] + names[: n % 3]
+            for name in order:
+                t0 = time.perf_counter()
+                _right_hello(servers[name].address)
+                times[name].append(time.perf_counter() - t0)
+    finally:
+        for server in servers.values():
+            server.close()
+        for thread in threads:
+            thread.join(timeout=30)
+    on_off = statistics.median(a / b for a, b in zip(times["on"], times["off"], strict=True))
+    floor = statistics.median(a / b for a, b in zip(times["off2"], times["off"], strict=True))
+    print(
+        f"right hello: throttle on {statistics.median(times['on']) * 1e3:.3f} ms, off "
+        f"{statistics.median(times['off']) * 1e3:.3f} ms (medians of {len(times['on'])}); ratio on/off "
+        f"{on_off:.3f} (median of back-to-back pairs), noise floor off/off {floor:.3f}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=30)
     parser.add_argument("--steps", type=int, default=60)
     parser.add_argument("--seeds", default="10,11,12,13,14")
+    parser.add_argument("--hellos", type=int, default=300)
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--throttle-only", action="store_true", help="measure only the token throttle")
     args = parser.parse_args()
+    throttle_cost(args.hellos, args.rounds)
+    if args.throttle_only:
+        return
     config = SceneConfig(layout="household", seed=3, width=640, height=480)
-    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.5)
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.5, simulated=True)
     server, driver, thread = serve(config, limits)
     url = f"tcp://127.0.0.1:{server.address[1]}"
     try:

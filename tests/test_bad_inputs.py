@@ -257,7 +257,7 @@ def test_urls_survive_the_path_scrubber():
 @pytest.mark.parametrize(
     ("args", "words"),
     [
-        (["--objects", "1000"], "a household scene takes 1 to 12 objects, not 1000"),
+        (["--objects", "25"], "a household scene takes 1 to 12 objects, not 25"),
         (["--layout", "triplet", "--objects", "20"], "a triplet takes exactly 3 objects"),
         (["--layout", "arrangement", "--option", "pattern=row", "--objects", "25"], "takes 3 to 20 objects"),
         (["--option", "foo=1"], "household layout has no option foo"),
@@ -412,3 +412,77 @@ def test_control_characters_in_the_query_are_refused_naming_them(as_json, empty_
     else:
         said = " ".join(result.output.split())
     assert "control characters (\\x1b, \\x07)" in said and "\x1b" not in result.output
+
+
+# ---- counts, places and locales a careless user gives (issue 49) ---------------------------------------
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["eval", "--suite", "paper", "--out", ""],
+        ["eval", "--suite", "paper", "--out="],
+        ["dataset", "build", "--out", ""],
+        ["dataset", "build", "--out", "  "],
+        ["ask", "Which object is the heaviest?", "--save", ""],
+    ],
+)
+def test_an_empty_place_is_refused_before_any_work(args, tmp_path, monkeypatch, empty_settings):
+    # issue 49: `eval --out ''` and `dataset build --out ''` started a whole suite in the current folder
+    monkeypatch.chdir(tmp_path)
+    result = _invoke(args)
+    said = " ".join(result.output.split())
+    assert result.exit_code == 2 and "is empty" in said and "fix:" in said, said
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("limit", ["-1", "0"])
+def test_dataset_build_with_no_items_to_build_is_refused(limit, tmp_path, empty_settings):
+    # issue 49: `dataset build --limit -1` exited 0 with nothing built
+    result = _invoke(["dataset", "build", "--limit", limit, "--out", str(tmp_path / "d")])
+    assert result.exit_code == 2 and "builds nothing" in " ".join(result.output.split())
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize("name", ["", "a b", "http://lab", "lab:8600", "x" * 300])
+def test_an_allow_host_that_is_no_host_name_is_refused(name):
+    # issue 49: `--allow-host ''` or `'a b'` was taken silently
+    import socket as sockets
+
+    from conftest import cli
+
+    with sockets.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    done = cli("demo", "--port", str(port), "--allow-host", name, timeout=60)
+    assert done.returncode == 2 and "--allow-host" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_an_answer_with_degrees_prints_under_an_ascii_locale():
+    # issue 49: "°C" or "é" in an answer under an ASCII locale was a UnicodeEncodeError traceback
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from conftest import EMPTY_SETTINGS
+
+    env = {
+        **os.environ,
+        "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS),
+        "LC_ALL": "C",
+        "LANG": "C",
+        "PYTHONUTF8": "0",
+    }
+    env.pop("PYTHONIOENCODING", None)
+    query = "Which object is the hottest?"
+    for extra in ([], ["--json"]):
+        done = subprocess.run(
+            [sys.executable, "-m", "attribot.cli", "ask", query, *extra],
+            capture_output=True, text=True, env=env, timeout=300, encoding="utf-8",
+        )  # fmt: skip
+        assert done.returncode == 0 and "UnicodeEncodeError" not in done.stderr, done.stderr[-1500:]
+        if extra:
+            assert "°C" in json.loads(done.stdout)["answer"]
+        else:
+            assert "\\xb0C" in done.stdout

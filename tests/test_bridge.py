@@ -87,7 +87,7 @@ _ROBOT_38 = textwrap.dedent(
         def drive(self, vx, vy, wz):
             print("drive", vx, vy, wz, flush=True)
 
-    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0, simulated=True)
     server = RobotServer(Wheels(), sys.argv[1], limits=limits)
     print("port", server.address[1], sys.version_info[0], sys.version_info[1], flush=True)
     server.serve_forever()
@@ -469,7 +469,7 @@ _REFUSED = {
 def test_a_refused_request_stops_the_base_and_does_not_keep_it_driving(name):
     # issue 28: refused requests reset the watchdog, so a base kept driving at 0.4 m/s
     head, code = _REFUSED[name]
-    limits = Limits(max_speed=0.4, max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3)
+    limits = Limits(max_speed=0.4, max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3, simulated=True)
     with _session(limits) as (server, driver, sock):
         send_message(sock, {"op": "base", "vx": 0.4, "vy": 0.0, "wz": 0.0})
         assert recv_message(sock)[0]["ok"] is True
@@ -485,7 +485,7 @@ def test_a_refused_request_stops_the_base_and_does_not_keep_it_driving(name):
 
 
 def test_only_accepted_commands_feed_the_watchdog():
-    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3)
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=0.3, simulated=True)
     with _session(limits) as (server, driver, sock):
         send_message(sock, {"op": "base", "vx": 0.2, "vy": 0.0, "wz": 0.0})
         assert recv_message(sock)[0]["ok"] is True
@@ -583,7 +583,7 @@ def test_a_huge_string_is_not_echoed_back():
     ids=["huge-header", "payload", "bad-magic"],
 )
 def test_a_message_over_the_limits_is_answered_then_the_connection_closed(prefix):
-    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)
+    limits = Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0, simulated=True)
     with serving(RecordingDriver, limits) as (server, driver):
         with socket.create_connection(server.address) as sock:
             sock.settimeout(30)
@@ -797,7 +797,9 @@ def _mujoco_driver() -> Driver:
 
 @pytest.fixture(scope="module")
 def mujoco_server() -> Iterator[RobotServer]:
-    with serving(_mujoco_driver, Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0)) as (
+    with serving(
+        _mujoco_driver, Limits(max_accel=100.0, max_turn_accel=100.0, watchdog_s=5.0, simulated=True)
+    ) as (
         server,
         _,
     ):
@@ -856,7 +858,7 @@ def test_the_weight_path_over_the_bridge_reads_what_the_direct_world_reads():
         scripted.place_back(world)
         return float(-force[2])
 
-    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0)
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0, simulated=True)
     with serving(_mujoco_driver, limits) as (server, driver):
         sim = driver.world.sim  # type: ignore[attr-defined]
         pickable = [o.id for o in sim.objects.values() if o.category.pickable][:2]
@@ -887,7 +889,7 @@ def test_the_servo_controller_weighs_over_the_bridge_as_in_the_direct_world():
             robot.put_down()
         return out
 
-    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0)
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0, simulated=True)
     with serving(_mujoco_driver, limits) as (server, _), BridgeWorld(url=url(server), token=TOKEN) as bridge:
         with MujocoWorld(layout=LAYOUT, seed=SEED) as direct:
             assert bridge.body() == direct.body()
@@ -997,3 +999,142 @@ def test_cli_embodied_weight_query_over_the_bridge_answers_as_the_direct_world()
     for x, y in zip(weighed, direct, strict=True):
         assert x["args"][0]["object_id"] == y["args"][0]["object_id"]
         assert x["result"] == pytest.approx(y["result"], rel=0.01)
+
+
+# --- the bridge on a lab's network (issue 49) ----------------------------------------------------------
+
+STRONG = "f3a9c1d27be84e06a5c4"
+
+
+@pytest.mark.parametrize(
+    ("token", "why"),
+    [
+        ("a", "1 character long"),
+        ("password", "8 characters long"),
+        ("aaaaaaaaaaaaaaaaaaaa", "one kind of character"),
+        ("abcdefghijklmnopqrstu", "one kind of character"),
+        ("ab12ab12ab12ab12ab12", "repeats 4 different characters"),
+        ("MyPassword2024!!", "'password'"),
+        ("\t", "blank"),
+    ],
+)
+def test_off_loopback_a_weak_token_is_refused_before_anything_listens(token, why):
+    from attribot.bridge.guard import bind_problem, token_problem
+
+    assert why in (bind_problem("0.0.0.0", token) or "")
+    with pytest.raises(ValueError, match="blank|token"):
+        RobotServer(RecordingDriver(), token, host="0.0.0.0", port=1)  # refused before it binds
+    assert bind_problem("127.0.0.1", "a") is None and token_problem(STRONG) is None
+
+
+def test_python_m_bridge_binds_loopback_by_default_and_refuses_weak_tokens_beyond_it(monkeypatch, capsys):
+    import attribot.bridge.__main__ as entry
+    import attribot.bridge.robomaster as rm
+
+    bound: list[Any] = []
+    monkeypatch.setattr(rm.RoboMasterDriver, "connect", classmethod(lambda cls, **kw: RecordingDriver()))
+    monkeypatch.setattr(RobotServer, "serve_forever", lambda self: bound.append(self.address))
+    assert entry.main(["--token", "a", "--port", str(_free_port())]) == 0
+    assert bound[0][0] == "127.0.0.1"
+    for weak in ("a", "password", "\t"):
+        with pytest.raises(SystemExit) as ended:
+            entry.main(["--token", weak, "--host", "0.0.0.0"])
+        assert ended.value.code == 2
+    assert "at least 16" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["-m", "attribot.bridge", "--token", "a"],
+        ["-m", "attribot.cli", "bridge", "serve", "--driver", "robomaster", "--token", "a"],
+    ],
+)
+def test_without_the_sdk_both_entry_points_end_in_one_line_naming_how_to_install_it(args):
+    done = subprocess.run([sys.executable, *args], capture_output=True, text=True, env=_env(), timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "pip install robomaster" in lines[0], done.stderr
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "range_"),
+    [
+        ("--watchdog", "1e9", "0.05 to 5 s"),
+        ("--max-speed", "1e6", "0.01 to 3.5 m/s"),
+        ("--max-accel", "1e308", "0.01 to 10 m/s^2"),
+        ("--max-turn", "nan", "0.01 to 10 rad/s"),
+        ("--watchdog", "0", "0.05 to 5 s"),
+    ],
+)
+def test_a_limit_outside_its_safe_range_is_refused_naming_the_range(flag, value, range_):
+    import re
+
+    from typer.testing import CliRunner
+
+    import attribot.bridge.__main__ as entry
+    from attribot.cli import app
+
+    with pytest.raises(ValueError, match=re.escape(f"{flag} must lie in its safe range, {range_}")):
+        Limits(**{{"--watchdog": "watchdog_s"}.get(flag, flag[2:].replace("-", "_")): float(value)})
+    result = CliRunner().invoke(
+        app, ["bridge", "serve", "--driver", "robomaster", "--token", "a", flag, value], env=_env()
+    )
+    assert result.exit_code == 2 and range_ in " ".join(result.output.split())
+    with pytest.raises(SystemExit):
+        entry.main(["--token", "a", flag, value])
+
+
+def _hello_as(server: RobotServer, token: str) -> dict[str, Any]:
+    with socket.create_connection(server.address, timeout=10) as sock:
+        send_message(sock, {"op": "hello", "version": PROTOCOL_VERSION, "token": token})
+        reply, _ = recv_message(sock)
+        if reply.get("ok"):
+            send_message(sock, {"op": "bye"})
+            recv_message(sock)
+    return reply
+
+
+def test_wrong_tokens_are_slowed_then_blocked_per_peer_with_bounded_logging(caplog):
+    from attribot.bridge.guard import WrongTokens
+
+    with serving(RecordingDriver) as (server, driver):
+        server.wrong_tokens = WrongTokens(free=2, block_after=6, max_delay_s=0.05, what="bridge")
+        with caplog.at_level(logging.INFO):
+            codes = []
+            for _ in range(12):
+                began = time.monotonic()
+                codes.append((_hello_as(server, "wrong")["code"], time.monotonic() - began))
+            right = _hello_as(server, TOKEN)
+        assert [c for c, _ in codes] == ["auth"] * 6 + ["blocked"] * 6
+        assert min(t for _, t in codes[3:6]) >= 0.04  # past the free ones, each answer waits
+        assert right["ok"] is False and right["code"] == "blocked"  # a blocked address is refused outright
+        lines = [r.getMessage() for r in caplog.records if "wrong token" in r.getMessage()]
+        assert len(lines) <= 2, lines  # the first, and the block: not one a token
+        assert not driver.drives
+
+
+def test_the_throttle_forgets_a_peer_after_its_block_and_a_right_token_resets_the_count():
+    from attribot.bridge.guard import WrongTokens
+
+    now = [0.0]
+    lines: list[str] = []
+
+    class _Log:
+        def warning(self, fmt: str, *args: Any) -> None:
+            lines.append(fmt % args)
+
+    throttle = WrongTokens(free=3, block_after=20, window_s=60, block_s=300, log=_Log(), clock=lambda: now[0])
+    delays = [throttle.wrong("10.0.0.9") for _ in range(1500)]
+    assert delays[:3] == [0.0] * 3 and delays[3] > 0 and max(delays) <= 2.0
+    assert throttle.blocked("10.0.0.9") > 0 and throttle.blocked("10.0.0.8") == 0
+    assert len(lines) == 2  # 1,500 wrong tokens: one line, then one for the block
+    now[0] = 301.0
+    assert throttle.blocked("10.0.0.9") == 0
+    throttle.wrong("10.0.0.9")
+    assert any("1500 wrong tokens from 10.0.0.9" in line for line in lines)  # the window's count, once
+    throttle.right("10.0.0.9")
+    assert throttle.counts() == {}
+    for i in range(10_000):  # a scan of many addresses is bounded in memory
+        throttle.wrong(f"10.1.{i // 256}.{i % 256}")
+    assert len(throttle.counts()) <= throttle.max_peers

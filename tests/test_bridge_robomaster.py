@@ -166,7 +166,7 @@ def test_the_ep_over_the_bridge_in_the_sdks_units():
     ep = FakeEP()
     cell = LoadCell.calibrate(zero_adc=500, loaded_adc=600, mass_kg=0.2)  # 0.2 kg lifts the ADC by 100
     driver = _driver(ep, load_cell=cell)
-    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=5.0)
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=5.0, simulated=True)
     server = RobotServer(driver, TOKEN, limits=limits)
     import threading
 
@@ -331,3 +331,33 @@ def test_arm_targets_beyond_the_eps_travel_never_reach_the_sdk():
     assert to_sdk_mm(high, far) in ep.robotic_arm.moves  # the clipped target was sent
     for x, y in ep.robotic_arm.moves:  # and every move (a refusal's stop holds the arm) within the box
         assert min(xs) - 1e-6 <= x <= max(xs) + 1e-6 and min(ys) - 1e-6 <= y <= max(ys) + 1e-6
+
+
+# --- calibration is checked (issue 49) -----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        ({"hfov_deg": "nan"}, "hfov_deg must be a finite number from 20 to 170"),
+        ({"hfov_deg": "0"}, "hfov_deg"),
+        ({"hfov_deg": "-5"}, "hfov_deg"),
+        ({"hfov_deg": "1e9"}, "hfov_deg"),
+        ({"load_cell_newtons_per_count": "0.02", "load_cell_zero": "inf"}, "load_cell_zero"),
+        ({"load_cell_newtons_per_count": "nan"}, "load_cell_newtons_per_count"),
+        ({"load_cell_newtons_per_count": "0.02", "load_cell_board": "x"}, "load_cell_board"),
+        ({"thermometer_celsius_per_count": "0.1", "thermometer_offset": "-inf"}, "thermometer_offset"),
+        ({"conn_type": "usb"}, "conn_type"),
+    ],
+)
+def test_calibration_outside_physical_values_is_refused_naming_its_range(options, named):
+    with pytest.raises(ValueError, match=named):
+        driver_options(options)
+
+
+@pytest.mark.parametrize("hfov", [math.nan, 0.0, -5.0, 1e9, math.inf])
+def test_the_driver_itself_refuses_a_field_of_view_it_cannot_have(hfov):
+    with pytest.raises(ValueError, match="hfov_deg"):
+        RoboMasterDriver(FakeEP(), hfov_deg=hfov)
+    with pytest.raises(ValueError, match="load_cell_zero"):
+        LoadCell(0.02, zero_adc=math.inf)

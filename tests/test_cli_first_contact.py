@@ -117,3 +117,25 @@ def test_dataset_show_writes_where_it_is_asked_and_says_where(tmp_path):
     assert folder.returncode == 0 and (tmp_path / "pictures" / f"{item}.png").is_file()
     jpeg = cli("dataset", "show", str(data), item, "--out", str(tmp_path / "x.jpg"))
     assert jpeg.returncode == 2 and "the image is a PNG" in jpeg.stderr
+
+
+def test_dataset_show_writes_through_no_planted_link(tmp_path):
+    # issue 49: a dataset's `shown` link led the image into an outside folder, and `shown/ID.png` over a file
+    data = tmp_path / "data"
+    built = cli("dataset", "build", "--tasks", "weight_image", "--limit", "1", "--out", str(data))
+    assert built.returncode == 0, built.stderr
+    item = "weight_image-000"
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (data / "shown").symlink_to(outside)
+    through_folder = cli("dataset", "show", str(data), item)
+    assert through_folder.returncode == 2 and "is a link" in through_folder.stderr
+    assert list(outside.iterdir()) == [] and "Traceback" not in through_folder.stderr
+    (data / "shown").unlink()
+    (data / "shown").mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    (data / "shown" / f"{item}.png").symlink_to(victim)
+    through_file = cli("dataset", "show", str(data), item)
+    assert through_file.returncode == 2 and "is a link" in through_file.stderr
+    assert victim.read_text() == "keep me" and (data / "shown" / f"{item}.png").is_symlink()

@@ -99,3 +99,11 @@ def test_render_refuses_a_bad_output_path(tmp_path):
     assert r.exit_code != 0 and "does not exist" in " ".join(r.output.split())
     r = _run("scene", "render", "--out", str(tmp_path / "x.gif"))
     assert r.exit_code != 0 and ".png" in " ".join(r.output.split())
+
+
+@pytest.mark.parametrize("command", [["scene", "info"], ["ask", "Which object is the heaviest?"]])
+def test_a_million_objects_is_refused_before_any_work_naming_the_range(command):
+    # issue 49: --objects 1000000 hung `scene info` and `ask`
+    result = CliRunner().invoke(app, [*command, "--objects", "1000000"])
+    said = " ".join(result.output.split())
+    assert result.exit_code == 2 and "1 to 30 objects" in said and "Traceback" not in said

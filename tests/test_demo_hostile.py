@@ -160,14 +160,14 @@ def test_every_answer_forbids_framing_sniffing_and_referrers(demo):
 # ---- tokens ------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("token", ["   ", "\t\n", " ", "short"])
+@pytest.mark.parametrize("token", ["   ", "\t\n", " ", "short", "a", "password", "passwordpassword1"])
 def test_a_blank_or_short_token_is_refused_beyond_this_machine(tmp_path, token):
     # issue 28: a whitespace-only --token was accepted for binding beyond 127.0.0.1
     config = DemoConfig(settings=load_settings(), runs_dir=tmp_path, token=token)
     with socket.socket() as taken:  # were the token taken, the port in use would end the call at once
         taken.bind(("0.0.0.0", 0))
         taken.listen()
-        with pytest.raises(ConfigError, match="blank|shorter than 8") as refused:
+        with pytest.raises(ConfigError, match="blank|at least 16|'password'") as refused:
             serve_demo(config, host="0.0.0.0", port=taken.getsockname()[1])
     assert "--token" in (refused.value.fix or "")
 
@@ -181,6 +181,27 @@ def test_the_command_refuses_a_blank_token_with_error_and_fix():
     )  # fmt: skip
     assert done.returncode == 2 and "error: the demo's --token is blank" in done.stderr
     assert "fix:" in done.stderr
+
+
+def test_wrong_tokens_from_one_address_are_slowed_then_blocked(tmp_path, monkeypatch):
+    # issue 49: the demo answered about 1,300 wrong tokens a second without throttling
+    import functools
+    import time
+
+    import attribot.demo.app as demo_app
+
+    slowed = functools.partial(demo_app.WrongTokens, free=2, block_after=5, max_delay_s=0.05)
+    monkeypatch.setattr(demo_app, "WrongTokens", slowed)
+    token = "correct-horse-battery-9"
+    with ServerThread(_app(tmp_path, token=token)) as server:
+        plain = httpx.Client(base_url=server.url)
+        statuses, waits = [], []
+        for i in range(8):
+            began = time.monotonic()
+            statuses.append(plain.get(f"/api/options?token=guess{i}").status_code)
+            waits.append(time.monotonic() - began)
+        assert statuses == [401] * 5 + [429] * 3 and min(waits[2:5]) >= 0.04
+        assert plain.get("/?token=" + token).status_code == 429  # blocked, even with the right one
 
 
 def test_the_token_is_checked_on_every_route_and_never_kept_as_it_is(tmp_path):
@@ -237,8 +258,23 @@ _UPLOADS = {
     "truncated": (lambda: {"name": "a.png", "data": _png(64, 48)[:120]}, 400, "corrupt"),
     "bad-name-and-data": (lambda: {"name": "../../etc/passwd", "data": "%%%"}, 400, "base64"),
     "no-data": (lambda: {"name": "a.png"}, 400, "image"),
+    "text-chunk-bomb": (lambda: {"name": "a.png", "data": _text_bomb()}, 413, "inflates too far"),
     "number": (lambda: {"name": "a.png", "data": 12}, 400, "image"),
 }
+
+
+def _text_bomb() -> str:
+    """A small PNG whose compressed text chunk inflates to 50 MB (issue 49: HTTP 500)."""
+    import struct
+    import zlib
+
+    raw = base64.b64decode(_png(8, 8))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    bomb = chunk(b"zTXt", b"Comment\x00\x00" + zlib.compress(b"a" * (50 << 20), 9))
+    return base64.b64encode(raw[:33] + bomb + raw[33:]).decode()
 
 
 @pytest.mark.parametrize("kind", list(_UPLOADS))
@@ -489,3 +525,66 @@ def _reachable(url: str) -> bool:
         return httpx.get(url + "/api/options", timeout=2).status_code == 200
     except httpx.HTTPError:
         return False
+
+
+def test_a_camera_jpeg_in_mpo_layout_is_taken_as_ask_image_takes_it(demo):
+    # issue 49: a camera's JPEG with a second picture after the first (MPO) was refused
+    buf = io.BytesIO()
+    picture = Image.new("RGB", (64, 48), (200, 30, 30))
+    picture.save(buf, format="MPO", save_all=True, append_images=[picture])
+    image = {"name": "camera.jpg", "data": base64.b64encode(buf.getvalue()).decode()}
+    reply = _client(demo).post("/api/runs", json={"query": "Which object is red?", "image": image})
+    assert reply.status_code == 200, reply.text
+
+
+def _partial_upload(server_url: str, client: httpx.Client) -> socket.socket:
+    """A connection that starts a query's upload of 1 MB, sends 64 kB of it and waits."""
+    from urllib.parse import urlsplit
+
+    where = urlsplit(server_url)
+    cookies = "; ".join(f"{k}={v}" for k, v in client.cookies.items())
+    head = (
+        f"POST /api/runs HTTP/1.1\r\nHost: {where.hostname}:{where.port}\r\n"
+        f"Content-Type: application/json\r\nContent-Length: {1 << 20}\r\nCookie: {cookies}\r\n"
+        f"{SECRET_HEADER}: {client.headers[SECRET_HEADER]}\r\n\r\n"
+    )
+    sock = socket.create_connection((where.hostname, where.port))
+    sock.sendall(head.encode() + b'{"query": "Which object is red?", "image": {"data": "' + b"A" * 65536)
+    return sock
+
+
+def test_a_client_dropping_mid_upload_leaves_no_traceback(demo, caplog):
+    # issue 49: each client that dropped mid-upload left a traceback in the log
+    import logging
+    import time
+
+    client = _client(demo)
+    with caplog.at_level(logging.INFO):
+        for _ in range(3):
+            _partial_upload(demo.url, client).close()
+        time.sleep(1.0)
+        assert client.get("/api/options").status_code == 200  # and the demo serves on
+    said = [r for r in caplog.records if r.exc_info or "Exception in ASGI" in r.getMessage()]
+    assert said == [], [r.getMessage() for r in said]
+
+
+def test_uploads_in_flight_are_bounded_and_the_rest_wait_then_are_told(demo, monkeypatch):
+    # issue 49: 16 uploads in flight grew the process by about 600 MB
+    import attribot.demo.app as demo_app
+
+    monkeypatch.setattr(demo_app, "UPLOAD_WAIT_S", 0.5)
+    client = _client(demo)
+    held = [_partial_upload(demo.url, client) for _ in range(demo_app.MAX_UPLOADS_IN_FLIGHT)]
+    try:
+        import time
+
+        time.sleep(0.5)
+        reply = _client(demo).post("/api/runs", json={"query": "Which object is red?", "seed": "x"})
+        assert reply.status_code == 503 and "being uploaded" in reply.json()["message"]
+        assert reply.headers["retry-after"]
+    finally:
+        for sock in held:
+            sock.close()
+    time.sleep(0.5)
+    again = _client(demo).post("/api/runs", json={"query": "Which object is red?", "seed": "x"})
+    assert again.status_code == 400 and "seed" in again.json()["message"]  # a slot again: read and answered

@@ -5,8 +5,10 @@ numbers, and that it renders in headless Chromium without console errors)."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+import stat
 import subprocess
 from pathlib import Path
 
@@ -473,3 +475,59 @@ def test_a_root_seed_draws_other_items_for_every_task_and_is_kept_by_the_run(tmp
     run_eval(EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1), settings, plain)
     assert "seed" not in json.loads((plain / "run.json").read_text())
     assert run_eval(EvalPlan(tasks=("weight_image",), methods=("vqa",), limit=1), settings, plain).done == 0
+
+
+def test_records_are_counted_once_whatever_their_file_names(tmp_path):
+    # issue 49: a records file copied under another noise level's name made the report say n=4 for 2 items
+    import shutil
+
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=2)
+    run_eval(plan, settings, tmp_path)
+    records = tmp_path / "records"
+    shutil.copy(records / "weight_image__ovd__clean.jsonl", records / "weight_image__ovd__realistic.jsonl")
+    assert len(read_records(tmp_path)) == 2
+    again = run_eval(plan, settings, tmp_path)
+    assert (again.done, again.skipped) == (0, 2)
+    report = cli("report", str(tmp_path))
+    assert report.returncode == 0 and "n=4" not in report.stdout
+
+
+def test_a_run_json_key_from_a_newer_release_is_refused_on_resume(tmp_path):
+    # issue 49: a setting only a newer release knows was ignored, and the run resumed as if it matched
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(tasks=("size",), methods=("ovd",), limit=1)
+    run_eval(plan, settings, tmp_path)
+    about = json.loads((tmp_path / "run.json").read_text())
+    (tmp_path / "run.json").write_text(json.dumps({**about, "look_harder_rounds": 3}))
+    with pytest.raises(ConfigError, match=r"does not know \('look_harder_rounds'\): a newer") as info:
+        run_eval(plan, settings, tmp_path)
+    assert "release that made it" in (info.value.fix or "")
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "link"])
+def test_report_out_never_replaces_what_is_not_a_regular_file(tmp_path, kind):
+    # issue 49: report --out at a FIFO or a device replaced it with a file and wrote three files beside it
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    run_eval(EvalPlan(tasks=("size",), methods=("ovd",), limit=1), settings, tmp_path / "run")
+    where = tmp_path / "out"
+    where.mkdir()
+    if kind == "fifo":
+        target = where / "report.html"
+        os.mkfifo(target)
+    elif kind == "device":
+        target = Path("/dev/null")
+    else:
+        (tmp_path / "victim.html").write_text("keep me")
+        target = where / "report.html"
+        target.symlink_to(tmp_path / "victim.html")
+    before = sorted(p.name for p in target.parent.iterdir())
+    done = cli("report", str(tmp_path / "run"), "--out", str(target))
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert sorted(p.name for p in target.parent.iterdir()) == before  # nothing written beside it
+    if kind == "fifo":
+        assert stat.S_ISFIFO(os.lstat(target).st_mode)
+    elif kind == "device":
+        assert stat.S_ISCHR(os.stat(target).st_mode)
+    else:
+        assert (tmp_path / "victim.html").read_text() == "keep me"

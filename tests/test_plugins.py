@@ -155,3 +155,117 @@ def test_a_plugin_strategy_serves_an_evaluation_and_its_run_keeps_the_choice(tmp
     said = {c["detail"] for r in records for c in r["checks"] if c["mechanism"] == "remeasure"}
     assert len(records) == 2 and said == {"2 readings, 0 empty"}
     assert json.loads((tmp_path / "run" / "run.json").read_text())["strategies"] == "lab_two"
+
+
+# ---- plug-ins failing later: in eval workers, in a strategy, in a detector (issue 49) --------------------
+
+IN_WORKER = "import multiprocessing\nIN_WORKER = multiprocessing.parent_process() is not None\n"
+ORACLE_AS = (
+    "from attribot.models.base import DETECTORS\n"
+    "class LabEyes:\n"
+    "    def __init__(self, arg, settings):\n"
+    "        self.inner = DETECTORS.get('oracle')(arg, settings)\n"
+    "        self.name = 'lab_eyes'\n"
+    "    def __getattr__(self, name):\n"
+    "        return getattr(self.inner, name)\n"
+)
+
+
+def _eval_refused(tmp_path: Path, module: str, source: str, *flags: str) -> str:
+    out = tmp_path / "run"
+    done = run_with_plugin(
+        tmp_path,
+        module,
+        *("eval", "--suite", "paper", "--tasks", "weight_embodied", "--methods", "pa-api", "--limit", "2"),
+        *(*flags, "--out", str(out)),
+        **{module: source},
+    )
+    said = " ".join(done.stderr.split())
+    assert done.returncode == 2, (done.returncode, done.stderr[-2000:])
+    assert "Traceback" not in done.stderr and "error:" in said and "fix:" in said, said[-2000:]
+    assert len(said) < 1500, said
+    return said
+
+
+def test_a_plugin_failing_inside_eval_workers_fails_the_run_in_one_line(tmp_path):
+    source = IN_WORKER + "if IN_WORKER:\n    raise RuntimeError('no lab licence on this worker')\n"
+    said = _eval_refused(tmp_path, "lab_worker", source, "--workers=2")
+    assert "no lab licence on this worker" in said and "lab_worker" in said
+
+
+@pytest.mark.parametrize("workers", ["--workers=2", "--workers=1"])
+def test_sys_exit_0_in_a_worker_is_an_error_not_success(tmp_path, workers):
+    source = (
+        ORACLE_AS
+        + "    def detect(self, frame, queries):\n        import sys\n        sys.exit(0)\n"
+        + "DETECTORS.register('lab_eyes')(LabEyes)\n"
+    )
+    said = _eval_refused(tmp_path, "lab_exit", source, "--detector", "lab_eyes", workers)
+    assert "sys.exit(0)" in said
+
+
+def test_a_strategy_whose_constructor_raises_is_a_clear_error(tmp_path):
+    source = (
+        "from attribot.api.safeguards import STRATEGIES, Remeasure\n"
+        "@STRATEGIES.register('lab_broken')\n"
+        "class Broken(Remeasure):\n"
+        "    def __init__(self, *args, **kwargs):\n"
+        "        raise RuntimeError('calibration file missing')\n"
+    )
+    done = run_with_plugin(
+        tmp_path, "lab_broken", "ask", "Which object is the heaviest?", "--strategies", "lab_broken",
+        lab_broken=source,
+    )  # fmt: skip
+    said = " ".join((done.stdout + done.stderr).split())
+    assert "Traceback" not in said and "calibration file missing" in said, said[-2000:]
+    assert done.returncode != 0 or "error" in said
+
+
+def test_a_detector_whose_label_is_not_text_is_a_clear_error(tmp_path):
+    source = (
+        ORACLE_AS
+        + "    def detect(self, frame, queries):\n"
+        + "        return [d.model_copy(update={'label': 42}) if hasattr(d, 'model_copy') else d\n"
+        + "                for d in self.inner.detect(frame, queries)]\n"
+        + "DETECTORS.register('lab_eyes')(LabEyes)\n"
+    )
+    done = run_with_plugin(
+        tmp_path, "lab_labels", "ask", "Which object is the heaviest?", "--detector", "lab_eyes",
+        lab_labels=source,
+    )  # fmt: skip
+    said = " ".join((done.stdout + done.stderr).split())
+    assert "Traceback" not in said and "Warning" not in said, said[-2000:]
+    assert "the detector 'lab_eyes' returned a detection whose label is 42" in said, said[-2000:]
+
+
+def test_what_a_plugin_prints_while_it_serves_does_not_spoil_json_output(tmp_path):
+    source = (
+        ORACLE_AS
+        + "    def detect(self, frame, queries):\n"
+        + "        print('lab eyes looking at', queries)\n"
+        + "        return self.inner.detect(frame, queries)\n"
+        + "DETECTORS.register('lab_eyes')(LabEyes)\n"
+    )
+    done = run_with_plugin(
+        tmp_path, "lab_loud", "ask", "Which object is the heaviest?", "--detector", "lab_eyes", "--json",
+        lab_loud=source,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout)["answer"] and "lab eyes looking at" in done.stderr
+
+
+def test_a_5000_character_plugins_variable_gives_a_bounded_error_line(tmp_path):
+    for plugins in ("a" * 5000, "lab." + "b" * 4996, ",".join(["x"] * 2500)):
+        done = run_with_plugin(tmp_path, plugins)
+        assert done.returncode == 2 and "Traceback" not in done.stderr
+        assert max(len(line) for line in done.stderr.splitlines()) < 600, done.stderr[:300]
+
+
+def test_a_worker_that_ends_itself_with_os_exit_is_an_error(tmp_path):
+    source = (
+        ORACLE_AS
+        + "    def detect(self, frame, queries):\n        import os\n        os._exit(0)\n"
+        + "DETECTORS.register('lab_eyes')(LabEyes)\n"
+    )
+    said = _eval_refused(tmp_path, "lab_gone", source, "--detector", "lab_eyes", "--workers=2")
+    assert "ended early" in said

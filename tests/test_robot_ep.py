@@ -169,7 +169,7 @@ def _lightest_query(info: SceneInfo) -> str:
 
 @contextmanager
 def _served(config: SceneConfig) -> Iterator[BridgeConfig]:
-    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0)
+    limits = Limits(max_accel=1000.0, max_turn_accel=1000.0, watchdog_s=30.0, simulated=True)
     server, _, thread = serve_in_thread(lambda: EmbodimentDriver(MujocoWorld(config)), TOKEN, limits=limits)
     try:
         yield BridgeConfig(url=f"tcp://127.0.0.1:{server.address[1]}")

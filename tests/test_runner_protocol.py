@@ -34,3 +34,14 @@ def test_neither_end_spells_a_wire_key_itself():
     for module in (host, worker):
         text = Path(module.__file__).read_text()
         assert not re.search(r"""\{\s*"[a-z]"\s*:|\.get\("[a-z]"\)|\["[a-z]"\]""", text), module.__name__
+
+
+@pytest.mark.parametrize(
+    "field", [{"wall_s": 1e9}, {"cpu_s": float("inf")}, {"memory_mb": 1 << 30}, {"max_api_calls": 10**12}]
+)
+def test_a_program_limit_beyond_its_range_is_refused(field):
+    # issue 49: every limit a user can set has a range; a typo does not switch it off
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match="less than or equal|finite"):
+        Limits(**field)

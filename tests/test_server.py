@@ -384,9 +384,56 @@ def test_batcher_wrong_result_count_is_an_error():
 def test_bind_beyond_loopback_needs_a_token():
     check_bind("127.0.0.1", None)
     check_bind("::1", None)
-    check_bind("0.0.0.0", "t")
+    check_bind("0.0.0.0", "f3a9c1d27be84e06a5c4")
     with pytest.raises(ConfigError, match="without a token"):
         check_bind("0.0.0.0", None)
+
+
+@pytest.mark.parametrize(
+    ("token", "why"),
+    [("", "blank"), ("\t", "blank"), ("a", "1 character long"), ("password", "8 characters long"),
+     ("passwordpassword", "one kind"), ("Password12345678", "'password'")],
+)  # fmt: skip
+def test_beyond_loopback_the_model_servers_token_must_be_strong(token, why, tmp_path, monkeypatch):
+    # issue 49: serve models --host 0.0.0.0 served with a blank, tab or one-character token
+    from typer.testing import CliRunner
+
+    from attribot.cli import app
+
+    with pytest.raises(ConfigError, match=why):
+        check_bind("0.0.0.0", token)
+    (tmp_path / "none.toml").write_text("")
+    monkeypatch.setenv("ATTRIBOT_CONFIG", str(tmp_path / "none.toml"))
+    monkeypatch.setenv("ATTRIBOT_REMOTE_TOKEN", token)
+    result = CliRunner().invoke(app, ["serve", "models", "--host", "0.0.0.0", "--language", "catalog"])
+    assert result.exit_code == 2 and "error:" in result.output and "Traceback" not in result.output
+
+
+def test_wrong_tokens_from_one_address_are_slowed_then_blocked(monkeypatch):
+    # issue 49: about 1,300 wrong tokens a second were answered, each at once
+    import functools
+    import time
+
+    import attribot.server.app as server_app
+
+    monkeypatch.setattr(
+        server_app,
+        "WrongTokens",
+        functools.partial(server_app.WrongTokens, free=2, block_after=5, max_delay_s=0.05),
+    )
+    config = ServerConfig(token=TOKEN)
+    app = create_app(detector=None, vqa=None, language=EchoLanguage(), config=config)
+    with ServerThread(app) as srv:
+        statuses, waits = [], []
+        for _ in range(8):
+            began = time.monotonic()
+            statuses.append(post(srv, "/v1/complete", json={"question": "q"}, token="wrong").status_code)
+            waits.append(time.monotonic() - began)
+        assert statuses == [403] * 5 + [429] * 3
+        assert min(waits[2:5]) >= 0.04  # past the free ones each answer waits
+        assert (
+            post(srv, "/v1/complete", json={"question": "q"}).status_code == 429
+        )  # blocked, whatever it sends
 
 
 def test_served_specs_skip_unservable_defaults_and_refuse_them_when_asked():
@@ -449,6 +496,9 @@ def test_cli_serve_models_serves_and_stops(tmp_path):
         (["--host", "0.0.0.0"], "without a token"),
         (["--detector", "oracle"], "cannot serve the detector backend 'oracle'"),
         (["--max-batch", "0"], "--max-batch"),
+        (["--max-queue", "1000000000"], "less than or equal to 100000"),
+        (["--max-image-mb", "1e9"], "less than or equal to 200"),
+        (["--batch-window-ms", "nan"], "--batch-window-ms"),
         (["--port", "0"], "--port"),
     ],
 )

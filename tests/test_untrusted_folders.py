@@ -178,6 +178,31 @@ def test_a_saved_run_in_a_robots_world_does_not_drive_it_or_send_the_bridge_toke
     assert connections == [] and "bridge-secret" not in said
 
 
+def test_a_saved_run_in_the_ai2thor_world_needs_trust(tmp_path, empty_settings, monkeypatch):
+    # issue 49: its first run downloads a Unity build and executes it; no --trust-saved-backends was needed
+    import attribot.embodiments.base as embodiments
+
+    built: list[object] = []
+    monkeypatch.setattr(embodiments.EMBODIMENTS, "get", lambda name, *a, **k: built.append(name))
+    folder = saved_folder(tmp_path / "run")
+    run = json.loads((folder / "run.json").read_text())
+    run["scene"].update(world="ai2thor", config={"scene": "FloorPlan1"})
+    (folder / "run.json").write_text(json.dumps(run))
+    refused(exec_cli(str(folder)), "ai2thor world", "downloads a Unity build", "--trust-saved-backends")
+    assert built == []
+    with pytest.raises(AttribotError, match="ai2thor"):
+        load_saved(folder)
+
+
+def test_a_saved_run_asking_a_million_objects_is_refused_before_any_work(tmp_path, empty_settings):
+    # issue 49: a saved `objects: 1000000` hung the replay
+    folder = saved_folder(tmp_path / "run")
+    run = json.loads((folder / "run.json").read_text())
+    run["scene"]["config"]["objects"] = 1_000_000
+    (folder / "run.json").write_text(json.dumps(run))
+    refused(exec_cli(str(folder)), "objects", "1 to 30")
+
+
 # ---- files are read only inside the folder, sizes are checked before reading ------------------------------
 
 
@@ -501,3 +526,18 @@ def test_dataset_show_draws_no_image_from_outside_the_dataset(a_run, tmp_path, e
     )
     refused(done, "leads outside")
     assert not (tmp_path / "o").exists()
+
+
+def test_a_run_folders_dataset_link_does_not_lead_its_images_out(tmp_path, empty_settings):
+    # issue 49: nothing attribot writes follows a link it did not make
+    from attribot.eval.run import EvalPlan, run_eval
+
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "dataset").symlink_to(outside)
+    plan = EvalPlan(tasks=("weight_image",), methods=("ovd",), limit=1)
+    with pytest.raises(AttribotError, match="is a link"):
+        run_eval(plan, load_settings(), run)
+    assert list(outside.iterdir()) == []

@@ -11,6 +11,8 @@ from __future__ import annotations
 import contextlib
 import functools
 import inspect
+import io
+import json
 import re
 import time
 from collections.abc import Iterator
@@ -74,8 +76,9 @@ class _Commands(_PlainFlags, TyperGroup):
         command = getattr(ctx, "_protected_args", None) or getattr(ctx, "protected_args", [])
         args = [*command, *ctx.args]  # read now: the group consumes them
         # SIGTERM and SIGHUP unwind like Ctrl-C: the sandbox worker, renderer and model processes stop
-        with termination_as_exit():
+        with termination_as_exit(), _stdout_for_json("--json" in args):
             try:
+                _refuse_empty_values(args)
                 _load_plugins()
                 return super().invoke(ctx)
             except AttribotError as exc:
@@ -101,6 +104,81 @@ class _Commands(_PlainFlags, TyperGroup):
                 raise
 
 
+_NEVER_EMPTY = (
+    *("--out", "--save", "--runs-dir", "--dataset", "--image"),
+    *("--allow-host", "--host", "--bridge-url"),
+)
+"""Flags whose value names a place: an empty one is refused before any work (`--out ''` would be the
+current folder, and a whole suite would run into it)."""
+
+
+def _refuse_empty_values(args: list[str]) -> None:
+    """Refuse `--out ''`, `--out=` or `--out '  '` (and the other flags of `_NEVER_EMPTY`), naming it."""
+    from attribot.errors import InputError
+
+    for i, arg in enumerate(args):
+        flag, sep, value = arg.partition("=")
+        if flag not in _NEVER_EMPTY:
+            continue
+        if not sep:
+            if i + 1 >= len(args):
+                continue
+            value = args[i + 1]
+        if not value.strip():
+            raise InputError(
+                f"{flag} is empty", f"give {flag} a value, e.g. {flag} {_EXAMPLES.get(flag, 'VALUE')}"
+            )
+
+
+_EXAMPLES = {
+    "--out": "results/run1",
+    "--save": "answers/q1",
+    "--runs-dir": "demo-runs",
+    "--dataset": "data/paper",
+    "--image": "photo.jpg",
+    "--allow-host": "lab-pc.local",
+    "--host": "127.0.0.1",
+    "--bridge-url": "tcp://ROBOT:7777",
+}
+
+_JSON_STDOUT: list[Any] = []
+"""The real stdout while a --json command runs: only the JSON goes there (`_json_echo`), and anything else
+printed meanwhile (a plug-in's or a backend's `print`) goes to stderr, so that the output stays JSON."""
+
+
+@contextlib.contextmanager
+def _stdout_for_json(on: bool) -> Iterator[None]:
+    if not on:
+        yield
+        return
+    import sys
+
+    _JSON_STDOUT.append(sys.stdout)
+    sys.stdout = sys.stderr
+    try:
+        yield
+    finally:
+        sys.stdout = _JSON_STDOUT.pop()
+
+
+def _json_echo(text: str) -> None:
+    """Print JSON on the command's stdout (see `_JSON_STDOUT`); a stream that cannot encode every character
+    (an ASCII locale) gets the same JSON with `\\u` escapes, which read back to the same data."""
+    import sys
+
+    out = _JSON_STDOUT[-1] if _JSON_STDOUT else sys.stdout
+    try:
+        text.encode(getattr(out, "encoding", None) or "utf-8")
+    except (UnicodeEncodeError, LookupError):
+        text = json.dumps(json.loads(text), indent=2, ensure_ascii=True)
+    typer.echo(text, file=out)
+
+
+def _brief(text: str, limit: int = 120) -> str:
+    """`text` cut to `limit` characters for a message (a 5,000-character variable is not echoed whole)."""
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _load_plugins() -> None:
     """Import the modules named in ATTRIBOT_PLUGINS, then every registry's own plug-ins. Whatever a module
     does wrong as it is imported (a name that is no module, an exception, a syntax error, `sys.exit`, a
@@ -120,7 +198,7 @@ def _load_plugins() -> None:
                 " (a relative name: there is no package for it to be relative to)" if name[0] == "." else ""
             )
             raise ConfigError(
-                f"{PLUGINS_ENV} names {name[:100]!r}, which is no module name{relative}",
+                f"{PLUGINS_ENV} names {_brief(name)!r}, which is no module name{relative}",
                 f"give absolute module names separated by commas, e.g. {PLUGINS_ENV}=lab_sensors,lab.worlds",
             )
         try:
@@ -129,20 +207,21 @@ def _load_plugins() -> None:
         except ModuleNotFoundError as exc:
             if exc.name == name or name.startswith(f"{exc.name}."):  # the module itself, not one it imports
                 raise ConfigError(
-                    f"{PLUGINS_ENV} names the module {name!r}, which cannot be imported ({exc})",
+                    f"{PLUGINS_ENV} names the module {_brief(name)!r}, which cannot be imported "
+                    f"({_brief(str(exc), 200)})",
                     f"put it on PYTHONPATH (or install it), or take it out of {PLUGINS_ENV}",
                 ) from None
             raise ConfigError(
-                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+                f"the plug-in module {_brief(name)!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
         except SystemExit as exc:
             raise ConfigError(
-                f"the plug-in module {name!r} called sys.exit({exc.code!r}) as it was imported"[:300],
+                f"the plug-in module {_brief(name)!r} called sys.exit({exc.code!r}) as it was imported"[:300],
                 f"a plug-in registers what it adds and returns; {fix}",
             ) from None
         except BaseException as exc:  # noqa: BLE001 (anything a module does as it is imported is its own)
             raise ConfigError(
-                f"the plug-in module {name!r} failed as it was imported: {_raised(exc)}", fix
+                f"the plug-in module {_brief(name)!r} failed as it was imported: {_raised(exc)}", fix
             ) from None
     if names:
         try:  # a plug-in that took a built-in's name, or a method Robot has, is said now, not later
@@ -152,7 +231,8 @@ def _load_plugins() -> None:
             Robot.API_METHODS  # noqa: B018 (installs the plug-ins' sensor methods, refusing a clash)
         except AttribotError as exc:
             raise ConfigError(
-                f"a plug-in of {PLUGINS_ENV} ({', '.join(names)}) clashes with attribot's own: {exc.message}",
+                f"a plug-in of {PLUGINS_ENV} ({_brief(', '.join(names), 200)}) clashes with attribot's own: "
+                f"{_brief(exc.message, 300)}",
                 exc.fix or fix,
             ) from None
 
@@ -662,7 +742,7 @@ def _print_error_answer(category: str, message: str, query: str, planner: str) -
     )
     from attribot.text import terminal_json
 
-    typer.echo(terminal_json(answer.model_dump_json(indent=2)))
+    _json_echo(terminal_json(answer.model_dump_json(indent=2)))
 
 
 def _show(answer: Any, as_json: bool) -> None:
@@ -671,7 +751,7 @@ def _show(answer: Any, as_json: bool) -> None:
     from attribot.text import terminal_json, visible
 
     if as_json:
-        typer.echo(terminal_json(answer.model_dump_json(indent=2)))
+        _json_echo(terminal_json(answer.model_dump_json(indent=2)))
     else:
         out = Console(soft_wrap=True)
         if answer.error is None:
@@ -890,6 +970,8 @@ def dataset_build(
 
     chosen = _suite_tasks(suite, tasks)
     vocabulary = None if findable_by is None else _vocabulary(findable_by)
+    if limit is not None and limit < 1:
+        raise fail(f"--limit {limit} builds nothing", "give a limit of 1 or more, e.g. --limit 10")
     _writable_folder(out, "--out")
     total = sum(item_count(task, limit) for task in chosen)
     # generation and rendering take minutes for the whole suite: say how far they are
@@ -947,16 +1029,21 @@ def dataset_show(
     if (folder / "images" / f"{item_id}.png").exists():
         from PIL import Image, ImageDraw
 
-        from attribot.files import inside
+        from attribot.files import check_target, inside, make_folder, write_whole
         from attribot.frame import load_image
 
         fix = "build the dataset again with attribot dataset build"
         image = inside(folder, f"images/{item_id}.png", "the item's image", fix)  # never a file elsewhere
         target = _shown_path(out, folder, item_id)
+        if out is None:  # the dataset's own shown/: never a link planted to lead the image elsewhere
+            make_folder(target.parent, "the dataset's shown folder", "remove it, or give --out PATH")
         _writable_folder(target.parent, "--out")
+        check_target(target, "the image", "give another --out, or remove what is there")
         img = Image.fromarray(load_image(image))
         ImageDraw.Draw(img).rectangle(item.true_box, outline=(0, 200, 0), width=3)
-        img.save(target)
+        png = io.BytesIO()
+        img.save(png, format="PNG")
+        write_whole(target, png.getvalue(), "the image", "give another --out, or remove what is there")
         err_console.print(f"image with the true box -> {target}", highlight=False)
 
 
@@ -1100,11 +1187,13 @@ def report(
     from attribot.errors import InputError
     from attribot.eval.compare import read_runs
     from attribot.eval.report import answer_lines, default_out, summarize, write_report
+    from attribot.files import check_target
 
     for run in runs:
         if not (run / "records").is_dir():
             raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
     _writable_folder((out or default_out(runs)).parent, "--out")
+    check_target(out or default_out(runs), "--out", "give --out a path where an HTML file can be written")
     path = write_report(runs, out)
     for line in answer_lines(summarize(read_runs(list(runs)).records)):
         console.print(line, highlight=False)
@@ -1132,7 +1221,7 @@ def backends(
     statuses = [probe_backend(role, getattr(settings, role), settings) for role in ROLES]
     statuses.append(_planner_status(settings, BackendStatus))
     if as_json:
-        typer.echo(json.dumps([s.model_dump() for s in statuses], indent=2))
+        _json_echo(json.dumps([s.model_dump() for s in statuses], indent=2))
     else:
         source = os.environ.get("ATTRIBOT_CONFIG", "attribot.toml")
         found = "" if os.path.isfile(source) else ", not found: defaults"
@@ -1257,15 +1346,19 @@ def serve_models(
     vqa: str | None = _SERVE_VQA,
     language: str | None = _SERVE_LANGUAGE,
     max_batch: int = typer.Option(
-        32, "--max-batch", help="Most requests of one role in one backend call (1: no batching)."
+        32, "--max-batch", help="Most requests of one role in one backend call (1 to 1024; 1: no batching)."
     ),
     batch_window_ms: float = typer.Option(
-        2.0, "--batch-window-ms", help="Longest wait for a batch to fill, from its oldest request's arrival."
+        2.0,
+        "--batch-window-ms",
+        help="Longest wait for a batch to fill, from its oldest request's arrival (0 to 10000).",
     ),
     max_image_mb: float = typer.Option(
-        10.0, "--max-image-mb", help="Largest image file accepted (413 beyond)."
+        10.0, "--max-image-mb", help="Largest image file accepted, 0 to 200 MB (413 beyond)."
     ),
-    max_queue: int = typer.Option(1024, "--max-queue", help="Most requests queued per role (429 beyond)."),
+    max_queue: int = typer.Option(
+        1024, "--max-queue", help="Most requests queued per role, 1 to 100000 (429 beyond)."
+    ),
     log_level: str = typer.Option("info", "--log-level", help="uvicorn log level: warning, info, debug."),
     model_process: bool = _SERVE_MODEL_PROCESS,
 ) -> None:
@@ -1351,52 +1444,66 @@ app.add_typer(bridge_app, name="bridge")
 def bridge_serve(
     driver: str = typer.Option(..., "--driver", help="mujoco (the embedded world) or robomaster (DJI EP)."),
     token: str = typer.Option(..., "--token", help="Shared secret the planner's computer must send."),
-    port: int = typer.Option(7777, "--port", help="TCP port to listen on."),
-    host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface)."),
-    max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s."),
-    max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s."),
-    max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2."),
+    port: int = typer.Option(7777, "--port", help="TCP port to listen on (1 to 65535)."),
+    host: str = typer.Option(
+        "127.0.0.1", "--host", help="Address to bind (0.0.0.0: every interface; then a strong --token)."
+    ),
+    max_speed: float = typer.Option(0.5, "--max-speed", help="Base speed limit, m/s (0.01 to 3.5)."),
+    max_turn: float = typer.Option(1.5, "--max-turn", help="Base turn-rate limit, rad/s (0.01 to 10)."),
+    max_accel: float = typer.Option(2.0, "--max-accel", help="Base acceleration limit, m/s^2 (0.01 to 10)."),
     watchdog: float = typer.Option(
-        0.5, "--watchdog", help="Stop base and arm after this many s without a command."
+        0.5, "--watchdog", help="Stop base and arm after this many s without a command (0.05 to 5)."
     ),
     given: Any = None,
 ) -> None:
     """Serve a robot (or the embedded world) to `attribot ask --world bridge` until interrupted."""
     import logging
 
+    from attribot.bridge.guard import TOKEN_FIX, bind_problem
     from attribot.bridge.server import Limits, RobotServer
 
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     if not token.strip():
         raise fail(
             "--token is blank",
             "give the shared secret the planner's computer sends, e.g. --token $(openssl rand -hex 16)",
         )
+    if not 0 < port < 65536:
+        raise fail(f"--port must lie in 1..65535, got {port}", "use e.g. --port 7777")
+    problem = bind_problem(host, token)
+    if problem is not None:
+        raise fail(f"{problem}", f"give a stronger --token ({TOKEN_FIX}), or listen on 127.0.0.1")
     try:
         limits = Limits(max_speed=max_speed, max_turn=max_turn, max_accel=max_accel, watchdog_s=watchdog)
     except ValueError as exc:
-        raise fail(str(exc), "give positive limits, e.g. --watchdog 0.5") from None
+        raise fail(str(exc), "give a limit within its safe range, e.g. --watchdog 0.5") from None
+    if driver not in ("mujoco", "robomaster"):
+        raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
     if driver == "mujoco":
         world = _scene_world(_scene_config(given))
         from attribot.embodiments.bridge import EmbodimentDriver
 
         robot: Any = EmbodimentDriver(world)
-    elif driver == "robomaster":
-        from attribot.bridge.robomaster import RoboMasterDriver, driver_options
+    else:
+        from attribot.bridge.robomaster import SDK_MISSING, RoboMasterDriver, SdkMissing, driver_options
 
         raw = {k: v for item in given.option or [] for k, _, v in [item.partition("=")]}
         try:
             kwargs = driver_options(raw)
         except ValueError as exc:
             raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
-        robot = RoboMasterDriver.connect(**kwargs)
-    else:
-        raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
+        try:
+            robot = RoboMasterDriver.connect(**kwargs)
+        except SdkMissing:
+            raise fail(SDK_MISSING) from None  # one line: what is missing and how to install it
     try:
         server = RobotServer(robot, token, host=host, port=port, limits=limits)
     except OSError as exc:
         robot.close()
         raise fail(f"cannot listen on {host}:{port} ({exc.strerror})", "choose another --port") from None
+    except ValueError as exc:
+        robot.close()
+        raise fail(str(exc), TOKEN_FIX) from None
     err_console.print(f"bridge: serving {robot.name} on tcp://{host}:{server.address[1]}", highlight=False)
     try:
         server.serve_forever()
@@ -1456,8 +1563,23 @@ def demo(
         serve_demo(config, host=host, port=port, announce=announce)
 
 
+def _survive_any_locale() -> None:
+    """Output that survives any locale: a stream that cannot encode a character (an ASCII locale, "°C" or
+    "é" in an answer) writes it as a backslash escape instead of ending the command in a traceback."""
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            "°é—".encode(getattr(stream, "encoding", None) or "utf-8")
+        except (UnicodeEncodeError, LookupError):
+            reconfigure = getattr(stream, "reconfigure", None)
+            if reconfigure is not None:
+                reconfigure(errors="backslashreplace")
+
+
 def main() -> None:
     """Console-script entry point."""
+    _survive_any_locale()
     app()
 
 

@@ -425,6 +425,9 @@ class _WorldConfig(BaseModel):
     and the fix; true or false is no number, and text holds no undecodable byte or control character."""
 
     WHAT: ClassVar[str] = "world"
+    REACHES_OUT: ClassVar[str | None] = None
+    """What building this world does beyond this process (None: nothing): a saved folder naming such a
+    world is replayed only with trust (`attribot.session.TRUST_SAVED`)."""
 
     def __init__(self, **fields: Any) -> None:
         try:
@@ -488,9 +491,13 @@ class SceneConfig(_WorldConfig):
         description=f"Scene seed (0 to {MAX_SEED}, default 0): the same seed gives the same scene and "
         "pixels.",
     )
-    # the upper bound is each layout's own
+    # bounded here, before any work (a million objects hung the layouts); each layout's range is narrower
     objects: int | None = Field(
-        None, ge=1, strict=True, description="Number of objects (default: the layout chooses)."
+        None,
+        ge=1,
+        le=MAX_OBJECTS,
+        strict=True,
+        description=f"Number of objects, 1 to {MAX_OBJECTS} (default: the layout chooses).",
     )
     categories: tuple[str, ...] | None = None
     vocabulary: tuple[str, ...] | None = None
@@ -545,6 +552,7 @@ class BridgeConfig(_WorldConfig):
     saved run holds no secret."""
 
     WHAT: ClassVar[str] = "bridge"
+    REACHES_OUT: ClassVar[str | None] = "it acts on the robot at its address and sends ATTRIBOT_BRIDGE_TOKEN"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     world: Literal["bridge"] = "bridge"
@@ -559,6 +567,7 @@ class Ai2ThorConfig(_WorldConfig):
     """An AI2-THOR scene: its name (FloorPlan1 to FloorPlan430), camera pixels and field of view."""
 
     WHAT: ClassVar[str] = "ai2thor"
+    REACHES_OUT: ClassVar[str | None] = "its first run downloads a Unity build and executes it"
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     world: Literal["ai2thor"] = "ai2thor"
@@ -630,7 +639,8 @@ def _invalid(cls: Any, exc: ValidationError, naming: FieldNaming) -> InvalidValu
 _FIXES: dict[str, Callable[[FieldNaming], str]] = {
     "seed": lambda n: f"give a whole number from 0 to {MAX_SEED}, e.g. {n.example('seed', '7')}",
     "objects": lambda n: (
-        "ask for at least 1 object (each layout has its own range), e.g. " + n.example("objects", "4")
+        f"ask for 1 to {MAX_OBJECTS} objects (each layout has its own range within it), e.g. "
+        + n.example("objects", "4")
     ),
     "width": lambda n: "give a width and height from 16 to 4096 pixels",
     "height": lambda n: "give a width and height from 16 to 4096 pixels",

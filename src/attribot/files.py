@@ -2,7 +2,10 @@
 for both.
 
 `write_whole` writes beside the target and renames into place, so a reader (or a crash) sees the old file
-or the new one, never a part. `check_writable` tries the only sure test of writability (a probe file),
+or the new one, never a part; it is the one way attribot writes a file, and it never writes through a link
+nor replaces what is not a regular file (a device, a FIFO, a folder: `check_target`). `make_folder` makes
+a folder attribot writes into, refusing one that is a link (a dataset's `shown` pointing elsewhere).
+`check_writable` tries the only sure test of writability (a probe file),
 since permission bits lie to root (/proc/self looks writable) and /dev/null is not a folder.
 
 What comes from outside (a saved run, a run folder, a dataset, a settings file) is read as a stranger's
@@ -26,6 +29,8 @@ from attribot.errors import InputError
 
 __all__ = [
     "write_whole",
+    "check_target",
+    "make_folder",
     "check_writable",
     "check_regular_file",
     "not_a_file",
@@ -44,8 +49,58 @@ MAX_JSON_DEPTH = 32
 """The deepest nesting of JSON read from outside (ours nest five deep)."""
 
 
-def write_whole(path: Path, data: bytes) -> None:
-    """Write `data` to `path` whole: to a temporary file in the same folder, then renamed into place."""
+_TARGET_FIX = "give a path where a regular file can be written (or remove what is there)"
+
+
+def check_target(path: Path, what: str = "the file", fix: str = _TARGET_FIX) -> None:
+    """Raise `InputError` unless `path` is absent or a regular file: a link (attribot writes through no link
+    it did not make), a folder, a FIFO, a device or a socket is never replaced by a file."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or exc
+        raise InputError(f"{what} {str(path)!r} cannot be looked at ({reason})", fix) from None
+    if stat.S_ISLNK(mode):
+        raise InputError(
+            f"{what} {str(path)!r} is a link: attribot does not write through a link it did not make", fix
+        )
+    kind = _kind(mode)
+    if kind is not None:
+        raise InputError(f"{what} {str(path)!r} is {kind}, not a regular file: it is not replaced", fix)
+
+
+def make_folder(path: Path, what: str = "the folder", fix: str = _TARGET_FIX) -> Path:
+    """Make the folder `path` (and its parents) for attribot to write into; an `InputError` when it is a
+    link (which would lead the writes elsewhere) or something other than a folder."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        mode = None
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or exc
+        raise InputError(f"{what} {str(path)!r} cannot be looked at ({reason})", fix) from None
+    if mode is not None and stat.S_ISLNK(mode):
+        raise InputError(
+            f"{what} {str(path)!r} is a link: attribot does not write through a link it did not make", fix
+        )
+    if mode is not None and not stat.S_ISDIR(mode):
+        raise InputError(
+            f"{what} {str(path)!r} is {_kind(mode) or 'a file'}, not a folder", f"check that path; {fix}"
+        )
+    if mode is None:
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"{what} {str(path)!r} cannot be made ({exc.strerror or exc})", fix) from None
+    return path
+
+
+def write_whole(path: Path, data: bytes, what: str = "the file", fix: str = _TARGET_FIX) -> None:
+    """Write `data` to `path` whole: to a temporary file in the same folder, then renamed into place. What
+    is at `path` must be a regular file or nothing (`check_target`: never a link, a device, a FIFO)."""
+    check_target(path, what, fix)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:
         with os.fdopen(fd, "wb") as f:

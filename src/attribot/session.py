@@ -175,6 +175,14 @@ class Scene:
         # the world beside the config names it (folders saved before configs carried their world's tag),
         # and is the one whose place the trust check below reads: a tag inside the config does not choose
         config = None if saved is None else world_config({**saved, "world": kind.world_name()})
+        if kind.REACHES_OUT is not None and "url" not in kind.model_fields and not trusted:
+            raise ConfigError(
+                f"the saved run in {str(folder)!r} ran in the {world} world: replaying it would build that "
+                f"world, and {kind.REACHES_OUT}",
+                f"run its program in a world you choose (attribot exec {str(folder / 'program.py')!r} "
+                f"--world {world}), or, for a folder you made, replay with {TRUST_SAVED} "
+                "(Python: trust_saved_backends=True)",
+            )
         if "url" in kind.model_fields and not trusted:
             where = shown_url(str(getattr(config, "url", "")))
             raise ConfigError(

@@ -36,7 +36,7 @@ from attribot.api.harder import Nearer, look_harder
 from attribot.api.looking import Survey, View, ask_again, reexamine
 from attribot.control.base import Target
 from attribot.embodiments.base import Embodiment
-from attribot.errors import InputError, UnknownName, UnsupportedAction
+from attribot.errors import AttribotError, ConfigError, InputError, UnknownName, UnsupportedAction
 from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
 from attribot.models.base import Detection, Detector
@@ -504,7 +504,16 @@ class Safeguards:
             )
         if kind.mechanism not in on:
             chosen = _OFF[kind]
-        return chosen(self)  # type: ignore[return-value]  # _OFF maps each kind to its own subclass
+        try:
+            return chosen(self)  # type: ignore[return-value]  # _OFF maps each kind to its own subclass
+        except AttribotError:
+            raise
+        except Exception as exc:  # noqa: BLE001 (a plug-in's constructor: told in one line, not a traceback)
+            told = " ".join(f"{type(exc).__name__}: {exc}".split())
+            raise ConfigError(
+                f"the {kind.mechanism} strategy {chosen.__name__} failed as it was made: {told[:300]}",
+                "fix the strategy's constructor, or choose another with --strategies",
+            ) from None
 
     def aims_again(self) -> bool:
         """Whether an action that came back empty is aimed and tried again (`verify_actions` or

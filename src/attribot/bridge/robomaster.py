@@ -49,9 +49,61 @@ from typing import Any
 from attribot.bridge.robomaster_body import EP_BODY, from_sdk_mm, to_sdk_mm
 from attribot.bridge.server import CameraFrame, Driver
 
-__all__ = ["LoadCell", "AnalogThermometer", "RoboMasterDriver"]
+__all__ = [
+    "LoadCell",
+    "AnalogThermometer",
+    "RoboMasterDriver",
+    "CALIBRATION_RANGES",
+    "SDK_MISSING",
+    "SdkMissing",
+    "require_sdk",
+    "checked",
+]
 
 _GRAVITY = 9.80665
+
+CALIBRATION_RANGES = {
+    "hfov_deg": (20.0, 170.0, "degrees"),  # the EP's camera sees 96 (video) to 120 (photo) degrees
+    "load_cell_newtons_per_count": (1e-6, 10.0, "N per count, either sign"),
+    "load_cell_zero": (0.0, 1023.0, "ADC counts"),  # the sensor adaptor's ADC is 10-bit
+    "load_cell_board": (1, 8, ""),
+    "load_cell_port": (1, 2, ""),
+    "thermometer_celsius_per_count": (1e-6, 10.0, "degC per count, either sign"),
+    "thermometer_offset": (-100.0, 500.0, "degC"),
+    "thermometer_board": (1, 8, ""),
+    "thermometer_port": (1, 2, ""),
+    "tof_index": (0, 3, ""),
+    "gripper_power": (1, 100, ""),
+    "speed_timeout_s": (0.05, 5.0, "s"),
+    "jpeg_quality": (1, 100, ""),
+    "gripper_settle_s": (0.0, 10.0, "s"),
+}
+"""Each calibration value's physical range (low, high, unit), both ends included; a scale factor
+(`..._per_count`) may be negative, its magnitude lies in the range. A value outside, or not a finite number
+(NaN, an infinity), is refused: the controller would drive by it."""
+
+
+def checked(name: str, value: Any, integer: bool = False) -> float:
+    """`value` as a finite number within `CALIBRATION_RANGES[name]`; a `ValueError` naming the range
+    otherwise."""
+    low, high, unit = CALIBRATION_RANGES[name]
+    what = "{} must be {} from {:g} to {:g}{}".format(
+        name, "a whole number" if integer else "a finite number", low, high, " " + unit if unit else ""
+    )
+    number = None
+    if isinstance(value, str):
+        try:
+            number = int(value.strip()) if integer else float(value.strip())
+        except ValueError:
+            number = None
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        number = value
+    if integer and isinstance(number, float):
+        number = int(number) if number.is_integer() else None
+    size = None if number is None else abs(number) if name.endswith("_per_count") else number
+    if number is None or size is None or not math.isfinite(size) or not low <= size <= high:
+        raise ValueError(f"{what} (got {str(value)[:40] if isinstance(value, str) else value!r})")
+    return number
 
 
 def _signed(value: Any) -> float:
@@ -59,6 +111,25 @@ def _signed(value: Any) -> float:
     (`struct.unpack('<II', ...)` in robotic_arm.py), so a point below the shoulder comes out near 2**32."""
     v = float(value)
     return v - 2.0**32 if v >= 2.0**31 else v
+
+
+SDK_MISSING = (
+    "the RoboMaster SDK is not installed here: install it on the robot's computer with "
+    "`python3.8 -m pip install robomaster` (it runs on Python 3.6 to 3.8), or serve --driver mujoco"
+)
+
+
+class SdkMissing(RuntimeError):
+    """The RoboMaster SDK cannot be imported; the message is the one line to show (`SDK_MISSING`)."""
+
+
+def require_sdk() -> Any:
+    """The SDK's `robomaster.robot` module, or `SdkMissing` saying how to install it."""
+    try:
+        from robomaster import robot as rm_robot  # the SDK: only on the robot's computer
+    except ImportError as exc:
+        raise SdkMissing(f"{SDK_MISSING} ({exc})") from None
+    return rm_robot
 
 
 class LoadCell:
@@ -72,12 +143,10 @@ class LoadCell:
     def __init__(
         self, newtons_per_count: float, zero_adc: float = 0.0, board_id: int = 1, port: int = 1
     ) -> None:
-        if not (newtons_per_count != 0 and math.isfinite(newtons_per_count)):
-            raise ValueError("newtons_per_count must be a non-zero number (calibrate with a known mass)")
-        self.newtons_per_count = float(newtons_per_count)
-        self.zero_adc = float(zero_adc)
-        self.board_id = int(board_id)
-        self.port = int(port)
+        self.newtons_per_count = float(checked("load_cell_newtons_per_count", newtons_per_count))
+        self.zero_adc = float(checked("load_cell_zero", zero_adc))
+        self.board_id = int(checked("load_cell_board", board_id, integer=True))
+        self.port = int(checked("load_cell_port", port, integer=True))
 
     @staticmethod
     def calibrate(
@@ -98,12 +167,10 @@ class AnalogThermometer:
     def __init__(
         self, celsius_per_count: float, offset_c: float = 0.0, board_id: int = 1, port: int = 2
     ) -> None:
-        if not (celsius_per_count != 0 and math.isfinite(celsius_per_count) and math.isfinite(offset_c)):
-            raise ValueError("celsius_per_count must be a non-zero number (calibrate at two temperatures)")
-        self.celsius_per_count = float(celsius_per_count)
-        self.offset_c = float(offset_c)
-        self.board_id = int(board_id)
-        self.port = int(port)
+        self.celsius_per_count = float(checked("thermometer_celsius_per_count", celsius_per_count))
+        self.offset_c = float(checked("thermometer_offset", offset_c))
+        self.board_id = int(checked("thermometer_board", board_id, integer=True))
+        self.port = int(checked("thermometer_port", port, integer=True))
 
     @staticmethod
     def calibrate(
@@ -142,6 +209,12 @@ class RoboMasterDriver(Driver):
         sizes = {"360p": (640, 360), "540p": (960, 540), "720p": (1280, 720)}
         if resolution not in sizes:
             raise ValueError(f"resolution must be one of {sorted(sizes)}, got {resolution!r}")
+        hfov_deg = float(checked("hfov_deg", hfov_deg))
+        tof_index = int(checked("tof_index", tof_index, integer=True))
+        gripper_power = int(checked("gripper_power", gripper_power, integer=True))
+        speed_timeout_s = float(checked("speed_timeout_s", speed_timeout_s))
+        jpeg_quality = int(checked("jpeg_quality", jpeg_quality, integer=True))
+        gripper_settle_s = float(checked("gripper_settle_s", gripper_settle_s))
         self.robot = robot
         self.load_cell = load_cell
         self.thermometer = thermometer
@@ -168,8 +241,9 @@ class RoboMasterDriver(Driver):
 
     @classmethod
     def connect(cls, conn_type: str = "ap", **options: Any) -> RoboMasterDriver:
-        """Connect to the EP over wifi (`ap`: the robot's own access point; `sta`: the lab's network)."""
-        from robomaster import robot as rm_robot  # the SDK: only on the robot's computer
+        """Connect to the EP over wifi (`ap`: the robot's own access point; `sta`: the lab's network).
+        Without the RoboMaster SDK: `SdkMissing`, whose message says how to install it."""
+        rm_robot = require_sdk()
 
         ep = rm_robot.Robot()
         ep.initialize(conn_type=conn_type)
@@ -353,23 +427,25 @@ def driver_options(options: dict[str, Any]) -> dict[str, Any]:
         out["conn_type"] = str(options["conn_type"])
     if "resolution" in options:
         out["resolution"] = str(options["resolution"])
+    if "conn_type" in out and out["conn_type"] not in ("ap", "sta"):
+        raise ValueError("conn_type must be ap or sta, got {!r}".format(out["conn_type"][:40]))
     if "hfov_deg" in options:
-        out["hfov_deg"] = float(options["hfov_deg"])
+        out["hfov_deg"] = float(checked("hfov_deg", options["hfov_deg"]))
     if "load_cell_newtons_per_count" in options:
         out["load_cell"] = LoadCell(
-            float(options["load_cell_newtons_per_count"]),
-            float(options.get("load_cell_zero", 0.0)),
-            int(options.get("load_cell_board", 1)),
-            int(options.get("load_cell_port", 1)),
+            checked("load_cell_newtons_per_count", options["load_cell_newtons_per_count"]),
+            checked("load_cell_zero", options.get("load_cell_zero", 0.0)),
+            int(checked("load_cell_board", options.get("load_cell_board", 1), integer=True)),
+            int(checked("load_cell_port", options.get("load_cell_port", 1), integer=True)),
         )
     elif any(k.startswith("load_cell_") for k in options):
         raise ValueError("a load cell needs load_cell_newtons_per_count (see docs/bridge-protocol.md)")
     if "thermometer_celsius_per_count" in options:
         out["thermometer"] = AnalogThermometer(
-            float(options["thermometer_celsius_per_count"]),
-            float(options.get("thermometer_offset", 0.0)),
-            int(options.get("thermometer_board", 1)),
-            int(options.get("thermometer_port", 2)),
+            checked("thermometer_celsius_per_count", options["thermometer_celsius_per_count"]),
+            checked("thermometer_offset", options.get("thermometer_offset", 0.0)),
+            int(checked("thermometer_board", options.get("thermometer_board", 1), integer=True)),
+            int(checked("thermometer_port", options.get("thermometer_port", 2), integer=True)),
         )
     elif any(k.startswith("thermometer_") for k in options):
         raise ValueError("a thermometer needs thermometer_celsius_per_count (see docs/bridge-protocol.md)")

@@ -23,6 +23,7 @@ import zlib
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from attribot.bridge.guard import TOKEN_FIX, WrongTokens, bind_problem
 from attribot.bridge.protocol import (
     MAX_DEPTH,
     PROTOCOL_VERSION,
@@ -36,7 +37,7 @@ from attribot.bridge.protocol import (
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["Driver", "Limits", "RobotServer", "CameraFrame", "serve_in_thread"]
+__all__ = ["Driver", "Limits", "LIMIT_RANGES", "RobotServer", "CameraFrame", "serve_in_thread"]
 
 log = logging.getLogger("attribot.bridge")
 
@@ -158,8 +159,24 @@ class Driver:
         pass
 
 
+LIMIT_RANGES = {
+    "max_speed": ("--max-speed", 0.01, 3.5, "m/s"),
+    "max_turn": ("--max-turn", 0.01, 10.0, "rad/s"),
+    "max_accel": ("--max-accel", 0.01, 10.0, "m/s^2"),
+    "max_turn_accel": ("--max-turn-accel", 0.01, 30.0, "rad/s^2"),
+    "watchdog_s": ("--watchdog", 0.05, 5.0, "s"),
+}
+"""Each limit's flag and its safe range (low, high, unit), both ends included: a RoboMaster EP drives at
+most 3.5 m/s and turns at most 600 degrees/s; a watchdog of more than 5 s is no watchdog. A value outside
+(a typo such as 1e9) is refused, never taken."""
+
+
 class Limits:
-    """Speed (m/s, rad/s) and acceleration (m/s^2, rad/s^2) limits of the base, and the watchdog time (s)."""
+    """Speed (m/s, rad/s) and acceleration (m/s^2, rad/s^2) limits of the base, and the watchdog time (s),
+    each within its safe range (`LIMIT_RANGES`; a `ValueError` names the range of one outside it).
+
+    `simulated`: a simulated robot (a test, a benchmark: nothing real moves) may take any positive limit,
+    e.g. an acceleration of 1000 m/s^2 so that a step's velocity is the commanded one at once."""
 
     def __init__(
         self,
@@ -168,6 +185,7 @@ class Limits:
         max_accel: float = 2.0,
         max_turn_accel: float = 6.0,
         watchdog_s: float = 0.5,
+        simulated: bool = False,
     ) -> None:
         for label, value in (
             ("max_speed", max_speed),
@@ -176,13 +194,19 @@ class Limits:
             ("max_turn_accel", max_turn_accel),
             ("watchdog_s", watchdog_s),
         ):
-            if not (value > 0 and math.isfinite(value)):
-                raise ValueError(f"{label} must be a positive number, got {value!r}")
-        self.max_speed = max_speed
-        self.max_turn = max_turn
-        self.max_accel = max_accel
-        self.max_turn_accel = max_turn_accel
-        self.watchdog_s = watchdog_s
+            flag, low, high, unit = LIMIT_RANGES[label]
+            if simulated:
+                low, high = 1e-9, 1e12
+            number = value if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+            if number is None or not (math.isfinite(number) and low <= number <= high):
+                raise ValueError(
+                    f"{flag} must lie in its safe range, {low:g} to {high:g} {unit} (got {_shown(value)})"
+                )
+        self.max_speed = float(max_speed)
+        self.max_turn = float(max_turn)
+        self.max_accel = float(max_accel)
+        self.max_turn_accel = float(max_turn_accel)
+        self.watchdog_s = float(watchdog_s)
 
     def as_dict(self) -> dict[str, float]:
         return dict(self.__dict__)
@@ -314,7 +338,11 @@ def _keep_alive(conn: socket.socket) -> None:
 
 
 class RobotServer:
-    """Serve `driver` on `host:port` to clients that know `token`; one client at a time."""
+    """Serve `driver` on `host:port` to clients that know `token`; one client at a time.
+
+    Beyond loopback the token must be strong (`attribot.bridge.guard.token_problem`; a `ValueError` says
+    why not). `throttle`: wrong tokens from one address are answered more and more slowly and then that
+    address is refused for a while (`guard.WrongTokens`, in `wrong_tokens`); off only to measure its cost."""
 
     def __init__(
         self,
@@ -323,9 +351,14 @@ class RobotServer:
         host: str = "127.0.0.1",
         port: int = 0,
         limits: Limits | None = None,
+        throttle: bool = True,
     ) -> None:
         if not token.strip():
             raise ValueError("the bridge needs a token that is not blank (the secret clients must send)")
+        problem = bind_problem(host, token)
+        if problem is not None:
+            raise ValueError(f"bridge: {problem}; give a stronger --token: {TOKEN_FIX}")
+        self.wrong_tokens = WrongTokens(log=log, what="bridge") if throttle else None
         self.driver = driver
         self.token = token
         self.limits = limits or Limits()
@@ -579,16 +612,32 @@ class RobotServer:
                 f"this robot speaks version {PROTOCOL_VERSION}",
                 "install the same attribot release on the robot and the planner's computer",
             )
+        address = str(peer[0]) if isinstance(peer, tuple) else str(peer)
+        throttle = self.wrong_tokens
+        if throttle is not None:
+            left = throttle.blocked(address)
+            if left > 0:
+                time.sleep(throttle.BLOCKED_WAIT_S)  # this hello's thread waits; the robot serves on
+                raise _Refused(
+                    "blocked",
+                    f"the robot refuses {address} for {left:.0f} s more: too many wrong tokens",
+                    "set ATTRIBOT_BRIDGE_TOKEN to the robot's --token, then wait and connect again",
+                )
         token = header.get("token")
         if not isinstance(token, str) or not hmac.compare_digest(
             token.encode("utf-8", "surrogatepass"), self.token.encode("utf-8", "surrogatepass")
         ):
-            log.warning("bridge: refused %s: wrong token", peer)
+            if throttle is None:
+                log.warning("bridge: refused %s: wrong token", peer)
+            else:
+                time.sleep(throttle.wrong(address))  # this hello's thread waits; others are served
             raise _Refused(
                 "auth",
                 "the robot refused the bridge token (wrong shared secret)",
                 "set ATTRIBOT_BRIDGE_TOKEN to the --token the robot's `attribot bridge serve` was given",
             )
+        if throttle is not None:
+            throttle.right(address)
 
     def _hello_reply(self) -> dict[str, Any]:
         caps = list(self.driver.capabilities())
@@ -854,6 +903,7 @@ def serve_in_thread(
     port: int = 0,
     limits: Limits | None = None,
     timeout_s: float = 120.0,
+    throttle: bool = True,
 ) -> tuple[RobotServer, Driver, threading.Thread]:
     """Start a server in a daemon thread that also builds and closes its driver: a driver's resources (a
     simulator's GL context) belong to the thread that made them. `server.close()` stops it; join the
@@ -863,7 +913,7 @@ def serve_in_thread(
     def run() -> None:
         try:
             driver = make_driver()
-            server = RobotServer(driver, token, host=host, port=port, limits=limits)
+            server = RobotServer(driver, token, host=host, port=port, limits=limits, throttle=throttle)
         except BaseException as exc:  # noqa: BLE001 (handed to the caller, who raises it)
             ready.put(exc)
             return

@@ -28,6 +28,7 @@ import asyncio
 import hashlib
 import hmac
 import ipaddress
+import logging
 import re
 import secrets
 from dataclasses import dataclass, field
@@ -37,17 +38,26 @@ from urllib.parse import urlsplit
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from attribot.bridge.guard import WrongTokens
 from attribot.config import MAX_QUERY_CHARS, Settings
 from attribot.demo.runs import KEPT_RUNS, MAX_WAITING, Busy, Crowded, NoSpace, Run, Runs
 from attribot.deps import require
-from attribot.errors import AttribotError, InputError
+from attribot.errors import AttribotError, ConfigError, InputError
 
 __all__ = ["DemoConfig", "create_app", "MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "KEPT_RUNS", "MAX_WAITING"]
+
+log = logging.getLogger("attribot.demo")
 
 MAX_IMAGE_BYTES = 10 * 1024 * 1024
 """The largest image file a visitor may upload."""
 MAX_IMAGE_PIXELS = 25_000_000
 """The most pixels an uploaded image may have (read from its header before it is decoded)."""
+MAX_UPLOADS_IN_FLIGHT = 4
+"""Queries whose request body is read and decoded at once: each holds up to a few times `MAX_IMAGE_BYTES`
+(the base64 text, its bytes, the decoded pixels); the others wait for a slot unread, so that many uploads
+at once cannot grow the process without bound."""
+UPLOAD_WAIT_S = 15.0
+"""How long a query waits for an upload slot before it is told to try again (HTTP 503)."""
 BODY_TIMEOUT_S = 60.0
 """How long a query's request body may take to arrive (a client trickling it must not hold a task)."""
 SECRET_HEADER = "X-Attribot-Secret"
@@ -55,6 +65,8 @@ SECRET_HEADER = "X-Attribot-Secret"
 _VISITOR = "attribot_demo_visitor"
 _TOKEN = "attribot_demo_token"
 _VISITOR_FORMAT = re.compile(r"[0-9a-f]{32}")
+_LABEL = r"[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+_HOST_NAME = re.compile(rf"(?=.{{1,253}}\Z){_LABEL}(?:\.{_LABEL})*\.?")
 _SECURITY_HEADERS = [
     ("x-content-type-options", "nosniff"),
     ("x-frame-options", "DENY"),
@@ -83,6 +95,16 @@ class DemoConfig:
     keep_runs: bool = False
     min_free_bytes: int = 256 << 20
     max_streams_per_run: int = 4
+
+    def __post_init__(self) -> None:
+        for host in self.hosts:
+            if not isinstance(host, str) or not (_HOST_NAME.fullmatch(host) or is_ip(host)):
+                shown = repr(host) if len(repr(host)) <= 80 else repr(host)[:77] + "..."
+                raise ConfigError(
+                    f"--allow-host {shown} is not a host name",
+                    "give a name visitors type, e.g. --allow-host lab-pc.local (letters, digits, '-' and "
+                    "dots; no spaces, ports or schemes)",
+                )
 
 
 class _Upload(BaseModel):
@@ -144,6 +166,7 @@ class _Guard:
         self.cookie = (
             None if self.token is None else hmac.new(self.token, b"cookie", hashlib.sha256).hexdigest()
         )
+        self.wrong_tokens = WrongTokens(log=log, what="demo")
 
     async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
         if scope["type"] != "http":
@@ -155,7 +178,9 @@ class _Guard:
         extra: list[tuple[str, str]] = []
         refusal = self._refusal(scope, headers)
         if refusal is None and self.token is not None:
-            refusal, extra = self._token(scope, headers)
+            refusal, extra, wait_s = self._token(scope, headers)
+            if wait_s > 0:  # a peer guessing tokens is answered more and more slowly
+                await asyncio.sleep(wait_s)
 
         async def guarded(message: Any) -> None:
             if message["type"] == "http.response.start":
@@ -188,12 +213,27 @@ class _Guard:
             return _problem(403, "this request comes from another site", "ask from the demo's own page")
         return None
 
-    def _token(self, scope: Any, headers: Any) -> tuple[Any, list[tuple[str, str]]]:
-        """A refusal (or the redirect that takes the token out of the address), and the headers to add."""
+    def _token(self, scope: Any, headers: Any) -> tuple[Any, list[tuple[str, str]], float]:
+        """A refusal (or the redirect that takes the token out of the address), the headers to add, and how
+        long to hold the answer (wrong tokens from one address are slowed, then that address is blocked)."""
         from starlette.datastructures import QueryParams
         from starlette.requests import cookie_parser
 
         assert self.token is not None and self.cookie is not None
+        client = scope.get("client")
+        peer = str(client[0]) if client else "?"
+        left = self.wrong_tokens.blocked(peer)
+        if left > 0:
+            return (
+                _problem(
+                    429,
+                    f"too many wrong tokens from this address: refused for {left:.0f} s more",
+                    "open the address the demo printed, with ?token=TOKEN, once the wait is over",
+                    {"Retry-After": str(int(left) + 1)},
+                ),
+                [],
+                self.wrong_tokens.BLOCKED_WAIT_S,
+            )
         query = QueryParams(scope["query_string"])
         given = query.get("token")
         auth = headers.get("authorization", "")
@@ -201,9 +241,11 @@ class _Guard:
             given = auth[7:].strip()
         if given is not None:
             ok = hmac.compare_digest(given.encode("utf-8", "surrogatepass"), self.token)
+            guessed = True
         else:
             cookie = cookie_parser(headers.get("cookie", "")).get(_TOKEN, "")
             ok = hmac.compare_digest(cookie.encode("utf-8", "surrogatepass"), self.cookie.encode())
+            guessed = bool(cookie)
         if not ok:
             return (
                 _problem(
@@ -212,16 +254,19 @@ class _Guard:
                     "open the address the demo printed, with ?token=TOKEN",
                 ),
                 [],
+                self.wrong_tokens.wrong(peer) if guessed else 0.0,
             )
+        if guessed:
+            self.wrong_tokens.right(peer)
         if "token" not in query:
-            return None, []
+            return None, [], 0.0
         kept = [("set-cookie", f"{_TOKEN}={self.cookie}; HttpOnly; Path=/; SameSite=strict")]
         if scope["path"] == "/" and scope["method"] == "GET":
             # the token leaves the address bar (and the history) at once: the page is kept by the cookie
             from starlette.responses import RedirectResponse
 
-            return RedirectResponse("/", status_code=303), kept
-        return None, kept
+            return RedirectResponse("/", status_code=303), kept, 0.0
+        return None, kept, 0.0
 
 
 def _upload(image: _Upload) -> tuple[str, bytes]:
@@ -310,6 +355,7 @@ class _Shared:
     runs: Runs
     page_html: str
     key: bytes = field(repr=False)
+    uploads: asyncio.Semaphore = field(default_factory=lambda: asyncio.Semaphore(MAX_UPLOADS_IN_FLIGHT))
 
     def secret_of(self, visitor: str) -> str:
         return hmac.new(self.key, visitor.encode(), hashlib.sha256).hexdigest()
@@ -421,10 +467,16 @@ def _refusal_of_sender(request: Any, shared: _Shared) -> tuple[str | None, Any]:
 async def _form_of(request: Any, limit: int, too_large: str) -> tuple[_RunRequest | None, Any]:
     """The page's form in the request's body, or the refusal of a body that is slow, too large or not the
     form."""
+    from starlette.requests import ClientDisconnect
+
     try:
         body = await _body_of(request, limit)
     except TimeoutError:
         return None, _problem(408, f"the request took over {BODY_TIMEOUT_S:g} s to arrive", "send it again")
+    except ClientDisconnect:  # the visitor left mid-upload: nobody reads an answer, and it is no error here
+        from starlette.responses import Response
+
+        return None, Response(status_code=499)
     if body is None:
         return None, _problem(413, too_large, "send a smaller image")
     try:
@@ -455,6 +507,21 @@ def _add_start_route(app: Any, shared: _Shared) -> None:
         visitor, refusal = _refusal_of_sender(request, shared)
         if visitor is None:
             return refusal
+        try:  # its body is read only with a slot: uploads in flight are bounded, the others wait unread
+            await asyncio.wait_for(shared.uploads.acquire(), UPLOAD_WAIT_S)
+        except TimeoutError:
+            return _problem(
+                503,
+                f"{MAX_UPLOADS_IN_FLIGHT} other queries are being uploaded",
+                "send the query again in a moment",
+                {"Retry-After": "10"},
+            )
+        try:
+            return await _start(request, visitor)
+        finally:
+            shared.uploads.release()
+
+    async def _start(request: Any, visitor: str) -> Any:
         form, refusal = await _form_of(request, limit, too_large)
         if form is None:
             return refusal

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
+from attribot.bridge.guard import MIN_TOKEN_CHARS as GUARD_MIN_TOKEN_CHARS
 from attribot.demo.app import DemoConfig, create_app, is_ip
 from attribot.demo.runs import STOP_GRACE_S
 from attribot.deps import require
@@ -27,8 +28,9 @@ __all__ = ["serve_demo", "MIN_TOKEN_CHARS", "HEADER_TIMEOUT_S"]
 
 log = logging.getLogger("attribot.demo")
 
-MIN_TOKEN_CHARS = 8
-"""The shortest token the demo takes to listen beyond this machine."""
+MIN_TOKEN_CHARS = GUARD_MIN_TOKEN_CHARS
+"""The shortest token the demo takes to listen beyond this machine (the rule of every server that can
+spend a GPU or move a robot: `attribot.bridge.guard`)."""
 HEADER_TIMEOUT_S = 5.0
 """How long a connection may take to send a request's headers (one trickling them, slowloris-style, would
 otherwise hold a connection for ever)."""
@@ -45,23 +47,9 @@ def _check_token(host: str, token: str | None) -> None:
     except ConfigError as exc:  # the same rule as the model server's, with the demo's own fix
         raise ConfigError(
             exc.message.replace("the server", "the demo"),
-            "set --token (or ATTRIBOT_DEMO_TOKEN), or listen on 127.0.0.1 and use an SSH tunnel",
+            "set --token (or ATTRIBOT_DEMO_TOKEN) to a strong secret, e.g. $(openssl rand -hex 16), or "
+            "listen on 127.0.0.1 and use an SSH tunnel",
         ) from None
-    if token is not None and _beyond_this_machine(host) and len(token.strip()) < MIN_TOKEN_CHARS:
-        raise ConfigError(
-            f"the demo's --token is shorter than {MIN_TOKEN_CHARS} characters: anyone who reaches "
-            f"{host} could guess it",
-            _TOKEN_FIX,
-        )
-
-
-def _beyond_this_machine(host: str) -> bool:
-    """Whether listening on `host` reaches beyond this machine (the model server's rule)."""
-    try:
-        check_bind(host, None)
-    except ConfigError:
-        return True
-    return False
 
 
 def _header_deadline(base: type[Any]) -> type[Any]:
@@ -151,7 +139,8 @@ def serve_demo(
     announce: Callable[[str], None] | None = None,
 ) -> None:
     """Serve the demo on `host`:`port` until interrupted (Ctrl-C, SIGTERM). An address beyond this machine
-    needs `config.token` of at least `MIN_TOKEN_CHARS` (a `ConfigError` otherwise, as for a blank token),
+    needs a strong `config.token` (`attribot.bridge.guard.token_problem`; a `ConfigError` otherwise, as for a
+    blank token),
     and a port in use is said before anything starts; `announce` then gets the address to open (with the
     token). The demo answers to `host` when it is a name, besides localhost and IP addresses."""
     _check_token(host, config.token)

@@ -43,7 +43,7 @@ from pydantic import (
 from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.eval.suite import TASKS, task_names
-from attribot.files import read_capped, write_whole
+from attribot.files import make_folder, read_capped, write_whole
 from attribot.sim.world import SceneInfo
 
 __all__ = [
@@ -252,7 +252,7 @@ def write_dataset(
 
         from attribot.embodiments.mujoco import MujocoWorld
 
-        (out / "images").mkdir(exist_ok=True)
+        make_folder(out / "images", "the dataset's images folder", "build the dataset into a new --out")
         for item in items:
             with MujocoWorld(item.scene()) as world:
                 rgb = world.observe().rgb

@@ -37,7 +37,7 @@ from attribot.eval.tables import (
     table_one,
     table_one_latex,
 )
-from attribot.files import inside, write_whole
+from attribot.files import check_target, inside, write_whole
 from attribot.frame import load_image
 from attribot.mechanisms import MECHANISMS
 from attribot.noise import NOISE_PRESETS
@@ -360,6 +360,8 @@ def write_report(
     runs = read_runs(dirs)
     out = out or default_out(runs.dirs)
     out.parent.mkdir(parents=True, exist_ok=True)
+    for target in (out, out.parent / f"{out.stem}-table1.tex"):  # before anything is written beside them
+        check_target(target, "the report's file", "give --out a path where an HTML file can be written")
     rows = summarize(runs.records)
     latex = table_one_latex(rows, tagged("embodied"))
     write_whole(out.parent / f"{out.stem}-table1.tex", latex.encode())

@@ -45,7 +45,15 @@ from attribot.eval.methods import (
 )
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
-from attribot.files import disk_full, inside, read_capped, read_json, write_whole
+from attribot.files import (
+    disk_full,
+    inside,
+    make_folder,
+    not_a_file,
+    read_capped,
+    read_json,
+    write_whole,
+)
 from attribot.models.base import findable_categories, parse_spec
 from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
@@ -141,21 +149,43 @@ def records_path(out: Path, task: str, method: str, noise: str) -> Path:
     return out / "records" / f"{task}__{method}__{noise}.jsonl"
 
 
-def read_records(out: Path) -> list[Record]:
-    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped).
+def _identity(record: Record) -> tuple[str, str, str, str]:
+    """What makes a record the one record of its kind in a run: its item, task, method and noise level
+    (read from the record itself, never from the name of the file it sits in)."""
+    return (record.task, record.id, record.method, record.noise)
 
-    An item recorded twice for one method and noise level (two runs that wrote into one folder) is an
-    `InputError`: counted twice, it would narrow every interval of the report."""
-    records = []
+
+def read_records(out: Path) -> list[Record]:
+    """Every record of a run directory (a torn last line, from a crash mid-write, is skipped), each counted
+    once whatever the names of the files it sits in: a copy of a records file under another noise level's
+    name adds nothing.
+
+    An item recorded twice with different results for one method and noise level (two runs that wrote into
+    one folder) is an `InputError`: counted twice, it would narrow every interval of the report."""
+    records: list[Record] = []
+    seen: dict[tuple[str, str, str, str], tuple[Path, str]] = {}
     for path in _records_files(out):
-        seen: dict[str, int] = {}
+        in_file: dict[str, int] = {}
+        twice: list[str] = []
         for record in _records_in(path):
-            seen[record.id] = seen.get(record.id, 0) + 1
+            key = _identity(record)
+            in_file[record.id] = in_file.get(record.id, 0) + 1
+            if in_file[record.id] == 2:
+                twice.append(record.id)
+            text = record.model_dump_json()
+            if key in seen:
+                if seen[key][1] != text and in_file[record.id] == 1:
+                    raise InputError(
+                        f"{path} and {seen[key][0]} record {record.id} ({record.method}, {record.noise}) "
+                        f"with different results: two runs wrote into {out}",
+                        "run the evaluation again into a new --out (one run per folder)",
+                    )
+                continue  # the same record again (a copied file): counted once
+            seen[key] = (path, text)
             records.append(record)
-        twice = sorted(i for i, n in seen.items() if n > 1)
         if twice:
             raise InputError(
-                f"{path} records {len(twice)} item(s) more than once ({', '.join(twice[:3])}"
+                f"{path} records {len(twice)} item(s) more than once ({', '.join(sorted(twice)[:3])}"
                 f"{', ...' if len(twice) > 3 else ''}): two runs wrote into {out}",
                 "run the evaluation again into a new --out (one run per folder; attribot eval now locks it)",
             )
@@ -279,6 +309,14 @@ def _check_run(
 ) -> None:
     want = fingerprint(settings, subset, vocabulary, seed)
     have = read_about(out)
+    newer = sorted(set(have) - set(want) - {"seed", "items"})
+    if newer:
+        shown = ", ".join(_shown(k) for k in newer[:5]) + (", ..." if len(newer) > 5 else "")
+        raise ConfigError(
+            f"{out / 'run.json'} holds setting(s) this release of attribot does not know ({shown}): a newer "
+            "release made the run, and resuming it here would ignore them",
+            "resume it with the release that made it, or give another --out",
+        )
     if have:
         # a run folder without a root seed was made with 0: it was the only one
         ours, theirs = {**want, "seed": seed}, {"seed": 0, **have}
@@ -394,7 +432,9 @@ def _add_to_dataset(
 ) -> None:
     """Add `missing` to the run's dataset at `folder`: their images copied from the built dataset at
     `source`, or rendered; the manifest rewritten with every item, in the suite's order."""
-    (folder / "images").mkdir(parents=True, exist_ok=True)
+    fix = "give a run folder written by attribot eval, unchanged, or another --out"
+    make_folder(folder, "the run's dataset folder", fix)  # never a link planted to lead the images out
+    make_folder(folder / "images", "the run's dataset images folder", fix)
     if source is not None:
         for item in missing:
             name = f"images/{item.id}.png"
@@ -406,6 +446,7 @@ def _add_to_dataset(
             )
     else:
         rendered = _counter(progress, "rendering images", len(missing))
+        make_folder(folder / "new", "the run's dataset folder", fix)
         write_dataset(missing, folder / "new", images=True, on_image=rendered)
         for image in (folder / "new" / "images").glob("*.png"):
             image.replace(folder / "images" / image.name)
@@ -421,17 +462,15 @@ def _add_to_dataset(
 
 
 def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], int]:
-    done: dict[Path, set[str]] = {}
+    # by what each record says, whatever its file's name; what is no file (a FIFO) holds no record to skip
+    done = {_identity(r) for p in _records_files(out) if not_a_file(p) is None for r in _records_in(p)}
     jobs, skipped = [], 0
     for item in items:
         for method in plan.methods_for(item.task):
             for noise in plan.noise:
                 if Condition.parse(noise).ablation and method not in PROGRAM_METHODS:
                     continue  # an ablation of the error-catching mechanisms: only programs have them
-                path = records_path(out, item.task, method, noise)
-                if path not in done:
-                    done[path] = {r.id for r in _records_in(path)}
-                if item.id in done[path]:
+                if (item.task, item.id, method, noise) in done:
                     skipped += 1
                 else:
                     jobs.append((item, method, noise))
@@ -447,14 +486,58 @@ def _records_in(path: Path) -> Iterator[Record]:
         yield record
 
 
+class WorkerFailed(Exception):
+    """What ended a job in a worker process or Ray task, as one line of text (an exception of a plug-in's
+    own class may not unpickle in the parent; `sys.exit` there is a failure, never the run's success)."""
+
+
+def _worker_line(exc: BaseException, what: str) -> str:
+    if isinstance(exc, SystemExit):
+        text = f"{what} called sys.exit({exc.code!r})"
+    else:
+        told = getattr(exc, "message", None) or str(exc)
+        text = (
+            f"{what} failed: {type(exc).__name__}: {told}" if told else f"{what} failed: {type(exc).__name__}"
+        )
+    text = " ".join(text.split())
+    return text if len(text) <= 400 else text[:397] + "..."
+
+
 def _run_job(job_json: str, settings: Settings) -> str:
     """One job in a worker process or Ray task: the job's JSON and the settings (pickled, secrets and all:
     JSON would mask them) in, the record's JSON out. The job names the command's plug-ins, imported here
-    first: a worker has none of the command's imports, and a Ray node not its environment either."""
+    first: a worker has none of the command's imports, and a Ray node not its environment either. Anything
+    that ends the job otherwise (a plug-in that fails to import, `sys.exit` anywhere) is a `WorkerFailed`."""
     job = json.loads(job_json)
-    import_plugins(job["plugins"])
-    item = Item.model_validate(job["item"])
-    return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
+    try:
+        import_plugins(job["plugins"])
+    except BaseException as exc:  # noqa: BLE001 (a plug-in's failure, whatever it is, is told in one line)
+        names = ", ".join(job["plugins"])
+        raise WorkerFailed(
+            _worker_line(exc, f"a plug-in ({names[:100]}) imported in an eval worker")
+        ) from None
+    try:
+        item = Item.model_validate(job["item"])
+        return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
+    except BaseException as exc:  # noqa: BLE001
+        raise WorkerFailed(_worker_line(exc, f"{job['method']} on item {job['item'].get('id')}")) from None
+
+
+def _worker_result(future: Any) -> Record:
+    """The record a worker sent back; a worker that failed or ended early is a `ConfigError` in one line
+    (never a traceback, never a success with no records)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    fix = "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again: it resumes"
+    try:
+        return Record.model_validate_json(future.result())
+    except WorkerFailed as exc:
+        raise ConfigError(f"an eval worker stopped the run: {exc}", fix) from None
+    except BrokenProcessPool:
+        raise ConfigError(
+            "an eval worker process ended early (os._exit, a crash, or killed) before sending its record",
+            fix,
+        ) from None
 
 
 def _job_json(job: Job) -> str:
@@ -632,17 +715,33 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
         return
     if workers == 1:
         for item, method, noise in jobs:
-            yield run_method(item, method, settings, noise)
+            try:
+                record = run_method(item, method, settings, noise)
+            except SystemExit as exc:  # a plug-in's sys.exit: a failure, never the run's success
+                raise ConfigError(
+                    _worker_line(exc, f"{method} on item {item.id}"),
+                    "a plug-in returns or raises; fix it, or take it out of ATTRIBOT_PLUGINS",
+                ) from None
+            yield record
         return
+    from concurrent.futures.process import BrokenProcessPool
+
     with worker_pool(workers) as pool:
-        pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
-        queued = jobs[workers * 4 :]
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield Record.model_validate_json(future.result())
-                if queued:
-                    pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
+        try:
+            pending = {pool.submit(_run_job, _job_json(j), settings) for j in jobs[: workers * 4]}
+            queued = jobs[workers * 4 :]
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield _worker_result(future)
+                    if queued:
+                        pending.add(pool.submit(_run_job, _job_json(queued.pop(0)), settings))
+        except BrokenProcessPool:  # a worker that ended early, seen as the next job was handed over
+            raise ConfigError(
+                "an eval worker process ended early (os._exit, a crash, or killed) before sending its record",
+                "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again: it "
+                "resumes",
+            ) from None
 
 
 def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:
@@ -659,7 +758,15 @@ def _execute_ray(jobs: list[Job], settings: Settings) -> Iterator[Record]:
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
-                yield Record.model_validate_json(ray.get(ref))
+                try:
+                    text = ray.get(ref)
+                except Exception as exc:  # noqa: BLE001 (Ray wraps the task's WorkerFailed)
+                    cause = getattr(exc, "cause", None) or exc
+                    raise ConfigError(
+                        f"an eval task stopped the run: {' '.join(str(cause).split())[:400]}",
+                        "fix the plug-in (or take it out of ATTRIBOT_PLUGINS) and run the same command again",
+                    ) from None
+                yield Record.model_validate_json(text)
     finally:
         if started_here:
             ray.shutdown()

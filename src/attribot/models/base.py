@@ -11,9 +11,9 @@ import math
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, Literal, Protocol, TypeVar, runtime_checkable
 
-from pydantic import BaseModel, ConfigDict, field_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, field_validator
 
-from attribot.errors import ConfigError
+from attribot.errors import BackendError, ConfigError
 from attribot.frame import Frame
 from attribot.registry import Registry
 
@@ -278,7 +278,45 @@ def build_backend(role: str, spec: str, settings: Settings) -> Any:
     if role not in ROLES:
         raise ConfigError(f"unknown backend role {role!r}", f"choose one of: {', '.join(ROLES)}")
     kind, arg = parse_spec(spec)
-    return ROLES[role].get(kind)(arg, settings)
+    builder = ROLES[role].get(kind)
+    backend = builder(arg, settings)
+    if role == "detector" and not str(getattr(builder, "__module__", "")).startswith("attribot."):
+        return _CheckedDetector(backend, kind)  # a plug-in's: what it returns is checked as it returns
+    return backend
+
+
+class _CheckedDetector:
+    """A plug-in's detector whose every detection is checked as it returns (a label that is not text, a box
+    out of order): a `BackendError` naming the detector and the field, not a failure far downstream."""
+
+    def __init__(self, inner: Any, kind: str) -> None:
+        self._inner = inner
+        self._kind = kind
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._inner, name)
+
+    def detect(self, frame: Any, queries: Sequence[str]) -> list[Detection]:
+        out = self._inner.detect(frame, queries)
+        if not isinstance(out, (list, tuple)):
+            raise BackendError(
+                f"the detector {self._kind!r} returned {type(out).__name__}, not a list of detections",
+                "make its detect() return a list of attribot.models.base.Detection",
+            )
+        checked = []
+        for det in out:
+            fields = det.model_dump(warnings=False) if isinstance(det, BaseModel) else det
+            try:
+                checked.append(Detection.model_validate(fields))
+            except ValidationError as exc:
+                first = exc.errors()[0]
+                where = ".".join(str(p) for p in first.get("loc", ())) or "detection"
+                raise BackendError(
+                    f"the detector {self._kind!r} returned a detection whose {where} is "
+                    f"{repr(first.get('input'))[:60]}: {first.get('msg', 'invalid')}",
+                    "make its detect() return Detection(box=(x0, y0, x1, y1), score, label: text)",
+                ) from None
+        return checked
 
 
 def reaches_out(role: str, spec: str) -> bool:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import base64
 import binascii
 import io
+import struct
 from typing import Literal
 
 import numpy as np
@@ -214,6 +215,16 @@ def decode_image(data: str, *, max_bytes: int | None = None, max_pixels: int | N
         raise ImageTooLarge(
             f"the image is too many pixels to decode ({exc})", "send a smaller image"
         ) from exc
+    except ValueError as exc:  # PIL's own bound, e.g. a PNG text chunk that inflates past MAX_TEXT_CHUNK
+        raise ImageTooLarge(
+            f"the image holds data that inflates too far to read ({str(exc)[:120]}): a decompression bomb, "
+            "or a file with huge metadata",
+            "send the image without its metadata (re-save it as a plain PNG or JPEG)",
+        ) from exc
+    except (OSError, SyntaxError, struct.error, EOFError) as exc:  # a header PIL cannot make sense of
+        raise InputError(f"the image's header cannot be read ({str(exc)[:120]})", fix) from exc
+    if fmt == "MPO":  # a camera's JPEG with a second (preview or depth) picture after the first: a JPEG
+        fmt = "JPEG"
     if fmt not in ("PNG", "JPEG"):
         raise InputError(f"the image is a {fmt} file; the server reads PNG and JPEG only", fix)
     if max_pixels is not None and w * h > max_pixels:

@@ -17,12 +17,18 @@ class Limits(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    wall_s: float = Field(60.0, gt=0, description="wall-clock seconds, API calls included")
-    cpu_s: float = Field(10.0, gt=0, description="CPU seconds spent by the program's own process")
-    memory_mb: int = Field(512, ge=64, description="address space of the program's process")
-    max_output_chars: int = Field(20_000, ge=0, description="characters the program may print")
-    max_api_calls: int = Field(1_000, ge=0, description="API calls per run")
-    max_recursion: int = Field(200, ge=10, description="nested Python calls")
+    wall_s: float = Field(
+        60.0, gt=0, le=86_400, allow_inf_nan=False, description="wall-clock seconds, API calls included"
+    )
+    cpu_s: float = Field(
+        10.0, gt=0, le=86_400, allow_inf_nan=False, description="CPU seconds of the program's own process"
+    )
+    memory_mb: int = Field(512, ge=64, le=1 << 20, description="address space of the program's process")
+    max_output_chars: int = Field(
+        20_000, ge=0, le=100_000_000, description="characters the program may print"
+    )
+    max_api_calls: int = Field(1_000, ge=0, le=10_000_000, description="API calls per run")
+    max_recursion: int = Field(200, ge=10, le=100_000, description="nested Python calls")
     max_int_bits: int = Field(100_000, ge=64, description="bits of an integer made by **, * or <<")
     max_sequence: int = Field(10_000_000, ge=1, description="items of a sequence made by *")
     max_message_bytes: int = Field(2_000_000, ge=1_000, description="one API call or result on the pipe")

@@ -29,6 +29,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from attribot import __version__
+from attribot.bridge.guard import WrongTokens
 from attribot.deps import require
 from attribot.errors import AttribotError, InputError
 from attribot.frame import Frame
@@ -63,10 +64,10 @@ class ServerConfig(BaseModel):
 
     token: str | None = Field(default=None, repr=False)
     max_batch: int = Field(default=32, ge=1, le=1024)
-    batch_window_ms: float = Field(default=2.0, ge=0.0, le=10_000.0)
-    max_queue: int = Field(default=1024, ge=1)
-    max_image_mb: float = Field(default=10.0, gt=0.0)
-    max_pixels: int = Field(default=25_000_000, ge=1)
+    batch_window_ms: float = Field(default=2.0, ge=0.0, le=10_000.0, allow_inf_nan=False)
+    max_queue: int = Field(default=1024, ge=1, le=100_000)
+    max_image_mb: float = Field(default=10.0, gt=0.0, le=200.0, allow_inf_nan=False)
+    max_pixels: int = Field(default=25_000_000, ge=1, le=400_000_000)
     language_threads: int = Field(default=8, ge=1, le=256)
     max_text_chars: int = Field(default=4000, ge=1, le=1_000_000)
     max_queries: int = Field(default=64, ge=1, le=10_000)
@@ -90,9 +91,12 @@ class ServerConfig(BaseModel):
 class _Refused(Exception):
     """An error answered before any backend is involved (auth, body size, parsing)."""
 
-    def __init__(self, status: int, category: ErrorCategory, message: str, fix: str | None = None) -> None:
+    def __init__(
+        self, status: int, category: ErrorCategory, message: str, fix: str | None = None, wait_s: float = 0.0
+    ) -> None:
         super().__init__(message)
         self.status, self.category, self.message, self.fix = status, category, message, fix
+        self.wait_s = wait_s  # how long to hold the answer (a peer guessing tokens is slowed)
 
 
 def _error_response(status: int, category: ErrorCategory, message: str, fix: str | None = None) -> Any:
@@ -159,6 +163,7 @@ class _ModelServer:
         self.rejected: Counter[str] = Counter()
         self.started = time.monotonic()
         self.token = None if cfg.token is None else cfg.token.encode()
+        self.wrong_tokens = WrongTokens(log=log, what="model server")
         self.language_pool: list[concurrent.futures.ThreadPoolExecutor] = []
         self.batchers: dict[str, Batcher[Any, Any]] = {}
         batched = (("detector", detector, self._detect), ("vqa", vqa, self._answer))
@@ -204,8 +209,20 @@ class _ModelServer:
     # ---- what every request goes through ------------------------------------------------------------
 
     def check_token(self, request: Any) -> None:
+        """Refuse a request without the token (401), with a wrong one (403, answered more and more slowly
+        past the first few from one address), or from an address blocked for guessing (429)."""
         if self.token is None:
             return
+        peer = request.client.host if request.client else "?"
+        left = self.wrong_tokens.blocked(peer)
+        if left > 0:
+            raise _Refused(
+                429,
+                "auth",
+                f"too many wrong tokens from {peer}: refused for {left:.0f} s more",
+                "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with, then wait",
+                wait_s=self.wrong_tokens.BLOCKED_WAIT_S,
+            )
         header = request.headers.get("authorization", "")
         scheme, _, given = header.partition(" ")
         if not header or scheme.lower() != "bearer" or not given.strip():
@@ -215,13 +232,15 @@ class _ModelServer:
                 "this server needs a bearer token and the request has none",
                 "send `Authorization: Bearer TOKEN` (the client reads ATTRIBOT_REMOTE_TOKEN)",
             )
-        if not hmac.compare_digest(given.strip().encode(), self.token):
+        if not hmac.compare_digest(given.strip().encode("utf-8", "surrogatepass"), self.token):
             raise _Refused(
                 403,
                 "auth",
                 "the bearer token is wrong",
                 "set ATTRIBOT_REMOTE_TOKEN to the token the server was started with",
+                wait_s=self.wrong_tokens.wrong(peer),
             )
+        self.wrong_tokens.right(peer)
 
     async def read_body(self, request: Any, role: str) -> bytes:
         cfg = self.cfg
@@ -346,6 +365,8 @@ class _ModelServer:
                 role_stats.errors["internal"] += 1
             return _error_response(503, "internal", "the server is shutting down", "send the request again")
         except Exception as exc:  # noqa: BLE001 - every failure becomes a structured answer
+            if isinstance(exc, _Refused) and exc.wait_s > 0:
+                await asyncio.sleep(exc.wait_s)
             status, category, message, fix = _classify(exc, role, name or "-")
             if status == 500:
                 log.error("%s request failed: %s", role, message, exc_info=exc)
@@ -399,12 +420,14 @@ class _ModelServer:
     def health(self) -> HealthResponse:
         return HealthResponse(version=__version__, roles=self.names, uptime_s=time.monotonic() - self.started)
 
-    def metrics(self, request: Any) -> Any:
+    async def metrics(self, request: Any) -> Any:
         """The metrics record, or the error response of a refused token."""
         try:
             self.check_token(request)
         except _Refused as exc:
             self.rejected[exc.category] += 1
+            if exc.wait_s > 0:
+                await asyncio.sleep(exc.wait_s)
             return _error_response(exc.status, exc.category, exc.message, exc.fix)
         return MetricsResponse(
             uptime_s=time.monotonic() - self.started,
@@ -464,7 +487,7 @@ def create_app(
 
     @app.get(PATHS["metrics"])
     async def metrics(request: Request) -> Any:
-        record = server.metrics(request)
+        record = await server.metrics(request)
         if not isinstance(record, MetricsResponse):
             return record
         return Response(record.model_dump_json(), media_type="application/json")

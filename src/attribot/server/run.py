@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 import os
 import socket
@@ -11,6 +10,7 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
+from attribot.bridge.guard import TOKEN_FIX, bind_problem
 from attribot.deps import require
 from attribot.errors import ConfigError
 from attribot.models.base import build_backend, parse_spec
@@ -123,19 +123,17 @@ def close_backends(backends: dict[str, Any]) -> None:
 
 
 def check_bind(host: str, token: str | None) -> None:
-    """Refuse to listen beyond this machine without a token: anyone who can reach the port could use
-    the GPU. Loopback needs none (reach it through an SSH tunnel)."""
-    if token:
+    """Refuse to listen beyond this machine without a strong token (`attribot.bridge.guard`: at least 16
+    characters of more than one kind, no obvious word): anyone who can reach the port could use the GPU.
+    Loopback needs none (reach it through an SSH tunnel); a token given is never blank."""
+    problem = bind_problem(host, token)
+    if problem is None:
         return
-    try:
-        loopback = host == "localhost" or ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        loopback = False
-    if not loopback:
-        raise ConfigError(
-            f"the server would listen on {host} without a token",
-            "set --token (or ATTRIBOT_REMOTE_TOKEN), or listen on 127.0.0.1 and use an SSH tunnel",
-        )
+    if token is None:
+        fix = "set --token (or ATTRIBOT_REMOTE_TOKEN), or listen on 127.0.0.1 and use an SSH tunnel"
+    else:
+        fix = f"set --token (or ATTRIBOT_REMOTE_TOKEN) to a strong secret ({TOKEN_FIX})"
+    raise ConfigError(problem, fix)
 
 
 def listen_socket(host: str, port: int) -> socket.socket:

@@ -951,8 +951,8 @@ def check_request(layout: str, req: SceneRequest) -> None:
     read, a layout not made for the robot's body, a category its gripper cannot hold, or one outside the
     vocabulary. `SceneConfig`'s validator and `plan_scene` both ask it."""
     fn = LAYOUTS.get(layout)
-    if req.n_objects is not None and req.n_objects < 1:  # the upper bound is each layout's own
-        raise InputError(f"{req.n_objects} objects requested", "ask for at least 1 object")
+    if req.n_objects is not None and not 1 <= req.n_objects <= MAX_OBJECTS:  # each layout's range is narrower
+        raise InputError(f"{req.n_objects} objects requested", f"ask for 1 to {MAX_OBJECTS} objects")
     known = LAYOUT_OPTIONS.get(fn.__name__, ())
     unknown = sorted(set(req.options) - set(known))
     if unknown:
