@@ -195,6 +195,15 @@ class Request:
     level: Level | None = None  # the board of a shelf the scope is ("on the bottom shelf")
 
 
+@dataclass(frozen=True)
+class Understood:
+    """A reading of a query whose words the language front end mended first: the reading, and what was read
+    as what ("reading 'botle' as 'bottle'"), which the program says."""
+
+    inner: "ParsedQuery"
+    notes: tuple[str, ...]
+
+
 ParsedQuery = (
     LocationQuery
     | SizeQuery
@@ -206,4 +215,5 @@ ParsedQuery = (
     | YesNoQuery
     | SenseQuery
     | Request
+    | Understood
 )

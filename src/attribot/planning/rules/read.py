@@ -30,6 +30,7 @@ from attribot.planning.rules.forms import (
     SenseQuery,
     Side,
     SizeQuery,
+    Understood,
     UnsupportedQuery,
     WeightQuery,
     YesNoQuery,
@@ -84,9 +85,38 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text).
     `checked`: the query has passed `check_query` already (a planner's request), and is not checked again.
 
-    The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
-    narrowing such as "of the two closest"), then the families read what is left."""
+    The query is read as typed first; only when that is refused does the language front end
+    (`understand.mend`) mend its words (misspellings, synonyms, word forms) for a second reading, which
+    comes back as an `Understood` with what was read as what. A refusal names the words it could not place
+    and what they could mean."""
+    from attribot.planning.rules.understand import mend, unread
+
     original = query if checked else check_query(query)
+    try:
+        as_typed: ParsedQuery | None = _parse_as_typed(original)
+    except UnsupportedQuery:
+        as_typed = None
+    if as_typed is not None and not unread(original):
+        return as_typed
+    mended = mend(original)
+    if mended is None:
+        if as_typed is not None:
+            return as_typed
+        return _parse_as_typed(original)  # raises the refusal again
+    try:
+        inner = _parse_as_typed(mended.text)
+    except UnsupportedQuery as again:
+        if as_typed is not None:
+            return as_typed
+        notes = "; ".join(mended.notes)
+        raise UnsupportedQuery(original, f"{again.reason} ({notes})") from None
+    return Understood(inner, mended.notes)
+
+
+def _parse_as_typed(query: str) -> ParsedQuery:
+    """The parsed form of a checked query as typed. The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
+    narrowing such as "of the two closest"), then the families read what is left."""
+    original = query
     normalized = _normalize(original)
     if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")

@@ -19,6 +19,7 @@ from attribot.planning.rules.forms import (
     ParsedQuery,
     Region,
     Request,
+    Understood,
 )
 from attribot.planning.rules.helpers import source as helper_source
 
@@ -264,6 +265,12 @@ def write_program(
     """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
     w = _Writer(query)
     w.sensors, w.embodied, w.query = sensors, embodied, query
+    if isinstance(parsed, Understood):
+        # what was read as what is said: in the program, and printed with its answer
+        for note in parsed.notes:
+            w.line(f"# {note[0].upper()}{note[1:]}")
+        w.line(f"print({_q('Understood the query ' + '; '.join(parsed.notes) + '.')})")
+        parsed = parsed.inner
     if isinstance(parsed, Request):
         w.frame = parsed
         if parsed.action is not None:

@@ -1,0 +1,443 @@
+"""The language front end: a query the parser refused, read again with its words mended.
+
+It runs only when the parser refuses a query as typed (so the queries it reads cost nothing more), and
+mends words one by one, each change stated:
+
+- a word the parser knows (its vocabulary: `attribot.lexicon`, the senses' words of `attribot.sensors` and
+  the words its own patterns read, collected from its source) stays;
+- a misspelling of such a word, within one or two edits, becomes it ("heavist" -> "heaviest", "teh" ->
+  "the", "kilogrammes" -> "kilograms"); a misspelt name becomes the English word symspellpy's frequency
+  dictionary holds nearest ("botle" -> "bottle"), where WordNet knows it;
+- an adjective the parser does not read becomes the sense or size word WordNet says it means, in the same
+  form ("chilliest" -> "coldest", "squidgiest" -> "softest", British and American spellings meeting in one
+  synset), its lemma and degree from lemminflect;
+- "then" after a comparative is "than".
+
+The language data (WordNet from Debian's `wordnet-base`, read with nltk's reader; symspellpy's dictionary;
+lemminflect's tables) loads once, on the first query that needs it. Where the data is missing, the front
+end mends nothing and the refusal stands.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.resources
+import io
+import re
+from dataclasses import dataclass
+from functools import cache, cached_property
+from pathlib import Path
+from typing import Any
+
+from attribot.lexicon import (
+    COLOR_ALIASES,
+    COLOR_WORDS,
+    FUNCTION_WORDS,
+    GENERIC_NOUNS,
+    PROPERTY_NOUNS,
+    SIZE_ADJECTIVES,
+    SIZE_COMPARATIVES,
+    SIZE_SUPERLATIVES,
+    SURFACE_WORDS,
+    sense_words,
+)
+
+__all__ = ["Mended", "mend", "kinds_of", "WORDNET_DIR", "language_data"]
+
+WORDNET_DIR = Path("/usr/share/wordnet")
+"""Where Debian's `wordnet-base` puts WordNet 3.0."""
+
+_WORD = re.compile(r"[a-z]+")
+
+
+@dataclass(frozen=True)
+class Mended:
+    """A query with its words mended, and what was read as what ("reading 'botle' as 'bottle'")."""
+
+    text: str
+    notes: tuple[str, ...]
+
+
+# ---- the vocabulary the parser reads -------------------------------------------------------------------
+
+
+@cache
+def vocabulary() -> frozenset[str]:
+    """Every word the rules parser reads: the lexicon's words, the senses' words, and the words written
+    in the parser's own patterns (string literals of its modules and the lexicon's), so that no list here
+    repeats them."""
+    found: set[str] = set()
+    for group in (FUNCTION_WORDS, GENERIC_NOUNS, COLOR_WORDS, PROPERTY_NOUNS, SIZE_ADJECTIVES):
+        found.update(group)
+    found.update(COLOR_ALIASES)
+    found.update(SIZE_COMPARATIVES)
+    found.update(SIZE_SUPERLATIVES)
+    for phrase in (*SURFACE_WORDS, *sense_words()):
+        found.update(phrase.split())
+    import attribot.lexicon as lexicon
+    import attribot.planning.rules as rules
+
+    sources = [Path(lexicon.__file__), *Path(rules.__file__).parent.rglob("*.py")]
+    for path in sources:
+        if path.name == "understand.py":
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        docstrings = {
+            id(node.value)
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)
+        }
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.Constant) or not isinstance(node.value, str) or id(node) in docstrings:
+                continue
+            text = node.value
+            # a pattern (it has a regex's marks) or a word or two; not a message or an example sentence
+            if "\\" in text or "(?" in text or "|" in text or len(text.split()) <= 2:
+                text = re.sub(r"\\[a-zA-Z]", " ", text)  # "\s", "\b": escapes, not letters of a word
+                found.update(w for w in _WORD.findall(text) if len(w) >= 3)
+    return frozenset(found)
+
+
+def _plain_adjectives() -> tuple[str, ...]:
+    """The parser's one-word sense and size adjectives in their plain degree ("cold", "soft", "big")."""
+    senses = [w for w, (_, _, form) in sense_words().items() if form == "absolute" and " " not in w]
+    return tuple(dict.fromkeys([*senses, *SIZE_ADJECTIVES]))
+
+
+# ---- the language data, loaded once ----------------------------------------------------------------------
+
+
+class _Data:
+    """WordNet, symspellpy's dictionary and lemminflect, each loaded when first needed."""
+
+    @cached_property
+    def wordnet(self) -> Any:
+        return _load_wordnet()
+
+    @cached_property
+    def speller(self) -> Any:
+        return _load_speller()
+
+    @cached_property
+    def lemminflect(self) -> Any:
+        try:
+            import lemminflect
+        except ImportError:
+            return None
+        return lemminflect
+
+    @property
+    def ready(self) -> bool:
+        return self.lemminflect is not None
+
+
+@cache
+def language_data() -> _Data:
+    """The language data, loaded once per process."""
+    return _Data()
+
+
+def _load_wordnet() -> Any:
+    """nltk's WordNet reader over Debian's files, or None where either is missing. Debian ships no
+    `lexnames` file (the reader wants one for lexicographer file names, which the front end does not
+    read), so the reader is given numbered names."""
+    if not (WORDNET_DIR / "data.noun").is_file():
+        return None
+    try:
+        import nltk.data
+        from nltk.corpus.reader.wordnet import WordNetCorpusReader
+    except ImportError:
+        return None
+    if str(WORDNET_DIR) not in nltk.data.path:
+        nltk.data.path.append(str(WORDNET_DIR))  # nltk reads only below its data paths
+
+    class _DebianWordNet(WordNetCorpusReader):  # type: ignore[misc]
+        def open(self, file: str) -> Any:
+            if file == "lexnames":
+                return io.StringIO("".join(f"{i:02d}\tlex{i:02d}\t0\n" for i in range(64)))
+            return super().open(file)
+
+        def map_wn(self, version: str = "wordnet") -> None:
+            return None  # no mapping to other WordNet versions: 3.0 is read as it is
+
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return _DebianWordNet(str(WORDNET_DIR), None)
+
+
+def _load_speller() -> Any:
+    try:
+        from symspellpy import SymSpell
+    except ImportError:
+        return None
+    speller = SymSpell(max_dictionary_edit_distance=2)
+    dictionary = importlib.resources.files("symspellpy") / "frequency_dictionary_en_82_765.txt"
+    speller.load_dictionary(str(dictionary), 0, 1)
+    return speller
+
+
+def _inflect(base: str, degree: str) -> str | None:
+    data = language_data()
+    if data.lemminflect is None:
+        return None
+    forms = data.lemminflect.getInflection(base, degree)
+    return forms[0] if forms else None
+
+
+# ---- synonyms of the parser's adjectives, from WordNet -----------------------------------------------------
+
+
+@cache
+def _adjective_meanings() -> dict[str, str]:
+    """Adjectives WordNet gives as meaning one of the parser's plain sense or size adjectives (a lemma of
+    one of its synsets, or of a synset similar to one), to that adjective; a word two of them claim goes
+    to the one whose synset comes first for it."""
+    wordnet = language_data().wordnet
+    if wordnet is None:
+        return {}
+    claims: dict[str, tuple[int, str]] = {}
+    for base in _plain_adjectives():
+        for index, synset in enumerate(wordnet.synsets(base, "a")[:2]):  # its first senses only
+            for near in (synset, *synset.similar_tos()):
+                order = 2 * index + (0 if near is synset else 1)
+                for lemma in near.lemma_names():
+                    word = lemma.lower()
+                    if "_" in word or word == base:
+                        continue
+                    if word not in claims or order < claims[word][0]:
+                        claims[word] = (order, base)
+    known = vocabulary()
+    return {w: base for w, (_, base) in claims.items() if w not in known}
+
+
+# ---- mending --------------------------------------------------------------------------------------------
+
+
+def _edits(word: str) -> int:
+    """How many edits a misspelling of a word this long may have."""
+    return 1 if len(word) <= 5 else 2
+
+
+def _nearest_known(word: str) -> str | None:
+    """The parser's word nearest `word` by edits (transpositions count one), if one is nearest."""
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
+
+    limit = _edits(word)
+    hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=limit, limit=8)
+    if not hits:
+        return None
+    best = min(score for _, score, _ in hits)
+    nearest = [w for w, score, _ in hits if score == best]
+    if len(nearest) == 1:
+        return str(nearest[0])
+    # a tie ("teh": the, ten, tea): one that keeps the first letter (typists miss it least), the far
+    # commonest in English by symspellpy's counts among them
+    first = [w for w in nearest if w[0] == word[0]]
+    return _commonest(first or nearest)
+
+
+def _commonest(words: list[str]) -> str | None:
+    """The word of `words` at least ten times as common as any other, by symspellpy's counts, or None."""
+    speller = language_data().speller
+    if speller is None:
+        return None
+    counts = sorted(((speller.words.get(w, 0), w) for w in words), reverse=True)
+    if counts[0][0] > 0 and (len(counts) == 1 or counts[0][0] >= 10 * counts[1][0]):
+        return counts[0][1]
+    return None
+
+
+@cache
+def _vocabulary_list() -> list[str]:
+    return sorted(w for w in vocabulary() if len(w) >= 3)
+
+
+def _lemmas(word: str) -> dict[str, tuple[str, ...]]:
+    """lemminflect's lemmas of a word of its dictionary, by part of speech; empty for a word it lacks."""
+    data = language_data()
+    return dict(data.lemminflect.getAllLemmas(word)) if data.lemminflect is not None else {}
+
+
+def _is_english(word: str) -> bool:
+    return bool(_lemmas(word))
+
+
+def _as_sense_word(word: str, english: bool) -> str | None:
+    """An adjective in a form the parser does not read ("chilliest"), as the parser's word it means in the
+    same degree ("coldest"), or None. `english`: lemminflect's dictionary holds the word."""
+    data = language_data()
+    degree = "JJS" if word.endswith("est") else "JJR" if word.endswith("er") else "JJ"
+    if english:
+        lemmas = _lemmas(word).get("ADJ", ())
+    else:
+        lemmas = data.lemminflect.getLemma(word, "ADJ") if degree != "JJ" else (word,)
+    meanings = _adjective_meanings()
+    for lemma in lemmas:
+        base = meanings.get(lemma)
+        if base is None and not english and len(lemma) >= 6:
+            base = _nearest_meaning(lemma, meanings)
+        if base is None:
+            continue
+        if degree == "JJ":
+            return base
+        inflected = _inflect(base, degree)
+        known = vocabulary()
+        if inflected is not None and inflected in known:
+            return inflected
+        return f"{'more' if degree == 'JJR' else 'most'} {base}"
+    return None
+
+
+def _nearest_meaning(lemma: str, meanings: dict[str, str]) -> str | None:
+    """The sense adjective of the WordNet synonym nearest a word WordNet does not know ("squidgy" is two
+    edits from "squishy", which means soft), when one is nearest."""
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
+
+    hits = extract(lemma, list(meanings), scorer=OSA.distance, score_cutoff=2, limit=4)
+    if not hits:
+        return None
+    best = min(score for _, score, _ in hits)
+    bases = {meanings[w] for w, score, _ in hits if score == best}
+    return bases.pop() if len(bases) == 1 else None
+
+
+def _speller_word(word: str) -> str | None:
+    """The English word symspellpy's dictionary holds nearest a word it lacks, when WordNet knows it and no
+    other is as near and half as common."""
+    data = language_data()
+    if data.speller is None or len(word) < 4:
+        return None
+    from symspellpy import Verbosity
+
+    hits = data.speller.lookup(word, Verbosity.CLOSEST, max_edit_distance=min(_edits(word), 2))
+    if not hits or hits[0].distance == 0:
+        return None
+    first = hits[0]
+    rivals = [h for h in hits[1:] if h.distance == first.distance and h.count * 2 > first.count]
+    if rivals or not _is_english(first.term):
+        return None
+    return str(first.term)
+
+
+_COMPARATIVE_BEFORE_THEN = re.compile(r"\b([a-z]+er)((?:\s+(?:to|from)\s+(?:me|you|us))?)\s+then\b")
+# British spellings to American ones, where the American is the parser's word ("kilogrammes", "metres")
+_AMERICAN = (("tre", "ter"), ("our", "or"), ("mme", "m"), ("grey", "gray"), ("ise", "ize"), ("yse", "yze"))
+
+
+def mend(query: str) -> Mended | None:
+    """`query` with its misspelt and unread words mended, and what was read as what; None when nothing
+    was mended (or the language data is not installed)."""
+    if not language_data().ready:
+        return None
+    known = vocabulary()
+    text = query.lower().replace("\u2019", "'")
+    notes: list[str] = []
+    pieces: list[str] = []
+    last = 0
+    for match in _WORD.finditer(text):
+        word = match[0]
+        pieces.append(text[last : match.start()])
+        last = match.end()
+        contraction = text[match.end() : match.end() + 1] == "'"  # "what's": read as it is
+        replacement = None if contraction else _mend_word(word)
+        if replacement is not None and replacement != word:
+            notes.append(f"reading {word!r} as {replacement!r}")
+            word = replacement
+        pieces.append(word)
+    pieces.append(text[last:])
+    mended = "".join(pieces)
+    for then in _COMPARATIVE_BEFORE_THEN.finditer(mended):
+        if then[1] in known:
+            mended = mended[: then.end() - 4] + "than" + mended[then.end() :]
+            notes.append("reading 'then' as 'than'")
+            break
+    if not notes:
+        return None
+    return Mended(mended, tuple(dict.fromkeys(notes)))
+
+
+@cache
+def _mend_word(word: str) -> str | None:
+    """What a word of a query is read as, when not as itself: a sense word for an adjective the parser does
+    not read, the parser's word for a misspelling of one, the English word for a misspelt one."""
+    if word in vocabulary() or len(word) <= 2:
+        return None
+    english = _is_english(word)
+    if english:
+        sense = _as_sense_word(word, True) if "ADJ" in _lemmas(word) else None
+        return sense or _american(word) or _rare_for(word)
+    nearest = _nearest_known(word)
+    if nearest is not None:
+        return nearest
+    if word.endswith(("est", "er")) or len(word) >= 6:
+        sense = _as_sense_word(word, False)
+        if sense is not None:
+            return sense
+    return _speller_word(word)
+
+
+def _american(word: str) -> str | None:
+    """The parser's word a British spelling is ("kilogrammes" -> "kilograms"), or None."""
+    known = vocabulary()
+    for british, american in _AMERICAN:
+        if british in word:
+            spelt = word.replace(british, american)
+            if spelt in known:
+                return spelt
+    return None
+
+
+def _rare_for(word: str) -> str | None:
+    """The parser's word one edit from a rare English word, keeping its first letter, where English uses
+    it over two hundred times as often ("wich" -> "which"): a misspelling that happens to be a word."""
+    speller = language_data().speller
+    if speller is None or len(word) < 3:
+        return None
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
+
+    hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=1, limit=8)
+    own = speller.words.get(word, 0)
+    near = [w for w, _, _ in hits if w[0] == word[0] and speller.words.get(w, 0) > 200 * max(own, 1)]
+    return near[0] if len(near) == 1 else None
+
+
+def unread(query: str) -> bool:
+    """Whether `query` holds a word that is neither the parser's nor in lemminflect's English dictionary (a
+    misspelling, most likely): then a reading of it as typed may search for a misspelt name, and the mended
+    reading is tried. Cheap: the data it needs is the vocabulary and lemminflect's tables."""
+    known = vocabulary()
+    for word in _WORD.findall(query.lower()):
+        if len(word) > 2 and word not in known and not _is_english(word):
+            return True
+    return False
+
+
+# ---- kinds ------------------------------------------------------------------------------------------------
+
+
+@cache
+def kinds_of(noun: str) -> tuple[str, ...]:
+    """The common kinds WordNet lists under a plural noun that names a group ("vegetables": carrot, potato,
+    ...): one-word hyponyms, to three levels, that WordNet's sense counts show in use; empty for a noun with
+    fewer than three of them, or a singular."""
+    data = language_data()
+    if data.wordnet is None:
+        return ()
+    singular = data.wordnet.morphy(noun, "n")
+    if singular is None or singular == noun:
+        return ()
+    synsets = data.wordnet.synsets(singular, "n")
+    if not synsets:
+        return ()
+    found: dict[str, None] = {}
+    for synset in synsets[0].closure(lambda s: s.hyponyms(), depth=3):
+        for lemma in synset.lemmas():
+            name = lemma.name().lower()
+            if "_" not in name and "-" not in name and lemma.count() > 0 and name != singular:
+                found[name] = None
+    return tuple(sorted(found)) if len(found) >= 3 else ()
