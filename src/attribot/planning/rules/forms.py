@@ -193,6 +193,8 @@ class Request:
     action: Literal["pick", "put"] | None = None
     target: str | None = None  # what "put" puts the object on: a surface kind or an object's name
     level: Level | None = None  # the board of a shelf the scope is ("on the bottom shelf")
+    exclude: tuple[ObjectSpec, ...] = ()  # left out of the candidates ("apart from the kettle")
+    after: ObjectSpec | None = None  # the choice is the next one after it in the order ("next heaviest after")
 
 
 @dataclass(frozen=True)

@@ -37,6 +37,7 @@ from attribot.planning.rules.forms import (
 )
 from attribot.planning.rules.normalise import (
     _DIST_WORDS,
+    _split_names,
     _ME,
     _ORD,
     _SIDES,
@@ -135,14 +136,18 @@ def _parse_as_typed(query: str) -> ParsedQuery:
         return yes_no
     scope, level, text = _take_scope(text)
     among, text = _take_among(text)
+    exclude, text = _take_exclusion(text, original)
+    after, text = _take_after(text, original)
     region: Region | None = None
     if scope is not None and _ONLY_FRAME.fullmatch(text):
         inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
     else:
-        whole = normalized.text if scope is None and among is None else text
+        whole = normalized.text if scope is None and among is None and not exclude and after is None else text
         inner, scope, region = _parse_placed(text, whole, scope, opened, original, question)
-    if scope is None and among is None and action is None and region is None:
+    if scope is None and among is None and action is None and region is None and not exclude and after is None:
         return inner
+    if (exclude or after is not None) and isinstance(inner, YesNoQuery | MeasureQuery):
+        raise UnsupportedQuery(original, "it leaves out or orders objects for a question about named ones")
     if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
         isinstance(inner, SenseQuery) and (inner.ask != "which" or inner.named)
     ):
@@ -159,6 +164,8 @@ def _parse_as_typed(query: str) -> ParsedQuery:
         target=target,
         region=region,
         level=level,
+        exclude=exclude,
+        after=after,
     )
 
 
@@ -378,3 +385,57 @@ def _take_among(text: str) -> tuple[Among | None, str]:
     among = Among(attribute, most, _NUMBER_WORDS[match["k"]])  # type: ignore[arg-type]
     rest = text[: match.start()] + f" of the {noun} " + text[match.end() :]
     return among, " ".join(rest.split()).strip(" ,")
+
+
+# ---- exclusions and "the next after": "apart from the kettle", "the next heaviest after the toaster" ---------
+
+_LEAVING_OUT = r"(?:apart\s+from|aside\s+from|except(?:\s+for)?|other\s+than|besides|excluding|not\s+counting|ignoring|but\s+not)"
+_EXCLUSION_FIRST = re.compile(r"^" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)\s*,\s*(?P<rest>.+)$")
+_EXCLUSION_LAST = re.compile(r"^(?P<rest>.+?),?\s+" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)$")
+# "which object other than the kettle is the heaviest": the names between the noun and the verb
+_EXCLUSION_INSIDE = re.compile(
+    r"^(?P<head>.+?)\s+" + _LEAVING_OUT + r"\s+(?P<names>(?:the\s+)?[a-z]+(?:\s+(?:and|or)\s+(?:the\s+)?[a-z]+)?)"
+    r"\s+(?P<tail>(?:is|are)\b.*)$"
+)
+_LEAVING_CUES = ("apart", "aside", "except", "other than", "besides", "excluding", "counting", "ignoring", "but not")
+
+
+def _take_exclusion(text: str, original: str) -> tuple[tuple[ObjectSpec, ...], str]:
+    """The objects a choice leaves out ("apart from the kettle, which is the heaviest", "the heaviest thing
+    except the mug and the pot") and the text without them; a name that is no object's is refused."""
+    if not any(cue in text for cue in _LEAVING_CUES):
+        return (), text
+    for pattern in (_EXCLUSION_FIRST, _EXCLUSION_INSIDE, _EXCLUSION_LAST):
+        match = pattern.match(text)
+        if match is None:
+            continue
+        names = _split_names(_strip_article(match["names"]))
+        if names is None:
+            raise UnsupportedQuery(original, f"it leaves out {match['names']!r}, which names no object it reads")
+        if pattern is _EXCLUSION_INSIDE:
+            rest = f"{match['head']} {match['tail']}"
+        else:
+            rest = match["rest"]
+        return names, " ".join(rest.split()).strip(" ,")
+    return (), text
+
+
+_NEXT_AFTER = re.compile(
+    r"\bnext\s+(?P<adj>[a-z]+est|most\s+[a-z]+|least\s+[a-z]+)(?P<noun>(?:\s+[a-z]+){0,2}?)\s+"
+    r"(?:after|below|behind|down\s+from|than)\s+(?P<name>(?:the\s+)?[a-z]+(?:\s+[a-z]+)?)$"
+)
+
+
+def _take_after(text: str, original: str) -> tuple[ObjectSpec | None, str]:
+    """ "which object is the next heaviest after the toaster": the toaster, and "which object is the
+    heaviest"."""
+    if "next " not in text:
+        return None, text
+    match = _NEXT_AFTER.search(text)
+    if match is None:
+        return None, text
+    name = _named(_strip_article(match["name"]))
+    if name is None:
+        raise UnsupportedQuery(original, f"it orders after {match['name']!r}, which names no object it reads")
+    rest = text[: match.start()] + match["adj"] + match["noun"]
+    return name, " ".join(rest.split()).strip(" ,")

@@ -38,6 +38,7 @@ from attribot.lexicon import (
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
+    SHORTHAND_WORDS,
     SURFACE_WORDS,
     sense_words,
 )
@@ -77,6 +78,7 @@ def vocabulary() -> frozenset[str]:
     import attribot.lexicon as lexicon
     import attribot.planning.rules as rules
 
+    patterned: set[str] = set()
     sources = [Path(lexicon.__file__), *Path(rules.__file__).parent.rglob("*.py")]
     for path in sources:
         if path.name == "understand.py":
@@ -94,7 +96,10 @@ def vocabulary() -> frozenset[str]:
             # a pattern (it has a regex's marks) or a word or two; not a message or an example sentence
             if "\\" in text or "(?" in text or "|" in text or len(text.split()) <= 2:
                 text = re.sub(r"\\[a-zA-Z]", " ", text)  # "\s", "\b": escapes, not letters of a word
-                found.update(w for w in _WORD.findall(text) if len(w) >= 3)
+                patterned.update(w for w in _WORD.findall(text) if len(w) >= 3)
+    # a pattern's fragments ("amily" of "f(?:amily)") are no words: those English lacks are left out
+    english = language_data().counts
+    found.update(w for w in patterned if w in found or w in english or w in SHORTHAND_WORDS)
     return frozenset(found)
 
 
@@ -108,15 +113,19 @@ def _plain_adjectives() -> tuple[str, ...]:
 
 
 class _Data:
-    """WordNet, symspellpy's dictionary and lemminflect, each loaded when first needed."""
+    """WordNet, symspellpy's frequency dictionary and lemminflect, each loaded when first needed."""
 
     @cached_property
     def wordnet(self) -> Any:
         return _load_wordnet()
 
     @cached_property
-    def speller(self) -> Any:
-        return _load_speller()
+    def counts(self) -> dict[str, int]:
+        return _load_counts()
+
+    @cached_property
+    def words(self) -> list[str]:
+        return list(self.counts)
 
     @cached_property
     def lemminflect(self) -> Any:
@@ -167,15 +176,20 @@ def _load_wordnet() -> Any:
         return _DebianWordNet(str(WORDNET_DIR), None)
 
 
-def _load_speller() -> Any:
+def _load_counts() -> dict[str, int]:
+    """symspellpy's English frequency dictionary (82,765 words with their counts in a web corpus), read as
+    a plain table: the words English uses, and how often."""
     try:
-        from symspellpy import SymSpell
-    except ImportError:
-        return None
-    speller = SymSpell(max_dictionary_edit_distance=2)
-    dictionary = importlib.resources.files("symspellpy") / "frequency_dictionary_en_82_765.txt"
-    speller.load_dictionary(str(dictionary), 0, 1)
-    return speller
+        dictionary = importlib.resources.files("symspellpy") / "frequency_dictionary_en_82_765.txt"
+        text = dictionary.read_text(encoding="utf-8")
+    except (ImportError, OSError):
+        return {}
+    counts: dict[str, int] = {}
+    for line in text.splitlines():
+        word, _, count = line.partition(" ")
+        if count.isdigit():
+            counts[word] = int(count)
+    return counts
 
 
 def _inflect(base: str, degree: str) -> str | None:
@@ -190,26 +204,55 @@ def _inflect(base: str, degree: str) -> str | None:
 
 
 @cache
-def _adjective_meanings() -> dict[str, str]:
-    """Adjectives WordNet gives as meaning one of the parser's plain sense or size adjectives (a lemma of
-    one of its synsets, or of a synset similar to one), to that adjective; a word two of them claim goes
-    to the one whose synset comes first for it."""
+def _synset_meanings() -> dict[str, str]:
+    """WordNet synsets that mean one of the parser's plain sense or size adjectives, to it: the adjective's
+    first synset, and where that heads a cluster, the synsets similar to it ("chilly" is similar to cold);
+    a synset two of them claim stays with the first (the senses come before sizes)."""
     wordnet = language_data().wordnet
     if wordnet is None:
         return {}
-    claims: dict[str, tuple[int, str]] = {}
+    meanings: dict[str, str] = {}
     for base in _plain_adjectives():
-        for index, synset in enumerate(wordnet.synsets(base, "a")[:2]):  # its first senses only
-            for near in (synset, *synset.similar_tos()):
-                order = 2 * index + (0 if near is synset else 1)
-                for lemma in near.lemma_names():
-                    word = lemma.lower()
-                    if "_" in word or word == base:
-                        continue
-                    if word not in claims or order < claims[word][0]:
-                        claims[word] = (order, base)
-    known = vocabulary()
-    return {w: base for w, (_, base) in claims.items() if w not in known}
+        synsets = wordnet.synsets(base, "a")
+        if not synsets:
+            continue
+        first = synsets[0]
+        for synset in (first, *(first.similar_tos() if first.pos() == "a" else ())):
+            meanings.setdefault(synset.name(), base)
+    return meanings
+
+
+@cache
+def _meaning(word: str) -> str | None:
+    """The parser's plain adjective an English adjective means, by its first two WordNet senses: one of
+    them is a synset of `_synset_meanings`, or a satellite of one that heads a cluster."""
+    wordnet = language_data().wordnet
+    if wordnet is None:
+        return None
+    meanings = _synset_meanings()
+    for synset in wordnet.synsets(word, "a")[:2]:
+        near = (synset, *synset.similar_tos()) if synset.pos() == "s" else (synset,)
+        for candidate in near:
+            if candidate.name() in meanings:
+                return meanings[candidate.name()]
+    return None
+
+
+@cache
+def _meaning_words() -> tuple[str, ...]:
+    """The one-word adjectives whose first senses `_meaning` places: what a word WordNet lacks is matched
+    to ("squidgy" is two edits from "squishy")."""
+    wordnet = language_data().wordnet
+    if wordnet is None:
+        return ()
+    found: dict[str, None] = {}
+    for name in _synset_meanings():
+        synset = wordnet.synset(name)
+        for near in (synset, *(synset.similar_tos() if synset.pos() == "a" else ())):
+            for lemma in near.lemma_names():
+                if "_" not in lemma and "-" not in lemma:
+                    found[lemma.lower()] = None
+    return tuple(w for w in found if _meaning(w) is not None)
 
 
 # ---- mending --------------------------------------------------------------------------------------------
@@ -227,24 +270,21 @@ def _nearest_known(word: str) -> str | None:
 
     limit = _edits(word)
     hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=limit, limit=8)
+    # one that keeps the first letter (typists miss it least: "smiley" is no "amily")
+    hits = [(w, score) for w, score, _ in hits if w[0] == word[0]]
     if not hits:
         return None
-    best = min(score for _, score, _ in hits)
-    nearest = [w for w, score, _ in hits if score == best]
+    best = min(score for _, score in hits)
+    nearest = [w for w, score in hits if score == best]
     if len(nearest) == 1:
         return str(nearest[0])
-    # a tie ("teh": the, ten, tea): one that keeps the first letter (typists miss it least), the far
-    # commonest in English by symspellpy's counts among them
-    first = [w for w in nearest if w[0] == word[0]]
-    return _commonest(first or nearest)
+    return _commonest(nearest)  # a tie ("teh": the, ten, tea): the far commonest in English
 
 
 def _commonest(words: list[str]) -> str | None:
     """The word of `words` at least ten times as common as any other, by symspellpy's counts, or None."""
-    speller = language_data().speller
-    if speller is None:
-        return None
-    counts = sorted(((speller.words.get(w, 0), w) for w in words), reverse=True)
+    known = language_data().counts
+    counts = sorted(((known.get(w, 0), w) for w in words), reverse=True)
     if counts[0][0] > 0 and (len(counts) == 1 or counts[0][0] >= 10 * counts[1][0]):
         return counts[0][1]
     return None
@@ -262,7 +302,8 @@ def _lemmas(word: str) -> dict[str, tuple[str, ...]]:
 
 
 def _is_english(word: str) -> bool:
-    return bool(_lemmas(word))
+    """Whether English has the word: lemminflect's dictionary or the frequency dictionary holds it."""
+    return bool(_lemmas(word)) or word in language_data().counts
 
 
 def _as_sense_word(word: str, english: bool) -> str | None:
@@ -274,53 +315,53 @@ def _as_sense_word(word: str, english: bool) -> str | None:
         lemmas = _lemmas(word).get("ADJ", ())
     else:
         lemmas = data.lemminflect.getLemma(word, "ADJ") if degree != "JJ" else (word,)
-    meanings = _adjective_meanings()
     for lemma in lemmas:
-        base = meanings.get(lemma)
+        base = _meaning(lemma)
         if base is None and not english and len(lemma) >= 6:
-            base = _nearest_meaning(lemma, meanings)
+            base = _nearest_meaning(lemma)
         if base is None:
             continue
         if degree == "JJ":
             return base
         inflected = _inflect(base, degree)
-        known = vocabulary()
-        if inflected is not None and inflected in known:
+        if inflected is not None and inflected in vocabulary():
             return inflected
         return f"{'more' if degree == 'JJR' else 'most'} {base}"
     return None
 
 
-def _nearest_meaning(lemma: str, meanings: dict[str, str]) -> str | None:
+def _nearest_meaning(lemma: str) -> str | None:
     """The sense adjective of the WordNet synonym nearest a word WordNet does not know ("squidgy" is two
-    edits from "squishy", which means soft), when one is nearest."""
+    edits from "squishy", which means soft), when one is nearest and keeps its first letter."""
     from rapidfuzz.distance import OSA
     from rapidfuzz.process import extract
 
-    hits = extract(lemma, list(meanings), scorer=OSA.distance, score_cutoff=2, limit=4)
+    hits = extract(lemma, _meaning_words(), scorer=OSA.distance, score_cutoff=2, limit=4)
     if not hits:
         return None
     best = min(score for _, score, _ in hits)
-    bases = {meanings[w] for w, score, _ in hits if score == best}
+    bases = {_meaning(w) for w, score, _ in hits if score == best and w[0] == lemma[0]}
     return bases.pop() if len(bases) == 1 else None
 
 
 def _speller_word(word: str) -> str | None:
-    """The English word symspellpy's dictionary holds nearest a word it lacks, when WordNet knows it and no
-    other is as near and half as common."""
-    data = language_data()
-    if data.speller is None or len(word) < 4:
-        return None
-    from symspellpy import Verbosity
+    """The English word nearest a word English lacks ("botle" -> "bottle"), by edits (rapidfuzz over
+    symspellpy's frequency dictionary), keeping its first letter, when no other as near is half as common."""
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
 
-    hits = data.speller.lookup(word, Verbosity.CLOSEST, max_edit_distance=min(_edits(word), 2))
-    if not hits or hits[0].distance == 0:
+    data = language_data()
+    if len(word) < 4 or not data.counts:
         return None
-    first = hits[0]
-    rivals = [h for h in hits[1:] if h.distance == first.distance and h.count * 2 > first.count]
-    if rivals or not _is_english(first.term):
+    hits = extract(word, data.words, scorer=OSA.distance, score_cutoff=_edits(word), limit=32)
+    hits = [(w, score) for w, score, _ in hits if w[0] == word[0] and score > 0]
+    if not hits:
         return None
-    return str(first.term)
+    best = min(score for _, score in hits)
+    ranked = sorted(((data.counts[w], w) for w, score in hits if score == best), reverse=True)
+    if len(ranked) > 1 and ranked[1][0] * 2 > ranked[0][0]:
+        return None
+    return ranked[0][1]
 
 
 _COMPARATIVE_BEFORE_THEN = re.compile(r"\b([a-z]+er)((?:\s+(?:to|from)\s+(?:me|you|us))?)\s+then\b")
@@ -394,25 +435,26 @@ def _american(word: str) -> str | None:
 def _rare_for(word: str) -> str | None:
     """The parser's word one edit from a rare English word, keeping its first letter, where English uses
     it over two hundred times as often ("wich" -> "which"): a misspelling that happens to be a word."""
-    speller = language_data().speller
-    if speller is None or len(word) < 3:
+    counts = language_data().counts
+    if len(word) < 3:
         return None
     from rapidfuzz.distance import OSA
     from rapidfuzz.process import extract
 
     hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=1, limit=8)
-    own = speller.words.get(word, 0)
-    near = [w for w, _, _ in hits if w[0] == word[0] and speller.words.get(w, 0) > 200 * max(own, 1)]
+    own = counts.get(word, 0)
+    near = [w for w, _, _ in hits if w[0] == word[0] and counts.get(w, 0) > 200 * max(own, 1)]
     return near[0] if len(near) == 1 else None
 
 
 def unread(query: str) -> bool:
-    """Whether `query` holds a word that is neither the parser's nor in lemminflect's English dictionary (a
+    """Whether `query` holds a word that is neither the parser's nor in the English frequency dictionary (a
     misspelling, most likely): then a reading of it as typed may search for a misspelt name, and the mended
-    reading is tried. Cheap: the data it needs is the vocabulary and lemminflect's tables."""
+    reading is tried. Cheap: the data it needs is the vocabulary and the frequency dictionary."""
     known = vocabulary()
+    english = language_data().counts  # a plain table: no lemminflect (nor numpy) to read a query
     for word in _WORD.findall(query.lower()):
-        if len(word) > 2 and word not in known and not _is_english(word):
+        if len(word) > 2 and word not in known and word not in english:
             return True
     return False
 
@@ -423,10 +465,12 @@ def unread(query: str) -> bool:
 @cache
 def kinds_of(noun: str) -> tuple[str, ...]:
     """The common kinds WordNet lists under a plural noun that names a group ("vegetables": carrot, potato,
-    ...): one-word hyponyms, to three levels, that WordNet's sense counts show in use; empty for a noun with
-    fewer than three of them, or a singular."""
+    ...): one-word hyponyms, to five levels, that WordNet's sense counts or the frequency dictionary show in
+    common use. Empty for a singular,
+    a generic noun ("things") and a noun with fewer than eight such kinds, which names objects of its own
+    rather than a group ("bottles": a jug is no bottle to most people)."""
     data = language_data()
-    if data.wordnet is None:
+    if noun in GENERIC_NOUNS or data.wordnet is None:
         return ()
     singular = data.wordnet.morphy(noun, "n")
     if singular is None or singular == noun:
@@ -435,9 +479,12 @@ def kinds_of(noun: str) -> tuple[str, ...]:
     if not synsets:
         return ()
     found: dict[str, None] = {}
-    for synset in synsets[0].closure(lambda s: s.hyponyms(), depth=3):
+    for synset in synsets[0].closure(lambda s: s.hyponyms(), depth=5):
         for lemma in synset.lemmas():
             name = lemma.name().lower()
-            if "_" not in name and "-" not in name and lemma.count() > 0 and name != singular:
+            common = lemma.count() > 0 or data.counts.get(name, 0) >= 500_000
+            if not (name.isalpha() and common and name != singular):
+                continue
+            if synset in data.wordnet.synsets(name, "n")[:3]:  # what the word mostly means ("key" no fruit)
                 found[name] = None
-    return tuple(sorted(found)) if len(found) >= 3 else ()
+    return tuple(sorted(found)) if 8 <= len(found) <= 64 else ()

@@ -20,8 +20,15 @@ from attribot.planning.rules.forms import (
     Region,
     Request,
     Understood,
+    UnsupportedQuery,
 )
 from attribot.planning.rules.helpers import source as helper_source
+from attribot.planning.rules.understand import kinds_of
+
+GROUP_KINDS = 20
+"""A plural noun with this many common kinds under it in WordNet names a group ("vegetables", "fruits",
+"tools"), whose kinds are looked for with it; one with fewer ("bottles": flask, jug) names objects of its
+own, and its kinds are looked for only where none is found by its name."""
 
 # ---- the program writer --------------------------------------------------------------------------------
 
@@ -50,6 +57,7 @@ class _Writer:
         self.embodied = False
         self.act: str | None = None  # the helper call that acts on the chosen object: "bring(robot, {})"
         self.premeasured: str | None = None  # the distances of `candidates`, measured before the robot moved
+        self.applied: set[str] = set()  # the parts of the frame written ("exclude", "after")
 
     def line(self, text: str = "") -> None:
         stripped = text.lstrip()
@@ -92,9 +100,29 @@ def _count_message(before: str, count: str, after: str) -> str:
     return f"{_q(before)} + str({count}) + {_q(after)}"
 
 
+def _name_lists(names: Sequence[str], most: int = 200) -> list[str]:
+    """Names joined with commas for `find`, in lists of at most `most` characters (find takes 300)."""
+    lists: list[str] = []
+    for name in names:
+        if lists and len(lists[-1]) + 2 + len(name) <= most:
+            lists[-1] += ", " + name
+        else:
+            lists.append(name)
+    return lists
+
+
 def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     """`var = image.find(noun)`, the colour filter, and the "none found" error."""
-    w.line(f"{var} = image.find({_q(obj.noun)})")
+    kinds = kinds_of(obj.noun) if obj.noun.endswith("s") and " " not in obj.noun else ()
+    if len(kinds) >= GROUP_KINDS:
+        w.line(f"# {obj.noun} name a group: it and the kinds of it WordNet lists, looked for by name")
+        w.line(f"{var} = " + " + ".join(f"image.find({_q(names)})" for names in _name_lists((obj.noun, *kinds))))
+    else:
+        w.line(f"{var} = image.find({_q(obj.noun)})")
+    if 0 < len(kinds) < GROUP_KINDS:
+        w.line(f"if len({var}) == 0:")
+        w.line(f"    # none by that name: the kinds of {obj.noun} WordNet lists, looked for by name")
+        w.line(f"    {var} = " + " + ".join(f"image.find({_q(names)})" for names in _name_lists(kinds)))
     for color in obj.colors:
         w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
         w.line("kept = []")
@@ -110,6 +138,40 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
         _write_region(w, var, frame.region, obj, frame.scope)
     if frame is not None and frame.among is not None and var == "candidates":
         _write_among(w, frame.among)
+    if frame is not None and frame.exclude and var == "candidates":
+        _write_exclusion(w, frame.exclude, obj)
+    if frame is not None and frame.after is not None and var == "candidates":
+        _write_after(w, frame.after)
+
+
+def _write_exclusion(w: _Writer, exclude: tuple[ObjectSpec, ...], obj: ObjectSpec) -> None:
+    """Leave the named objects out of `candidates` ("apart from the kettle")."""
+    w.helper("same_box")
+    names = " and the ".join(spec.phrase for spec in exclude)
+    w.line(f"# apart from the {names}: every one found by that name is left out")
+    w.line("left_out = []")
+    for spec in exclude:
+        w.line(f"left_out = left_out + image.find({_q(spec.phrase)})")
+    w.line("kept = []")
+    w.line("for patch in candidates:")
+    w.line("    if not any(same_box(patch, other) for other in left_out):")
+    w.line("        kept.append(patch)")
+    w.line("candidates = kept")
+    w.fail("len(candidates) == 0", _q(f"no {obj.phrase} found apart from the {names}"))
+    w.applied.add("exclude")
+
+
+def _write_after(w: _Writer, after: ObjectSpec) -> None:
+    """Find the object the choice comes after ("next heaviest after the toaster"), among `candidates`."""
+    w.helper("same_box")
+    w.line(f"# the next one after the {after.phrase} in the order: find it among the candidates")
+    w.line(f"references = image.find({_q(after.phrase)})")
+    w.fail("len(references) == 0", _q(f"no {after.phrase} found in the image"))
+    w.line("reference = -1")
+    w.line("for index, patch in enumerate(candidates):")
+    w.line("    if reference < 0 and same_box(patch, references[0]):")
+    w.line("        reference = index")
+    w.fail("reference < 0", _q(f"the {after.phrase} is not one of the objects compared"))
 
 
 def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec, level: Level | None = None) -> None:
@@ -296,4 +358,11 @@ def write_program(
             break
     else:
         raise TypeError(f"no family writes a {type(parsed).__name__}")
+    frame = w.frame
+    if frame is not None and (
+        (frame.exclude and "exclude" not in w.applied) or (frame.after is not None and "after" not in w.applied)
+    ):
+        # a part of the question this program would not honour: no answer rather than a wrong one
+        raise UnsupportedQuery(query, "it leaves objects out or asks for the next in an order, which the "
+                               "planner writes only for a choice it measures among the objects found")
     return w.source()
