@@ -184,7 +184,7 @@ _STOP = FUNCTION_WORDS | {
 
 
 _LEAD = (
-    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at|out)|select|"
+    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at|out)|select|check|"
     r"pick\s+up|pick\s+out|pick|get|give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|"
     r"(?:i|we)\s+(?:am\s+|are\s+)?(?:looking\s+for|after)|(?:i|we)\s+(?:would\s+like|want|need)|"
     r"show\s+me\s+where|where\s+can\s+i\s+find|help\s+me\s+find)\s+"
@@ -265,6 +265,9 @@ _TAG = re.compile(
 _EMBEDDED_QUESTION = re.compile(
     r"^(?:(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|i\s+wonder"
     r"|do\s+you\s+know)\s+(?:if|whether)|is\s+it\s+true\s+that)\s+"
+    # "could you check is the kettle hotter than the mug": the question itself follows the request
+    r"|^(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|see)\s+"
+    r"(?=(?:is|are|does|do)\s)"
 )
 # what ends a query without adding to it: "then", "would you", a dangling "at", "roughly", a unit asked for
 _TAIL = re.compile(

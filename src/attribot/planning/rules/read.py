@@ -99,19 +99,30 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         as_typed = None
     if as_typed is not None and not unread(original):
         return as_typed
-    mended = mend(original)
+    mended = mend(original, refused=as_typed is None)
     if mended is None:
         if as_typed is not None:
             return as_typed
-        return _parse_as_typed(original)  # raises the refusal again
+        try:
+            return _parse_as_typed(original)
+        except UnsupportedQuery as refused:
+            raise _with_meanings(refused, original, ()) from None
     try:
         inner = _parse_as_typed(mended.text)
     except UnsupportedQuery as again:
         if as_typed is not None:
             return as_typed
-        notes = "; ".join(mended.notes)
-        raise UnsupportedQuery(original, f"{again.reason} ({notes})") from None
+        raise _with_meanings(again, original, mended.notes) from None
     return Understood(inner, mended.notes)
+
+
+def _with_meanings(refused: UnsupportedQuery, original: str, notes: tuple[str, ...]) -> UnsupportedQuery:
+    """The refusal, with what was read as what and what the words no dictionary holds could mean."""
+    from attribot.planning.rules.understand import could_mean
+
+    said = [*notes, could_mean(original)]
+    extra = "; ".join(s for s in said if s)
+    return UnsupportedQuery(original, f"{refused.reason} ({extra})" if extra else refused.reason)
 
 
 def _parse_as_typed(query: str) -> ParsedQuery:

@@ -43,7 +43,7 @@ from attribot.lexicon import (
     sense_words,
 )
 
-__all__ = ["Mended", "mend", "kinds_of", "WORDNET_DIR", "language_data"]
+__all__ = ["Mended", "mend", "unread", "could_mean", "kinds_of", "WORDNET_DIR", "language_data"]
 
 WORDNET_DIR = Path("/usr/share/wordnet")
 """Where Debian's `wordnet-base` puts WordNet 3.0."""
@@ -263,7 +263,11 @@ def _edits(word: str) -> int:
     return 1 if len(word) <= 5 else 2
 
 
-def _nearest_known(word: str) -> str | None:
+_OPENING_WORDS = ("which", "what", "where", "how", "who", "whats", "is", "are", "does", "do", "can", "could")
+"""How questions open: a misspelt first word is one of these where one is as near as any other word."""
+
+
+def _nearest_known(word: str, first: bool = False) -> str | None:
     """The parser's word nearest `word` by edits (transpositions count one), if one is nearest."""
     from rapidfuzz.distance import OSA
     from rapidfuzz.process import extract
@@ -275,10 +279,29 @@ def _nearest_known(word: str) -> str | None:
     if not hits:
         return None
     best = min(score for _, score in hits)
-    nearest = [w for w, score in hits if score == best]
+    nearest = [str(w) for w, score in hits if score == best]
+    if first and len(nearest) > 1:  # "wich is ...": which, not with
+        nearest = [w for w in nearest if w in _OPENING_WORDS] or nearest
+    return _tie_broken(word, nearest)
+
+
+def _tie_broken(word: str, nearest: list[str]) -> str | None:
+    """One of several words as near to `word`: the one with its letters swapped ("closre": closer); else
+    among the senses' words (the parser's attribute words) the ones ending as it does ("coldr": colder, not
+    cold or color), taken when they mean one thing ("frthest": farthest or furthest); else the far commonest
+    in English ("teh": the, not ten or tea)."""
     if len(nearest) == 1:
-        return str(nearest[0])
-    return _commonest(nearest)  # a tie ("teh": the, ten, tea): the far commonest in English
+        return nearest[0]
+    swapped = [w for w in nearest if sorted(w) == sorted(word)]
+    if len(swapped) == 1:
+        return swapped[0]
+    senses = sense_words()
+    attribute = [w for w in nearest if w in senses]
+    if attribute:
+        attribute = [w for w in attribute if w[-1] == word[-1]] or attribute
+        if len({senses[w] for w in attribute}) == 1:
+            return sorted(attribute)[0]
+    return _commonest(nearest)
 
 
 def _commonest(words: list[str]) -> str | None:
@@ -369,9 +392,10 @@ _COMPARATIVE_BEFORE_THEN = re.compile(r"\b([a-z]+er)((?:\s+(?:to|from)\s+(?:me|y
 _AMERICAN = (("tre", "ter"), ("our", "or"), ("mme", "m"), ("grey", "gray"), ("ise", "ize"), ("yse", "yze"))
 
 
-def mend(query: str) -> Mended | None:
+def mend(query: str, refused: bool = False) -> Mended | None:
     """`query` with its misspelt and unread words mended, and what was read as what; None when nothing
-    was mended (or the language data is not installed)."""
+    was mended (or the language data is not installed). `refused`: the query as typed was refused, and a
+    real word one slip from a sense word is mended too."""
     if not language_data().ready:
         return None
     known = vocabulary()
@@ -384,7 +408,8 @@ def mend(query: str) -> Mended | None:
         pieces.append(text[last : match.start()])
         last = match.end()
         contraction = text[match.end() : match.end() + 1] == "'"  # "what's": read as it is
-        replacement = None if contraction else _mend_word(word)
+        first = not text[: match.start()].strip(" ,.!?")
+        replacement = None if contraction else _mend_word(word, refused, first)
         if replacement is not None and replacement != word:
             notes.append(f"reading {word!r} as {replacement!r}")
             word = replacement
@@ -402,16 +427,19 @@ def mend(query: str) -> Mended | None:
 
 
 @cache
-def _mend_word(word: str) -> str | None:
+def _mend_word(word: str, refused: bool = False, first: bool = False) -> str | None:
     """What a word of a query is read as, when not as itself: a sense word for an adjective the parser does
-    not read, the parser's word for a misspelling of one, the English word for a misspelt one."""
+    not read, the parser's word for a misspelling of one, the English word for a misspelt one. `refused`:
+    the query as typed was refused, and an English word one slip from a sense word is read as it ("which is
+    the closet object": closest). `first`: the word opens the query."""
     if word in vocabulary() or len(word) <= 2:
         return None
     english = _is_english(word)
     if english:
         sense = _as_sense_word(word, True) if "ADJ" in _lemmas(word) else None
-        return sense or _american(word) or _rare_for(word)
-    nearest = _nearest_known(word)
+        slip = _slip_of_sense_word(word) if refused else None
+        return sense or _american(word) or _rare_for(word) or slip
+    nearest = _nearest_known(word, first)
     if nearest is not None:
         return nearest
     if word.endswith(("est", "er")) or len(word) >= 6:
@@ -445,6 +473,40 @@ def _rare_for(word: str) -> str | None:
     own = counts.get(word, 0)
     near = [w for w, _, _ in hits if w[0] == word[0] and counts.get(w, 0) > 200 * max(own, 1)]
     return near[0] if len(near) == 1 else None
+
+
+def _slip_of_sense_word(word: str) -> str | None:
+    """The senses' word one edit from an English word of five letters or more, keeping its first letter."""
+    if len(word) < 5:
+        return None
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
+
+    senses = [w for w in sense_words() if " " not in w]
+    hits = extract(word, senses, scorer=OSA.distance, score_cutoff=1, limit=8)
+    nearest = [str(w) for w, _, _ in hits if w[0] == word[0]]
+    return _tie_broken(word, nearest) if nearest else None
+
+
+def could_mean(query: str) -> str:
+    """What the words of a refused query that neither the parser nor English knows could mean, for the
+    refusal: "'wich' could be 'which' or 'with'"; empty when there is none."""
+    from rapidfuzz.distance import OSA
+    from rapidfuzz.process import extract
+
+    known = vocabulary()
+    english = language_data().counts
+    said = []
+    for word in dict.fromkeys(_WORD.findall(query.lower())):
+        if len(word) <= 2 or word in known or word in english:
+            continue
+        hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=2, limit=12)
+        near = sorted((score, w) for w, score, _ in hits if w[0] == word[0])[:3]
+        if near:
+            said.append(f"{word!r} could be " + " or ".join(repr(w) for _, w in near))
+        else:
+            said.append(f"{word!r} is no word it knows")
+    return "; ".join(said)
 
 
 def unread(query: str) -> bool:
