@@ -529,8 +529,9 @@ def kinds_of(noun: str) -> tuple[str, ...]:
     """The common kinds WordNet lists under a plural noun that names a group ("vegetables": carrot, potato,
     ...): one-word hyponyms, to five levels, that WordNet's sense counts or the frequency dictionary show in
     common use. Empty for a singular,
-    a generic noun ("things") and a noun with fewer than eight such kinds, which names objects of its own
-    rather than a group ("bottles": a jug is no bottle to most people)."""
+    a generic noun ("things"), a noun with fewer than eight such kinds, which names objects of its own
+    rather than a group ("bottles": a jug is no bottle to most people), and one with over a hundred, too
+    broad to list ("foods", "containers")."""
     data = language_data()
     if noun in GENERIC_NOUNS or data.wordnet is None:
         return ()
@@ -549,4 +550,4 @@ def kinds_of(noun: str) -> tuple[str, ...]:
                 continue
             if synset in data.wordnet.synsets(name, "n")[:3]:  # what the word mostly means ("key" no fruit)
                 found[name] = None
-    return tuple(sorted(found)) if 8 <= len(found) <= 64 else ()
+    return tuple(sorted(found)) if 8 <= len(found) <= 100 else ()

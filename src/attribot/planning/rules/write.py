@@ -116,13 +116,16 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     kinds = kinds_of(obj.noun) if obj.noun.endswith("s") and " " not in obj.noun else ()
     if len(kinds) >= GROUP_KINDS:
         w.line(f"# {obj.noun} name a group: it and the kinds of it WordNet lists, looked for by name")
-        w.line(f"{var} = " + " + ".join(f"image.find({_q(names)})" for names in _name_lists((obj.noun, *kinds))))
+        w.line(f"{var} = []")
+        for names in _name_lists((obj.noun, *kinds)):
+            w.line(f"{var} = {var} + image.find({_q(names)})")
     else:
         w.line(f"{var} = image.find({_q(obj.noun)})")
     if 0 < len(kinds) < GROUP_KINDS:
         w.line(f"if len({var}) == 0:")
         w.line(f"    # none by that name: the kinds of {obj.noun} WordNet lists, looked for by name")
-        w.line(f"    {var} = " + " + ".join(f"image.find({_q(names)})" for names in _name_lists(kinds)))
+        for names in _name_lists(kinds):
+            w.line(f"    {var} = {var} + image.find({_q(names)})")
     for color in obj.colors:
         w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
         w.line("kept = []")
