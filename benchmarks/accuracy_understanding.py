@@ -17,7 +17,7 @@ Rows use the schema of benchmarks/accuracy_english.py (its scenes, truths and ju
 - `after`: a category in the scene; the truth is the object just past it in the order asked ("the next
   heaviest after the toaster"), when the values on either side of it are clearly apart;
 - `group`: the categories of a group ("the fruits": apple, banana, orange); the scene (`named`) holds others
-  too, and the truth is chosen among the group's;
+  too (in view), and the truth is chosen among the group's;
 - `typo`: the generated row had a typo injected (reported apart: a typo may cost at most one refusal in ten).
 
 An answer is right, refused (the planner said it cannot read the query, or any other failure with no
@@ -82,9 +82,7 @@ def _truth(row: dict[str, Any], visible: list[Any]) -> Any:
         pool = [o for o in visible if o.category in row["group"]]
         if len(pool) < 2 or len(pool) == len(visible):
             return None
-        truth = english._truth(inner, pool)
-        # the group must matter: without it, another object would have been chosen
-        return truth if truth is not None and english._truth(inner, visible) != truth else None
+        return english._truth(inner, pool)
     if "after" in row:
         pool = [o for o in visible if _value(o, row["attr"]) is not None]
         ranked = sorted(pool, key=lambda o: _value(o, row["attr"]), reverse=row["dir"] == "max")  # type: ignore[arg-type, return-value]

@@ -100,7 +100,7 @@ def _count_message(before: str, count: str, after: str) -> str:
     return f"{_q(before)} + str({count}) + {_q(after)}"
 
 
-def _name_lists(names: Sequence[str], most: int = 200) -> list[str]:
+def _name_lists(names: Sequence[str], most: int = 280) -> list[str]:
     """Names joined with commas for `find`, in lists of at most `most` characters (find takes 300)."""
     lists: list[str] = []
     for name in names:
@@ -111,21 +111,46 @@ def _name_lists(names: Sequence[str], most: int = 200) -> list[str]:
     return lists
 
 
+class _Indented:
+    """The writer of a block's body: each line one level in."""
+
+    def __init__(self, outer: _Writer) -> None:
+        self.outer = outer
+
+    def line(self, text: str = "") -> None:
+        self.outer.line("    " + text)
+
+    def helper(self, name: str) -> None:
+        self.outer.helper(name)
+
+
+def _find_names(w: _Writer | _Indented, var: str, names: Sequence[str]) -> None:
+    """`var`: the objects found by any of `names`, asked in lists `find` takes, each object once (two
+    names may find one object: an orange is a citrus)."""
+    lists = _name_lists(names)
+    if len(lists) == 1:
+        w.line(f"{var} = image.find({_q(lists[0])})")
+        return
+    w.helper("same_box")
+    w.line(f"{var} = []")
+    for listed in lists:
+        w.line(f"for patch in image.find({_q(listed)}):")
+        w.line(f"    if not any(same_box(patch, other) for other in {var}):")
+        w.line(f"        {var}.append(patch)")
+
+
 def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     """`var = image.find(noun)`, the colour filter, and the "none found" error."""
     kinds = kinds_of(obj.noun) if obj.noun.endswith("s") and " " not in obj.noun else ()
     if len(kinds) >= GROUP_KINDS:
         w.line(f"# {obj.noun} name a group: it and the kinds of it WordNet lists, looked for by name")
-        w.line(f"{var} = []")
-        for names in _name_lists((obj.noun, *kinds)):
-            w.line(f"{var} = {var} + image.find({_q(names)})")
+        _find_names(w, var, (obj.noun, *kinds))
     else:
         w.line(f"{var} = image.find({_q(obj.noun)})")
     if 0 < len(kinds) < GROUP_KINDS:
         w.line(f"if len({var}) == 0:")
         w.line(f"    # none by that name: the kinds of {obj.noun} WordNet lists, looked for by name")
-        for names in _name_lists(kinds):
-            w.line(f"    {var} = {var} + image.find({_q(names)})")
+        _find_names(_Indented(w), var, kinds)
     for color in obj.colors:
         w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
         w.line("kept = []")
