@@ -295,6 +295,9 @@ def _tie_broken(word: str, nearest: list[str]) -> str | None:
     swapped = [w for w in nearest if sorted(w) == sorted(word)]
     if len(swapped) == 1:
         return swapped[0]
+    dropped = [w for w in nearest if _holds_in_order(w, word)]  # "toastr": toaster, a letter dropped
+    if len(dropped) == 1:
+        return dropped[0]
     senses = sense_words()
     attribute = [w for w in nearest if w in senses]
     if attribute:
@@ -302,6 +305,12 @@ def _tie_broken(word: str, nearest: list[str]) -> str | None:
         if len({senses[w] for w in attribute}) == 1:
             return sorted(attribute)[0]
     return _commonest(nearest)
+
+
+def _holds_in_order(longer: str, word: str) -> bool:
+    """Whether `word` is `longer` with letters dropped."""
+    letters = iter(longer)
+    return len(longer) > len(word) and all(ch in letters for ch in word)
 
 
 def _commonest(words: list[str]) -> str | None:
@@ -335,7 +344,7 @@ def _as_sense_word(word: str, english: bool) -> str | None:
     data = language_data()
     degree = "JJS" if word.endswith("est") else "JJR" if word.endswith("er") else "JJ"
     if english:
-        lemmas = _lemmas(word).get("ADJ", ())
+        lemmas = _lemmas(word).get("ADJ", (word,))  # "scalding": a verb's form to lemminflect
     else:
         lemmas = data.lemminflect.getLemma(word, "ADJ") if degree != "JJ" else (word,)
     for lemma in lemmas:
@@ -367,6 +376,12 @@ def _nearest_meaning(lemma: str) -> str | None:
     return bases.pop() if len(bases) == 1 else None
 
 
+def _distance(word: str, other: str) -> int:
+    from rapidfuzz.distance import OSA
+
+    return int(OSA.distance(word, other))
+
+
 def _speller_word(word: str) -> str | None:
     """The English word nearest a word English lacks ("botle" -> "bottle"), by edits (rapidfuzz over
     symspellpy's frequency dictionary), keeping its first letter, when no other as near is half as common."""
@@ -381,7 +396,11 @@ def _speller_word(word: str) -> str | None:
     if not hits:
         return None
     best = min(score for _, score in hits)
-    ranked = sorted(((data.counts[w], w) for w, score in hits if score == best), reverse=True)
+    nearest = [str(w) for w, score in hits if score == best]
+    for kept in ([w for w in nearest if sorted(w) == sorted(word)], [w for w in nearest if _holds_in_order(w, word)]):
+        if len(kept) == 1:  # a swap ("bottel"), else a dropped letter ("toastr")
+            return kept[0]
+    ranked = sorted(((data.counts[w], w) for w in nearest), reverse=True)
     if len(ranked) > 1 and ranked[1][0] * 2 > ranked[0][0]:
         return None
     return ranked[0][1]
@@ -436,17 +455,18 @@ def _mend_word(word: str, refused: bool = False, first: bool = False) -> str | N
         return None
     english = _is_english(word)
     if english:
-        sense = _as_sense_word(word, True) if "ADJ" in _lemmas(word) else None
+        sense = _as_sense_word(word, True)
         slip = _slip_of_sense_word(word) if refused else None
         return sense or _american(word) or _rare_for(word) or slip
     nearest = _nearest_known(word, first)
-    if nearest is not None:
-        return nearest
     if word.endswith(("est", "er")) or len(word) >= 6:
         sense = _as_sense_word(word, False)
-        if sense is not None:
+        if sense is not None and (nearest is None or _distance(word, sense) < _distance(word, nearest)):
             return sense
-    return _speller_word(word)
+    spelt = _speller_word(word)
+    if spelt is not None and (nearest is None or _distance(word, spelt) < _distance(word, nearest)):
+        return spelt  # "bottel": bottle (one swap), not the parser's "bottom" (two edits)
+    return nearest
 
 
 def _american(word: str) -> str | None:
