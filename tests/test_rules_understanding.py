@@ -77,7 +77,7 @@ def test_the_typos_of_names_are_mended_even_where_the_text_reads() -> None:
     ("query", "words"),
     [
         ("which object is xqzzy", "'xqzzy' is no word it knows"),
-        ("hey, wich mug is hottest", "'wich' could be 'which'"),
+        ("which object is florpy", "reading 'florpy' as 'floppy'"),
     ],
 )
 def test_a_refusal_names_the_word_and_what_it_could_mean(query: str, words: str) -> None:

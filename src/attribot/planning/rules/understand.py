@@ -397,13 +397,19 @@ def _speller_word(word: str) -> str | None:
         return None
     best = min(score for _, score in hits)
     nearest = [str(w) for w, score in hits if score == best]
-    for kept in ([w for w in nearest if sorted(w) == sorted(word)], [w for w in nearest if _holds_in_order(w, word)]):
-        if len(kept) == 1:  # a swap ("bottel"), else a dropped letter ("toastr")
-            return kept[0]
-    ranked = sorted(((data.counts[w], w) for w in nearest), reverse=True)
-    if len(ranked) > 1 and ranked[1][0] * 2 > ranked[0][0]:
+    # the commonest, a swap ("bottel") or a dropped letter ("toastr": toaster, not toast) counted five times
+    weighted = sorted(
+        ((data.counts[w] * (5 if _slipped(w, word) else 1), w) for w in nearest),
+        reverse=True,
+    )
+    if len(weighted) > 1 and weighted[1][0] * 2 > weighted[0][0]:
         return None
-    return ranked[0][1]
+    return weighted[0][1]
+
+
+def _slipped(meant: str, typed: str) -> bool:
+    """Whether `typed` is `meant` with two letters swapped or letters dropped: the commonest slips."""
+    return sorted(meant) == sorted(typed) or _holds_in_order(meant, typed)
 
 
 _COMPARATIVE_BEFORE_THEN = re.compile(r"\b([a-z]+er)((?:\s+(?:to|from)\s+(?:me|you|us))?)\s+then\b")
