@@ -188,7 +188,7 @@ def _row(
         row.update(named=[*FRUITS, "book", "mug"], group=list(FRUITS), noun="object")
     elif filt == "exclude":
         row.update(named=list(parts["others"]), exclude=parts["others"][0], noun="object")
-        noun = "thing" if noun == "object" else noun
+        noun = "thing"  # any of the scene's objects but the one left out
     target = rng.choice(("word", "noun")) if typo else None
     if target == "noun" and noun in ("object", "thing") or form == "yesno" and target == "noun":
         target = "word"

@@ -389,10 +389,12 @@ def _speller_word(word: str) -> str | None:
     from rapidfuzz.process import extract
 
     data = language_data()
-    if len(word) < 4 or not data.counts:
+    if len(word) < 3 or not data.counts:
         return None
     hits = extract(word, data.words, scorer=OSA.distance, score_cutoff=_edits(word), limit=32)
     hits = [(w, score) for w, score, _ in hits if w[0] == word[0] and score > 0]
+    if len(word) == 3:  # three letters are near too many words: only two of them swapped ("mgu": mug)
+        hits = [(w, score) for w, score in hits if sorted(w) == sorted(word)]
     if not hits:
         return None
     best = min(score for _, score in hits)
