@@ -349,7 +349,8 @@ def _as_sense_word(word: str, english: bool) -> str | None:
         lemmas = data.lemminflect.getLemma(word, "ADJ") if degree != "JJ" else (word,)
     for lemma in lemmas:
         base = _meaning(lemma)
-        if base is None and not english and len(lemma) >= 6:
+        wordnet = language_data().wordnet
+        if base is None and len(lemma) >= 6 and (not english or wordnet is not None and not wordnet.synsets(lemma)):
             base = _nearest_meaning(lemma)
         if base is None:
             continue
