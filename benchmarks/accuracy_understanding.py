@@ -128,17 +128,23 @@ def scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None:
 # ---- the generated set ---------------------------------------------------------------------------------
 
 SENSE_PARTS: dict[str, dict[str, Any]] = {
-    # attr: nouns of a scene of one kind, the superlatives of each end, comparatives, a pair to compare
+    # attr: the noun of a scene of one kind, the superlatives of each end, comparatives, a pair to compare,
+    # the objects of a scene with one left out, and the one left out for each end
     "weight": {"noun": "object", "max": "heaviest", "min": "lightest", "cmp": ("heavier", "lighter"),
-               "pair": ("dumbbell", "book"), "others": ("dumbbell", "book", "mug", "apple")},
+               "pair": ("dumbbell", "book"), "others": ("dumbbell", "book", "mug", "apple"),
+               "drop": {"max": "dumbbell", "min": "apple"}},
     "distance": {"noun": "object", "max": "farthest", "min": "closest", "cmp": ("farther", "closer"),
-                 "pair": ("lamp", "vase"), "others": ("lamp", "vase", "book", "mug")},
+                 "pair": ("lamp", "vase"), "others": ("lamp", "vase", "book", "mug"),
+                 "drop": {"max": "lamp", "min": "lamp"}},
     "temperature": {"noun": "mug", "max": "hottest", "min": "coldest", "cmp": ("hotter", "colder"),
-                    "pair": ("kettle", "can"), "others": ("kettle", "mug", "can")},
+                    "pair": ("kettle", "can"), "others": ("kettle", "mug", "can"),
+                    "drop": {"max": "kettle", "min": "can"}},
     "stiffness": {"noun": "ball", "max": "hardest", "min": "softest", "cmp": ("harder", "softer"),
-                  "pair": ("apple", "foam ball"), "others": ("ball", "apple", "foam ball", "tennis ball")},
+                  "pair": ("apple", "foam ball"), "others": ("ball", "apple", "foam ball", "tennis ball"),
+                  "drop": {"max": "apple", "min": "foam ball"}},
     "fullness": {"noun": "bottle", "max": "fullest", "min": "emptiest", "cmp": ("fuller", "emptier"),
-                 "pair": ("bottle", "jar"), "others": ("bottle", "mug", "jar")},
+                 "pair": ("bottle", "jar"), "others": ("bottle", "mug", "jar"),
+                 "drop": {"max": "bottle", "min": "bottle"}},
 }  # fmt: skip
 WRAPPERS = ("{q}?", "hey robot, could you check {q}?", "please tell me {q}", "ok so {q} for me", "{q}, thanks")
 FILTERS = ("none", "exclude", "group")
@@ -187,7 +193,8 @@ def _row(
         noun = "fruits"
         row.update(named=[*FRUITS, "book", "mug"], group=list(FRUITS), noun="object")
     elif filt == "exclude":
-        row.update(named=list(parts["others"]), exclude=parts["others"][0], noun="object")
+        # left out: the object most often at the end asked, so that leaving it out changes the answer
+        row.update(named=list(parts["others"]), exclude=parts["drop"][end], noun="object")
         noun = "thing"  # any of the scene's objects but the one left out
     target = rng.choice(("word", "noun")) if typo else None
     if target == "noun" and noun in ("object", "thing") or form == "yesno" and target == "noun":
