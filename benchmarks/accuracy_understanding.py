@@ -26,6 +26,12 @@ answer) or a misread (a confident answer about another object or attribute).
     .venv/bin/python benchmarks/accuracy_understanding.py --part tuning
     .venv/bin/python benchmarks/accuracy_understanding.py --part test
     .venv/bin/python benchmarks/accuracy_understanding.py --part generated --gen-seed 0 [--limit N]
+    .venv/bin/python benchmarks/accuracy_understanding.py --typo-check --gen-seeds 5
+
+`--typo-check` draws no scene: for every row of the generated set with a typo (over `--gen-seeds` draws), it
+compares the program written for it with the program written for the same row without the typo (the
+query's own comment and the stated reading aside). The same program gives the same answer; another one
+searches a misread name and finds nothing, or is a misreading.
 """
 
 from __future__ import annotations
@@ -146,7 +152,13 @@ SENSE_PARTS: dict[str, dict[str, Any]] = {
                  "pair": ("bottle", "jar"), "others": ("bottle", "mug", "jar"),
                  "drop": {"max": "bottle", "min": "bottle"}},
 }  # fmt: skip
-WRAPPERS = ("{q}?", "hey robot, could you check {q}?", "please tell me {q}", "ok so {q} for me", "{q}, thanks")
+WRAPPERS = (
+    "{q}?",
+    "hey robot, could you check {q}?",
+    "please tell me {q}",
+    "ok so {q} for me",
+    "{q}, thanks",
+)
 FILTERS = ("none", "exclude", "group")
 FORMS = ("superlative", "which-is", "yesno")
 FRUITS = ("apple", "banana", "orange")
@@ -211,7 +223,9 @@ def _row(
         row.update(kind="extreme")
         row.setdefault("noun", parts["noun"])
         if form == "superlative":
-            question = f"which is the {word} {noun}" if filt != "group" else f"which of the {noun} is the {word}"
+            question = (
+                f"which is the {word} {noun}" if filt != "group" else f"which of the {noun} is the {word}"
+            )
         else:
             question = f"which {noun} is the {word}" if filt != "group" else f"the {word} of the {noun}"
     row["query"] = wrapper.format(q=question)
@@ -223,14 +237,68 @@ def _row(
     return row
 
 
+def typo_check(seeds: int) -> None:
+    """Print how many typo rows of the generated set are written as the same program as without the typo."""
+    from attribot.errors import InputError
+    from attribot.planning.rules import rules_program
+
+    def body(program: str) -> str:
+        said = ("# Query", "# Reading", 'print("Understood')
+        return "\n".join(line for line in program.splitlines() if not line.strip().startswith(said))
+
+    same = other = refused = 0
+    for seed in range(seeds):
+        rng = random.Random(seed)
+        for attr, parts in SENSE_PARTS.items():
+            for end in ("max", "min"):
+                for form in FORMS:
+                    for filt in FILTERS:
+                        if (form == "yesno" and filt != "none") or (
+                            filt == "group" and attr not in ("weight", "distance")
+                        ):
+                            continue
+                        for wrapper in WRAPPERS:
+                            typo = _row(attr, parts, end, form, filt, wrapper, True, rng)
+                            clean = _row(attr, parts, end, form, filt, wrapper, False, random.Random(0))
+                            try:
+                                want = body(rules_program(clean["query"], SENSORS, True))
+                            except InputError:
+                                continue
+                            try:
+                                got = body(rules_program(typo["query"], SENSORS, True))
+                            except InputError:
+                                refused += 1
+                                continue
+                            if got == want:
+                                same += 1
+                            else:
+                                other += 1
+                                without = clean["query"]
+                                print(f"  another program: {typo['query']!r} (without the typo {without!r})")
+    total = same + other + refused
+    print(
+        f"# typo check, gen-seeds 0-{seeds - 1}: {same}/{total} = {same / max(total, 1):.3f} the same "
+        f"program as without the typo, {other} another program, {refused} refused"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", choices=[*sorted(PARTS), "generated"], default="tuning")
     parser.add_argument("--seed", type=int, default=0, help="the draw of the scenes")
     parser.add_argument("--gen-seed", type=int, default=0, help="the draw of the typos of the generated set")
-    parser.add_argument("--limit", type=int, default=None, help="every n-th generated row only, n chosen to keep this many")
+    parser.add_argument(
+        "--limit", type=int, default=None, help="every n-th generated row only, n chosen to keep this many"
+    )
     parser.add_argument("--print", action="store_true", help="print the rows and stop")
+    parser.add_argument("--typo-check", action="store_true", help="compare typo rows' programs, no scenes")
+    parser.add_argument(
+        "--gen-seeds", type=int, default=5, help="draws of the generated set for --typo-check"
+    )
     args = parser.parse_args()
+    if args.typo_check:
+        typo_check(args.gen_seeds)
+        return
     if args.part == "generated":
         rows = generate(args.gen_seed)
         if args.limit is not None and args.limit < len(rows):

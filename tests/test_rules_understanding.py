@@ -67,7 +67,7 @@ def test_what_reads_as_typed_is_not_mended(query: str) -> None:
 
 
 def test_the_typos_of_names_are_mended_even_where_the_text_reads() -> None:
-    """"which botle is empty" reads as typed, searching a "botle": a word no dictionary holds is mended."""
+    """ "which botle is empty" reads as typed, searching a "botle": a word no dictionary holds is mended."""
     parsed = parse_query("which botle is empty")
     assert isinstance(parsed, Understood) and isinstance(parsed.inner, SenseQuery)
     assert parsed.inner.objects[0].noun == "bottle"

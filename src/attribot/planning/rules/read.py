@@ -37,7 +37,6 @@ from attribot.planning.rules.forms import (
 )
 from attribot.planning.rules.normalise import (
     _DIST_WORDS,
-    _split_names,
     _ME,
     _ORD,
     _SIDES,
@@ -47,6 +46,7 @@ from attribot.planning.rules.normalise import (
     _named,
     _normalize,
     _object,
+    _split_names,
     _strip_article,
     rx,
 )
@@ -126,8 +126,9 @@ def _with_meanings(refused: UnsupportedQuery, original: str, notes: tuple[str, .
 
 
 def _parse_as_typed(query: str) -> ParsedQuery:
-    """The parsed form of a checked query as typed. The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
-    narrowing such as "of the two closest"), then the families read what is left."""
+    """The parsed form of a checked query as typed. The frames around a reading come off first (an action,
+    a yes/no comparison, a surface scope, a narrowing such as "of the two closest"), then the families read
+    what is left."""
     original = query
     normalized = _normalize(original)
     if normalized is None:
@@ -155,11 +156,18 @@ def _parse_as_typed(query: str) -> ParsedQuery:
     else:
         whole = normalized.text if scope is None and among is None and not exclude and after is None else text
         inner, scope, region = _parse_placed(text, whole, scope, opened, original, question)
-    if scope is None and among is None and action is None and region is None and not exclude and after is None:
+    if (
+        scope is None
+        and among is None
+        and action is None
+        and region is None
+        and not exclude
+        and after is None
+    ):
         return inner
     if (exclude or after is not None) and isinstance(inner, YesNoQuery | MeasureQuery):
         raise UnsupportedQuery(original, "it leaves out or orders objects for a question about named ones")
-    if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery | Understood) or (
         isinstance(inner, SenseQuery) and (inner.ask != "which" or inner.named)
     ):
         raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
@@ -398,17 +406,32 @@ def _take_among(text: str) -> tuple[Among | None, str]:
     return among, " ".join(rest.split()).strip(" ,")
 
 
-# ---- exclusions and "the next after": "apart from the kettle", "the next heaviest after the toaster" ---------
+# ---- exclusions and "the next after": "apart from the kettle", "the next heaviest after the toaster" -----
 
-_LEAVING_OUT = r"(?:apart\s+from|aside\s+from|except(?:\s+for)?|other\s+than|besides|excluding|not\s+counting|ignoring|but\s+not)"
+_LEAVING_OUT = (
+    r"(?:apart\s+from|aside\s+from|except(?:\s+for)?|other\s+than|besides|excluding|not\s+counting|ignoring"
+    r"|but\s+not)"
+)
 _EXCLUSION_FIRST = re.compile(r"^" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)\s*,\s*(?P<rest>.+)$")
 _EXCLUSION_LAST = re.compile(r"^(?P<rest>.+?),?\s+" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)$")
 # "which object other than the kettle is the heaviest": the names between the noun and the verb
 _EXCLUSION_INSIDE = re.compile(
-    r"^(?P<head>.+?)\s+" + _LEAVING_OUT + r"\s+(?P<names>(?:the\s+)?[a-z]+(?:\s+(?:and|or)\s+(?:the\s+)?[a-z]+)?)"
+    r"^(?P<head>.+?)\s+"
+    + _LEAVING_OUT
+    + r"\s+(?P<names>(?:the\s+)?[a-z]+(?:\s+(?:and|or)\s+(?:the\s+)?[a-z]+)?)"
     r"\s+(?P<tail>(?:is|are)\b.*)$"
 )
-_LEAVING_CUES = ("apart", "aside", "except", "other than", "besides", "excluding", "counting", "ignoring", "but not")
+_LEAVING_CUES = (
+    "apart",
+    "aside",
+    "except",
+    "other than",
+    "besides",
+    "excluding",
+    "counting",
+    "ignoring",
+    "but not",
+)
 
 
 def _take_exclusion(text: str, original: str) -> tuple[tuple[ObjectSpec, ...], str]:
@@ -422,7 +445,9 @@ def _take_exclusion(text: str, original: str) -> tuple[tuple[ObjectSpec, ...], s
             continue
         names = _split_names(_strip_article(match["names"]))
         if names is None:
-            raise UnsupportedQuery(original, f"it leaves out {match['names']!r}, which names no object it reads")
+            raise UnsupportedQuery(
+                original, f"it leaves out {match['names']!r}, which names no object it reads"
+            )
         if pattern is _EXCLUSION_INSIDE:
             rest = f"{match['head']} {match['tail']}"
         else:

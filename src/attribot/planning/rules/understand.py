@@ -35,10 +35,10 @@ from attribot.lexicon import (
     FUNCTION_WORDS,
     GENERIC_NOUNS,
     PROPERTY_NOUNS,
+    SHORTHAND_WORDS,
     SIZE_ADJECTIVES,
     SIZE_COMPARATIVES,
     SIZE_SUPERLATIVES,
-    SHORTHAND_WORDS,
     SURFACE_WORDS,
     sense_words,
 )
@@ -90,7 +90,11 @@ def vocabulary() -> frozenset[str]:
             if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)
         }
         for node in ast.walk(tree):
-            if not isinstance(node, ast.Constant) or not isinstance(node.value, str) or id(node) in docstrings:
+            if (
+                not isinstance(node, ast.Constant)
+                or not isinstance(node.value, str)
+                or id(node) in docstrings
+            ):
                 continue
             text = node.value
             # a pattern (it has a regex's marks) or a word or two; not a message or an example sentence
@@ -160,7 +164,7 @@ def _load_wordnet() -> Any:
     if str(WORDNET_DIR) not in nltk.data.path:
         nltk.data.path.append(str(WORDNET_DIR))  # nltk reads only below its data paths
 
-    class _DebianWordNet(WordNetCorpusReader):  # type: ignore[misc]
+    class _DebianWordNet(WordNetCorpusReader):
         def open(self, file: str) -> Any:
             if file == "lexnames":
                 return io.StringIO("".join(f"{i:02d}\tlex{i:02d}\t0\n" for i in range(64)))
@@ -273,13 +277,13 @@ def _nearest_known(word: str, first: bool = False) -> str | None:
     from rapidfuzz.process import extract
 
     limit = _edits(word)
-    hits = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=limit, limit=8)
+    found = extract(word, _vocabulary_list(), scorer=OSA.distance, score_cutoff=limit, limit=8)
     # one that keeps the first letter (typists miss it least: "smiley" is no "amily")
-    hits = [(w, score) for w, score, _ in hits if w[0] == word[0]]
+    hits: list[tuple[str, float]] = [(str(w), score) for w, score, _ in found if w[0] == word[0]]
     if not hits:
         return None
     best = min(score for _, score in hits)
-    nearest = [str(w) for w, score in hits if score == best]
+    nearest = [w for w, score in hits if score == best]
     if first and len(nearest) > 1:  # "wich is ...": which, not with
         nearest = [w for w in nearest if w in _OPENING_WORDS] or nearest
     return _tie_broken(word, nearest)
@@ -350,7 +354,11 @@ def _as_sense_word(word: str, english: bool) -> str | None:
     for lemma in lemmas:
         base = _meaning(lemma)
         wordnet = language_data().wordnet
-        if base is None and len(lemma) >= 6 and (not english or wordnet is not None and not wordnet.synsets(lemma)):
+        if (
+            base is None
+            and len(lemma) >= 6
+            and (not english or wordnet is not None and not wordnet.synsets(lemma))
+        ):
             base = _nearest_meaning(lemma)
         if base is None:
             continue
@@ -392,14 +400,16 @@ def _speller_word(word: str) -> str | None:
     data = language_data()
     if len(word) < 3 or not data.counts:
         return None
-    hits = extract(word, data.words, scorer=OSA.distance, score_cutoff=_edits(word), limit=32)
-    hits = [(w, score) for w, score, _ in hits if w[0] == word[0] and score > 0]
+    found = extract(word, data.words, scorer=OSA.distance, score_cutoff=_edits(word), limit=32)
+    hits: list[tuple[str, float]] = [
+        (str(w), score) for w, score, _ in found if w[0] == word[0] and score > 0
+    ]
     if len(word) == 3:  # three letters are near too many words: only two of them swapped ("mgu": mug)
         hits = [(w, score) for w, score in hits if sorted(w) == sorted(word)]
     if not hits:
         return None
     best = min(score for _, score in hits)
-    nearest = [str(w) for w, score in hits if score == best]
+    nearest = [w for w, score in hits if score == best]
     # the commonest, a swap ("bottel") or a dropped letter ("toastr": toaster, not toast) counted five times
     weighted = sorted(
         ((data.counts[w] * (5 if _slipped(w, word) else 1), w) for w in nearest),

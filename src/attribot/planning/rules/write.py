@@ -388,9 +388,13 @@ def write_program(
         raise TypeError(f"no family writes a {type(parsed).__name__}")
     frame = w.frame
     if frame is not None and (
-        (frame.exclude and "exclude" not in w.applied) or (frame.after is not None and "after" not in w.applied)
+        (frame.exclude and "exclude" not in w.applied)
+        or (frame.after is not None and "after" not in w.applied)
     ):
         # a part of the question this program would not honour: no answer rather than a wrong one
-        raise UnsupportedQuery(query, "it leaves objects out or asks for the next in an order, which the "
-                               "planner writes only for a choice it measures among the objects found")
+        raise UnsupportedQuery(
+            query,
+            "it leaves objects out or asks for the next in an order, which the "
+            "planner writes only for a choice it measures among the objects found",
+        )
     return w.source()

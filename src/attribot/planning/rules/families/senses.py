@@ -167,11 +167,18 @@ def _which(text: str, v: _Vocabulary) -> SenseQuery | None:
     words = v.alternation
     forms = (
         r"(?:which|what)(?:\s+one)?" + _OF_THE + r"?(?:\s+(?P<noun>" + _NOUN + r"))?\s+(?:is|are)\s+"
-        r"(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<neg>not\s+)?(?P<adj>" + words + r")(?:\s+(?:one|ones))?",
+        r"(?:the\s+)?(?:(?P<ord>"
+        + _ORD
+        + r")\s+)?(?P<neg>not\s+)?(?P<adj>"
+        + words
+        + r")(?:\s+(?:one|ones))?",
         r"(?:which|what)\s+(?:is|are)\s+(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<adj>" + words + r")"
         r"(?:\s+(?P<noun>" + _NOUN + r"))?",
         r"(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<adj>" + words + r")(?:\s+(?P<noun>" + _NOUN + r"))?",
-        r"(?P<noun>" + _NOUN + r")\s+(?:that|which)\s+(?:is|are)\s+(?P<neg>not\s+)?(?:the\s+)?(?P<adj>" + words
+        r"(?P<noun>"
+        + _NOUN
+        + r")\s+(?:that|which)\s+(?:is|are)\s+(?P<neg>not\s+)?(?:the\s+)?(?P<adj>"
+        + words
         + r")",
     )
     for form in forms:
