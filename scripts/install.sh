@@ -17,13 +17,15 @@ ldconfig -p | grep -q 'libEGL_mesa.so.0' || missing+=(libegl-mesa0)
 [ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/aarch64-linux-gnu/dri/swrast_dri.so ] \
   || missing+=(libgl1-mesa-dri)
 ldconfig -p | grep -q 'libOSMesa.so' || missing+=(libosmesa6)
+# The rules planner's language data: WordNet 3.0 (synonyms, antonyms, kinds), read with nltk's reader
+[ -e /usr/share/wordnet/data.noun ] || missing+=(wordnet-base)
 if [ ${#missing[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
-    echo "installing system packages for headless rendering: ${missing[*]}"
+    echo "installing system packages (headless rendering, WordNet): ${missing[*]}"
     apt-get update -qq >/dev/null
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
   else
-    echo "warning: missing system packages for headless rendering: ${missing[*]}" >&2
+    echo "warning: missing system packages (headless rendering, WordNet): ${missing[*]}" >&2
     echo "         install them with: sudo apt-get install ${missing[*]}" >&2
   fi
 fi

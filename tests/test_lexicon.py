@@ -51,6 +51,10 @@ def test_generic_nouns_stand_for_any_object():
 
 
 PARAPHRASE_EXAMPLES = [
+    "which jar has the most in it",
+    "which bottle holds the least",
+    "what is the distance between you and the can",
+    "the distance from me to the mug",
     "which object weighs the most",
     "which item weighing least",
     "is the apple weighs more",

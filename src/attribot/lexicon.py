@@ -38,6 +38,7 @@ __all__ = [
     "sense_words",
     "sense_states",
     "FUNCTION_WORDS",
+    "SHORTHAND_WORDS",
     "PROPERTY_NOUNS",
     "surface_kind",
     "paraphrased",
@@ -141,6 +142,8 @@ _SHORTHAND = {
     "lemme": "let me", "gimme": "give me", "wanna": "want to", "gonna": "going to",
 }  # fmt: skip
 """Words typed without their apostrophe, and text-message spellings, written out."""
+SHORTHAND_WORDS: frozenset[str] = frozenset(_SHORTHAND)
+"""The words of `_SHORTHAND`: words the planner reads though no dictionary holds them ("whats", "pls")."""
 _SHORTHAND_WORDS = re.compile(r"\b(?:" + "|".join(_SHORTHAND) + r")\b")
 _NOT = re.compile(r"\b([a-z]+)n't\b")
 _NOT_STEMS = {"ca": "can", "wo": "will", "sha": "shall"}  # "can't", "won't", "shan't"
@@ -365,6 +368,17 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("squeeze",),
     ),
     (r"\bhow\s+much\s+is\s+(?:left|still)\s+in\b", "how full is", ("left", "still")),
+    # how much a container holds: "which jar has the most in it" is the fullest
+    (
+        r"\b(?:has|have|holds?|contains?)\s+(?:got\s+)?the\s+most(?:\s+(?:left\s+)?(?:in|inside)\s+(?:it|them))?$",
+        "is the fullest",
+        ("the most",),
+    ),
+    (
+        r"\b(?:has|have|holds?|contains?)\s+(?:got\s+)?the\s+least(?:\s+(?:left\s+)?(?:in|inside)\s+(?:it|them))?$",
+        "is the emptiest",
+        ("the least",),
+    ),
     # something in a container: it is not empty ("is there anything in the mug" asks whether it is full;
     # "water", "coffee" are what is in it, never the object asked about)
     (
@@ -428,6 +442,13 @@ ATTRIBUTE_PARAPHRASES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
         ("how many",),
     ),
     (r"\bhow\s+far\s+off\b", "how far away", ("far off",)),
+    # "what is the distance between you and the can", "the distance from you to the mug": how far it is
+    (
+        r"\b(?:what\s+is\s+)?(?:the\s+)?distance\s+(?:between\s+(?:you|me|us|the\s+robot)\s+and"
+        r"|from\s+(?:you|me|us|the\s+robot)\s+to|(?:to|of))\s+(?=(?:the|a|an|my|your|that|this)\b)",
+        "how far away is ",
+        ("distance",),
+    ),
     # where something was left is where it is
     (
         r"\bwhere\s+(?:did|have)\s+(?:i|we|you)\s+(?:leave|left|put|place|placed)\s+",

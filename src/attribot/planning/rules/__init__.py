@@ -8,6 +8,13 @@ Weight and distance are measured with the robot's sensors when it has them; othe
 the paper's VQA + language-model chain (weight) or a visual proxy that it states in a comment
 (distance). A query outside these families raises `UnsupportedQuery`, which lists what is supported: the
 planner never guesses.
+
+A question is read in parts: the frames around a reading (an action, a scope, a narrowing, objects left out
+with "apart from", "the next ... after" an object) come off first, then the families read what is left. A
+query the parser refuses as typed, or one holding a word no dictionary knows, is read again with its words
+mended by the language front end (`understand`: misspellings, WordNet synonyms in their degree, British
+spellings); the program says what was read as what, and a refusal names the words it could not place and
+what they could mean.
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ from attribot.planning.rules.forms import (
     Request,
     SenseQuery,
     SizeQuery,
+    Understood,
     UnsupportedQuery,
     WeightQuery,
     YesNoQuery,
@@ -65,6 +73,7 @@ __all__ = [
     "Region",
     "Request",
     "ParsedQuery",
+    "Understood",
     "parse_query",
     "write_program",
     "rules_program",

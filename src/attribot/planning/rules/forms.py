@@ -193,6 +193,19 @@ class Request:
     action: Literal["pick", "put"] | None = None
     target: str | None = None  # what "put" puts the object on: a surface kind or an object's name
     level: Level | None = None  # the board of a shelf the scope is ("on the bottom shelf")
+    exclude: tuple[ObjectSpec, ...] = ()  # left out of the candidates ("apart from the kettle")
+    after: ObjectSpec | None = (
+        None  # the choice is the next one after it in the order ("next heaviest after")
+    )
+
+
+@dataclass(frozen=True)
+class Understood:
+    """A reading of a query whose words the language front end mended first: the reading, and what was read
+    as what ("reading 'botle' as 'bottle'"), which the program says."""
+
+    inner: ParsedQuery
+    notes: tuple[str, ...]
 
 
 ParsedQuery = (
@@ -206,4 +219,5 @@ ParsedQuery = (
     | YesNoQuery
     | SenseQuery
     | Request
+    | Understood
 )

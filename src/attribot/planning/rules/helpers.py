@@ -23,6 +23,7 @@ __all__ = [
     "on_level",
     "bring",
     "put_it_on",
+    "same_box",
     "source",
 ]
 
@@ -158,6 +159,16 @@ def put_it_on(robot: Robot, patch: Patch, target: Patch) -> Patch:
     robot.pick_up(patch)
     robot.put_on(target)
     return patch
+
+
+def same_box(first: Patch, second: Patch) -> bool:
+    """Whether two patches box the same object: their boxes overlap by at least 80% of their union."""
+    width = min(first.right, second.right) - max(first.left, second.left)
+    height = min(first.upper, second.upper) - max(first.lower, second.lower)
+    if width <= 0 or height <= 0:
+        return False
+    common = width * height
+    return common >= 0.8 * (first.area + second.area - common)
 
 
 @cache

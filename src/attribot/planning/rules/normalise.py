@@ -184,7 +184,7 @@ _STOP = FUNCTION_WORDS | {
 
 
 _LEAD = (
-    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at)|select|"
+    r"^(?:please\s+)?(?:(?:can|could)\s+you\s+)?(?:find\s+me|find|show(?:\s+me)?|point\s+(?:to|at|out)|select|check|"
     r"pick\s+up|pick\s+out|pick|get|give\s+me|locate|detect|identify|where\s+(?:is|are)|grab|look\s+(?:at|for)|"
     r"(?:i|we)\s+(?:am\s+|are\s+)?(?:looking\s+for|after)|(?:i|we)\s+(?:would\s+like|want|need)|"
     r"show\s+me\s+where|where\s+can\s+i\s+find|help\s+me\s+find)\s+"
@@ -240,6 +240,7 @@ _COURTESY = re.compile(
     r"|\b(?:in|on|of)\s+(?:the|this)\s+(?:image|picture|photo|pic|frame|camera\s+view)\b"
     r"|\b(?:up|down|over|back)\s+(?=on\s+the\b)|\b(?:over|around|in)\s+(?:here|there)\b"
     r"|\b(?:very|absolute|absolutely|really)\s+(?=(?:[a-z]+est|most|least)\b)"
+    r"|\b(?:any|much|even|slightly|somewhat|way|a\s+(?:bit|little|lot))\s+(?=(?:[a-z]+er|more|less)\s+than\b)"
 )
 # a filler or an opening at the start: "um,", "ok so", "hey robot,", "quick question:", "I wonder"
 _OPENER = re.compile(
@@ -249,7 +250,11 @@ _OPENER = re.compile(
     r"|i\s+(?:wonder|was\s+wondering)|do\s+you\s+know|(?:can|could|would)\s+you\s+(?:please\s+)?"
     r"(?:tell\s+me|say)|would\s+you\s+mind\s+telling\s+me|(?:tell\s+me|let\s+me\s+know|say)(?=\s+(?:how|what"
     r"|which|where|if|whether)\b)|i\s+(?:would\s+like|want|need)\s+to\s+know|(?:take|have)\s+a\s+look\s+and"
-    r"|go(?:\s+and)?(?=\s+(?:find|get|grab|bring|fetch|pick|see|check|look|tell)\b))\s*,?(?:\s+|$)"
+    r"|go(?:\s+and)?(?=\s+(?:find|get|grab|bring|fetch|pick|see|check|look|tell)\b)"
+    # "could you check which mug is hot", "see what is the heaviest", "work out which": the question inside
+    r"|(?:(?:can|could|would|will)\s+you\s+)?(?:(?:please|quickly)\s+)?(?:check|see|find\s+out|work\s+out"
+    r"|figure\s+out|determine|tell|guess|look\s+and\s+see|have\s+a\s+look)(?:\s+(?:for\s+)?me)?"
+    r"(?=\s+(?:which|what|how|where)\b))\s*,?(?:\s+|$)"
 )
 # a tag at the end that makes a statement a question: "..., yes or no?", "isn't it?", "..., right?"
 _TAG = re.compile(
@@ -260,6 +265,9 @@ _TAG = re.compile(
 _EMBEDDED_QUESTION = re.compile(
     r"^(?:(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|i\s+wonder"
     r"|do\s+you\s+know)\s+(?:if|whether)|is\s+it\s+true\s+that)\s+"
+    # "could you check is the kettle hotter than the mug": the question itself follows the request
+    r"|^(?:(?:can|could|would)\s+you\s+)?(?:tell\s+me|let\s+me\s+know|say|check|find\s+out|see)\s+"
+    r"(?=(?:is|are|does|do)\s)"
 )
 # what ends a query without adding to it: "then", "would you", a dangling "at", "roughly", a unit asked for
 _TAIL = re.compile(
@@ -325,11 +333,14 @@ def _drop_fillers(text: str) -> tuple[str, bool]:
             text = f"{antecedent['before']}the {antecedent['name']}{antecedent['after']}"
     if text.startswith(("who ", "is not ", "are not ", "does not ", "do not ")):
         text = _NEGATIVE_QUESTION.sub(r"\1 ", _WHO.sub("which ", text))
+    if " than " in text and text.endswith((" is", " are", " does", " do", " was", " were")):
+        text = _THAN_VERB.sub(r"\1", text)  # "further than the orange is": than the orange
     if "look" in text or "seem" in text or "appear" in text:
         text = _LOOKS.sub("is", text)
     return " ".join(text.split()).strip(" ,"), tagged
 
 
+_THAN_VERB = re.compile(r"(\bthan\s+(?:[a-z]+\s+){0,3}?[a-z]+)\s+(?:is|are|does|do|was|were)$")
 _TAG_ENDINGS = frozenset({"no", "not", "it", "they", "think", "know", "say", "right", "correct", "true"})
 _TAIL_ENDINGS = frozenset(
     {"then", "you", "at", "roughly", "approximately", "about", "less", "exactly", "it", "them", "here",

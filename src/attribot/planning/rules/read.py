@@ -30,6 +30,7 @@ from attribot.planning.rules.forms import (
     SenseQuery,
     Side,
     SizeQuery,
+    Understood,
     UnsupportedQuery,
     WeightQuery,
     YesNoQuery,
@@ -45,6 +46,7 @@ from attribot.planning.rules.normalise import (
     _named,
     _normalize,
     _object,
+    _split_names,
     _strip_article,
     rx,
 )
@@ -84,9 +86,50 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
     """The parsed form of `query`; raises `UnsupportedQuery` (or `InputError` for empty/overlong text).
     `checked`: the query has passed `check_query` already (a planner's request), and is not checked again.
 
-    The frames around a reading come off first (an action, a yes/no comparison, a surface scope, a
-    narrowing such as "of the two closest"), then the families read what is left."""
+    The query is read as typed first; only when that is refused does the language front end
+    (`understand.mend`) mend its words (misspellings, synonyms, word forms) for a second reading, which
+    comes back as an `Understood` with what was read as what. A refusal names the words it could not place
+    and what they could mean."""
+    from attribot.planning.rules.understand import mend, unread
+
     original = query if checked else check_query(query)
+    try:
+        as_typed: ParsedQuery | None = _parse_as_typed(original)
+    except UnsupportedQuery:
+        as_typed = None
+    if as_typed is not None and not unread(original):
+        return as_typed
+    mended = mend(original, refused=as_typed is None)
+    if mended is None:
+        if as_typed is not None:
+            return as_typed
+        try:
+            return _parse_as_typed(original)
+        except UnsupportedQuery as refused:
+            raise _with_meanings(refused, original, ()) from None
+    try:
+        inner = _parse_as_typed(mended.text)
+    except UnsupportedQuery as again:
+        if as_typed is not None:
+            return as_typed
+        raise _with_meanings(again, original, mended.notes) from None
+    return Understood(inner, mended.notes)
+
+
+def _with_meanings(refused: UnsupportedQuery, original: str, notes: tuple[str, ...]) -> UnsupportedQuery:
+    """The refusal, with what was read as what and what the words no dictionary holds could mean."""
+    from attribot.planning.rules.understand import could_mean
+
+    said = [*notes, could_mean(original)]
+    extra = "; ".join(s for s in said if s)
+    return UnsupportedQuery(original, f"{refused.reason} ({extra})" if extra else refused.reason)
+
+
+def _parse_as_typed(query: str) -> ParsedQuery:
+    """The parsed form of a checked query as typed. The frames around a reading come off first (an action,
+    a yes/no comparison, a surface scope, a narrowing such as "of the two closest"), then the families read
+    what is left."""
+    original = query
     normalized = _normalize(original)
     if normalized is None:
         raise UnsupportedQuery(original, "it has letters outside the English alphabet")
@@ -105,15 +148,26 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         return yes_no
     scope, level, text = _take_scope(text)
     among, text = _take_among(text)
+    exclude, text = _take_exclusion(text, original)
+    after, text = _take_after(text, original)
     region: Region | None = None
     if scope is not None and _ONLY_FRAME.fullmatch(text):
         inner: ParsedQuery = GroundingQuery(ObjectSpec("object"))  # "which object is on the floor?"
     else:
-        whole = normalized.text if scope is None and among is None else text
+        whole = normalized.text if scope is None and among is None and not exclude and after is None else text
         inner, scope, region = _parse_placed(text, whole, scope, opened, original, question)
-    if scope is None and among is None and action is None and region is None:
+    if (
+        scope is None
+        and among is None
+        and action is None
+        and region is None
+        and not exclude
+        and after is None
+    ):
         return inner
-    if isinstance(inner, Request | YesNoQuery | MeasureQuery) or (
+    if (exclude or after is not None) and isinstance(inner, YesNoQuery | MeasureQuery):
+        raise UnsupportedQuery(original, "it leaves out or orders objects for a question about named ones")
+    if isinstance(inner, Request | YesNoQuery | MeasureQuery | Understood) or (
         isinstance(inner, SenseQuery) and (inner.ask != "which" or inner.named)
     ):
         raise UnsupportedQuery(original, "it frames a question the planner reads only on its own")
@@ -129,6 +183,8 @@ def parse_query(query: str, *, checked: bool = False) -> ParsedQuery:
         target=target,
         region=region,
         level=level,
+        exclude=exclude,
+        after=after,
     )
 
 
@@ -348,3 +404,74 @@ def _take_among(text: str) -> tuple[Among | None, str]:
     among = Among(attribute, most, _NUMBER_WORDS[match["k"]])  # type: ignore[arg-type]
     rest = text[: match.start()] + f" of the {noun} " + text[match.end() :]
     return among, " ".join(rest.split()).strip(" ,")
+
+
+# ---- exclusions and "the next after": "apart from the kettle", "the next heaviest after the toaster" -----
+
+_LEAVING_OUT = (
+    r"(?:apart\s+from|aside\s+from|except(?:\s+for)?|other\s+than|besides|excluding|not\s+counting|ignoring"
+    r"|but\s+not)"
+)
+_EXCLUSION_FIRST = re.compile(r"^" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)\s*,\s*(?P<rest>.+)$")
+_EXCLUSION_LAST = re.compile(r"^(?P<rest>.+?),?\s+" + _LEAVING_OUT + r"\s+(?P<names>[a-z ,]+?)$")
+# "which object other than the kettle is the heaviest": the names between the noun and the verb
+_EXCLUSION_INSIDE = re.compile(
+    r"^(?P<head>.+?)\s+"
+    + _LEAVING_OUT
+    + r"\s+(?P<names>(?:the\s+)?[a-z]+(?:\s+(?:and|or)\s+(?:the\s+)?[a-z]+)?)"
+    r"\s+(?P<tail>(?:is|are)\b.*)$"
+)
+_LEAVING_CUES = (
+    "apart",
+    "aside",
+    "except",
+    "other than",
+    "besides",
+    "excluding",
+    "counting",
+    "ignoring",
+    "but not",
+)
+
+
+def _take_exclusion(text: str, original: str) -> tuple[tuple[ObjectSpec, ...], str]:
+    """The objects a choice leaves out ("apart from the kettle, which is the heaviest", "the heaviest thing
+    except the mug and the pot") and the text without them; a name that is no object's is refused."""
+    if not any(cue in text for cue in _LEAVING_CUES):
+        return (), text
+    for pattern in (_EXCLUSION_FIRST, _EXCLUSION_INSIDE, _EXCLUSION_LAST):
+        match = pattern.match(text)
+        if match is None:
+            continue
+        names = _split_names(_strip_article(match["names"]))
+        if names is None:
+            raise UnsupportedQuery(
+                original, f"it leaves out {match['names']!r}, which names no object it reads"
+            )
+        if pattern is _EXCLUSION_INSIDE:
+            rest = f"{match['head']} {match['tail']}"
+        else:
+            rest = match["rest"]
+        return names, " ".join(rest.split()).strip(" ,")
+    return (), text
+
+
+_NEXT_AFTER = re.compile(
+    r"\bnext\s+(?P<adj>[a-z]+est|most\s+[a-z]+|least\s+[a-z]+)(?P<noun>(?:\s+[a-z]+){0,2}?)\s+"
+    r"(?:after|below|behind|down\s+from|than)\s+(?P<name>(?:the\s+)?[a-z]+(?:\s+[a-z]+)?)$"
+)
+
+
+def _take_after(text: str, original: str) -> tuple[ObjectSpec | None, str]:
+    """ "which object is the next heaviest after the toaster": the toaster, and "which object is the
+    heaviest"."""
+    if "next " not in text:
+        return None, text
+    match = _NEXT_AFTER.search(text)
+    if match is None:
+        return None, text
+    name = _named(_strip_article(match["name"]))
+    if name is None:
+        raise UnsupportedQuery(original, f"it orders after {match['name']!r}, which names no object it reads")
+    rest = text[: match.start()] + match["adj"] + match["noun"]
+    return name, " ".join(rest.split()).strip(" ,")

@@ -19,8 +19,16 @@ from attribot.planning.rules.forms import (
     ParsedQuery,
     Region,
     Request,
+    Understood,
+    UnsupportedQuery,
 )
 from attribot.planning.rules.helpers import source as helper_source
+from attribot.planning.rules.understand import kinds_of
+
+GROUP_KINDS = 20
+"""A plural noun with this many common kinds under it in WordNet names a group ("vegetables", "fruits",
+"tools"), whose kinds are looked for with it; one with fewer ("bottles": flask, jug) names objects of its
+own, and its kinds are looked for only where none is found by its name."""
 
 # ---- the program writer --------------------------------------------------------------------------------
 
@@ -49,6 +57,7 @@ class _Writer:
         self.embodied = False
         self.act: str | None = None  # the helper call that acts on the chosen object: "bring(robot, {})"
         self.premeasured: str | None = None  # the distances of `candidates`, measured before the robot moved
+        self.applied: set[str] = set()  # the parts of the frame written ("exclude", "after")
 
     def line(self, text: str = "") -> None:
         stripped = text.lstrip()
@@ -91,9 +100,57 @@ def _count_message(before: str, count: str, after: str) -> str:
     return f"{_q(before)} + str({count}) + {_q(after)}"
 
 
+def _name_lists(names: Sequence[str], most: int = 280) -> list[str]:
+    """Names joined with commas for `find`, in lists of at most `most` characters (find takes 300)."""
+    lists: list[str] = []
+    for name in names:
+        if lists and len(lists[-1]) + 2 + len(name) <= most:
+            lists[-1] += ", " + name
+        else:
+            lists.append(name)
+    return lists
+
+
+class _Indented:
+    """The writer of a block's body: each line one level in."""
+
+    def __init__(self, outer: _Writer) -> None:
+        self.outer = outer
+
+    def line(self, text: str = "") -> None:
+        self.outer.line("    " + text)
+
+    def helper(self, name: str) -> None:
+        self.outer.helper(name)
+
+
+def _find_names(w: _Writer | _Indented, var: str, names: Sequence[str]) -> None:
+    """`var`: the objects found by any of `names`, asked in lists `find` takes, each object once (two
+    names may find one object: an orange is a citrus)."""
+    lists = _name_lists(names)
+    if len(lists) == 1:
+        w.line(f"{var} = image.find({_q(lists[0])})")
+        return
+    w.helper("same_box")
+    w.line(f"{var} = []")
+    for listed in lists:
+        w.line(f"for patch in image.find({_q(listed)}):")
+        w.line(f"    if not any(same_box(patch, other) for other in {var}):")
+        w.line(f"        {var}.append(patch)")
+
+
 def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
     """`var = image.find(noun)`, the colour filter, and the "none found" error."""
-    w.line(f"{var} = image.find({_q(obj.noun)})")
+    kinds = kinds_of(obj.noun) if obj.noun.endswith("s") and " " not in obj.noun else ()
+    if len(kinds) >= GROUP_KINDS:
+        w.line(f"# {obj.noun} name a group: it and the kinds of it WordNet lists, looked for by name")
+        _find_names(w, var, (obj.noun, *kinds))
+    else:
+        w.line(f"{var} = image.find({_q(obj.noun)})")
+    if 0 < len(kinds) < GROUP_KINDS:
+        w.line(f"if len({var}) == 0:")
+        w.line(f"    # none by that name: the kinds of {obj.noun} WordNet lists, looked for by name")
+        _find_names(_Indented(w), var, kinds)
     for color in obj.colors:
         w.line(f"# keep the {color} ones: detectors are surer of categories than of colours, so ask VQA")
         w.line("kept = []")
@@ -109,6 +166,40 @@ def _find(w: _Writer, obj: ObjectSpec, var: str = "candidates") -> None:
         _write_region(w, var, frame.region, obj, frame.scope)
     if frame is not None and frame.among is not None and var == "candidates":
         _write_among(w, frame.among)
+    if frame is not None and frame.exclude and var == "candidates":
+        _write_exclusion(w, frame.exclude, obj)
+    if frame is not None and frame.after is not None and var == "candidates":
+        _write_after(w, frame.after)
+
+
+def _write_exclusion(w: _Writer, exclude: tuple[ObjectSpec, ...], obj: ObjectSpec) -> None:
+    """Leave the named objects out of `candidates` ("apart from the kettle")."""
+    w.helper("same_box")
+    names = " and the ".join(spec.phrase for spec in exclude)
+    w.line(f"# apart from the {names}: every one found by that name is left out")
+    w.line("left_out = []")
+    for spec in exclude:
+        w.line(f"left_out = left_out + image.find({_q(spec.phrase)})")
+    w.line("kept = []")
+    w.line("for patch in candidates:")
+    w.line("    if not any(same_box(patch, other) for other in left_out):")
+    w.line("        kept.append(patch)")
+    w.line("candidates = kept")
+    w.fail("len(candidates) == 0", _q(f"no {obj.phrase} found apart from the {names}"))
+    w.applied.add("exclude")
+
+
+def _write_after(w: _Writer, after: ObjectSpec) -> None:
+    """Find the object the choice comes after ("next heaviest after the toaster"), among `candidates`."""
+    w.helper("same_box")
+    w.line(f"# the next one after the {after.phrase} in the order: find it among the candidates")
+    w.line(f"references = image.find({_q(after.phrase)})")
+    w.fail("len(references) == 0", _q(f"no {after.phrase} found in the image"))
+    w.line("reference = -1")
+    w.line("for index, patch in enumerate(candidates):")
+    w.line("    if reference < 0 and same_box(patch, references[0]):")
+    w.line("        reference = index")
+    w.fail("reference < 0", _q(f"the {after.phrase} is not one of the objects compared"))
 
 
 def _write_scope(w: _Writer, var: str, scope: str, obj: ObjectSpec, level: Level | None = None) -> None:
@@ -264,6 +355,12 @@ def write_program(
     """The program for a parsed query: readable Python defining `execute_command(image, robot)`."""
     w = _Writer(query)
     w.sensors, w.embodied, w.query = sensors, embodied, query
+    if isinstance(parsed, Understood):
+        # what was read as what is said: in the program, and printed with its answer
+        for note in parsed.notes:
+            w.line(f"# {note[0].upper()}{note[1:]}")
+        w.line(f"print({_q('Understood the query ' + '; '.join(parsed.notes) + '.')})")
+        parsed = parsed.inner
     if isinstance(parsed, Request):
         w.frame = parsed
         if parsed.action is not None:
@@ -289,4 +386,15 @@ def write_program(
             break
     else:
         raise TypeError(f"no family writes a {type(parsed).__name__}")
+    frame = w.frame
+    if frame is not None and (
+        (frame.exclude and "exclude" not in w.applied)
+        or (frame.after is not None and "after" not in w.applied)
+    ):
+        # a part of the question this program would not honour: no answer rather than a wrong one
+        raise UnsupportedQuery(
+            query,
+            "it leaves objects out or asks for the next in an order, which the "
+            "planner writes only for a choice it measures among the objects found",
+        )
     return w.source()

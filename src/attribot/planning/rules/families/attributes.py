@@ -265,6 +265,20 @@ def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
 
 
 def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -> None:
+    if w.frame is not None and w.frame.after is not None and rank == 1 and "after" not in w.applied:
+        # "the next heaviest after the toaster": the one just past it in the order
+        w.line(
+            f"order = sorted(range(len(candidates)), key=lambda index: {values}[index]"
+            + (", reverse=True)" if largest else ")")
+        )
+        w.line("position = order.index(reference)")
+        w.fail(
+            "position + 1 >= len(order)",
+            _q(f"nothing comes after the {w.frame.after.phrase}: it is the last in the order"),
+        )
+        w.line("return candidates[order[position + 1]]")
+        w.applied.add("after")
+        return
     if rank > 1:
         w.line(
             f"order = sorted(range(len(candidates)), key=lambda index: {values}[index]"

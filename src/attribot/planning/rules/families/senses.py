@@ -167,11 +167,19 @@ def _which(text: str, v: _Vocabulary) -> SenseQuery | None:
     words = v.alternation
     forms = (
         r"(?:which|what)(?:\s+one)?" + _OF_THE + r"?(?:\s+(?P<noun>" + _NOUN + r"))?\s+(?:is|are)\s+"
-        r"(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<adj>" + words + r")(?:\s+(?:one|ones))?",
+        r"(?:the\s+)?(?:(?P<ord>"
+        + _ORD
+        + r")\s+)?(?P<neg>not\s+)?(?P<adj>"
+        + words
+        + r")(?:\s+(?:one|ones))?",
         r"(?:which|what)\s+(?:is|are)\s+(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<adj>" + words + r")"
         r"(?:\s+(?P<noun>" + _NOUN + r"))?",
         r"(?:the\s+)?(?:(?P<ord>" + _ORD + r")\s+)?(?P<adj>" + words + r")(?:\s+(?P<noun>" + _NOUN + r"))?",
-        r"(?P<noun>" + _NOUN + r")\s+(?:that|which)\s+(?:is|are)\s+(?:the\s+)?(?P<adj>" + words + r")",
+        r"(?P<noun>"
+        + _NOUN
+        + r")\s+(?:that|which)\s+(?:is|are)\s+(?P<neg>not\s+)?(?:the\s+)?(?P<adj>"
+        + words
+        + r")",
     )
     for form in forms:
         match = rx(form).fullmatch(text)
@@ -180,8 +188,14 @@ def _which(text: str, v: _Vocabulary) -> SenseQuery | None:
         obj = _object(_owned(match["noun"] or ""))
         if obj is None:
             continue
-        attribute, more, _ = v.words[" ".join(match["adj"].split())]
+        attribute, more, form = v.words[" ".join(match["adj"].split())]
         rank, from_end = _ordinal(match["ord"]) if match.groupdict().get("ord") else (1, False)
+        if match.groupdict().get("neg"):
+            # "which cup is not full": a state denied, the other end chosen; a degree denied ("not the
+            # fullest") or an ordinal with it asks something else
+            if form != "absolute" or rank != 1:
+                continue
+            return SenseQuery((obj,), attribute, not more, "which", "not " + match["adj"])
         return SenseQuery((obj,), attribute, more != from_end, "which", match["adj"], rank=rank)
     return None
 
@@ -256,9 +270,18 @@ def _write_which(w: _Writer, q: SenseQuery) -> None:
     w.line("for patch in candidates:")
     body = _Indented(w)
     _write_measure(body, q.attribute, "patch", "values")
-    state = sense_states().get(q.word)
-    if state is not None and q.rank == 1:  # "which mug is hot?": say so when even the hottest is not
-        end = "max" if q.more else "min"
+    denied = q.word.startswith("not ")
+    state = sense_states().get(q.word.removeprefix("not "))
+    end = "max" if q.more else "min"
+    if denied and state is not None:
+        # "which cup is not full?": the least full, and no answer when even that one is full
+        w.line(f"if {end}(values) {state.comparison} {state.threshold}:")
+        w.line(f"    reads = {_shown(sense, f'{end}(values)')}")
+        w.line(
+            f'    raise ValueError("every one of them is {state.word}: the {"most" if q.more else "least"} '
+            f'reads " + reads)'
+        )
+    elif state is not None and q.rank == 1:  # "which mug is hot?": say so when even the hottest is not
         w.line(f"if not {end}(values) {state.comparison} {state.threshold}:")
         w.line(f"    reads = {_shown(sense, f'{end}(values)')}")
         w.line(f'    print("none of them is {q.word}: the {"most" if q.more else "least"} reads " + reads)')
