@@ -228,6 +228,8 @@ def describe_calls(trace: Sequence[Any], limit: int = 12) -> list[str]:
     for record in trace:
         args = ", ".join(_short(a) for a in record.args)
         outcome = f"failed: {record.error}" if record.error else _short(record.result)
+        if getattr(record, "note", None):
+            outcome += f" ({record.note})"
         lines.append(f"{record.call}({args}) -> {outcome}")
     if len(lines) > limit:
         lines = [f"... {len(lines) - limit} earlier calls", *lines[-limit:]]

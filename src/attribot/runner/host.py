@@ -35,7 +35,7 @@ __all__ = ["ProgramRunner"]
 
 WORKER_PATH = Path(worker.__file__).resolve()
 _STARTUP_S = 30.0  # a worker that is not ready by then is broken, not slow
-_CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
+_CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}  # a run's; "reply" is the planner's
 # a file path; not the path part of a URL ("https://host/a/b" stays whole)
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
@@ -491,7 +491,9 @@ class _Run:
             ms = (time.perf_counter() - t0) * 1000
             return self._refuse(name, _failure(name, e), line, shown, ms, kind=kind)
         ms = (time.perf_counter() - t0) * 1000
-        return self._returned(name, result, line, shown, ms, kind)
+        notes = getattr(cls, "PROGRAM_NOTES", None)
+        note = getattr(obj, notes)() if notes is not None else None
+        return self._returned(name, result, line, shown, ms, kind, note)
 
     def _read_call(self, msg: dict[str, Any]) -> tuple[Any, list[Any], dict[str, Any], Any]:
         """The object, arguments and receiver (None when there is none) that a call names, as host values;
@@ -528,7 +530,14 @@ class _Run:
             cutter.in_call = False
 
     def _returned(
-        self, name: str, result: Any, line: int | None, shown: list[Any], ms: float, kind: str | None
+        self,
+        name: str,
+        result: Any,
+        line: int | None,
+        shown: list[Any],
+        ms: float,
+        kind: str | None,
+        note: str | None = None,
     ) -> dict[str, Any]:
         """The reply that hands a call's result to the program, and its trace record; a refusal when the
         result is not something a program can hold."""
@@ -538,7 +547,7 @@ class _Run:
             message = f"{name} returned {e}, which cannot be passed to a program"
             return self._refuse(name, message, line, shown, ms, kind=kind)
         kept = self._kept(self.summary(result))
-        self.record(TraceRecord(call=name, args=shown, result=kept, ms=ms, line=line, kind=kind))
+        self.record(TraceRecord(call=name, args=shown, result=kept, ms=ms, line=line, kind=kind, note=note))
         return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def _kept(self, value: Any) -> Any:
