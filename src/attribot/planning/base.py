@@ -62,7 +62,7 @@ def _run_error_type() -> type[BaseModel]:
 
         model_config = ConfigDict(frozen=True)
 
-        category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api"]
+        category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api", "reply"]
         message: str
         line: int | None = None
         snippet: str | None = None
@@ -134,12 +134,13 @@ def build_planner(name: str, settings: Settings) -> Planner:
 
 
 class NoProgram(AttribotError):
-    """A planner's reply held no usable program. `error` is the structured message fed back to the model."""
+    """A planner's reply held no usable program. `error` is the structured message fed back to the model,
+    of category "reply": nothing was run (it is no syntax error of a program)."""
 
     def __init__(self, message: str, fix: str | None = None, *, reply: str | None = None) -> None:
         super().__init__(message, fix)
         self.reply = reply
-        self.error = RunError(category="syntax", message=message, line=None, snippet=None, output="")
+        self.error = RunError(category="reply", message=message, line=None, snippet=None, output="")
 
 
 @dataclass(frozen=True)
