@@ -74,6 +74,8 @@ def test_a_reply_with_no_code_is_not_a_syntax_error_and_nothing_ran_is_not_a_res
     assert "back where it started" not in feedback_message(policy, same_start=True)
     ran = RunError(category="api", message="robot.pick_up(ball) needs an empty gripper")
     assert "back where it started" in feedback_message(ran, same_start=True)  # it ran, and was put back
+    refused = feedback_message(ran, same_start=True, moved=False)  # it ran, and the robot never acted
+    assert "back where it started" not in refused and "has not moved" in refused
 
 
 COPIED = '''Here is the complete solution, with the API for reference:

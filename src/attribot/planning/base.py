@@ -110,6 +110,7 @@ class Attempt(BaseModel):
     error: RunError | None = None  # type: ignore[valid-type]
     reply: str | None = None
     did: list[str] = []  # the API calls the try made, in order, with their results or errors (short)
+    moved: bool | None = None  # whether an action of the robot's ran (None: not known, as before)
 
 
 @runtime_checkable
@@ -206,8 +207,12 @@ def solve(
         tried.add(plan.program)
         plans.append(plan)
         result = _checked(execute(plan.program), check)
-        did = describe_calls(getattr(result, "trace", ()))  # a caller's own result may keep no trace
-        attempts.append(Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did))
+        trace = getattr(result, "trace", None)  # a caller's own result may keep no trace
+        did = describe_calls(trace or ())
+        moved = None if trace is None else any(_acted(record) for record in trace)
+        attempts.append(
+            Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did, moved=moved)
+        )
         if result.ok:
             break
     return SolveResult(attempts=attempts, result=result, plans=plans)
@@ -220,6 +225,11 @@ def _checked(result: Any, check: Callable[[Any], str | None] | None) -> Any:
         return result
     error = RunError(category="runtime", message=problem, output=result.output)
     return result.model_copy(update={"ok": False, "error": error})
+
+
+def _acted(record: Any) -> bool:
+    """A trace record of a robot action that ran (an action class's method, not its constructor)."""
+    return getattr(record, "kind", None) == "action" and "." in record.call and record.error is None
 
 
 def describe_calls(trace: Sequence[Any], limit: int = 12) -> list[str]:

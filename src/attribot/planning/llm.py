@@ -41,12 +41,16 @@ _NOT_RUN = ("reply", "syntax", "policy")
 
 
 def feedback_message(
-    error: Any, did: Sequence[str] = (), same_start: bool = False, entry: str = f"{ENTRY_POINT}(image, robot)"
+    error: Any,
+    did: Sequence[str] = (),
+    same_start: bool = False,
+    entry: str = f"{ENTRY_POINT}(image, robot)",
+    moved: bool | None = None,
 ) -> str:
     """The follow-up user message for a failed attempt: the structured error, what the try did (its API
     calls, `did`), where the next try starts, and what to do (`entry`: the function the prompt asked for,
     in its own words). A reply with no program is told so (not a syntax error), and a try in which nothing
-    ran is not told that the robot was put back."""
+    ran, or in which the robot did not act (`moved` False), is not told that the robot was put back."""
     where = f", line {error.line}" if getattr(error, "line", None) else ""
     if error.category == "reply":
         lines = [f"Your reply has no program I can run: {error.message}"]
@@ -62,6 +66,10 @@ def feedback_message(
         lines.append("What it did, call by call:\n" + "\n".join(f"- {line}" for line in did))
     if error.category in _NOT_RUN:
         lines.append("Nothing ran: the robot has not moved, and the next program starts from the same image.")
+    elif moved is False:
+        lines.append(
+            "The robot has not moved: the next program starts from the same state and the same image."
+        )
     elif same_start:
         lines.append(
             "The next program starts from the same state as this one: the robot back where it started, "
@@ -157,7 +165,9 @@ class LLMPlanner:
                 continue
             said = attempt.reply if attempt.reply is not None else f"```python\n{attempt.program}```"
             messages.append({"role": "assistant", "content": said})
-            feedback_text = feedback_message(attempt.error, attempt.did, request.same_start, self._entry())
+            feedback_text = feedback_message(
+                attempt.error, attempt.did, request.same_start, self._entry(), attempt.moved
+            )
             messages.append({"role": "user", "content": feedback_text})
         return messages
 
