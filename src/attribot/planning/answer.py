@@ -31,6 +31,8 @@ class AnswerObject(BaseModel):
     id: str | None
     category: str | None
     box: tuple[float, float, float, float]
+    # what the box is: the detection in the image, or the mean of looks at it (ImagePatch.best_box)
+    box_from: str | None = None
 
 
 class AnswerError(BaseModel):
@@ -269,7 +271,10 @@ def _answer_object(patch: Any, frame: Any) -> AnswerObject:
     category = patch.label or None
     if patch.object_id is not None:
         category = next((t.category for t in frame.objects.values() if t.id == patch.object_id), category)
-    return AnswerObject(id=patch.object_id, category=category, box=tuple(round(v, 1) for v in patch.box))
+    box, source = patch.best_box() if hasattr(patch, "best_box") else (patch.box, None)
+    return AnswerObject(
+        id=patch.object_id, category=category, box=tuple(round(v, 1) for v in box), box_from=source
+    )
 
 
 def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
