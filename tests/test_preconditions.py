@@ -168,3 +168,23 @@ def test_the_checks_are_one_function_that_every_action_asks():
     assert check_action("put_on", mug, held) is Verdict.MET
     assert call_text("put_down", "", "paper") == "put_down()"
     assert call_text("pick_up", "patch", "attribot") == "robot.pick_up(patch)"
+
+
+def test_what_the_robot_a_program_made_arranged_is_noted_on_that_calls_record_alone(runner):
+    result, world = _run(
+        runner,
+        """
+        def execute_command(image):
+            robot = Robot(sensors=["camera", "force/torque sensor"])
+            first, second = ImagePatch(image).find("ball")[:2]
+            kg = first.measure_weight("ball")
+            pick_up(second)
+            return [kg, second.measure_weight("ball")]
+        """,
+    )
+    assert result.ok, result.error
+    weigh, pick, again = [t for t in result.trace if t.call in ("Robot.measure_weight", "Robot.pick_up")]
+    assert "went to it first" in weigh.note and "picked it up first" in weigh.note
+    assert "down first" in pick.note and "went to it first" in pick.note  # the first put down, then on
+    assert again.note is None  # the second is held: nothing arranged
+    assert world.held == pick.args[0]["object_id"]

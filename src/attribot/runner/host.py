@@ -486,14 +486,24 @@ class _Run:
             raise
         except AttribotError as e:
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind)
+            note = self._note_of(cls, obj)
+            return self._refuse(
+                name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind, note=note
+            )
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, _failure(name, e), line, shown, ms, kind=kind)
+            return self._refuse(
+                name, _failure(name, e), line, shown, ms, kind=kind, note=self._note_of(cls, obj)
+            )
         ms = (time.perf_counter() - t0) * 1000
+        return self._returned(name, result, line, shown, ms, kind, self._note_of(cls, obj))
+
+    @staticmethod
+    def _note_of(cls: type, obj: Any) -> str | None:
+        """What the call just made did beyond itself, as the class's `PROGRAM_NOTES` host method says (read
+        after every call, failed ones too, so that a note never lands on a later call's record)."""
         notes = getattr(cls, "PROGRAM_NOTES", None)
-        note = getattr(obj, notes)() if notes is not None else None
-        return self._returned(name, result, line, shown, ms, kind, note)
+        return getattr(obj, notes)() if notes is not None else None
 
     def _read_call(self, msg: dict[str, Any]) -> tuple[Any, list[Any], dict[str, Any], Any]:
         """The object, arguments and receiver (None when there is none) that a call names, as host values;
@@ -576,13 +586,16 @@ class _Run:
         ms: float = 0.0,
         recoverable: bool = False,
         kind: str | None = None,
+        note: str | None = None,
     ) -> dict[str, Any]:
         """The reply to a failed call: a stop, or with `recoverable` (an action that failed in the world)
         the `ActionFailed` the program may catch. Either way the trace records the failed call."""
         # a host error may quote a program's text, lone surrogates and all, or a host object's repr
         message = _text(_HOST_REPR.sub(r"<\1>", message))
         self.record(
-            TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message, kind=kind)
+            TraceRecord(
+                call=name, args=shown, result=None, ms=ms, line=line, error=message, kind=kind, note=note
+            )
         )
         reply = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
         return {KIND: reply, Key.CATEGORY: "api", Key.MESSAGE: message}
