@@ -492,14 +492,15 @@ def _mean_of(cluster: dict[int, Detection]) -> Detection:
     )
 
 
-_REFIT_IOU = 0.25
+_REFIT_IOU = 0.1
 
 
 def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, int]:
     """The best estimate of the box of the object of `name` at `box` in `frame`: `box` looked at again on
     two crops around it (the object whole in each, at another place in the crop), and the mean of it and
-    the crops' boxes of `name` that overlap it most (IoU 0.25: a small object's jittered box may share
-    less than half its area with a right one); and how many looks that mean holds (1: none
+    the crops' boxes of `name` that overlap it most (IoU 0.1: a thin object's jittered box may share a
+    fifth of its area with a right one, as a 15 px wide bottle's box shifted by 10 px did; a crop three
+    times the box's size holds little else of the name); and how many looks that mean holds (1: none
     confirmed it, and `box` stands). A detector's jitter is drawn anew for other pixels, so the mean's
     error shrinks; the crops are of the image itself, so nothing is carried from another viewpoint (boxes
     carried from the survey's turned views are a few pixels off even without noise, and their mean lost
