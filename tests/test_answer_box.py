@@ -46,7 +46,7 @@ def test_an_answer_says_what_its_box_is_and_a_clean_box_stays_exact(empty_settin
     program = "def execute_command(image, robot):\n    return image.find('object')[0]\n"
     answer = run_program(program, Scene(config), load_settings(), query="an object")
     assert answer.error is None and answer.object is not None
-    assert "mean of 3 looks" in answer.object.box_from, answer.object
+    assert "mean of 5 looks" in answer.object.box_from, answer.object
     with MujocoWorld(config) as world:
         (true,) = [o.box for o in world.scene_info().objects if o.id == answer.object.id]
     assert iou(tuple(answer.object.box), tuple(true)) == pytest.approx(1.0, abs=0.02)  # the oracle's, exact

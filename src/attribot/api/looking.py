@@ -493,11 +493,13 @@ def _mean_of(cluster: dict[int, Detection]) -> Detection:
 
 
 _REFIT_IOU = 0.1
+_REFIT_SHIFTS = ((-0.5, -0.5), (0.5, 0.5), (-0.5, 0.5), (0.5, -0.5))
+"""Where the object sits in each crop around it: off the middle by half its size towards each corner."""
 
 
 def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, int]:
     """The best estimate of the box of the object of `name` at `box` in `frame`: `box` looked at again on
-    two crops around it (the object whole in each, at another place in the crop), and the mean of it and
+    four crops around it (the object whole in each, at another place in the crop), and the mean of it and
     the crops' boxes of `name` that overlap it most (IoU 0.1: a thin object's jittered box may share a
     fifth of its area with a right one, as a 15 px wide bottle's box shifted by 10 px did; a crop three
     times the box's size holds little else of the name); and how many looks that mean holds (1: none
@@ -508,7 +510,7 @@ def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, i
     x0, y0, x1, y1 = box
     pad_x, pad_y = max(x1 - x0, 12.0), max(y1 - y0, 12.0)
     looks = [box]
-    for sx, sy in ((-0.5, -0.5), (0.5, 0.5)):
+    for sx, sy in _REFIT_SHIFTS:
         window = (
             max(0.0, x0 - pad_x * (1 + sx)),
             max(0.0, y0 - pad_y * (1 + sy)),
@@ -526,8 +528,9 @@ def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, i
             looks.append(max(same, key=lambda b: iou(b, box)))
     if len(looks) == 1:
         return box, 1
-    mean = np.asarray(looks, float).mean(axis=0)
-    return (float(mean[0]), float(mean[1]), float(mean[2]), float(mean[3])), len(looks)
+    # the mean, not the median: of five looks the median of each edge lost a tenth of the mean's IoU gain
+    fused = np.asarray(looks, float).mean(axis=0)
+    return (float(fused[0]), float(fused[1]), float(fused[2]), float(fused[3])), len(looks)
 
 
 def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:
