@@ -22,6 +22,7 @@ import sys
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -71,6 +72,20 @@ def program(text: str) -> str:
     return textwrap.dedent(text).strip("\n") + "\n"
 
 
+DATA = Path(__file__).parent / "data" / "dialect_programs.jsonl"
+"""The strong programs: dialect, name, query, scene (a SceneConfig's fields), truth (a name in TRUTHS or
+`category:NAME`, the one object of that category) and the program text; benchmarks/accuracy_dialects.py
+runs the same set under noise."""
+
+TRUTHS: dict[str, Truth] = {
+    "heaviest": heaviest,
+    "lightest": lightest,
+    "closest": closest,
+    "rightmost": rightmost,
+    "second_from_right": second_from_right,
+}
+
+
 @dataclass(frozen=True)
 class Strong:
     dialect: str  # attribot | viper | paper
@@ -81,228 +96,15 @@ class Strong:
     source: str
 
 
-STRONG = [
-    Strong(
-        "attribot",
-        "weighs each and puts it back with put_on",
-        "Which object is the heaviest?",
-        SceneConfig(layout="triplet", seed=4),
-        heaviest,
-        program("""
-            def execute_command(image, robot):
-                objects = image.find("object")
-                weights = []
-                for obj in objects:
-                    robot.go_to_object(obj)
-                    robot.pick_up(obj)
-                    weights.append(robot.measure_weight(obj))
-                    robot.put_on(obj)  # put it back where it was
-                return objects[weights.index(max(weights))]
-        """),
-    ),
-    Strong(
-        "attribot",
-        "a dict comprehension of distances, printed in order",
-        "Which object is the closest to me?",
-        SceneConfig(layout="household", seed=8),
-        closest,
-        program("""
-            def execute_command(image, robot):
-                objects = image.find("object")
-                distances = {i: robot.measure_distance(obj) for i, obj in enumerate(objects)}
-                for i, d in sorted(distances.items(), key=lambda item: item[1]):
-                    print(f"object {i}: {d:.2f} m")
-                return objects[min(distances, key=distances.get)]
-        """),
-    ),
-    Strong(
-        "attribot",
-        "the lightest, told apart within the readings' uncertainty",
-        "Which object is the lightest?",
-        SceneConfig(layout="triplet", seed=5),
-        lightest,
-        program("""
-            def execute_command(image, robot):
-                readings = []
-                for obj in image.find("object"):
-                    robot.go_to_object(obj)
-                    robot.pick_up(obj)
-                    kg = robot.measure_weight(obj)
-                    readings.append((kg, robot.uncertainty(obj), obj))
-                    robot.put_down()
-                readings.sort(key=lambda r: r[0])
-                (kg1, u1, first), (kg2, u2, _) = readings[0], readings[1]
-                if abs(kg2 - kg1) <= 2 * (u1 + u2):
-                    print("the two lightest cannot be told apart")
-                return first
-        """),
-    ),
-    Strong(
-        "attribot",
-        "the heaviest of the found objects held in a list of dicts",
-        "Which object is the heaviest?",
-        SceneConfig(layout="triplet", seed=6),
-        heaviest,
-        program("""
-            def execute_command(image, robot):
-                results = []
-                for patch in image.find("object"):
-                    robot.go_to_object(patch)
-                    robot.pick_up(patch)
-                    results.append({"patch": patch, "kg": robot.measure_weight(patch)})
-                    robot.put_down()
-                best = max(results, key=lambda r: r["kg"])
-                print(f"heaviest: {best['kg']:.2f} kg")
-                return best["patch"]
-        """),
-    ),
-    Strong(
-        "viper",
-        "the rightmost cup behind an empty-list guard",
-        "the rightmost cup",
-        SceneConfig(layout="household", seed=3, categories=("cup",), objects=3),
-        rightmost,
-        program("""
-            def execute_command(image):
-                image_patch = ImagePatch(image)
-                cup_patches = image_patch.find("cup")
-                if len(cup_patches) == 0:
-                    return image_patch
-                cup_patches.sort(key=lambda cup: cup.horizontal_center)
-                return cup_patches[-1]
-        """),
-    ),
-    Strong(
-        "viper",
-        "a robot made in the program, put_down after each weighing",
-        "Which object is the heaviest?",
-        SceneConfig(layout="triplet", seed=7),
-        heaviest,
-        program("""
-            def execute_command(image):
-                image_patch = ImagePatch(image)
-                robot = Robot(sensors=["camera", "force"])
-                object_patches = image_patch.find("object")
-                heaviest_patch = None
-                heaviest_weight = -1
-                for object_patch in object_patches:
-                    robot.go_to_object(object_patch)
-                    robot.pick_up(object_patch)
-                    weight = robot.measure_weight(object_patch)
-                    robot.put_down()
-                    if weight > heaviest_weight:
-                        heaviest_patch = object_patch
-                        heaviest_weight = weight
-                return heaviest_patch
-        """),
-    ),
-    Strong(
-        "viper",
-        "distances read on a made robot without focusing first",
-        "Which object is the closest to me?",
-        SceneConfig(layout="household", seed=7),
-        closest,
-        program("""
-            def execute_command(image):
-                image_patch = ImagePatch(image)
-                robot = Robot(sensors=["camera", "distance sensor"])
-                object_patches = image_patch.find("object")
-                return min(object_patches, key=lambda patch: robot.measure_distance(patch))
-        """),
-    ),
-    Strong(
-        "viper",
-        "the second from the right, sorted in reverse",
-        "the second object from the right",
-        SceneConfig(layout="triplet", seed=9),
-        second_from_right,
-        program("""
-            def execute_command(image):
-                image_patch = ImagePatch(image)
-                object_patches = image_patch.find("object")
-                object_patches = sorted(object_patches, key=lambda p: p.horizontal_center, reverse=True)
-                return object_patches[1]
-        """),
-    ),
-    Strong(
-        "paper",
-        "put_on the patch just weighed, meaning put it back",
-        "Which object is the heaviest?",
-        SceneConfig(layout="triplet", seed=8),
-        heaviest,
-        program("""
-            def execute_command(image):
-                robot = Robot(sensors=["camera", "force/torque sensor"])
-                image_patch = ImagePatch(image)
-                object_patches = image_patch.find("object")
-                weights = []
-                for object_patch in object_patches:
-                    go_to_object(object_patch)
-                    pick_up(object_patch)
-                    weights.append(object_patch.measure_weight("object"))
-                    put_on(object_patch)
-                return object_patches[weights.index(max(weights))]
-        """),
-    ),
-    Strong(
-        "paper",
-        "put_on by the name of the object weighed",
-        "How heavy is the mug? Put it back afterwards.",
-        SceneConfig(layout="household", seed=2, categories=("mug", "apple", "banana"), objects=3),
-        of_category("mug"),
-        program("""
-            def execute_command(image):
-                robot = Robot(sensors=["camera", "force/torque sensor"])
-                image_patch = ImagePatch(image)
-                mug_patch = image_patch.find("mug")[0]
-                go_to_object(mug_patch)
-                pick_up("mug")
-                weight = mug_patch.measure_weight("mug")
-                put_on("mug")
-                print(weight["mug"])
-                return mug_patch
-        """),
-    ),
-    Strong(
-        "paper",
-        "the lightest by names, no put_down, the last one put back",
-        "Out of these objects, which one is the lightest?",
-        SceneConfig(layout="triplet", seed=6),
-        lightest,
-        program("""
-            def execute_command(image):
-                robot = Robot(sensors=["camera", "force/torque sensor"])
-                image_patch = ImagePatch(image)
-                weights = []
-                for object_patch in image_patch.find("object"):
-                    name = object_patch.visual_query("What is this?")
-                    go_to_object(object_patch)
-                    pick_up(name)
-                    weights.append((object_patch.measure_weight(name)[name], object_patch))
-                put_on(weights[-1][1])
-                return min(weights, key=lambda pair: pair[0])[1]
-        """),
-    ),
-    Strong(
-        "paper",
-        "which of two is closer, focusing by name",
-        "Which one is closer to me, the candle or the remote control?",
-        SceneConfig(layout="household", seed=8),
-        closest,
-        program("""
-            def execute_command(image):
-                robot = Robot(sensors=["camera", "distance sensor"])
-                image_patch = ImagePatch(image)
-                candle_patch = image_patch.find("candle")[0]
-                remote_patch = image_patch.find("remote control")[0]
-                focus_on_patch(candle_patch)
-                candle_distance = measure_distance("candle")
-                focus_on_patch(remote_patch)
-                remote_distance = measure_distance("remote control")
-                return candle_patch if candle_distance < remote_distance else remote_patch
-        """),
-    ),
-]
+def _strong(row: dict[str, Any]) -> Strong:
+    truth = row["truth"]
+    judge = of_category(truth.split(":", 1)[1]) if truth.startswith("category:") else TRUTHS[truth]
+    return Strong(
+        row["dialect"], row["name"], row["query"], SceneConfig(**row["scene"]), judge, row["program"]
+    )
+
+
+STRONG = [_strong(json.loads(line)) for line in DATA.read_text(encoding="utf-8").splitlines() if line.strip()]
 
 
 @pytest.mark.parametrize("case", STRONG, ids=[f"{c.dialect}: {c.name}" for c in STRONG])
