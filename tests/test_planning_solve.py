@@ -207,7 +207,7 @@ def test_extraction_refusals_are_messages_for_the_model(reply, match):
     """(`execute_command(image)` alone is the paper's dialect and is accepted: tests/test_paper_dialect.py)"""
     with pytest.raises(NoProgram, match=match) as info:
         extract_program(reply)
-    assert info.value.error.category == "syntax" and info.value.error.message == info.value.message
+    assert info.value.error.category == "reply" and info.value.error.message == info.value.message
     assert "```python" in info.value.fix
 
 

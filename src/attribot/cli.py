@@ -368,6 +368,10 @@ PLANNER_FLAGS = (
     _model_flag("Settings", "llm_base_url", str | None, "URL"),
     _model_flag("Settings", "llm_model", str | None, "NAME"),
     _model_flag("Settings", "prompt", str | None, "NAME"),
+    _model_flag("Settings", "llm_timeout_s", float | None, "SECONDS"),
+    _model_flag("Settings", "llm_max_tokens", int | None, "TOKENS"),
+    _model_flag("Settings", "llm_retries", int | None, "N"),
+    _model_flag("Settings", "llm_max_tries", int | None, "N"),
 )
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
@@ -703,6 +707,10 @@ def _settings(given: Any) -> Any:
         "llm_base_url",
         "llm_model",
         "prompt",
+        "llm_timeout_s",
+        "llm_max_tokens",
+        "llm_retries",
+        "llm_max_tries",
     )
     return load_settings(
         naming=_naming(), checks=_checks(_given(given, "checks")), **{n: _given(given, n) for n in names}

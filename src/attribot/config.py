@@ -138,8 +138,35 @@ class Settings(BaseSettings):
     llm_base_url: str | None = Field(None, description="OpenAI-compatible endpoint.")
     llm_model: str = Field("gpt-4o", description="Model name at that endpoint.")
     llm_api_key: SecretStr | None = Field(default=None, repr=False)  # see SECRETS
-    llm_timeout_s: float = Field(60.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
-    llm_max_tries: int = Field(3, ge=1, le=100)
+    llm_timeout_s: float = Field(
+        300.0,
+        gt=0,
+        le=MAX_TIME_S,
+        allow_inf_nan=False,
+        description="Seconds one request to the LLM endpoint may take (a local model's first request reads "
+        "the whole prompt: minutes on a CPU); a request that times out is not sent again.",
+    )
+    llm_max_tokens: int = Field(
+        2048,
+        ge=0,
+        le=1_000_000,
+        description="The longest reply asked of the LLM, in tokens (sent as max_tokens; 2048 holds a "
+        "program with room to spare); 0 sends none, and the server decides.",
+    )
+    llm_retries: int = Field(
+        2,
+        ge=0,
+        le=10,
+        description="Times a request to the LLM endpoint is sent again where the server did no work for it "
+        "(no connection, 429, 5xx); never after a timeout. The client library's own retries are off.",
+    )
+    llm_max_tries: int = Field(
+        3,
+        ge=1,
+        le=100,
+        description="Programs the llm planner may write for one query: the first, and each retry after a "
+        "failed one with its error fed back.",
+    )
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
     # the prompt the LLM planner shows (PROMPTS): recorded with every answer and evaluation record
     prompt: str = Field(

@@ -7,8 +7,9 @@ from __future__ import annotations
 from typing import ClassVar
 
 from attribot.api.checks import check_number
-from attribot.api.errors import ApiArgumentError, PreconditionError
+from attribot.api.errors import ApiArgumentError
 from attribot.api.patch import ImagePatch
+from attribot.api.preconditions import Verdict
 from attribot.api.robot_core import SessionCore, object_name
 from attribot.control.base import (
     RETRY_FROM_HERE,
@@ -55,6 +56,10 @@ class Acting(SessionCore):
             # what they do there moves the robot itself (a pick-up puts the held object down first and
             # comes here, put_on reaches its receptacle), and driving with a load in view loses the target
             self._near = self._aimed = None
+            self._note(f"did not drive yet, holding {self._held_name()}: the next call moves the robot")
+            return
+        if self._check("go_to_object", p) is Verdict.ALREADY:
+            self._note("already holds it: stayed where it is")
             return
         tries = self.safeguards.verify_actions.tries(self.APPROACH_TRIES)
         for attempt in range(tries):
@@ -90,23 +95,15 @@ class Acting(SessionCore):
     def pick_up(self, patch: ImagePatch) -> None:
         """The session's side of `Robot.pick_up` (its docstring is the one programs read)."""
         p, target = self._target(patch, "pick_up")
-        if self.held is not None and self._arranging:
-            if self.held.same_object(p):
-                return
+        if self._arranging and self.held is not None and not self.held.same_object(p):
+            self._note(f"put {self._held_name()} down first")
             self.put_down()
-        if self.held is not None:
-            raise PreconditionError(
-                "robot.pick_up() needs an empty gripper, and the robot holds "
-                f"{self.held.label or 'an object'}",
-                "call robot.put_down() first",
-            )
-        if (self._near is None or not self._near.same_object(p)) and self._arranging:
+        if self._arranging and self.held is None and (self._near is None or not self._near.same_object(p)):
+            self._note("went to it first")
             self.go_to_object(p)
-        if self._near is None or not self._near.same_object(p):
-            raise PreconditionError(
-                f"robot.pick_up() needs the robot next to {target.describe()}",
-                "call robot.go_to_object(patch) right before robot.pick_up(patch)",
-            )
+        if self._check("pick_up", p) is Verdict.ALREADY:
+            self._note("already holds it")
+            return
         tries = self.safeguards.verify_actions.tries(self.GRASP_TRIES)
         seen_first = target
         for attempt in range(tries):
@@ -148,22 +145,19 @@ class Acting(SessionCore):
         self.activity = "putting down " + (
             object_name(self.held.object_id, self.held.label) if self.held is not None else "nothing"
         )
-        if self.held is None:
-            raise PreconditionError(
-                "robot.put_down() needs an object in the gripper, and it is empty",
-                "call robot.pick_up(patch) before robot.put_down()",
-            )
+        self._check("put_down", None)
         self.controller.put_down()
         self.held = self._aimed = None
 
     def put_on(self, patch: ImagePatch) -> None:
         """The session's side of `Robot.put_on` (its docstring is the one programs read)."""
-        _, target = self._target(patch, "put_on")
-        if self.held is None:
-            raise PreconditionError(
-                "robot.put_on() needs an object in the gripper, and it is empty",
-                "call robot.go_to_object(obj) and robot.pick_up(obj) first",
-            )
+        p, target = self._target(patch, "put_on")
+        if self._check("put_on", p) is Verdict.PUT_BACK:
+            # put_on(the object held): "put it back", as programs written from the authors' prompt, which
+            # has no put_down, say it; putting an object on itself makes no sense
+            self._note(f"{self._held_name()} is the object held: put it back where it was picked up")
+            self.put_down()
+            return
         try:
             self.controller.put_on(target)
         except ControlError:
@@ -174,6 +168,7 @@ class Acting(SessionCore):
 
     def push(self, patch: ImagePatch) -> None:
         """The session's side of `Robot.push` (its docstring is the one programs read)."""
-        _, target = self._target(patch, "push")
+        p, target = self._target(patch, "push")
+        self._check("push", p)
         self.controller.push(target)
         self._near = self._aimed = None

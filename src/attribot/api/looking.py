@@ -38,7 +38,7 @@ from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
 from attribot.models.base import Detection, Detector, detect_confirming, detect_in_views
 
-__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object"]
+__all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object", "refit"]
 
 _SETTLE_S = 0.05
 _SETTLE_STEPS = 30
@@ -490,6 +490,47 @@ def _mean_of(cluster: dict[int, Detection]) -> Detection:
         label=best.label,
         object_id=max(set(ids), key=lambda i: (ids.count(i), i == best.object_id)),
     )
+
+
+_REFIT_IOU = 0.1
+_REFIT_SHIFTS = ((-0.5, -0.5), (0.5, 0.5), (-0.5, 0.5), (0.5, -0.5))
+"""Where the object sits in each crop around it: off the middle by half its size towards each corner."""
+
+
+def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, int]:
+    """The best estimate of the box of the object of `name` at `box` in `frame`: `box` looked at again on
+    four crops around it (the object whole in each, at another place in the crop), and the mean of it and
+    the crops' boxes of `name` that overlap it most (IoU 0.1: a thin object's jittered box may share a
+    fifth of its area with a right one, as a 15 px wide bottle's box shifted by 10 px did; a crop three
+    times the box's size holds little else of the name); and how many looks that mean holds (1: none
+    confirmed it, and `box` stands). A detector's jitter is drawn anew for other pixels, so the mean's
+    error shrinks; the crops are of the image itself, so nothing is carried from another viewpoint (boxes
+    carried from the survey's turned views are a few pixels off even without noise, and their mean lost
+    a tenth of a clean box's IoU)."""
+    x0, y0, x1, y1 = box
+    pad_x, pad_y = max(x1 - x0, 12.0), max(y1 - y0, 12.0)
+    looks = [box]
+    for sx, sy in _REFIT_SHIFTS:
+        window = (
+            max(0.0, x0 - pad_x * (1 + sx)),
+            max(0.0, y0 - pad_y * (1 + sy)),
+            min(float(frame.width), x1 + pad_x * (1 - sx)),
+            min(float(frame.height), y1 + pad_y * (1 - sy)),
+        )
+        crop = frame.crop(window)
+        ox, oy = float(crop.origin[0] - frame.origin[0]), float(crop.origin[1] - frame.origin[1])
+        seen = [
+            (d.box[0] + ox, d.box[1] + oy, d.box[2] + ox, d.box[3] + oy)
+            for d in detector.detect(crop, [name])
+        ]
+        same = [b for b in seen if iou(b, box) >= _REFIT_IOU]
+        if same:
+            looks.append(max(same, key=lambda b: iou(b, box)))
+    if len(looks) == 1:
+        return box, 1
+    # the mean, not the median: of five looks the median of each edge lost a tenth of the mean's IoU gain
+    fused = np.asarray(looks, float).mean(axis=0)
+    return (float(fused[0]), float(fused[1]), float(fused[2]), float(fused[3])), len(looks)
 
 
 def ask_again(answer: Callable[[Frame], str], frame: Frame) -> tuple[str, int]:

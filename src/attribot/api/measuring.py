@@ -192,21 +192,11 @@ class Measuring(SessionCore):
     def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
         """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
         robot a program made picks it up instead."""
-        if self.held is not None and self.held.same_object(p):
-            return
-        if self._arranging:
+        if self._arranging and (self.held is None or not self.held.same_object(p)):
+            self._note("picked it up first")
             self.pick_up(p)
             return
-        holding = (
-            f"the robot holds {self.held.label or 'another object'}"
-            if self.held
-            else "the robot holds nothing"
-        )
-        raise PreconditionError(
-            f"robot.{method}() needs {target.describe()} in the gripper, and {holding}",
-            ("call robot.put_down() first, then " if self.held else "call ")
-            + f"robot.go_to_object(patch) and robot.pick_up(patch) before robot.{method}(patch)",
-        )
+        self._check(method, p)
 
     def measure_fullness(self, patch: ImagePatch) -> float:
         """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
@@ -251,17 +241,8 @@ class Measuring(SessionCore):
             self._focus(p, target)
         elif sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
             self.go_to_object(p)
-        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)):
-            raise PreconditionError(
-                f"robot.{method}() reads whatever the camera is centred on, and it is not centred on "
-                f"{target.describe()}",
-                f"call robot.focus_on_patch(patch) right before robot.{method}(patch)",
-            )
-        if sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)):
-            raise PreconditionError(
-                f"robot.{method}() needs the robot next to {target.describe()}",
-                f"call robot.go_to_object(patch) right before robot.{method}(patch)",
-            )
+        if sense.needs in (Need.AIM, Need.REACH):
+            self._check(method, p, sense.needs.value)
         if sense.needs is Need.GRASP:
             self._held_for(p, target, method)
         value, spread, count = self._read_sensor(sensor, sense, p)

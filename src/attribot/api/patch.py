@@ -82,6 +82,7 @@ class ImagePatch:
         "target",
         "same_object",
         "from_program",
+        "best_box",
     )
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `ImagePatch(...)` in a program calls on the image it was given (the paper's dialect)."""
@@ -146,6 +147,14 @@ class ImagePatch:
         The image given to execute_command is already a patch, so it is returned as it is; ViperGPT's
         `ImagePatch(image, left, lower, right, upper)` is its crop."""
         return patch_from_program(self, image, left, lower, right, upper)
+
+    def best_box(self) -> tuple[tuple[float, float, float, float], str]:
+        """Host side: the robot's best estimate of this object's box in its image when it answers, and what
+        it is: with `look_again`, the detection and the image looked at again around it, averaged
+        (`LookAgain.box`); else, or for a patch no detection named, the patch's own box."""
+        if not self.label or self._whole():
+            return self.box, "the patch's own box"
+        return self.safeguards.look_again.box(self.perception.detector, self.frame, self.box, self.label)
 
     def summary(self) -> dict[str, Any]:
         """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""

@@ -47,10 +47,14 @@ __all__ = [
     "prompt_style",
     "MAX_QUERY_CHARS",
     "ENTRY_POINT",
+    "API_CLASS_NAMES",
 ]
 
 ENTRY_POINT = "execute_command"
 """The function every program defines: `execute_command(image, robot)`."""
+API_CLASS_NAMES: tuple[str, ...] = (ImagePatch.__name__, Robot.__name__)
+"""The classes both prompts show as Python source; a reply that copies them around its function still
+yields the function (`attribot.planning.extract`)."""
 _TEMPLATE = "program.jinja"
 _PAPER_TEMPLATE = "paper.jinja"
 

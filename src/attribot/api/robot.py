@@ -105,6 +105,7 @@ class Robot(metaclass=_RobotApi):
         "settle",
         "snapshot",
         "restore",
+        "take_notes",
     )
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `Robot(...)` in a program calls on the session's robot (the paper's dialect)."""
@@ -112,6 +113,8 @@ class Robot(metaclass=_RobotApi):
     """The class whose objects take the robot's methods too (`PROGRAM_FUNCTIONS`): `patch.pick_up()`."""
     PROGRAM_CALLED_ON: ClassVar[str] = "called_on"
     """The host method the runner tells which patch such a call was made on."""
+    PROGRAM_NOTES: ClassVar[str] = "take_notes"
+    """The host method the runner asks, after a call, what the robot did beyond it, for the trace."""
 
     def __init__(
         self,
@@ -209,6 +212,11 @@ class Robot(metaclass=_RobotApi):
     def called_on(self, patch: ImagePatch) -> None:
         """Host side: the program called one of this robot's methods on `patch` (`RobotSession.called_on`)."""
         self._session.called_on(patch)
+
+    def take_notes(self) -> str | None:
+        """Host side: what the last call did beyond itself ("put it back where it was picked up"), for its
+        trace record (`RobotSession.take_notes`)."""
+        return self._session.take_notes()
 
     def backend_name(self) -> str:
         """Host side: the controller's name."""

@@ -18,6 +18,7 @@ from attribot.api.harder import acting_find, carried_back
 from attribot.api.looking import View
 from attribot.api.patch import ImagePatch
 from attribot.api.perception import Perception
+from attribot.api.preconditions import Dialect, State, Verdict, check_action
 from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import (
@@ -171,6 +172,7 @@ class SessionCore:
         # a call through the robot a program made (the paper's dialect): it arranges what an action or a
         # reading needs (turning to the object, going to it, picking it up) where this robot would refuse
         self._arranging = False
+        self._notes: list[str] = []  # what the session did beyond the call itself (put back, arranged)
 
     @property
     def sensors(self) -> list[str]:
@@ -285,6 +287,32 @@ class SessionCore:
             and (not self._acted_on or self._acted_on[-1] is not patch)
         ):
             self._acted_on.append(patch)
+
+    def take_notes(self) -> str | None:
+        """Host side: what the session did beyond the last call itself ("put it back where it was picked
+        up", "went to it first"), for the call's trace record; None when nothing. Emptied as it is read."""
+        notes, self._notes = self._notes, []
+        return "; ".join(notes) or None
+
+    def _note(self, text: str) -> None:
+        self._notes.append(text)
+
+    @property
+    def dialect(self) -> Dialect:
+        """How the program calls this robot: its methods on the robot it was given (`robot.put_down()`), or
+        as bare functions or on a `Robot(sensors=[...])` it made (`put_down()`), as the paper's prompt
+        writes them. Refusals name the fix in these words."""
+        return "paper" if self._arranging else "attribot"
+
+    def _check(self, method: str, p: ImagePatch | None, reading: str = "grasp") -> Verdict:
+        """What `method` on `p` needs of the robot's state, checked before anything moves
+        (`attribot.api.preconditions.check_action`)."""
+        state = State(held=self.held, near=self._near, dialect=self.dialect, aimed=self._aimed)
+        return check_action(method, p, state, reading)
+
+    def _held_name(self) -> str:
+        held = self.held
+        return "nothing" if held is None else object_name(held.object_id, held.label)
 
     def backend_name(self) -> str:
         """Host side: the controller's name, reported as the "robot" backend of an answer."""

@@ -33,7 +33,8 @@ from pydantic import BaseModel, ConfigDict
 
 from attribot.api.checks import patch_named
 from attribot.api.harder import Nearer, look_harder
-from attribot.api.looking import Survey, View, ask_again, reexamine
+from attribot.api.looking import Survey, View, ask_again, reexamine, refit
+from attribot.boxes import Box
 from attribot.control.base import Target
 from attribot.embodiments.base import Embodiment
 from attribot.errors import AttribotError, ConfigError, InputError, UnknownName, UnsupportedAction
@@ -132,6 +133,14 @@ class LookAgain(Safeguard):
         )
         return said
 
+    def box(self, detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, str]:
+        """An answer's box: the object's box in its image looked at again (`attribot.api.looking.refit`),
+        and what it is, for the answer's record."""
+        fused, looks = refit(detector, frame, box, name)
+        if looks == 1:
+            return box, "the detection in the image (looked at again, no other look saw it there)"
+        return fused, f"the mean of {looks} looks at it in the image (its detection and crops around it)"
+
     def survey(self, world: Embodiment, first: View) -> Survey | None:
         """The views around the robot's first image; None for a robot that does not state where its camera
         sits."""
@@ -152,6 +161,9 @@ class WithoutLookAgain(LookAgain):
 
     def answer(self, ask: Callable[[Frame], str], frame: Frame, question: str) -> str:
         return ask(frame)
+
+    def box(self, detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, str]:
+        return box, "the detection in the image"
 
     def survey(self, world: Embodiment, first: View) -> Survey | None:
         return None

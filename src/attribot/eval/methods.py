@@ -131,6 +131,7 @@ class Record(BaseModel):
     right: bool
     iou: FiniteFloat | None = None
     box: Box | None = None
+    box_from: str | None = None  # what the box is (`AnswerObject.box_from`); None: a record made before
     chosen_id: str | None = None
     true_id: str
     true_box: TrueBox
@@ -329,6 +330,7 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         method,
         noise,
         box=list(answer.object.box) if answer.object else None,
+        box_from=answer.object.box_from if answer.object else None,
         chosen_id=answer.object.id if answer.object else None,
         answer=answer.answer,
         value=answer.value,

@@ -95,10 +95,13 @@ class _ChatBackend:
         self.name = f"openai:{self.model}"
         self.temperature = float(temperature)
         self.max_workers = max(1, int(max_workers))
-        self.client = make_client(base_url, api_key, timeout_s, max_retries=max_retries)
+        self.retries = max(0, int(max_retries))
+        self.client = make_client(base_url, api_key, timeout_s)
 
     def _chat(self, messages: list[dict[str, Any]]) -> str:
-        return clean_answer(chat_text(self.client, self.model, messages, temperature=self.temperature))
+        return clean_answer(
+            chat_text(self.client, self.model, messages, self.retries, temperature=self.temperature)
+        )
 
     def _map(self, fn: Any, items: Sequence[Any]) -> list[str]:
         """Calls in parallel threads (the server batches many at once); order kept, first error raised."""
@@ -162,6 +165,7 @@ def _client_args(settings: Settings) -> dict[str, Any]:
         "api_key": revealed(settings.llm_api_key),
         "timeout_s": settings.llm_timeout_s,
         "temperature": settings.llm_temperature,
+        "max_retries": settings.llm_retries,
     }
 
 
@@ -185,7 +189,7 @@ def probe_endpoint(arg: str | None, settings: Settings, timeout_s: float = 3.0) 
     import openai
 
     model = _model_of(arg, settings)
-    client = make_client(settings.llm_base_url, revealed(settings.llm_api_key), timeout_s, max_retries=0)
+    client = make_client(settings.llm_base_url, revealed(settings.llm_api_key), timeout_s)
     where = str(client.base_url)
     try:
         ids = [m.id for m in client.models.list()]

@@ -35,6 +35,8 @@ class AnswerObject(BaseModel):
     # what the choice rests on: the detection's evidence (`attribot.models.base.Evidence`), and "measurement"
     # where the robot measured it
     evidence: tuple[str, ...] = ()
+    # what the box is: the detection in the image, or the mean of looks at it (ImagePatch.best_box)
+    box_from: str | None = None
 
     @property
     def guess(self) -> bool:
@@ -301,8 +303,13 @@ def _answer_object(patch: Any, frame: Any, measurements: Sequence[Any] = ()) -> 
     evidence = tuple(e for e in (getattr(patch, "evidence", None),) if e)
     if _last_measurement(patch, measurements) is not None:
         evidence += ("measurement",)
+    box, source = patch.best_box() if hasattr(patch, "best_box") else (patch.box, None)
     return AnswerObject(
-        id=patch.object_id, category=category, box=tuple(round(v, 1) for v in patch.box), evidence=evidence
+        id=patch.object_id,
+        category=category,
+        box=tuple(round(v, 1) for v in box),
+        box_from=source,
+        evidence=evidence,
     )
 
 

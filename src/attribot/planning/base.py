@@ -62,7 +62,7 @@ def _run_error_type() -> type[BaseModel]:
 
         model_config = ConfigDict(frozen=True)
 
-        category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api"]
+        category: Literal["syntax", "policy", "runtime", "timeout", "limit", "api", "reply"]
         message: str
         line: int | None = None
         snippet: str | None = None
@@ -110,6 +110,7 @@ class Attempt(BaseModel):
     error: RunError | None = None  # type: ignore[valid-type]
     reply: str | None = None
     did: list[str] = []  # the API calls the try made, in order, with their results or errors (short)
+    moved: bool | None = None  # whether an action of the robot's ran (None: not known, as before)
 
 
 @runtime_checkable
@@ -134,12 +135,13 @@ def build_planner(name: str, settings: Settings) -> Planner:
 
 
 class NoProgram(AttribotError):
-    """A planner's reply held no usable program. `error` is the structured message fed back to the model."""
+    """A planner's reply held no usable program. `error` is the structured message fed back to the model,
+    of category "reply": nothing was run (it is no syntax error of a program)."""
 
     def __init__(self, message: str, fix: str | None = None, *, reply: str | None = None) -> None:
         super().__init__(message, fix)
         self.reply = reply
-        self.error = RunError(category="syntax", message=message, line=None, snippet=None, output="")
+        self.error = RunError(category="reply", message=message, line=None, snippet=None, output="")
 
 
 @dataclass(frozen=True)
@@ -205,8 +207,12 @@ def solve(
         tried.add(plan.program)
         plans.append(plan)
         result = _checked(execute(plan.program), check)
-        did = describe_calls(getattr(result, "trace", ()))  # a caller's own result may keep no trace
-        attempts.append(Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did))
+        trace = getattr(result, "trace", None)  # a caller's own result may keep no trace
+        did = describe_calls(trace or ())
+        moved = None if trace is None else any(_acted(record) for record in trace)
+        attempts.append(
+            Attempt(program=plan.program, error=result.error, reply=plan.reply, did=did, moved=moved)
+        )
         if result.ok:
             break
     return SolveResult(attempts=attempts, result=result, plans=plans)
@@ -221,6 +227,11 @@ def _checked(result: Any, check: Callable[[Any], str | None] | None) -> Any:
     return result.model_copy(update={"ok": False, "error": error})
 
 
+def _acted(record: Any) -> bool:
+    """A trace record of a robot action that ran (an action class's method, not its constructor)."""
+    return getattr(record, "kind", None) == "action" and "." in record.call and record.error is None
+
+
 def describe_calls(trace: Sequence[Any], limit: int = 12) -> list[str]:
     """The API calls of a run as short lines ("Robot.pick_up(ball) -> failed: grasp failed ..."), the
     last `limit` of them: what a failed try did, for the feedback."""
@@ -228,6 +239,8 @@ def describe_calls(trace: Sequence[Any], limit: int = 12) -> list[str]:
     for record in trace:
         args = ", ".join(_short(a) for a in record.args)
         outcome = f"failed: {record.error}" if record.error else _short(record.result)
+        if getattr(record, "note", None):
+            outcome += f" ({record.note})"
         lines.append(f"{record.call}({args}) -> {outcome}")
     if len(lines) > limit:
         lines = [f"... {len(lines) - limit} earlier calls", *lines[-limit:]]

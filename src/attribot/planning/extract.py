@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import re
 
+from attribot.api.prompt import API_CLASS_NAMES
 from attribot.planning.base import ENTRY_POINT, NoProgram
 
 __all__ = ["extract_program", "first_line"]
@@ -31,20 +32,25 @@ def first_line(reply: str, limit: int = 120) -> str:
     return ""
 
 
-def extract_program(reply: str) -> str:
-    """The program in `reply`: the fenced (or bare) code that defines `execute_command(image, robot)`.
+def extract_program(reply: str, entry: str = f"{ENTRY_POINT}(image, robot)") -> str:
+    """The program in `reply`: the fenced (or bare) code that defines the entry point. `entry` is the
+    entry point as the prompt shown taught it (`execute_command(image, robot)`, or `execute_command(image)`
+    for the paper's prompt): what a refusal asks for.
 
     Several fenced blocks: the last one that defines the entry point and parses wins (models put the
     corrected version last); other languages' blocks are only used when no python block qualifies.
     Top-level lines that would break the run, such as a `if __name__ == "__main__":` block or a call of
-    the entry point, are dropped. Raises `NoProgram` with a message meant for the model otherwise.
+    the entry point, are dropped, and so are the API's classes where the reply copies them from the prompt
+    around its function (the runner provides them). Raises `NoProgram` with a message meant for the model
+    otherwise.
 
     >>> extract_program("Sure:\\n```python\\ndef execute_command(image, robot):\\n    return 1\\n```")
     'def execute_command(image, robot):\\n    return 1\\n'
     """
+    fix = _fix(entry)
     if not isinstance(reply, str) or not reply.strip():
         raise NoProgram(
-            "no code in the reply: the reply is empty", _FIX, reply=reply if isinstance(reply, str) else None
+            "no code in the reply: the reply is empty", fix, reply=reply if isinstance(reply, str) else None
         )
     blocks = [(m.group(2).lower(), m.group(3)) for m in _FENCE.finditer(reply)]
     defining = [(tag in _PYTHON_TAGS, body) for tag, body in blocks if _DEF.search(body)]
@@ -55,12 +61,11 @@ def extract_program(reply: str) -> str:
     if not defining:
         if blocks or _looks_like_code(reply):
             raise NoProgram(
-                f"the code in the reply does not define {ENTRY_POINT}(image, robot)"
-                f" (the reply starts: {first_line(reply)!r})",
-                _FIX,
+                f"the code in the reply does not define {entry} (the reply starts: {first_line(reply)!r})",
+                fix,
                 reply=reply,
             )
-        raise NoProgram(f"no code in the reply (the reply starts: {first_line(reply)!r})", _FIX, reply=reply)
+        raise NoProgram(f"no code in the reply (the reply starts: {first_line(reply)!r})", fix, reply=reply)
     # Preference, each time the last such block: python and parses > parses > python > any. A block that
     # does not parse is still returned when it is all there is: the runner then reports the syntax error
     # with its line, which is the most useful feedback.
@@ -73,11 +78,12 @@ def extract_program(reply: str) -> str:
         chosen, [body for tag, body in blocks if tag in _PYTHON_TAGS and body is not chosen]
     )
     program = _drop_harmful_top_level(chosen)
-    _check_signature(program, reply)
+    _check_signature(program, reply, entry)
     return program if program.endswith("\n") else program + "\n"
 
 
-_FIX = f"answer with one ```python code block that defines {ENTRY_POINT}(image, robot)"
+def _fix(entry: str) -> str:
+    return f"answer with one ```python code block that defines {entry}"
 
 
 def _parses(code: str) -> bool:
@@ -99,7 +105,7 @@ def _bare_code(reply: str) -> str | None:
     start = next((i for i, line in enumerate(lines) if _DEF.match(line)), None)
     if start is None:
         return None
-    while start > 0 and re.match(r"^(import |from |def |#|@|\s+\S)", lines[start - 1]):
+    while start > 0 and re.match(r"^(import |from |def |class |#|@|\s+\S)", lines[start - 1]):
         start -= 1
     # shrink the end until the stretch parses (a trailing sentence of prose does not)
     for end in range(len(lines), start, -1):
@@ -133,7 +139,9 @@ def _with_helpers(chosen: str, others: list[str]) -> str:
 
 def _drop_harmful_top_level(code: str) -> str:
     """Remove top-level `if __name__ == ...:` blocks and calls of the entry point: examples that the model
-    added for a reader, which would fail (or be refused) when the program is loaded."""
+    added for a reader, which would fail (or be refused) when the program is loaded; and the API's classes
+    (`class ImagePatch:`, `class Robot:`) copied from the prompt, which the runner provides (a program's
+    own class of another name is left for the policy to judge)."""
     try:
         tree = ast.parse(code)
     except (SyntaxError, ValueError):
@@ -144,6 +152,8 @@ def _drop_harmful_top_level(code: str) -> str:
         harmful = False
         if isinstance(node, ast.If) and "__name__" in ast.unparse(node.test):
             harmful = True
+        elif isinstance(node, ast.ClassDef) and node.name in API_CLASS_NAMES:
+            harmful = True
         elif isinstance(node, ast.Expr | ast.Assign) and any(
             isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in (ENTRY_POINT, "print")
             for n in ast.walk(node)
@@ -151,11 +161,12 @@ def _drop_harmful_top_level(code: str) -> str:
             harmful = True
         if harmful:
             end = node.end_lineno or node.lineno
-            drop.update(range(node.lineno - 1, end))
+            start = min([node.lineno, *(d.lineno for d in getattr(node, "decorator_list", []))])
+            drop.update(range(start - 1, end))
     return "\n".join(line for i, line in enumerate(lines) if i not in drop).rstrip() + "\n"
 
 
-def _check_signature(program: str, reply: str) -> None:
+def _check_signature(program: str, reply: str, entry: str) -> None:
     """The entry point must take the arguments the runner gives it: (image, robot), or (image) alone as the
     paper's and ViperGPT's programs do (they build `Robot(...)` themselves)."""
     try:
@@ -171,12 +182,12 @@ def _check_signature(program: str, reply: str) -> None:
                 return
             raise NoProgram(
                 f"{ENTRY_POINT} takes {positional} argument(s) ({required} required), "
-                f"but it is called as {ENTRY_POINT}(image, robot)",
-                _FIX,
+                f"but it is called as {entry}",
+                _fix(entry),
                 reply=reply,
             )
     raise NoProgram(
         f"the code in the reply defines {ENTRY_POINT} only inside another block; define it at the top level",
-        _FIX,
+        _fix(entry),
         reply=reply,
     )

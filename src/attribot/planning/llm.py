@@ -36,13 +36,26 @@ list of chat messages. `embodied` and `findable` are passed when the builder acc
 _OUTPUT_TAIL = 1500  # characters of program output sent back: enough to see what it printed last
 
 
+_NOT_RUN = ("reply", "syntax", "policy")
+"""Error categories of a try in which no program ran: the robot did nothing, so nothing was put back."""
+
+
 def feedback_message(
-    error: Any, did: Sequence[str] = (), same_start: bool = False, entry: str = f"{ENTRY_POINT}(image, robot)"
+    error: Any,
+    did: Sequence[str] = (),
+    same_start: bool = False,
+    entry: str = f"{ENTRY_POINT}(image, robot)",
+    moved: bool | None = None,
 ) -> str:
     """The follow-up user message for a failed attempt: the structured error, what the try did (its API
-    calls, `did`), where the next try starts, and what to do (`entry`: the function the prompt asked for)."""
+    calls, `did`), where the next try starts, and what to do (`entry`: the function the prompt asked for,
+    in its own words). A reply with no program is told so (not a syntax error), and a try in which nothing
+    ran, or in which the robot did not act (`moved` False), is not told that the robot was put back."""
     where = f", line {error.line}" if getattr(error, "line", None) else ""
-    lines = [f"Your program failed ({error.category} error{where}): {error.message}"]
+    if error.category == "reply":
+        lines = [f"Your reply has no program I can run: {error.message}"]
+    else:
+        lines = [f"Your program failed ({error.category} error{where}): {error.message}"]
     if getattr(error, "snippet", None):
         lines.append(f"The failing line: {error.snippet.strip()}")
     output = getattr(error, "output", "") or ""
@@ -51,7 +64,13 @@ def feedback_message(
         lines.append(f"Its output so far:\n{tail}")
     if did:
         lines.append("What it did, call by call:\n" + "\n".join(f"- {line}" for line in did))
-    if same_start:
+    if error.category in _NOT_RUN:
+        lines.append("Nothing ran: the robot has not moved, and the next program starts from the same image.")
+    elif moved is False:
+        lines.append(
+            "The robot has not moved: the next program starts from the same state and the same image."
+        )
+    elif same_start:
         lines.append(
             "The next program starts from the same state as this one: the robot back where it started, "
             "its gripper empty, and the same first image."
@@ -112,14 +131,17 @@ class LLMPlanner:
         *,
         prompt_builder: PromptBuilder | None = None,
         use_cache: bool = True,
-        http_retries: int = 2,
+        http_retries: int | None = None,
     ) -> None:
         self.settings = settings
         self.model = settings.llm_model
         self.max_tries = settings.llm_max_tries
         self.params: dict[str, Any] = {"temperature": settings.llm_temperature}
+        if settings.llm_max_tokens:
+            self.params["max_tokens"] = settings.llm_max_tokens
         self.cache = ReplyCache(Path(settings.cache_dir) / "llm") if use_cache else None
-        self.http_retries = http_retries
+        # requests sent again where the server did no work for them (`llm_retries`; see openai_client)
+        self.http_retries = settings.llm_retries if http_retries is None else http_retries
         self._prompt_builder = prompt_builder
         # the prompt shown (named in every answer): the settings' choice, or "custom" for a given builder
         self.prompt = settings.prompt if prompt_builder is None else "custom"
@@ -143,7 +165,9 @@ class LLMPlanner:
                 continue
             said = attempt.reply if attempt.reply is not None else f"```python\n{attempt.program}```"
             messages.append({"role": "assistant", "content": said})
-            feedback_text = feedback_message(attempt.error, attempt.did, request.same_start, self._entry())
+            feedback_text = feedback_message(
+                attempt.error, attempt.did, request.same_start, self._entry(), attempt.moved
+            )
             messages.append({"role": "user", "content": feedback_text})
         return messages
 
@@ -151,7 +175,7 @@ class LLMPlanner:
         """Ask the model (or the cache); raises `NoProgram` when the reply holds no usable program."""
         messages = self.messages(request, feedback)
         reply, cached = self.complete(messages)
-        return Plan(program=extract_program(reply), reply=reply, cached=cached)
+        return Plan(program=extract_program(reply, self._entry()), reply=reply, cached=cached)
 
     def complete(self, messages: list[dict[str, str]]) -> tuple[str, bool]:
         """The model's reply to `messages` and whether it came from the cache."""
@@ -162,7 +186,7 @@ class LLMPlanner:
             hit = self.cache.get(key)
             if hit is not None:
                 return hit, True
-        reply = chat_text(self._get_client(), self.model, messages, **self.params)
+        reply = chat_text(self._get_client(), self.model, messages, self.http_retries, **self.params)
         if self.cache is not None:
             self.cache.put(key, reply, self.model)
         return reply, False
@@ -196,10 +220,7 @@ class LLMPlanner:
             from attribot.models.openai_client import make_client
 
             self._client = make_client(
-                self.settings.llm_base_url,
-                revealed(self.settings.llm_api_key),
-                self.settings.llm_timeout_s,
-                self.http_retries,
+                self.settings.llm_base_url, revealed(self.settings.llm_api_key), self.settings.llm_timeout_s
             )
         return self._client
 

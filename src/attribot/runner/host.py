@@ -35,7 +35,7 @@ __all__ = ["ProgramRunner"]
 
 WORKER_PATH = Path(worker.__file__).resolve()
 _STARTUP_S = 30.0  # a worker that is not ready by then is broken, not slow
-_CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}
+_CATEGORIES = {"syntax", "policy", "runtime", "timeout", "limit", "api"}  # a run's; "reply" is the planner's
 # a file path; not the path part of a URL ("https://host/a/b" stays whole)
 _PATHS = re.compile(r"(?<![\w:/.\\])(?:[A-Za-z]:)?(?:[\\/][\w.\-~]+){2,}[\\/]?")
 TRACE_TEXT_CHARS = 1000
@@ -486,12 +486,24 @@ class _Run:
             raise
         except AttribotError as e:
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind)
+            note = self._note_of(cls, obj)
+            return self._refuse(
+                name, str(e), line, shown, ms, recoverable=e.recoverable, kind=kind, note=note
+            )
         except Exception as e:  # noqa: BLE001 (any host failure is reported, without paths)
             ms = (time.perf_counter() - t0) * 1000
-            return self._refuse(name, _failure(name, e), line, shown, ms, kind=kind)
+            return self._refuse(
+                name, _failure(name, e), line, shown, ms, kind=kind, note=self._note_of(cls, obj)
+            )
         ms = (time.perf_counter() - t0) * 1000
-        return self._returned(name, result, line, shown, ms, kind)
+        return self._returned(name, result, line, shown, ms, kind, self._note_of(cls, obj))
+
+    @staticmethod
+    def _note_of(cls: type, obj: Any) -> str | None:
+        """What the call just made did beyond itself, as the class's `PROGRAM_NOTES` host method says (read
+        after every call, failed ones too, so that a note never lands on a later call's record)."""
+        notes = getattr(cls, "PROGRAM_NOTES", None)
+        return getattr(obj, notes)() if notes is not None else None
 
     def _read_call(self, msg: dict[str, Any]) -> tuple[Any, list[Any], dict[str, Any], Any]:
         """The object, arguments and receiver (None when there is none) that a call names, as host values;
@@ -528,7 +540,14 @@ class _Run:
             cutter.in_call = False
 
     def _returned(
-        self, name: str, result: Any, line: int | None, shown: list[Any], ms: float, kind: str | None
+        self,
+        name: str,
+        result: Any,
+        line: int | None,
+        shown: list[Any],
+        ms: float,
+        kind: str | None,
+        note: str | None = None,
     ) -> dict[str, Any]:
         """The reply that hands a call's result to the program, and its trace record; a refusal when the
         result is not something a program can hold."""
@@ -538,7 +557,7 @@ class _Run:
             message = f"{name} returned {e}, which cannot be passed to a program"
             return self._refuse(name, message, line, shown, ms, kind=kind)
         kept = self._kept(self.summary(result))
-        self.record(TraceRecord(call=name, args=shown, result=kept, ms=ms, line=line, kind=kind))
+        self.record(TraceRecord(call=name, args=shown, result=kept, ms=ms, line=line, kind=kind, note=note))
         return {KIND: Kind.RETURN, Key.VALUE: wire}
 
     def _kept(self, value: Any) -> Any:
@@ -567,13 +586,16 @@ class _Run:
         ms: float = 0.0,
         recoverable: bool = False,
         kind: str | None = None,
+        note: str | None = None,
     ) -> dict[str, Any]:
         """The reply to a failed call: a stop, or with `recoverable` (an action that failed in the world)
         the `ActionFailed` the program may catch. Either way the trace records the failed call."""
         # a host error may quote a program's text, lone surrogates and all, or a host object's repr
         message = _text(_HOST_REPR.sub(r"<\1>", message))
         self.record(
-            TraceRecord(call=name, args=shown, result=None, ms=ms, line=line, error=message, kind=kind)
+            TraceRecord(
+                call=name, args=shown, result=None, ms=ms, line=line, error=message, kind=kind, note=note
+            )
         )
         reply = Kind.ACTION_FAILED if recoverable else Kind.API_ERROR
         return {KIND: reply, Key.CATEGORY: "api", Key.MESSAGE: message}

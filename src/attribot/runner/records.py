@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer
 
 __all__ = ["Limits", "RunError", "TraceRecord", "RunResult", "Category"]
 
-Category = Literal["syntax", "policy", "runtime", "timeout", "limit", "api"]
+Category = Literal["syntax", "policy", "runtime", "timeout", "limit", "api", "reply"]
+"""What failed: the program's text (syntax, policy), its run (runtime, timeout, limit, api), or, before any
+program, the model's reply, which held none to run (reply)."""
 
 
 class Limits(BaseModel):
@@ -64,6 +66,16 @@ class TraceRecord(BaseModel):
     line: int | None = None  # the line of the program that made the call
     error: str | None = None  # the API error, when the call failed
     kind: str | None = None  # what the call does, as its class declares (`API_KIND`): perception | action
+    # what the host did beyond the call itself, as its class's `PROGRAM_NOTES` method says ("put it back")
+    note: str | None = None
+
+    @model_serializer(mode="wrap")
+    def _without_empty_note(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """A record with no note is written as records were before notes: the field left out."""
+        data: dict[str, Any] = handler(self)
+        if data.get("note", "") is None:
+            del data["note"]
+        return data
 
 
 class RunResult(BaseModel):
