@@ -178,3 +178,33 @@ def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_gues
     assert answer_lines([row]) == [
         "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
     ]
+
+
+class CallsItA(SeesOnly):
+    """`SeesOnly`, but it also boxes one category surely under another name (YOLOv5s calls a potato a
+    sports ball at 0.31)."""
+
+    def __init__(self, sees: set[str], thing: str, called: str) -> None:
+        super().__init__(sees | {thing})
+        self.thing, self.called = thing, called
+
+    def detect(self, frame: Frame, queries):
+        found = super().detect(frame, [self.thing if q == self.called else q for q in queries])
+        return [d.model_copy(update={"label": self.called}) if d.label == self.thing else d for d in found]
+
+
+def test_a_sure_box_on_a_thing_of_no_size_the_name_has_is_set_aside():
+    """The tomato (6-8 cm) boxed surely as a basketball (24 cm across) is not the basketball asked about: the
+    room holds none, and the answer is not found."""
+    with MujocoWorld(ROOM) as world:
+        robot, image = _robot_image(world, {"apple", "mug"})
+        image.perception = Perception(
+            detector=CallsItA({"apple", "mug"}, "tomato", "basketball"),
+            vqa=image.perception.vqa,
+            language=image.perception.language,
+        )
+        image.nearer = None
+        assert image.perception.detector.detect(image.frame, ["basketball"])  # it does box it, surely
+        assert image.find("basketball") == []
+    harder = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+    assert "set aside" in harder[-1].detail

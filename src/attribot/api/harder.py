@@ -203,9 +203,7 @@ def look_harder(
     kept = one_each(kept)
     if not candidates:
         return kept, report
-    misfits = _misfits(detector, name, kept, candidates)
-    kept = [d for d in kept if d not in misfits]
-    report.set_aside += len(misfits)
+    kept = _without_misfits(detector, name, kept, candidates, report)
     if all(d.score < UNSURE for d in kept):
         merged, views = _zoomed_in(detector, frame, name, candidates, kept)
         report.views, report.added = len(views), len(merged) - len(kept)
@@ -218,6 +216,7 @@ def look_harder(
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
     kept = _fitted(detector, name, kept, candidates, report)
+    kept = _without_misfits(detector, name, kept, candidates, report)  # the zoomed views' too
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
     explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
     more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [])
@@ -227,19 +226,30 @@ def look_harder(
     return kept + more, report
 
 
+def _without_misfits(
+    detector: Detector, name: str, found: list[Detection], candidates: list[Candidate], report: LookHarderReport
+) -> list[Detection]:
+    """`found` less its `_misfits`, counted as set aside in `report`; what weaker evidence took stays (it
+    was taken for its size)."""
+    misfits = [d for d in _misfits(detector, name, found, candidates) if not any(d is t for t in report.took)]
+    report.set_aside += len(misfits)
+    return [d for d in found if not any(d is m for m in misfits)]
+
+
 def _misfits(
     detector: Detector, name: str, found: list[Detection], candidates: list[Candidate]
 ) -> list[Detection]:
-    """The faint boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
-    (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball, and a basketball is 24 cm
-    across. A sure box stands whatever depth sees (depth may see a part of it, or it with its neighbour)."""
+    """The boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
+    (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball and YOLOv5s surely, and a
+    basketball is 24 cm across. A box on several things or on none is left as it is (depth sees it with its
+    neighbour, or not at all)."""
     sizes = name_sizes(detector, name)
     if sizes is None:
         return []
     out = []
     for det in found:
         framed = _framed(det, candidates)
-        if det.score >= UNSURE or len(framed) != 1:
+        if len(framed) != 1:
             continue
         size = candidates[framed[0]].size
         if size > 0 and not fits_size(size, sizes):
@@ -297,7 +307,8 @@ def _unseen(
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
     if faint is not None:
         report.faint = faint.score
-        return [grown_to_candidates(faint, free, sizes)]
+        grown = grown_to_candidates(faint, free, sizes).model_copy(update={"evidence": "faint box"})
+        return confirmed([grown], candidates, name, nearer, report)
     whole = (0, 0, frame.width, frame.height)
     # a box of the name's own class, or of a class another name of the program stands for, explains no
     # place: each of those names is one object, its best box (in `claimed`), which explains its place
@@ -344,13 +355,12 @@ def confirmed(
     nearer: Nearer | None,
     report: LookHarderReport,
 ) -> list[Detection]:
-    """What of `inferred` (objects the detector never named: elimination, likeness) acting confirms: the
-    robot drives nearer to each and looks; where the detector names it there, its box seen nearer stands in
-    its place, and where it does not, it is dropped: in a room with things no detector can name, the one
-    place left or a likeness is as often something else (a dumbbell taken for an absent toaster). A faint
-    box is not confirmed so: the detector named the object, if faintly, and a weak one misses it from nearer
-    too. A robot that cannot drive there keeps the inferences as they are, which an answer resting on them
-    calls a guess."""
+    """What of `inferred` (objects the detector never named at its threshold: a box fainter than that,
+    elimination, likeness) acting confirms: the robot drives nearer to each and looks; where the detector
+    names it there, its box seen nearer stands in its place, and where it does not, it is dropped: in a room
+    with things no detector can name, the one place left, a likeness or a box at 0.02 is as often something
+    else (a dumbbell taken for an absent toaster, a CD for an absent bowl). A robot that cannot drive there
+    keeps them as they are; an answer resting on an elimination or a likeness then says it is a guess."""
     if nearer is None or not inferred:
         return inferred
     kept: list[Detection] = []
