@@ -94,6 +94,23 @@ def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(seen, visits
     assert (report.confirmed, report.unconfirmed) == (confirmed_n, dropped_n)
     # a robot that cannot drive keeps the inference as it is
     assert confirmed(inferred, [place], "mug", None, LookHarderReport(1, 0, 0, 0)) == inferred
+    # where everything else depth sees is named (a closed world), the one place left stands unconfirmed
+    closed = LookHarderReport(1, 0, 0, 0)
+    kept_closed = confirmed(inferred, [place], "mug", nearer, closed, lambda: True)
+    assert kept_closed == (inferred if seen == [] and visits else kept_closed)
+    assert closed.closed == (1 if not seen and visits else 0)
+
+
+def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained():
+    from attribot.api.harder import closed_world
+
+    things = [Candidate(box=(x, 100.0, x + 20.0, 130.0), rise=0.1, pixels=40, size=0.1) for x in (50.0, 150.0, 250.0)]
+    named = [Detection(box=(45.0, 95.0, 75.0, 135.0), score=0.8, label="cup")]
+    assert not closed_world(things, named, 640, 480)  # two things no box explains: others are in the room
+    named.append(Detection(box=(145.0, 95.0, 175.0, 135.0), score=0.6, label="apple"))
+    assert closed_world(things, named, 640, 480)  # only the one sought is left unnamed
+    faint = [named[0], named[1].model_copy(update={"score": 0.05})]
+    assert not closed_world(things, faint, 640, 480)  # a faint box explains nothing
 
 
 def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elimination():

@@ -51,6 +51,7 @@ __all__ = [
     "class_sizes",
     "colour_fits",
     "carried_back",
+    "closed_world",
     "confirmed",
     "faint_pick",
     "one_name_each",
@@ -100,6 +101,7 @@ class LookHarderReport:
     fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
     confirmed: int = 0  # inferences (elimination, likeness) the detector confirmed from nearer
     unconfirmed: int = 0  # inferences dropped: from nearer the detector did not name them
+    closed: int = 0  # inferences kept unconfirmed, since everything else depth sees here is named
     took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
 
     @property
@@ -129,6 +131,10 @@ class LookHarderReport:
             text += f"; {self.confirmed} of them confirmed: seen as the name from nearer"
         if self.unconfirmed:
             text += f"; {self.unconfirmed} dropped: from nearer the detector did not see the name there"
+        if self.closed:
+            text += (
+                f"; {self.closed} kept though not seen as the name from nearer: everything else here is named"
+            )
         return text
 
 
@@ -304,20 +310,28 @@ def _unseen(
     free = [c for c in candidates if not any(_inside(center(c.box), d.box) for d in claimed)]
     category = find_category(name)
     sizes = None if category is None else category.size_range_m
+    whole = (0, 0, frame.width, frame.height)
+
+    @cache
+    def explaining() -> list[Detection]:
+        # a box of the name's own class, or of a class another name of the program stands for, explains no
+        # place: each of those names is one object, its best box (in `claimed`), which explains its place
+        # whatever its score
+        mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
+        seen = detect_in_views(detector, frame, ["object"], [whole, *views])
+        # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
+        found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera)]
+        return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
+
+    def closed() -> bool:
+        return closed_world(candidates, explaining(), frame.width, frame.height)
+
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
     if faint is not None:
         report.faint = faint.score
         grown = grown_to_candidates(faint, free, sizes).model_copy(update={"evidence": "faint box"})
-        return confirmed([grown], candidates, name, nearer, report)
-    whole = (0, 0, frame.width, frame.height)
-    # a box of the name's own class, or of a class another name of the program stands for, explains no
-    # place: each of those names is one object, its best box (in `claimed`), which explains its place
-    # whatever its score
-    mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
-    seen = detect_in_views(detector, frame, ["object"], [whole, *views])
-    # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
-    others = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera)]
-    others += [d.model_copy(update={"score": 1.0}) for d in claimed]
+        return confirmed([grown], candidates, name, nearer, report, closed)
+    others = explaining()
     placement = None if category is None else category.placement
     if nearer is not None:
         seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement))
@@ -345,7 +359,23 @@ def _unseen(
         name,
         nearer,
         report,
+        closed,
     )
+
+
+def closed_world(candidates: list[Candidate], explaining: list[Detection], width: int, height: int) -> bool:
+    """Whether depth sees at most one thing here that no sure box explains (furniture and what the image's
+    edge cuts aside): a world closed enough for an argument by elimination, where everything else is
+    named. A room with things the detector cannot name leaves several unexplained."""
+    sure = [d for d in explaining if d.score >= UNSURE]
+    unexplained = [
+        c
+        for c in candidates
+        if not _furniture(c)
+        and not at_edge(c.box, width, height)
+        and not any(_inside(center(c.box), d.box) for d in sure)
+    ]
+    return len(unexplained) <= 1
 
 
 def confirmed(
@@ -354,13 +384,16 @@ def confirmed(
     name: str,
     nearer: Nearer | None,
     report: LookHarderReport,
+    closed: Callable[[], bool] | None = None,
 ) -> list[Detection]:
     """What of `inferred` (objects the detector never named at its threshold: a box fainter than that,
     elimination, likeness) acting confirms: the robot drives nearer to each and looks; where the detector
-    names it there, its box seen nearer stands in its place, and where it does not, it is dropped: in a room
-    with things no detector can name, the one place left, a likeness or a box at 0.02 is as often something
-    else (a dumbbell taken for an absent toaster, a CD for an absent bowl). A robot that cannot drive there
-    keeps them as they are; an answer resting on an elimination or a likeness then says it is a guess."""
+    names it there, its box seen nearer stands in its place. Where it does not, the inference is dropped, in
+    a room with things no detector can name (the one place left, a likeness or a box at 0.02 is as often
+    something else there: a dumbbell taken for an absent toaster, a CD for an absent bowl), and kept as it
+    is where the world is closed (`closed`: everything else depth sees is named, so the one thing left is
+    the one sought, a toaster the detector never names). A robot that cannot drive there keeps them as they
+    are. An answer resting on a kept elimination or likeness says that it is a guess."""
     if nearer is None or not inferred:
         return inferred
     kept: list[Detection] = []
@@ -373,6 +406,9 @@ def confirmed(
             kept.extend(s.model_copy(update={"label": name}) for s in seen)
         elif visits == 0:
             kept.append(det)  # no way there: still an inference
+        elif closed is not None and closed():
+            report.closed += 1
+            kept.append(det)
         else:
             report.unconfirmed += 1
     return kept
