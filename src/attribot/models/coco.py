@@ -9,10 +9,11 @@ downloaded when a detector is built.
 
 Spec `coco` (the files in `default_folder()`, or in the `coco_dir` setting) or `coco:FOLDER`, with
 options `?tiles=N`, `?size=S`, `?part_size=S` and `?batch=B` (see `build_coco_detector`). The
-detector is closed-set: a noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a
-cup, a cactus a potted plant, a basketball a sports ball), generic words ("object", "item") to every class
-of a thing one could pick up, and a name with no class is refused with an error that names an
-open-vocabulary detector. OpenCV 5 dropped the Darknet reader, hence the extra's `opencv<5` pin.
+detector is closed-set: a noun phrase maps to one COCO class through the everyday names of the perception
+priors, `attribot.priors` (a mug is a cup, a cactus a potted plant, a basketball a sports ball), generic
+words ("object", "item") to every class of a thing one could pick up, and a name with no class is refused
+with an error that names an open-vocabulary detector. OpenCV 5 dropped the Darknet reader, hence the
+extra's `opencv<5` pin.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from attribot.frame import Frame, pixel_digest
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
 from attribot.models.base import DETECTORS, Detection, off_own_body
 from attribot.models.noise import split_options
-from attribot.sim.catalog import find_category
+from attribot.priors import priors
 
 if TYPE_CHECKING:
     from attribot.config import Settings
@@ -113,8 +114,9 @@ COCO_CLASS_OF: dict[str, str] = {
     "suitcase": "suitcase",
     "backpack": "backpack",
 }
-"""Catalog category -> the COCO class (as Darknet's coco.names spells it) that covers it; a category not
-here has no class."""
+"""The simulator's categories a coco detector finds, with the COCO class (as Darknet's coco.names spells it)
+each is found as: a record for the scenes drawn in its vocabulary, not read by the mapping, which goes through
+the everyday names of `attribot.priors` (a test checks that they reach these classes)."""
 
 # the other spellings of Darknet's class names, and the surfaces of the world that are COCO classes
 _CLASS_WORDS: dict[str, str] = {
@@ -236,9 +238,10 @@ def coco_classes_for(phrase: str, classes: Sequence[str]) -> list[str]:
                 name = _CLASS_WORDS.get(text, text) if text not in known else text
                 if name in known:
                     return [name]
-        category = find_category(" ".join(content))
-        if category is not None and COCO_CLASS_OF.get(category.name) in known:
-            return [COCO_CLASS_OF[category.name]]
+        # an everyday name of a kind the perception priors file under a class (a mug is a cup)
+        kind = priors().find(" ".join(content))
+        if kind is not None and kind.coco in known:
+            return [kind.coco]
         if set(singular_forms(content[-1])) & GENERIC_NOUNS:
             return [c for c in classes if c not in _NOT_THINGS]
         if " ".join(content[-2:]) in SURFACE_WORDS or content[-1] in SURFACE_WORDS:
