@@ -16,7 +16,9 @@ from attribot.priors import PLACES, SCALE_RANGE, load_priors, priors
 SHIPPED = tomllib.loads(
     resources.files("attribot").joinpath("data", "priors.toml").read_text(encoding="utf-8")
 )
-COCO_CLASSES = """
+COCO_CLASSES = [
+    word.replace("_", " ")
+    for word in """
 person bicycle car motorbike aeroplane bus train truck boat traffic_light fire_hydrant stop_sign
 parking_meter bench bird cat dog horse sheep cow elephant bear zebra giraffe backpack umbrella handbag tie
 suitcase frisbee skis snowboard sports_ball kite baseball_bat baseball_glove skateboard surfboard
@@ -24,7 +26,8 @@ tennis_racket bottle wine_glass cup fork knife spoon bowl banana apple sandwich 
 hot_dog pizza donut cake chair sofa pottedplant bed diningtable toilet tvmonitor laptop mouse remote
 keyboard cell_phone microwave oven toaster sink refrigerator book clock vase scissors teddy_bear
 hair_drier toothbrush
-""".replace("_", " ").split()
+""".split()
+]
 """Darknet's coco.names, the classes the coco detector names."""
 
 
@@ -190,3 +193,21 @@ def test_a_file_that_is_no_toml_is_refused(tmp_path):
 
 def test_the_shipped_file_holds_only_its_two_tables():
     assert set(SHIPPED) == {"colours", "kinds"}
+
+
+def test_the_flag_is_on_ask_and_a_condition_on_eval():
+    from conftest import cli
+
+    ask = cli("ask", "--help")
+    assert "--priors-scale" in ask.stdout
+    evaluate = cli("eval", "--help")
+    assert "--priors-scale" not in evaluate.stdout and "priorsFACTOR" in evaluate.stdout
+    bad = cli("ask", "--priors-scale", "9", "Where is the mug?")
+    assert bad.returncode == 2 and "priors_scale" in bad.stderr
+
+
+def test_the_mechanisms_of_a_session_hold_the_scaled_table():
+    from attribot.api.safeguards import Safeguards
+
+    assert Safeguards().priors is priors()
+    assert Safeguards("all", None, priors(0.7)).priors.scale == 0.7
