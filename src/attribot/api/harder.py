@@ -863,8 +863,8 @@ def _misplaced(cand: Candidate, placement: str | None) -> bool:
 def _furniture(cand: Candidate) -> bool:
     """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
     the floor, and this much taller than wide in the image), or a panel's edge (under `PANEL_ACROSS`
-    across the floor and rising more than `LEG_ASPECT` times that: no everyday object on a table or a
-    floor is so thin and stands)."""
+    across the floor and rising more than `LEG_ASPECT` times that). A thing that thin and standing (a book
+    on its spine, a candle: the priors know both) is taken for a panel: a limit of this rule."""
     x0, y0, x1, y1 = cand.box
     if (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0):
         on_floor = cand.bottom is not None and cand.bottom <= FLOOR_M
