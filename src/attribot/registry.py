@@ -1,16 +1,21 @@
 """The one plug-in mechanism: a named registry per kind of plug-in (layouts, backends, planners, ...).
 
-Plug-ins register themselves with a decorator in the module that defines them. A registry knows the
-modules that hold its plug-ins and imports them on the first look-up, so importing attribot stays cheap
-and free of side effects.
+Plug-ins register themselves with a decorator in the module that defines them. A registry knows where its
+built-in plug-ins live and imports them only when asked, so importing attribot stays cheap and free of side
+effects: `homes` maps each built-in name (and alias) to the module that registers it, and a look-up of
+that name imports that module alone (an oracle question imports no transformers, detector or robot bridge
+code); `modules` are imported, with every home, on the first look-up of any other name and whenever all the
+names are listed (the kinds whose users want them all: query families, tasks, sensors). A lab's plug-in
+registers by being imported, and a name it takes from a built-in is refused as it registers.
 """
 
 from __future__ import annotations
 
 import importlib
 import os
+import sys
 import weakref
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, ClassVar, Generic, TypeVar
 
 from attribot.errors import BadPlugin, UnknownName
@@ -45,14 +50,20 @@ class Registry(Generic[T]):
     >>> _ = shapes.register("box")(3)
     >>> shapes.get("box")
     3
+
+    `homes`: the module that registers each built-in name or alias, imported by a look-up of that name
+    alone; listing the names imports them all. `modules`: more modules imported when all are wanted.
     """
 
     _every: ClassVar[weakref.WeakSet[Any]] = weakref.WeakSet()
 
-    def __init__(self, kind: str, modules: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self, kind: str, modules: tuple[str, ...] = (), *, homes: Mapping[str, str] | None = None
+    ) -> None:
         self.kind = kind
-        self._modules = modules
-        self._loaded = not modules
+        self._homes: dict[str, str] = dict(homes or {})
+        self._modules = tuple(dict.fromkeys((*self._homes.values(), *modules)))
+        self._loaded = not self._modules
         self._entries: dict[str, T] = {}
         self._aliases: dict[str, str] = {}
         Registry._every.add(self)
@@ -68,6 +79,10 @@ class Registry(Generic[T]):
         """Decorator that adds `obj` under `name` (and its aliases); a name used twice is a `BadPlugin`."""
 
         def add(obj: T) -> T:
+            for key in (name, *aliases):  # a built-in's name: its own module registers it first
+                home = self._homes.get(key)
+                if home is not None and home not in sys.modules:
+                    importlib.import_module(home)
             for key in (name, *aliases):
                 if key in self._entries or key in self._aliases:
                     raise BadPlugin(
@@ -85,8 +100,7 @@ class Registry(Generic[T]):
     def unregister(self, name: str) -> T:
         """Remove the plug-in `name` and its aliases (a plug-in registered for a while: a test's); returns
         it. An unknown name raises `UnknownName`."""
-        self._load()
-        if name not in self._entries:
+        if self._find(name) != name:
             raise UnknownName(
                 f"no {self.kind} {name!r} is registered", f"registered: {', '.join(self.names())}"
             )
@@ -99,24 +113,37 @@ class Registry(Generic[T]):
             for module in self._modules:
                 importlib.import_module(module)
 
+    def _find(self, name: str) -> str | None:
+        """The registered name that `name` (a name or an alias) stands for, or None: a name not registered
+        yet imports its home alone, or, with no home, every module of the registry."""
+        key = self._aliases.get(name, name)
+        if key not in self._entries and not self._loaded:
+            home = self._homes.get(name)
+            if home is not None:
+                importlib.import_module(home)
+                key = self._aliases.get(name, name)
+            if key not in self._entries:
+                self._load()
+                key = self._aliases.get(name, name)
+        return key if key in self._entries else None
+
     def get(self, name: str) -> T:
         """The plug-in called `name`; an unknown name raises `UnknownName` listing the known ones."""
-        self._load()
-        key = self._aliases.get(name, name)
-        if key not in self._entries:
+        key = self._find(name)
+        if key is None:
             known = ", ".join(self.names()) or "none"
             raise UnknownName(f"unknown {self.kind} {name!r}", f"choose one of: {known}")
         return self._entries[key]
 
     def names(self) -> list[str]:
-        """Registered names, in registration order."""
+        """Registered names: the built-ins in the order of their homes, then the others in registration
+        order (the same order whichever was looked up first)."""
         self._load()
-        return list(self._entries)
+        rank = {name: i for i, name in enumerate(self._homes)}
+        return sorted(self._entries, key=lambda name: rank.get(name, len(rank)))
 
     def items(self) -> Iterator[tuple[str, T]]:
-        self._load()
-        return iter(list(self._entries.items()))
+        return iter([(name, self._entries[name]) for name in self.names()])
 
     def __contains__(self, name: object) -> bool:
-        self._load()
-        return name in self._entries or name in self._aliases
+        return isinstance(name, str) and self._find(name) is not None

@@ -465,10 +465,10 @@ def _check_image_detector(settings: Settings) -> None:
         raise ConfigError(
             "a still image needs a real detector: the default 'oracle' detector reads simulator ground "
             "truth, which a still image does not have",
-            "set the detector to coco (COCO's 80 classes, offline: pip install -e '.[coco]' and "
-            "attribot fetch coco), hf:google/owlv2-base-patch16-ensemble (open vocabulary: pip install -e "
-            "'.[models]') or remote:URL (--detector, or ATTRIBOT_DETECTOR); `attribot backends` lists the "
-            "configuration",
+            "set the detector to coco or yolov5s (COCO's 80 classes, offline: pip install -e '.[coco]' and "
+            "attribot fetch coco, or yolov5s), hf:google/owlv2-base-patch16-ensemble (open vocabulary: "
+            "pip install -e '.[models]') or remote:URL (--detector, or ATTRIBOT_DETECTOR); `attribot "
+            "backends` lists the configuration",
         )
 
 

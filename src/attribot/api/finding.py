@@ -14,7 +14,7 @@ from attribot.boxes import from_upward
 from attribot.control.base import Target
 from attribot.errors import BackendError
 from attribot.frame import Frame
-from attribot.models.base import Detection
+from attribot.models.base import Detection, evidence_of
 
 if TYPE_CHECKING:
     from attribot.api.patch import ImagePatch
@@ -57,6 +57,7 @@ def find_in(patch: ImagePatch, object_name: str) -> list[ImagePatch]:
             label=det.label or name,
             score=det.score,
             by_depth=det in by_depth,
+            evidence=evidence_of(det),
         )
         child.safeguards = patch.safeguards  # its own finds and questions are checked the same way
         found.append(child)

@@ -73,6 +73,7 @@ class ImagePatch:
         "named",
         "sought",
         "by_depth",
+        "evidence",
         "safeguards",
     )
     HOST_METHODS: ClassVar[tuple[str, ...]] = (
@@ -96,11 +97,13 @@ class ImagePatch:
         label: str = "",
         score: float | None = None,
         by_depth: bool = False,
+        evidence: str | None = None,
     ) -> None:
         """Host side: a patch of `frame` (the whole camera frame) inside the xyxy `box` (pixels of `frame`,
         y down; None for the whole frame). `capture` says when and from where the frame was taken (None for
         a still image); `object_id`, `label`, `score` come from the detection that produced the patch, and
-        `by_depth` says that looking harder took it where the detector did not see its name surely."""
+        `by_depth` says that looking harder took it where the detector did not see its name surely, and
+        `evidence` what the detection rests on (`attribot.models.base.Evidence`; None: no detection)."""
         if not isinstance(frame, Frame):
             raise TypeError(f"ImagePatch needs an attribot.frame.Frame, got {type(frame).__name__}")
         if not isinstance(perception, Perception):
@@ -113,6 +116,7 @@ class ImagePatch:
         self.label = label
         self.score = score
         self.by_depth = by_depth
+        self.evidence = evidence
         self.survey: Survey | None = None  # views around the first image, where the robot looked again
         self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
         # look_harder: the best box each name's find took in this image, which explains that object
@@ -150,6 +154,7 @@ class ImagePatch:
             "object_id": self.object_id,
             "box": [round(v, 2) for v in self.box],
             "score": self.score,
+            **({"evidence": self.evidence} if self.evidence else {}),
         }
 
     def target(self) -> Target | None:

@@ -70,12 +70,16 @@ class Perception:
 
     def findable(self, frame: Frame) -> str:
         """What `image.find` can find in `frame`, in words for the prompt: the detector's closed vocabulary
-        (a `vocabulary` attribute) or any short name, and the furniture and floor in view."""
+        (a `vocabulary` attribute) or any short name, and, for a detector that reads the simulator's
+        segmentation (the oracle), the furniture and floor in view. A detector that reads pixels only is
+        told nothing of the segmentation: a real robot's planner has no such list."""
         vocabulary = getattr(self.detector, "vocabulary", None)
         if vocabulary:
             things = f"only these {len(vocabulary)} names: {', '.join(vocabulary)}"
         else:
             things = 'objects by a short name ("cup", "ball", "apple")'
+        if getattr(self.detector, "pixels_only", False):
+            return things
         if frame.surfaces is not None and frame.surface_names:
             seen = {int(i) for i in np.unique(frame.surfaces)}
             kinds = sorted({surface_kind(n) for i, n in enumerate(frame.surface_names) if i in seen})

@@ -61,6 +61,7 @@ class Measurement(BaseModel):
     samples: int = 1
     uncertainty: float = 0.0  # one standard deviation, in `unit`
     method: str = ""  # the Robot method that measured it: how `settle` measures again
+    box: tuple[float, float, float, float] | None = None  # the object's box when measured (pixels, y down)
 
     def reading(self) -> str:
         """The value as a person reads it, as its sense shows it (`attribot.sensors.Sense.show`): "0.308 kg
@@ -240,7 +241,9 @@ class SessionCore:
                     # the object is the candidate: what depth sees of it whole in the image (carried back,
                     # the detector's box is only the surface in its middle, a part of the object)
                     best = max(here, key=lambda d: d.score)
-                    found.append(Detection(box=cand.box, score=best.score, label=best.label))
+                    found.append(
+                        Detection(box=cand.box, score=best.score, label=best.label, evidence="seen nearer")
+                    )
                     break
         finally:
             try:
@@ -411,7 +414,7 @@ class SessionCore:
 
     def _record(self, p: ImagePatch, **reading: Any) -> None:
         """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
-        m = Measurement(object_id=p.object_id, label=p.label, **reading)
+        m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), **reading)
         self.measurements.append(m)
         self._measured.append((m, p))
 

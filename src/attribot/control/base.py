@@ -208,7 +208,7 @@ class UnsupportedController:
 ControllerFactory = Callable[[Any], Controller]
 
 CONTROLLERS: Registry[ControllerFactory] = Registry(
-    "controller", ("attribot.control.pointing", "attribot.control.servo")
+    "controller", homes={"default": "attribot.control.pointing", "servo": "attribot.control.servo"}
 )
 """Controller factories: under an embodiment's name (`Embodiment.name`) its default controller, "default"
 for the others, and by their own names the controllers a user can choose (`--controller servo`). A world's

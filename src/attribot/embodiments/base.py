@@ -167,5 +167,11 @@ class Embodiment:
 
 
 EMBODIMENTS: Registry[type[Embodiment]] = Registry(
-    "world", ("attribot.embodiments.mujoco", "attribot.embodiments.bridge", "attribot.embodiments.ai2thor")
+    "world",
+    homes={
+        "mujoco": "attribot.embodiments.mujoco",
+        "sim": "attribot.embodiments.mujoco",
+        "bridge": "attribot.embodiments.bridge",
+        "ai2thor": "attribot.embodiments.ai2thor",
+    },
 )

@@ -57,6 +57,7 @@ __all__ = [
     "scene_info",
     "Name",
     "Box",
+    "TrueBox",
     "drawn_in",
 ]
 
@@ -77,6 +78,8 @@ def _ordered(box: list[float]) -> list[float]:
 
 Box = Annotated[list[FiniteFloat], Field(min_length=4, max_length=4), AfterValidator(_ordered)]
 """A box in pixels, x0, y0, x1, y1."""
+TrueBox = Box | Annotated[list[FiniteFloat], Field(max_length=0)]
+"""The true object's box, or none (empty) where the truth is that the object is not there."""
 
 
 def _package_files(package: str) -> list[tuple[str, str]]:
@@ -128,13 +131,16 @@ class Item(BaseModel):
     sensors: list[str]
     embodied: bool
     true_id: str
-    true_box: Box
+    true_box: TrueBox
     candidates: list[str] = []  # the named objects' ids, where the query names them
     # the categories of the objects the query chooses among (the true object's among them), from the world's
     # truth: what a detector must be able to find for the item to be fair to it
     object_categories: list[str] = []
     # the only categories its scene drew objects from (those a closed-set detector can find); None: any
     vocabulary: list[str] | None = None
+    # the names the query asks about that the scene does not hold: the truth is that they are not there, and
+    # only an answer that chose no object is right (`true_id` and `true_box` are then empty)
+    absent: list[str] = []
     version: str = DATASET_VERSION
 
     def scene(self) -> SceneConfig:

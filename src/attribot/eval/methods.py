@@ -30,7 +30,7 @@ from attribot.api.safeguards import CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
-from attribot.eval.datasets import Box, Item, Name
+from attribot.eval.datasets import Box, Item, Name, TrueBox
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.mechanisms import MECHANISMS, Mechanism
 from attribot.noise import NOISE_PRESETS, PerceptionNoise, WorldNoise, world_noise
@@ -159,7 +159,7 @@ class Record(BaseModel):
     box: Box | None = None
     chosen_id: str | None = None
     true_id: str
-    true_box: Box
+    true_box: TrueBox
     answer: str = ""
     value: FiniteFloat | None = None
     unit: str | None = None
@@ -172,6 +172,20 @@ class Record(BaseModel):
     wall_s: FiniteFloat = 0.0
     sim_s: FiniteFloat | None = None  # simulated seconds of the robot's actions (pa-api in a simulator)
     perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
+    # what the chosen object rests on (`attribot.planning.answer.AnswerObject.evidence`): a sure or faint box,
+    # seen nearer, elimination, a look-alike, a measurement
+    evidence: list[str] = []
+    guess: bool = False  # the answer said its object is a guess (an inference no detector confirmed)
+
+    @property
+    def refused(self) -> bool:
+        """No object and no value: the method said it could not answer (not found, unsure, an error)."""
+        return self.status == "failed"
+
+    @property
+    def confidently_wrong(self) -> bool:
+        """Wrong, and not said to be a guess."""
+        return self.status == "wrong" and not self.guess
 
     @field_validator("checks")
     @classmethod
@@ -185,6 +199,10 @@ def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
     chosen = fields.get("chosen_id")
     overlap = iou(tuple(box), tuple(item.true_box)) if box and item.true_box else None
     right = overlap is not None and overlap >= 0.5 and (chosen is None or chosen == item.true_id)
+    if item.absent:  # the truth is "not there": right only where no object was named
+        right = not box and chosen is None and fields.get("status") != "not run"
+        if right:
+            fields.setdefault("status", "right")
     status = fields.pop("status", None) or (
         "right" if right else ("failed" if fields.get("error") else "wrong")
     )
@@ -350,6 +368,8 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
         sim_s=answer.sim_s,
         checks=answer.checks,
         perception=answer.perception,
+        evidence=list(answer.object.evidence) if answer.object else [],
+        guess=answer.object.guess if answer.object else False,
     )
 
 

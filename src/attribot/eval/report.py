@@ -99,6 +99,9 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "low": lo,
                 "high": hi,
                 "failures": dict(Counter(r.error_category or "wrong answer" for r in ran if not r.right)),
+                "refused": sum(r.refused for r in ran),
+                "wrong_guess": sum(r.status == "wrong" and r.guess for r in ran),
+                "confidently_wrong": sum(r.confidently_wrong for r in ran),
                 "not_run": len(rs) - len(ran),
                 "wall_s": sum(r.wall_s for r in ran) / len(ran) if ran else None,
                 "sim_s": sum(simulated) / len(simulated) if simulated else None,
@@ -107,6 +110,18 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
             }
         )
     return rows
+
+
+def answer_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """One line per row that ran, for the console: right of n, and the wrong answers kept apart from the
+    refusals ("weight_realroom pa-api clean: 44/50 right (0.88), 5 refused, 0 wrong as a guess, 1 confidently
+    wrong")."""
+    return [
+        f"{r['task']} {r['method']} {r['series']}: {r['right']}/{r['n']} right ({r['accuracy']:.2f}), "
+        f"{r['refused']} refused, {r['wrong_guess']} wrong as a guess, {r['confidently_wrong']} confidently wrong"
+        for r in rows
+        if r["accuracy"] is not None
+    ]
 
 
 def fmt(row: dict[str, Any] | None) -> str:
@@ -374,6 +389,7 @@ def _page(runs: Runs, rows: list[dict[str, Any]], out: Path, gallery_noise: str)
         "failures": [
             (r, [r["failures"].get(k, 0) for k in FAILURE_KINDS]) for r in rows if r["accuracy"] is not None
         ],
+        "answers": [r for r in rows if r["accuracy"] is not None],
         "checks": checks_table(records, PROGRAM_METHODS),
         "mechanisms": MECHANISMS,
         "ablation": ablation_table(rows, fmt),

@@ -46,7 +46,7 @@ from attribot.eval.methods import (
 from attribot.eval.subset import Subset, closed_set_detector, findable_items
 from attribot.eval.suite import METHODS, task_names
 from attribot.files import disk_full, inside, read_capped, read_json, write_whole
-from attribot.models.base import findable_categories
+from attribot.models.base import findable_categories, parse_spec
 from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
 
@@ -108,7 +108,7 @@ class RunSummary:
     subset: Subset | None = None  # the items a closed-set detector kept, per task; None: every item
 
 
-MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "hf_device"})
+MACHINE_LOCAL = frozenset({"cache_dir", "coco_dir", "yolov5_dir", "hf_device"})
 """Settings no record depends on: where files are kept and which device runs a model (the same weights,
 hash-checked, anywhere): a run resumes on another machine."""
 RECORDED = tuple(n for n in Settings.model_fields if n not in set(SECRETS) | MACHINE_LOCAL)
@@ -499,6 +499,10 @@ def run_eval(
     # the detector whose classes choose the items, asked before any work (a bad spec fails here)
     chooser = plan.findable_by or str(settings.detector)
     closed = closed_set_detector(chooser, settings)
+    if parse_spec(str(settings.detector))[0] != "oracle" and parse_spec(str(settings.vqa))[0] == "oracle":
+        # a real detector's answers rest on no simulator truth: its run asks no oracle VQA
+        settings = settings.model_copy(update={"vqa": "none"})
+        (note or say)("a real detector's run uses no oracle VQA: --vqa none (give --vqa SPEC for a real one)")
     vocabulary = None if closed is None else findable_categories(closed)
     with RunLock(out):
         _check_run(out, settings, chooser if closed is not None else None, vocabulary, plan.seed)

@@ -83,8 +83,15 @@ class Method:
 
 
 TASKS: Registry[Task] = Registry(
-    "task", ("attribot.eval.tasks.still", "attribot.eval.tasks.embodied", "attribot.eval.tasks.senses")
-)  # still-image tasks first: the order of the paper, the datasets and the report; then the senses
+    "task",
+    (
+        "attribot.eval.tasks.still",
+        "attribot.eval.tasks.embodied",
+        "attribot.eval.tasks.senses",
+        "attribot.eval.tasks.realroom",
+    ),
+)  # still-image tasks first: the order of the paper, the datasets and the report; then the senses, the real
+# rooms
 METHODS: Registry[Method] = Registry("method", ("attribot.eval.methods",))
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Literal, Protocol, TypeVar, runtime_checkable
 
 from pydantic import BaseModel, ConfigDict, field_validator
 
@@ -44,10 +44,24 @@ __all__ = [
     "BackendStatus",
     "probe_backend",
     "reaches_out",
+    "Evidence",
+    "INFERRED",
+    "SURE_SCORE",
+    "evidence_of",
+    "NoVQA",
 ]
 
 UNKNOWN = "unknown"
 """What a VQA or language backend answers when it cannot tell."""
+
+Evidence = Literal["sure box", "faint box", "seen nearer", "elimination", "look-alike"]
+"""What a detection rests on: the detector's own box (sure, or fainter than `SURE_SCORE`), the detector's box
+seen from nearer by a robot that drove there, or an inference that names an object the detector never named
+(by elimination, or for its likeness to one it did name)."""
+INFERRED: frozenset[str] = frozenset({"elimination", "look-alike"})
+"""The evidence of an inference: an answer resting on it unconfirmed is a guess."""
+SURE_SCORE = 0.25
+"""A detector's box at least this sure is a sure box; under it, a faint one."""
 
 
 class Detection(BaseModel):
@@ -59,6 +73,7 @@ class Detection(BaseModel):
     score: float
     label: str
     object_id: str | None = None  # the world's id, when the backend knows it (oracle)
+    evidence: Evidence | None = None  # None: the detector's own box (`evidence_of` says sure or faint)
 
     @field_validator("box")
     @classmethod
@@ -73,6 +88,13 @@ class Detection(BaseModel):
         if not 0.0 <= score <= 1.0:
             raise ValueError(f"score must lie in [0, 1]; got {score}")
         return score
+
+
+def evidence_of(det: Detection) -> str:
+    """What `det` rests on (`Evidence`): its own, or the detector's box, sure or faint by its score."""
+    if det.evidence is not None:
+        return det.evidence
+    return "sure box" if det.score >= SURE_SCORE else "faint box"
 
 
 @runtime_checkable
@@ -218,19 +240,22 @@ def findable_categories(detector: Detector) -> tuple[str, ...] | None:
 Builder = Callable[[str | None, "Settings"], Any]
 B = TypeVar("B")
 
-_BACKEND_MODULES = (
-    "attribot.models.oracle",
-    "attribot.models.catalog",
-    "attribot.models.hf",
-    "attribot.models.coco",
-    "attribot.models.openai_chat",
-    "attribot.models.remote",
-)
+_BACKEND_MODULES = {
+    "oracle": "attribot.models.oracle",
+    "catalog": "attribot.models.catalog",
+    "hf": "attribot.models.hf",
+    "coco": "attribot.models.coco",
+    "yolov5s": "attribot.models.yolov5",
+    "openai": "attribot.models.openai_chat",
+    "remote": "attribot.models.remote",
+    "none": "attribot.models.base",  # `NoVQA`, below
+}
+"""The module of each built-in backend kind, whatever its roles: building one imports that module alone."""
 
 
-DETECTORS: Registry[Builder] = Registry("detector backend", _BACKEND_MODULES)
-VQAS: Registry[Builder] = Registry("vqa backend", _BACKEND_MODULES)
-LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", _BACKEND_MODULES)
+DETECTORS: Registry[Builder] = Registry("detector backend", homes=_BACKEND_MODULES)
+VQAS: Registry[Builder] = Registry("vqa backend", homes=_BACKEND_MODULES)
+LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", homes=_BACKEND_MODULES)
 
 ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "language": LANGUAGE_MODELS}
 
@@ -329,3 +354,23 @@ def probe_backend(role: str, spec: str, settings: Settings) -> BackendStatus:
     return BackendStatus(
         role=role, spec=spec, kind=kind, arg=arg, registered=True, available=available, detail=detail
     )
+
+
+class NoVQA:
+    """`--vqa none`: no visual question answering. A program that asks a question gets an error naming a
+    real backend. An evaluation with a real detector uses it unless given another, so that no answer of a
+    real-eyes run rests on the simulator's truth (the oracle VQA reads it)."""
+
+    name = "none"
+
+    def answer(self, frame: Frame, question: str) -> str:
+        from attribot.errors import BackendError
+
+        raise BackendError(
+            f"no VQA backend to answer {question[:80]!r} (this run uses --vqa none)",
+            "give a real one (--vqa hf:MODEL, openai:MODEL or remote:URL), or write the program without "
+            "visual_query",
+        )
+
+
+VQAS.register("none")(lambda arg, settings: NoVQA())

@@ -10,6 +10,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
+from attribot.models.base import INFERRED
 from attribot.text import json_safe_data
 
 __all__ = [
@@ -31,6 +32,14 @@ class AnswerObject(BaseModel):
     id: str | None
     category: str | None
     box: tuple[float, float, float, float]
+    # what the choice rests on: the detection's evidence (`attribot.models.base.Evidence`), and "measurement"
+    # where the robot measured it
+    evidence: tuple[str, ...] = ()
+
+    @property
+    def guess(self) -> bool:
+        """Whether the object rests on an inference no detector confirmed (elimination, a likeness)."""
+        return any(e in INFERRED for e in self.evidence)
 
 
 class AnswerError(BaseModel):
@@ -164,7 +173,7 @@ def build_answer(
         return Answer(answer=f"no answer: {problem}", error=failed, **common)
     stated = _stated(result.value_object)
     if stated is not None:
-        return _stated_answer(stated, frame, common)
+        return _stated_answer(stated, frame, measurements, common)
     chosen = answer_patch(result.value_object)
     if chosen is not None:
         return _chosen_answer(chosen, result.value_object, frame, measurements, common)
@@ -178,17 +187,36 @@ def _chosen_answer(
     chosen: Any, returned: Any, frame: Any, measurements: Sequence[Any], common: dict[str, Any]
 ) -> Answer:
     """The answer naming the chosen object, with its last measurement or the number returned beside it."""
-    obj = _answer_object(chosen, frame)
-    where = ", ".join(f"{v:.0f}" for v in obj.box)
-    text = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+    obj = _answer_object(chosen, frame, measurements)
+    text = _named(obj)
     measured = _last_measurement(chosen, measurements)
     if measured is not None:
         text += f", measured {measured.reading()}"
-        return Answer(answer=text, object=obj, value=float(measured.value), unit=measured.unit, **common)
+        return Answer(
+            answer=text + _guessed(obj), object=obj, value=float(measured.value), unit=measured.unit, **common
+        )
     beside = _number_beside(returned)
     if beside is not None:
         text += f", {beside:g}"
-    return Answer(answer=text, object=obj, value=beside, **common)
+    return Answer(answer=text + _guessed(obj), object=obj, value=beside, **common)
+
+
+def _named(obj: AnswerObject) -> str:
+    """"the mug (mug_1) at [x0, y0, x1, y1]": the object as an answer names it."""
+    where = ", ".join(f"{v:.0f}" for v in obj.box)
+    return f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+
+
+def _guessed(obj: AnswerObject | None) -> str:
+    """What an answer adds where its object is a guess: which inference it rests on, said plainly."""
+    if obj is None or not obj.guess:
+        return ""
+    how = " and ".join(
+        {"elimination": "by elimination", "look-alike": "for its likeness to one it saw"}[e]
+        for e in obj.evidence
+        if e in INFERRED
+    )
+    return f" (a guess: taken {how}; the detector never named it and the robot could not look nearer)"
 
 
 def _stated(value_object: Any) -> dict[str, Any] | None:
@@ -199,9 +227,11 @@ def _stated(value_object: Any) -> dict[str, Any] | None:
     return value_object
 
 
-def _stated_answer(stated: dict[str, Any], frame: Any, common: dict[str, Any]) -> Answer:
+def _stated_answer(
+    stated: dict[str, Any], frame: Any, measurements: Sequence[Any], common: dict[str, Any]
+) -> Answer:
     chosen = answer_patch(stated.get("object"))
-    obj = _answer_object(chosen, frame) if chosen is not None else None
+    obj = _answer_object(chosen, frame, measurements) if chosen is not None else None
     parts = []
     yes = stated.get("yes")
     if isinstance(yes, bool):
@@ -213,13 +243,12 @@ def _stated_answer(stated: dict[str, Any], frame: Any, common: dict[str, Any]) -
     if isinstance(text, str) and text:
         parts.append(text)
     elif obj is not None:
-        where = ", ".join(f"{v:.0f}" for v in obj.box)
-        sentence = f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
+        sentence = _named(obj)
         if value is not None:
             sentence += f", {value:.3f} {unit or ''}".rstrip()
         parts.append(sentence)
     return Answer(
-        answer=": ".join(parts) if len(parts) == 2 else (parts[0] if parts else ""),
+        answer=(": ".join(parts) if len(parts) == 2 else (parts[0] if parts else "")) + _guessed(obj),
         object=obj,
         value=value,
         unit=unit,
@@ -265,15 +294,25 @@ def _number_beside(returned: Any) -> float | None:
     return None
 
 
-def _answer_object(patch: Any, frame: Any) -> AnswerObject:
+def _answer_object(patch: Any, frame: Any, measurements: Sequence[Any] = ()) -> AnswerObject:
     category = patch.label or None
     if patch.object_id is not None:
         category = next((t.category for t in frame.objects.values() if t.id == patch.object_id), category)
-    return AnswerObject(id=patch.object_id, category=category, box=tuple(round(v, 1) for v in patch.box))
+    evidence = tuple(e for e in (getattr(patch, "evidence", None),) if e)
+    if _last_measurement(patch, measurements) is not None:
+        evidence += ("measurement",)
+    return AnswerObject(
+        id=patch.object_id, category=category, box=tuple(round(v, 1) for v in patch.box), evidence=evidence
+    )
 
 
 def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
-    """The last measurement the program took of the chosen object, or None."""
-    if patch.object_id is None:
-        return None
-    return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
+    """The last measurement the program took of the chosen object (the same world id, or where the detector
+    gives none, the same name and box), or None."""
+    if patch.object_id is not None:
+        return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
+    box = tuple(patch.box)
+    return next(
+        (m for m in reversed(measurements) if m.object_id is None and m.label == patch.label and m.box == box),
+        None,
+    )

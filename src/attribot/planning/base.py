@@ -124,7 +124,7 @@ class Planner(Protocol):
 PlannerBuilder = Callable[["Settings"], Planner]
 
 PLANNERS: Registry[PlannerBuilder] = Registry(
-    "planner", ("attribot.planning.rules.planner", "attribot.planning.llm")
+    "planner", homes={"rules": "attribot.planning.rules.planner", "llm": "attribot.planning.llm"}
 )
 
 

@@ -4,24 +4,25 @@ A `SimBody` holds what differs from one body to another, so that the world, its 
 read a field instead of comparing the robot's name: how it is built into the MuJoCo model, its joints and
 camera, what it reports of its arm and head, its geometry as a controller is told it, what it has (a camera
 head, a depth camera) and its scenes' limits (whether its gripper reaches only the floor, the layouts made
-for it, what it can hold). The mast robot (`attribot.sim.robot`) and the RoboMaster-EP-like one
-(`attribot.sim.robot_ep`) are registered here; another body is one more registration.
+for it, what it can hold). The mast robot (`attribot.sim.robot`) is registered here, the RoboMaster-EP-like
+one where it is built (`attribot.sim.robot_ep`, imported only for a scene that asks for it); another body is
+one more registration, and a built-in one a line in `BODIES`' homes.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-
-import mujoco
+from typing import TYPE_CHECKING
 
 from attribot.control.body import BodyGeometry
 from attribot.errors import InputError
 from attribot.registry import Registry
-from attribot.sim import robot, robot_ep
 from attribot.sim.catalog import Category
-from attribot.sim.shapes import build_shape
+from attribot.sim.robot_geometry import GEOMETRY, JOINTS
+
+if TYPE_CHECKING:
+    import mujoco
 
 __all__ = ["SimBody", "BODIES", "body_named"]
 
@@ -73,7 +74,9 @@ class SimBody:
         return self.geometry.finger_open
 
 
-BODIES: Registry[SimBody] = Registry("robot body")
+BODIES: Registry[SimBody] = Registry(
+    "robot body", homes={"mast": "attribot.sim.bodies", "ep": "attribot.sim.robot_ep"}
+)
 """Every robot body the simulator builds, under its name."""
 
 
@@ -89,7 +92,7 @@ def body_named(name: str) -> SimBody:
 
 # ---- the mast robot: a pan-tilt head on a mast, a telescoping arm on a lift -------------------------
 
-_MAST = robot.GEOMETRY
+_MAST = GEOMETRY
 
 
 def _mast_rest(head: tuple[float, float], arm: tuple[float, float], open_: float) -> dict[str, float]:
@@ -98,11 +101,19 @@ def _mast_rest(head: tuple[float, float], arm: tuple[float, float], open_: float
             "finger_r": open_}  # fmt: skip
 
 
+def _build_mast(spec: mujoco.MjSpec, width: int, height: int) -> None:
+    from attribot.sim.robot import (
+        add_robot,  # MuJoCo's code, loaded when a model is built, not to check a config
+    )
+
+    add_robot(spec)
+
+
 BODIES.register("mast")(
     SimBody(
         name="mast",
         called="the mast robot",
-        joints=robot.JOINTS,
+        joints=JOINTS,
         camera="head_camera",
         geometry=BodyGeometry(
             camera_xyz=(_MAST.mast_xy[0], _MAST.mast_xy[1], _MAST.head_height),
@@ -118,64 +129,10 @@ BODIES.register("mast")(
         depth=True,
         beam_in_view=True,
         scripted=True,
-        build=lambda spec, width, height: robot.add_robot(spec),
+        build=_build_mast,
         rest=_mast_rest,
         arm=lambda lift, extension: {"lift": lift, "arm": extension},
         reported=dict,
         head_angles=lambda q: (q["head_pan"], q["head_tilt"]),
-    )
-)
-
-
-# ---- the RoboMaster-EP-like robot: its camera on a two-link arm, a gripper that reaches the floor ----
-
-
-def _ep_arm(lift: float, extension: float) -> dict[str, float]:
-    if not (math.isfinite(lift) and math.isfinite(extension)):
-        raise InputError(f"arm target {(lift, extension)} is not finite", "give finite numbers")
-    return robot_ep.arm_targets(lift, extension)
-
-
-def _ep_reported(q: dict[str, float]) -> dict[str, float]:
-    """The base's joints, and the arm as the EP reports it: its links' elevations and its grip point."""
-    return {n: v for n, v in q.items() if n.startswith("base")} | robot_ep.arm_joint_states(q)
-
-
-def _ep_holds(c: Category) -> bool:
-    """What the EP's gripper (about 10 cm open) can hold and its beam (at least 3 cm up) can find: pickable,
-    at most 9 cm from its centre to its farthest edge at its largest, at least 3.5 cm tall at its smallest."""
-    if not c.pickable:
-        return False
-    lo, hi = c.size_range_m
-    small, big = build_shape(c.shape, lo), build_shape(c.shape, hi)
-    return big.footprint_radius <= 0.09 and small.hi[2] - small.lo[2] >= 0.035
-
-
-BODIES.register("ep")(
-    SimBody(
-        name="ep",
-        called="the EP-like robot",
-        joints=robot_ep.EP_JOINTS,
-        camera=robot_ep.CAMERA,
-        geometry=robot_ep.EP,
-        range_max=robot_ep.RANGE_MAX,
-        head=False,
-        depth=False,
-        beam_in_view=False,
-        scripted=False,
-        build=robot_ep.add_ep_robot,
-        rest=lambda head, arm, open_: {
-            **robot_ep.arm_targets(*robot_ep.EP.rest),  # the arm in its zero pose, the camera looking ahead
-            "finger_l": open_,
-            "finger_r": open_,
-        },
-        arm=_ep_arm,
-        reported=_ep_reported,
-        head_angles=lambda q: (0.0, robot_ep.camera_tilt(q)),  # it has no pan
-        on_floor=True,
-        layouts=("household", "triplet"),
-        layouts_why="its grid is seen from above, on a table the EP's gripper does not reach",
-        holds=_ep_holds,
-        holds_fix="choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
     )
 )

@@ -18,10 +18,11 @@ wrist sensor reads still comes from the physics: the weld carries the object's l
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from attribot.sim.robot_geometry import GEOMETRY, JOINTS, RobotGeometry
 
 __all__ = [
     "RobotGeometry",
@@ -34,33 +35,6 @@ __all__ = [
     "velocity_actuator",
 ]
 
-
-@dataclass(frozen=True)
-class RobotGeometry:
-    """Dimensions that scene layout and scripted manipulation need (metres, radians)."""
-
-    base_half: tuple[float, float] = (0.19, 0.16)  # footprint half-lengths, x and y
-    base_top: float = 0.16
-    mast_xy: tuple[float, float] = (-0.10, -0.08)  # mast position in the base frame
-    head_height: float = 1.32  # pan/tilt axes and optical centre above the floor
-    lift_range: tuple[float, float] = (0.03, 1.12)  # carriage height
-    arm_range: tuple[float, float] = (0.0, 0.55)  # telescoping extension
-    arm_reach0: float = 0.42  # from the mast to the wrist at zero extension
-    grip_offset: float = 0.085  # from the wrist to the point between the fingertips
-    finger_range: tuple[float, float] = (0.0, 0.07)  # opening of each finger from the centre line
-    fovy_deg: float = 58.0
-    pan_range: tuple[float, float] = (-2.6, 2.6)
-    tilt_range: tuple[float, float] = (-1.3, 0.6)
-    range_max: float = 8.0
-
-    def reach_x(self, extension: float) -> float:
-        """x in the base frame of the grip point at this arm extension."""
-        return self.mast_xy[0] + self.arm_reach0 + extension + self.grip_offset
-
-
-GEOMETRY = RobotGeometry()
-
-JOINTS = ("base_x", "base_y", "base_yaw", "head_pan", "head_tilt", "lift", "arm", "finger_l", "finger_r")
 
 _GRAY = (0.35, 0.36, 0.38, 1.0)
 _DARK = (0.12, 0.12, 0.13, 1.0)

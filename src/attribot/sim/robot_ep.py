@@ -14,6 +14,9 @@ Joint angles: `upper_arm` is the upper arm's elevation above the base's forward 
 angle from the upper arm (so the forearm's elevation is their sum) and `wrist` the bracket's angle from the
 forearm. As with the mast robot, only the base collides; the arm and gripper pass through things and a grasp
 is a weld made when the closing fingers touch an object.
+
+The module registers the body as "ep" in `attribot.sim.bodies.BODIES`, so that only a scene that asks for
+this robot imports it (and the bridge's record of the EP it reads).
 """
 
 from __future__ import annotations
@@ -24,7 +27,11 @@ import mujoco
 
 from attribot.bridge.robomaster_body import EP_BODY, EP_CAMERA_HFOV_DEG, EP_RANGE_MAX_M
 from attribot.control.body import BodyGeometry, TwoLinkArm
+from attribot.errors import InputError
+from attribot.sim.bodies import BODIES, SimBody
+from attribot.sim.catalog import Category
 from attribot.sim.robot import camera_quat, position_actuator, rangefinder_sensor, velocity_actuator
+from attribot.sim.shapes import build_shape
 
 __all__ = [
     "EP",
@@ -222,3 +229,57 @@ def arm_joint_states(q: dict[str, float]) -> dict[str, float]:
 def camera_tilt(q: dict[str, float]) -> float:
     """The camera's pitch now (it has no pan)."""
     return float(q["upper_arm"] + q["elbow"] + _arm().camera_pitch)
+
+
+# ---- the RoboMaster-EP-like robot: its camera on a two-link arm, a gripper that reaches the floor ----
+
+
+def _ep_arm(lift: float, extension: float) -> dict[str, float]:
+    if not (math.isfinite(lift) and math.isfinite(extension)):
+        raise InputError(f"arm target {(lift, extension)} is not finite", "give finite numbers")
+    return arm_targets(lift, extension)
+
+
+def _ep_reported(q: dict[str, float]) -> dict[str, float]:
+    """The base's joints, and the arm as the EP reports it: its links' elevations and its grip point."""
+    return {n: v for n, v in q.items() if n.startswith("base")} | arm_joint_states(q)
+
+
+def _ep_holds(c: Category) -> bool:
+    """What the EP's gripper (about 10 cm open) can hold and its beam (at least 3 cm up) can find: pickable,
+    at most 9 cm from its centre to its farthest edge at its largest, at least 3.5 cm tall at its smallest."""
+    if not c.pickable:
+        return False
+    lo, hi = c.size_range_m
+    small, big = build_shape(c.shape, lo), build_shape(c.shape, hi)
+    return big.footprint_radius <= 0.09 and small.hi[2] - small.lo[2] >= 0.035
+
+
+BODIES.register("ep")(
+    SimBody(
+        name="ep",
+        called="the EP-like robot",
+        joints=EP_JOINTS,
+        camera=CAMERA,
+        geometry=EP,
+        range_max=RANGE_MAX,
+        head=False,
+        depth=False,
+        beam_in_view=False,
+        scripted=False,
+        build=add_ep_robot,
+        rest=lambda head, arm, open_: {
+            **arm_targets(*EP.rest),  # the arm in its zero pose, the camera looking ahead
+            "finger_l": open_,
+            "finger_r": open_,
+        },
+        arm=_ep_arm,
+        reported=_ep_reported,
+        head_angles=lambda q: (0.0, camera_tilt(q)),  # it has no pan
+        on_floor=True,
+        layouts=("household", "triplet"),
+        layouts_why="its grid is seen from above, on a table the EP's gripper does not reach",
+        holds=_ep_holds,
+        holds_fix="choose narrower categories that stand at least 3.5 cm tall (a can, a mug, an apple, ...)",
+    )
+)

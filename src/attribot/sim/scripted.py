@@ -19,7 +19,7 @@ import numpy as np
 
 from attribot.errors import AttribotError, UnknownName
 from attribot.gridpath import Cell, astar, shortcut
-from attribot.sim.robot import GEOMETRY
+from attribot.sim.robot_geometry import GEOMETRY
 from attribot.sim.scene import Furniture
 from attribot.sim.world import SimWorld
 

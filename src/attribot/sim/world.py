@@ -29,24 +29,22 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from attribot.config import SCENE_CHECKS, SceneConfig
+from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame, ObjectTruth
 from attribot.sim import senses, truth
 from attribot.sim.bodies import body_named
 from attribot.sim.grasping import Gripper
 from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
+from attribot.sim.model import ROOM_CAMERA, build_model
 from attribot.sim.readings import ForceSensor, Odometry, Rangefinder
 from attribot.sim.render import SceneRenderer
 from attribot.sim.scene import (
     LAYOUTS,
-    ROOM_CAMERA,
     ScenePlan,
     SceneRequest,
-    build_model,
-    check_request,
     plan_scene,
-    resolve_categories,
+    scene_request,
     scene_requests,
     what_fits,
 )
@@ -60,24 +58,6 @@ _ATTEMPTS = 30
 # whatever objects look like
 _RAY_GROUPS = np.array([int(g in (0, 1, BODY_GROUP)) for g in range(6)], np.uint8)
 assert _RAY_GROUPS[LOOK_GROUP] == 0
-
-
-def _scene_request(config: SceneConfig) -> SceneRequest:
-    """What `config` asks of the scene's layout."""
-    vocabulary = config.vocabulary
-    return SceneRequest(
-        config.objects,
-        resolve_categories(config.categories),
-        dict(config.options),
-        config.robot,
-        None if vocabulary is None else frozenset(c.name for c in resolve_categories(vocabulary) or ()),
-    )
-
-
-@SCENE_CHECKS.register("drawable")
-def _drawable(config: SceneConfig) -> None:
-    """A config whose layout cannot draw what it asks (`check_request`) is refused as it is made."""
-    check_request(config.layout, _scene_request(config))
 
 
 def _fixed(layout: str) -> bool:
@@ -99,7 +79,7 @@ class SimWorld:
         self.body = body_named(config.robot)
         self._joints = self.body.joints
         self.finger_open = self.body.finger_open
-        request = _scene_request(config)
+        request = scene_request(config)
         self.width, self.height, self.profile = config.width, config.height, config.profile
         self.force_noise_std = config.force_noise_std
         self.noise = config.noise

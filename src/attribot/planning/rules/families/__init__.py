@@ -1,7 +1,7 @@
 """The query families the rules planner reads, one module each, found through one registry.
 
-A family registers a `Family`: the example phrasings it illustrates itself with (the refusal and the README
-show them), its readers (each tried in the order of its number, the first reading that accounts for the
+A family registers a `Family`: the example phrasings it illustrates itself with (the refusal shows
+them), its readers (each tried in the order of its number, the first reading that accounts for the
 whole text wins) and its program writer for the parsed forms it owns. A new family is one new module here
 and its name in `FAMILY_REGISTRY`'s list.
 """

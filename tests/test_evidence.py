@@ -1,0 +1,182 @@
+"""Answers that carry their evidence: what each found object rests on (a sure or faint box, a look from
+nearer, elimination, a likeness, a measurement), inferences confirmed by acting before an answer rests on
+them, and a question about an object that is not there answered "not found", never with another object.
+Truth comes from the world's own state (the scene's objects and masses)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from attribot.api import Perception, Robot
+from attribot.api.harder import LookHarderReport, confirmed
+from attribot.api.safeguards import Safeguards
+from attribot.config import SceneConfig, load_settings
+from attribot.control.base import build_controller
+from attribot.control.candidates import Candidate
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.eval.datasets import Item
+from attribot.eval.methods import _record
+from attribot.frame import Frame
+from attribot.models.base import Detection, evidence_of
+from attribot.planning.answer import AnswerObject, _guessed, _last_measurement
+
+
+class SeesOnly:
+    """A detector that reads pixels only (so that the robot looks harder for it) and names only the
+    categories in `sees`, wherever the simulator's segmentation shows them: a closed-set detector in a room
+    with other things in it."""
+
+    name = "sees-only"
+    pixels_only = True
+
+    def __init__(self, sees: set[str]) -> None:
+        self.sees = sees
+
+    def detect(self, frame: Frame, queries):
+        out = []
+        for key, obj in (frame.objects or {}).items():
+            if obj.category not in self.sees or not any(q in (obj.category, "object") for q in queries):
+                continue
+            ys, xs = np.nonzero(frame.segmentation == key)
+            if len(xs) >= 20:
+                box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+                out.append(Detection(box=box, score=0.9, label=obj.category))
+        return out
+
+
+ROOM = SceneConfig(
+    layout="household", seed=3, categories=("apple", "mug", "tomato", "dumbbell", "can"), objects=5
+)
+
+
+def _robot_image(world: MujocoWorld, sees: set[str]):
+    base = Perception.from_settings(load_settings(detector="oracle"))
+    perception = Perception(detector=SeesOnly(sees), vqa=base.vqa, language=base.language)
+    robot = Robot(
+        sensors=["camera"], world=world, controller=build_controller(world), safeguards=Safeguards("all,-look_again")
+    )
+    return robot, robot.look(perception, survey=False)
+
+
+def test_evidence_of_a_detection_is_its_own_or_the_detectors_box_by_score():
+    sure = Detection(box=(0, 0, 5, 5), score=0.6, label="mug")
+    assert evidence_of(sure) == "sure box"
+    assert evidence_of(sure.model_copy(update={"score": 0.12})) == "faint box"
+    assert evidence_of(sure.model_copy(update={"evidence": "elimination"})) == "elimination"
+    with pytest.raises(ValueError):
+        Detection(box=(0, 0, 5, 5), score=0.6, label="mug", evidence="a hunch")
+
+
+@pytest.mark.parametrize(
+    ("seen", "visits", "kept", "confirmed_n", "dropped_n"),
+    [
+        # the detector names it from nearer: its box seen nearer, under the name looked for
+        ([Detection(box=(10, 10, 20, 20), score=0.7, label="cup", evidence="seen nearer")], 1, "seen nearer", 1, 0),
+        ([], 1, None, 0, 1),  # looked from nearer and not named there: dropped
+        ([], 0, "elimination", 0, 0),  # no way there: still the inference, which an answer calls a guess
+    ],
+)
+def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(seen, visits, kept, confirmed_n, dropped_n):
+    place = Candidate(box=(10.0, 10.0, 20.0, 20.0), rise=0.1, pixels=40, size=0.1)
+    inferred = [Detection(box=place.box, score=0.001, label="mug", evidence="elimination")]
+    asked: list[tuple[str, list[Candidate]]] = []
+
+    def nearer(name, places):
+        asked.append((name, places))
+        return seen, visits
+
+    report = LookHarderReport(1, 0, 0, 0)
+    out = confirmed(inferred, [place], "mug", nearer, report)
+    assert asked == [("mug", [place])]  # it drove to the very place inferred
+    assert [evidence_of(d) for d in out] == ([kept] if kept else [])
+    assert all(d.label == "mug" for d in out)
+    assert (report.confirmed, report.unconfirmed) == (confirmed_n, dropped_n)
+    # a robot that cannot drive keeps the inference as it is
+    assert confirmed(inferred, [place], "mug", None, LookHarderReport(1, 0, 0, 0)) == inferred
+
+
+def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elimination():
+    """The room holds an apple and a mug the detector names, and a tomato, a dumbbell and a can it cannot:
+    asked for a microwave (there is none), elimination points at the one unexplained thing of a microwave's
+    size as the perception priors know it (the dumbbell on the shelf), and the robot, driving nearer, does
+    not see a microwave there: not found. Without a way to look nearer the same inference stands, marked as
+    elimination, and an answer resting on it says it is a guess. (A toaster, as the priors know it, could be
+    the can or the dumbbell: elimination singles out neither.)"""
+    with MujocoWorld(ROOM) as world:
+        truth = {o.category for o in world.scene_info().objects}
+        robot, image = _robot_image(world, {"apple", "mug"})
+        assert "microwave" not in truth
+        assert image.find("microwave") == []
+        harder = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
+        assert "elimination" in harder[-1].detail and "dropped" in harder[-1].detail
+        image.nearer, image.named = None, {}
+        guessed = image.find("microwave")
+    assert [p.evidence for p in guessed] == ["elimination"]
+    obj = AnswerObject(id=None, category="microwave", box=guessed[0].box, evidence=(guessed[0].evidence,))
+    assert obj.guess and "a guess" in _guessed(obj) and "elimination" in _guessed(obj)
+    assert not AnswerObject(id=None, category="mug", box=(0, 0, 1, 1), evidence=("sure box",)).guess
+
+
+def test_an_answer_names_what_its_object_rests_on_and_the_measurement_of_it():
+    from attribot import Scene, ask
+
+    config = SceneConfig(layout="household", seed=3, categories=("apple", "mug"), objects=2)
+    with MujocoWorld(config) as world:
+        heaviest = max(world.scene_info().objects, key=lambda o: o.mass_kg)
+    answer = ask(
+        "Out of the apple and the mug, which one is the heaviest?",
+        Scene(config, sensors=["camera", "force"]),
+        load_settings(),
+    )
+    assert answer.object is not None and answer.object.id == heaviest.id
+    assert answer.object.evidence == ("sure box", "measurement") and not answer.object.guess
+
+
+def test_a_measurement_without_a_world_id_is_the_chosen_objects_by_name_and_box():
+    class Patch:
+        object_id = None
+        label = "mug"
+        box = (1.0, 2.0, 3.0, 4.0)
+
+    class Reading:
+        def __init__(self, label, box):
+            self.object_id, self.label, self.box = None, label, box
+
+    mine, other = Reading("mug", (1.0, 2.0, 3.0, 4.0)), Reading("mug", (5.0, 2.0, 7.0, 4.0))
+    assert _last_measurement(Patch(), [mine, other]) is mine
+    assert _last_measurement(Patch(), [other]) is None
+
+
+def _absent_item() -> Item:
+    return Item(
+        id="absent_realroom-000", task="absent_realroom", query="How far away is the toaster?",
+        form="comparative", phrasing="paper", layout="household", seed=3, sensors=["camera", "distance"],
+        embodied=True, true_id="", true_box=[], absent=["toaster"],
+    )  # fmt: skip
+
+
+def test_a_question_about_an_absent_object_is_right_only_when_no_object_is_named():
+    item = _absent_item()
+    refused = _record(item, "pa-api", "clean", error="no toaster found in the image")
+    named = _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], answer="the toaster at ...")
+    guessed = _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True)
+    assert refused.right and refused.status == "right"
+    assert not named.right and named.status == "wrong" and named.confidently_wrong
+    assert guessed.status == "wrong" and not guessed.confidently_wrong
+
+
+def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_guesses():
+    from attribot.eval.report import answer_lines, summarize
+
+    item = _absent_item()
+    records = [
+        _record(item, "pa-api", "clean", error="no toaster found in the image"),
+        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0]),
+        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True),
+    ]
+    (row,) = summarize(records)
+    assert (row["n"], row["right"], row["refused"], row["wrong_guess"], row["confidently_wrong"]) == (3, 1, 0, 1, 1)
+    assert answer_lines([row]) == [
+        "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
+    ]
