@@ -208,6 +208,21 @@ def test_a_run_keeps_every_setting_its_records_depend_on_and_resumes_one_made_be
         run_eval(plan, settings.model_copy(update={"detector_threshold": 0.3}), tmp_path)
 
 
+def test_a_run_with_scaled_priors_keeps_its_records_apart(tmp_path):
+    """A scaled-priors condition writes records files of its own beside the plain ones; a whole run made
+    with other priors (the setting) is refused in the folder of one made with them as written."""
+    settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
+    plan = EvalPlan(
+        tasks=("weight_image",), methods=("attr-api",), noise=("clean", "clean-priors0.7"), limit=1
+    )
+    run_eval(plan, settings, tmp_path)
+    names = sorted(p.name for p in (tmp_path / "records").glob("*.jsonl"))
+    assert names == ["weight_image__attr-api__clean-priors0.7.jsonl", "weight_image__attr-api__clean.jsonl"]
+    assert {r.noise for r in read_records(tmp_path)} == {"clean", "clean-priors0.7"}
+    with pytest.raises(ConfigError, match="priors_scale"):
+        run_eval(plan, settings.model_copy(update={"priors_scale": 1.3}), tmp_path)
+
+
 def test_two_workers_and_ray_give_the_same_records_as_one(tmp_path):
     settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
     plan = EvalPlan(

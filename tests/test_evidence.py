@@ -115,20 +115,22 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
 
 def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elimination():
     """The room holds an apple and a mug the detector names, and a tomato, a dumbbell and a can it cannot:
-    asked for a toaster (there is none), elimination points at one unexplained thing of a toaster's size,
-    and the robot, driving nearer, does not see a toaster there: not found. Without a way to look nearer the
-    same inference stands, marked as elimination, and an answer resting on it says it is a guess."""
+    asked for a microwave (there is none), elimination points at the one unexplained thing of a microwave's
+    size as the perception priors know it (the dumbbell on the shelf), and the robot, driving nearer, does
+    not see a microwave there: not found. Without a way to look nearer the same inference stands, marked as
+    elimination, and an answer resting on it says it is a guess. (A toaster, as the priors know it, could be
+    the can or the dumbbell: elimination singles out neither.)"""
     with MujocoWorld(ROOM) as world:
         truth = {o.category for o in world.scene_info().objects}
         robot, image = _robot_image(world, {"apple", "mug"})
-        assert "toaster" not in truth
-        assert image.find("toaster") == []
+        assert "microwave" not in truth
+        assert image.find("microwave") == []
         harder = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
         assert "elimination" in harder[-1].detail and "dropped" in harder[-1].detail
         image.nearer, image.named = None, {}
-        guessed = image.find("toaster")
+        guessed = image.find("microwave")
     assert [p.evidence for p in guessed] == ["elimination"]
-    obj = AnswerObject(id=None, category="toaster", box=guessed[0].box, evidence=(guessed[0].evidence,))
+    obj = AnswerObject(id=None, category="microwave", box=guessed[0].box, evidence=(guessed[0].evidence,))
     assert obj.guess and "a guess" in _guessed(obj) and "elimination" in _guessed(obj)
     assert not AnswerObject(id=None, category="mug", box=(0, 0, 1, 1), evidence=("sure box",)).guess
 

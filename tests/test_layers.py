@@ -28,6 +28,7 @@ LEVELS: list[set[str]] = [
         "gridpath",
         "noise",  # noise presets and the world's imperfections: plain data (pydantic)
         "mechanisms",  # the error-catching mechanisms' names and `--checks` parsing: plain data
+        "priors",  # the mechanisms' perception priors of their own: a table of package data (pydantic)
         "sensors",  # sensor plug-ins: names, units, what a reading needs (plain records)
         "bridge",  # the robot side: standard library, numpy and the SDK only, nothing of attribot
     },
@@ -80,3 +81,29 @@ def test_no_module_imports_from_a_layer_above_its_own(path):
         if LEVEL_OF.get(target, -1) > LEVEL_OF.get(own, -1)
     ]
     assert not upward, f"{own} imports from a layer above it: {upward}"
+
+
+# the error-catching mechanisms and the COCO detectors' class mapping know what a person knows of things
+# (`attribot.priors`), never the simulator's catalog (DESIGN.md, "Control acts on perception only")
+OFF_THE_CATALOG = sorted(
+    [
+        *(SRC / "api").rglob("*.py"),
+        *(SRC / "models" / f"{name}.py" for name in ("closed_set", "coco", "yolov5")),
+        SRC / "priors.py",
+    ],
+)
+
+
+@pytest.mark.parametrize("path", OFF_THE_CATALOG, ids=lambda p: str(p.relative_to(SRC)))
+def test_no_mechanism_reads_the_simulators_catalog(path):
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module, *(f"{node.module}.{a.name}" for a in node.names)]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        found += [f"line {node.lineno}: {n}" for n in names if n.startswith("attribot.sim")]
+    assert not found, f"{path.relative_to(SRC)} reads the simulator: {found}"

@@ -452,28 +452,28 @@ def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
 
 def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_sees():
     """A knife and a toaster, neither seen by the detector, are both of a knife's length as depth sees it:
-    by size alone neither is eliminated. A knife lies flat (its catalog shape rises a centimetre or two), a
-    toaster stands (16-20 cm), and depth sees each rise as high as it is."""
+    by size alone neither is eliminated. A knife lies flat (the perception priors: it rises a centimetre or
+    two), a toaster stands (some 12 to 30 cm), and depth sees each rise as high as it is."""
     from attribot.api.harder import by_elimination, fits_height
     from attribot.control.candidates import Candidate
-    from attribot.sim.catalog import get_category
+    from attribot.priors import priors
 
-    knife, toaster = get_category("knife"), get_category("toaster")
-    assert knife.height_range_m[1] < 0.03 and toaster.height_range_m[0] > 0.15
-    # and across what it stands on, a knife spans its length, a bottle standing its girth
-    bottle = get_category("bottle")
-    assert knife.across_range_m[0] >= 0.9 * knife.size_range_m[0]
-    assert bottle.across_range_m[1] < 0.5 * bottle.height_range_m[0]
+    knife, toaster = priors().find("knife"), priors().find("toaster")
+    assert knife is not None and toaster is not None
+    assert knife.height_m[1] <= 0.03 and toaster.height_m[0] >= 0.1
+    # and across what it rests on, a knife spans its length, a bottle standing its girth
+    bottle = priors().find("bottle")
+    assert bottle is not None
+    assert knife.across_m[0] >= 0.9 * knife.size_m[0]
+    assert bottle.across_m[1] < 0.5 * bottle.height_m[1]
     lying = Candidate((320, 312, 330, 358), 0.012, 60, 0.2)
     standing = Candidate((300, 134, 340, 164), 0.184, 300, 0.23)
     both = [lying, standing]
-    assert by_elimination(both, [], knife.size_range_m, 640, 480) is None  # by size, either
-    assert by_elimination(both, [], knife.size_range_m, 640, 480, height_range=knife.height_range_m) == lying
-    assert by_elimination(both, [], toaster.size_range_m, 640, 480, height_range=toaster.height_range_m) == (
-        standing
-    )
+    assert by_elimination(both, [], knife.size_m, 640, 480) is None  # by size, either
+    assert by_elimination(both, [], knife.size_m, 640, 480, height_range=knife.height_m) == lying
+    assert by_elimination(both, [], toaster.size_m, 640, 480, height_range=toaster.height_m) == standing
     # depth's noise: a flat thing seen a centimetre or two higher is still flat
-    assert fits_height(0.04, knife.height_range_m) and not fits_height(0.06, knife.height_range_m)
+    assert fits_height(0.04, knife.height_m) and not fits_height(0.08, knife.height_m)
 
 
 def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
@@ -643,24 +643,29 @@ def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
 def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
     from attribot.api.harder import _fits_class, class_sizes
     from attribot.models.coco import CocoDetector
+    from attribot.priors import priors
 
     detector = CocoDetector()
-    # a sports ball is a tennis ball to a basketball; a mug is a cup
-    assert class_sizes(detector, "sports ball") == (0.065, 0.24)
-    assert class_sizes(detector, "cup") == (0.09, 0.11)
-    assert class_sizes(detector, "zebra") is None  # no category of the catalog reaches it
+    table = priors()
+    # a sports ball is a tennis ball to a basketball; a mug is a cup (the perception priors' kinds)
+    tennis, basketball, mug = (table.find(n) for n in ("tennis ball", "basketball", "mug"))
+    assert tennis is not None and basketball is not None and mug is not None
+    low, high = class_sizes(detector, "sports ball", table) or (0.0, 0.0)
+    assert low <= tennis.size_m[0] and high >= basketball.size_m[1]
+    assert class_sizes(detector, "cup", table) == mug.size_m
+    assert class_sizes(detector, "gadget", table) is None  # no kind of the priors is of it
     camera = CameraInfo(width=640, height=480, fx=500.0, fy=500.0, cx=320.0, cy=240.0)
     depth = np.full((480, 640), 3.0, np.float32)
     frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8), depth=depth, camera=camera)
-    small = Detection(box=(340, 200, 352, 206), score=0.45, label="carrot")  # 12 px at 3 m: 7 cm
-    assert not _fits_class(detector, small, frame, camera)  # a carrot is 15 to 20 cm
+    small = Detection(box=(340, 200, 344, 204), score=0.45, label="carrot")  # 4 px at 3 m: 2.4 cm
+    assert not _fits_class(detector, small, frame, camera, table)  # a carrot is 7 to 30 cm
     long = Detection(box=(300, 200, 330, 210), score=0.45, label="carrot")  # 30 px at 3 m: 18 cm
-    assert _fits_class(detector, long, frame, camera)
+    assert _fits_class(detector, long, frame, camera, table)
     # the depth of the object, not of what is behind it, sizes the box
-    depth[200:210, 300:318] = 1.0
-    assert not _fits_class(detector, long, frame, camera)  # 30 px at 1 m: 6 cm
-    zebra = Detection(box=(0, 0, 5, 5), score=0.9, label="zebra")
-    assert _fits_class(detector, zebra, frame, camera)  # nothing says how large a zebra is
+    depth[200:210, 300:318] = 0.3
+    assert not _fits_class(detector, long, frame, camera, table)  # 30 px at 0.3 m: 1.8 cm
+    gadget = Detection(box=(0, 0, 5, 5), score=0.9, label="gadget")
+    assert _fits_class(detector, gadget, frame, camera, table)  # nothing says how large a gadget is
 
 
 def test_one_faint_box_framing_an_object_depth_sees_in_two_parts_points_at_one_place():

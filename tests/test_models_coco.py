@@ -66,6 +66,7 @@ def test_every_mapped_category_is_a_catalog_category_and_a_coco_class():
     for category, cls in COCO_CLASS_OF.items():
         assert get_category(category).name == category
         assert cls in CLASSES
+        assert coco_classes_for(category, CLASSES) == [cls]  # the perception priors' names reach it
 
 
 def test_generic_words_stand_for_every_thing_but_not_furniture_or_people():

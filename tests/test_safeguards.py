@@ -99,6 +99,28 @@ def test_a_run_condition_is_typed_and_names_itself_as_records_do():
             Condition.parse(bad)
 
 
+@pytest.mark.parametrize(
+    ("name", "scale", "without"),
+    [("clean-priors0.7", 0.7, None), ("realistic-no-look_harder-priors1.3", 1.3, "look_harder")],
+)
+def test_a_condition_with_scaled_priors_names_itself_and_sets_them(name, scale, without):
+    condition = Condition.parse(name)
+    assert (condition.priors_scale, condition.without, condition.name) == (scale, without, name)
+    assert condition.ablation  # beside its preset in the ablation table, never mixed into its records
+    settings = condition.settings_for(Settings(), seed=3)
+    assert settings.priors_scale == scale
+    assert settings.checks == ("all" if without is None else f"all,-{without}")
+    assert Condition.parse("clean").settings_for(Settings(), 3).priors_scale == 1.0
+
+
+@pytest.mark.parametrize(
+    "bad", ["clean-priors1", "clean-priors1.0", "clean-priors0.70", "clean-priors9", "clean-priors"]
+)
+def test_a_priors_scale_not_written_as_the_condition_names_it_is_refused(bad):
+    with pytest.raises(InputError, match="unknown noise level"):
+        Condition.parse(bad)
+
+
 # ---- the world's imperfect sensing and acting ----------------------------------------------------------
 
 

@@ -362,6 +362,7 @@ BACKEND_FLAGS = (
     _model_flag("Settings", "checks", str | None, "NAMES"),
     _model_flag("Settings", "strategies", str | None, "NAMES"),
     _model_flag("Settings", "program_wall_s", float | None, "SECONDS"),
+    _model_flag("Settings", "priors_scale", float | None, "FACTOR"),
 )
 PLANNER_FLAGS = (
     _model_flag("Settings", "planner", str | None, "NAME"),
@@ -702,6 +703,7 @@ def _settings(given: Any) -> Any:
         "vqa",
         "language",
         "program_wall_s",
+        "priors_scale",
         "strategies",
         "planner",
         "llm_base_url",
@@ -1080,7 +1082,8 @@ _EVAL_NOISE = typer.Option(
     "--noise",
     help="Comma-separated noise presets: clean, frame (per-frame perception noise, earlier releases' "
     "realistic), perception, sensing, acting, realistic (all three); PRESET-no-MECHANISM for one "
-    "ablation condition.",
+    "ablation condition; PRESET-priorsFACTOR (e.g. clean-priors0.7): the mechanisms' perception priors "
+    "scaled.",
 )
 _EVAL_ABLATION = typer.Option(
     False,
@@ -1105,7 +1108,7 @@ _EVAL_FINDABLE_BY = typer.Option(
 
 
 @app.command("eval", cls=_Command)
-@_with_flags(PLANNER_FLAGS, _without(BACKEND_FLAGS, "checks"))
+@_with_flags(PLANNER_FLAGS, _without(BACKEND_FLAGS, "checks", "priors_scale"))
 def evaluate(
     out: Path = typer.Option(..., "--out", help="The run folder: records/, dataset/, run.json."),
     suite: str = _SUITE,

@@ -50,6 +50,7 @@ from attribot.errors import ConfigError, InputError, InvalidSetting, InvalidValu
 from attribot.files import not_a_file, read_capped
 from attribot.mechanisms import Mechanism, parse_checks
 from attribot.noise import PerceptionNoise, WorldNoise
+from attribot.priors import SCALE_RANGE as PRIORS_SCALE
 from attribot.registry import Registry
 from attribot.text import comma_names, one_of, plain_value, shown_url
 
@@ -202,6 +203,15 @@ class Settings(BaseSettings):
     # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and
     # the item's seed); None: only what their specs ask for (`oracle?noise=realistic`)
     perception_noise: PerceptionNoise | None = None
+    priors_scale: float = Field(
+        1.0,
+        ge=PRIORS_SCALE[0],
+        le=PRIORS_SCALE[1],
+        allow_inf_nan=False,
+        description="Scale every size, height and span of the mechanisms' perception priors "
+        f"(attribot.priors) by this factor, {PRIORS_SCALE[0]} to {PRIORS_SCALE[1]} (default 1: the table as "
+        "written), for an ablation on how much they lean on those numbers.",
+    )
     program_wall_s: float = Field(
         60.0,
         gt=0,

@@ -276,10 +276,13 @@ class Session:
     ) -> None:
         from attribot.api.perception import Perception
         from attribot.api.safeguards import Safeguards, strategies_named
+        from attribot.priors import priors
 
         self.scene = scene
         self.settings = settings
-        self.safeguards = Safeguards(settings.mechanisms, strategies_named(settings.strategies))
+        self.safeguards = Safeguards(
+            settings.mechanisms, strategies_named(settings.strategies), priors(settings.priors_scale)
+        )
         self.start: Any = None  # the robot's state when the first try started, for the next tries
         self.first_image: Any = None
         self.runs = 0

@@ -40,7 +40,7 @@ from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
-from attribot.sim.catalog import COLORS, categories, find_category
+from attribot.priors import Kind, Priors, priors
 
 __all__ = [
     "LookHarderReport",
@@ -180,13 +180,17 @@ def look_harder(
     nearer: Nearer | None = None,
     claimed: list[Detection] | None = None,
     sought: list[str] | None = None,
+    table: Priors | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (module docstring) and what it did; None without depth and
     a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order` where
     zooming found nothing sure; `claimed`: the boxes other names' finds took here, each its object's (if of
-    another class: "the red mug" and "the blue mug" share boxes); `sought`: the other names looked for."""
+    another class: "the red mug" and "the blue mug" share boxes); `sought`: the other names looked for;
+    `table`: the perception priors its size, height, place and colour checks weigh (`attribot.priors`;
+    default: the package's, unscaled)."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
+    table = table if table is not None else priors()
     standing, candidates = standing_in(frame, capture)
     kept = detections
     if name.lower() not in SURFACE_WORDS:
@@ -209,23 +213,23 @@ def look_harder(
     kept = one_each(kept)
     if not candidates:
         return kept, report
-    kept = _without_misfits(detector, name, kept, candidates, report)
+    kept = _without_misfits(detector, name, kept, candidates, report, table)
     if all(d.score < UNSURE for d in kept):
         merged, views = _zoomed_in(detector, frame, name, candidates, kept)
         report.views, report.added = len(views), len(merged) - len(kept)
         if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
             merged = _unseen(
-                detector, frame, capture.camera, name, candidates, views, nearer, claimed, report
+                detector, frame, capture.camera, name, candidates, views, nearer, claimed, report, table
             )
             report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
-    kept = _fitted(detector, name, kept, candidates, report)
-    kept = _without_misfits(detector, name, kept, candidates, report)  # the zoomed views' too
+    kept = _fitted(detector, name, kept, candidates, report, table)
+    kept = _without_misfits(detector, name, kept, candidates, report, table)  # the zoomed views' too
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
     explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
-    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [])
+    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [], table)
     report.alike = len(more)
     more = confirmed(more, candidates, name, nearer, report)
     report.took = [*report.took, *more]
@@ -233,23 +237,30 @@ def look_harder(
 
 
 def _without_misfits(
-    detector: Detector, name: str, found: list[Detection], candidates: list[Candidate], report: LookHarderReport
+    detector: Detector,
+    name: str,
+    found: list[Detection],
+    candidates: list[Candidate],
+    report: LookHarderReport,
+    table: Priors,
 ) -> list[Detection]:
     """`found` less its `_misfits`, counted as set aside in `report`; what weaker evidence took stays (it
     was taken for its size)."""
-    misfits = [d for d in _misfits(detector, name, found, candidates) if not any(d is t for t in report.took)]
+    misfits = [
+        d for d in _misfits(detector, name, found, candidates, table) if not any(d is t for t in report.took)
+    ]
     report.set_aside += len(misfits)
     return [d for d in found if not any(d is m for m in misfits)]
 
 
 def _misfits(
-    detector: Detector, name: str, found: list[Detection], candidates: list[Candidate]
+    detector: Detector, name: str, found: list[Detection], candidates: list[Candidate], table: Priors
 ) -> list[Detection]:
     """The boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
     (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball and YOLOv5s surely, and a
     basketball is 24 cm across. A box on several things or on none is left as it is (depth sees it with its
     neighbour, or not at all)."""
-    sizes = name_sizes(detector, name)
+    sizes = name_sizes(detector, name, table)
     if sizes is None:
         return []
     out = []
@@ -283,10 +294,11 @@ def _fitted(
     kept: list[Detection],
     candidates: list[Candidate],
     report: LookHarderReport,
+    table: Priors,
 ) -> list[Detection]:
     """`kept` with what the detector boxed cut to what depth sees (`fitted_to_depth`), counted in `report`;
     what weaker evidence took (a candidate's box, a faint box grown to it) as it was taken."""
-    sizes = name_sizes(detector, name)
+    sizes = name_sizes(detector, name, table)
     fitted = [d if any(d is t for t in report.took) else fitted_to_depth(d, candidates, sizes) for d in kept]
     report.fitted = sum(1 for d, f in zip(kept, fitted, strict=True) if f is not d)
     return fitted
@@ -302,14 +314,15 @@ def _unseen(
     nearer: Nearer | None,
     claimed: list[Detection],
     report: LookHarderReport,
+    table: Priors,
 ) -> list[Detection]:
     """For a name the zoomed views did not show: a faint box that points at one candidate no other name's
     find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
     `report`)."""
     # a place another name's find took holds that object
     free = [c for c in candidates if not any(_inside(center(c.box), d.box) for d in claimed)]
-    category = find_category(name)
-    sizes = None if category is None else category.size_range_m
+    kind = table.find(name)
+    sizes = None if kind is None else kind.size_m
     whole = (0, 0, frame.width, frame.height)
 
     @cache
@@ -320,7 +333,7 @@ def _unseen(
         mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
         seen = detect_in_views(detector, frame, ["object"], [whole, *views])
         # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
-        found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera)]
+        found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera, table)]
         return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
 
     def closed() -> bool:
@@ -332,7 +345,7 @@ def _unseen(
         grown = grown_to_candidates(faint, free, sizes).model_copy(update={"evidence": "faint box"})
         return confirmed([grown], candidates, name, nearer, report, closed)
     others = explaining()
-    placement = None if category is None else category.placement
+    placement = None if kind is None else kind.placement
     if nearer is not None:
         seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement))
         # boxes of one object seen from two places land on each other: one object
@@ -343,12 +356,12 @@ def _unseen(
         report.found_nearer = len(kept_seen)
         if kept_seen:
             return kept_seen
-    colours = () if category is None else category.colors
+    colours = () if kind is None else kind.colours
 
     def coloured(cand: Candidate) -> bool:
-        return colour_fits(frame.rgb, cand.box, colours)
+        return colour_fits(frame.rgb, cand.box, colours, table)
 
-    heights = None if category is None else category.height_range_m
+    heights = None if kind is None else kind.height_m
     left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement, coloured, heights)
     if left is None:
         return []
@@ -463,11 +476,11 @@ def one_object(a: Detection, b: Detection, candidates: Sequence[Candidate] = ())
     return len(places[0]) == 1 and places[0] == places[1]
 
 
-def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo) -> bool:
+def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo, table: Priors) -> bool:
     """Whether the box's longer side, in metres at the depth of what it frames, fits an object of its class
-    (the sizes of the catalog's categories that reach it, from half the smallest to 1.5 times the
-    largest); True where the class or the depth does not say."""
-    sizes = class_sizes(detector, det.label)
+    (the sizes of the priors' kinds of that class, from half the smallest to 1.5 times the largest); True
+    where the class or the depth does not say."""
+    sizes = class_sizes(detector, det.label, table)
     if sizes is None or frame.depth is None:
         return True
     x0, y0, x1, y1 = (int(v) for v in det.box)
@@ -481,24 +494,30 @@ def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: Camera
 
 
 @cache
-def _class_sizes(class_of: Callable[[str], str | None], label: str) -> tuple[float, float] | None:
-    ranges = [c.size_range_m for c in categories() if class_of(c.name) == label]
-    return (min(r[0] for r in ranges), max(r[1] for r in ranges)) if ranges else None
+def _class_kinds(class_of: Callable[[str], str | None], label: str, table: Priors) -> tuple[Kind, ...]:
+    """The priors' kinds of the closed-set class `label`: those the table files under it (`Kind.coco`) and
+    those whose name the detector reaches it with."""
+    return tuple(k for k in table.kinds.values() if k.coco == label or class_of(k.name) == label)
 
 
-def class_sizes(detector: Detector, label: str | None) -> tuple[float, float] | None:
-    """The smallest and largest size (metres) of the catalog's categories that reach the closed-set class
-    `label` (a sports ball: a tennis ball to a basketball); None for an open-vocabulary detector or a class
-    no category reaches."""
+def class_sizes(
+    detector: Detector, label: str | None, table: Priors | None = None
+) -> tuple[float, float] | None:
+    """The smallest and largest size (metres) of the priors' kinds of the closed-set class `label` (a sports
+    ball: a tennis ball to a basketball); None for an open-vocabulary detector or a class no kind is of."""
     class_of = getattr(detector, "class_of", None)
-    return None if class_of is None or not label else _class_sizes(class_of, label)
+    if class_of is None or not label:
+        return None
+    kinds = _class_kinds(class_of, label, table if table is not None else priors())
+    return (min(k.size_m[0] for k in kinds), max(k.size_m[1] for k in kinds)) if kinds else None
 
 
-def name_sizes(detector: Detector, name: str) -> tuple[float, float] | None:
-    """The sizes an object called `name` has: its category's in the catalog, else those of the catalog's
-    categories of the class the detector gives it; None where neither is known."""
-    category = find_category(name)
-    return class_sizes(detector, _class(detector, name)) if category is None else category.size_range_m
+def name_sizes(detector: Detector, name: str, table: Priors | None = None) -> tuple[float, float] | None:
+    """The sizes an object called `name` has: its kind's in the priors, else those of the priors' kinds of
+    the class the detector gives it; None where neither is known."""
+    table = table if table is not None else priors()
+    kind = table.find(name)
+    return class_sizes(detector, _class(detector, name), table) if kind is None else kind.size_m
 
 
 def _class(detector: Detector, name: str | None) -> str | None:
@@ -559,7 +578,7 @@ def fitted_to_depth(
     det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
 ) -> Detection:
     """`det` cut to the candidates it frames whose size fits the name's as a look-alike's must (`ALIKE_SLACK`:
-    things of one kind differ in size more than the catalog's range). YOLOv3-tiny boxes a fork or a knife
+    things of one kind differ in size more than the priors' range). YOLOv3-tiny boxes a fork or a knife
     lying on a table up to twice as wide as it is, where depth and colour see its extent. A box is never
     grown here; one framing no such candidate, or one the cut would leave under `FIT_KEEPS` of its area or
     short of it both ways (`FIT_ALONG`), is kept as the detector gave it."""
@@ -643,7 +662,7 @@ ALIKE_SCORE = 0.002
 """The score of a candidate taken for its likeness: no detector saw it as the name."""
 ALIKE_SLACK = (SIZE_SLACK[0], 2.0)
 """A candidate alike in colour is one more of the name where its size is within this share of the name's
-size range: things of one kind differ in size more than the catalog's typical range (a large stapler among
+size range: things of one kind differ in size more than a typical range says (a large stapler among
 small ones), and a thing over twice the largest of its kind is no longer one."""
 SAME_LEVEL_M = 0.05
 """...and where it stands on the level one it saw stands on (within this): more of a kind seen together
@@ -663,6 +682,7 @@ def alike(
     found: list[Detection],
     claimed: list[Detection],
     sought: Sequence[str] = (),
+    table: Priors | None = None,
 ) -> list[Detection]:
     """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
     colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
@@ -672,10 +692,12 @@ def alike(
     box the detector gives another class in the whole image with a score of `UNSURE` where the candidate is
     of that class's proportions; nor one that could be another of the `sought` names by its size and colour
     (a red apple beside a red mug). A closed-set detector only: it names every class it knows in one pass,
-    so a thing it calls something else surely is that."""
+    so a thing it calls something else surely is that. `table`: the perception priors (default: the
+    package's)."""
+    table = table if table is not None else priors()
     mine = _class(detector, name)
-    category = find_category(name)
-    sizes = name_sizes(detector, name)
+    kind = table.find(name)
+    sizes = name_sizes(detector, name, table)
     if sizes is None or getattr(detector, "class_of", None) is None:
         return []
     exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
@@ -695,13 +717,13 @@ def alike(
         if (
             not fits_size(cand.size, sizes, ALIKE_SLACK)
             or _furniture(cand)
-            or _misplaced(cand, None if category is None else category.placement)
+            or _misplaced(cand, None if kind is None else kind.placement)
             or at_edge(cand.box, frame.width, frame.height)
             or any(_on(cand, d) for d in [*found, *claimed, *taken])
             # another class's box explains a place depth sees shaped as that class's objects can be only
             # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies three times wider than it rises)
-            or any(_on(cand, d) and _shaped_as_class(detector, d.label, cand) for d in rivals)
-            or any(_could_be(frame.rgb, cand, other) for other in sought)
+            or any(_on(cand, d) and _shaped_as_class(detector, d.label, cand, table) for d in rivals)
+            or any(_could_be(frame.rgb, cand, other, table) for other in sought)
             or not _on_level_of(cand, levels)
             or not _shaped_like(cand, examples)
         ):
@@ -727,7 +749,7 @@ def _proportion(cand: Candidate) -> float | None:
 
 def _proportion_of(across: float, rise: float) -> float:
     """How much longer a thing spans across its level than it rises, each with `HEIGHT_MARGIN` added
-    (depth's noise on what lies flat): what depth sees of a place and what the catalog says of a kind are
+    (depth's noise on what lies flat): what depth sees of a place and what the priors say of a kind are
     set side by side in one measure."""
     return (across + HEIGHT_MARGIN) / (rise + HEIGHT_MARGIN)
 
@@ -737,24 +759,27 @@ def _on(cand: Candidate, det: Detection) -> bool:
     return _inside(center(cand.box), det.box) or _inside(center(det.box), cand.box)
 
 
-def _shaped_as_class(detector: Detector, label: str, cand: Candidate) -> bool:
-    """Whether a candidate's proportions (`_proportion`) are within `ALIKE_SHAPE` of those the catalog's
-    categories of the closed-set class `label` have as they are put; True where neither says."""
+def _shaped_as_class(detector: Detector, label: str, cand: Candidate, table: Priors) -> bool:
+    """Whether a candidate's proportions (`_proportion`) are within `ALIKE_SHAPE` of those the priors' kinds
+    of the closed-set class `label` have as they rest; True where neither says."""
     class_of = getattr(detector, "class_of", None)
     mine = _proportion(cand)
-    shapes = None if class_of is None else _class_proportions(class_of, label)
+    shapes = None if class_of is None else _class_proportions(class_of, label, table)
     if mine is None or shapes is None:
         return True
     return shapes[0] / ALIKE_SHAPE <= mine <= shapes[1] * ALIKE_SHAPE
 
 
 @cache
-def _class_proportions(class_of: Callable[[str], str | None], label: str) -> tuple[float, float] | None:
-    reached = [c for c in categories() if class_of(c.name) == label]
+def _class_proportions(
+    class_of: Callable[[str], str | None], label: str, table: Priors
+) -> tuple[float, float] | None:
+    # each range's low end is a small one of the kind, its high end a large one: paired, they are the shapes
+    # of a small and a large one as they rest
     shapes = [
         _proportion_of(across, height)
-        for c in reached
-        for across, height in zip(c.across_range_m, c.height_range_m, strict=True)
+        for k in _class_kinds(class_of, label, table)
+        for across, height in zip(k.across_m, k.height_m, strict=True)
     ]
     return (min(shapes), max(shapes)) if shapes else None
 
@@ -769,13 +794,15 @@ def _shaped_like(cand: Candidate, examples: list[Candidate]) -> bool:
     return any(max(mine / p, p / mine) <= ALIKE_SHAPE for p in theirs)
 
 
-def _could_be(rgb: np.ndarray, cand: Candidate, name: str) -> bool:
-    """Whether a candidate may be an object called `name` by what the catalog knows of its kind: its size
-    and its colour fit (True for a name the catalog does not know: nothing rules it out)."""
-    category = find_category(name)
-    if category is None:
+def _could_be(rgb: np.ndarray, cand: Candidate, name: str, table: Priors) -> bool:
+    """Whether a candidate may be an object called `name` by what the priors know of its kind: its size and
+    its colour fit (True for a name the priors do not know, or a kind of no usual colour: nothing rules it
+    out)."""
+    kind = table.find(name)
+    if kind is None:
         return True
-    return fits_size(cand.size, category.size_range_m) and colour_fits(rgb, cand.box, category.colors)
+    fits_colour = not kind.colours or colour_fits(rgb, cand.box, kind.colours, table)
+    return fits_size(cand.size, kind.size_m) and fits_colour
 
 
 def _colours(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray | None:
@@ -804,19 +831,24 @@ CHROMATIC = 0.3
 `HUE_TOLERANCE` degrees, or where both are under it (silver, white, grey, black: light tells them apart)."""
 
 
-def colour_fits(rgb: np.ndarray, box: tuple[float, float, float, float], colours: tuple[str, ...]) -> bool:
+def colour_fits(
+    rgb: np.ndarray,
+    box: tuple[float, float, float, float],
+    colours: Sequence[str],
+    table: Priors | None = None,
+) -> bool:
     """Whether what stands out in `box` of the image from the box's rim has one of the named `colours`
-    (`attribot.sim.catalog.COLORS`, the catalog's colour words); False where nothing stands out or no
+    (colour words whose sRGB the priors give, `Priors.colours`); False where nothing stands out or no
     colour is named."""
     own = _standing_out(rgb, box) if colours else None
     if own is None:
         return False
+    known = (table if table is not None else priors()).colours
     hue, sat = _hue_sat(np.median(own, axis=0) / 255.0)
     for name in colours:
-        if name not in COLORS:
+        if name not in known:
             continue
-        # the catalog's colours are linear; the image's are sRGB
-        ref_hue, ref_sat = _hue_sat(np.power(np.asarray(COLORS[name]), 1 / 2.2))
+        ref_hue, ref_sat = _hue_sat(np.asarray(known[name]) / 255.0)
         if (sat >= CHROMATIC) != (ref_sat >= CHROMATIC):
             continue
         if sat < CHROMATIC or min(abs(hue - ref_hue), 360 - abs(hue - ref_hue)) <= HUE_TOLERANCE:
@@ -838,7 +870,7 @@ def _standing_out(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np
 
 def _hue_sat(rgb: np.ndarray) -> tuple[float, float]:
     """Hue (degrees) and saturation (0-1) of an RGB colour in 0-1."""
-    h, _, s = colorsys.rgb_to_hsv(float(rgb[0]), float(rgb[1]), float(rgb[2]))
+    h, s, _ = colorsys.rgb_to_hsv(float(rgb[0]), float(rgb[1]), float(rgb[2]))
     return h * 360.0, s
 
 
@@ -953,8 +985,8 @@ def _misplaced(cand: Candidate, placement: str | None) -> bool:
 def _furniture(cand: Candidate) -> bool:
     """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
     the floor, and this much taller than wide in the image), or a panel's edge (under `PANEL_ACROSS`
-    across the floor and rising more than `LEG_ASPECT` times that: no object of the catalog is so thin
-    and stands)."""
+    across the floor and rising more than `LEG_ASPECT` times that). A thing that thin and standing (a book
+    on its spine, a candle: the priors know both) is taken for a panel: a limit of this rule."""
     x0, y0, x1, y1 = cand.box
     if (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0):
         on_floor = cand.bottom is not None and cand.bottom <= FLOOR_M

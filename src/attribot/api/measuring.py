@@ -24,7 +24,6 @@ from attribot.sensors import (
     Sensor,
     sense_of_method,
 )
-from attribot.sim.catalog import categories, find_category
 
 __all__ = ["Measuring"]
 
@@ -202,9 +201,11 @@ class Measuring(SessionCore):
         """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
         self._need("measure_fullness")
         p, target = self._target(patch, "measure_fullness")
-        kind = find_category(p.label or "")
-        if kind is None or not kind.container or kind.empty_kg is None:
-            known = ", ".join(c.name for c in categories() if c.container)
+        # what a person knows of containers (`attribot.priors`): what one weighs empty and holds, coarsely
+        table = self.safeguards.priors
+        kind = table.find(p.label or "")
+        if kind is None or kind.empty_kg is None or kind.holds_kg is None:
+            known = ", ".join(k.name for k in table.kinds.values() if k.container)
             raise ApiArgumentError(
                 f"robot.measure_fullness() knows how much an empty {known} weighs, and not a "
                 f"{p.label or 'patch without a name'}",
@@ -214,8 +215,11 @@ class Measuring(SessionCore):
         newtons, error, samples = self._weigh(p)
         lo, hi = kind.empty_kg
         empty_sd = (hi - lo) / math.sqrt(12.0)  # the empty mass of one such container, uniform in its range
-        fill = (newtons / GRAVITY - (lo + hi) / 2.0) / kind.capacity_kg
-        spread = math.hypot(error / GRAVITY, empty_sd) / kind.capacity_kg
+        low, high = kind.holds_kg
+        capacity = (low + high) / 2.0
+        fill = (newtons / GRAVITY - (lo + hi) / 2.0) / capacity
+        # what is not known of this one container: its own empty mass, and how much it holds
+        spread = math.hypot(error / GRAVITY, empty_sd, fill * (high - low) / math.sqrt(12.0)) / capacity
         value = min(max(fill, 0.0), 1.0)
         self._record(
             p,

@@ -42,6 +42,7 @@ from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
 from attribot.models.base import Detection, Detector
 from attribot.models.cache import cacheable
+from attribot.priors import Priors, priors
 from attribot.registry import Registry
 from attribot.text import comma_names
 
@@ -185,7 +186,9 @@ class LookHarder(Safeguard):
             return detections, []
         claimed = [d for n, d in patch.named.items() if n.lower() != name.lower()]
         sought = sorted(patch.sought - {n.lower() for n in (name, *patch.named)})
-        looked = look_harder(detector, pixels, patch.capture, name, detections, patch.nearer, claimed, sought)
+        looked = look_harder(
+            detector, pixels, patch.capture, name, detections, patch.nearer, claimed, sought, self.log.priors
+        )
         if looked is None:
             return detections, []
         harder, report = looked
@@ -489,9 +492,13 @@ class Safeguards:
         self,
         enabled: str | Iterable[str] = MECHANISMS,
         strategies: Mapping[Mechanism, type[Safeguard]] | None = None,
+        table: Priors | None = None,
     ) -> None:
         on = frozenset(parse_checks(enabled if isinstance(enabled, str) else list(enabled)))
         self.events: list[CheckEvent] = []
+        # what the mechanisms know of everyday things (sizes, heights, places, colours): their own table,
+        # never the simulator's catalog; scaled for an ablation (`Settings.priors_scale`)
+        self.priors: Priors = table if table is not None else priors()
         plugged = dict(strategies or {})
         self.look_again = self._strategy(LookAgain, on, plugged)
         self.look_harder = self._strategy(LookHarder, on, plugged)

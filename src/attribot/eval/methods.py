@@ -34,6 +34,7 @@ from attribot.eval.datasets import Box, Item, Name, TrueBox
 from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.mechanisms import MECHANISMS, Mechanism
 from attribot.noise import NOISE_PRESETS, PerceptionNoise, WorldNoise, world_noise
+from attribot.priors import SCALE_RANGE as PRIORS_SCALE
 from attribot.text import shown_url
 
 __all__ = [
@@ -47,44 +48,66 @@ __all__ = [
 
 NOISE_LEVELS = tuple(NOISE_PRESETS)
 _WITHOUT = "-no-"
+_PRIORS = "-priors"
+_PRIORS_AT_END = re.compile(r"-priors([0-9]+(?:\.[0-9]+)?)$")
 
 
 @dataclass(frozen=True)
 class Condition:
     """A run condition: a noise preset (`attribot.noise.NOISE_PRESETS`) and, for an ablation, the one
-    error-catching mechanism left off. Records and run folders name it `PRESET` or `PRESET-no-MECHANISM`
-    (`name`), read back with `parse`; `settings_for` and `world_noise` give an item's run its typed
-    noise and mechanisms."""
+    error-catching mechanism left off, or the mechanisms' perception priors scaled (`attribot.priors`:
+    every size, height and span times `priors_scale`). Records and run folders name it `PRESET`,
+    `PRESET-no-MECHANISM`, `PRESET-priorsFACTOR` or `PRESET-no-MECHANISM-priorsFACTOR` (`name`: records
+    of a perturbed run are kept in files of their own, never mixed with the plain ones), read back with
+    `parse`; `settings_for` and `world_noise` give an item's run its typed noise, mechanisms and priors."""
 
     preset: str
     without: Mechanism | None = None
+    priors_scale: float = 1.0
 
     def __post_init__(self) -> None:
-        if self.preset not in NOISE_LEVELS or (self.without is not None and self.without not in MECHANISMS):
+        low, high = PRIORS_SCALE
+        if (
+            self.preset not in NOISE_LEVELS
+            or (self.without is not None and self.without not in MECHANISMS)
+            or not (low <= self.priors_scale <= high)
+        ):
             raise InputError(
                 f"unknown noise level {self.name!r}",
                 f"choose from: {', '.join(NOISE_LEVELS)}, or PRESET{_WITHOUT}MECHANISM for an ablation "
-                f"(mechanisms: {', '.join(MECHANISMS)})",
+                f"(mechanisms: {', '.join(MECHANISMS)}), and/or PRESET{_PRIORS}FACTOR ({low} to {high}) for "
+                "scaled perception priors",
             )
         if self.without is not None:  # a mechanism's name given as text is the mechanism
             object.__setattr__(self, "without", Mechanism(self.without))
+        object.__setattr__(self, "priors_scale", float(self.priors_scale))
 
     @classmethod
     def parse(cls, name: str) -> Condition:
         """The condition a record or `--noise` names; an unknown one is an `InputError`."""
-        preset, _, mechanism = name.partition(_WITHOUT)
+        scaled = _PRIORS_AT_END.search(name)
+        rest = name[: scaled.start()] if scaled else name
+        preset, _, mechanism = rest.partition(_WITHOUT)
         known = mechanism in MECHANISMS
-        condition = cls(preset, Mechanism(mechanism) if known else None)
-        if condition.name != name:  # "realistic-no-": no mechanism, or one that is none
+        try:
+            condition = cls(
+                preset, Mechanism(mechanism) if known else None, float(scaled[1]) if scaled else 1.0
+            )
+        except InputError:
+            condition = None
+        if condition is None or condition.name != name:  # "realistic-no-": no mechanism; "-priors1.0"
             raise InputError(
                 f"unknown noise level {name!r}",
-                f"give PRESET or PRESET{_WITHOUT}MECHANISM (mechanisms: {', '.join(MECHANISMS)})",
+                f"give PRESET, PRESET{_WITHOUT}MECHANISM (mechanisms: {', '.join(MECHANISMS)}), or either "
+                f"with {_PRIORS}FACTOR after it ({PRIORS_SCALE[0]} to {PRIORS_SCALE[1]}, not 1), e.g. "
+                f"clean{_PRIORS}0.7",
             )
         return condition
 
     @property
     def name(self) -> str:
-        return f"{self.preset}{_WITHOUT}{self.without}" if self.without else self.preset
+        base = f"{self.preset}{_WITHOUT}{self.without}" if self.without else self.preset
+        return f"{base}{_PRIORS}{self.priors_scale:g}" if self.priors_scale != 1.0 else base
 
     @property
     def checks(self) -> str:
@@ -93,13 +116,16 @@ class Condition:
 
     @property
     def ablation(self) -> bool:
-        return self.without is not None
+        """Whether a mechanism is left off or the priors are scaled: the ablation table's columns."""
+        return self.without is not None or self.priors_scale != 1.0
 
     def settings_for(self, settings: Settings, seed: int) -> Settings:
         """`settings` for one item under this condition: its preset's perception noise on the oracle
-        backends, drawn from the item's `seed` (a clean preset adds none), and its mechanisms (an ablation
-        leaves one out)."""
-        update: dict[str, Any] = {"checks": self.checks} if self.ablation else {}
+        backends, drawn from the item's `seed` (a clean preset adds none), its mechanisms (an ablation
+        leaves one out) and its priors' scale (a scaled condition's, else the settings' own)."""
+        update: dict[str, Any] = {"checks": self.checks} if self.without is not None else {}
+        if self.priors_scale != 1.0:
+            update["priors_scale"] = self.priors_scale
         if self.preset != "clean":
             update["perception_noise"] = PerceptionNoise(preset=self.preset, seed=seed)
         return settings.model_copy(update=update) if update else settings

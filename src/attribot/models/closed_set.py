@@ -2,11 +2,12 @@
 
 `coco` (YOLOv3-tiny on OpenCV's DNN) and `yolov5s` (YOLOv5s v6.1 on onnxruntime) differ only in their network:
 each subclass of `ClosedSetDetector` loads its own and gives `_forward` (views in, output rows out); the
-rest is here, once. A noun phrase maps to one COCO class through the catalog's vocabulary (a mug is a cup, a
-cactus a potted plant, a basketball a sports ball; `coco_classes_for`), generic words ("object", "item") to
-every class of a thing one could pick up, and a name with no class is refused with an error that names an
-open-vocabulary detector. Class names are spelt as Darknet's `coco.names` spells them (`pottedplant`,
-`diningtable`, `tvmonitor`); a network whose checkpoint spells them otherwise translates (`DARKNET_SPELLING`).
+rest is here, once. A noun phrase maps to one COCO class through the everyday names of the perception priors,
+`attribot.priors` (a mug is a cup, a cactus a potted plant, a basketball a sports ball; `coco_classes_for`),
+generic words ("object", "item") to every class of a thing one could pick up, and a name with no class is
+refused with an error that names an open-vocabulary detector. Class names are spelt as Darknet's `coco.names`
+spells them (`pottedplant`, `diningtable`, `tvmonitor`); a network whose checkpoint spells them otherwise
+translates (`DARKNET_SPELLING`).
 A detector looks at the whole image first, and at overlapping tiles only where a wanted class is unsure
 (`ClosedSetDetector._traced`); each view's network output is kept for other queries about the same pixels.
 """
@@ -26,7 +27,7 @@ from attribot.frame import Frame, pixel_digest
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
 from attribot.models.base import Detection, off_own_body
 from attribot.models.noise import split_options
-from attribot.sim.catalog import find_category
+from attribot.priors import priors
 
 __all__ = [
     "COCO_CLASS_OF",
@@ -88,8 +89,9 @@ COCO_CLASS_OF: dict[str, str] = {
     "suitcase": "suitcase",
     "backpack": "backpack",
 }
-"""Catalog category -> the COCO class (as Darknet's coco.names spells it) that covers it; a category not
-here has no class."""
+"""The simulator's categories a COCO detector finds, with the COCO class (as Darknet's coco.names spells it)
+each is found as: a record for the scenes drawn in its vocabulary, not read by the mapping, which goes through
+the everyday names of `attribot.priors` (a test checks that they reach these classes)."""
 
 DARKNET_SPELLING: dict[str, str] = {
     "motorcycle": "motorbike",
@@ -150,9 +152,10 @@ def coco_classes_for(phrase: str, classes: Sequence[str]) -> list[str]:
                 name = _CLASS_WORDS.get(text, text) if text not in known else text
                 if name in known:
                     return [name]
-        category = find_category(" ".join(content))
-        if category is not None and COCO_CLASS_OF.get(category.name) in known:
-            return [COCO_CLASS_OF[category.name]]
+        # an everyday name of a kind the perception priors file under a class (a mug is a cup)
+        kind = priors().find(" ".join(content))
+        if kind is not None and kind.coco in known:
+            return [kind.coco]
         if set(singular_forms(content[-1])) & GENERIC_NOUNS:
             return [c for c in classes if c not in _NOT_THINGS]
         if " ".join(content[-2:]) in SURFACE_WORDS or content[-1] in SURFACE_WORDS:
