@@ -138,6 +138,9 @@ def test_the_oracle_on_the_coco_items_gets_identical_items_and_reports_beside_it
         for t in ("distance_embodied", "weight_embodied")
     ]
     assert {r.detector for r in runs_.records} == {"oracle", "coco"} and len(runs_.records) == 8
+    # a real detector's run rests on no simulator truth: it asks no oracle VQA
+    vqa = {run: json.loads((root / run / "run.json").read_text())["vqa"] for run in ("oracle", "coco")}
+    assert vqa == {"oracle": "oracle", "coco": "none"}
 
 
 def test_items_drawn_in_another_vocabulary_are_refused(runs, tmp_path):

@@ -22,9 +22,10 @@ from attribot.eval.suite import task_names
 
 __all__ = ["Runs", "read_runs", "SIDE_BY_SIDE"]
 
-SIDE_BY_SIDE = ("detector", "subset", "items", "vocabulary")
+SIDE_BY_SIDE = ("detector", "vqa", "subset", "items", "vocabulary")
 """The entries of `run.json` in which runs reported together may differ (an item of one id drawn in two
-vocabularies is not the same item, and is refused as such)."""
+vocabularies is not the same item, and is refused as such). The VQA goes with the detector: a real
+detector's run asks no oracle VQA (`attribot.eval.run`), so the oracle's run beside it has another."""
 
 
 @dataclass(frozen=True)
