@@ -185,7 +185,9 @@ def test_from_image_file_and_summary(tmp_path, image):
     patch = ImagePatch.from_image(path, image.perception)
     assert (patch.width, patch.height) == (W, H) and patch.capture is None and patch.target() is None
     cup = image.find("cup")[0]
-    assert cup.summary() == {"label": "cup", "object_id": "cup_2", "box": [150, 5, 170, 25], "score": 0.9}
+    assert cup.summary() == {
+        "label": "cup", "object_id": "cup_2", "box": [150, 5, 170, 25], "score": 0.9, "evidence": "sure box"
+    }  # fmt: skip
     assert cup.same_object(image.find("cup")[0]) and not cup.same_object(image.find("cup")[2])
     assert "ImagePatch('cup' left=150" in repr(cup)
 

@@ -66,7 +66,9 @@ def test_flags_of_settings_and_scene_fields_take_their_type_and_help_from_the_mo
         field = getattr(config, match[1]).model_fields[match[2]]
         assert flag.name == match[2] and flag.annotation == field.annotation | None
         assert field.description and _help_text(flag.option.help) == field.description
-    assert from_model == 21  # every backend and planner flag (four of the LLM request), the scene's own
+    assert (
+        from_model == 22
+    )  # every backend and planner flag (four of the LLM request, the priors' scale), the scene's own
     text = " ".join(_invoke(["ask", "-h"]).output.replace("│", " ").split())
     assert "{Settings" not in text and "{SceneConfig" not in text
     assert "Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)." in text

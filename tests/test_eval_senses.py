@@ -20,7 +20,7 @@ FIELD = {"temperature_embodied": "temperature_c", "softness_embodied": "stiffnes
 
 
 def test_the_senses_are_a_suite_of_their_own_beside_the_papers():
-    assert suite_names() == ["paper", "senses"]
+    assert suite_names() == ["paper", "senses", "realroom"]
     assert task_names("senses") == SENSES == tagged("senses")
     assert not set(SENSES) & set(task_names())  # the paper's suite stays the paper's five
     for name in SENSES:

@@ -54,7 +54,10 @@ def _robot_image(world: MujocoWorld, sees: set[str]):
     base = Perception.from_settings(load_settings(detector="oracle"))
     perception = Perception(detector=SeesOnly(sees), vqa=base.vqa, language=base.language)
     robot = Robot(
-        sensors=["camera"], world=world, controller=build_controller(world), safeguards=Safeguards("all,-look_again")
+        sensors=["camera"],
+        world=world,
+        controller=build_controller(world),
+        safeguards=Safeguards("all,-look_again"),
     )
     return robot, robot.look(perception, survey=False)
 
@@ -72,12 +75,20 @@ def test_evidence_of_a_detection_is_its_own_or_the_detectors_box_by_score():
     ("seen", "visits", "kept", "confirmed_n", "dropped_n"),
     [
         # the detector names it from nearer: its box seen nearer, under the name looked for
-        ([Detection(box=(10, 10, 20, 20), score=0.7, label="cup", evidence="seen nearer")], 1, "seen nearer", 1, 0),
+        (
+            [Detection(box=(10, 10, 20, 20), score=0.7, label="cup", evidence="seen nearer")],
+            1,
+            "seen nearer",
+            1,
+            0,
+        ),
         ([], 1, None, 0, 1),  # looked from nearer and not named there: dropped
         ([], 0, "elimination", 0, 0),  # no way there: still the inference, which an answer calls a guess
     ],
 )
-def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(seen, visits, kept, confirmed_n, dropped_n):
+def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(
+    seen, visits, kept, confirmed_n, dropped_n
+):
     place = Candidate(box=(10.0, 10.0, 20.0, 20.0), rise=0.1, pixels=40, size=0.1)
     inferred = [Detection(box=place.box, score=0.001, label="mug", evidence="elimination")]
     asked: list[tuple[str, list[Candidate]]] = []
@@ -104,7 +115,10 @@ def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(seen, visits
 def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained():
     from attribot.api.harder import closed_world
 
-    things = [Candidate(box=(x, 100.0, x + 20.0, 130.0), rise=0.1, pixels=40, size=0.1) for x in (50.0, 150.0, 250.0)]
+    things = [
+        Candidate(box=(x, 100.0, x + 20.0, 130.0), rise=0.1, pixels=40, size=0.1)
+        for x in (50.0, 150.0, 250.0)
+    ]
     named = [Detection(box=(45.0, 95.0, 75.0, 135.0), score=0.8, label="cup")]
     assert not closed_world(things, named, 640, 480)  # two things no box explains: others are in the room
     named.append(Detection(box=(145.0, 95.0, 175.0, 135.0), score=0.6, label="apple"))
@@ -193,7 +207,13 @@ def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_gues
         _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True),
     ]
     (row,) = summarize(records)
-    assert (row["n"], row["right"], row["refused"], row["wrong_guess"], row["confidently_wrong"]) == (3, 1, 0, 1, 1)
+    assert (row["n"], row["right"], row["refused"], row["wrong_guess"], row["confidently_wrong"]) == (
+        3,
+        1,
+        0,
+        1,
+        1,
+    )
     assert answer_lines([row]) == [
         "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
     ]

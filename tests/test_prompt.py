@@ -233,6 +233,7 @@ def test_the_prompt_says_what_the_detector_can_find_here():
     prompt = build_prompt("bring the lightest cup to the table", ALL, findable=findable)
     assert f"- What `image.find` can find here: {findable}." in prompt
     assert "{{" not in build_prompt("x", ALL) and "can find here" not in build_prompt("x", ALL)
+
     # a detector that reads pixels (a real one) gets no word of the simulator's segmentation
     class PixelsOnly:
         name, pixels_only = "pixels", True

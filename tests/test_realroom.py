@@ -4,7 +4,6 @@ from the built world, not from the code that drew it."""
 
 from __future__ import annotations
 
-from attribot.config import SceneConfig
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.eval.datasets import build_items
 from attribot.eval.suite import TASKS, suite_names

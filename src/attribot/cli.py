@@ -1450,6 +1450,26 @@ bridge_app = typer.Typer(
 app.add_typer(bridge_app, name="bridge")
 
 
+def _bridge_driver(driver: str, given: Any) -> Any:
+    """The robot `attribot bridge serve` serves: the embedded world's, or a RoboMaster EP's."""
+    if driver == "mujoco":
+        world = _scene_world(_scene_config(given))
+        from attribot.embodiments.bridge import EmbodimentDriver
+
+        return EmbodimentDriver(world)
+    from attribot.bridge.robomaster import SDK_MISSING, RoboMasterDriver, SdkMissing, driver_options
+
+    raw = {k: v for item in given.option or [] for k, _, v in [item.partition("=")]}
+    try:
+        kwargs = driver_options(raw)
+    except ValueError as exc:
+        raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
+    try:
+        return RoboMasterDriver.connect(**kwargs)
+    except SdkMissing:
+        raise fail(SDK_MISSING) from None  # one line: what is missing and how to install it
+
+
 @bridge_app.command("serve", cls=_Command)
 @_with_flags(_only(SCENE_FLAGS, "layout", "seed", "option", "width", "height", "robot"))
 def bridge_serve(
@@ -1490,23 +1510,7 @@ def bridge_serve(
     if driver not in ("mujoco", "robomaster"):
         raise fail(f"--driver {driver!r} is not a bridge driver", "choose --driver mujoco or robomaster")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
-    if driver == "mujoco":
-        world = _scene_world(_scene_config(given))
-        from attribot.embodiments.bridge import EmbodimentDriver
-
-        robot: Any = EmbodimentDriver(world)
-    else:
-        from attribot.bridge.robomaster import SDK_MISSING, RoboMasterDriver, SdkMissing, driver_options
-
-        raw = {k: v for item in given.option or [] for k, _, v in [item.partition("=")]}
-        try:
-            kwargs = driver_options(raw)
-        except ValueError as exc:
-            raise fail(str(exc), "see docs/bridge-protocol.md for the robomaster options") from None
-        try:
-            robot = RoboMasterDriver.connect(**kwargs)
-        except SdkMissing:
-            raise fail(SDK_MISSING) from None  # one line: what is missing and how to install it
+    robot = _bridge_driver(driver, given)
     try:
         server = RobotServer(robot, token, host=host, port=port, limits=limits)
     except OSError as exc:

@@ -183,11 +183,9 @@ def look_harder(
     table: Priors | None = None,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (module docstring) and what it did; None without depth and
-    a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order` where
-    zooming found nothing sure; `claimed`: the boxes other names' finds took here, each its object's (if of
-    another class: "the red mug" and "the blue mug" share boxes); `sought`: the other names looked for;
-    `table`: the perception priors its size, height, place and colour checks weigh (`attribot.priors`;
-    default: the package's, unscaled)."""
+    a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order`;
+    `claimed`: the boxes other names' finds took here, each its object's (if of another class); `sought`:
+    the other names looked for; `table`: the perception priors (`attribot.priors`; default: unscaled)."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     table = table if table is not None else priors()
@@ -230,8 +228,7 @@ def look_harder(
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
     explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
     more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [], table)
-    report.alike = len(more)
-    more = confirmed(more, candidates, name, nearer, report)
+    report.alike, more = len(more), confirmed(more, candidates, name, nearer, report)
     report.took = [*report.took, *more]
     return kept + more, report
 
@@ -323,18 +320,7 @@ def _unseen(
     free = [c for c in candidates if not any(_inside(center(c.box), d.box) for d in claimed)]
     kind = table.find(name)
     sizes = None if kind is None else kind.size_m
-    whole = (0, 0, frame.width, frame.height)
-
-    @cache
-    def explaining() -> list[Detection]:
-        # a box of the name's own class, or of a class another name of the program stands for, explains no
-        # place: each of those names is one object, its best box (in `claimed`), which explains its place
-        # whatever its score
-        mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
-        seen = detect_in_views(detector, frame, ["object"], [whole, *views])
-        # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
-        found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera, table)]
-        return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
+    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table))
 
     def closed() -> bool:
         return closed_world(candidates, explaining(), frame.width, frame.height)
@@ -366,14 +352,28 @@ def _unseen(
     if left is None:
         return []
     report.eliminated = 1
-    return confirmed(
-        [Detection(box=left.box, score=ELIMINATED_SCORE, label=name, evidence="elimination")],
-        candidates,
-        name,
-        nearer,
-        report,
-        closed,
-    )
+    eliminated = Detection(box=left.box, score=ELIMINATED_SCORE, label=name, evidence="elimination")
+    return confirmed([eliminated], candidates, name, nearer, report, closed)
+
+
+def _explaining(
+    detector: Detector,
+    frame: Frame,
+    camera: CameraInfo,
+    name: str,
+    views: list[tuple[int, int, int, int]],
+    claimed: list[Detection],
+    table: Priors,
+) -> list[Detection]:
+    """The boxes that explain a place when `name` is sought: every other class's in the image and the
+    zoomed views, and what other names' finds took (`claimed`, each its object whatever its score)."""
+    # a box of the name's own class, or of a class another name of the program stands for, explains no
+    # place: each of those names is one object, its best box (in `claimed`)
+    mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
+    seen = detect_in_views(detector, frame, ["object"], [(0, 0, frame.width, frame.height), *views])
+    # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
+    found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera, table)]
+    return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
 
 
 def closed_world(candidates: list[Candidate], explaining: list[Detection], width: int, height: int) -> bool:

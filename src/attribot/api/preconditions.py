@@ -78,6 +78,17 @@ def check_action(method: str, p: ImagePatch | None, state: State, reading: str =
     (`PUT_BACK`, `ALREADY`); a call that makes no physical sense raises `PreconditionError` naming the call
     to make, in the program's dialect. A method that is not an action is a reading, which needs what
     `reading` says (`attribot.sensors.Need`: "aim", "reach" or "grasp")."""
+    if method in _ACTIONS:
+        return _action_verdict(method, p, state)
+    assert p is not None, f"{method} reads an object"
+    return _reading_verdict(method, p, state, reading)
+
+
+_ACTIONS = ("put_down", "put_on", "go_to_object", "pick_up", "push")
+
+
+def _action_verdict(method: str, p: ImagePatch | None, state: State) -> Verdict:
+    """`check_action` for the robot's actions (`_ACTIONS`)."""
     d, held = state.dialect, state.held
     this = _named(p)
     if method == "put_down":
@@ -130,6 +141,13 @@ def check_action(method: str, p: ImagePatch | None, state: State, reading: str =
                 f"call {call_text('put_down', '', d)} first, then {call_text('push', 'patch', d)}",
             )
         return Verdict.MET
+    raise AssertionError(f"{method} is not an action")
+
+
+def _reading_verdict(method: str, p: ImagePatch, state: State, reading: str) -> Verdict:
+    """`check_action` for a reading, which needs the camera aimed at `p`, the robot next to it, or it held."""
+    d, held = state.dialect, state.held
+    this = _named(p)
     if reading == "aim":
         if not _same(state.aimed, p):
             raise refuse(

@@ -118,7 +118,8 @@ def answer_lines(rows: list[dict[str, Any]]) -> list[str]:
     wrong")."""
     return [
         f"{r['task']} {r['method']} {r['series']}: {r['right']}/{r['n']} right ({r['accuracy']:.2f}), "
-        f"{r['refused']} refused, {r['wrong_guess']} wrong as a guess, {r['confidently_wrong']} confidently wrong"
+        f"{r['refused']} refused, {r['wrong_guess']} wrong as a guess, "
+        f"{r['confidently_wrong']} confidently wrong"
         for r in rows
         if r["accuracy"] is not None
     ]

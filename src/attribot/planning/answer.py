@@ -204,7 +204,7 @@ def _chosen_answer(
 
 
 def _named(obj: AnswerObject) -> str:
-    """"the mug (mug_1) at [x0, y0, x1, y1]": the object as an answer names it."""
+    """ "the mug (mug_1) at [x0, y0, x1, y1]": the object as an answer names it."""
     where = ", ".join(f"{v:.0f}" for v in obj.box)
     return f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
 
@@ -320,6 +320,10 @@ def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:
         return next((m for m in reversed(measurements) if m.object_id == patch.object_id), None)
     box = tuple(patch.box)
     return next(
-        (m for m in reversed(measurements) if m.object_id is None and m.label == patch.label and m.box == box),
+        (
+            m
+            for m in reversed(measurements)
+            if m.object_id is None and m.label == patch.label and m.box == box
+        ),
         None,
     )

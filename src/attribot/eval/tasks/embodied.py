@@ -17,7 +17,7 @@ from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
 from attribot.sim.world import ObjectInfo, SceneInfo
 
-__all__: list[str] = []
+__all__ = ["asked_about"]
 
 
 def _visible(info: SceneInfo) -> list[ObjectInfo]:
@@ -56,6 +56,22 @@ def _distance_query(made: int, chosen: list[ObjectInfo]) -> tuple[str, list[Obje
     return f"Out of {_named(chosen)}, which one is closer to me?", chosen
 
 
+def asked_about(
+    made: int, chosen: list[ObjectInfo], distance: bool
+) -> tuple[str, list[ObjectInfo], ObjectInfo, list[str]] | None:
+    """The query of the `made`-th item over `chosen` (which is closer, in the paper's two forms, or which is
+    the most lightweight), the objects it names, its truth from the world (the closest, the lightest) and
+    the sensors it needs; None where two candidates stand within 15 cm of the same distance."""
+    if distance:
+        asked = _distance_query(made, chosen)
+        if asked is None:
+            return None
+        query, named = asked
+        return query, named, min(named, key=lambda o: o.distance_m), ["camera", "distance"]
+    query = f"Out of {_named(chosen)}, which one is the most lightweight?"
+    return query, chosen, min(chosen, key=lambda o: o.mass_kg), ["camera", "force"]
+
+
 def _embodied_items(
     task: str, n: int, start_seed: int, vocabulary: tuple[str, ...] | None = None
 ) -> Iterator[Item]:
@@ -66,17 +82,10 @@ def _embodied_items(
         chosen = _candidates(seed, not distance, vocabulary)
         if chosen is None:
             continue
-        if distance:
-            asked = _distance_query(made, chosen)
-            if asked is None:
-                continue
-            query, chosen = asked
-            truth = min(chosen, key=lambda o: o.distance_m)
-            sensors = ["camera", "distance"]
-        else:
-            query = f"Out of {_named(chosen)}, which one is the most lightweight?"
-            truth = min(chosen, key=lambda o: o.mass_kg)
-            sensors = ["camera", "force"]
+        asked = asked_about(made, chosen, distance)
+        if asked is None:
+            continue
+        query, chosen, truth, sensors = asked
         yield Item(
             id=f"{task}-{made:03d}",
             task=task,

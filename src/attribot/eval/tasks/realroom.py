@@ -27,7 +27,7 @@ from attribot.config import SceneConfig
 from attribot.errors import InputError
 from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
-from attribot.eval.tasks.embodied import _distance_query, _named, _visible
+from attribot.eval.tasks.embodied import _visible, asked_about
 from attribot.sim.truth import ObjectInfo
 
 __all__ = ["nameable_categories", "unnameable_categories"]
@@ -75,7 +75,9 @@ def _pickable_nameable() -> tuple[str, ...]:
     from attribot.sim.catalog import get_category
 
     return tuple(
-        n for n in nameable_categories() if get_category(n).pickable and get_category(n).placement == "surface"
+        n
+        for n in nameable_categories()
+        if get_category(n).pickable and get_category(n).placement == "surface"
     )
 
 
@@ -139,17 +141,10 @@ def _present_items(task: str, n: int, start_seed: int) -> Iterator[Item]:
         chosen = _room(seed, asked, others)
         if chosen is None:
             continue
-        if distance:
-            query_and = _distance_query(made, chosen)
-            if query_and is None:
-                continue
-            query, chosen = query_and
-            truth = min(chosen, key=lambda o: o.distance_m)
-            sensors = ["camera", "distance"]
-        else:
-            query = f"Out of {_named(chosen)}, which one is the most lightweight?"
-            truth = min(chosen, key=lambda o: o.mass_kg)
-            sensors = ["camera", "force"]
+        asked_ = asked_about(made, chosen, distance)
+        if asked_ is None:
+            continue
+        query, chosen, truth, sensors = asked_
         yield _item(task, made, query, seed, [*asked, *others], sensors, truth, chosen, [])
         made += 1
 
@@ -176,7 +171,10 @@ def _absent_items(n: int, start_seed: int) -> Iterator[Item]:
             query = f"Out of {names[0]}, {names[1]} and {names[2]}, which one is the heaviest?"
             sensors = ["camera", "force"]
         else:
-            query, sensors = f"Is the {missing} or the {chosen[0].category} closer to me?", ["camera", "distance"]
+            query, sensors = (
+                f"Is the {missing} or the {chosen[0].category} closer to me?",
+                ["camera", "distance"],
+            )
         yield _item(task, made, query, seed, [*asked, *others], sensors, None, chosen, [missing])
         made += 1
 

@@ -156,14 +156,7 @@ def _parse_as_typed(query: str) -> ParsedQuery:
     else:
         whole = normalized.text if scope is None and among is None and not exclude and after is None else text
         inner, scope, region = _parse_placed(text, whole, scope, opened, original, question)
-    if (
-        scope is None
-        and among is None
-        and action is None
-        and region is None
-        and not exclude
-        and after is None
-    ):
+    if all(part is None for part in (scope, among, action, region, after)) and not exclude:
         return inner
     if (exclude or after is not None) and isinstance(inner, YesNoQuery | MeasureQuery):
         raise UnsupportedQuery(original, "it leaves out or orders objects for a question about named ones")
