@@ -18,6 +18,7 @@ checked before a byte is read; `read_json` and `parse_json` bound JSON in size a
 from __future__ import annotations
 
 import errno
+import hashlib
 import json
 import os
 import stat
@@ -29,6 +30,7 @@ from attribot.errors import InputError
 
 __all__ = [
     "write_whole",
+    "file_sha256",
     "check_target",
     "make_folder",
     "check_writable",
@@ -267,3 +269,12 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of the file at `path`, read in 1 MiB blocks (weights files are tens of MB)."""
+    digest = hashlib.sha256()
+    with path.open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

@@ -29,6 +29,7 @@ import numpy as np
 
 from attribot.deps import install_line, require
 from attribot.errors import ConfigError
+from attribot.files import file_sha256
 from attribot.models.base import DETECTORS
 from attribot.models.closed_set import (
     COCO_CLASS_OF,
@@ -80,19 +81,11 @@ def default_folder() -> Path:
     return Path(sys.prefix) / "share" / "attribot" / "yolov3-tiny"
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def weights_present(folder: Path, *, check_hashes: bool = False) -> bool:
     """True when the three files are in `folder` (with their exact content when `check_hashes`)."""
     for name, sha in FILES.items():
         path = folder / name
-        if not path.is_file() or (check_hashes and _sha256(path) != sha):
+        if not path.is_file() or (check_hashes and file_sha256(path) != sha):
             return False
     return True
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from attribot.deps import install_line, require
 from attribot.errors import ConfigError, InputError
+from attribot.files import file_sha256
 from attribot.models.base import DETECTORS
 from attribot.models.closed_set import (
     DARKNET_SPELLING,
@@ -90,14 +91,6 @@ def default_folder() -> Path:
     return Path(sys.prefix) / "share" / "attribot" / "yolov5s"
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _record(folder: Path) -> dict[str, Any] | None:
     try:
         data = json.loads((folder / RECORD).read_text(encoding="utf-8"))
@@ -116,9 +109,9 @@ def weights_present(folder: Path, *, check_hashes: bool = False, source_sha256: 
     if not (folder / ONNX).is_file():
         return False
     if check_hashes:
-        if not (folder / PT).is_file() or _sha256(folder / PT) != source_sha256:
+        if not (folder / PT).is_file() or file_sha256(folder / PT) != source_sha256:
             return False
-        if _sha256(folder / ONNX) != record.get("onnx_sha256"):
+        if file_sha256(folder / ONNX) != record.get("onnx_sha256"):
             return False
     return True
 
@@ -194,7 +187,7 @@ def fetch_weights(
     if weights_present(target, check_hashes=True, source_sha256=source_sha256):
         return target
     pt = target / PT
-    if not (pt.is_file() and _sha256(pt) == source_sha256):
+    if not (pt.is_file() and file_sha256(pt) == source_sha256):
         if source is not None:
             data = _checkpoint_bytes(Path(source).expanduser(), source_sha256)
         else:
@@ -212,7 +205,7 @@ def export_folder(folder: Path, *, source_sha256: str = PT_SHA256) -> None:
     """Read `folder`'s checkpoint (restricted unpickler, our network) and write its ONNX graph and the record
     (the source's SHA-256, the ONNX file's, the class names in Darknet's spelling, the anchors)."""
     pt = folder / PT
-    digest = _sha256(pt)
+    digest = file_sha256(pt)
     if digest != source_sha256:
         raise ConfigError(
             f"{pt} is not the checkpoint attribot checks (SHA-256 {digest[:16]}...)",
@@ -228,7 +221,7 @@ def export_folder(folder: Path, *, source_sha256: str = PT_SHA256) -> None:
     record = {
         "source": f"npm {NPM_PACKAGE} {MEMBER}",
         "source_sha256": digest,
-        "onnx_sha256": _sha256(folder / ONNX),
+        "onnx_sha256": file_sha256(folder / ONNX),
         "classes": [DARKNET_SPELLING.get(c, c) for c in checkpoint.names],
         "anchors": net.detect.anchors.tolist(),
         "strides": list(yolov5_net.STRIDES),
