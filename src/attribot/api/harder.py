@@ -39,7 +39,7 @@ from attribot.control.spatial import nearest_surface, projected_box, to_base, to
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
-from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.models.base import SURE_SCORE, Detection, Detector, detect_in_views
 from attribot.priors import Kind, Priors, priors
 
 __all__ = [
@@ -64,8 +64,9 @@ __all__ = [
 Nearer = Callable[[str, list[Candidate]], tuple[list[Detection], int]]
 """Drives nearer to candidates in turn and looks for a name there: (detections in the first image, visits)."""
 
-UNSURE = 0.25
-"""A find whose best detection scores under this looks harder (the coco detector's own `SURE`)."""
+UNSURE = SURE_SCORE
+"""A find whose best detection scores under this looks harder: no sure box (`models.base.SURE_SCORE`, the
+closed-set detectors' own `SURE`)."""
 ZOOM = 3.5
 """A zoomed view is this many times its candidate's larger side..."""
 MIN_VIEW = 112

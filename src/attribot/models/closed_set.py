@@ -25,7 +25,7 @@ from attribot import boxes as boxmath
 from attribot.errors import ConfigError, InputError
 from attribot.frame import Frame, pixel_digest
 from attribot.lexicon import COLOR_WORDS, GENERIC_NOUNS, SURFACE_WORDS, singular_forms, words
-from attribot.models.base import Detection, off_own_body
+from attribot.models.base import SURE_SCORE, Detection, off_own_body
 from attribot.models.noise import split_options
 from attribot.priors import priors
 
@@ -487,7 +487,7 @@ class ClosedSetDetector:
 FAINT = 0.005
 """The lowest class score the network keeps: under the detector's threshold, a box this faint is no
 detection, but a caller that has other evidence of an object there (depth) may weigh it."""
-SURE = 0.25
+SURE = SURE_SCORE
 """A wanted class found with at least this score in the whole image is not looked for again in tiles."""
 
 
@@ -513,9 +513,12 @@ def _rgb_of(frame: Frame) -> np.ndarray:
 OPTIONS = ("tiles", "size", "part_size", "batch", "all_tiles")
 
 
-def parse_options(kind: str, arg: str | None) -> tuple[Path | None, dict[str, int]]:
-    """The folder (None where the spec names none) and the options (`tiles`, `size`, `part_size`, `batch`,
-    `all_tiles`) of a `KIND[:FOLDER][?tiles=N&size=S&part_size=S&batch=B&all_tiles=1]` spec."""
+def parse_options(
+    kind: str, arg: str | None, configured: str | None, default: Path
+) -> tuple[Path, dict[str, int]]:
+    """The folder (the spec's, else `configured`, the detector's folder setting, else `default`) and the
+    options (`tiles`, `size`, `part_size`, `batch`, `all_tiles`) of a
+    `KIND[:FOLDER][?tiles=N&size=S&part_size=S&batch=B&all_tiles=1]` spec."""
     head, raw = split_options(arg)
     options: dict[str, int] = {}
     for key, text in raw.items():
@@ -527,4 +530,5 @@ def parse_options(kind: str, arg: str | None) -> tuple[Path | None, dict[str, in
                 "with a trace of the class)",
             )
         options[key] = int(text)
-    return (Path(head).expanduser() if head else None), options
+    folder = head or configured
+    return (Path(folder).expanduser() if folder else default), options

@@ -263,11 +263,7 @@ class CocoDetector(ClosedSetDetector):
 
 def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
     """The folder (the spec's, else the `coco_dir` setting, else `default_folder()`) and the options."""
-    folder, options = parse_options("coco", arg)
-    configured = getattr(settings, "coco_dir", None)
-    if folder is None:
-        folder = Path(configured).expanduser() if configured else default_folder()
-    return folder, options
+    return parse_options("coco", arg, getattr(settings, "coco_dir", None), default_folder())
 
 
 def probe_coco(arg: str | None, settings: Settings) -> tuple[bool | None, str]:

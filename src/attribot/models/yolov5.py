@@ -383,11 +383,7 @@ class YoloV5Detector(ClosedSetDetector):
 
 def _parse(arg: str | None, settings: Settings) -> tuple[Path, dict[str, int]]:
     """The folder (the spec's, else the `yolov5_dir` setting, else `default_folder()`) and the options."""
-    folder, options = parse_options("yolov5s", arg)
-    configured = getattr(settings, "yolov5_dir", None)
-    if folder is None:
-        folder = Path(configured).expanduser() if configured else default_folder()
-    return folder, options
+    return parse_options("yolov5s", arg, getattr(settings, "yolov5_dir", None), default_folder())
 
 
 def probe_yolov5(arg: str | None, settings: Settings) -> tuple[bool | None, str]:
