@@ -149,6 +149,17 @@ def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elim
     assert not AnswerObject(id=None, category="mug", box=(0, 0, 1, 1), evidence=("sure box",)).guess
 
 
+def test_an_answer_resting_on_a_faint_box_says_it_is_a_guess_and_one_seen_nearer_does_not():
+    """A box the detector scored under its sure score is as often a thing it cannot name as the object named
+    (a CD boxed faintly as a bowl that is not in the room): the answer says so plainly. The same object seen
+    from nearer, or boxed surely, is no guess."""
+    faint = AnswerObject(id=None, category="bowl", box=(0, 0, 1, 1), evidence=("faint box", "measurement"))
+    assert faint.guess and "a guess" in _guessed(faint) and "faintly" in _guessed(faint)
+    for sure in ("seen nearer", "sure box"):
+        obj = AnswerObject(id=None, category="bowl", box=(0, 0, 1, 1), evidence=(sure, "measurement"))
+        assert not obj.guess and _guessed(obj) == ""
+
+
 def test_an_answer_names_what_its_object_rests_on_and_the_measurement_of_it():
     from attribot import Scene, ask
 

@@ -46,6 +46,7 @@ __all__ = [
     "reaches_out",
     "Evidence",
     "INFERRED",
+    "GUESSED",
     "SURE_SCORE",
     "evidence_of",
     "NoVQA",
@@ -62,6 +63,9 @@ INFERRED: frozenset[str] = frozenset({"elimination", "look-alike"})
 """The evidence of an inference: an answer resting on it unconfirmed is a guess."""
 SURE_SCORE = 0.25
 """A detector's box at least this sure is a sure box; under it, a faint one."""
+GUESSED: frozenset[str] = INFERRED | {"faint box"}
+"""The evidence an answer calls a guess: an inference, or a box the detector itself was not sure of (in a
+room of things it cannot name, a faint box is as often one of them as the object named)."""
 
 
 class Detection(BaseModel):

@@ -10,7 +10,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
-from attribot.models.base import INFERRED
+from attribot.models.base import GUESSED, INFERRED
 from attribot.text import json_safe_data
 
 __all__ = [
@@ -40,8 +40,9 @@ class AnswerObject(BaseModel):
 
     @property
     def guess(self) -> bool:
-        """Whether the object rests on an inference no detector confirmed (elimination, a likeness)."""
-        return any(e in INFERRED for e in self.evidence)
+        """Whether the object rests on an inference no detector confirmed (elimination, a likeness) or on a
+        box the detector was not sure of (a faint box, not confirmed from nearer)."""
+        return any(e in GUESSED for e in self.evidence)
 
 
 class AnswerError(BaseModel):
@@ -210,15 +211,16 @@ def _named(obj: AnswerObject) -> str:
 
 
 def _guessed(obj: AnswerObject | None) -> str:
-    """What an answer adds where its object is a guess: which inference it rests on, said plainly."""
+    """What an answer adds where its object is a guess: what it rests on, said plainly."""
     if obj is None or not obj.guess:
         return ""
+    inferred = [e for e in obj.evidence if e in INFERRED]
+    if not inferred:
+        return " (a guess: the detector named it only faintly, and no nearer look made it sure)"
     how = " and ".join(
-        {"elimination": "by elimination", "look-alike": "for its likeness to one it saw"}[e]
-        for e in obj.evidence
-        if e in INFERRED
+        {"elimination": "by elimination", "look-alike": "for its likeness to one it saw"}[e] for e in inferred
     )
-    return f" (a guess: taken {how}; the detector never named it and the robot could not look nearer)"
+    return f" (a guess: taken {how}; the detector never named it, and no nearer look confirmed it)"
 
 
 def _stated(value_object: Any) -> dict[str, Any] | None:
