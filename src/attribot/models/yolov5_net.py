@@ -10,9 +10,10 @@ itself), and refuses every other global. `load_state` then takes the tensors out
 and copies them into a network built here; nothing of the checkpoint but its tensors, class names, anchors
 and strides reaches our code.
 
-`forward` returns each stride's raw output map; `decode` (numpy, shared by the ONNX and the torch paths)
-turns them into boxes. This module needs torch (`attribot[models]`); the detector itself runs the exported
-ONNX graph with onnxruntime and imports this module only to export it, or to run it on a CUDA device.
+`forward` returns each stride's raw output map; `attribot.models.yolov5.decode` (numpy, shared by the ONNX
+and the torch paths) turns them into boxes. This module needs torch (`attribot[models]`); the detector itself
+runs the exported ONNX graph with onnxruntime and imports this module only to export it, or to run it on a
+CUDA device.
 """
 
 from __future__ import annotations
@@ -26,15 +27,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 from torch import nn
 
 from attribot.errors import ConfigError
+from attribot.models.yolov5 import STRIDES
 
 __all__ = [
     "ANCHORS",
-    "STRIDES",
     "Conv",
     "Bottleneck",
     "C3",
@@ -47,10 +47,8 @@ __all__ = [
     "read_checkpoint",
     "load_state",
     "export_onnx",
-    "decode",
 ]
 
-STRIDES = (8, 16, 32)
 ANCHORS = ((10, 13, 16, 30, 33, 23), (30, 61, 62, 45, 59, 119), (116, 90, 156, 198, 373, 326))
 """v6.1's anchors in input pixels (w, h pairs), three per stride."""
 
@@ -398,22 +396,3 @@ def export_onnx(net: YoloV5, path: Path, side: int = 640) -> None:
             dynamo=False,
         )
     part.replace(path)
-
-
-def decode(maps: list[np.ndarray], anchors: np.ndarray) -> np.ndarray:
-    """Raw maps (N, 3 * (5 + C), H_s, W_s) per stride -> rows (N, boxes, 5 + C): centre x, centre y, width,
-    height in input pixels, objectness, and class scores (objectness x class probability), as v6.1's
-    `Detect` decodes them: sigmoid, xy = (2 s - 0.5 + cell) * stride, wh = (2 s)^2 * anchor."""
-    rows = []
-    for level, (raw, stride) in enumerate(zip(maps, STRIDES, strict=True)):
-        n, c, h, w = raw.shape
-        na = anchors.shape[1]
-        p = 1.0 / (1.0 + np.exp(-raw.reshape(n, na, c // na, h, w).transpose(0, 1, 3, 4, 2)))
-        gy, gx = np.mgrid[0:h, 0:w]
-        cell = np.stack((gx, gy), -1).astype(np.float32)  # (h, w, 2)
-        xy = (p[..., 0:2] * 2 - 0.5 + cell) * stride
-        wh = (p[..., 2:4] * 2) ** 2 * (anchors[level] * stride).reshape(1, na, 1, 1, 2)
-        scores = p[..., 5:] * p[..., 4:5]
-        out = np.concatenate((xy, wh, p[..., 4:5], scores), -1)
-        rows.append(out.reshape(n, -1, c // na))
-    return np.concatenate(rows, 1).astype(np.float32)
