@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.safeguards import Safeguards
+from attribot.skills.safeguards import Safeguards
 from attribot.boxes import iou
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from attribot.api import ImagePatch, MissingSensor, PreconditionError, Robot
-from attribot.api.errors import ActionFailed, ApiArgumentError
-from attribot.api.robot_session import RobotSession
+from attribot.skills.errors import ActionFailed, ApiArgumentError
+from attribot.skills.robot_session import RobotSession
 from attribot.control.base import (
     Capture,
     ControlError,

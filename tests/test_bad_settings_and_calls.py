@@ -255,7 +255,7 @@ def test_a_saved_answer_with_a_long_argument_keeps_the_trace_small(tmp_path, emp
 
 
 def test_a_password_in_a_backend_url_is_never_saved_or_shown(empty_settings):
-    from attribot.api.perception import Perception
+    from attribot.skills.perception import Perception
     from attribot.eval.run import fingerprint
 
     settings = load_settings(

@@ -142,7 +142,7 @@ def test_the_robot_says_what_it_does_to_which_object(tmp_path):
 
     world = EMBODIMENTS.get("mujoco")(SceneConfig(seed=0))
     try:
-        from attribot.api.perception import Perception
+        from attribot.skills.perception import Perception
 
         robot = Robot(sensors=["camera", "distance"], world=world)
         image = robot.look(Perception.from_settings(load_settings()), survey=False)

@@ -1,4 +1,4 @@
-"""Looking harder (`attribot.api.harder`, the `look_harder` mechanism): depth finds where objects stand
+"""Looking harder (`attribot.skills.harder`, the `look_harder` mechanism): depth finds where objects stand
 without knowing what they are, a find that comes back empty or unsure looks at those places zoomed in, and
 a detection where depth sees nothing stand is set aside. Truth comes from the world's own state (object
 boxes and ids); the detectors here are fakes that read pixels, so that what zooming buys is deterministic."""
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.harder import acting_find, standing_in, zoom_views
-from attribot.api.safeguards import Safeguards
+from attribot.skills.harder import acting_find, standing_in, zoom_views
+from attribot.skills.safeguards import Safeguards
 from attribot.boxes import center, iou
 from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
@@ -263,7 +263,7 @@ def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back(
 
 
 def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_first():
-    from attribot.api.harder import visit_order
+    from attribot.skills.harder import visit_order
     from attribot.control.candidates import Candidate
 
     leg = Candidate((100, 300, 110, 400), 0.4, 50)
@@ -277,7 +277,7 @@ def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_fi
 def test_the_visit_order_puts_the_size_nearest_the_names_first():
     """Of places no other name explains, the one whose size as depth sees it lies in the name's size range
     comes before smaller ones that could be a part of it, however few pixels those hold."""
-    from attribot.api.harder import visit_order
+    from attribot.skills.harder import visit_order
     from attribot.control.candidates import Candidate
 
     book_size = (0.18, 0.26)
@@ -355,7 +355,7 @@ def test_a_faint_box_on_the_one_place_depth_sees_something_stand_is_taken_with_i
 
 
 def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
-    from attribot.api.harder import faint_pick
+    from attribot.skills.harder import faint_pick
     from attribot.control.candidates import Candidate
 
     apple = Candidate((100, 100, 130, 130), 0.08, 300, 0.08)
@@ -372,7 +372,7 @@ def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
 def test_a_faint_box_grows_to_the_candidate_it_frames_where_that_is_the_names_size():
     """A faint box of a book framing its spine (a part of it) is taken with the extent depth sees of the book
     it frames; a candidate it frames that no book can be (a table's edge) does not grow it."""
-    from attribot.api.harder import grown_to_candidates
+    from attribot.skills.harder import grown_to_candidates
     from attribot.control.candidates import Candidate
 
     spine = Detection(box=(176, 226, 199, 233), score=0.02, label="book")
@@ -390,7 +390,7 @@ def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in
     """YOLOv3-tiny boxes a fork lying on a table twice as wide as it is: the box is cut to the candidate it
     frames, never grown; a part too small to be a fork, a thing cut to a sliver of the box or no candidate
     leave the detector's box as it was."""
-    from attribot.api.harder import fitted_to_depth
+    from attribot.skills.harder import fitted_to_depth
     from attribot.control.candidates import Candidate
 
     loose = Detection(box=(288, 193, 341, 300), score=0.4, label="fork")
@@ -427,7 +427,7 @@ def test_a_find_cuts_a_loose_box_to_the_object_in_the_trace_and_not_with_looking
 
 
 def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
-    from attribot.api.harder import by_elimination
+    from attribot.skills.harder import by_elimination
     from attribot.control.candidates import Candidate
 
     toaster = Candidate((300, 100, 350, 140), 0.19, 340, 0.28)
@@ -454,7 +454,7 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
     """A knife and a toaster, neither seen by the detector, are both of a knife's length as depth sees it:
     by size alone neither is eliminated. A knife lies flat (the perception priors: it rises a centimetre or
     two), a toaster stands (some 12 to 30 cm), and depth sees each rise as high as it is."""
-    from attribot.api.harder import by_elimination, fits_height
+    from attribot.skills.harder import by_elimination, fits_height
     from attribot.control.candidates import Candidate
     from attribot.priors import priors
 
@@ -627,7 +627,7 @@ def test_the_names_a_program_looks_for_are_read_from_its_text():
 def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
     """YOLOv3-tiny boxes a computer mouse as a clock (0.19) and as a mouse (0.18), beside the alarm clock
     it boxes at 0.63: the program looks for both, so the mouse's place is the mouse's."""
-    from attribot.api.harder import one_name_each
+    from attribot.skills.harder import one_name_each
 
     clock = Detection(box=(350, 243, 383, 274), score=0.63, label="alarm clock")
     on_mouse = Detection(box=(267, 213, 290, 236), score=0.19, label="alarm clock")
@@ -641,7 +641,7 @@ def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
 
 
 def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
-    from attribot.api.harder import _fits_class, class_sizes
+    from attribot.skills.harder import _fits_class, class_sizes
     from attribot.models.coco import CocoDetector
     from attribot.priors import priors
 
@@ -669,7 +669,7 @@ def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
 
 
 def test_one_faint_box_framing_an_object_depth_sees_in_two_parts_points_at_one_place():
-    from attribot.api.harder import faint_pick
+    from attribot.skills.harder import faint_pick
     from attribot.control.candidates import Candidate
 
     body = Candidate((340, 204, 352, 210), 0.02, 8, 0.07)
@@ -740,7 +740,7 @@ def test_what_lies_flat_on_a_table_is_a_candidate_by_its_colour(seed, flat):
 
 
 def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_surer():
-    from attribot.api.harder import one_name_each
+    from attribot.skills.harder import one_name_each
 
     on_orange = Detection(box=(297, 203, 322, 227), score=0.17, label="apple")
     apple = Detection(box=(318, 253, 345, 282), score=0.11, label="apple")
@@ -756,7 +756,7 @@ def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_sure
 
 
 def test_elimination_and_visits_leave_out_panels_edges_and_places_the_object_is_not_put():
-    from attribot.api.harder import by_elimination, visit_order
+    from attribot.skills.harder import by_elimination, visit_order
     from attribot.control.candidates import Candidate
 
     fork = Candidate((356, 346, 370, 384), 0.0, 52, 0.16, 0.16, 0.45)  # lying on a table
@@ -789,7 +789,7 @@ def test_a_knifes_raised_handle_and_its_blade_lying_flat_are_one_candidate_of_it
 
 
 def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
-    from attribot.api.harder import by_elimination, colour_fits
+    from attribot.skills.harder import by_elimination, colour_fits
     from attribot.control.candidates import Candidate
 
     rgb = np.full((120, 200, 3), (70, 45, 30), np.uint8)  # a dark wooden table
@@ -816,7 +816,7 @@ def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():
     its pot, boxed as a vase) gives two patches of one object: depth places both at one spot, so they are
     one object, and measuring both is not comparing two. Two objects' boxes are not one, nor are boxes of an
     image without depth to place them."""
-    from attribot.api.looking import one_object
+    from attribot.skills.looking import one_object
 
     with MujocoWorld(SCENES[0]) as world:
         robot, image = _look(world, FixedBoxDetector((0.0, 0.0, 1.0, 1.0)))
@@ -864,7 +864,7 @@ def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_noth
     another name the program looks for could be (a red apple is of a mug's size too), or that the detector
     surely names as another class, is not taken; a class it gives the seen mug as well is its confusion
     about mugs, and rules nothing out."""
-    from attribot.api.harder import ALIKE_SCORE, alike
+    from attribot.skills.harder import ALIKE_SCORE, alike
     from attribot.control.candidates import Candidate
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)  # a dark wooden table
@@ -902,7 +902,7 @@ def test_a_thing_of_other_proportions_is_not_one_more_of_what_the_detector_saw()
     range lets through, on the same level, but four times as long as it rises where the orange is round;
     not one more orange. Another round one is, and a place whose span depth did not measure is not ruled
     out."""
-    from attribot.api.harder import alike
+    from attribot.skills.harder import alike
     from attribot.control.candidates import Candidate
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
@@ -927,7 +927,7 @@ def test_another_class_explains_a_place_only_where_it_is_of_that_class_s_shape()
     """A row of white bowls, one of them small: the detector saw a bowl and surely calls the small one a
     ball. Depth sees it lie three times wider than it rises, as no ball does: it is one more bowl. A place
     as wide as it is high under such a box is the ball's."""
-    from attribot.api.harder import alike
+    from attribot.skills.harder import alike
     from attribot.control.candidates import Candidate
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
@@ -1091,7 +1091,7 @@ def test_two_boxes_framing_one_place_depth_sees_stand_are_on_one_object():
     the pot as a vase (under IoU 0.5 with the cactus's box). Both frame that one place, so they are on one
     object: the vase's box there, not its best, yields to the cactus; the vase keeps its own across the
     room."""
-    from attribot.api.harder import one_name_each, one_object
+    from attribot.skills.harder import one_name_each, one_object
     from attribot.control.candidates import Candidate
 
     potted = Candidate((284, 281, 341, 354), 0.3, 900, 0.25)

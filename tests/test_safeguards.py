@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.safeguards import (
+from attribot.skills.safeguards import (
     MECHANISMS,
     STRATEGIES,
     Mechanism,
@@ -358,7 +358,7 @@ def test_a_plugged_in_strategy_measures_its_way_and_an_ablation_still_switches_i
 def test_a_strategy_plugged_in_for_the_wrong_or_no_mechanism_is_refused():
     with pytest.raises(InputError, match="not a Remeasure") as wrong:
         Safeguards(strategies={Mechanism.REMEASURE: WithoutLookAgain})
-    assert "subclass attribot.api.safeguards.Remeasure" in (wrong.value.fix or "")
+    assert "subclass attribot.skills.safeguards.Remeasure" in (wrong.value.fix or "")
     with pytest.raises(InputError, match="sixth_sense"):
         Safeguards(strategies={"sixth_sense": Remeasure})  # type: ignore[dict-item]
 

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from attribot.api import MissingSensor, PreconditionError, Robot
 from attribot.api.prompt import build_prompt
-from attribot.api.safeguards import Safeguards
+from attribot.skills.safeguards import Safeguards
 from attribot.cli import app
 from attribot.config import SceneConfig
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver

@@ -274,8 +274,8 @@ class Session:
         watch: Watch | None = None,
         title: str = "",
     ) -> None:
-        from attribot.api.perception import Perception
-        from attribot.api.safeguards import Safeguards, strategies_named
+        from attribot.skills.perception import Perception
+        from attribot.skills.safeguards import Safeguards, strategies_named
         from attribot.priors import priors
 
         self.scene = scene

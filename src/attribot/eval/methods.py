@@ -26,7 +26,7 @@ from typing import Any
 
 from pydantic import BaseModel, FiniteFloat, field_validator
 
-from attribot.api.safeguards import CheckEvent
+from attribot.skills.safeguards import CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError

@@ -91,7 +91,7 @@ def _cut(value: Any, room: list[int] | None = None, depth: int = 0) -> Any:
     return value
 
 
-# a default repr, "<attribot.api.robot_session.RobotSession object at 0x7f...>": its class name is enough
+# a default repr, "<attribot.skills.robot_session.RobotSession object at 0x7f...>": its class name is enough
 _HOST_REPR = re.compile(r"<(?:\w+\.)*_*(\w+) object at 0x[0-9a-fA-F]+>")
 
 

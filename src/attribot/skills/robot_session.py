@@ -4,12 +4,12 @@ calls act on and doing what they ask (`attribot.api.robot.Robot` is the facade p
 
 from __future__ import annotations
 
-from attribot.api.acting import Acting
-from attribot.api.measuring import Measuring
+from attribot.skills.acting import Acting
+from attribot.skills.measuring import Measuring
 
 __all__ = ["RobotSession"]
 
 
 class RobotSession(Measuring, Acting):
-    """A robot session: its state and core (`attribot.api.robot_core`), its readings
-    (`attribot.api.measuring`) and its actions (`attribot.api.acting`)."""
+    """A robot session: its state and core (`attribot.skills.robot_core`), its readings
+    (`attribot.skills.measuring`) and its actions (`attribot.skills.acting`)."""

@@ -6,11 +6,6 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from attribot.api.checks import check_number
-from attribot.api.errors import ApiArgumentError
-from attribot.api.patch import ImagePatch
-from attribot.api.preconditions import Verdict
-from attribot.api.robot_core import SessionCore, object_name
 from attribot.control.base import (
     RETRY_FROM_HERE,
     ControlError,
@@ -18,6 +13,11 @@ from attribot.control.base import (
     Target,
 )
 from attribot.errors import UnsupportedAction
+from attribot.skills.checks import check_number
+from attribot.skills.errors import ApiArgumentError
+from attribot.skills.preconditions import Verdict
+from attribot.skills.robot_core import SessionCore, object_name
+from attribot.skills.sighting import Sighting
 
 __all__ = ["Acting"]
 
@@ -48,7 +48,7 @@ class Acting(SessionCore):
         self.controller.go_to_coords(Target(box=(fx, v, fx, v), capture=self.capture, label="point"))
         self._near = self._aimed = None
 
-    def go_to_object(self, patch: ImagePatch) -> None:
+    def go_to_object(self, patch: Sighting) -> None:
         """The session's side of `Robot.go_to_object` (its docstring is the one programs read)."""
         p, target = self._target(patch, "go_to_object")
         if self._arranging and self.held is not None and not self.held.same_object(p):
@@ -78,7 +78,7 @@ class Acting(SessionCore):
         self._near = p
         self._aimed = None
 
-    def _seen_from_here(self, p: ImagePatch, target: Target) -> Target:
+    def _seen_from_here(self, p: Sighting, target: Target) -> Target:
         """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
         detection of its name nearest the image centre; `target` itself when it cannot be seen again."""
         try:
@@ -92,7 +92,7 @@ class Acting(SessionCore):
             box=seen.box, capture=seen.capture, object_id=p.object_id, label=p.label, find=target.find
         )
 
-    def pick_up(self, patch: ImagePatch) -> None:
+    def pick_up(self, patch: Sighting) -> None:
         """The session's side of `Robot.pick_up` (its docstring is the one programs read)."""
         p, target = self._target(patch, "pick_up")
         if self._arranging and self.held is not None and not self.held.same_object(p):
@@ -124,7 +124,7 @@ class Acting(SessionCore):
         self.held = p
         self._aimed = None
 
-    def _check_held(self, p: ImagePatch, target: Target, seen_first: Target) -> None:
+    def _check_held(self, p: Sighting, target: Target, seen_first: Target) -> None:
         """With `verify_actions`, where the controller can look: the object lifted must be the one meant (its
         name is seen rising with the gripper). When another object was lifted, it is put back and the grasp
         counts as failed, to be tried again; when the camera cannot tell, the grasp stands."""
@@ -149,7 +149,7 @@ class Acting(SessionCore):
         self.controller.put_down()
         self.held = self._aimed = None
 
-    def put_on(self, patch: ImagePatch) -> None:
+    def put_on(self, patch: Sighting) -> None:
         """The session's side of `Robot.put_on` (its docstring is the one programs read)."""
         p, target = self._target(patch, "put_on")
         if self._check("put_on", p) is Verdict.PUT_BACK:
@@ -166,7 +166,7 @@ class Acting(SessionCore):
             raise
         self.held = self._aimed = None
 
-    def push(self, patch: ImagePatch) -> None:
+    def push(self, patch: Sighting) -> None:
         """The session's side of `Robot.push` (its docstring is the one programs read)."""
         p, target = self._target(patch, "push")
         self._check("push", p)

@@ -11,10 +11,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from attribot.api.checks import check_patch
-from attribot.api.errors import ActionFailed, ApiArgumentError, PreconditionError
-from attribot.api.patch import ImagePatch
-from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
 from attribot.control.base import (
     Target,
 )
@@ -24,6 +20,10 @@ from attribot.sensors import (
     Sensor,
     sense_of_method,
 )
+from attribot.skills.checks import check_patch
+from attribot.skills.errors import ActionFailed, ApiArgumentError, PreconditionError
+from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
+from attribot.skills.sighting import Sighting
 
 __all__ = ["Measuring"]
 
@@ -39,19 +39,19 @@ class Measuring(SessionCore):
     RANGE_READINGS: ClassVar[int] = _own_sense("distance").readings
     RANGE_RESOLUTION_M: ClassVar[float] = _own_sense("distance").resolution
 
-    def settle(self, chosen: ImagePatch) -> str | None:
+    def settle(self, chosen: Sighting) -> str | None:
         """Host side, after a program chose `chosen`: `confidence` measures again where the choice rests on
-        values closer than their uncertainty (`attribot.api.safeguards.Confidence`); None when settled,
+        values closer than their uncertainty (`attribot.skills.safeguards.Confidence`); None when settled,
         otherwise the sentence that says it cannot tell."""
         return self.safeguards.confidence.settle(chosen, self)
 
-    def last_measurement(self, patch: ImagePatch) -> Measurement | None:
+    def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
         return next((m for m, p in reversed(self._measured) if p is patch or p.same_object(patch)), None)
 
-    def combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
+    def combined(self, kind: str) -> list[tuple[float, float, Sighting]]:
         """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
-        groups: list[list[tuple[Measurement, ImagePatch]]] = []
+        groups: list[list[tuple[Measurement, Sighting]]] = []
         for m, p in self._measured:
             if m.kind != kind:
                 continue
@@ -67,14 +67,14 @@ class Measuring(SessionCore):
             out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
         return out
 
-    def measure_again(self, measurement: Measurement, patch: ImagePatch) -> None:
+    def measure_again(self, measurement: Measurement, patch: Sighting) -> None:
         """Measure `patch` again as `measurement` was measured, arranging first what its reading needs."""
         method = measurement.method or _own_sense(measurement.kind).method
         found = sense_of_method(method)
         needs = found[1].needs if found is not None else Need.NOTHING
         if found is not None and not hasattr(self, method):  # a sense read through read_sensor
             sensor, sense = found
-            measure: Callable[[ImagePatch], float] = lambda p: self._sense(sensor, sense, p)  # noqa: E731
+            measure: Callable[[Sighting], float] = lambda p: self._sense(sensor, sense, p)  # noqa: E731
         else:
             measure = getattr(self, method)
         if needs is Need.GRASP:
@@ -91,7 +91,7 @@ class Measuring(SessionCore):
             self.focus_on_patch(patch)
         measure(patch)
 
-    def measure_distance(self, patch: ImagePatch) -> float:
+    def measure_distance(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_distance` (its docstring is the one programs read)."""
         self._need("measure_distance")
         p, target = self._target(patch, "measure_distance")
@@ -109,7 +109,7 @@ class Measuring(SessionCore):
         )
         return metres
 
-    def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
+    def _read_range(self, p: Sighting) -> tuple[float, float, int]:
         """The rangefinder's reading of the object the camera is centred on: (metres, one standard
         deviation, readings used). With `remeasure`, several readings are combined (dropouts left out);
         with `verify_actions`, readings where the beam did not hit the object (farther than the depth in
@@ -168,7 +168,7 @@ class Measuring(SessionCore):
         # window, and the wall behind the rest
         return float(np.percentile(finite, 10)) if finite.size else None
 
-    def measure_weight(self, patch: ImagePatch) -> float:
+    def measure_weight(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_weight` (its docstring is the one programs read)."""
         self._need("measure_weight")
         p, target = self._target(patch, "measure_weight")
@@ -188,7 +188,7 @@ class Measuring(SessionCore):
         )
         return kg
 
-    def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
+    def _held_for(self, p: Sighting, target: Target, method: str) -> None:
         """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
         robot a program made picks it up instead."""
         if self._arranging and (self.held is None or not self.held.same_object(p)):
@@ -197,7 +197,7 @@ class Measuring(SessionCore):
             return
         self._check(method, p)
 
-    def measure_fullness(self, patch: ImagePatch) -> float:
+    def measure_fullness(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
         self._need("measure_fullness")
         p, target = self._target(patch, "measure_fullness")
@@ -233,7 +233,7 @@ class Measuring(SessionCore):
         )
         return value
 
-    def _sense(self, sensor: Sensor, sense: Sense, patch: ImagePatch) -> float:
+    def _sense(self, sensor: Sensor, sense: Sense, patch: Sighting) -> float:
         """A reading of a registered sensor through its method: checks the sensor, the object and what the
         reading needs, then reads (several readings with `remeasure`) and records the measurement."""
         method = sense.method
@@ -261,7 +261,7 @@ class Measuring(SessionCore):
         )
         return value
 
-    def _read_sensor(self, sensor: Sensor, sense: Sense, p: ImagePatch) -> tuple[float, float, int]:
+    def _read_sensor(self, sensor: Sensor, sense: Sense, p: Sighting) -> tuple[float, float, int]:
         """The sensor's reading of `p`: (value, one standard deviation, readings used). With `remeasure`,
         `sense.readings` readings are combined (the ones that read nothing left out)."""
         assert self.world is not None
@@ -289,7 +289,7 @@ class Measuring(SessionCore):
         spread = _std(readings) / math.sqrt(len(readings)) if len(readings) > 1 else 0.0
         return mean, max(spread, sense.resolution, sense.relative * abs(mean)), len(readings)
 
-    def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
+    def _weigh(self, p: Sighting) -> tuple[float, float, int]:
         """The held load in newtons, its standard error and the readings used. A short window is averaged
         (the reading sways while the arm settles and carries sensor noise); with `remeasure`, readings are
         added until the standard error is small or FORCE_MAX_SAMPLES are taken; with `verify_actions`, a
@@ -320,9 +320,9 @@ class Measuring(SessionCore):
             self.pick_up(p)
         raise AssertionError("unreachable")
 
-    def uncertainty(self, patch: ImagePatch) -> float:
+    def uncertainty(self, patch: Sighting) -> float:
         """The session's side of `Robot.uncertainty` (its docstring is the one programs read)."""
-        p = check_patch(patch, ImagePatch, "patch", "uncertainty")
+        p = check_patch(patch, self._patch_type, "patch", "uncertainty")
         m = self.last_measurement(p)
         if m is None:
             raise PreconditionError(

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from attribot.api.harder import zoom_views
 from attribot.boxes import Box, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
@@ -37,6 +36,7 @@ from attribot.control.spatial import (
 from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
 from attribot.models.base import Detection, Detector, detect_confirming, detect_in_views
+from attribot.skills.harder import zoom_views
 
 __all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object", "refit"]
 
