@@ -22,67 +22,64 @@ look harder (a zoomed view shows them more); the oracle reads the simulator's se
 
 from __future__ import annotations
 
-import colorsys
-import math
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 
-import cv2
 import numpy as np
 
-from attribot.boxes import at_edge, center, crop_array, enclosing, iou, overlap_of_smaller
+from attribot.boxes import at_edge, center, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
-from attribot.models.base import SURE_SCORE, Detection, Detector, detect_in_views
-from attribot.priors import Kind, Priors, priors
+from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.priors import Priors, priors
+from attribot.skills.fits import (
+    box_area,
+    class_of_name,
+    colour_fits,
+    fits_class,
+    fits_size,
+    fitted_to_depth,
+    framed_by,
+    grown_to_candidates,
+    inside_box,
+    is_furniture,
+    name_sizes,
+    on_candidate,
+    stands_in_depth,
+)
+from attribot.skills.lookalikes import (
+    alike,
+    by_elimination,
+    faint_pick,
+    one_name_each,
+    one_object,
+    visit_order,
+)
+from attribot.skills.params import LOOK_HARDER, LookHarderParams
 
 __all__ = [
     "LookHarderReport",
     "Nearer",
-    "alike",
     "acting_find",
-    "by_elimination",
-    "class_sizes",
-    "colour_fits",
     "carried_back",
     "closed_world",
     "confirmed",
-    "faint_pick",
-    "one_name_each",
-    "one_object",
     "look_harder",
-    "visit_order",
+    "standing_in",
     "zoom_views",
 ]
 
 Nearer = Callable[[str, list[Candidate]], tuple[list[Detection], int]]
 """Drives nearer to candidates in turn and looks for a name there: (detections in the first image, visits)."""
 
-UNSURE = SURE_SCORE
-"""A find whose best detection scores under this looks harder: no sure box (`models.base.SURE_SCORE`, the
-closed-set detectors' own `SURE`)."""
-ZOOM = 3.5
-"""A zoomed view is this many times its candidate's larger side..."""
-MIN_VIEW = 112
-"""...and at least this many pixels square (a 30-pixel object fills about a quarter of it)."""
-MAX_VIEWS = 10
-"""The most zoomed views one find looks at (a forward pass each)."""
-FAINT = 0.005
-"""The faintest box of a name weighed on a candidate (the detector's threshold is 0.1): YOLOv3-tiny scores a
-30-pixel apple 0.04 as an apple (and 0.7 as an orange), and a flat book 0.009."""
-FAINT_MARGIN = 2.0
-"""A faint box is taken only where its score is this many times that of the name on any other candidate."""
-ELIMINATED_SCORE = 0.001
-"""The score of a candidate taken by elimination: no detector saw it as the name."""
-SMALL_BOX = 1 / 6
-"""Only a box under this share of the image is set aside for standing on nothing: a larger one may be
-furniture or a wall-sized object, whose own depth is its surface."""
+_STANDING: weakref.WeakKeyDictionary[Frame, tuple[Capture, StandingMap, list[Candidate]]]
+_STANDING = weakref.WeakKeyDictionary()
 
 
 @dataclass
@@ -140,25 +137,24 @@ class LookHarderReport:
 
 
 def zoom_views(
-    boxes: Sequence[tuple[float, float, float, float]], width: int, height: int
+    boxes: Sequence[tuple[float, float, float, float]],
+    width: int,
+    height: int,
+    params: LookHarderParams = LOOK_HARDER,
 ) -> list[tuple[int, int, int, int]]:
     """Square views around the boxes (the candidates', largest first), inside the image; a view much like
     one already chosen is left out."""
     views: list[tuple[int, int, int, int]] = []
     for x0, y0, x1, y1 in boxes:
-        side = int(min(max(ZOOM * max(x1 - x0, y1 - y0), MIN_VIEW), width, height))
+        side = int(min(max(params.zoom * max(x1 - x0, y1 - y0), params.min_view), width, height))
         left = int(np.clip((x0 + x1) / 2 - side / 2, 0, width - side))
         top = int(np.clip((y0 + y1) / 2 - side / 2, 0, height - side))
         view = (left, top, left + side, top + side)
         if all(iou(view, v) < 0.5 for v in views):
             views.append(view)
-        if len(views) >= MAX_VIEWS:
+        if len(views) >= params.max_views:
             break
     return views
-
-
-_STANDING: weakref.WeakKeyDictionary[Frame, tuple[Capture, StandingMap, list[Candidate]]]
-_STANDING = weakref.WeakKeyDictionary()
 
 
 def standing_in(frame: Frame, capture: Capture) -> tuple[StandingMap, list[Candidate]]:
@@ -182,29 +178,29 @@ def look_harder(
     claimed: list[Detection] | None = None,
     sought: list[str] | None = None,
     table: Priors | None = None,
+    params: LookHarderParams = LOOK_HARDER,
 ) -> tuple[list[Detection], LookHarderReport] | None:
     """The find's detections after looking harder (module docstring) and what it did; None without depth and
     a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order`;
     `claimed`: the boxes other names' finds took here, each its object's (if of another class); `sought`:
-    the other names looked for; `table`: the perception priors (`attribot.priors`; default: unscaled)."""
+    the other names looked for; `table`: the perception priors (default: unscaled); `params`: the values."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     table = table if table is not None else priors()
     standing, candidates = standing_in(frame, capture)
-    kept = detections
-    if name.lower() not in SURFACE_WORDS:
-        small = frame.width * frame.height * SMALL_BOX
-        kept = [d for d in detections if _area(d.box) >= small or _stands(d, standing)]
+    kept = _standing(detections, name, frame, standing, params)
     report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
 
     @cache
     def best_rivals() -> list[Detection]:  # the other sought names' best boxes, looked for once
         return _best_of(detector, frame, name, sought or [], [])
 
+    mine = class_of_name(detector, name)
+
     def one_each(found: list[Detection]) -> list[Detection]:
         if len(found) < 2:
             return found
-        taken = [d for d in claimed or [] if _class(detector, d.label) != _class(detector, name)]
+        taken = [d for d in claimed or [] if class_of_name(detector, d.label) != mine]
         left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates)
         report.yielded += len(found) - len(left)
         return left
@@ -212,26 +208,37 @@ def look_harder(
     kept = one_each(kept)
     if not candidates:
         return kept, report
-    kept = _without_misfits(detector, name, kept, candidates, report, table)
-    if all(d.score < UNSURE for d in kept):
-        merged, views = _zoomed_in(detector, frame, name, candidates, kept)
+    kept = _without_misfits(detector, name, kept, candidates, report, table, params)
+    if all(d.score < params.unsure for d in kept):
+        merged, views = _zoomed_in(detector, frame, name, candidates, kept, params)
         report.views, report.added = len(views), len(merged) - len(kept)
         if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-            merged = _unseen(
-                detector, frame, capture.camera, name, candidates, views, nearer, claimed, report, table
-            )
+            weighed = (candidates, views, nearer, claimed, report, table, params)
+            merged = _unseen(detector, frame, capture.camera, name, *weighed)
             report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
-    kept = _fitted(detector, name, kept, candidates, report, table)
-    kept = _without_misfits(detector, name, kept, candidates, report, table)  # the zoomed views' too
+    kept = _fitted(detector, name, kept, candidates, report, table, params)
+    kept = _without_misfits(detector, name, kept, candidates, report, table, params)  # the zoomed views' too
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
-    explained = best_rivals() if sought and any(d.score >= EXEMPLAR for d in kept) else []
-    more = alike(detector, frame, name, candidates, kept, [*(claimed or []), *explained], sought or [], table)
+    explained = best_rivals() if sought and any(d.score >= params.exemplar for d in kept) else []
+    rivals = [*(claimed or []), *explained]
+    more = alike(detector, frame, name, candidates, kept, rivals, sought or [], table, params)
     report.alike, more = len(more), confirmed(more, candidates, name, nearer, report)
     report.took = [*report.took, *more]
     return kept + more, report
+
+
+def _standing(
+    detections: list[Detection], name: str, frame: Frame, standing: StandingMap, params: LookHarderParams
+) -> list[Detection]:
+    """`detections` less the small boxes where depth sees nothing stand (`stands_in_depth`); a surface's
+    name (a table, the floor) keeps them all."""
+    if name.lower() in SURFACE_WORDS:
+        return detections
+    small = frame.width * frame.height * params.small_box
+    return [d for d in detections if box_area(d.box) >= small or stands_in_depth(d, standing, params)]
 
 
 def _without_misfits(
@@ -241,18 +248,26 @@ def _without_misfits(
     candidates: list[Candidate],
     report: LookHarderReport,
     table: Priors,
+    params: LookHarderParams,
 ) -> list[Detection]:
     """`found` less its `_misfits`, counted as set aside in `report`; what weaker evidence took stays (it
     was taken for its size)."""
     misfits = [
-        d for d in _misfits(detector, name, found, candidates, table) if not any(d is t for t in report.took)
+        d
+        for d in _misfits(detector, name, found, candidates, table, params)
+        if not any(d is t for t in report.took)
     ]
     report.set_aside += len(misfits)
     return [d for d in found if not any(d is m for m in misfits)]
 
 
 def _misfits(
-    detector: Detector, name: str, found: list[Detection], candidates: list[Candidate], table: Priors
+    detector: Detector,
+    name: str,
+    found: list[Detection],
+    candidates: list[Candidate],
+    table: Priors,
+    params: LookHarderParams,
 ) -> list[Detection]:
     """The boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
     (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball and YOLOv5s surely, and a
@@ -263,22 +278,27 @@ def _misfits(
         return []
     out = []
     for det in found:
-        framed = _framed(det, candidates)
+        framed = framed_by(det, candidates)
         if len(framed) != 1:
             continue
         size = candidates[framed[0]].size
-        if size > 0 and not fits_size(size, sizes):
+        if size > 0 and not fits_size(size, sizes, params.size_slack):
             out.append(det)
     return out
 
 
 def _zoomed_in(
-    detector: Detector, frame: Frame, name: str, candidates: list[Candidate], kept: list[Detection]
+    detector: Detector,
+    frame: Frame,
+    name: str,
+    candidates: list[Candidate],
+    kept: list[Detection],
+    params: LookHarderParams,
 ) -> tuple[list[Detection], list[tuple[int, int, int, int]]]:
     """`kept` and the boxes of the name that views zoomed in on the candidates show on them (a box on an
     object kept already is that one), and those views."""
-    views = zoom_views([c.box for c in candidates], frame.width, frame.height)
-    zoomed = [d for d in detect_in_views(detector, frame, [name], views) if _on_candidate(d, candidates)]
+    views = zoom_views([c.box for c in candidates], frame.width, frame.height, params)
+    zoomed = [d for d in detect_in_views(detector, frame, [name], views) if on_candidate(d, candidates)]
     merged = list(kept)
     for det in sorted(zoomed, key=lambda d: -d.score):
         if not any(one_object(det, other, candidates) for other in merged):
@@ -293,11 +313,14 @@ def _fitted(
     candidates: list[Candidate],
     report: LookHarderReport,
     table: Priors,
+    params: LookHarderParams,
 ) -> list[Detection]:
     """`kept` with what the detector boxed cut to what depth sees (`fitted_to_depth`), counted in `report`;
     what weaker evidence took (a candidate's box, a faint box grown to it) as it was taken."""
     sizes = name_sizes(detector, name, table)
-    fitted = [d if any(d is t for t in report.took) else fitted_to_depth(d, candidates, sizes) for d in kept]
+    fitted = [
+        d if any(d is t for t in report.took) else fitted_to_depth(d, candidates, sizes, params) for d in kept
+    ]
     report.fitted = sum(1 for d, f in zip(kept, fitted, strict=True) if f is not d)
     return fitted
 
@@ -313,28 +336,29 @@ def _unseen(
     claimed: list[Detection],
     report: LookHarderReport,
     table: Priors,
+    params: LookHarderParams,
 ) -> list[Detection]:
     """For a name the zoomed views did not show: a faint box that points at one candidate no other name's
     find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
     `report`)."""
     # a place another name's find took holds that object
-    free = [c for c in candidates if not any(_inside(center(c.box), d.box) for d in claimed)]
+    free = [c for c in candidates if not any(inside_box(center(c.box), d.box) for d in claimed)]
     kind = table.find(name)
     sizes = None if kind is None else kind.size_m
-    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table))
+    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
 
     def closed() -> bool:
-        return closed_world(candidates, explaining(), frame.width, frame.height)
+        return closed_world(candidates, explaining(), frame.width, frame.height, params)
 
-    faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=FAINT), free)
+    faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=params.faint), free, params)
     if faint is not None:
         report.faint = faint.score
-        grown = grown_to_candidates(faint, free, sizes).model_copy(update={"evidence": "faint box"})
+        grown = grown_to_candidates(faint, free, sizes, params).model_copy(update={"evidence": "faint box"})
         return confirmed([grown], candidates, name, nearer, report, closed)
     others = explaining()
     placement = None if kind is None else kind.placement
     if nearer is not None:
-        seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement))
+        seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement, params))
         # boxes of one object seen from two places land on each other: one object
         kept_seen: list[Detection] = []
         for det in seen:
@@ -346,14 +370,15 @@ def _unseen(
     colours = () if kind is None else kind.colours
 
     def coloured(cand: Candidate) -> bool:
-        return colour_fits(frame.rgb, cand.box, colours, table)
+        return colour_fits(frame.rgb, cand.box, colours, table, params)
 
     heights = None if kind is None else kind.height_m
-    left = by_elimination(candidates, others, sizes, frame.width, frame.height, placement, coloured, heights)
+    width, height = frame.width, frame.height
+    left = by_elimination(candidates, others, sizes, width, height, placement, coloured, heights, params)
     if left is None:
         return []
     report.eliminated = 1
-    eliminated = Detection(box=left.box, score=ELIMINATED_SCORE, label=name, evidence="elimination")
+    eliminated = Detection(box=left.box, score=params.eliminated_score, label=name, evidence="elimination")
     return confirmed([eliminated], candidates, name, nearer, report, closed)
 
 
@@ -365,29 +390,36 @@ def _explaining(
     views: list[tuple[int, int, int, int]],
     claimed: list[Detection],
     table: Priors,
+    params: LookHarderParams,
 ) -> list[Detection]:
     """The boxes that explain a place when `name` is sought: every other class's in the image and the
     zoomed views, and what other names' finds took (`claimed`, each its object whatever its score)."""
     # a box of the name's own class, or of a class another name of the program stands for, explains no
     # place: each of those names is one object, its best box (in `claimed`)
-    mine = {_class(detector, name), *(_class(detector, d.label) for d in claimed)}
+    mine = {class_of_name(detector, name), *(class_of_name(detector, d.label) for d in claimed)}
     seen = detect_in_views(detector, frame, ["object"], [(0, 0, frame.width, frame.height), *views])
     # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
-    found = [d for d in seen if d.label not in mine and _fits_class(detector, d, frame, camera, table)]
+    found = [d for d in seen if d.label not in mine and fits_class(detector, d, frame, camera, table, params)]
     return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
 
 
-def closed_world(candidates: list[Candidate], explaining: list[Detection], width: int, height: int) -> bool:
+def closed_world(
+    candidates: list[Candidate],
+    explaining: list[Detection],
+    width: int,
+    height: int,
+    params: LookHarderParams = LOOK_HARDER,
+) -> bool:
     """Whether depth sees at most one thing here that no sure box explains (furniture and what the image's
     edge cuts aside): a world closed enough for an argument by elimination, where everything else is
     named. A room with things the detector cannot name leaves several unexplained."""
-    sure = [d for d in explaining if d.score >= UNSURE]
+    sure = [d for d in explaining if d.score >= params.unsure]
     unexplained = [
         c
         for c in candidates
-        if not _furniture(c)
+        if not is_furniture(c, params)
         and not at_edge(c.box, width, height)
-        and not any(_inside(center(c.box), d.box) for d in sure)
+        and not any(inside_box(center(c.box), d.box) for d in sure)
     ]
     return len(unexplained) <= 1
 
@@ -448,469 +480,6 @@ def _best_of(
     return best
 
 
-def one_name_each(
-    found: list[Detection], rivals: list[Detection], candidates: Sequence[Candidate] = ()
-) -> list[Detection]:
-    """`found` (one name's boxes) less those on the object of another name's box in `rivals` (the best box
-    of another name the program looks for, or what another name's find took), one object, one name: a box
-    that is not the name's best yields to the other name there (YOLOv3-tiny boxes a computer mouse as a
-    clock at 0.19 and as a mouse at 0.18, beside the alarm clock it boxes at 0.63; a bowl as a sports ball
-    at 0.18, beside a basketball it boxes at 0.29), and so does its best where the other name scores
-    higher there (an orange boxed as an apple at 0.17 and as an orange at 0.31, beside an apple boxed at
-    0.11; a cactus's pot boxed as a vase, under the cactus's box: `one_object`). One box at least is
-    kept."""
-    best = max(found, key=lambda d: d.score)
-
-    def yields(d: Detection) -> bool:
-        return any(one_object(d, r, candidates) and (d is not best or r.score > d.score) for r in rivals)
-
-    kept = [d for d in found if not yields(d)]
-    return kept or [best]
-
-
-def one_object(a: Detection, b: Detection, candidates: Sequence[Candidate] = ()) -> bool:
-    """Whether two boxes are on one object: they overlap by IoU 0.5 or more, or each frames one place depth
-    sees stand (`candidates`), the same one (a cactus's pot and the cactus)."""
-    if iou(a.box, b.box) >= 0.5:
-        return True
-    places = [_framed(d, list(candidates)) for d in (a, b)]
-    return len(places[0]) == 1 and places[0] == places[1]
-
-
-def _fits_class(detector: Detector, det: Detection, frame: Frame, camera: CameraInfo, table: Priors) -> bool:
-    """Whether the box's longer side, in metres at the depth of what it frames, fits an object of its class
-    (the sizes of the priors' kinds of that class, from half the smallest to 1.5 times the largest); True
-    where the class or the depth does not say."""
-    sizes = class_sizes(detector, det.label, table)
-    if sizes is None or frame.depth is None:
-        return True
-    x0, y0, x1, y1 = (int(v) for v in det.box)
-    depth = frame.depth[max(y0, 0) : max(y1, y0 + 1), max(x0, 0) : max(x1, x0 + 1)]
-    depth = depth[np.isfinite(depth) & (depth > 0)]
-    if depth.size == 0:
-        return True
-    # the nearer quarter of what the box holds: the object, not the wall behind it
-    metres = max(camera.metres_across((x0, y0, x1, y1), float(np.percentile(depth, 25))))
-    return fits_size(metres, sizes)
-
-
-@cache
-def _class_kinds(class_of: Callable[[str], str | None], label: str, table: Priors) -> tuple[Kind, ...]:
-    """The priors' kinds of the closed-set class `label`: those the table files under it (`Kind.coco`) and
-    those whose name the detector reaches it with."""
-    return tuple(k for k in table.kinds.values() if k.coco == label or class_of(k.name) == label)
-
-
-def class_sizes(
-    detector: Detector, label: str | None, table: Priors | None = None
-) -> tuple[float, float] | None:
-    """The smallest and largest size (metres) of the priors' kinds of the closed-set class `label` (a sports
-    ball: a tennis ball to a basketball); None for an open-vocabulary detector or a class no kind is of."""
-    class_of = getattr(detector, "class_of", None)
-    if class_of is None or not label:
-        return None
-    kinds = _class_kinds(class_of, label, table if table is not None else priors())
-    return (min(k.size_m[0] for k in kinds), max(k.size_m[1] for k in kinds)) if kinds else None
-
-
-def name_sizes(detector: Detector, name: str, table: Priors | None = None) -> tuple[float, float] | None:
-    """The sizes an object called `name` has: its kind's in the priors, else those of the priors' kinds of
-    the class the detector gives it; None where neither is known."""
-    table = table if table is not None else priors()
-    kind = table.find(name)
-    return class_sizes(detector, _class(detector, name), table) if kind is None else kind.size_m
-
-
-def _class(detector: Detector, name: str | None) -> str | None:
-    """The one class a closed-set detector reaches with `name` (a mug: "cup"), else the name itself."""
-    class_of = getattr(detector, "class_of", None)
-    return (class_of(name) if class_of is not None and name else None) or name
-
-
-SIZE_SLACK = (0.5, 1.5)
-"""A size as depth sees it fits a name's size range from this share of its smallest (depth may see only a
-part: an object's near side, its top) to this share of its largest."""
-
-
-def fits_size(size: float, size_range: tuple[float, float], slack: tuple[float, float] = SIZE_SLACK) -> bool:
-    """Whether `size` (metres, as depth sees it) fits `size_range` within `slack`."""
-    return size_range[0] * slack[0] <= size <= size_range[1] * slack[1]
-
-
-HEIGHT_MARGIN = 0.02
-"""A rise as depth sees it fits a name's height range (`SIZE_SLACK` of it) give or take this much (metres):
-depth's noise, a level that is not quite flat."""
-
-
-def fits_height(rise: float, height_range: tuple[float, float]) -> bool:
-    """Whether what depth sees rise `rise` metres over its level can be an object of `height_range` as it
-    is put: a knife lying flat rises a centimetre or two, a toaster standing twenty."""
-    low, high = height_range[0] * SIZE_SLACK[0], height_range[1] * SIZE_SLACK[1]
-    return low - HEIGHT_MARGIN <= rise <= high + HEIGHT_MARGIN
-
-
-def grown_to_candidates(
-    det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
-) -> Detection:
-    """`det` (a faint box) grown to hold the candidates it frames whose size fits the name's: a faint box
-    often frames a part of the object (a thin book's spine, the scissors' handles), where depth and colour
-    see its whole extent."""
-    if size_range is None:
-        return det
-    boxes = [
-        det.box,
-        *(candidates[i].box for i in _framed(det, candidates) if fits_size(candidates[i].size, size_range)),
-    ]
-    if len(boxes) == 1:
-        return det
-    return det.model_copy(update={"box": enclosing(boxes)})
-
-
-FIT_KEEPS = 0.25
-"""A box is cut to its candidates only where the cut keeps this share of its area at least: less, and the
-candidates are a part of the object or another thing in its box."""
-FIT_ALONG = 0.8
-"""...and this share of its extent along one of its sides at least: a detector's loose box errs along one
-side (across a fork, along a knife: kept 0.99 and 0.83 of the other), where depth seeing only a piece of a
-far, thin, curved thing (a banana 15 pixels long) is short of the box both ways (0.60 and 0.58)."""
-
-
-def fitted_to_depth(
-    det: Detection, candidates: list[Candidate], size_range: tuple[float, float] | None
-) -> Detection:
-    """`det` cut to the candidates it frames whose size fits the name's as a look-alike's must (`ALIKE_SLACK`:
-    things of one kind differ in size more than the priors' range). YOLOv3-tiny boxes a fork or a knife
-    lying on a table up to twice as wide as it is, where depth and colour see its extent. A box is never
-    grown here; one framing no such candidate, or one the cut would leave under `FIT_KEEPS` of its area or
-    short of it both ways (`FIT_ALONG`), is kept as the detector gave it."""
-    if size_range is None:
-        return det
-    framed = [
-        candidates[i].box
-        for i in _framed(det, candidates)
-        if fits_size(candidates[i].size, size_range, ALIKE_SLACK)
-    ]
-    if not framed:
-        return det
-    x0, y0, x1, y1 = det.box
-    e0, f0, e1, f1 = enclosing(framed)
-    cut = (max(x0, e0), max(y0, f0), min(x1, e1), min(y1, f1))
-    if cut == det.box or cut[2] <= cut[0] or cut[3] <= cut[1] or _area(cut) < FIT_KEEPS * _area(det.box):
-        return det
-    along = max((cut[2] - cut[0]) / (x1 - x0), (cut[3] - cut[1]) / (y1 - y0))
-    return det if along < FIT_ALONG else det.model_copy(update={"box": cut})
-
-
-def faint_pick(faint: list[Detection], candidates: list[Candidate]) -> Detection | None:
-    """The best of `faint` (boxes of one name under the detector's threshold) where it frames a candidate,
-    and the name's best box on every other candidate scores under 1 / `FAINT_MARGIN` of it; else None."""
-    best: dict[int, Detection] = {}
-    for det in faint:
-        for at in _framed(det, candidates):
-            if at not in best or det.score > best[at].score:
-                best[at] = det
-    # one box framing two candidates (an object depth sees in two parts) points at one place
-    ranked = sorted({id(d): d for d in best.values()}.values(), key=lambda d: -d.score)
-    if not ranked or (len(ranked) > 1 and ranked[1].score * FAINT_MARGIN > ranked[0].score):
-        return None
-    return ranked[0]
-
-
-def by_elimination(
-    candidates: list[Candidate],
-    others: list[Detection],
-    size_range: tuple[float, float] | None,
-    width: int,
-    height: int,
-    placement: str | None = None,
-    coloured: Callable[[Candidate], bool] | None = None,
-    height_range: tuple[float, float] | None = None,
-) -> Candidate | None:
-    """The one candidate that can be the object looked for by elimination, or None where none or several
-    can: a candidate no box of another name explains (over its middle, with a score of `UNSURE`), whose
-    size as depth sees it fits `size_range` (`fits_size`) and whose rise fits `height_range` (`fits_height`:
-    a knife lies flat, a toaster stands; None: any), whole in the image (a candidate cut by the image's
-    edge is most often the furniture the robot stands at), no part of the furniture, and where the object
-    is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several are left, the one
-    of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
-    if size_range is None:
-        return None
-    sure = [d for d in others if d.score >= UNSURE]
-    left = [
-        c
-        for c in candidates
-        if fits_size(c.size, size_range)
-        and (height_range is None or fits_height(c.rise, height_range))
-        and not _furniture(c)
-        and not _misplaced(c, placement)
-        and not at_edge(c.box, width, height)
-        and not any(_inside(center(c.box), d.box) for d in sure)
-    ]
-    if len(left) > 1 and coloured is not None:
-        left = [c for c in left if coloured(c)] or left
-    return left[0] if len(left) == 1 else None
-
-
-ALIKE = 0.9
-"""A candidate looks like an object the detector saw where the hue-saturation histograms of what stands out
-in their boxes correlate at least this much: in arrangements of one category, another of it scores 0.95 to
-1.0 and other things under 0.5; a red apple beside a red mug scores over it, which is why what the detector
-names as another class, surely, is not taken."""
-EXEMPLAR = 0.1
-"""A detection is an example of its name to look for more of where it scores at least this (the coco
-detector's threshold: a faint box or elimination is no example)."""
-ALIKE_SCORE = 0.002
-"""The score of a candidate taken for its likeness: no detector saw it as the name."""
-ALIKE_SLACK = (SIZE_SLACK[0], 2.0)
-"""A candidate alike in colour is one more of the name where its size is within this share of the name's
-size range: things of one kind differ in size more than a typical range says (a large stapler among
-small ones), and a thing over twice the largest of its kind is no longer one."""
-SAME_LEVEL_M = 0.05
-"""...and where it stands on the level one it saw stands on (within this): more of a kind seen together
-stand together (a row on a table), and a red toaster on a shelf is not one more of the red vase on the
-table below it."""
-ALIKE_SHAPE = 2.0
-"""...and where its proportions are one's it saw, within this factor (`_proportion`): things of one kind
-share a shape, and an orange carrot lying flat (four times as long as it rises) is not one more of a round
-orange that the size range alone lets through."""
-
-
-def alike(
-    detector: Detector,
-    frame: Frame,
-    name: str,
-    candidates: list[Candidate],
-    found: list[Detection],
-    claimed: list[Detection],
-    sought: Sequence[str] = (),
-    table: Priors | None = None,
-) -> list[Detection]:
-    """More of what `found` (a find's detections) saw, where the detector missed them: the candidates whose
-    colours are those of an object it saw surely enough (`ALIKE`, `EXEMPLAR`), whose size as depth sees it
-    fits the name's (`ALIKE_SLACK`), that stand on the level one of those stands on (`SAME_LEVEL_M`) and are
-    of its proportions (`ALIKE_SHAPE`), whole in the image, no part of the furniture, where the object is
-    put, and that no box explains: none of `found`, none of `claimed` (what other names' finds took), and no
-    box the detector gives another class in the whole image with a score of `UNSURE` where the candidate is
-    of that class's proportions; nor one that could be another of the `sought` names by its size and colour
-    (a red apple beside a red mug). A closed-set detector only: it names every class it knows in one pass,
-    so a thing it calls something else surely is that. `table`: the perception priors (default: the
-    package's)."""
-    table = table if table is not None else priors()
-    mine = _class(detector, name)
-    kind = table.find(name)
-    sizes = name_sizes(detector, name, table)
-    if sizes is None or getattr(detector, "class_of", None) is None:
-        return []
-    exemplars = [d for d in found if d.score >= EXEMPLAR and _on_candidate(d, candidates)]
-    shown = [h for h in (_colours(frame.rgb, d.box) for d in exemplars) if h is not None]
-    if not shown:
-        return []
-    examples = [candidates[i] for d in exemplars for i in _framed(d, candidates)]
-    levels = [c.bottom for c in examples]
-    whole = (0, 0, frame.width, frame.height)
-    seen = [d for d in detect_in_views(detector, frame, ["object"], [whole]) if d.label != mine]
-    # a class the detector gives the examples too is its confusion about their kind (YOLOv3-tiny boxes
-    # a small apple as an orange at 0.7): it explains no candidate
-    confused = {d.label for d in seen for e in exemplars if _inside(center(e.box), d.box)}
-    rivals = [d for d in seen if d.label not in confused and d.score >= UNSURE]
-    taken: list[Detection] = []
-    for cand in candidates:
-        if (
-            not fits_size(cand.size, sizes, ALIKE_SLACK)
-            or _furniture(cand)
-            or _misplaced(cand, None if kind is None else kind.placement)
-            or at_edge(cand.box, frame.width, frame.height)
-            or any(_on(cand, d) for d in [*found, *claimed, *taken])
-            # another class's box explains a place depth sees shaped as that class's objects can be only
-            # (YOLOv3-tiny boxes a small bowl as a sports ball; no ball lies three times wider than it rises)
-            or any(_on(cand, d) and _shaped_as_class(detector, d.label, cand, table) for d in rivals)
-            or any(_could_be(frame.rgb, cand, other, table) for other in sought)
-            or not _on_level_of(cand, levels)
-            or not _shaped_like(cand, examples)
-        ):
-            continue
-        colours = _colours(frame.rgb, cand.box)
-        if colours is not None and max(_correlation(colours, h) for h in shown) >= ALIKE:
-            taken.append(Detection(box=cand.box, score=ALIKE_SCORE, label=name, evidence="look-alike"))
-    return taken
-
-
-def _on_level_of(cand: Candidate, levels: list[float | None]) -> bool:
-    """Whether a candidate stands on one of the `levels` (the heights over the floor the examples stand at,
-    within `SAME_LEVEL_M`); False where depth does not say."""
-    return cand.bottom is not None and any(
-        level is not None and abs(cand.bottom - level) <= SAME_LEVEL_M for level in levels
-    )
-
-
-def _proportion(cand: Candidate) -> float | None:
-    """A candidate's `_proportion_of`; None where its span is not measured."""
-    return _proportion_of(cand.across, cand.rise) if cand.across > 0.0 else None
-
-
-def _proportion_of(across: float, rise: float) -> float:
-    """How much longer a thing spans across its level than it rises, each with `HEIGHT_MARGIN` added
-    (depth's noise on what lies flat): what depth sees of a place and what the priors say of a kind are
-    set side by side in one measure."""
-    return (across + HEIGHT_MARGIN) / (rise + HEIGHT_MARGIN)
-
-
-def _on(cand: Candidate, det: Detection) -> bool:
-    """Whether a box is on a candidate's place: either's middle inside the other's box."""
-    return _inside(center(cand.box), det.box) or _inside(center(det.box), cand.box)
-
-
-def _shaped_as_class(detector: Detector, label: str, cand: Candidate, table: Priors) -> bool:
-    """Whether a candidate's proportions (`_proportion`) are within `ALIKE_SHAPE` of those the priors' kinds
-    of the closed-set class `label` have as they rest; True where neither says."""
-    class_of = getattr(detector, "class_of", None)
-    mine = _proportion(cand)
-    shapes = None if class_of is None else _class_proportions(class_of, label, table)
-    if mine is None or shapes is None:
-        return True
-    return shapes[0] / ALIKE_SHAPE <= mine <= shapes[1] * ALIKE_SHAPE
-
-
-@cache
-def _class_proportions(
-    class_of: Callable[[str], str | None], label: str, table: Priors
-) -> tuple[float, float] | None:
-    # each range's low end is a small one of the kind, its high end a large one: paired, they are the shapes
-    # of a small and a large one as they rest
-    shapes = [
-        _proportion_of(across, height)
-        for k in _class_kinds(class_of, label, table)
-        for across, height in zip(k.across_m, k.height_m, strict=True)
-    ]
-    return (min(shapes), max(shapes)) if shapes else None
-
-
-def _shaped_like(cand: Candidate, examples: list[Candidate]) -> bool:
-    """Whether a candidate's proportions are within `ALIKE_SHAPE` of one of the `examples`' (True where
-    neither says: nothing rules it out)."""
-    mine = _proportion(cand)
-    theirs = [p for p in map(_proportion, examples) if p is not None]
-    if mine is None or not theirs:
-        return True
-    return any(max(mine / p, p / mine) <= ALIKE_SHAPE for p in theirs)
-
-
-def _could_be(rgb: np.ndarray, cand: Candidate, name: str, table: Priors) -> bool:
-    """Whether a candidate may be an object called `name` by what the priors know of its kind: its size and
-    its colour fit (True for a name the priors do not know, or a kind of no usual colour: nothing rules it
-    out)."""
-    kind = table.find(name)
-    if kind is None:
-        return True
-    fits_colour = not kind.colours or colour_fits(rgb, cand.box, kind.colours, table)
-    return fits_size(cand.size, kind.size_m) and fits_colour
-
-
-def _colours(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray | None:
-    """The hue-saturation histogram (18 x 8 bins, unit length) of what stands out in `box` from its rim;
-    None where nothing does."""
-    own = _standing_out(rgb, box)
-    if own is None:
-        return None
-    hsv = cv2.cvtColor(own.astype(np.uint8)[None], cv2.COLOR_RGB2HSV)[0]
-    hist, _, _ = np.histogram2d(hsv[:, 0], hsv[:, 1], bins=(18, 8), range=((0, 180), (0, 256)))
-    flat = hist.ravel()
-    return flat / max(float(np.linalg.norm(flat)), 1e-9)
-
-
-def _correlation(a: np.ndarray, b: np.ndarray) -> float:
-    """Pearson's correlation of two histograms (1: the same shape)."""
-    a, b = a - a.mean(), b - b.mean()
-    return float(a @ b / max(float(np.linalg.norm(a) * np.linalg.norm(b)), 1e-12))
-
-
-COLOUR_OFF = 40.0
-"""A pixel of a box whose colour is this far (RGB, 0-255) from the median of the box's rim is the object's."""
-HUE_TOLERANCE = 25.0
-CHROMATIC = 0.3
-"""An object's colour is a named colour's where, both saturated over `CHROMATIC`, their hues lie within
-`HUE_TOLERANCE` degrees, or where both are under it (silver, white, grey, black: light tells them apart)."""
-
-
-def colour_fits(
-    rgb: np.ndarray,
-    box: tuple[float, float, float, float],
-    colours: Sequence[str],
-    table: Priors | None = None,
-) -> bool:
-    """Whether what stands out in `box` of the image from the box's rim has one of the named `colours`
-    (colour words whose sRGB the priors give, `Priors.colours`); False where nothing stands out or no
-    colour is named."""
-    own = _standing_out(rgb, box) if colours else None
-    if own is None:
-        return False
-    known = (table if table is not None else priors()).colours
-    hue, sat = _hue_sat(np.median(own, axis=0) / 255.0)
-    for name in colours:
-        if name not in known:
-            continue
-        ref_hue, ref_sat = _hue_sat(np.asarray(known[name]) / 255.0)
-        if (sat >= CHROMATIC) != (ref_sat >= CHROMATIC):
-            continue
-        if sat < CHROMATIC or min(abs(hue - ref_hue), 360 - abs(hue - ref_hue)) <= HUE_TOLERANCE:
-            return True
-    return False
-
-
-def _standing_out(rgb: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray | None:
-    """The pixels of `box` (RGB, 0-255, float) whose colour is `COLOUR_OFF` from the median of the box's
-    rim: the object's, not what lies around it; None where fewer than 3 do."""
-    grid = crop_array(rgb, box).astype(np.float64)
-    if grid.shape[0] < 3 or grid.shape[1] < 3:
-        return None
-    rim = np.concatenate([grid[0], grid[-1], grid[:, 0], grid[:, -1]])
-    patch = grid.reshape(-1, 3)
-    own = patch[np.linalg.norm(patch - np.median(rim, axis=0), axis=1) > COLOUR_OFF]
-    return own if len(own) >= 3 else None
-
-
-def _hue_sat(rgb: np.ndarray) -> tuple[float, float]:
-    """Hue (degrees) and saturation (0-1) of an RGB colour in 0-1."""
-    h, s, _ = colorsys.rgb_to_hsv(float(rgb[0]), float(rgb[1]), float(rgb[2]))
-    return h * 360.0, s
-
-
-LEG_RISE_M, LEG_ASPECT = 0.35, 2.5
-"""A candidate this tall over its level and this many times taller than wide (in the image) is a leg of the
-furniture it stands under, not an object: not worth a drive."""
-FLOOR_LEG_RISE_M = 0.15
-"""...or this tall where it stands on the floor (a low table's leg)."""
-PANEL_ACROSS = 0.03
-"""Metres across the floor under which a candidate that stands is the edge of a panel (a bookcase's side)."""
-
-
-def visit_order(
-    candidates: list[Candidate],
-    others: list[Detection],
-    size_range: tuple[float, float] | None = None,
-    placement: str | None = None,
-) -> list[Candidate]:
-    """The candidates worth driving nearer to, in the order to visit them: those no other name explains
-    first (by the best score of a box of another name over their middle), then those whose size as depth
-    sees it is nearest the size of what is looked for (`size_range`, metres: a mug is 8 to 12 cm), then the
-    smaller (a detector misses the small ones); furniture legs left out."""
-
-    def explained(cand: Candidate) -> float:
-        middle = center(cand.box)
-        return round(max((d.score for d in others if _inside(middle, d.box)), default=0.0), 1)
-
-    def misfit(cand: Candidate) -> float:
-        if size_range is None or cand.size <= 0:
-            return 0.0
-        # how far outside the size range (as a ratio): depth may see only part of an object (its near
-        # side, its top), so a candidate somewhat smaller comes next, not last
-        lo, hi = size_range
-        return round(abs(math.log(min(max(cand.size, lo), hi) / cand.size)), 1)
-
-    worth = [c for c in candidates if not _furniture(c)]
-    return sorted(worth, key=lambda c: (_misplaced(c, placement), explained(c), misfit(c), c.pixels))
-
-
 def carried_back(
     box: tuple[float, float, float, float], frame: Frame, capture: Capture, first: Capture
 ) -> tuple[float, float, float, float] | None:
@@ -953,58 +522,3 @@ def _cut_by(box: tuple[float, float, float, float], view: tuple[int, int, int, i
         view[2] - view[0],
         view[3] - view[1],
     )
-
-
-def _on_candidate(det: Detection, candidates: list[Candidate]) -> bool:
-    """Whether a detection frames one of the candidates (`_framed`)."""
-    return bool(_framed(det, candidates))
-
-
-def _framed(det: Detection, candidates: list[Candidate]) -> list[int]:
-    """The indices of the candidates a detection frames: the candidate's middle inside the box, or the
-    box's middle inside the candidate's box."""
-    return [i for i, cand in enumerate(candidates) if _on(cand, det)]
-
-
-def _inside(point: tuple[float, float], box: tuple[float, float, float, float]) -> bool:
-    return box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
-
-
-FLOOR_M = 0.05
-"""A candidate whose lowest point is this high at most stands on the floor (a leg reaches it too)."""
-
-
-def _misplaced(cand: Candidate, placement: str | None) -> bool:
-    """Whether a candidate stands where the object is not put: on the floor for what is put on furniture
-    (a fork, a mug), on furniture for what stands on the floor (a basketball); False where either is not
-    known."""
-    if placement is None or cand.bottom is None:
-        return False
-    return (cand.bottom <= FLOOR_M) != (placement == "floor")
-
-
-def _furniture(cand: Candidate) -> bool:
-    """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
-    the floor, and this much taller than wide in the image), or a panel's edge (under `PANEL_ACROSS`
-    across the floor and rising more than `LEG_ASPECT` times that). A thing that thin and standing (a book
-    on its spine, a candle: the priors know both) is taken for a panel: a limit of this rule."""
-    x0, y0, x1, y1 = cand.box
-    if (y1 - y0) > LEG_ASPECT * max(x1 - x0, 1.0):
-        on_floor = cand.bottom is not None and cand.bottom <= FLOOR_M
-        if cand.rise > (FLOOR_LEG_RISE_M if on_floor else LEG_RISE_M):
-            return True
-    return 0.0 < cand.across < PANEL_ACROSS and cand.rise > LEG_ASPECT * cand.across
-
-
-def _stands(det: Detection, standing: StandingMap) -> bool:
-    """Whether depth may hold the object a detection sees: something stands in its box, or (for a sure
-    detection) the box lies on a level, where a flat object lies without standing out; True where depth
-    cannot tell."""
-    stands = standing.stands_out(det.box)
-    if stands is not False:
-        return True
-    return det.score >= UNSURE and bool(standing.lies_on_level(det.box))
-
-
-def _area(box: tuple[float, float, float, float]) -> float:
-    return max(box[2] - box[0], 0.0) * max(box[3] - box[1], 0.0)

@@ -45,6 +45,7 @@ from attribot.registry import Registry
 from attribot.skills.checks import patch_named
 from attribot.skills.harder import Nearer, look_harder
 from attribot.skills.looking import Survey, View, ask_again, reexamine, refit
+from attribot.skills.params import LOOK_HARDER, LookHarderParams
 from attribot.text import comma_names
 
 if TYPE_CHECKING:
@@ -172,9 +173,11 @@ class WithoutLookAgain(LookAgain):
 
 
 class LookHarder(Safeguard):
-    """`look_harder`: a find that comes back empty or unsure looks closer (`attribot.skills.harder`)."""
+    """`look_harder`: a find that comes back empty or unsure looks closer (`attribot.skills.harder`), with
+    the values of `params` (a subclass sets its own `LookHarderParams`)."""
 
     mechanism = Mechanism.LOOK_HARDER
+    params: ClassVar[LookHarderParams] = LOOK_HARDER
 
     def find(
         self, patch: Sighting, name: str, pixels: Frame, detections: list[Detection]
@@ -188,7 +191,16 @@ class LookHarder(Safeguard):
         claimed = [d for n, d in patch.named.items() if n.lower() != name.lower()]
         sought = sorted(patch.sought - {n.lower() for n in (name, *patch.named)})
         looked = look_harder(
-            detector, pixels, patch.capture, name, detections, patch.nearer, claimed, sought, self.log.priors
+            detector,
+            pixels,
+            patch.capture,
+            name,
+            detections,
+            patch.nearer,
+            claimed,
+            sought,
+            self.log.priors,
+            self.params,
         )
         if looked is None:
             return detections, []
