@@ -221,7 +221,7 @@ def test_the_trace_keeps_a_bounded_summary_of_each_calls_arguments():
 
 def test_the_trace_of_one_run_is_bounded_however_many_calls_it_makes():
     from attribot.runner import ProgramRunner
-    from attribot.runner.host import TRACE_RUN_CHARS
+    from attribot.runner.calls import TRACE_RUN_CHARS
 
     program = (
         "def execute_command(taker):\n"
