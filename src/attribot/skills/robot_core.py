@@ -1,8 +1,9 @@
 """The host side of a robot session, its core: the state a program's robot acts on (the world, the
 controller, what it holds, its measurements, its last look), how a call's patch or name becomes the object
 acted on, what a call needs from the robot's sensors, looking (and looking harder), and focusing the camera
-on an object. `attribot.skills.measuring` and `attribot.skills.acting` add the readings and the actions;
-`attribot.skills.robot_session.RobotSession` is all three; `attribot.api.robot.Robot` is what programs see.
+on an object. `attribot.skills.robot_session.RobotSession` is a core that holds its readings
+(`attribot.skills.measuring.Measuring`) and its actions (`attribot.skills.acting.Acting`) as objects of
+their own; `attribot.api.robot.Robot` is what programs see.
 """
 
 from __future__ import annotations
@@ -448,16 +449,6 @@ class SessionCore:
         m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), **reading)
         self.measurements.append(m)
         self._measured.append((m, p))
-
-    # ---- what the readings and the actions (the other halves of the session) provide to each other ----
-    def go_to_object(self, patch: Sighting) -> None:
-        raise NotImplementedError  # attribot.skills.acting
-
-    def pick_up(self, patch: Sighting) -> None:
-        raise NotImplementedError  # attribot.skills.acting
-
-    def put_down(self) -> None:
-        raise NotImplementedError  # attribot.skills.acting
 
 
 _SAME_BOX = 0.5
