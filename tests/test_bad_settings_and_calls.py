@@ -255,8 +255,8 @@ def test_a_saved_answer_with_a_long_argument_keeps_the_trace_small(tmp_path, emp
 
 
 def test_a_password_in_a_backend_url_is_never_saved_or_shown(empty_settings):
-    from attribot.skills.perception import Perception
     from attribot.eval.run import fingerprint
+    from attribot.skills.perception import Perception
 
     settings = load_settings(
         detector=f"remote:http://lab:{SECRET}@127.0.0.1:9", llm_base_url=f"http://lab:{SECRET}@h/v1"

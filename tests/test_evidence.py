@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.skills.harder import LookHarderReport, confirmed
-from attribot.skills.safeguards import Safeguards
 from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
 from attribot.control.candidates import Candidate
@@ -20,6 +18,8 @@ from attribot.eval.methods import _record
 from attribot.frame import Frame
 from attribot.models.base import Detection, evidence_of
 from attribot.planning.answer import AnswerObject, _guessed, _last_measurement
+from attribot.skills.harder import LookHarderReport, confirmed
+from attribot.skills.safeguards import Safeguards
 
 
 class SeesOnly:

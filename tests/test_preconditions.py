@@ -11,8 +11,8 @@ from textwrap import dedent
 import pytest
 
 from attribot.api import ImagePatch, Robot
-from attribot.skills.preconditions import State, Verdict, call_text, check_action
 from attribot.runner import ProgramRunner
+from attribot.skills.preconditions import State, Verdict, call_text, check_action
 from conftest import BALLS, BallController, BallWorld, world_perception
 
 

@@ -221,9 +221,9 @@ def test_api_text_lives_only_in_the_classes():
 
 def test_the_prompt_says_what_the_detector_can_find_here():
     """Issue 18: "bring the lightest cup to the table" needs to know that the table can be found."""
-    from attribot.skills.perception import Perception
     from attribot.config import SceneConfig, Settings
     from attribot.embodiments.mujoco import MujocoWorld
+    from attribot.skills.perception import Perception
 
     with MujocoWorld(SceneConfig(layout="household", seed=0, width=320, height=240)) as world:
         frame = world.observe()

@@ -11,6 +11,15 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
+from attribot.boxes import iou
+from attribot.config import SceneConfig, Settings
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.errors import ConfigError, InputError, UnknownName
+from attribot.eval.methods import Condition, ablations
+from attribot.frame import Frame
+from attribot.models.base import Detection
+from attribot.models.noise import DetectorNoise, NoisyDetector
+from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
 from attribot.skills.safeguards import (
     MECHANISMS,
     STRATEGIES,
@@ -22,15 +31,6 @@ from attribot.skills.safeguards import (
     parse_checks,
     strategies_named,
 )
-from attribot.boxes import iou
-from attribot.config import SceneConfig, Settings
-from attribot.embodiments.mujoco import MujocoWorld
-from attribot.errors import ConfigError, InputError, UnknownName
-from attribot.eval.methods import Condition, ablations
-from attribot.frame import Frame
-from attribot.models.base import Detection
-from attribot.models.noise import DetectorNoise, NoisyDetector
-from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
 
 W, H = 320, 240
 

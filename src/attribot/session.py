@@ -274,9 +274,9 @@ class Session:
         watch: Watch | None = None,
         title: str = "",
     ) -> None:
+        from attribot.priors import priors
         from attribot.skills.perception import Perception
         from attribot.skills.safeguards import Safeguards, strategies_named
-        from attribot.priors import priors
 
         self.scene = scene
         self.settings = settings
