@@ -144,12 +144,12 @@ class Robot(metaclass=_RobotApi):
         session = self._session
         if self._view is None:
             return getattr(session, method)(*args)
-        given, arranging = session._sensors, session._arranging
-        session._sensors, session._arranging = self._view, True
+        given, arranging = session._sensors, session.arranging
+        session._sensors, session.arranging = self._view, True
         try:
             return getattr(session, method)(*args)
         finally:
-            session._sensors, session._arranging = given, arranging
+            session._sensors, session.arranging = given, arranging
 
     @property
     def sensors(self) -> list[str]:

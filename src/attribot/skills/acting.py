@@ -52,22 +52,22 @@ class Acting:
         self.core.controller.go_to_coords(
             Target(box=(fx, v, fx, v), capture=self.core.capture, label="point")
         )
-        self.core._near = self.core._aimed = None
+        self.core.near = self.core.aimed = None
 
     def go_to_object(self, patch: Sighting) -> None:
         """The session's side of `Robot.go_to_object` (its docstring is the one programs read)."""
-        p, target = self.core._target(patch, "go_to_object")
-        if self.core._arranging and self.core.held is not None and not self.core.held.same_object(p):
+        p, target = self.core.object_of_call(patch, "go_to_object")
+        if self.core.arranging and self.core.held is not None and not self.core.held.same_object(p):
             # the paper's programs go on to the next object holding the last (their API has no put_down):
             # what they do there moves the robot itself (a pick-up puts the held object down first and
             # comes here, put_on reaches its receptacle), and driving with a load in view loses the target
-            self.core._near = self.core._aimed = None
-            self.core._note(
-                f"did not drive yet, holding {self.core._held_name()}: the next call moves the robot"
+            self.core.near = self.core.aimed = None
+            self.core.note(
+                f"did not drive yet, holding {self.core.held_name()}: the next call moves the robot"
             )
             return
-        if self.core._check("go_to_object", p) is Verdict.ALREADY:
-            self.core._note("already holds it: stayed where it is")
+        if self.core.check("go_to_object", p) is Verdict.ALREADY:
+            self.core.note("already holds it: stayed where it is")
             return
         tries = self.core.safeguards.verify_actions.tries(self.APPROACH_TRIES)
         for attempt in range(tries):
@@ -83,15 +83,15 @@ class Acting:
                 how = "from a new look at it" if fresh is not target else "again"
                 self.core.safeguards.verify_actions.note(call, "caught", f"{exc.message}; trying {how}")
                 target = fresh
-        self.core._near = p
-        self.core._aimed = None
+        self.core.near = p
+        self.core.aimed = None
 
     def _seen_from_here(self, p: Sighting, target: Target) -> Target:
         """The object of `p` as the camera sees it from where the robot stands now: centred on it, the
         detection of its name nearest the image centre; `target` itself when it cannot be seen again."""
         try:
             self.core.controller.focus_on(target)
-            seen = self.core._reacquire(p, by_id=False)  # what the camera sees there, not what the id says
+            seen = self.core.reacquire(p, by_id=False)  # what the camera sees there, not what the id says
         except (ControlError, UnsupportedAction):
             return target
         if seen is None:
@@ -102,19 +102,19 @@ class Acting:
 
     def pick_up(self, patch: Sighting) -> None:
         """The session's side of `Robot.pick_up` (its docstring is the one programs read)."""
-        p, target = self.core._target(patch, "pick_up")
-        if self.core._arranging and self.core.held is not None and not self.core.held.same_object(p):
-            self.core._note(f"put {self.core._held_name()} down first")
+        p, target = self.core.object_of_call(patch, "pick_up")
+        if self.core.arranging and self.core.held is not None and not self.core.held.same_object(p):
+            self.core.note(f"put {self.core.held_name()} down first")
             self.put_down()
         if (
-            self.core._arranging
+            self.core.arranging
             and self.core.held is None
-            and (self.core._near is None or not self.core._near.same_object(p))
+            and (self.core.near is None or not self.core.near.same_object(p))
         ):
-            self.core._note("went to it first")
+            self.core.note("went to it first")
             self.go_to_object(p)
-        if self.core._check("pick_up", p) is Verdict.ALREADY:
-            self.core._note("already holds it")
+        if self.core.check("pick_up", p) is Verdict.ALREADY:
+            self.core.note("already holds it")
             return
         tries = self.core.safeguards.verify_actions.tries(self.GRASP_TRIES)
         seen_first = target
@@ -135,7 +135,7 @@ class Acting:
                 target = self._seen_from_here(p, target)  # a failed grasp may have moved it
                 self.core.controller.approach(target)
         self.core.held = p
-        self.core._aimed = None
+        self.core.aimed = None
 
     def _check_held(self, p: Sighting, target: Target, seen_first: Target) -> None:
         """With `verify_actions`, where the controller can look: the object lifted must be the one meant (its
@@ -160,19 +160,17 @@ class Acting:
             if self.core.held is not None
             else "nothing"
         )
-        self.core._check("put_down", None)
+        self.core.check("put_down", None)
         self.core.controller.put_down()
-        self.core.held = self.core._aimed = None
+        self.core.held = self.core.aimed = None
 
     def put_on(self, patch: Sighting) -> None:
         """The session's side of `Robot.put_on` (its docstring is the one programs read)."""
-        p, target = self.core._target(patch, "put_on")
-        if self.core._check("put_on", p) is Verdict.PUT_BACK:
+        p, target = self.core.object_of_call(patch, "put_on")
+        if self.core.check("put_on", p) is Verdict.PUT_BACK:
             # put_on(the object held): "put it back", as programs written from the authors' prompt, which
             # has no put_down, say it; putting an object on itself makes no sense
-            self.core._note(
-                f"{self.core._held_name()} is the object held: put it back where it was picked up"
-            )
+            self.core.note(f"{self.core.held_name()} is the object held: put it back where it was picked up")
             self.put_down()
             return
         try:
@@ -181,13 +179,13 @@ class Acting:
             if (
                 getattr(self.core.controller, "holding", self.core.held) is None
             ):  # let go before the failure showed
-                self.core.held = self.core._aimed = None
+                self.core.held = self.core.aimed = None
             raise
-        self.core.held = self.core._aimed = None
+        self.core.held = self.core.aimed = None
 
     def push(self, patch: Sighting) -> None:
         """The session's side of `Robot.push` (its docstring is the one programs read)."""
-        p, target = self.core._target(patch, "push")
-        self.core._check("push", p)
+        p, target = self.core.object_of_call(patch, "push")
+        self.core.check("push", p)
         self.core.controller.push(target)
-        self.core._near = self.core._aimed = None
+        self.core.near = self.core.aimed = None

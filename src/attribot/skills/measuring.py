@@ -53,12 +53,12 @@ class Measuring:
 
     def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
-        return next((m for m, p in reversed(self.core._measured) if p is patch or p.same_object(patch)), None)
+        return next((m for m, p in reversed(self.core.measured) if p is patch or p.same_object(patch)), None)
 
     def combined(self, kind: str) -> list[tuple[float, float, Sighting]]:
         """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
         groups: list[list[tuple[Measurement, Sighting]]] = []
-        for m, p in self.core._measured:
+        for m, p in self.core.measured:
             if m.kind != kind:
                 continue
             home = next((g for g in groups if g[0][1].same_object(p) or g[0][1] is p), None)
@@ -99,12 +99,12 @@ class Measuring:
 
     def measure_distance(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_distance` (its docstring is the one programs read)."""
-        self.core._need("measure_distance")
-        p, target = self.core._target(patch, "measure_distance")
-        self.core._focus(p, target)
+        self.core.need("measure_distance")
+        p, target = self.core.object_of_call(patch, "measure_distance")
+        self.core.focus(p, target)
         assert self.core.world is not None  # _target checked it
         metres, spread, samples = self._read_range(p)
-        self.core._record(
+        self.core.record(
             p,
             kind="distance",
             value=metres,
@@ -146,8 +146,8 @@ class Measuring:
             if readings:
                 break
             if aim == 0 and guards.aims_again():
-                self.core._focus(
-                    p, p.target() or self.core._target(p, "measure_distance")[1]
+                self.core.focus(
+                    p, p.target() or self.core.object_of_call(p, "measure_distance")[1]
                 )  # aim again, read again
                 continue
             break
@@ -178,13 +178,13 @@ class Measuring:
 
     def measure_weight(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_weight` (its docstring is the one programs read)."""
-        self.core._need("measure_weight")
-        p, target = self.core._target(patch, "measure_weight")
+        self.core.need("measure_weight")
+        p, target = self.core.object_of_call(patch, "measure_weight")
         self._held_for(p, target, "measure_weight")
         assert self.core.world is not None
         newtons, error, samples = self._weigh(p)
         kg = newtons / GRAVITY
-        self.core._record(
+        self.core.record(
             p,
             kind="weight",
             value=kg,
@@ -199,16 +199,16 @@ class Measuring:
     def _held_for(self, p: Sighting, target: Target, method: str) -> None:
         """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
         robot a program made picks it up instead."""
-        if self.core._arranging and (self.core.held is None or not self.core.held.same_object(p)):
-            self.core._note("picked it up first")
+        if self.core.arranging and (self.core.held is None or not self.core.held.same_object(p)):
+            self.core.note("picked it up first")
             self.acting.pick_up(p)
             return
-        self.core._check(method, p)
+        self.core.check(method, p)
 
     def measure_fullness(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
-        self.core._need("measure_fullness")
-        p, target = self.core._target(patch, "measure_fullness")
+        self.core.need("measure_fullness")
+        p, target = self.core.object_of_call(patch, "measure_fullness")
         # what a person knows of containers (`attribot.priors`): what one weighs empty and holds, coarsely
         table = self.core.safeguards.priors
         kind = table.find(p.label or "")
@@ -229,7 +229,7 @@ class Measuring:
         # what is not known of this one container: its own empty mass, and how much it holds
         spread = math.hypot(error / GRAVITY, empty_sd, fill * (high - low) / math.sqrt(12.0)) / capacity
         value = min(max(fill, 0.0), 1.0)
-        self.core._record(
+        self.core.record(
             p,
             kind="fullness",
             value=value,
@@ -245,28 +245,28 @@ class Measuring:
         """A reading of a registered sensor through its method: checks the sensor, the object and what the
         reading needs, then reads (several readings with `remeasure`) and records the measurement."""
         method = sense.method
-        self.core._need(method)
-        p, target = self.core._target(patch, method)
+        self.core.need(method)
+        p, target = self.core.object_of_call(patch, method)
         assert self.core.world is not None  # _target checked it
-        arrange = self.core._arranging
+        arrange = self.core.arranging
         if (
             sense.needs is Need.AIM
-            and (self.core._aimed is None or not self.core._aimed.same_object(p))
+            and (self.core.aimed is None or not self.core.aimed.same_object(p))
             and arrange
         ):
-            self.core._focus(p, target)
+            self.core.focus(p, target)
         elif (
             sense.needs is Need.REACH
-            and (self.core._near is None or not self.core._near.same_object(p))
+            and (self.core.near is None or not self.core.near.same_object(p))
             and arrange
         ):
             self.acting.go_to_object(p)
         if sense.needs in (Need.AIM, Need.REACH):
-            self.core._check(method, p, sense.needs.value)
+            self.core.check(method, p, sense.needs.value)
         if sense.needs is Need.GRASP:
             self._held_for(p, target, method)
         value, spread, count = self._read_sensor(sensor, sense, p)
-        self.core._record(
+        self.core.record(
             p,
             kind=sense.quantity,
             value=value,
@@ -328,7 +328,7 @@ class Measuring:
                     break
             if len(readings) > self.FORCE_SAMPLES:
                 guards.remeasure.note(call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
-            if not guards.verify_actions.slipped(mean, self.core._gripper_empty(), attempt, call):
+            if not guards.verify_actions.slipped(mean, self.core.gripper_empty(), attempt, call):
                 # a weight is never negative: a mean below zero is zero within its error
                 return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
             self.acting.put_down()
@@ -338,7 +338,7 @@ class Measuring:
 
     def uncertainty(self, patch: Sighting) -> float:
         """The session's side of `Robot.uncertainty` (its docstring is the one programs read)."""
-        p = check_patch(patch, self.core._patch_type, "patch", "uncertainty")
+        p = check_patch(patch, self.core.patch_type, "patch", "uncertainty")
         m = self.last_measurement(p)
         if m is None:
             raise PreconditionError(

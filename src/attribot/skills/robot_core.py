@@ -142,7 +142,7 @@ class SessionCore:
         through `controller` (default: the one registered for the world, see attribot.control.base), with
         the error-catching mechanisms of `safeguards` (default: all on). Its looks are `patch_type`'s
         (`attribot.api.ImagePatch` for the robot programs see), and so are the patches its calls take."""
-        self._patch_type = patch_type
+        self.patch_type = patch_type
         self._sensors: list[str] = check_sensors(sensors)
         self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
         if world is not None and not isinstance(world, Embodiment):
@@ -163,10 +163,10 @@ class SessionCore:
         self.held: Sighting | None = None
         self.safeguards = safeguards if safeguards is not None else Safeguards()
         self.measurements: list[Measurement] = []
-        self._measured: list[tuple[Measurement, Sighting]] = []
+        self.measured: list[tuple[Measurement, Sighting]] = []
         self.capture: Capture | None = None
-        self._near: Sighting | None = None
-        self._aimed: Sighting | None = None  # what the camera was last centred on, since the robot moved
+        self.near: Sighting | None = None  # what the robot stands next to, since it last drove
+        self.aimed: Sighting | None = None  # what the camera was last centred on, since the robot moved
         self._captures = 0
         self._image: Sighting | None = None  # the last look: where an object's name is looked up
         self.activity = ""  # the action under way, naming its object ("weighing mug 0"): videos show it
@@ -175,7 +175,7 @@ class SessionCore:
         self._acted_on: list[Sighting] = []  # patches the program acted on, for names (paper dialect)
         # a call through the robot a program made (the paper's dialect): it arranges what an action or a
         # reading needs (turning to the object, going to it, picking it up) where this robot would refuse
-        self._arranging = False
+        self.arranging = False
         self._notes: list[str] = []  # what the session did beyond the call itself (put back, arranged)
 
     @property
@@ -201,14 +201,14 @@ class SessionCore:
         else:
             self.capture = Capture(index=self._captures, camera=camera, depth=frame.scene_depth)
         self._captures += 1
-        self._image = self._patch_type(frame, perception, capture=self.capture)
+        self._image = self.patch_type(frame, perception, capture=self.capture)
         self._image.safeguards = self.safeguards
         if {"base", "pose"} <= caps and frame.depth is not None:
             self._image.nearer = self.safeguards.look_harder.nearer(self._nearer)
         if survey and {"head", "pose"} <= caps and frame.depth is not None:
             self._image.survey = self.safeguards.look_again.survey(self.world, View(frame, self.capture))
         self._acted_on = []
-        self._aimed = None
+        self.aimed = None
         return self._image
 
     def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
@@ -274,8 +274,8 @@ class SessionCore:
         assert self.world is not None
         self.world.restore(snapshot)
         self.held = None
-        self._near = None
-        self._aimed = None
+        self.near = None
+        self.aimed = None
         self._image = image
         self.capture = image.capture
         self._acted_on = []
@@ -286,7 +286,7 @@ class SessionCore:
         over patches that asks each a question, then `go_to_object("object")`): a name in that call stands
         for it when it answers to the name (see `_named`), as for the latest object the program acted on."""
         if (
-            isinstance(patch, self._patch_type)
+            isinstance(patch, self.patch_type)
             and patch.label
             and (not self._acted_on or self._acted_on[-1] is not patch)
         ):
@@ -298,7 +298,8 @@ class SessionCore:
         notes, self._notes = self._notes, []
         return "; ".join(notes) or None
 
-    def _note(self, text: str) -> None:
+    def note(self, text: str) -> None:
+        """Keep what the session did beyond the call itself, for the call's trace record (`take_notes`)."""
         self._notes.append(text)
 
     @property
@@ -306,15 +307,16 @@ class SessionCore:
         """How the program calls this robot: its methods on the robot it was given (`robot.put_down()`), or
         as bare functions or on a `Robot(sensors=[...])` it made (`put_down()`), as the paper's prompt
         writes them. Refusals name the fix in these words."""
-        return "paper" if self._arranging else "attribot"
+        return "paper" if self.arranging else "attribot"
 
-    def _check(self, method: str, p: Sighting | None, reading: str = "grasp") -> Verdict:
+    def check(self, method: str, p: Sighting | None, reading: str = "grasp") -> Verdict:
         """What `method` on `p` needs of the robot's state, checked before anything moves
         (`attribot.skills.preconditions.check_action`)."""
-        state = State(held=self.held, near=self._near, dialect=self.dialect, aimed=self._aimed)
+        state = State(held=self.held, near=self.near, dialect=self.dialect, aimed=self.aimed)
         return check_action(method, p, state, reading)
 
-    def _held_name(self) -> str:
+    def held_name(self) -> str:
+        """What the gripper holds, as a caption names it ("nothing" when empty)."""
         held = self.held
         return "nothing" if held is None else object_name(held.object_id, held.label)
 
@@ -322,7 +324,8 @@ class SessionCore:
         """Host side: the controller's name, reported as the "robot" backend of an answer."""
         return str(getattr(self.controller, "name", type(self.controller).__name__))
 
-    def _need(self, method: str) -> None:
+    def need(self, method: str) -> None:
+        """Refuse `method` (`MissingSensor`) when the robot, as the program sees it, lacks its sensor."""
         sensor = required_sensors().get(method)
         if sensor is not None and sensor not in self.sensors:
             if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
@@ -379,12 +382,14 @@ class SessionCore:
             )
         return found[0]
 
-    def _target(self, patch: object, method: str) -> tuple[Sighting, Target]:
+    def object_of_call(self, patch: object, method: str) -> tuple[Sighting, Target]:
+        """The object a call of `method` acts on (a patch, a name, the list `find` returned) and what a
+        controller needs to act on it; noted as the action under way. Refused outside a world."""
         if isinstance(patch, str):
             patch = self._named(patch, method)
-        elif isinstance(patch, list | tuple) and all(isinstance(p, self._patch_type) for p in patch):
+        elif isinstance(patch, list | tuple) and all(isinstance(p, self.patch_type) for p in patch):
             patch = _one_of(patch, method)  # the list find returned, as the paper's prompt passes it
-        p = check_patch(patch, self._patch_type, "patch", method)
+        p = check_patch(patch, self.patch_type, "patch", method)
         self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
         self.activity = f"{_doing(method)} {self.acting_on}"
         if p.label and (not self._acted_on or self._acted_on[-1] is not p):
@@ -398,22 +403,22 @@ class SessionCore:
             )
         return p, target
 
-    def _focus(self, patch: Sighting, target: Target) -> None:
+    def focus(self, patch: Sighting, target: Target) -> None:
         """Point the camera at `target`, then centre the object by what fresh images show
         (`attribot.control.focus.correct_aim`, up to FOCUS_CORRECTIONS times)."""
         self.controller.focus_on(target)
-        self._aimed = patch
+        self.aimed = patch
         assert self.world is not None  # _target checked it
         headless = "head" not in {str(c) for c in self.world.capabilities()}
         correct_aim(
             self.controller,
-            lambda: self._reacquire(patch),
+            lambda: self.reacquire(patch),
             self.FOCUS_CORRECTIONS,
             self.FOCUS_TOL_PX,
             headless=headless,
         )
 
-    def _reacquire(self, patch: Sighting, by_id: bool = True) -> Target | None:
+    def reacquire(self, patch: Sighting, by_id: bool = True) -> Target | None:
         """The object of `patch` in a new camera image (`attribot.control.sighting.reacquire`): by world id
         when known (and `by_id`), else the detection of its name nearest the image centre. The camera has
         been aimed at it, so it is looked for as a controller looks (`acting_find`: the middle half first),
@@ -431,11 +436,11 @@ class SessionCore:
 
     def focus_on_patch(self, patch: Sighting) -> None:
         """The session's side of `Robot.focus_on_patch` (its docstring is the one programs read)."""
-        self._need("focus_on_patch")
-        p, target = self._target(patch, "focus_on_patch")
-        self._focus(p, target)
+        self.need("focus_on_patch")
+        p, target = self.object_of_call(patch, "focus_on_patch")
+        self.focus(p, target)
 
-    def _gripper_empty(self) -> bool:
+    def gripper_empty(self) -> bool:
         """The fingers have closed (almost) all the way: nothing is between them."""
         assert self.world is not None
         try:
@@ -444,11 +449,11 @@ class SessionCore:
             return False
         return opening is not None and float(opening) < self.GRIPPER_EMPTY_M
 
-    def _record(self, p: Sighting, **reading: Any) -> None:
+    def record(self, p: Sighting, **reading: Any) -> None:
         """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
         m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), **reading)
         self.measurements.append(m)
-        self._measured.append((m, p))
+        self.measured.append((m, p))
 
 
 _SAME_BOX = 0.5
