@@ -46,7 +46,7 @@ attribot.SceneConfig()
 """,
     "set-up": """
 import attribot
-from attribot.api.perception import Perception
+from attribot.skills.perception import Perception
 from attribot.embodiments.base import EMBODIMENTS
 from attribot.planning import build_planner
 settings = attribot.load_settings()

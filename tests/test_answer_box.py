@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou
 from attribot.config import SceneConfig, load_settings
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.session import Scene, run_program
+from attribot.skills.safeguards import Safeguards
 
 
 def _ious(checks: str) -> tuple[list[float], list[float]]:

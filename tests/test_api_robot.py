@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 
 from attribot.api import ImagePatch, MissingSensor, PreconditionError, Robot
-from attribot.api.errors import ActionFailed, ApiArgumentError
-from attribot.api.robot_session import RobotSession
 from attribot.control.base import (
     Capture,
     ControlError,
@@ -23,6 +21,8 @@ from attribot.control.pointing import PointingController, pan_tilt_towards
 from attribot.embodiments.base import Pose2D
 from attribot.errors import InputError, UnsupportedAction
 from attribot.frame import Frame
+from attribot.skills.errors import ActionFailed, ApiArgumentError
+from attribot.skills.robot_session import RobotSession
 from conftest import (
     BALLS,
     CAM,

@@ -242,7 +242,7 @@ def test_loaded_images_are_writable(tmp_path):
 
 
 def test_urls_survive_the_path_scrubber():
-    from attribot.runner.host import _scrub
+    from attribot.runner.calls import scrub as _scrub
 
     assert (
         _scrub("cannot reach https://api.example.com/v1/chat")

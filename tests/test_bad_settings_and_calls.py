@@ -221,7 +221,7 @@ def test_the_trace_keeps_a_bounded_summary_of_each_calls_arguments():
 
 def test_the_trace_of_one_run_is_bounded_however_many_calls_it_makes():
     from attribot.runner import ProgramRunner
-    from attribot.runner.host import TRACE_RUN_CHARS
+    from attribot.runner.calls import TRACE_RUN_CHARS
 
     program = (
         "def execute_command(taker):\n"
@@ -255,8 +255,8 @@ def test_a_saved_answer_with_a_long_argument_keeps_the_trace_small(tmp_path, emp
 
 
 def test_a_password_in_a_backend_url_is_never_saved_or_shown(empty_settings):
-    from attribot.api.perception import Perception
     from attribot.eval.run import fingerprint
+    from attribot.skills.perception import Perception
 
     settings = load_settings(
         detector=f"remote:http://lab:{SECRET}@127.0.0.1:9", llm_base_url=f"http://lab:{SECRET}@h/v1"

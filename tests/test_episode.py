@@ -142,7 +142,7 @@ def test_the_robot_says_what_it_does_to_which_object(tmp_path):
 
     world = EMBODIMENTS.get("mujoco")(SceneConfig(seed=0))
     try:
-        from attribot.api.perception import Perception
+        from attribot.skills.perception import Perception
 
         robot = Robot(sensors=["camera", "distance"], world=world)
         image = robot.look(Perception.from_settings(load_settings()), survey=False)
@@ -157,7 +157,7 @@ def test_the_robot_says_what_it_does_to_which_object(tmp_path):
 
 def test_a_deadline_signal_in_the_main_thread_never_breaks_the_video():
     """The run's deadline cuts a host call with a signal that raises in the main thread
-    (attribot.runner.host); one that landed while PyAV's muxer called back into Python broke the container,
+    (attribot.runner.process); one that landed while PyAV's muxer called back into Python broke the container,
     and the whole saved run was lost at finish(). Frames are encoded on the writer's own thread."""
 
     class Cut(BaseException):

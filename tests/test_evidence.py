@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.harder import LookHarderReport, confirmed
-from attribot.api.safeguards import Safeguards
 from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
 from attribot.control.candidates import Candidate
@@ -20,6 +18,8 @@ from attribot.eval.methods import _record
 from attribot.frame import Frame
 from attribot.models.base import Detection, evidence_of
 from attribot.planning.answer import AnswerObject, _guessed, _last_measurement
+from attribot.skills.harder import LookHarderReport, confirmed
+from attribot.skills.safeguards import Safeguards
 
 
 class SeesOnly:
@@ -113,7 +113,7 @@ def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(
 
 
 def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained():
-    from attribot.api.harder import closed_world
+    from attribot.skills.harder import closed_world
 
     things = [
         Candidate(box=(x, 100.0, x + 20.0, 130.0), rise=0.1, pixels=40, size=0.1)

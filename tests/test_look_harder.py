@@ -1,4 +1,4 @@
-"""Looking harder (`attribot.api.harder`, the `look_harder` mechanism): depth finds where objects stand
+"""Looking harder (`attribot.skills.harder`, the `look_harder` mechanism): depth finds where objects stand
 without knowing what they are, a find that comes back empty or unsure looks at those places zoomed in, and
 a detection where depth sees nothing stand is set aside. Truth comes from the world's own state (object
 boxes and ids); the detectors here are fakes that read pixels, so that what zooming buys is deterministic."""
@@ -12,8 +12,6 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.harder import acting_find, standing_in, zoom_views
-from attribot.api.safeguards import Safeguards
 from attribot.boxes import center, iou
 from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
@@ -22,6 +20,8 @@ from attribot.control.candidates import StandingMap
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, detect_in_views, findable_categories
+from attribot.skills.harder import acting_find, standing_in, zoom_views
+from attribot.skills.safeguards import Safeguards
 
 SCENES = [
     SceneConfig(layout="household", seed=seed, categories=categories, objects=len(categories))
@@ -263,8 +263,8 @@ def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back(
 
 
 def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_first():
-    from attribot.api.harder import visit_order
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import visit_order
 
     leg = Candidate((100, 300, 110, 400), 0.4, 50)
     cup = Candidate((200, 200, 230, 230), 0.1, 60)
@@ -277,8 +277,8 @@ def test_the_visit_order_leaves_out_legs_and_puts_what_no_other_name_explains_fi
 def test_the_visit_order_puts_the_size_nearest_the_names_first():
     """Of places no other name explains, the one whose size as depth sees it lies in the name's size range
     comes before smaller ones that could be a part of it, however few pixels those hold."""
-    from attribot.api.harder import visit_order
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import visit_order
 
     book_size = (0.18, 0.26)
     book = Candidate((258, 210, 292, 222), 0.026, 76, 0.2)
@@ -355,8 +355,8 @@ def test_a_faint_box_on_the_one_place_depth_sees_something_stand_is_taken_with_i
 
 
 def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
-    from attribot.api.harder import faint_pick
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import faint_pick
 
     apple = Candidate((100, 100, 130, 130), 0.08, 300, 0.08)
     orange = Candidate((300, 100, 330, 130), 0.08, 300, 0.08)
@@ -372,8 +372,8 @@ def test_a_faint_box_is_taken_only_where_it_points_at_one_place():
 def test_a_faint_box_grows_to_the_candidate_it_frames_where_that_is_the_names_size():
     """A faint box of a book framing its spine (a part of it) is taken with the extent depth sees of the book
     it frames; a candidate it frames that no book can be (a table's edge) does not grow it."""
-    from attribot.api.harder import grown_to_candidates
     from attribot.control.candidates import Candidate
+    from attribot.skills.fits import grown_to_candidates
 
     spine = Detection(box=(176, 226, 199, 233), score=0.02, label="book")
     book = Candidate((168, 226, 204, 238), 0.03, 70, 0.21)
@@ -390,8 +390,8 @@ def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in
     """YOLOv3-tiny boxes a fork lying on a table twice as wide as it is: the box is cut to the candidate it
     frames, never grown; a part too small to be a fork, a thing cut to a sliver of the box or no candidate
     leave the detector's box as it was."""
-    from attribot.api.harder import fitted_to_depth
     from attribot.control.candidates import Candidate
+    from attribot.skills.fits import fitted_to_depth
 
     loose = Detection(box=(288, 193, 341, 300), score=0.4, label="fork")
     fork = Candidate((304, 192, 330, 303), 0.01, 90, 0.18)
@@ -427,8 +427,8 @@ def test_a_find_cuts_a_loose_box_to_the_object_in_the_trace_and_not_with_looking
 
 
 def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
-    from attribot.api.harder import by_elimination
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import by_elimination
 
     toaster = Candidate((300, 100, 350, 140), 0.19, 340, 0.28)
     bottle = Candidate((250, 110, 262, 142), 0.17, 64, 0.17)
@@ -454,9 +454,10 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
     """A knife and a toaster, neither seen by the detector, are both of a knife's length as depth sees it:
     by size alone neither is eliminated. A knife lies flat (the perception priors: it rises a centimetre or
     two), a toaster stands (some 12 to 30 cm), and depth sees each rise as high as it is."""
-    from attribot.api.harder import by_elimination, fits_height
     from attribot.control.candidates import Candidate
     from attribot.priors import priors
+    from attribot.skills.fits import fits_height
+    from attribot.skills.lookalikes import by_elimination
 
     knife, toaster = priors().find("knife"), priors().find("toaster")
     assert knife is not None and toaster is not None
@@ -627,7 +628,7 @@ def test_the_names_a_program_looks_for_are_read_from_its_text():
 def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
     """YOLOv3-tiny boxes a computer mouse as a clock (0.19) and as a mouse (0.18), beside the alarm clock
     it boxes at 0.63: the program looks for both, so the mouse's place is the mouse's."""
-    from attribot.api.harder import one_name_each
+    from attribot.skills.lookalikes import one_name_each
 
     clock = Detection(box=(350, 243, 383, 274), score=0.63, label="alarm clock")
     on_mouse = Detection(box=(267, 213, 290, 236), score=0.19, label="alarm clock")
@@ -641,9 +642,9 @@ def test_one_object_one_name_a_second_box_on_another_names_best_yields_to_it():
 
 
 def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
-    from attribot.api.harder import _fits_class, class_sizes
     from attribot.models.coco import CocoDetector
     from attribot.priors import priors
+    from attribot.skills.fits import class_sizes, fits_class
 
     detector = CocoDetector()
     table = priors()
@@ -658,19 +659,19 @@ def test_a_box_of_a_size_no_object_of_its_class_has_explains_no_place():
     depth = np.full((480, 640), 3.0, np.float32)
     frame = Frame(rgb=np.zeros((480, 640, 3), np.uint8), depth=depth, camera=camera)
     small = Detection(box=(340, 200, 344, 204), score=0.45, label="carrot")  # 4 px at 3 m: 2.4 cm
-    assert not _fits_class(detector, small, frame, camera, table)  # a carrot is 7 to 30 cm
+    assert not fits_class(detector, small, frame, camera, table)  # a carrot is 7 to 30 cm
     long = Detection(box=(300, 200, 330, 210), score=0.45, label="carrot")  # 30 px at 3 m: 18 cm
-    assert _fits_class(detector, long, frame, camera, table)
+    assert fits_class(detector, long, frame, camera, table)
     # the depth of the object, not of what is behind it, sizes the box
     depth[200:210, 300:318] = 0.3
-    assert not _fits_class(detector, long, frame, camera, table)  # 30 px at 0.3 m: 1.8 cm
+    assert not fits_class(detector, long, frame, camera, table)  # 30 px at 0.3 m: 1.8 cm
     gadget = Detection(box=(0, 0, 5, 5), score=0.9, label="gadget")
-    assert _fits_class(detector, gadget, frame, camera, table)  # nothing says how large a gadget is
+    assert fits_class(detector, gadget, frame, camera, table)  # nothing says how large a gadget is
 
 
 def test_one_faint_box_framing_an_object_depth_sees_in_two_parts_points_at_one_place():
-    from attribot.api.harder import faint_pick
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import faint_pick
 
     body = Candidate((340, 204, 352, 210), 0.02, 8, 0.07)
     rim = Candidate((342, 198, 350, 200), 0.01, 4, 0.04)
@@ -740,7 +741,7 @@ def test_what_lies_flat_on_a_table_is_a_candidate_by_its_colour(seed, flat):
 
 
 def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_surer():
-    from attribot.api.harder import one_name_each
+    from attribot.skills.lookalikes import one_name_each
 
     on_orange = Detection(box=(297, 203, 322, 227), score=0.17, label="apple")
     apple = Detection(box=(318, 253, 345, 282), score=0.11, label="apple")
@@ -756,8 +757,8 @@ def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_sure
 
 
 def test_elimination_and_visits_leave_out_panels_edges_and_places_the_object_is_not_put():
-    from attribot.api.harder import by_elimination, visit_order
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import by_elimination, visit_order
 
     fork = Candidate((356, 346, 370, 384), 0.0, 52, 0.16, 0.16, 0.45)  # lying on a table
     # a bookcase's side seen edge-on: 2 cm across, rising 17 cm; no object is so thin and stands
@@ -789,8 +790,9 @@ def test_a_knifes_raised_handle_and_its_blade_lying_flat_are_one_candidate_of_it
 
 
 def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
-    from attribot.api.harder import by_elimination, colour_fits
     from attribot.control.candidates import Candidate
+    from attribot.skills.fits import colour_fits
+    from attribot.skills.lookalikes import by_elimination
 
     rgb = np.full((120, 200, 3), (70, 45, 30), np.uint8)  # a dark wooden table
     rgb[40:80, 20:30] = (240, 130, 20)  # an orange carrot lying on it
@@ -816,7 +818,7 @@ def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():
     its pot, boxed as a vase) gives two patches of one object: depth places both at one spot, so they are
     one object, and measuring both is not comparing two. Two objects' boxes are not one, nor are boxes of an
     image without depth to place them."""
-    from attribot.api.looking import one_object
+    from attribot.skills.looking import one_object
 
     with MujocoWorld(SCENES[0]) as world:
         robot, image = _look(world, FixedBoxDetector((0.0, 0.0, 1.0, 1.0)))
@@ -859,13 +861,14 @@ class ClassNamingDetector:
 
 def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_nothing_else_explains():
     """Three red things of a mug's size stand on a table and a blue one: the detector saw one red mug, so
-    the two other red ones are mugs as well (score `ALIKE_SCORE`), and the blue one is not, nor a red one
+    the two other red ones are mugs as well (score `alike_score`), and the blue one is not, nor a red one
     that stands on another level. A red thing
     another name the program looks for could be (a red apple is of a mug's size too), or that the detector
     surely names as another class, is not taken; a class it gives the seen mug as well is its confusion
     about mugs, and rules nothing out."""
-    from attribot.api.harder import ALIKE_SCORE, alike
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import alike
+    from attribot.skills.params import LOOK_HARDER
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)  # a dark wooden table
     boxes = [(20, 40, 50, 80), (80, 40, 110, 80), (140, 40, 170, 80), (200, 40, 230, 80)]
@@ -878,7 +881,7 @@ def test_more_of_what_the_detector_saw_are_the_places_that_look_like_it_and_noth
 
     taken = alike(detector, Frame(rgb=rgb), "mug", places, seen, [])
     assert [d.box for d in taken] == [boxes[1], boxes[2]]
-    assert all(d.score == ALIKE_SCORE and d.label == "mug" for d in taken)
+    assert all(d.score == LOOK_HARDER.alike_score and d.label == "mug" for d in taken)
     assert alike(detector, Frame(rgb=rgb), "mug", places, seen, [], ["apple"]) == []
     # one on a shelf above the table (its lowest point 0.5 m higher), or where depth does not say
     for elsewhere in (replace(places[2], bottom=1.22), replace(places[2], bottom=None)):
@@ -902,8 +905,8 @@ def test_a_thing_of_other_proportions_is_not_one_more_of_what_the_detector_saw()
     range lets through, on the same level, but four times as long as it rises where the orange is round;
     not one more orange. Another round one is, and a place whose span depth did not measure is not ruled
     out."""
-    from attribot.api.harder import alike
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import alike
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
     boxes = [(20, 40, 50, 80), (80, 40, 110, 80), (140, 50, 230, 80)]
@@ -927,8 +930,8 @@ def test_another_class_explains_a_place_only_where_it_is_of_that_class_s_shape()
     """A row of white bowls, one of them small: the detector saw a bowl and surely calls the small one a
     ball. Depth sees it lie three times wider than it rises, as no ball does: it is one more bowl. A place
     as wide as it is high under such a box is the ball's."""
-    from attribot.api.harder import alike
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import alike
 
     rgb = np.full((120, 260, 3), (70, 45, 30), np.uint8)
     boxes = [(20, 40, 70, 80), (100, 50, 130, 80), (170, 50, 200, 80)]
@@ -1091,8 +1094,8 @@ def test_two_boxes_framing_one_place_depth_sees_stand_are_on_one_object():
     the pot as a vase (under IoU 0.5 with the cactus's box). Both frame that one place, so they are on one
     object: the vase's box there, not its best, yields to the cactus; the vase keeps its own across the
     room."""
-    from attribot.api.harder import one_name_each, one_object
     from attribot.control.candidates import Candidate
+    from attribot.skills.lookalikes import one_name_each, one_object
 
     potted = Candidate((284, 281, 341, 354), 0.3, 900, 0.25)
     shelf_vase = Candidate((311, 144, 336, 194), 0.2, 400, 0.2)

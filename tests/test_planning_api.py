@@ -13,7 +13,7 @@ from attribot.config import Settings
 from attribot.frame import Frame, ObjectTruth
 
 api = pytest.importorskip("attribot.api.patch")
-perception_module = pytest.importorskip("attribot.api.perception")
+perception_module = pytest.importorskip("attribot.skills.perception")
 from attribot.planning.rules import rules_program  # noqa: E402
 
 H, W = 480, 640

@@ -143,7 +143,7 @@ def test_a_plugin_backend_serves_an_evaluation_in_its_workers(tmp_path, executor
 
 def test_a_plugin_strategy_serves_an_evaluation_and_its_run_keeps_the_choice(tmp_path):
     lab_strategy = (
-        "from attribot.api.safeguards import STRATEGIES, Remeasure\n"
+        "from attribot.skills.safeguards import STRATEGIES, Remeasure\n"
         "@STRATEGIES.register('lab_two')\n"
         "class TwoReadings(Remeasure):\n"
         "    def readings(self, wanted):\n"
@@ -206,7 +206,7 @@ def test_sys_exit_0_in_a_worker_is_an_error_not_success(tmp_path, workers):
 
 def test_a_strategy_whose_constructor_raises_is_a_clear_error(tmp_path):
     source = (
-        "from attribot.api.safeguards import STRATEGIES, Remeasure\n"
+        "from attribot.skills.safeguards import STRATEGIES, Remeasure\n"
         "@STRATEGIES.register('lab_broken')\n"
         "class Broken(Remeasure):\n"
         "    def __init__(self, *args, **kwargs):\n"

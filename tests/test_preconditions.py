@@ -1,4 +1,4 @@
-"""What a robot action needs is checked before the robot moves (attribot.api.preconditions), and a refusal
+"""What a robot action needs is checked before the robot moves (attribot.skills.preconditions), and a refusal
 names the call to make in the dialect the program was written in: `robot.put_down()` on the robot it was
 given, `put_down()` on bare functions or a `Robot(sensors=[...])` it made. `put_on` given the object held
 puts it back where it was picked up, and the trace says so. Truths: the fake ball world's own state (what
@@ -11,8 +11,8 @@ from textwrap import dedent
 import pytest
 
 from attribot.api import ImagePatch, Robot
-from attribot.api.preconditions import State, Verdict, call_text, check_action
 from attribot.runner import ProgramRunner
+from attribot.skills.preconditions import State, Verdict, call_text, check_action
 from conftest import BALLS, BallController, BallWorld, world_perception
 
 

@@ -208,7 +208,7 @@ def test_the_flag_is_on_ask_and_a_condition_on_eval():
 
 
 def test_the_mechanisms_of_a_session_hold_the_scaled_table():
-    from attribot.api.safeguards import Safeguards
+    from attribot.skills.safeguards import Safeguards
 
     assert Safeguards().priors is priors()
     assert Safeguards("all", None, priors(0.7)).priors.scale == 0.7

@@ -221,9 +221,9 @@ def test_api_text_lives_only_in_the_classes():
 
 def test_the_prompt_says_what_the_detector_can_find_here():
     """Issue 18: "bring the lightest cup to the table" needs to know that the table can be found."""
-    from attribot.api.perception import Perception
     from attribot.config import SceneConfig, Settings
     from attribot.embodiments.mujoco import MujocoWorld
+    from attribot.skills.perception import Perception
 
     with MujocoWorld(SceneConfig(layout="household", seed=0, width=320, height=240)) as world:
         frame = world.observe()
@@ -249,7 +249,7 @@ def test_the_prompt_says_what_the_detector_can_find_here():
 def test_a_program_facing_class_is_checked_as_it_is_defined():
     """The facade programs see is checked when its class is defined: a public method it does not declare
     (host work belongs to the session) or a program method without an example program is refused."""
-    from attribot.api.checks import check_facade
+    from attribot.skills.checks import check_facade
 
     def documented(self):
         """Does it.

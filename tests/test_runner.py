@@ -560,7 +560,7 @@ class Grasping:
         return k
 
     def misuse(self) -> None:
-        from attribot.api.errors import PreconditionError
+        from attribot.skills.errors import PreconditionError
 
         raise PreconditionError("the gripper is empty", "pick something up first")
 

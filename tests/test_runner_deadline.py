@@ -83,7 +83,7 @@ def test_host_cpu_spent_by_a_call_counts_against_the_wall_limit():
 
 
 def test_the_cutting_signal_is_put_back_after_a_run():
-    from attribot.runner.host import _CUT_SIGNAL
+    from attribot.runner.process import CUT_SIGNAL as _CUT_SIGNAL
 
     before = signal.getsignal(_CUT_SIGNAL)
     result, _ = _run("quick")
@@ -102,7 +102,7 @@ class Watched:
         self.threads: set[int] = set()
 
     def ping(self) -> int:
-        from attribot.runner.host import _CUT_SIGNAL
+        from attribot.runner.process import CUT_SIGNAL as _CUT_SIGNAL
 
         self.handlers.append(signal.getsignal(_CUT_SIGNAL))
         self.threads.update(t.ident or 0 for t in threading.enumerate() if t.name == "attribot-run-deadline")

@@ -11,7 +11,16 @@ import numpy as np
 import pytest
 
 from attribot.api import Perception, Robot
-from attribot.api.safeguards import (
+from attribot.boxes import iou
+from attribot.config import SceneConfig, Settings
+from attribot.embodiments.mujoco import MujocoWorld
+from attribot.errors import ConfigError, InputError, UnknownName
+from attribot.eval.methods import Condition, ablations
+from attribot.frame import Frame
+from attribot.models.base import Detection
+from attribot.models.noise import DetectorNoise, NoisyDetector
+from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
+from attribot.skills.safeguards import (
     MECHANISMS,
     STRATEGIES,
     Mechanism,
@@ -22,15 +31,6 @@ from attribot.api.safeguards import (
     parse_checks,
     strategies_named,
 )
-from attribot.boxes import iou
-from attribot.config import SceneConfig, Settings
-from attribot.embodiments.mujoco import MujocoWorld
-from attribot.errors import ConfigError, InputError, UnknownName
-from attribot.eval.methods import Condition, ablations
-from attribot.frame import Frame
-from attribot.models.base import Detection
-from attribot.models.noise import DetectorNoise, NoisyDetector
-from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
 
 W, H = 320, 240
 
@@ -358,7 +358,7 @@ def test_a_plugged_in_strategy_measures_its_way_and_an_ablation_still_switches_i
 def test_a_strategy_plugged_in_for_the_wrong_or_no_mechanism_is_refused():
     with pytest.raises(InputError, match="not a Remeasure") as wrong:
         Safeguards(strategies={Mechanism.REMEASURE: WithoutLookAgain})
-    assert "subclass attribot.api.safeguards.Remeasure" in (wrong.value.fix or "")
+    assert "subclass attribot.skills.safeguards.Remeasure" in (wrong.value.fix or "")
     with pytest.raises(InputError, match="sixth_sense"):
         Safeguards(strategies={"sixth_sense": Remeasure})  # type: ignore[dict-item]
 

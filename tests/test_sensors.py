@@ -15,7 +15,6 @@ from typer.testing import CliRunner
 
 from attribot.api import MissingSensor, PreconditionError, Robot
 from attribot.api.prompt import build_prompt
-from attribot.api.safeguards import Safeguards
 from attribot.cli import app
 from attribot.config import SceneConfig
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
@@ -33,6 +32,7 @@ from attribot.sensors import (
     sensor_names,
 )
 from attribot.session import Scene, ask, run_program
+from attribot.skills.safeguards import Safeguards
 from conftest import Ball, BallController, BallWorld, world_perception
 
 # ---- a lab's own sensor, defined here alone ------------------------------------------------------------

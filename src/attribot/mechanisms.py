@@ -1,5 +1,5 @@
 """The mechanisms that catch perception, sensing and acting errors, by name: what `--checks` and the
-settings' `checks` choose among (what each does: `attribot.api.safeguards`). Plain names, below every
+settings' `checks` choose among (what each does: `attribot.skills.safeguards`). Plain names, below every
 layer, so that the run configuration validates its choice where it is read."""
 
 from __future__ import annotations

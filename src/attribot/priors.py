@@ -1,8 +1,8 @@
 """Perception priors of our own: what a person knows of everyday things at a glance (a knife lies flat, a mug
 is about 10 cm tall, a basketball is put on the floor), coarse and deliberately wide.
 
-The error-catching mechanisms weigh what depth and colour see against these (`attribot.api.harder`: sizes,
-heights, spans, places and colours of a kind; `attribot.api.measuring`: what an empty container weighs and
+The error-catching mechanisms weigh what depth and colour see against these (`attribot.skills.harder`: sizes,
+heights, spans, places and colours of a kind; `attribot.skills.measuring`: what an empty container weighs and
 holds), and the coco detector reads its everyday names of a class here. Never the simulator's catalog, its
 meshes or its renderer's colours (DESIGN.md, "Control acts on perception only"): a real robot in a real room
 knows no more than this table.

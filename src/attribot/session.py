@@ -274,9 +274,9 @@ class Session:
         watch: Watch | None = None,
         title: str = "",
     ) -> None:
-        from attribot.api.perception import Perception
-        from attribot.api.safeguards import Safeguards, strategies_named
         from attribot.priors import priors
+        from attribot.skills.perception import Perception
+        from attribot.skills.safeguards import Safeguards, strategies_named
 
         self.scene = scene
         self.settings = settings

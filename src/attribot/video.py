@@ -3,7 +3,7 @@
 `VideoWriter` encodes frames as they come (nothing is held but the encoded bytes and a short queue) and
 `finish()` returns the file's bytes, so that the caller writes it whole with `attribot.files.write_whole`.
 Frames are encoded and muxed on a thread of the writer's own: a run's deadline is enforced by a signal
-that raises in the main thread (`attribot.runner.host`), and an exception raised while PyAV's muxer is
+that raises in the main thread (`attribot.runner.process`), and an exception raised while PyAV's muxer is
 calling back into Python leaves the container broken, so that the whole saved run would be lost at
 `finish()`. Signal handlers never run on another thread, and the main thread only hands frames over,
 through a deque (whose append and popleft are atomic) rather than a `queue.Queue`: a signal that raised

@@ -7,10 +7,10 @@ Host side, to build what a program gets:
 or, for a still image: image = ImagePatch.from_image(path, perception); robot = Robot(sensors=["camera"]).
 """
 
-from attribot.api.errors import ActionFailed, ApiArgumentError, ApiError, MissingSensor, PreconditionError
 from attribot.api.patch import ImagePatch
-from attribot.api.perception import Perception
 from attribot.api.robot import Measurement, Robot, sensor_names
+from attribot.skills.errors import ActionFailed, ApiArgumentError, ApiError, MissingSensor, PreconditionError
+from attribot.skills.perception import Perception
 
 __all__ = [
     "ImagePatch",

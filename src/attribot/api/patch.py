@@ -8,29 +8,18 @@ is for the host (the runner and the integrator) and never reaches a program.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
-import numpy as np
-
-from attribot.api.checks import check_facade, check_number, check_patch, check_text
-from attribot.api.errors import ApiArgumentError
-from attribot.api.finding import EDGE_TOL, crop_of, find_in, patch_from_program, target_of
-from attribot.api.harder import Nearer
-from attribot.api.looking import Survey, one_object
-from attribot.api.perception import Perception
-from attribot.api.safeguards import Safeguards
-from attribot.boxes import to_upward
-from attribot.control.base import Capture, Target
+from attribot.boxes import from_upward
 from attribot.errors import BackendError
-from attribot.frame import Frame, load_image
-from attribot.models.base import Detection
+from attribot.skills.checks import check_facade, check_number, check_patch, check_text
+from attribot.skills.errors import ApiArgumentError
+from attribot.skills.sighting import EDGE_TOL, Sighting
 
 __all__ = ["ImagePatch"]
 
 
-class ImagePatch:
+class ImagePatch(Sighting):
     """A rectangle of the camera image (the whole image, or one detected object) that you can query.
 
     Coordinates are pixels of the whole image with y growing upward (`upper > lower`; a larger
@@ -87,54 +76,7 @@ class ImagePatch:
     PROGRAM_CONSTRUCTOR: ClassVar[str] = "from_program"
     """What `ImagePatch(...)` in a program calls on the image it was given (the paper's dialect)."""
 
-    def __init__(
-        self,
-        frame: Frame,
-        perception: Perception,
-        box: Sequence[float] | None = None,
-        *,
-        capture: Capture | None = None,
-        object_id: str | None = None,
-        label: str = "",
-        score: float | None = None,
-        by_depth: bool = False,
-        evidence: str | None = None,
-    ) -> None:
-        """Host side: a patch of `frame` (the whole camera frame) inside the xyxy `box` (pixels of `frame`,
-        y down; None for the whole frame). `capture` says when and from where the frame was taken (None for
-        a still image); `object_id`, `label`, `score` come from the detection that produced the patch, and
-        `by_depth` says that looking harder took it where the detector did not see its name surely, and
-        `evidence` what the detection rests on (`attribot.models.base.Evidence`; None: no detection)."""
-        if not isinstance(frame, Frame):
-            raise TypeError(f"ImagePatch needs an attribot.frame.Frame, got {type(frame).__name__}")
-        if not isinstance(perception, Perception):
-            raise TypeError(f"ImagePatch needs an attribot.api.Perception, got {type(perception).__name__}")
-        self.frame = frame
-        self.perception = perception
-        self.box = _check_box(box, frame)
-        self.capture = capture
-        self.object_id = object_id
-        self.label = label
-        self.score = score
-        self.by_depth = by_depth
-        self.evidence = evidence
-        self.survey: Survey | None = None  # views around the first image, where the robot looked again
-        self.nearer: Nearer | None = None  # where the robot can drive: looks nearer at a candidate
-        # look_harder: the best box each name's find took in this image, which explains that object
-        self.named: dict[str, Detection] = {}
-        self.sought: frozenset[str] = frozenset()  # look_harder: the names the program looks for
-        # the error-catching mechanisms its finds and questions go through (a robot's image: the session's)
-        self.safeguards = Safeguards("none")
-        self._pixels: Frame | None = None
-        self._upward = to_upward(self.box, frame.height)
-
     # ---- host side ---------------------------------------------------------------------------------
-    @classmethod
-    def from_image(cls, image: str | Path | np.ndarray, perception: Perception) -> ImagePatch:
-        """Host side: the whole-image patch of an image file or uint8 RGB array (no camera, no robot)."""
-        rgb = image if isinstance(image, np.ndarray) else load_image(image)
-        return cls(Frame(rgb=rgb), perception)
-
     def from_program(
         self,
         image: object = None,
@@ -146,47 +88,7 @@ class ImagePatch:
         """Host side: `ImagePatch(image)` written in a program, as the paper's and ViperGPT's programs do.
         The image given to execute_command is already a patch, so it is returned as it is; ViperGPT's
         `ImagePatch(image, left, lower, right, upper)` is its crop."""
-        return patch_from_program(self, image, left, lower, right, upper)
-
-    def best_box(self) -> tuple[tuple[float, float, float, float], str]:
-        """Host side: the robot's best estimate of this object's box in its image when it answers, and what
-        it is: with `look_again`, the detection and the image looked at again around it, averaged
-        (`LookAgain.box`); else, or for a patch no detection named, the patch's own box."""
-        if not self.label or self._whole():
-            return self.box, "the patch's own box"
-        return self.safeguards.look_again.box(self.perception.detector, self.frame, self.box, self.label)
-
-    def summary(self) -> dict[str, Any]:
-        """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""
-        return {
-            "label": self.label or None,
-            "object_id": self.object_id,
-            "box": [round(v, 2) for v in self.box],
-            "score": self.score,
-            **({"evidence": self.evidence} if self.evidence else {}),
-        }
-
-    def target(self) -> Target | None:
-        """Host side: what a controller needs to act on this patch; None when it has no capture."""
-        return target_of(self)
-
-    def same_object(self, other: ImagePatch) -> bool:
-        """Host side: True when both patches show the same object: the same world id where the detector
-        gives ids; else boxes of one image that are the same box, or that frame one object as depth places
-        it (`one_object`: a cactus boxed whole as a cactus and its pot as a vase)."""
-        if self.object_id is not None and other.object_id is not None:
-            return self.object_id == other.object_id
-        if self.frame is not other.frame:
-            return False
-        return bool(np.allclose(self.box, other.box)) or one_object(self.capture, self.box, other.box)
-
-    def _crop_frame(self) -> Frame:
-        if self._pixels is None:
-            self._pixels = self.frame if self._whole() else self.frame.crop(self.box)
-        return self._pixels
-
-    def _whole(self) -> bool:
-        return self.box == (0.0, 0.0, float(self.frame.width), float(self.frame.height))
+        return _from_program(self, image, left, lower, right, upper)
 
     def __repr__(self) -> str:
         what = f"{self.label!r} " if self.label else ""
@@ -271,7 +173,7 @@ class ImagePatch:
         >>>     bottom_row.sort(key=lambda w: w.horizontal_center)
         >>>     return bottom_row[len(bottom_row) // 2]
         """
-        return find_in(self, object_name)
+        return super().find(object_name)
 
     def exists(self, object_name: str) -> bool:
         """Returns True if an object called `object_name` is found inside this patch, else False.
@@ -331,7 +233,7 @@ class ImagePatch:
         >>>     top_half = shelf.crop(shelf.left, shelf.vertical_center, shelf.right, shelf.upper)
         >>>     return top_half.exists("book")
         """
-        return crop_of(self, left, lower, right, upper)
+        return _crop_of(self, left, lower, right, upper)
 
     def overlaps(self, other: ImagePatch) -> bool:
         """Returns True if this patch and `other` share some area (touching edges do not count).
@@ -374,42 +276,10 @@ class ImagePatch:
         >>>     robot.focus_on_patch(vase)
         >>>     return vase.size_at(robot.measure_distance(vase))[1]
         """
-        d = check_number(distance, "distance", "size_at")
-        camera = self.frame.camera
-        if camera is None:
-            raise ApiArgumentError(
-                "size_at needs the camera's focal length, and this image has no camera model",
-                "measure sizes on the simulator or a robot, whose camera is known",
-            )
-        if not d > 0:
-            raise ApiArgumentError(f"size_at needs a distance above 0 metres; got {d:g}", "pass metres")
-        return camera.metres_across(self.box, d)
+        return super().size_at(distance)
 
 
 check_facade(ImagePatch, dict(vars(ImagePatch)))  # the facade programs see, checked as it is defined
-
-
-def _check_box(box: Sequence[float] | None, frame: Frame) -> tuple[float, float, float, float]:
-    w, h = frame.width, frame.height
-    if box is None:
-        return (0.0, 0.0, float(w), float(h))
-    try:
-        x0, y0, x1, y1 = (float(v) for v in box)
-    except (TypeError, ValueError):
-        raise ApiArgumentError(
-            f"a patch box must be four numbers (x0, y0, x1, y1); got {box!r}", "pass an xyxy box in pixels"
-        ) from None
-    if not all(math.isfinite(v) for v in (x0, y0, x1, y1)) or x1 < x0 or y1 < y0:
-        raise ApiArgumentError(
-            f"a patch box must be finite with x1 >= x0 and y1 >= y0; got {box!r}",
-            "pass an xyxy box in pixels",
-        )
-    if x0 < -EDGE_TOL or y0 < -EDGE_TOL or x1 > w + EDGE_TOL or y1 > h + EDGE_TOL:
-        raise ApiArgumentError(
-            f"the box {tuple(box)!r} lies outside the {w}x{h} image",
-            "clip boxes to [0, width] x [0, height] (attribot.boxes.clip)",
-        )
-    return (max(x0, 0.0), max(y0, 0.0), min(x1, float(w)), min(y1, float(h)))
 
 
 def _answer(value: object, backend: str) -> str:
@@ -419,3 +289,69 @@ def _answer(value: object, backend: str) -> str:
             "fix the backend: answer() and complete() must return str",
         )
     return value
+
+
+def _crop_of(patch: ImagePatch, left: float, lower: float, right: float, upper: float) -> ImagePatch:
+    """`patch.crop(left, lower, right, upper)`: the part of `patch` inside the box (y growing upward)."""
+    values = [
+        check_number(v, n, "crop")
+        for v, n in zip((left, lower, right, upper), ("left", "lower", "right", "upper"), strict=True)
+    ]
+    left, lower, right, upper = values
+    w, h = patch.frame.width, patch.frame.height
+    if right <= left or upper <= lower:
+        raise ApiArgumentError(
+            f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) is empty: "
+            "it needs right > left and upper > lower",
+            "pass (left, lower, right, upper) with y growing upward, "
+            "e.g. patch.crop(patch.left, patch.lower, "
+            "patch.right, patch.vertical_center)",
+        )
+    if left < -EDGE_TOL or lower < -EDGE_TOL or right > w + EDGE_TOL or upper > h + EDGE_TOL:
+        raise ApiArgumentError(
+            f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) reaches outside the image, which spans "
+            f"left=0, lower=0, right={w}, upper={h}",
+            "keep the box inside the image (use max/min with 0, image.right, image.upper)",
+        )
+    il, ilo = max(left, patch.left), max(lower, patch.lower)
+    ir, iu = min(right, patch.right), min(upper, patch.upper)
+    if ir <= il or iu <= ilo:
+        raise ApiArgumentError(
+            f"crop({left:g}, {lower:g}, {right:g}, {upper:g}) does not overlap this patch "
+            f"({patch.left:g}, "
+            f"{patch.lower:g}, {patch.right:g}, {patch.upper:g})",
+            "crop a region inside the patch, or crop the whole image instead",
+        )
+    part = type(patch)(patch.frame, patch.perception, from_upward(il, ilo, ir, iu, h), capture=patch.capture)
+    part.safeguards = patch.safeguards
+    return part
+
+
+def _from_program(
+    patch: ImagePatch,
+    image: object = None,
+    left: float | None = None,
+    lower: float | None = None,
+    right: float | None = None,
+    upper: float | None = None,
+) -> ImagePatch:
+    """`ImagePatch(image)` written in a program (`ImagePatch.from_program`)."""
+    if not isinstance(image, type(patch)):
+        raise ApiArgumentError(
+            f"ImagePatch(...) takes the image given to execute_command, not {_kind_of(image)}",
+            "write image_patch = ImagePatch(image), or use the image argument directly",
+        )
+    box = (left, lower, right, upper)
+    if all(v is None for v in box):
+        return image
+    if any(v is None for v in box):
+        raise ApiArgumentError(
+            "ImagePatch(image, left, lower, right, upper) needs all four coordinates",
+            "give all four (y growing upward), or call image.crop(left, lower, right, upper)",
+        )
+    return image.crop(left, lower, right, upper)  # type: ignore[arg-type]
+
+
+def _kind_of(value: object) -> str:
+    """What a wrong argument is, as an error names it."""
+    return "nothing" if value is None else f"a {type(value).__name__}"

@@ -6,26 +6,27 @@ bound to the world; what the world cannot do raises "not available in this world
 
 `Robot` is a facade: it holds the methods and docstrings a program reads (the prompt renders the
 docstrings of the names in `API_METHODS`) and the host methods the session calls, and hands every call to
-its `attribot.api.robot_session.RobotSession`, which owns the state, the statistics and the error-catching
+its `attribot.skills.robot_session.RobotSession`, which owns the state, the statistics and the error-catching
 mechanisms. A program's `Robot(sensors=[...])` is another facade over the same session.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
-from attribot.api.checks import check_facade
-from attribot.api.errors import MissingSensor
 from attribot.api.patch import ImagePatch
-from attribot.api.perception import Perception
-from attribot.api.robot_core import GRAVITY, OWN_REQUIRES, Measurement, object_name, required_sensors
-from attribot.api.robot_session import RobotSession
-from attribot.api.safeguards import Safeguards
 from attribot.control.base import Capture, Controller
 from attribot.embodiments.base import Embodiment
 from attribot.errors import ConfigError
 from attribot.sensors import Sense, Sensor, check_sensors, senses, sensor_method_doc, sensor_names
+from attribot.skills.checks import check_facade
+from attribot.skills.errors import MissingSensor
+from attribot.skills.perception import Perception
+from attribot.skills.robot_core import GRAVITY, OWN_REQUIRES, Measurement, object_name, required_sensors
+from attribot.skills.robot_session import RobotSession
+from attribot.skills.safeguards import Safeguards
+from attribot.skills.sighting import Sighting
 
 __all__ = ["Robot", "Measurement", "GRAVITY", "check_sensors", "sensor_names", "object_name"]
 
@@ -127,7 +128,7 @@ class Robot(metaclass=_RobotApi):
         through `controller` (default: the one registered for the world, see attribot.control.base), with
         the error-catching mechanisms of `safeguards` (default: all on)."""
         _install_sensor_methods()  # the methods of sensors registered since the class was last asked
-        self._session = RobotSession(sensors, world, controller, safeguards)
+        self._session = RobotSession(sensors, world, controller, safeguards, patch_type=ImagePatch)
         self._view: list[str] | None = None  # a program's Robot(sensors=...): the sensors it sees
 
     @classmethod
@@ -143,12 +144,12 @@ class Robot(metaclass=_RobotApi):
         session = self._session
         if self._view is None:
             return getattr(session, method)(*args)
-        given, arranging = session._sensors, session._arranging
-        session._sensors, session._arranging = self._view, True
+        given, arranging = session._sensors, session.arranging
+        session._sensors, session.arranging = self._view, True
         try:
             return getattr(session, method)(*args)
         finally:
-            session._sensors, session._arranging = given, arranging
+            session._sensors, session.arranging = given, arranging
 
     @property
     def sensors(self) -> list[str]:
@@ -165,7 +166,7 @@ class Robot(metaclass=_RobotApi):
         return self._session.controller
 
     @property
-    def held(self) -> ImagePatch | None:
+    def held(self) -> Sighting | None:
         return self._session.held
 
     @property
@@ -194,7 +195,9 @@ class Robot(metaclass=_RobotApi):
 
     def look(self, perception: Perception, survey: bool = True) -> ImagePatch:
         """Host side: take a camera frame now and return its whole-image patch (`RobotSession.look`)."""
-        return self._session.look(perception, survey)
+        return cast(
+            ImagePatch, self._session.look(perception, survey)
+        )  # the session's patches are ImagePatch
 
     def settle(self, chosen: ImagePatch) -> str | None:
         """Host side, after a program chose `chosen`: measure again where the choice is not yet settled

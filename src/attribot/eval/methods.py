@@ -26,7 +26,6 @@ from typing import Any
 
 from pydantic import BaseModel, FiniteFloat, field_validator
 
-from attribot.api.safeguards import CheckEvent
 from attribot.boxes import iou
 from attribot.config import Settings
 from attribot.errors import InputError
@@ -35,6 +34,7 @@ from attribot.eval.suite import METHODS, TASKS, Method, register_method
 from attribot.mechanisms import MECHANISMS, Mechanism
 from attribot.noise import NOISE_PRESETS, PerceptionNoise, WorldNoise, world_noise
 from attribot.priors import SCALE_RANGE as PRIORS_SCALE
+from attribot.skills.safeguards import CheckEvent
 from attribot.text import shown_url
 
 __all__ = [

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from attribot.api.harder import zoom_views
 from attribot.boxes import Box, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.body import BodyGeometry
@@ -37,12 +36,10 @@ from attribot.control.spatial import (
 from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
 from attribot.models.base import Detection, Detector, detect_confirming, detect_in_views
+from attribot.skills.harder import zoom_views
+from attribot.skills.params import LOOK_AGAIN
 
 __all__ = ["Survey", "View", "LookAgainReport", "reexamine", "ask_again", "one_object", "refit"]
-
-_SETTLE_S = 0.05
-_SETTLE_STEPS = 30
-_SAME_RAD = 0.004  # the head has stopped when it moves less than this in one settle step
 
 
 @dataclass
@@ -132,8 +129,8 @@ class Survey:
         """`fuse`'s answer, what it did, and the object it settled on, recorded nowhere."""
         if not self.others:
             return first, LookAgainReport(1, len(first), len(first), 0, 0), None
-        views, groups, support = self._grouped(detector, name, first, self.others[:SIDE_VIEWS])
-        if len(self.others) > SIDE_VIEWS and any(_undecided(g, support[id(g)]) for g in groups):
+        views, groups, support = self._grouped(detector, name, first, self.others[: LOOK_AGAIN.side_views])
+        if len(self.others) > LOOK_AGAIN.side_views and any(_undecided(g, support[id(g)]) for g in groups):
             views, groups, support = self._grouped(detector, name, first, self.others)
         confirmed = [g for g in groups if support[id(g)] >= 1.0 or len(g.members) >= 2]
         # two calls disagree: a box found, as well or better, under another name before is not this one
@@ -322,16 +319,6 @@ class Survey:
         return projected_box(rim_here, cap.camera, self.body.head_view(cap.head))
 
 
-_SAME_IOU = 0.3  # boxes of two views that overlap this much in the first image show one object
-# or, a thin thing's box inside the wider one another view gives it, both at the same place in the world
-_SAME_INSIDE, _SAME_PLACE_M = 0.6, 0.1
-
-
-SIDE_VIEWS = 2
-"""The survey views every find asks (the head turned to either side); the views up and down are asked only
-where those leave an object undecided (`_undecided`): asked on every find, they doubled its passes."""
-
-
 def _undecided(group: _Group, support: float) -> bool:
     """One view alone saw the group's object, where another could see it too: that view's mistake, or an
     object the others missed (one in the first image's side third, missed there and seen from the side it
@@ -374,10 +361,10 @@ class _Group:
 
     def same(self, box: tuple[float, float, float, float], point: np.ndarray) -> bool:
         """A sighting at `box` (in the first image) and `point` (in the world) shows this group's object."""
-        if iou(self.box, box) >= _SAME_IOU:
+        if iou(self.box, box) >= LOOK_AGAIN.same_iou:
             return True
-        near = float(np.linalg.norm(self.centre - point)) <= _SAME_PLACE_M
-        return near and overlap_of_smaller(self.box, box) >= _SAME_INSIDE
+        near = float(np.linalg.norm(self.centre - point)) <= LOOK_AGAIN.same_place_m
+        return near and overlap_of_smaller(self.box, box) >= LOOK_AGAIN.same_inside
 
     def add(self, view: int, sighting: _Sighting) -> None:
         self.members[view] = sighting
@@ -392,12 +379,12 @@ def one_object(capture: Capture | None, a: Box, b: Box) -> bool:
     depth must agree either way. False without depth or a known camera pose."""
     if capture is None or capture.depth is None or capture.camera is None or capture.view is None:
         return False
-    if iou(a, b) < _SAME_IOU and overlap_of_smaller(a, b) < _SAME_INSIDE:
+    if iou(a, b) < LOOK_AGAIN.same_iou and overlap_of_smaller(a, b) < LOOK_AGAIN.same_inside:
         return False
     near = [nearest_surface(capture.depth, capture.camera, capture.view, box) for box in (a, b)]
     if near[0] is None or near[1] is None:
         return False
-    return float(np.linalg.norm(near[0].mean(axis=0) - near[1].mean(axis=0))) <= _SAME_PLACE_M
+    return float(np.linalg.norm(near[0].mean(axis=0) - near[1].mean(axis=0))) <= LOOK_AGAIN.same_place_m
 
 
 _CROPS = "crops of the image a few pixels in"
@@ -492,11 +479,6 @@ def _mean_of(cluster: dict[int, Detection]) -> Detection:
     )
 
 
-_REFIT_IOU = 0.1
-_REFIT_SHIFTS = ((-0.5, -0.5), (0.5, 0.5), (-0.5, 0.5), (0.5, -0.5))
-"""Where the object sits in each crop around it: off the middle by half its size towards each corner."""
-
-
 def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, int]:
     """The best estimate of the box of the object of `name` at `box` in `frame`: `box` looked at again on
     four crops around it (the object whole in each, at another place in the crop), and the mean of it and
@@ -510,7 +492,7 @@ def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, i
     x0, y0, x1, y1 = box
     pad_x, pad_y = max(x1 - x0, 12.0), max(y1 - y0, 12.0)
     looks = [box]
-    for sx, sy in _REFIT_SHIFTS:
+    for sx, sy in LOOK_AGAIN.refit_shifts:
         window = (
             max(0.0, x0 - pad_x * (1 + sx)),
             max(0.0, y0 - pad_y * (1 + sy)),
@@ -523,7 +505,7 @@ def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, i
             (d.box[0] + ox, d.box[1] + oy, d.box[2] + ox, d.box[3] + oy)
             for d in detector.detect(crop, [name])
         ]
-        same = [b for b in seen if iou(b, box) >= _REFIT_IOU]
+        same = [b for b in seen if iou(b, box) >= LOOK_AGAIN.refit_iou]
         if same:
             looks.append(max(same, key=lambda b: iou(b, box)))
     if len(looks) == 1:
@@ -553,11 +535,11 @@ def _move_head(world: Embodiment, pan: float, tilt: float) -> tuple[float, float
     """Command the head and wait until it stops; the angles it stopped at."""
     world.set_head(pan, tilt)
     last = None
-    for _ in range(_SETTLE_STEPS):
-        world.step(_SETTLE_S)
+    for _ in range(LOOK_AGAIN.settle_steps):
+        world.step(LOOK_AGAIN.settle_s)
         js = world.joint_states()
         now = (float(js["head_pan"]), float(js["head_tilt"]))
-        if last is not None and max(abs(now[0] - last[0]), abs(now[1] - last[1])) < _SAME_RAD:
+        if last is not None and max(abs(now[0] - last[0]), abs(now[1] - last[1])) < LOOK_AGAIN.same_rad:
             return now
         last = now
     assert last is not None

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING, Literal
 
-from attribot.api.errors import PreconditionError
+from attribot.skills.errors import PreconditionError
 
 if TYPE_CHECKING:
-    from attribot.api.patch import ImagePatch
+    from attribot.skills.sighting import Sighting
 
 __all__ = ["Dialect", "Verdict", "State", "call_text", "check_action", "refuse"]
 
@@ -42,10 +42,10 @@ class Verdict(Enum):
 class State:
     """The robot's state as the checks read it: what it holds, what it stands next to, the dialect."""
 
-    held: ImagePatch | None
-    near: ImagePatch | None
+    held: Sighting | None
+    near: Sighting | None
     dialect: Dialect
-    aimed: ImagePatch | None = None  # what the camera was last centred on, since the robot moved
+    aimed: Sighting | None = None  # what the camera was last centred on, since the robot moved
 
 
 def call_text(method: str, args: str = "", dialect: Dialect = "attribot") -> str:
@@ -57,14 +57,14 @@ def _right_before(first: str, then: str, d: Dialect) -> str:
     return f"call {call_text(first, 'patch', d)} right before {call_text(then, 'patch', d)}"
 
 
-def _named(p: ImagePatch | None) -> str:
+def _named(p: Sighting | None) -> str:
     if p is None:
         return "nothing"
     ident = f" ({p.object_id})" if p.object_id else ""
     return f"{p.label or 'an object'}{ident}"
 
 
-def _same(a: ImagePatch | None, b: ImagePatch) -> bool:
+def _same(a: Sighting | None, b: Sighting) -> bool:
     return a is not None and a.same_object(b)
 
 
@@ -73,7 +73,7 @@ def refuse(message: str, fix: str) -> PreconditionError:
     return PreconditionError(message, fix)
 
 
-def check_action(method: str, p: ImagePatch | None, state: State, reading: str = "grasp") -> Verdict:
+def check_action(method: str, p: Sighting | None, state: State, reading: str = "grasp") -> Verdict:
     """Whether `method` may run on `p` in `state`: `Verdict.MET`, or what the session does instead
     (`PUT_BACK`, `ALREADY`); a call that makes no physical sense raises `PreconditionError` naming the call
     to make, in the program's dialect. A method that is not an action is a reading, which needs what
@@ -87,7 +87,7 @@ def check_action(method: str, p: ImagePatch | None, state: State, reading: str =
 _ACTIONS = ("put_down", "put_on", "go_to_object", "pick_up", "push")
 
 
-def _action_verdict(method: str, p: ImagePatch | None, state: State) -> Verdict:
+def _action_verdict(method: str, p: Sighting | None, state: State) -> Verdict:
     """`check_action` for the robot's actions (`_ACTIONS`)."""
     d, held = state.dialect, state.held
     this = _named(p)
@@ -144,7 +144,7 @@ def _action_verdict(method: str, p: ImagePatch | None, state: State) -> Verdict:
     raise AssertionError(f"{method} is not an action")
 
 
-def _reading_verdict(method: str, p: ImagePatch, state: State, reading: str) -> Verdict:
+def _reading_verdict(method: str, p: Sighting, state: State, reading: str) -> Verdict:
     """`check_action` for a reading, which needs the camera aimed at `p`, the robot next to it, or it held."""
     d, held = state.dialect, state.held
     this = _named(p)

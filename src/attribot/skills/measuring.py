@@ -11,10 +11,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from attribot.api.checks import check_patch
-from attribot.api.errors import ActionFailed, ApiArgumentError, PreconditionError
-from attribot.api.patch import ImagePatch
-from attribot.api.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
 from attribot.control.base import (
     Target,
 )
@@ -24,12 +20,18 @@ from attribot.sensors import (
     Sensor,
     sense_of_method,
 )
+from attribot.skills.acting import Acting
+from attribot.skills.checks import check_patch
+from attribot.skills.errors import ActionFailed, ApiArgumentError, PreconditionError
+from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
+from attribot.skills.sighting import Sighting
 
 __all__ = ["Measuring"]
 
 
-class Measuring(SessionCore):
-    """The readings half of a robot session (see the module docstring)."""
+class Measuring:
+    """The readings of a robot session (see the module docstring): held by the session, they read and
+    record through its `core` and arrange what a reading needs through its `acting`."""
 
     # the readings a measurement combines and the least uncertainty it claims: the senses' records
     FORCE_SAMPLES: ClassVar[int] = _own_sense("weight").readings
@@ -39,20 +41,24 @@ class Measuring(SessionCore):
     RANGE_READINGS: ClassVar[int] = _own_sense("distance").readings
     RANGE_RESOLUTION_M: ClassVar[float] = _own_sense("distance").resolution
 
-    def settle(self, chosen: ImagePatch) -> str | None:
+    def __init__(self, core: SessionCore, acting: Acting) -> None:
+        self.core = core
+        self.acting = acting
+
+    def settle(self, chosen: Sighting) -> str | None:
         """Host side, after a program chose `chosen`: `confidence` measures again where the choice rests on
-        values closer than their uncertainty (`attribot.api.safeguards.Confidence`); None when settled,
+        values closer than their uncertainty (`attribot.skills.safeguards.Confidence`); None when settled,
         otherwise the sentence that says it cannot tell."""
-        return self.safeguards.confidence.settle(chosen, self)
+        return self.core.safeguards.confidence.settle(chosen, self)
 
-    def last_measurement(self, patch: ImagePatch) -> Measurement | None:
+    def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
-        return next((m for m, p in reversed(self._measured) if p is patch or p.same_object(patch)), None)
+        return next((m for m, p in reversed(self.core.measured) if p is patch or p.same_object(patch)), None)
 
-    def combined(self, kind: str) -> list[tuple[float, float, ImagePatch]]:
+    def combined(self, kind: str) -> list[tuple[float, float, Sighting]]:
         """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
-        groups: list[list[tuple[Measurement, ImagePatch]]] = []
-        for m, p in self._measured:
+        groups: list[list[tuple[Measurement, Sighting]]] = []
+        for m, p in self.core.measured:
             if m.kind != kind:
                 continue
             home = next((g for g in groups if g[0][1].same_object(p) or g[0][1] is p), None)
@@ -67,38 +73,38 @@ class Measuring(SessionCore):
             out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
         return out
 
-    def measure_again(self, measurement: Measurement, patch: ImagePatch) -> None:
+    def measure_again(self, measurement: Measurement, patch: Sighting) -> None:
         """Measure `patch` again as `measurement` was measured, arranging first what its reading needs."""
         method = measurement.method or _own_sense(measurement.kind).method
         found = sense_of_method(method)
         needs = found[1].needs if found is not None else Need.NOTHING
         if found is not None and not hasattr(self, method):  # a sense read through read_sensor
             sensor, sense = found
-            measure: Callable[[ImagePatch], float] = lambda p: self._sense(sensor, sense, p)  # noqa: E731
+            measure: Callable[[Sighting], float] = lambda p: self._sense(sensor, sense, p)  # noqa: E731
         else:
             measure = getattr(self, method)
         if needs is Need.GRASP:
-            if self.held is not None:
-                self.put_down()
-            self.go_to_object(patch)
-            self.pick_up(patch)
+            if self.core.held is not None:
+                self.acting.put_down()
+            self.acting.go_to_object(patch)
+            self.acting.pick_up(patch)
             measure(patch)
-            self.put_down()
+            self.acting.put_down()
             return
         if needs is Need.REACH:
-            self.go_to_object(patch)
+            self.acting.go_to_object(patch)
         elif needs is Need.AIM and method != "measure_distance":  # which centres the camera itself
-            self.focus_on_patch(patch)
+            self.core.focus_on_patch(patch)
         measure(patch)
 
-    def measure_distance(self, patch: ImagePatch) -> float:
+    def measure_distance(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_distance` (its docstring is the one programs read)."""
-        self._need("measure_distance")
-        p, target = self._target(patch, "measure_distance")
-        self._focus(p, target)
-        assert self.world is not None  # _target checked it
+        self.core.need("measure_distance")
+        p, target = self.core.object_of_call(patch, "measure_distance")
+        self.core.focus(p, target)
+        assert self.core.world is not None  # _target checked it
         metres, spread, samples = self._read_range(p)
-        self._record(
+        self.core.record(
             p,
             kind="distance",
             value=metres,
@@ -109,24 +115,24 @@ class Measuring(SessionCore):
         )
         return metres
 
-    def _read_range(self, p: ImagePatch) -> tuple[float, float, int]:
+    def _read_range(self, p: Sighting) -> tuple[float, float, int]:
         """The rangefinder's reading of the object the camera is centred on: (metres, one standard
         deviation, readings used). With `remeasure`, several readings are combined (dropouts left out);
         with `verify_actions`, readings where the beam did not hit the object (farther than the depth in
         the object's middle, or nearer than its front: an edge, the wall behind) are left out, re-aiming
         once if none is left."""
-        assert self.world is not None
-        guards = self.safeguards
+        assert self.core.world is not None
+        guards = self.core.safeguards
         count = guards.remeasure.readings(self.RANGE_READINGS)
         call = f"measure_distance({p.label or 'patch'})"
         for aim in range(2):
             readings = []
             for _ in range(count):
-                r = float(self.world.read_distance())
+                r = float(self.core.world.read_distance())
                 if math.isfinite(r) and r >= 0:
                     readings.append(r)
                 if count > 1:
-                    self.world.step(0.02)
+                    self.core.world.step(0.02)
             if count > 1:
                 empty = count - len(readings)
                 detail = f"{count} readings, {empty} empty"
@@ -140,7 +146,9 @@ class Measuring(SessionCore):
             if readings:
                 break
             if aim == 0 and guards.aims_again():
-                self._focus(p, p.target() or self._target(p, "measure_distance")[1])  # aim again, read again
+                self.core.focus(
+                    p, p.target() or self.core.object_of_call(p, "measure_distance")[1]
+                )  # aim again, read again
                 continue
             break
         if not readings:
@@ -157,8 +165,8 @@ class Measuring(SessionCore):
     def _centre_depth(self) -> float | None:
         """The depth camera's distance to the surface at the image centre (where the object is, once
         focused): the nearest surface in a small window, along the optical axis. None without depth."""
-        assert self.world is not None
-        frame = self.world.observe()
+        assert self.core.world is not None
+        frame = self.core.world.observe()
         if frame.depth is None:
             return None
         h, w = frame.depth.shape
@@ -168,15 +176,15 @@ class Measuring(SessionCore):
         # window, and the wall behind the rest
         return float(np.percentile(finite, 10)) if finite.size else None
 
-    def measure_weight(self, patch: ImagePatch) -> float:
+    def measure_weight(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_weight` (its docstring is the one programs read)."""
-        self._need("measure_weight")
-        p, target = self._target(patch, "measure_weight")
+        self.core.need("measure_weight")
+        p, target = self.core.object_of_call(patch, "measure_weight")
         self._held_for(p, target, "measure_weight")
-        assert self.world is not None
+        assert self.core.world is not None
         newtons, error, samples = self._weigh(p)
         kg = newtons / GRAVITY
-        self._record(
+        self.core.record(
             p,
             kind="weight",
             value=kg,
@@ -188,21 +196,21 @@ class Measuring(SessionCore):
         )
         return kg
 
-    def _held_for(self, p: ImagePatch, target: Target, method: str) -> None:
+    def _held_for(self, p: Sighting, target: Target, method: str) -> None:
         """Refuse a reading that needs `p` in the gripper when it is not there, saying what to call; the
         robot a program made picks it up instead."""
-        if self._arranging and (self.held is None or not self.held.same_object(p)):
-            self._note("picked it up first")
-            self.pick_up(p)
+        if self.core.arranging and (self.core.held is None or not self.core.held.same_object(p)):
+            self.core.note("picked it up first")
+            self.acting.pick_up(p)
             return
-        self._check(method, p)
+        self.core.check(method, p)
 
-    def measure_fullness(self, patch: ImagePatch) -> float:
+    def measure_fullness(self, patch: Sighting) -> float:
         """The session's side of `Robot.measure_fullness` (its docstring is the one programs read)."""
-        self._need("measure_fullness")
-        p, target = self._target(patch, "measure_fullness")
+        self.core.need("measure_fullness")
+        p, target = self.core.object_of_call(patch, "measure_fullness")
         # what a person knows of containers (`attribot.priors`): what one weighs empty and holds, coarsely
-        table = self.safeguards.priors
+        table = self.core.safeguards.priors
         kind = table.find(p.label or "")
         if kind is None or kind.empty_kg is None or kind.holds_kg is None:
             known = ", ".join(k.name for k in table.kinds.values() if k.container)
@@ -221,7 +229,7 @@ class Measuring(SessionCore):
         # what is not known of this one container: its own empty mass, and how much it holds
         spread = math.hypot(error / GRAVITY, empty_sd, fill * (high - low) / math.sqrt(12.0)) / capacity
         value = min(max(fill, 0.0), 1.0)
-        self._record(
+        self.core.record(
             p,
             kind="fullness",
             value=value,
@@ -233,24 +241,32 @@ class Measuring(SessionCore):
         )
         return value
 
-    def _sense(self, sensor: Sensor, sense: Sense, patch: ImagePatch) -> float:
+    def _sense(self, sensor: Sensor, sense: Sense, patch: Sighting) -> float:
         """A reading of a registered sensor through its method: checks the sensor, the object and what the
         reading needs, then reads (several readings with `remeasure`) and records the measurement."""
         method = sense.method
-        self._need(method)
-        p, target = self._target(patch, method)
-        assert self.world is not None  # _target checked it
-        arrange = self._arranging
-        if sense.needs is Need.AIM and (self._aimed is None or not self._aimed.same_object(p)) and arrange:
-            self._focus(p, target)
-        elif sense.needs is Need.REACH and (self._near is None or not self._near.same_object(p)) and arrange:
-            self.go_to_object(p)
+        self.core.need(method)
+        p, target = self.core.object_of_call(patch, method)
+        assert self.core.world is not None  # _target checked it
+        arrange = self.core.arranging
+        if (
+            sense.needs is Need.AIM
+            and (self.core.aimed is None or not self.core.aimed.same_object(p))
+            and arrange
+        ):
+            self.core.focus(p, target)
+        elif (
+            sense.needs is Need.REACH
+            and (self.core.near is None or not self.core.near.same_object(p))
+            and arrange
+        ):
+            self.acting.go_to_object(p)
         if sense.needs in (Need.AIM, Need.REACH):
-            self._check(method, p, sense.needs.value)
+            self.core.check(method, p, sense.needs.value)
         if sense.needs is Need.GRASP:
             self._held_for(p, target, method)
         value, spread, count = self._read_sensor(sensor, sense, p)
-        self._record(
+        self.core.record(
             p,
             kind=sense.quantity,
             value=value,
@@ -261,20 +277,20 @@ class Measuring(SessionCore):
         )
         return value
 
-    def _read_sensor(self, sensor: Sensor, sense: Sense, p: ImagePatch) -> tuple[float, float, int]:
+    def _read_sensor(self, sensor: Sensor, sense: Sense, p: Sighting) -> tuple[float, float, int]:
         """The sensor's reading of `p`: (value, one standard deviation, readings used). With `remeasure`,
         `sense.readings` readings are combined (the ones that read nothing left out)."""
-        assert self.world is not None
-        guards = self.safeguards
+        assert self.core.world is not None
+        guards = self.core.safeguards
         count = guards.remeasure.readings(sense.readings)
         call = f"{sense.method}({p.label or 'patch'})"
         readings = []
         for i in range(count):
-            value = float(self.world.read_sensor(sensor.name))
+            value = float(self.core.world.read_sensor(sensor.name))
             if math.isfinite(value):
                 readings.append(value)
             if count > 1 and i + 1 < count and sense.needs is not Need.GRASP:
-                self.world.step(0.02)
+                self.core.world.step(0.02)
         if count > 1:
             empty = count - len(readings)
             guards.remeasure.note(
@@ -289,22 +305,22 @@ class Measuring(SessionCore):
         spread = _std(readings) / math.sqrt(len(readings)) if len(readings) > 1 else 0.0
         return mean, max(spread, sense.resolution, sense.relative * abs(mean)), len(readings)
 
-    def _weigh(self, p: ImagePatch) -> tuple[float, float, int]:
+    def _weigh(self, p: Sighting) -> tuple[float, float, int]:
         """The held load in newtons, its standard error and the readings used. A short window is averaged
         (the reading sways while the arm settles and carries sensor noise); with `remeasure`, readings are
         added until the standard error is small or FORCE_MAX_SAMPLES are taken; with `verify_actions`, a
         load too small to be an object means it slipped out: it is picked up again and weighed again."""
-        assert self.world is not None
-        guards = self.safeguards
+        assert self.core.world is not None
+        guards = self.core.safeguards
         call = f"measure_weight({p.label or 'patch'})"
         for attempt in range(2):
             readings = []
             while True:
                 for _ in range(self.FORCE_SAMPLES):
-                    self.world.step(self.FORCE_SAMPLE_S)
+                    self.core.world.step(self.FORCE_SAMPLE_S)
                     # signed: a held load pulls down (world -z); folding each noisy reading about zero
                     # would bias a light object upward by as much as the noise
-                    readings.append(-float(self.world.read_force()[2]))
+                    readings.append(-float(self.core.world.read_force()[2]))
                 mean = sum(readings) / len(readings)
                 error = _std(readings) / math.sqrt(len(readings))
                 small = error <= max(self.FORCE_RESOLUTION_N, 0.01 * mean)
@@ -312,17 +328,17 @@ class Measuring(SessionCore):
                     break
             if len(readings) > self.FORCE_SAMPLES:
                 guards.remeasure.note(call, "caught", f"{len(readings)} force readings for {mean:.3f} N")
-            if not guards.verify_actions.slipped(mean, self._gripper_empty(), attempt, call):
+            if not guards.verify_actions.slipped(mean, self.core.gripper_empty(), attempt, call):
                 # a weight is never negative: a mean below zero is zero within its error
                 return max(mean, 0.0), max(error, self.FORCE_RESOLUTION_N), len(readings)
-            self.put_down()
-            self.go_to_object(p)
-            self.pick_up(p)
+            self.acting.put_down()
+            self.acting.go_to_object(p)
+            self.acting.pick_up(p)
         raise AssertionError("unreachable")
 
-    def uncertainty(self, patch: ImagePatch) -> float:
+    def uncertainty(self, patch: Sighting) -> float:
         """The session's side of `Robot.uncertainty` (its docstring is the one programs read)."""
-        p = check_patch(patch, ImagePatch, "patch", "uncertainty")
+        p = check_patch(patch, self.core.patch_type, "patch", "uncertainty")
         m = self.last_measurement(p)
         if m is None:
             raise PreconditionError(

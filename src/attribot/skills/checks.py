@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from typing import Any, TypeVar
 
-from attribot.api.errors import ApiArgumentError
+from attribot.skills.errors import ApiArgumentError
 
 __all__ = ["check_text", "check_number", "check_patch", "check_facade", "patch_named", "MAX_TEXT"]
 

@@ -1,8 +1,9 @@
 """The host side of a robot session, its core: the state a program's robot acts on (the world, the
 controller, what it holds, its measurements, its last look), how a call's patch or name becomes the object
 acted on, what a call needs from the robot's sensors, looking (and looking harder), and focusing the camera
-on an object. `attribot.api.measuring` and `attribot.api.acting` add the readings and the actions;
-`attribot.api.robot_session.RobotSession` is all three; `attribot.api.robot.Robot` is what programs see.
+on an object. `attribot.skills.robot_session.RobotSession` is a core that holds its readings
+(`attribot.skills.measuring.Measuring`) and its actions (`attribot.skills.acting.Acting`) as objects of
+their own; `attribot.api.robot.Robot` is what programs see.
 """
 
 from __future__ import annotations
@@ -12,14 +13,6 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict
 
-from attribot.api.checks import check_patch, patch_named
-from attribot.api.errors import ApiArgumentError, MissingSensor
-from attribot.api.harder import acting_find, carried_back
-from attribot.api.looking import View
-from attribot.api.patch import ImagePatch
-from attribot.api.perception import Perception
-from attribot.api.preconditions import Dialect, State, Verdict, check_action
-from attribot.api.safeguards import Safeguards
 from attribot.boxes import iou, overlap_of_smaller
 from attribot.control.base import (
     Capture,
@@ -44,6 +37,14 @@ from attribot.sensors import (
     sense_of_method,
     senses,
 )
+from attribot.skills.checks import check_patch, patch_named
+from attribot.skills.errors import ApiArgumentError, MissingSensor
+from attribot.skills.harder import acting_find, carried_back
+from attribot.skills.looking import View
+from attribot.skills.perception import Perception
+from attribot.skills.preconditions import Dialect, State, Verdict, check_action
+from attribot.skills.safeguards import Safeguards
+from attribot.skills.sighting import Sighting
 
 __all__ = ["SessionCore", "Measurement", "GRAVITY", "FULL", "OWN_REQUIRES", "object_name", "required_sensors"]
 
@@ -135,10 +136,13 @@ class SessionCore:
         world: Embodiment | None = None,
         controller: Controller | None = None,
         safeguards: Safeguards | None = None,
+        patch_type: type[Sighting] = Sighting,
     ) -> None:
         """A robot session with `sensors` in `world` (None: a still image, every action refused), acting
         through `controller` (default: the one registered for the world, see attribot.control.base), with
-        the error-catching mechanisms of `safeguards` (default: all on)."""
+        the error-catching mechanisms of `safeguards` (default: all on). Its looks are `patch_type`'s
+        (`attribot.api.ImagePatch` for the robot programs see), and so are the patches its calls take."""
+        self.patch_type = patch_type
         self._sensors: list[str] = check_sensors(sensors)
         self._given = list(self._sensors)  # what the user gave; a program's Robot(sensors=...) may see fewer
         if world is not None and not isinstance(world, Embodiment):
@@ -156,22 +160,22 @@ class SessionCore:
                     )
         self.world = world
         self.controller: Controller = controller if controller is not None else build_controller(world)
-        self.held: ImagePatch | None = None
+        self.held: Sighting | None = None
         self.safeguards = safeguards if safeguards is not None else Safeguards()
         self.measurements: list[Measurement] = []
-        self._measured: list[tuple[Measurement, ImagePatch]] = []
+        self.measured: list[tuple[Measurement, Sighting]] = []
         self.capture: Capture | None = None
-        self._near: ImagePatch | None = None
-        self._aimed: ImagePatch | None = None  # what the camera was last centred on, since the robot moved
+        self.near: Sighting | None = None  # what the robot stands next to, since it last drove
+        self.aimed: Sighting | None = None  # what the camera was last centred on, since the robot moved
         self._captures = 0
-        self._image: ImagePatch | None = None  # the last look: where an object's name is looked up
+        self._image: Sighting | None = None  # the last look: where an object's name is looked up
         self.activity = ""  # the action under way, naming its object ("weighing mug 0"): videos show it
         self.acting_on = ""  # the name of the object of that action
         self.acting_on_id: str | None = None  # and its detector id, when the detector gives one
-        self._acted_on: list[ImagePatch] = []  # patches the program acted on, for names (paper dialect)
+        self._acted_on: list[Sighting] = []  # patches the program acted on, for names (paper dialect)
         # a call through the robot a program made (the paper's dialect): it arranges what an action or a
         # reading needs (turning to the object, going to it, picking it up) where this robot would refuse
-        self._arranging = False
+        self.arranging = False
         self._notes: list[str] = []  # what the session did beyond the call itself (put back, arranged)
 
     @property
@@ -180,7 +184,7 @@ class SessionCore:
         return list(self._sensors)
 
     # ---- host side ---------------------------------------------------------------------------------
-    def look(self, perception: Perception, survey: bool = True) -> ImagePatch:
+    def look(self, perception: Perception, survey: bool = True) -> Sighting:
         """Host side: take a camera frame now and return its whole-image patch, remembering the head
         angles and base pose so that boxes in it can be acted on later. With `look_again` on and `survey`,
         the head also turns around it to take the views that finds are checked against; without `survey`
@@ -197,14 +201,14 @@ class SessionCore:
         else:
             self.capture = Capture(index=self._captures, camera=camera, depth=frame.scene_depth)
         self._captures += 1
-        self._image = ImagePatch(frame, perception, capture=self.capture)
+        self._image = self.patch_type(frame, perception, capture=self.capture)
         self._image.safeguards = self.safeguards
         if {"base", "pose"} <= caps and frame.depth is not None:
             self._image.nearer = self.safeguards.look_harder.nearer(self._nearer)
         if survey and {"head", "pose"} <= caps and frame.depth is not None:
             self._image.survey = self.safeguards.look_again.survey(self.world, View(frame, self.capture))
         self._acted_on = []
-        self._aimed = None
+        self.aimed = None
         return self._image
 
     def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
@@ -264,25 +268,25 @@ class SessionCore:
         put it back."""
         return None if self.world is None else self.world.snapshot()
 
-    def restore(self, snapshot: Any, image: ImagePatch) -> None:
+    def restore(self, snapshot: Any, image: Sighting) -> None:
         """Host side: back to `snapshot` with `image` as the camera's last look: how a retry starts from
         the state the first try started from."""
         assert self.world is not None
         self.world.restore(snapshot)
         self.held = None
-        self._near = None
-        self._aimed = None
+        self.near = None
+        self.aimed = None
         self._image = image
         self.capture = image.capture
         self._acted_on = []
 
-    def called_on(self, patch: ImagePatch) -> None:
+    def called_on(self, patch: Sighting) -> None:
         """Host side: the program called one of this robot's methods on `patch` (`book_patch.pick_up("book")`,
         `apple_patch.measure_distance("desk")`), or named an object right after looking at `patch` (a loop
         over patches that asks each a question, then `go_to_object("object")`): a name in that call stands
         for it when it answers to the name (see `_named`), as for the latest object the program acted on."""
         if (
-            isinstance(patch, ImagePatch)
+            isinstance(patch, self.patch_type)
             and patch.label
             and (not self._acted_on or self._acted_on[-1] is not patch)
         ):
@@ -294,7 +298,8 @@ class SessionCore:
         notes, self._notes = self._notes, []
         return "; ".join(notes) or None
 
-    def _note(self, text: str) -> None:
+    def note(self, text: str) -> None:
+        """Keep what the session did beyond the call itself, for the call's trace record (`take_notes`)."""
         self._notes.append(text)
 
     @property
@@ -302,15 +307,16 @@ class SessionCore:
         """How the program calls this robot: its methods on the robot it was given (`robot.put_down()`), or
         as bare functions or on a `Robot(sensors=[...])` it made (`put_down()`), as the paper's prompt
         writes them. Refusals name the fix in these words."""
-        return "paper" if self._arranging else "attribot"
+        return "paper" if self.arranging else "attribot"
 
-    def _check(self, method: str, p: ImagePatch | None, reading: str = "grasp") -> Verdict:
+    def check(self, method: str, p: Sighting | None, reading: str = "grasp") -> Verdict:
         """What `method` on `p` needs of the robot's state, checked before anything moves
-        (`attribot.api.preconditions.check_action`)."""
-        state = State(held=self.held, near=self._near, dialect=self.dialect, aimed=self._aimed)
+        (`attribot.skills.preconditions.check_action`)."""
+        state = State(held=self.held, near=self.near, dialect=self.dialect, aimed=self.aimed)
         return check_action(method, p, state, reading)
 
-    def _held_name(self) -> str:
+    def held_name(self) -> str:
+        """What the gripper holds, as a caption names it ("nothing" when empty)."""
         held = self.held
         return "nothing" if held is None else object_name(held.object_id, held.label)
 
@@ -318,7 +324,8 @@ class SessionCore:
         """Host side: the controller's name, reported as the "robot" backend of an answer."""
         return str(getattr(self.controller, "name", type(self.controller).__name__))
 
-    def _need(self, method: str) -> None:
+    def need(self, method: str) -> None:
+        """Refuse `method` (`MissingSensor`) when the robot, as the program sees it, lacks its sensor."""
         sensor = required_sensors().get(method)
         if sensor is not None and sensor not in self.sensors:
             if sensor in self._given:  # the program's Robot(sensors=[...]) left it out
@@ -335,7 +342,7 @@ class SessionCore:
                 fix,
             )
 
-    def _named(self, name: str, method: str) -> ImagePatch:
+    def _named(self, name: str, method: str) -> Sighting:
         """The patch an object's name stands for, as the paper's Robot took names (`robot.pick_up("book")`):
         the last patch the program acted on with that name (or any name, for a generic noun such as
         "object"), else the very last one when the camera finds it under that name, else the one such
@@ -375,12 +382,14 @@ class SessionCore:
             )
         return found[0]
 
-    def _target(self, patch: object, method: str) -> tuple[ImagePatch, Target]:
+    def object_of_call(self, patch: object, method: str) -> tuple[Sighting, Target]:
+        """The object a call of `method` acts on (a patch, a name, the list `find` returned) and what a
+        controller needs to act on it; noted as the action under way. Refused outside a world."""
         if isinstance(patch, str):
             patch = self._named(patch, method)
-        elif isinstance(patch, list | tuple) and all(isinstance(p, ImagePatch) for p in patch):
+        elif isinstance(patch, list | tuple) and all(isinstance(p, self.patch_type) for p in patch):
             patch = _one_of(patch, method)  # the list find returned, as the paper's prompt passes it
-        p = check_patch(patch, ImagePatch, "patch", method)
+        p = check_patch(patch, self.patch_type, "patch", method)
         self.acting_on, self.acting_on_id = object_name(p.object_id, p.label), p.object_id
         self.activity = f"{_doing(method)} {self.acting_on}"
         if p.label and (not self._acted_on or self._acted_on[-1] is not p):
@@ -394,22 +403,22 @@ class SessionCore:
             )
         return p, target
 
-    def _focus(self, patch: ImagePatch, target: Target) -> None:
+    def focus(self, patch: Sighting, target: Target) -> None:
         """Point the camera at `target`, then centre the object by what fresh images show
         (`attribot.control.focus.correct_aim`, up to FOCUS_CORRECTIONS times)."""
         self.controller.focus_on(target)
-        self._aimed = patch
+        self.aimed = patch
         assert self.world is not None  # _target checked it
         headless = "head" not in {str(c) for c in self.world.capabilities()}
         correct_aim(
             self.controller,
-            lambda: self._reacquire(patch),
+            lambda: self.reacquire(patch),
             self.FOCUS_CORRECTIONS,
             self.FOCUS_TOL_PX,
             headless=headless,
         )
 
-    def _reacquire(self, patch: ImagePatch, by_id: bool = True) -> Target | None:
+    def reacquire(self, patch: Sighting, by_id: bool = True) -> Target | None:
         """The object of `patch` in a new camera image (`attribot.control.sighting.reacquire`): by world id
         when known (and `by_id`), else the detection of its name nearest the image centre. The camera has
         been aimed at it, so it is looked for as a controller looks (`acting_find`: the middle half first),
@@ -425,13 +434,13 @@ class SessionCore:
         self._captures += 1
         return reacquire(world, sightings, label, patch.object_id, self._captures - 1, by_id)
 
-    def focus_on_patch(self, patch: ImagePatch) -> None:
+    def focus_on_patch(self, patch: Sighting) -> None:
         """The session's side of `Robot.focus_on_patch` (its docstring is the one programs read)."""
-        self._need("focus_on_patch")
-        p, target = self._target(patch, "focus_on_patch")
-        self._focus(p, target)
+        self.need("focus_on_patch")
+        p, target = self.object_of_call(patch, "focus_on_patch")
+        self.focus(p, target)
 
-    def _gripper_empty(self) -> bool:
+    def gripper_empty(self) -> bool:
         """The fingers have closed (almost) all the way: nothing is between them."""
         assert self.world is not None
         try:
@@ -440,21 +449,11 @@ class SessionCore:
             return False
         return opening is not None and float(opening) < self.GRIPPER_EMPTY_M
 
-    def _record(self, p: ImagePatch, **reading: Any) -> None:
+    def record(self, p: Sighting, **reading: Any) -> None:
         """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
         m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), **reading)
         self.measurements.append(m)
-        self._measured.append((m, p))
-
-    # ---- what the readings and the actions (the other halves of the session) provide to each other ----
-    def go_to_object(self, patch: ImagePatch) -> None:
-        raise NotImplementedError  # attribot.api.acting
-
-    def pick_up(self, patch: ImagePatch) -> None:
-        raise NotImplementedError  # attribot.api.acting
-
-    def put_down(self) -> None:
-        raise NotImplementedError  # attribot.api.acting
+        self.measured.append((m, p))
 
 
 _SAME_BOX = 0.5
@@ -462,7 +461,7 @@ _SAME_BOX = 0.5
 another word meet there when the detector gives no ids."""
 
 
-def _one_of(patches: Sequence[ImagePatch], method: str) -> ImagePatch:
+def _one_of(patches: Sequence[Sighting], method: str) -> Sighting:
     """The one patch of a list `image.find` returned, passed where a patch belongs; none or several are
     refused, naming them."""
     if len(patches) == 1:

@@ -3,9 +3,10 @@
 Each is on by default, can be switched off on its own (for ablations: `--checks all,-look_again`), and
 writes what it did into the answer's `checks` log, beside the trace:
 
-- `look_again`: the first image is checked against views from other head poses (`attribot.api.looking`);
+- `look_again`: the first image is checked against views from other head poses (`attribot.skills.looking`);
 - `look_harder`: a find that comes back empty or unsure looks closer where depth sees objects stand, and
-  sets aside a detection where depth sees nothing stand (`attribot.api.harder`; detectors that read pixels);
+  sets aside a detection where depth sees nothing stand (`attribot.skills.harder`; detectors that read
+  pixels);
 - `verify_actions`: a grasp that closed on nothing, slipped or lifted another object than the one meant
   is tried again; a distance reading is checked against the depth inside the object's box (the beam may
   have hit an edge or the wall behind);
@@ -31,9 +32,6 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, TypeVar
 
 from pydantic import BaseModel, ConfigDict
 
-from attribot.api.checks import patch_named
-from attribot.api.harder import Nearer, look_harder
-from attribot.api.looking import Survey, View, ask_again, reexamine, refit
 from attribot.boxes import Box
 from attribot.control.base import Target
 from attribot.embodiments.base import Embodiment
@@ -44,10 +42,14 @@ from attribot.models.base import Detection, Detector
 from attribot.models.cache import cacheable
 from attribot.priors import Priors, priors
 from attribot.registry import Registry
+from attribot.skills.checks import patch_named
+from attribot.skills.harder import Nearer, look_harder
+from attribot.skills.looking import Survey, View, ask_again, reexamine, refit
+from attribot.skills.params import LOOK_HARDER, LookHarderParams
 from attribot.text import comma_names
 
 if TYPE_CHECKING:
-    from attribot.api.patch import ImagePatch
+    from attribot.skills.sighting import Sighting
 
 __all__ = [
     "Mechanism",
@@ -135,7 +137,7 @@ class LookAgain(Safeguard):
         return said
 
     def box(self, detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, str]:
-        """An answer's box: the object's box in its image looked at again (`attribot.api.looking.refit`),
+        """An answer's box: the object's box in its image looked at again (`attribot.skills.looking.refit`),
         and what it is, for the answer's record."""
         fused, looks = refit(detector, frame, box, name)
         if looks == 1:
@@ -171,12 +173,14 @@ class WithoutLookAgain(LookAgain):
 
 
 class LookHarder(Safeguard):
-    """`look_harder`: a find that comes back empty or unsure looks closer (`attribot.api.harder`)."""
+    """`look_harder`: a find that comes back empty or unsure looks closer (`attribot.skills.harder`), with
+    the values of `params` (a subclass sets its own `LookHarderParams`)."""
 
     mechanism = Mechanism.LOOK_HARDER
+    params: ClassVar[LookHarderParams] = LOOK_HARDER
 
     def find(
-        self, patch: ImagePatch, name: str, pixels: Frame, detections: list[Detection]
+        self, patch: Sighting, name: str, pixels: Frame, detections: list[Detection]
     ) -> tuple[list[Detection], list[Detection]]:
         """The find's detections after looking harder, where the patch is a robot's whole image with depth
         and the detector reads pixels; and those of them it took on weaker evidence than the detector's (a
@@ -187,7 +191,16 @@ class LookHarder(Safeguard):
         claimed = [d for n, d in patch.named.items() if n.lower() != name.lower()]
         sought = sorted(patch.sought - {n.lower() for n in (name, *patch.named)})
         looked = look_harder(
-            detector, pixels, patch.capture, name, detections, patch.nearer, claimed, sought, self.log.priors
+            detector,
+            pixels,
+            patch.capture,
+            name,
+            detections,
+            patch.nearer,
+            claimed,
+            sought,
+            self.log.priors,
+            self.params,
         )
         if looked is None:
             return detections, []
@@ -215,7 +228,7 @@ class WithoutLookHarder(LookHarder):
     """`look_harder` off: a find keeps the detector's answer."""
 
     def find(
-        self, patch: ImagePatch, name: str, pixels: Frame, detections: list[Detection]
+        self, patch: Sighting, name: str, pixels: Frame, detections: list[Detection]
     ) -> tuple[list[Detection], list[Detection]]:
         return detections, []
 
@@ -337,17 +350,17 @@ class WithoutRemeasure(Remeasure):
         return False
 
 
-Value = tuple[float, float, "ImagePatch"]  # a measured object's combined value, its sd, the object
+Value = tuple[float, float, "Sighting"]  # a measured object's combined value, its sd, the object
 
 
 class Measured(Protocol):
-    """What `Confidence` reads and does in a robot session (`attribot.api.measuring`)."""
+    """What `Confidence` reads and does in a robot session (`attribot.skills.measuring`)."""
 
-    def last_measurement(self, patch: ImagePatch) -> Any: ...
+    def last_measurement(self, patch: Sighting) -> Any: ...
 
     def combined(self, kind: str) -> list[Value]: ...
 
-    def measure_again(self, measurement: Any, patch: ImagePatch) -> None: ...
+    def measure_again(self, measurement: Any, patch: Sighting) -> None: ...
 
 
 class Confidence(Safeguard):
@@ -360,7 +373,7 @@ class Confidence(Safeguard):
     ROUNDS: ClassVar[int] = 3
     Z: ClassVar[float] = 2.0  # a margin of this many standard deviations settles a comparison
 
-    def settle(self, chosen: ImagePatch, session: Measured) -> str | None:
+    def settle(self, chosen: Sighting, session: Measured) -> str | None:
         """None when the choice of `chosen` is settled (or there is nothing to settle); otherwise the
         sentence that says it cannot tell."""
         last = session.last_measurement(chosen)
@@ -396,12 +409,12 @@ class Confidence(Safeguard):
 class WithoutConfidence(Confidence):
     """`confidence` off: the program's choice stands."""
 
-    def settle(self, chosen: ImagePatch, session: Measured) -> str | None:
+    def settle(self, chosen: Sighting, session: Measured) -> str | None:
         return None
 
 
 class Restorable(Protocol):
-    """A robot session that can say what state it is in (`attribot.api.robot_core`)."""
+    """A robot session that can say what state it is in (`attribot.skills.robot_core`)."""
 
     def snapshot(self) -> Any: ...
 
@@ -454,7 +467,8 @@ def strategies_named(names: str) -> dict[Mechanism, type[Safeguard]]:
         if name not in STRATEGIES:
             raise UnknownName(
                 f"unknown safeguard strategy {name!r}",
-                "register it with attribot.api.safeguards.STRATEGIES in a module named in ATTRIBOT_PLUGINS "
+                "register it with attribot.skills.safeguards.STRATEGIES in a module named in "
+                "ATTRIBOT_PLUGINS "
                 f"(registered: {', '.join(STRATEGIES.names()) or 'none'})",
             )
         strategy = STRATEGIES.get(name)
@@ -519,7 +533,7 @@ class Safeguards:
         if not (isinstance(chosen, type) and issubclass(chosen, kind)):
             raise InputError(
                 f"the strategy plugged in for {kind.mechanism} is {chosen!r}, not a {kind.__name__}",
-                f"subclass attribot.api.safeguards.{kind.__name__} and override what it does",
+                f"subclass attribot.skills.safeguards.{kind.__name__} and override what it does",
             )
         if kind.mechanism not in on:
             chosen = _OFF[kind]

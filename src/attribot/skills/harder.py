@@ -1,0 +1,524 @@
+"""Looking harder: when `find` comes back empty or unsure for a named object, the robot looks more closely at
+where depth says objects stand, and sets aside what depth says is no object.
+
+A real detector misses objects that are small in the frame (YOLOv3-tiny sees a 25-pixel apple poorly at its
+608-pixel input). Depth does not need to know what an object is to see that something stands on a table
+(`control.candidates`): each such region is shown to the detector on its own, in a view a few times its size,
+so that the object fills the detector's input ("zooming by cropping"). A detection found this way counts only
+where depth sees something stand; and any detection of the find inside whose box depth sees nothing rise from
+a level (a box on a wall, on the floor's tiles) is set aside, unless it is sure and its box lies on a level (a
+phone lying on a table rises too little to stand out). Where zooming finds nothing and the robot can drive, it
+drives nearer to a few of the places in turn (`visit_order`), looks there, carries what it sees back into the
+first image (`carried_back`: where it lands on the place, the place's box is its box) and drives back (the
+Robot's `_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where
+it points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
+no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
+and height (a knife lies flat, a toaster stands) that no box of another name explains (`by_elimination`). And
+where the detector saw some objects of the name but not all (a row of carrots, one of them boxed), the places
+that look like one it saw, in colour and size, and that nothing else explains are more of it (`alike`). What
+they give has the low score it earned, and the trace says how it was taken. Only detectors that read pixels
+look harder (a zoomed view shows them more); the oracle reads the simulator's segmentation.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cache
+
+import numpy as np
+
+from attribot.boxes import at_edge, center, iou, overlap_of_smaller
+from attribot.control.base import Capture
+from attribot.control.candidates import Candidate, StandingMap
+from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
+from attribot.errors import InputError
+from attribot.frame import CameraInfo, Frame
+from attribot.lexicon import SURFACE_WORDS
+from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.priors import Priors, priors
+from attribot.skills.fits import (
+    box_area,
+    class_of_name,
+    colour_fits,
+    fits_class,
+    fits_size,
+    fitted_to_depth,
+    framed_by,
+    grown_to_candidates,
+    inside_box,
+    is_furniture,
+    name_sizes,
+    on_candidate,
+    stands_in_depth,
+)
+from attribot.skills.lookalikes import (
+    alike,
+    by_elimination,
+    faint_pick,
+    one_name_each,
+    one_object,
+    visit_order,
+)
+from attribot.skills.params import LOOK_HARDER, LookHarderParams
+
+__all__ = [
+    "LookHarderReport",
+    "Nearer",
+    "acting_find",
+    "carried_back",
+    "closed_world",
+    "confirmed",
+    "look_harder",
+    "standing_in",
+    "zoom_views",
+]
+
+Nearer = Callable[[str, list[Candidate]], tuple[list[Detection], int]]
+"""Drives nearer to candidates in turn and looks for a name there: (detections in the first image, visits)."""
+
+_STANDING: weakref.WeakKeyDictionary[Frame, tuple[Capture, StandingMap, list[Candidate]]]
+_STANDING = weakref.WeakKeyDictionary()
+
+
+@dataclass
+class LookHarderReport:
+    """What looking harder did for one find: shown in the trace and the answer's checks."""
+
+    candidates: int  # regions where depth sees something stand
+    views: int  # zoomed views looked at
+    added: int  # detections found in them
+    set_aside: int  # detections where depth sees nothing stand
+    visits: int = 0  # places the robot drove nearer to
+    found_nearer: int = 0  # detections seen from nearer
+    faint: float | None = None  # the score of the faint box taken, where one was
+    eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
+    alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
+    yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
+    fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
+    confirmed: int = 0  # inferences (elimination, likeness) the detector confirmed from nearer
+    unconfirmed: int = 0  # inferences dropped: from nearer the detector did not name them
+    closed: int = 0  # inferences kept unconfirmed, since everything else depth sees here is named
+    took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
+
+    @property
+    def taken(self) -> bool:
+        """Whether weaker evidence gave the find an object: a faint box, elimination, or a likeness."""
+        return self.faint is not None or bool(self.eliminated) or bool(self.alike)
+
+    def describe(self) -> str:
+        text = f"depth sees {self.candidates} things stand"
+        if self.views:
+            text += f"; zoomed in on {self.views} of them: {self.added} found"
+        if self.visits:
+            text += f"; drove nearer to {self.visits} of them: {self.found_nearer} found"
+        if self.faint is not None:
+            text += f"; took the one framed by a faint box of the name (score {self.faint:.3f})"
+        if self.eliminated:
+            text += "; took by elimination the one thing of the name's size that no other name explains"
+        if self.alike:
+            text += f"; took {self.alike} more that look like the one it saw (their colours, their size)"
+        if self.set_aside:
+            text += f"; {self.set_aside} set aside where depth sees nothing stand"
+        if self.yielded:
+            text += f"; {self.yielded} left to another name whose object is there"
+        if self.fitted:
+            text += f"; {self.fitted} boxes cut to what depth sees of the object in them"
+        if self.confirmed:
+            text += f"; {self.confirmed} of them confirmed: seen as the name from nearer"
+        if self.unconfirmed:
+            text += f"; {self.unconfirmed} dropped: from nearer the detector did not see the name there"
+        if self.closed:
+            text += (
+                f"; {self.closed} kept though not seen as the name from nearer: everything else here is named"
+            )
+        return text
+
+
+def zoom_views(
+    boxes: Sequence[tuple[float, float, float, float]],
+    width: int,
+    height: int,
+    params: LookHarderParams = LOOK_HARDER,
+) -> list[tuple[int, int, int, int]]:
+    """Square views around the boxes (the candidates', largest first), inside the image; a view much like
+    one already chosen is left out."""
+    views: list[tuple[int, int, int, int]] = []
+    for x0, y0, x1, y1 in boxes:
+        side = int(min(max(params.zoom * max(x1 - x0, y1 - y0), params.min_view), width, height))
+        left = int(np.clip((x0 + x1) / 2 - side / 2, 0, width - side))
+        top = int(np.clip((y0 + y1) / 2 - side / 2, 0, height - side))
+        view = (left, top, left + side, top + side)
+        if all(iou(view, v) < 0.5 for v in views):
+            views.append(view)
+        if len(views) >= params.max_views:
+            break
+    return views
+
+
+def standing_in(frame: Frame, capture: Capture) -> tuple[StandingMap, list[Candidate]]:
+    """What depth sees stand in a frame taken as `capture` says, and its candidates: read once per frame
+    (while the frame lives), since every find of a program's image asks for the same map."""
+    kept = _STANDING.get(frame)
+    if kept is None or kept[0] is not capture:
+        assert frame.depth is not None and capture.camera is not None and capture.view is not None
+        standing = StandingMap.of(frame.depth, capture.camera, capture.view, frame.rgb)
+        kept = _STANDING[frame] = (capture, standing, standing.candidates())
+    return kept[1], list(kept[2])
+
+
+def look_harder(
+    detector: Detector,
+    frame: Frame,
+    capture: Capture,
+    name: str,
+    detections: list[Detection],
+    nearer: Nearer | None = None,
+    claimed: list[Detection] | None = None,
+    sought: list[str] | None = None,
+    table: Priors | None = None,
+    params: LookHarderParams = LOOK_HARDER,
+) -> tuple[list[Detection], LookHarderReport] | None:
+    """The find's detections after looking harder (module docstring) and what it did; None without depth and
+    a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order`;
+    `claimed`: the boxes other names' finds took here, each its object's (if of another class); `sought`:
+    the other names looked for; `table`: the perception priors (default: unscaled); `params`: the values."""
+    if frame.depth is None or capture.camera is None or capture.view is None:
+        return None
+    table = table if table is not None else priors()
+    standing, candidates = standing_in(frame, capture)
+    kept = _standing(detections, name, frame, standing, params)
+    report = LookHarderReport(len(candidates), 0, 0, len(detections) - len(kept))
+
+    @cache
+    def best_rivals() -> list[Detection]:  # the other sought names' best boxes, looked for once
+        return _best_of(detector, frame, name, sought or [], [])
+
+    mine = class_of_name(detector, name)
+
+    def one_each(found: list[Detection]) -> list[Detection]:
+        if len(found) < 2:
+            return found
+        taken = [d for d in claimed or [] if class_of_name(detector, d.label) != mine]
+        left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates)
+        report.yielded += len(found) - len(left)
+        return left
+
+    kept = one_each(kept)
+    if not candidates:
+        return kept, report
+    kept = _without_misfits(detector, name, kept, candidates, report, table, params)
+    if all(d.score < params.unsure for d in kept):
+        merged, views = _zoomed_in(detector, frame, name, candidates, kept, params)
+        report.views, report.added = len(views), len(merged) - len(kept)
+        if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
+            claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
+            weighed = (candidates, views, nearer, claimed, report, table, params)
+            merged = _unseen(detector, frame, capture.camera, name, *weighed)
+            report.took = list(merged) if report.taken else []
+        merged.sort(key=lambda d: -d.score)
+        kept = one_each(merged)
+    kept = _fitted(detector, name, kept, candidates, report, table, params)
+    kept = _without_misfits(detector, name, kept, candidates, report, table, params)  # the zoomed views' too
+    # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
+    explained = best_rivals() if sought and any(d.score >= params.exemplar for d in kept) else []
+    rivals = [*(claimed or []), *explained]
+    more = alike(detector, frame, name, candidates, kept, rivals, sought or [], table, params)
+    report.alike, more = len(more), confirmed(more, candidates, name, nearer, report)
+    report.took = [*report.took, *more]
+    return kept + more, report
+
+
+def _standing(
+    detections: list[Detection], name: str, frame: Frame, standing: StandingMap, params: LookHarderParams
+) -> list[Detection]:
+    """`detections` less the small boxes where depth sees nothing stand (`stands_in_depth`); a surface's
+    name (a table, the floor) keeps them all."""
+    if name.lower() in SURFACE_WORDS:
+        return detections
+    small = frame.width * frame.height * params.small_box
+    return [d for d in detections if box_area(d.box) >= small or stands_in_depth(d, standing, params)]
+
+
+def _without_misfits(
+    detector: Detector,
+    name: str,
+    found: list[Detection],
+    candidates: list[Candidate],
+    report: LookHarderReport,
+    table: Priors,
+    params: LookHarderParams,
+) -> list[Detection]:
+    """`found` less its `_misfits`, counted as set aside in `report`; what weaker evidence took stays (it
+    was taken for its size)."""
+    misfits = [
+        d
+        for d in _misfits(detector, name, found, candidates, table, params)
+        if not any(d is t for t in report.took)
+    ]
+    report.set_aside += len(misfits)
+    return [d for d in found if not any(d is m for m in misfits)]
+
+
+def _misfits(
+    detector: Detector,
+    name: str,
+    found: list[Detection],
+    candidates: list[Candidate],
+    table: Priors,
+    params: LookHarderParams,
+) -> list[Detection]:
+    """The boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
+    (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball and YOLOv5s surely, and a
+    basketball is 24 cm across. A box on several things or on none is left as it is (depth sees it with its
+    neighbour, or not at all)."""
+    sizes = name_sizes(detector, name, table)
+    if sizes is None:
+        return []
+    out = []
+    for det in found:
+        framed = framed_by(det, candidates)
+        if len(framed) != 1:
+            continue
+        size = candidates[framed[0]].size
+        if size > 0 and not fits_size(size, sizes, params.size_slack):
+            out.append(det)
+    return out
+
+
+def _zoomed_in(
+    detector: Detector,
+    frame: Frame,
+    name: str,
+    candidates: list[Candidate],
+    kept: list[Detection],
+    params: LookHarderParams,
+) -> tuple[list[Detection], list[tuple[int, int, int, int]]]:
+    """`kept` and the boxes of the name that views zoomed in on the candidates show on them (a box on an
+    object kept already is that one), and those views."""
+    views = zoom_views([c.box for c in candidates], frame.width, frame.height, params)
+    zoomed = [d for d in detect_in_views(detector, frame, [name], views) if on_candidate(d, candidates)]
+    merged = list(kept)
+    for det in sorted(zoomed, key=lambda d: -d.score):
+        if not any(one_object(det, other, candidates) for other in merged):
+            merged.append(det)
+    return merged, views
+
+
+def _fitted(
+    detector: Detector,
+    name: str,
+    kept: list[Detection],
+    candidates: list[Candidate],
+    report: LookHarderReport,
+    table: Priors,
+    params: LookHarderParams,
+) -> list[Detection]:
+    """`kept` with what the detector boxed cut to what depth sees (`fitted_to_depth`), counted in `report`;
+    what weaker evidence took (a candidate's box, a faint box grown to it) as it was taken."""
+    sizes = name_sizes(detector, name, table)
+    fitted = [
+        d if any(d is t for t in report.took) else fitted_to_depth(d, candidates, sizes, params) for d in kept
+    ]
+    report.fitted = sum(1 for d, f in zip(kept, fitted, strict=True) if f is not d)
+    return fitted
+
+
+def _unseen(
+    detector: Detector,
+    frame: Frame,
+    camera: CameraInfo,
+    name: str,
+    candidates: list[Candidate],
+    views: list[tuple[int, int, int, int]],
+    nearer: Nearer | None,
+    claimed: list[Detection],
+    report: LookHarderReport,
+    table: Priors,
+    params: LookHarderParams,
+) -> list[Detection]:
+    """For a name the zoomed views did not show: a faint box that points at one candidate no other name's
+    find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
+    `report`)."""
+    # a place another name's find took holds that object
+    free = [c for c in candidates if not any(inside_box(center(c.box), d.box) for d in claimed)]
+    kind = table.find(name)
+    sizes = None if kind is None else kind.size_m
+    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
+
+    def closed() -> bool:
+        return closed_world(candidates, explaining(), frame.width, frame.height, params)
+
+    faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=params.faint), free, params)
+    if faint is not None:
+        report.faint = faint.score
+        grown = grown_to_candidates(faint, free, sizes, params).model_copy(update={"evidence": "faint box"})
+        return confirmed([grown], candidates, name, nearer, report, closed)
+    others = explaining()
+    placement = None if kind is None else kind.placement
+    if nearer is not None:
+        seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement, params))
+        # boxes of one object seen from two places land on each other: one object
+        kept_seen: list[Detection] = []
+        for det in seen:
+            if all(overlap_of_smaller(det.box, o.box) < 0.5 for o in kept_seen):
+                kept_seen.append(det)
+        report.found_nearer = len(kept_seen)
+        if kept_seen:
+            return kept_seen
+    colours = () if kind is None else kind.colours
+
+    def coloured(cand: Candidate) -> bool:
+        return colour_fits(frame.rgb, cand.box, colours, table, params)
+
+    heights = None if kind is None else kind.height_m
+    width, height = frame.width, frame.height
+    left = by_elimination(candidates, others, sizes, width, height, placement, coloured, heights, params)
+    if left is None:
+        return []
+    report.eliminated = 1
+    eliminated = Detection(box=left.box, score=params.eliminated_score, label=name, evidence="elimination")
+    return confirmed([eliminated], candidates, name, nearer, report, closed)
+
+
+def _explaining(
+    detector: Detector,
+    frame: Frame,
+    camera: CameraInfo,
+    name: str,
+    views: list[tuple[int, int, int, int]],
+    claimed: list[Detection],
+    table: Priors,
+    params: LookHarderParams,
+) -> list[Detection]:
+    """The boxes that explain a place when `name` is sought: every other class's in the image and the
+    zoomed views, and what other names' finds took (`claimed`, each its object whatever its score)."""
+    # a box of the name's own class, or of a class another name of the program stands for, explains no
+    # place: each of those names is one object, its best box (in `claimed`)
+    mine = {class_of_name(detector, name), *(class_of_name(detector, d.label) for d in claimed)}
+    seen = detect_in_views(detector, frame, ["object"], [(0, 0, frame.width, frame.height), *views])
+    # nor does a box of a size no object of its class has (a bowl 3 m away boxed as a 7 cm carrot)
+    found = [d for d in seen if d.label not in mine and fits_class(detector, d, frame, camera, table, params)]
+    return found + [d.model_copy(update={"score": 1.0}) for d in claimed]
+
+
+def closed_world(
+    candidates: list[Candidate],
+    explaining: list[Detection],
+    width: int,
+    height: int,
+    params: LookHarderParams = LOOK_HARDER,
+) -> bool:
+    """Whether depth sees at most one thing here that no sure box explains (furniture and what the image's
+    edge cuts aside): a world closed enough for an argument by elimination, where everything else is
+    named. A room with things the detector cannot name leaves several unexplained."""
+    sure = [d for d in explaining if d.score >= params.unsure]
+    unexplained = [
+        c
+        for c in candidates
+        if not is_furniture(c, params)
+        and not at_edge(c.box, width, height)
+        and not any(inside_box(center(c.box), d.box) for d in sure)
+    ]
+    return len(unexplained) <= 1
+
+
+def confirmed(
+    inferred: list[Detection],
+    candidates: list[Candidate],
+    name: str,
+    nearer: Nearer | None,
+    report: LookHarderReport,
+    closed: Callable[[], bool] | None = None,
+) -> list[Detection]:
+    """What of `inferred` (objects the detector never named at its threshold: a box fainter than that,
+    elimination, likeness) acting confirms: the robot drives nearer to each and looks; where the detector
+    names it there, its box seen nearer stands in its place. Where it does not, the inference is dropped, in
+    a room with things no detector can name (the one place left, a likeness or a box at 0.02 is as often
+    something else there: a dumbbell taken for an absent toaster, a CD for an absent bowl), and kept as it
+    is where the world is closed (`closed`: everything else depth sees is named, so the one thing left is
+    the one sought, a toaster the detector never names). A robot that cannot drive there keeps them as they
+    are. An answer resting on a kept elimination or likeness says that it is a guess."""
+    if nearer is None or not inferred:
+        return inferred
+    kept: list[Detection] = []
+    for det in inferred:
+        place = next((c for c in candidates if c.box == det.box), Candidate(box=det.box, rise=0.0, pixels=0))
+        seen, visits = nearer(name, [place])
+        report.visits += visits
+        if seen:
+            report.confirmed += 1
+            kept.extend(s.model_copy(update={"label": name}) for s in seen)
+        elif visits == 0:
+            kept.append(det)  # no way there: still an inference
+        elif closed is not None and closed():
+            report.closed += 1
+            kept.append(det)
+        else:
+            report.unconfirmed += 1
+    return kept
+
+
+def _best_of(
+    detector: Detector, frame: Frame, name: str, others: list[str], views: list[tuple[int, int, int, int]]
+) -> list[Detection]:
+    """The best box of each of the `others` names in the image and in `views` (the outputs the find
+    already had). A closed-set detector's names are left out where they reach no one class (a generic
+    word: "object") or the class of `name` ("the red mug" and "the blue mug")."""
+    class_of = getattr(detector, "class_of", None)
+    best = []
+    for other in others:
+        if class_of is not None and class_of(other) in (None, class_of(name)):
+            continue
+        try:  # the find's own looks at the image (its tiles too) and its zoomed views: kept outputs
+            found = detector.detect(frame, [other]) + detect_in_views(detector, frame, [other], views)
+        except InputError:  # a name this detector cannot look for: the program's find will say so
+            continue
+        if found:
+            best.append(max(found, key=lambda d: d.score))
+    return best
+
+
+def carried_back(
+    box: tuple[float, float, float, float], frame: Frame, capture: Capture, first: Capture
+) -> tuple[float, float, float, float] | None:
+    """Where the object in `box` of a frame taken from elsewhere (`capture`) lies in the first image: the
+    nearest surface in the box's middle, placed in the world by depth and odometry and projected into the
+    first image; None without depth or pose there, or where it falls outside the first image."""
+    if frame.depth is None or capture.camera is None or capture.view is None or capture.base is None:
+        return None
+    if first.camera is None or first.view is None or first.base is None:
+        return None
+    surface = nearest_surface(frame.depth, capture.camera, capture.view, box)
+    if surface is None:
+        return None
+    return projected_box(to_base(to_world(surface, capture.base), first.base), first.camera, first.view)
+
+
+def acting_find(detector: Detector, frame: Frame, name: str) -> list[Detection]:
+    """The detections a controller acts on while it servos, reaches and checks: the detector's own `detect`,
+    except for a detector that looks at chosen views (`detect_views`: coco). The controller aims the camera
+    at what it acts on, so that looks at the middle half of the image first, twice as large: where it shows
+    the object whole (a box not cut by the half's edge), that is the answer, one forward pass; else (nothing
+    there, or only a part) the whole image is looked at too, and both answers merged: two passes at most,
+    where tiling the whole image took ten. A faint box whole in the middle is answer enough: the whole image
+    shows the same object no surer and nothing else the controller looks for (of 39 such looks on four bench
+    items, the whole image moved no box out of the middle)."""
+    if getattr(detector, "detect_views", None) is None:
+        return detector.detect(frame, [name])
+    middle = (frame.width // 4, frame.height // 4, frame.width * 3 // 4, frame.height * 3 // 4)
+    found = detect_in_views(detector, frame, [name], [middle])
+    if any(not _cut_by(d.box, middle) for d in found):
+        return found
+    whole = (0, 0, frame.width, frame.height)
+    return detect_in_views(detector, frame, [name], [whole, middle])
+
+
+def _cut_by(box: tuple[float, float, float, float], view: tuple[int, int, int, int]) -> bool:
+    """Whether a box found in `view` reaches its edge (the object may go on past it)."""
+    return at_edge(
+        (box[0] - view[0], box[1] - view[1], box[2] - view[0], box[3] - view[1]),
+        view[2] - view[0],
+        view[3] - view[1],
+    )
