@@ -55,7 +55,8 @@ def test_ask_help_lists_the_registered_worlds_and_one_copy_of_each_flag():
 
 def test_flags_of_settings_and_scene_fields_take_their_type_and_help_from_the_model():
     from attribot import config
-    from attribot.cli import BACKEND_FLAGS, PLANNER_FLAGS, SCENE_FLAGS, _help_text
+    from attribot.cli.flags import BACKEND_FLAGS, PLANNER_FLAGS, SCENE_FLAGS
+    from attribot.cli.output import help_text as _help_text
 
     from_model = 0
     for flag in (*SCENE_FLAGS, *BACKEND_FLAGS, *PLANNER_FLAGS):
