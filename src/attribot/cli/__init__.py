@@ -150,4 +150,3 @@ def main() -> None:
     """Console-script entry point."""
     _survive_any_locale()
     app()
-

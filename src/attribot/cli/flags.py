@@ -4,20 +4,23 @@ from __future__ import annotations
 
 import functools
 import inspect
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
 import typer
+from pydantic import BaseModel
 
+from attribot.config import CommandLine, SceneConfig, Settings
 from attribot.text import comma_names
 
 # ---- option groups: flags that several commands share, each defined once -------------------------------
 
 
 @dataclass(frozen=True)
-class _Flag:
+class Flag:
     """One flag of a group: the parameter name the command sees, its type, and its typer option."""
 
     name: str
@@ -25,40 +28,53 @@ class _Flag:
     option: Any
 
 
-def _flag(name: str, annotation: Any, *decls: str, metavar: str | None = None, **kwargs: Any) -> _Flag:
+def _flag(name: str, annotation: Any, *decls: str, metavar: str | None = None, **kwargs: Any) -> Flag:
     default = kwargs.pop("default", None)
-    return _Flag(name, annotation, typer.Option(default, *decls, metavar=metavar, **kwargs))
+    return Flag(name, annotation, typer.Option(default, *decls, metavar=metavar, **kwargs))
 
 
-def _model_flag(model: str, field: str, annotation: Any, metavar: str) -> _Flag:
-    """The flag of a field of the settings or of a config (`model`: its class in `attribot.config`):
-    `--FIELD`, unset by default (the config's default, or the settings file's), and its help, the field's
-    own description, read when the help is shown (`PlainFlags`: `attribot` starts without the models)."""
-    return _flag(
-        field, annotation, "--" + field.replace("_", "-"), metavar=metavar, help=f"{{{model}.{field}}}"
-    )
+_METAVARS = {int: "INT", float: "NUMBER", str: "TEXT", Path: "PATH"}
+"""The placeholder of a field's value in --help where its `CommandLine` names none."""
 
 
-SCENE_FLAGS = (
-    _model_flag("SceneConfig", "layout", str | None, "NAME"),
-    _model_flag("SceneConfig", "seed", int | None, "INT"),
-    _model_flag("SceneConfig", "objects", int | None, "INT"),
-    _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated object "
-          "categories to draw from, e.g. mug,apple."),
-    _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the world, "
-          "repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the world's config "
-          "elsewhere (--world ai2thor --option scene=FloorPlan7)."),
-    _model_flag("SceneConfig", "width", int | None, "PX"),
-    _model_flag("SceneConfig", "height", int | None, "PX"),
-    _model_flag("SceneConfig", "profile", str | None, "NAME"),
-    _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and "
-          "acting in the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or "
-          "KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
-    _model_flag("SceneConfig", "robot", str | None, "NAME"),
-    _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects the "
-          "detector SPEC can name, e.g. coco (a closed-set detector is asked which catalog categories it "
-          "can find; an open-vocabulary one finds them all)."),
-)  # fmt: skip
+def field_flags(model: type[BaseModel], group: str | None = None) -> tuple[Flag, ...]:
+    """The flags of `model`'s fields (`Settings` or a world's config), in their order: one for each field
+    with a description (in `group`, if given: its `CommandLine.group`), declared nowhere else. `--FIELD`,
+    unset by default (the config's default, or the settings file's, then holds), typed as the field, its
+    help the field's description and its placeholder its `CommandLine.metavar` (`attribot.config`)."""
+    flags = []
+    for name, info in model.model_fields.items():
+        shown = next((m for m in info.metadata if isinstance(m, CommandLine)), CommandLine())
+        if not info.description or group not in (None, shown.group):
+            continue
+        annotation: Any = info.annotation
+        args = [a for a in typing.get_args(annotation) if a is not type(None)] or [annotation]
+        metavar = shown.metavar or _METAVARS.get(args[0], "VALUE")
+        decl = "--" + name.replace("_", "-")
+        flags.append(_flag(name, annotation | None, decl, metavar=metavar, help=info.description))
+    return tuple(flags)
+
+
+_SCENE_OWN = {
+    "categories": _flag("categories", str | None, "--categories", metavar="A,B", help="Comma-separated "
+                        "object categories to draw from, e.g. mug,apple."),
+    "vocabulary": _flag("findable_by", str | None, "--findable-by", metavar="SPEC", help="Draw only objects "
+                        "the detector SPEC can name, e.g. coco (a closed-set detector is asked which catalog "
+                        "categories it can find; an open-vocabulary one finds them all)."),
+    "options": _flag("option", list[str] | None, "--option", metavar="KEY=VALUE", help="A setting of the "
+                     "world, repeatable: a layout option in MuJoCo (pattern=grid, odd=size), a field of the "
+                     "world's config elsewhere (--world ai2thor --option scene=FloorPlan7)."),
+    "noise": _flag("world_noise", str | None, "--world-noise", metavar="SPEC", help="Imperfect sensing and "
+                   "acting in the simulator, seeded: a preset (clean, sensing, acting, realistic) and/or "
+                   "KEY=VALUE pairs, e.g. realistic,slip=0.3 (see attribot.noise.WorldNoise)."),
+}  # fmt: skip
+"""The scene flags whose value the command line reads itself (a comma list, KEY=VALUE pairs, a noise spec, a
+detector's name), under the `SceneConfig` field each fills; every other scene flag is a field's own."""
+
+SCENE_FIELD_FLAGS = field_flags(SceneConfig)
+_SCENE_BY_FIELD = {f.name: f for f in SCENE_FIELD_FLAGS} | _SCENE_OWN
+SCENE_FLAGS = tuple(_SCENE_BY_FIELD[name] for name in SceneConfig.model_fields if name in _SCENE_BY_FIELD)
+"""The scene flags in the order of `SceneConfig`'s fields."""
 WORLD_FLAGS = (
     _flag("world", str | None, "--world", metavar="NAME", help="World to ask in: {worlds} (default mujoco, "
           "the embedded scene; bridge: a robot)."),
@@ -73,27 +89,10 @@ WORLD_FLAGS = (
           "(default; in MuJoCo 'servo', which acts on what the camera and sensors perceive) or 'privileged' "
           "(MuJoCo only: reads the simulator's state to move and grasp, to compare against)."),
 )  # fmt: skip
-
-
-BACKEND_FLAGS = (
-    _model_flag("Settings", "detector", str | None, "SPEC"),
-    _model_flag("Settings", "vqa", str | None, "SPEC"),
-    _model_flag("Settings", "language", str | None, "SPEC"),
-    _model_flag("Settings", "checks", str | None, "NAMES"),
-    _model_flag("Settings", "strategies", str | None, "NAMES"),
-    _model_flag("Settings", "program_wall_s", float | None, "SECONDS"),
-    _model_flag("Settings", "priors_scale", float | None, "FACTOR"),
-)
-PLANNER_FLAGS = (
-    _model_flag("Settings", "planner", str | None, "NAME"),
-    _model_flag("Settings", "llm_base_url", str | None, "URL"),
-    _model_flag("Settings", "llm_model", str | None, "NAME"),
-    _model_flag("Settings", "prompt", str | None, "NAME"),
-    _model_flag("Settings", "llm_timeout_s", float | None, "SECONDS"),
-    _model_flag("Settings", "llm_max_tokens", int | None, "TOKENS"),
-    _model_flag("Settings", "llm_retries", int | None, "N"),
-    _model_flag("Settings", "llm_max_tries", int | None, "N"),
-)
+BACKEND_FLAGS = field_flags(Settings, "run")
+"""The settings of a run (backends, checks, time limit, priors), from `Settings`."""
+PLANNER_FLAGS = field_flags(Settings, "planner")
+"""The planner's settings, from `Settings`."""
 OUTPUT_FLAGS = (
     _flag("as_json", bool, "--json", default=False, help="Print the whole answer as JSON."),
     _flag("save", Path | None, "--save", metavar="DIR", help="Keep the answer there: answer.json, "
@@ -106,9 +105,7 @@ _FLAG_OF = {
     for group in (SCENE_FLAGS, WORLD_FLAGS, BACKEND_FLAGS, PLANNER_FLAGS)
     for f in group
 }
-_FLAG_OF.update(
-    {"options": "--option", "noise": "--world-noise", "url": "--bridge-url", "vocabulary": "--findable-by"}
-)
+_FLAG_OF.update({field: f.option.param_decls[0] for field, f in _SCENE_OWN.items()}, url="--bridge-url")
 
 
 def flag_name(field: str) -> str:
@@ -127,19 +124,19 @@ def flag_naming() -> Any:
     return FieldNaming(flag_name, flag_example)
 
 
-def only(group: tuple[_Flag, ...], *names: str) -> tuple[_Flag, ...]:
+def only(group: tuple[Flag, ...], *names: str) -> tuple[Flag, ...]:
     """The flags of `group` named `names`, in the group's order; a name the group lacks is a bug here."""
     unknown = set(names) - {f.name for f in group}
     assert not unknown, f"no such flags: {sorted(unknown)}"
     return tuple(f for f in group if f.name in names)
 
 
-def without(group: tuple[_Flag, ...], *names: str) -> tuple[_Flag, ...]:
+def without(group: tuple[Flag, ...], *names: str) -> tuple[Flag, ...]:
     """The flags of `group` but those named `names`."""
     return only(group, *(f.name for f in group if f.name not in names))
 
 
-def with_flags(*groups: tuple[_Flag, ...]) -> Any:
+def with_flags(*groups: tuple[Flag, ...]) -> Any:
     """Add the flags of `groups` to a command; the command receives them together as `given`."""
 
     def decorate(fn: Any) -> Any:
@@ -179,29 +176,14 @@ def _checks(spec: str | None) -> str | None:
 
 
 def settings_of(given: Any) -> Any:
-    """The settings of the backend and planner flags, over the settings file and ATTRIBOT_* variables."""
+    """The settings of the backend and planner flags (those of the command's groups that were given), over the
+    settings file and ATTRIBOT_* variables."""
     from attribot.config import load_settings
 
-    names = (
-        "detector",
-        "vqa",
-        "language",
-        "program_wall_s",
-        "priors_scale",
-        "strategies",
-        "planner",
-        "llm_base_url",
-        "llm_model",
-        "prompt",
-        "llm_timeout_s",
-        "llm_max_tokens",
-        "llm_retries",
-        "llm_max_tries",
-    )
     return load_settings(
         naming=flag_naming(),
         checks=_checks(given_value(given, "checks")),
-        **{n: given_value(given, n) for n in names},
+        **{f.name: given_value(given, f.name) for f in field_flags(Settings) if f.name != "checks"},
     )
 
 

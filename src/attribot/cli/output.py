@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,29 +16,23 @@ from typer.core import TyperCommand, TyperGroup
 
 class PlainFlags:
     """In --help, a plain flag (--json, --help) shows no value type: it takes none; and a help text's
-    `{worlds}` and `{MODEL.FIELD}` are read when the help is shown, not when `attribot` starts
-    (`help_text`)."""
+    `{worlds}` is read when the help is shown, after the plug-ins that add worlds (`help_text`)."""
 
     def get_params(self, ctx: Any) -> list[Any]:
         params: list[Any] = super().get_params(ctx)  # type: ignore[misc]
         for param in params:
             if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
                 param.metavar = ""
-            if "{" in (getattr(param, "help", None) or ""):
+            if "{worlds}" in (getattr(param, "help", None) or ""):
                 param.help = help_text(param.help)
         return params
 
 
 def help_text(text: str) -> str:
-    """A help text with `{worlds}` (the registered worlds) and `{MODEL.FIELD}` (a field's description in
-    `attribot.config`) filled in."""
-    from attribot import config
+    """A help text with `{worlds}` (the registered worlds) filled in."""
+    from attribot.config import WORLD_CONFIGS
 
-    text = text.replace("{worlds}", ", ".join(config.WORLD_CONFIGS.names()))
-    return _MODEL_FIELD.sub(lambda m: str(getattr(config, m[1]).model_fields[m[2]].description), text)
-
-
-_MODEL_FIELD = re.compile(r"\{(\w+)\.(\w+)\}")
+    return text.replace("{worlds}", ", ".join(WORLD_CONFIGS.names()))
 
 
 class Command(PlainFlags, TyperCommand):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from attribot.cli.flags import flag_example, flag_name, flag_naming, given_value
+from attribot.cli.flags import SCENE_FIELD_FLAGS, flag_example, flag_name, flag_naming, given_value
 from attribot.cli.output import fail, prefetch_rendering
 from attribot.text import comma_names
 
@@ -38,10 +38,7 @@ def scene_fields(given: Any) -> dict[str, Any]:
         raise fail(
             "--categories names no category", "give comma-separated names, e.g. --categories mug,apple"
         )
-    fields = {
-        name: given_value(given, name)
-        for name in ("layout", "seed", "objects", "width", "height", "profile", "robot")
-    }
+    fields = {f.name: given_value(given, f.name) for f in SCENE_FIELD_FLAGS}
     fields["categories"] = names
     if given_value(given, "findable_by") is not None:
         fields["vocabulary"] = findable_vocabulary(given.findable_by)
