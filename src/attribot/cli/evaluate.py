@@ -75,13 +75,13 @@ def evaluate(
     given: Any = None,
 ) -> None:
     """Run the suite's methods on its items; resumes a stopped run, refuses one made with other settings."""
-    from attribot.eval.methods import ablations
+    from attribot.eval.methods import Condition, ablations
     from attribot.eval.run import EvalPlan
 
     plan = EvalPlan(
         tasks=tuple(suite_tasks(suite, tasks)),
         methods=tuple(comma_names(methods)) if methods else None,
-        noise=tuple(comma_names(noise)) + (ablations() if ablation else ()),
+        noise=tuple(Condition.parse(name) for name in comma_names(noise)) + (ablations() if ablation else ()),
         limit=limit,
         findable_by=findable_by,
         seed=seed,
