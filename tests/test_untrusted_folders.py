@@ -21,7 +21,8 @@ from attribot.config import SceneConfig, load_settings
 from attribot.errors import AttribotError
 from attribot.noise import PerceptionNoise
 from attribot.planning.answer import Answer
-from attribot.session import Scene, load_saved, save_answer
+from attribot.saved_runs import save_answer
+from attribot.session import Scene, load_saved
 from conftest import serve_chat_replies
 
 KEY = "sk-never-leaves-0123456789"

@@ -489,7 +489,7 @@ class _WorldConfig(BaseModel):
     WHAT: ClassVar[str] = "world"
     REACHES_OUT: ClassVar[str | None] = None
     """What building this world does beyond this process (None: nothing): a saved folder naming such a
-    world is replayed only with trust (`attribot.session.TRUST_SAVED`)."""
+    world is replayed only with trust (`attribot.saved_runs.TRUST_SAVED`)."""
 
     def __init__(self, **fields: Any) -> None:
         try:

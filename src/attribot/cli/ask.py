@@ -153,7 +153,7 @@ def exec_program(
 ) -> None:
     """Run a given program through the same runner and world as `ask`: to replay, debug or hand-write one. A
     --save folder (or its program.py, with no scene flags) runs with the scene and settings saved there."""
-    from attribot.session import RUN_FILE
+    from attribot.saved_runs import RUN_FILE
 
     with _errors_as_json(given.as_json, query, "file"):
         flags = [
@@ -194,14 +194,16 @@ def exec_program(
 
 def _file_run(program: Path, query: str, given: Any) -> Any:
     scene = query_scene(given)
-    from attribot.session import read_program, run_program
+    from attribot.saved_runs import read_program
+    from attribot.session import run_program
 
     source = read_program(program)
     return run_program(source, scene, settings_of(given), query=query, save_dir=given.save)
 
 
 def _saved_scene_run(program: Path, query: str, save: Path | None, trusted: bool) -> Any:
-    from attribot.session import load_saved, read_program, run_program
+    from attribot.saved_runs import read_program
+    from attribot.session import load_saved, run_program
 
     _, scene, settings, saved_query = load_saved(program.parent, trust_saved_backends=trusted)
     source = read_program(program)
