@@ -133,7 +133,7 @@ def test_the_folders_own_offline_choices_are_replayed_as_saved(tmp_path, empty_s
     _, _, settings, _ = load_saved(folder)
     assert (settings.detector, settings.checks, settings.program_wall_s) == (
         "oracle?miss=0.2&seed=3",
-        "none",
+        (),
         12.5,
     )
     assert settings.perception_noise == PerceptionNoise(preset="realistic", seed=7)

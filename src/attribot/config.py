@@ -30,9 +30,11 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Discriminator,
     Field,
+    PlainSerializer,
     SecretStr,
     Tag,
     ValidationError,
@@ -116,6 +118,32 @@ class CommandLine:
 
     metavar: str | None = None
     group: str = "run"
+
+
+def _read_checks(value: Any) -> Any:
+    """The mechanisms `checks` names: text as `--checks` and the settings file write it ("all,-reset"),
+    read here once, or mechanisms already chosen in code (a run condition's)."""
+    if isinstance(value, tuple | frozenset | set) and all(isinstance(m, Mechanism) for m in value):
+        return tuple(m for m in Mechanism if m in value)
+    if not isinstance(value, str):
+        raise ValueError("give the checks as text: all, none, or comma-separated names")
+    if len(value) > MAX_TEXT_SETTING_CHARS:
+        raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
+    try:
+        return parse_checks(value)
+    except InputError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def _checks_text(mechanisms: tuple[Mechanism, ...]) -> str:
+    """The checks as a settings file and a saved run write them: all, none, or the names."""
+    return "all" if set(mechanisms) == set(Mechanism) else ",".join(mechanisms) or "none"
+
+
+Checks = Annotated[
+    tuple[Mechanism, ...], BeforeValidator(_read_checks), PlainSerializer(_checks_text, return_type=str)
+]
+"""The error-catching mechanisms switched on, in their order: typed in a run, written as text."""
 
 
 def _numeric(annotation: Any) -> bool:
@@ -215,8 +243,8 @@ class Settings(BaseSettings):
     remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     # the mechanisms that catch perception and action errors (attribot.api.safeguards)
-    checks: Annotated[str, CommandLine("NAMES")] = Field(
-        "all",
+    checks: Annotated[Checks, CommandLine("NAMES")] = Field(
+        "all",  # type: ignore[arg-type]  # text, read by `Checks` as every other source's
         description="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
         "remeasure, confidence, reset); all,-NAME leaves one out.",
     )
@@ -264,21 +292,12 @@ class Settings(BaseSettings):
         return plain_input(cls, info.field_name, value)
 
     @field_validator(
-        "detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "checks", "strategies"
+        "detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "strategies"
     )
     @classmethod
     def _short_text(cls, value: str) -> str:
         if len(value) > MAX_TEXT_SETTING_CHARS:
             raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
-        return value
-
-    @field_validator("checks")
-    @classmethod
-    def _known_checks(cls, value: str) -> str:
-        try:
-            parse_checks(value)
-        except InputError as exc:
-            raise ValueError(str(exc)) from None
         return value
 
     @field_validator("strategies")
@@ -292,7 +311,7 @@ class Settings(BaseSettings):
     @property
     def mechanisms(self) -> frozenset[Mechanism]:
         """The error-catching mechanisms `checks` switches on."""
-        return frozenset(parse_checks(self.checks))
+        return frozenset(self.checks)
 
     @field_validator("llm_base_url")
     @classmethod

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import inspect
+import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,8 @@ _METAVARS = {int: "INT", float: "NUMBER", str: "TEXT", Path: "PATH"}
 def field_flags(model: type[BaseModel], group: str | None = None) -> tuple[Flag, ...]:
     """The flags of `model`'s fields (`Settings` or a world's config), in their order: one for each field
     with a description (in `group`, if given: its `CommandLine.group`), declared nowhere else. `--FIELD`,
-    unset by default (the config's default, or the settings file's, then holds), typed as the field, its
+    unset by default (the config's default, or the settings file's, then holds), typed as the field where
+    it is a number, text or a path (else it takes text, which the field reads: `--checks all,-reset`), its
     help the field's description and its placeholder its `CommandLine.metavar` (`attribot.config`)."""
     flags = []
     for name, info in model.model_fields.items():
@@ -48,8 +50,11 @@ def field_flags(model: type[BaseModel], group: str | None = None) -> tuple[Flag,
         if not info.description or group not in (None, shown.group):
             continue
         annotation: Any = info.annotation
-        args = [a for a in typing.get_args(annotation) if a is not type(None)] or [annotation]
-        metavar = shown.metavar or _METAVARS.get(args[0], "VALUE")
+        union = typing.get_origin(annotation) in (typing.Union, types.UnionType)
+        args = [a for a in (typing.get_args(annotation) if union else [annotation]) if a is not type(None)]
+        if len(args) != 1 or args[0] not in _METAVARS:
+            annotation, args = str, [str]
+        metavar = shown.metavar or _METAVARS[args[0]]
         decl = "--" + name.replace("_", "-")
         flags.append(_flag(name, annotation | None, decl, metavar=metavar, help=info.description))
     return tuple(flags)
@@ -166,13 +171,14 @@ def given_value(given: Any, name: str) -> Any:
     return getattr(given, name, None)
 
 
-def _checks(spec: str | None) -> str | None:
-    """`--checks` checked now (an unknown name is a usage error before any world is built)."""
+def _checks(spec: str | None) -> tuple[Any, ...] | None:
+    """The mechanisms `--checks` names, read now, once (an unknown name is a usage error before any world
+    is built); the settings take them as they are."""
     if spec is None:
         return None
     from attribot.mechanisms import parse_checks
 
-    return ",".join(parse_checks(spec)) or "none"
+    return parse_checks(spec)
 
 
 def settings_of(given: Any) -> Any:

@@ -110,9 +110,9 @@ class Condition:
         return f"{base}{_PRIORS}{self.priors_scale:g}" if self.priors_scale != 1.0 else base
 
     @property
-    def checks(self) -> str:
-        """The `--checks` spec of the condition: all mechanisms, or all but the one left off."""
-        return f"all,-{self.without}" if self.without else "all"
+    def mechanisms(self) -> tuple[Mechanism, ...]:
+        """The mechanisms on under the condition: all, or all but the one left off."""
+        return tuple(m for m in Mechanism if m != self.without)
 
     @property
     def ablation(self) -> bool:
@@ -123,7 +123,7 @@ class Condition:
         """`settings` for one item under this condition: its preset's perception noise on the oracle
         backends, drawn from the item's `seed` (a clean preset adds none), its mechanisms (an ablation
         leaves one out) and its priors' scale (a scaled condition's, else the settings' own)."""
-        update: dict[str, Any] = {"checks": self.checks} if self.without is not None else {}
+        update: dict[str, Any] = {"checks": self.mechanisms} if self.without is not None else {}
         if self.priors_scale != 1.0:
             update["priors_scale"] = self.priors_scale
         if self.preset != "clean":
