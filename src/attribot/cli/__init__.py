@@ -1,6 +1,7 @@
 """The `attribot` command: the typer app, one module per command beside this one.
 
-Commands import their layers lazily so that `attribot --help` stays fast. Every `AttribotError` ends the
+Commands import their layers lazily so that `attribot --help` stays fast; only the configs are read at
+start, since the flags derive from them (`attribot.cli.flags`). Every `AttribotError` ends the
 command with its message and fix on stderr and exit code 2 (in `_Commands.invoke`, the one place that
 converts them); nothing prints a traceback at a user. The modules named in `ATTRIBOT_PLUGINS` are imported
 before any command runs: a lab's own sensors, worlds or layouts register themselves there.
