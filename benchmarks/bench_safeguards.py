@@ -14,7 +14,7 @@ import statistics
 
 from attribot.config import load_settings
 from attribot.eval.datasets import build_items
-from attribot.eval.methods import run_method
+from attribot.eval.methods import Condition, run_method
 
 
 def main() -> None:
@@ -25,9 +25,9 @@ def main() -> None:
     items = build_items(args.tasks.split(","), args.limit)
     settings = load_settings()
     conditions = {
-        "clean": (settings, "clean"),
-        "realistic": (settings, "realistic"),
-        "realistic, checks none": (settings.model_copy(update={"checks": "none"}), "realistic"),
+        "clean": (settings, Condition("clean")),
+        "realistic": (settings, Condition("realistic")),
+        "realistic, checks none": (settings.model_copy(update={"checks": ()}), Condition("realistic")),
     }
     print(f"{len(items)} items ({args.tasks}), pa-api; wall seconds per item (mean, median), accuracy")
     means = {}

@@ -101,7 +101,7 @@ def test_save_paths_that_cannot_take_an_answer(tmp_path, monkeypatch):
 
 def test_saved_files_are_whole(tmp_path):
     from attribot.planning.answer import Answer
-    from attribot.session import save_answer
+    from attribot.saved_runs import save_answer
 
     answer = Answer(query="q", answer="a", planner="rules", backends={}, attempts=1, program="x = 1\n")
     written = save_answer(answer, tmp_path / "run")

@@ -5,9 +5,10 @@ coming from the registered configs (issue 19)."""
 from __future__ import annotations
 
 import json
-import re
+from types import SimpleNamespace
 
 import pytest
+import typer
 from typer.testing import CliRunner
 
 from attribot.cli import app
@@ -53,25 +54,68 @@ def test_ask_help_lists_the_registered_worlds_and_one_copy_of_each_flag():
     } <= set(flags)
 
 
-def test_flags_of_settings_and_scene_fields_take_their_type_and_help_from_the_model():
-    from attribot import config
-    from attribot.cli import BACKEND_FLAGS, PLANNER_FLAGS, SCENE_FLAGS, _help_text
+def test_flags_of_settings_and_scene_fields_take_their_name_type_and_help_from_the_model():
+    from attribot.cli.flags import BACKEND_FLAGS, PLANNER_FLAGS, SCENE_FLAGS
+    from attribot.config import SceneConfig, Settings
 
     from_model = 0
     for flag in (*SCENE_FLAGS, *BACKEND_FLAGS, *PLANNER_FLAGS):
-        match = re.fullmatch(r"\{(\w+)\.(\w+)\}", flag.option.help)
-        if match is None:  # a flag the CLI shapes itself (--option, --world-noise, --findable-by)
+        model = Settings if flag.name in Settings.model_fields else SceneConfig
+        field = model.model_fields.get(flag.name)
+        if field is None or not field.description:  # a flag the CLI reads itself (--option, --world-noise)
             continue
         from_model += 1
-        field = getattr(config, match[1]).model_fields[match[2]]
-        assert flag.name == match[2] and flag.annotation == field.annotation | None
-        assert field.description and _help_text(flag.option.help) == field.description
-    assert (
-        from_model == 22
-    )  # every backend and planner flag (four of the LLM request, the priors' scale), the scene's own
+        assert flag.option.param_decls == ("--" + flag.name.replace("_", "-"),)
+        typed = field.annotation in (int, float, str) or field.annotation in (int | None, str | None)
+        assert flag.annotation == (field.annotation if typed else str) | None  # --checks: text it reads
+        assert flag.option.default is None
+        assert flag.option.help == field.description
+    described = [n for m in (Settings, SceneConfig) for n, f in m.model_fields.items() if f.description]
+    assert from_model == len(described) == 22  # every described field is a flag, and only those
     text = " ".join(_invoke(["ask", "-h"]).output.replace("│", " ").split())
-    assert "{Settings" not in text and "{SceneConfig" not in text
     assert "Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)." in text
+
+
+def test_a_new_described_setting_is_a_flag_with_no_second_declaration(monkeypatch):
+    # a setting is declared once: a field with a description in the settings is a flag of the commands
+    # that take settings, its name, help and type the field's, and its value reaches the settings
+    from typing import Annotated
+
+    from pydantic import Field
+
+    from attribot.cli.flags import field_flags, settings_of, with_flags
+    from attribot.cli.output import Command
+    from attribot.config import CommandLine, Settings
+
+    class MoreSettings(Settings):
+        extra_knob_s: Annotated[float, CommandLine("SECONDS")] = Field(
+            1.5, gt=0, description="A knob added after the command was written."
+        )
+        quiet_knob: int = 3  # no description: no flag
+
+    flags = field_flags(MoreSettings, "run")
+    assert [f.name for f in flags][-1] == "extra_knob_s" and "quiet_knob" not in [f.name for f in flags]
+    seen = {}
+    one = typer.Typer()
+
+    @one.command(cls=Command)
+    @with_flags(flags)
+    def run(given=None):
+        seen["given"] = vars(given)
+
+    @one.command(cls=Command)
+    def other():  # a second command, so that typer keeps `run` as a subcommand
+        pass
+
+    help_text = " ".join(CliRunner().invoke(one, ["run", "--help"]).output.replace("│", " ").split())
+    assert "--extra-knob-s SECONDS A knob added after the command was written." in help_text
+    assert CliRunner().invoke(one, ["run", "--extra-knob-s", "2.5"]).exit_code == 0
+    assert seen["given"]["extra_knob_s"] == 2.5 and seen["given"]["detector"] is None
+    # and the run's settings take it from the flag like any other: the settings_of names come from the model
+    monkeypatch.setattr("attribot.cli.flags.Settings", MoreSettings)
+    monkeypatch.setattr("attribot.config.Settings", MoreSettings)
+    settings = settings_of(SimpleNamespace(**seen["given"]))
+    assert settings.extra_knob_s == 2.5 and settings.quiet_knob == 3
 
 
 def test_a_missing_image_is_said_as_such_with_its_path(tmp_path, empty_settings):

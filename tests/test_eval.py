@@ -25,7 +25,7 @@ from attribot.eval.datasets import (
     scene_info,
     write_dataset,
 )
-from attribot.eval.methods import paper_methods, run_method
+from attribot.eval.methods import Condition, paper_methods, run_method
 from attribot.eval.report import summarize, wilson, write_report
 from attribot.eval.run import EvalPlan, read_records, run_eval
 from attribot.eval.suite import task_names
@@ -135,8 +135,8 @@ def test_methods_give_records_with_their_failures_categorised(small_items):
 def test_realistic_noise_is_drawn_from_the_item_seed(small_items):
     settings = load_settings(detector="oracle", vqa="oracle", language="catalog")
     item = next(i for i in small_items if i.task == "weight_image")
-    a = run_method(item, "ovd", settings, "realistic")
-    b = run_method(item, "ovd", settings, "realistic")
+    a = run_method(item, "ovd", settings, Condition("realistic"))
+    b = run_method(item, "ovd", settings, Condition("realistic"))
     assert (a.box, a.status) == (b.box, b.status)
 
 

@@ -14,7 +14,7 @@ from attribot.control.base import build_controller
 from attribot.control.candidates import Candidate
 from attribot.embodiments.mujoco import MujocoWorld
 from attribot.eval.datasets import Item
-from attribot.eval.methods import _record
+from attribot.eval.methods import CLEAN, _record
 from attribot.frame import Frame
 from attribot.models.base import Detection, evidence_of
 from attribot.planning.answer import AnswerObject, _guessed, _last_measurement
@@ -248,9 +248,9 @@ def _absent_item() -> Item:
 
 def test_a_question_about_an_absent_object_is_right_only_when_no_object_is_named():
     item = _absent_item()
-    refused = _record(item, "pa-api", "clean", error="no toaster found in the image")
-    named = _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], answer="the toaster at ...")
-    guessed = _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True)
+    refused = _record(item, "pa-api", CLEAN, error="no toaster found in the image")
+    named = _record(item, "pa-api", CLEAN, box=[1.0, 2.0, 30.0, 40.0], answer="the toaster at ...")
+    guessed = _record(item, "pa-api", CLEAN, box=[1.0, 2.0, 30.0, 40.0], guess=True)
     assert refused.right and refused.status == "right"
     assert not named.right and named.status == "wrong" and named.confidently_wrong
     assert guessed.status == "wrong" and not guessed.confidently_wrong
@@ -261,9 +261,9 @@ def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_gues
 
     item = _absent_item()
     records = [
-        _record(item, "pa-api", "clean", error="no toaster found in the image"),
-        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0]),
-        _record(item, "pa-api", "clean", box=[1.0, 2.0, 30.0, 40.0], guess=True),
+        _record(item, "pa-api", CLEAN, error="no toaster found in the image"),
+        _record(item, "pa-api", CLEAN, box=[1.0, 2.0, 30.0, 40.0]),
+        _record(item, "pa-api", CLEAN, box=[1.0, 2.0, 30.0, 40.0], guess=True),
     ]
     (row,) = summarize(records)
     assert (row["n"], row["right"], row["refused"], row["wrong_guess"], row["confidently_wrong"]) == (

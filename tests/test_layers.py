@@ -39,6 +39,7 @@ LEVELS: list[set[str]] = [
     {"api"},
     {"runner"},
     {"planning"},
+    {"saved_runs"},  # what --save writes, read back for a replay, and what a saved folder may choose
     {"session"},  # the composition root: wires world, controller, recorder, backends and runner
     {"eval", "server"},
     {"cli", "demo", "__init__"},  # the command line, the web demo and the package's own names (ask, ...)

@@ -138,7 +138,8 @@ def test_a_folder_without_a_program_is_refused_saying_so(tmp_path, empty_setting
 def test_a_still_image_is_copied_into_the_save_folder_for_its_replay(tmp_path, empty_settings):
     from PIL import Image
 
-    from attribot.session import Scene, load_saved, save_answer
+    from attribot.saved_runs import save_answer
+    from attribot.session import Scene, load_saved
 
     photo = tmp_path / "photo.png"
     Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(photo)

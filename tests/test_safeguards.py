@@ -81,7 +81,7 @@ def test_checks_parse_and_refuse_unknown_names():
     with pytest.raises(InputError, match="unknown check"):
         parse_checks("all,-telepathy")
     reset_off = Condition.parse("realistic-no-reset")
-    assert (reset_off.preset, reset_off.checks) == ("realistic", "all,-reset")
+    assert (reset_off.preset, set(reset_off.mechanisms)) == ("realistic", set(MECHANISMS) - {"reset"})
     assert len(ablations()) == len(MECHANISMS)
     with pytest.raises(InputError):
         Condition.parse("realistic-no-telepathy")
@@ -90,10 +90,10 @@ def test_checks_parse_and_refuse_unknown_names():
 def test_a_run_condition_is_typed_and_names_itself_as_records_do():
     ablated = Condition.parse("realistic-no-remeasure")
     assert (ablated.preset, ablated.without, ablated.ablation) == ("realistic", "remeasure", True)
-    assert ablated.name == "realistic-no-remeasure" and ablated.checks == "all,-remeasure"
+    assert ablated.name == "realistic-no-remeasure" and "remeasure" not in ablated.mechanisms
     plain = Condition("clean")
-    assert plain.name == "clean" and plain.checks == "all" and not plain.ablation
-    assert [Condition.parse(n).without for n in ablations()] == list(MECHANISMS)
+    assert plain.name == "clean" and plain.mechanisms == tuple(Mechanism) and not plain.ablation
+    assert [c.without for c in ablations()] == list(MECHANISMS)
     for bad in ("noisy", "realistic-no-", "-no-remeasure", "realistic-no-remeasure-no-reset"):
         with pytest.raises(InputError, match="unknown noise level"):
             Condition.parse(bad)
@@ -109,7 +109,8 @@ def test_a_condition_with_scaled_priors_names_itself_and_sets_them(name, scale, 
     assert condition.ablation  # beside its preset in the ablation table, never mixed into its records
     settings = condition.settings_for(Settings(), seed=3)
     assert settings.priors_scale == scale
-    assert settings.checks == ("all" if without is None else f"all,-{without}")
+    assert settings.checks == tuple(m for m in Mechanism if m != without)
+    assert settings.public_dict()["checks"] == ("all" if without is None else ",".join(settings.checks))
     assert Condition.parse("clean").settings_for(Settings(), 3).priors_scale == 1.0
 
 

@@ -21,7 +21,8 @@ from attribot.config import SceneConfig, load_settings
 from attribot.errors import AttribotError
 from attribot.noise import PerceptionNoise
 from attribot.planning.answer import Answer
-from attribot.session import Scene, load_saved, save_answer
+from attribot.saved_runs import save_answer
+from attribot.session import Scene, load_saved
 from conftest import serve_chat_replies
 
 KEY = "sk-never-leaves-0123456789"
@@ -132,7 +133,7 @@ def test_the_folders_own_offline_choices_are_replayed_as_saved(tmp_path, empty_s
     _, _, settings, _ = load_saved(folder)
     assert (settings.detector, settings.checks, settings.program_wall_s) == (
         "oracle?miss=0.2&seed=3",
-        "none",
+        (),
         12.5,
     )
     assert settings.perception_noise == PerceptionNoise(preset="realistic", seed=7)

@@ -24,14 +24,17 @@ import types
 import typing
 import urllib.parse
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Discriminator,
     Field,
+    PlainSerializer,
     SecretStr,
     Tag,
     ValidationError,
@@ -78,6 +81,7 @@ __all__ = [
     "plain_input",
     "revealed",
     "PROMPTS",
+    "CommandLine",
 ]
 
 MAX_QUERY_CHARS = 500
@@ -101,6 +105,45 @@ MAX_SETTINGS_BYTES = 1_000_000
 MAX_SECRET_CHARS = 4096
 MAX_TEXT_SETTING_CHARS = 4096
 """The longest text setting (a URL, a model name, a backend spec): longer ones are no such thing."""
+
+
+@dataclass(frozen=True)
+class CommandLine:
+    """How a described field shows on the command line. Every field of `Settings` and `SceneConfig` with a
+    description is a flag of the commands that take it (`attribot.cli.flags.field_flags`): `--FIELD-NAME`,
+    unset by default (the settings file's or the config's default then holds), its help the description.
+    This marker, in the field's `Annotated` metadata, adds what the field itself cannot say: the placeholder
+    of its value in --help (default: from its type), and for a setting its group, `run` or `planner`
+    (`attribot exec` runs a given program and takes no planner flag)."""
+
+    metavar: str | None = None
+    group: str = "run"
+
+
+def _read_checks(value: Any) -> Any:
+    """The mechanisms `checks` names: text as `--checks` and the settings file write it ("all,-reset"),
+    read here once, or mechanisms already chosen in code (a run condition's)."""
+    if isinstance(value, tuple | frozenset | set) and all(isinstance(m, Mechanism) for m in value):
+        return tuple(m for m in Mechanism if m in value)
+    if not isinstance(value, str):
+        raise ValueError("give the checks as text: all, none, or comma-separated names")
+    if len(value) > MAX_TEXT_SETTING_CHARS:
+        raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
+    try:
+        return parse_checks(value)
+    except InputError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def _checks_text(mechanisms: tuple[Mechanism, ...]) -> str:
+    """The checks as a settings file and a saved run write them: all, none, or the names."""
+    return "all" if set(mechanisms) == set(Mechanism) else ",".join(mechanisms) or "none"
+
+
+Checks = Annotated[
+    tuple[Mechanism, ...], BeforeValidator(_read_checks), PlainSerializer(_checks_text, return_type=str)
+]
+"""The error-catching mechanisms switched on, in their order: typed in a run, written as text."""
 
 
 def _numeric(annotation: Any) -> bool:
@@ -128,18 +171,28 @@ class Settings(BaseSettings):
     )
 
     # perception backends, one spec per role
-    detector: str = Field(
+    detector: Annotated[str, CommandLine("SPEC")] = Field(
         "oracle", description="Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)."
     )
-    vqa: str = Field("oracle", description="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL).")
-    language: str = Field("catalog", description="Language backend spec (catalog, openai:MODEL, remote:URL).")
+    vqa: Annotated[str, CommandLine("SPEC")] = Field(
+        "oracle", description="VQA backend spec (oracle, hf:MODEL, openai:MODEL, remote:URL)."
+    )
+    language: Annotated[str, CommandLine("SPEC")] = Field(
+        "catalog", description="Language backend spec (catalog, openai:MODEL, remote:URL)."
+    )
 
     # planner and the OpenAI-compatible endpoint it (and openai: backends) talk to
-    planner: str = Field("rules", description="rules (offline, default) or llm.")
-    llm_base_url: str | None = Field(None, description="OpenAI-compatible endpoint.")
-    llm_model: str = Field("gpt-4o", description="Model name at that endpoint.")
+    planner: Annotated[str, CommandLine("NAME", "planner")] = Field(
+        "rules", description="rules (offline, default) or llm."
+    )
+    llm_base_url: Annotated[str | None, CommandLine("URL", "planner")] = Field(
+        None, description="OpenAI-compatible endpoint."
+    )
+    llm_model: Annotated[str, CommandLine("NAME", "planner")] = Field(
+        "gpt-4o", description="Model name at that endpoint."
+    )
     llm_api_key: SecretStr | None = Field(default=None, repr=False)  # see SECRETS
-    llm_timeout_s: float = Field(
+    llm_timeout_s: Annotated[float, CommandLine("SECONDS", "planner")] = Field(
         300.0,
         gt=0,
         le=MAX_TIME_S,
@@ -147,21 +200,21 @@ class Settings(BaseSettings):
         description="Seconds one request to the LLM endpoint may take (a local model's first request reads "
         "the whole prompt: minutes on a CPU); a request that times out is not sent again.",
     )
-    llm_max_tokens: int = Field(
+    llm_max_tokens: Annotated[int, CommandLine("TOKENS", "planner")] = Field(
         2048,
         ge=0,
         le=1_000_000,
         description="The longest reply asked of the LLM, in tokens (sent as max_tokens; 2048 holds a "
         "program with room to spare); 0 sends none, and the server decides.",
     )
-    llm_retries: int = Field(
+    llm_retries: Annotated[int, CommandLine("N", "planner")] = Field(
         2,
         ge=0,
         le=10,
         description="Times a request to the LLM endpoint is sent again where the server did no work for it "
         "(no connection, 429, 5xx); never after a timeout. The client library's own retries are off.",
     )
-    llm_max_tries: int = Field(
+    llm_max_tries: Annotated[int, CommandLine("N", "planner")] = Field(
         3,
         ge=1,
         le=100,
@@ -170,7 +223,7 @@ class Settings(BaseSettings):
     )
     llm_temperature: float = Field(0.0, ge=0, le=2, allow_inf_nan=False)
     # the prompt the LLM planner shows (PROMPTS): recorded with every answer and evaluation record
-    prompt: str = Field(
+    prompt: Annotated[str, CommandLine("NAME", "planner")] = Field(
         "attribot",
         description="The prompt the llm planner shows: attribot (default; generated from the API) or paper "
         "(the structure of the paper authors' released prompt).",
@@ -190,12 +243,12 @@ class Settings(BaseSettings):
     remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
     # the mechanisms that catch perception and action errors (attribot.api.safeguards)
-    checks: str = Field(
-        "all",
+    checks: Annotated[Checks, CommandLine("NAMES")] = Field(
+        "all",  # type: ignore[arg-type]  # text, read by `Checks` as every other source's
         description="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
         "remeasure, confidence, reset); all,-NAME leaves one out.",
     )
-    strategies: str = Field(
+    strategies: Annotated[str, CommandLine("NAMES")] = Field(
         "",
         description="Registered strategies (attribot.api.safeguards.STRATEGIES, from a plug-in) to use in "
         "place of their mechanisms' own, comma-separated names (default: none).",
@@ -203,7 +256,7 @@ class Settings(BaseSettings):
     # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and
     # the item's seed); None: only what their specs ask for (`oracle?noise=realistic`)
     perception_noise: PerceptionNoise | None = None
-    priors_scale: float = Field(
+    priors_scale: Annotated[float, CommandLine("FACTOR")] = Field(
         1.0,
         ge=PRIORS_SCALE[0],
         le=PRIORS_SCALE[1],
@@ -212,7 +265,7 @@ class Settings(BaseSettings):
         f"(attribot.priors) by this factor, {PRIORS_SCALE[0]} to {PRIORS_SCALE[1]} (default 1: the table as "
         "written), for an ablation on how much they lean on those numbers.",
     )
-    program_wall_s: float = Field(
+    program_wall_s: Annotated[float, CommandLine("SECONDS")] = Field(
         60.0,
         gt=0,
         le=MAX_TIME_S,
@@ -239,21 +292,12 @@ class Settings(BaseSettings):
         return plain_input(cls, info.field_name, value)
 
     @field_validator(
-        "detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "checks", "strategies"
+        "detector", "vqa", "language", "planner", "llm_model", "hf_device", "hf_dtype", "strategies"
     )
     @classmethod
     def _short_text(cls, value: str) -> str:
         if len(value) > MAX_TEXT_SETTING_CHARS:
             raise ValueError(f"it is {len(value)} characters long, more than {MAX_TEXT_SETTING_CHARS}")
-        return value
-
-    @field_validator("checks")
-    @classmethod
-    def _known_checks(cls, value: str) -> str:
-        try:
-            parse_checks(value)
-        except InputError as exc:
-            raise ValueError(str(exc)) from None
         return value
 
     @field_validator("strategies")
@@ -267,7 +311,7 @@ class Settings(BaseSettings):
     @property
     def mechanisms(self) -> frozenset[Mechanism]:
         """The error-catching mechanisms `checks` switches on."""
-        return frozenset(parse_checks(self.checks))
+        return frozenset(self.checks)
 
     @field_validator("llm_base_url")
     @classmethod
@@ -464,7 +508,7 @@ class _WorldConfig(BaseModel):
     WHAT: ClassVar[str] = "world"
     REACHES_OUT: ClassVar[str | None] = None
     """What building this world does beyond this process (None: nothing): a saved folder naming such a
-    world is replayed only with trust (`attribot.session.TRUST_SAVED`)."""
+    world is replayed only with trust (`attribot.saved_runs.TRUST_SAVED`)."""
 
     def __init__(self, **fields: Any) -> None:
         try:
@@ -519,8 +563,10 @@ class SceneConfig(_WorldConfig):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     world: Literal["mujoco"] = "mujoco"
-    layout: str = Field("household", description="Scene layout: household (default), arrangement or triplet.")
-    seed: int = Field(
+    layout: Annotated[str, CommandLine("NAME")] = Field(
+        "household", description="Scene layout: household (default), arrangement or triplet."
+    )
+    seed: Annotated[int, CommandLine("INT")] = Field(
         0,
         ge=0,
         le=MAX_SEED,
@@ -529,7 +575,7 @@ class SceneConfig(_WorldConfig):
         "pixels.",
     )
     # bounded here, before any work (a million objects hung the layouts); each layout's range is narrower
-    objects: int | None = Field(
+    objects: Annotated[int | None, CommandLine("INT")] = Field(
         None,
         ge=1,
         le=MAX_OBJECTS,
@@ -539,13 +585,19 @@ class SceneConfig(_WorldConfig):
     categories: tuple[str, ...] | None = None
     vocabulary: tuple[str, ...] | None = None
     options: dict[str, OptionValue] = Field(default_factory=dict)
-    width: int = Field(640, ge=16, le=4096, strict=True, description="Image width in pixels (default 640).")
-    height: int = Field(480, ge=16, le=4096, strict=True, description="Image height in pixels (default 480).")
-    profile: str = Field("fast", description="Render profile: fast (no shadows, default) or pretty.")
+    width: Annotated[int, CommandLine("PX")] = Field(
+        640, ge=16, le=4096, strict=True, description="Image width in pixels (default 640)."
+    )
+    height: Annotated[int, CommandLine("PX")] = Field(
+        480, ge=16, le=4096, strict=True, description="Image height in pixels (default 480)."
+    )
+    profile: Annotated[str, CommandLine("NAME")] = Field(
+        "fast", description="Render profile: fast (no shadows, default) or pretty."
+    )
     force_noise_std: float = Field(0.0, ge=0.0, allow_inf_nan=False)
     noise: WorldNoise = Field(default_factory=WorldNoise)
     looks: str = "detailed"
-    robot: str = Field(
+    robot: Annotated[str, CommandLine("NAME")] = Field(
         "mast",
         description="The simulated robot: mast (default; a pan-tilt head and a telescoping arm) or ep "
         "(RoboMaster-EP-like: its camera on its arm, objects on the floor); any body attribot.sim.bodies "

@@ -110,9 +110,9 @@ class Condition:
         return f"{base}{_PRIORS}{self.priors_scale:g}" if self.priors_scale != 1.0 else base
 
     @property
-    def checks(self) -> str:
-        """The `--checks` spec of the condition: all mechanisms, or all but the one left off."""
-        return f"all,-{self.without}" if self.without else "all"
+    def mechanisms(self) -> tuple[Mechanism, ...]:
+        """The mechanisms on under the condition: all, or all but the one left off."""
+        return tuple(m for m in Mechanism if m != self.without)
 
     @property
     def ablation(self) -> bool:
@@ -123,7 +123,7 @@ class Condition:
         """`settings` for one item under this condition: its preset's perception noise on the oracle
         backends, drawn from the item's `seed` (a clean preset adds none), its mechanisms (an ablation
         leaves one out) and its priors' scale (a scaled condition's, else the settings' own)."""
-        update: dict[str, Any] = {"checks": self.checks} if self.without is not None else {}
+        update: dict[str, Any] = {"checks": self.mechanisms} if self.without is not None else {}
         if self.priors_scale != 1.0:
             update["priors_scale"] = self.priors_scale
         if self.preset != "clean":
@@ -135,9 +135,13 @@ class Condition:
         return world_noise(self.preset, seed)
 
 
-def ablations(preset: str = "realistic") -> tuple[str, ...]:
+CLEAN = Condition("clean")
+"""No noise, every mechanism on, the priors as written."""
+
+
+def ablations(preset: str = "realistic") -> tuple[Condition, ...]:
     """The conditions of the ablation table: `preset` with each mechanism off in turn."""
-    return tuple(Condition(preset, m).name for m in Mechanism)
+    return tuple(Condition(preset, m) for m in Mechanism)
 
 
 class Record(BaseModel):
@@ -195,7 +199,7 @@ class Record(BaseModel):
         return [CheckEvent.model_validate(c).model_dump() for c in checks]
 
 
-def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
+def _record(item: Item, method: str, condition: Condition, **fields: Any) -> Record:
     box = fields.get("box")
     chosen = fields.get("chosen_id")
     overlap = iou(tuple(box), tuple(item.true_box)) if box and item.true_box else None
@@ -211,7 +215,7 @@ def _record(item: Item, method: str, noise: str, **fields: Any) -> Record:
         id=item.id,
         task=item.task,
         method=method,
-        noise=noise,
+        noise=condition.name,  # records keep the name the condition is written as
         query=item.query,
         form=item.form,
         status=status,
@@ -250,14 +254,14 @@ def _best(detections: list[Any]) -> Any:
 
 
 def _grounded(
-    item: Item, method: str, noise: str, perception: Any, frame: Any, name: str, **extra: Any
+    item: Item, method: str, condition: Condition, perception: Any, frame: Any, name: str, **extra: Any
 ) -> Record:
     """The detector's best box for `name` (a model's answer), as the record of `method`."""
     if not name or name.strip().lower() in ("unknown", "none", ""):
         return _record(
             item,
             method,
-            noise,
+            condition,
             error=f"the model gave no object ({name!r})",
             error_category="perception",
             **extra,
@@ -265,10 +269,15 @@ def _grounded(
     best = _best(perception.detector.detect(frame, [name]))
     if best is None:
         return _record(
-            item, method, noise, error=f"the detector found no {name!r}", error_category="perception", **extra
+            item,
+            method,
+            condition,
+            error=f"the detector found no {name!r}",
+            error_category="perception",
+            **extra,
         )
     return _record(
-        item, method, noise, box=list(best.box), chosen_id=best.object_id, **{"answer": name, **extra}
+        item, method, condition, box=list(best.box), chosen_id=best.object_id, **{"answer": name, **extra}
     )
 
 
@@ -280,15 +289,18 @@ def _first_name(text: str) -> str:
     return match.group(1).strip() if match else ""
 
 
-def run_method(item: Item, method: str, settings: Settings, noise: str = "clean") -> Record:
-    """Run `method` on `item` with `settings` (and the noise level on the oracle backends); a crash of the
-    method is that item's failure, recorded with its category."""
+def run_method(item: Item, method: str, settings: Settings, condition: Condition = CLEAN) -> Record:
+    """Run `method` on `item` with `settings` under `condition` (its noise on the oracle backends and the
+    world, its mechanisms and priors); a crash of the method is that item's failure, recorded with its
+    category."""
     started = time.perf_counter()
     runner = METHODS.get(method)
     try:
-        record = runner.run(item, Condition.parse(noise).settings_for(settings, item.seed), noise)
+        record = runner.run(item, condition.settings_for(settings, item.seed), condition)
     except Exception as exc:  # noqa: BLE001 (a crash of one item is that item's failure, recorded)
-        record = _record(item, method, noise, error=f"{type(exc).__name__}: {exc}", error_category="runner")
+        record = _record(
+            item, method, condition, error=f"{type(exc).__name__}: {exc}", error_category="runner"
+        )
     record.wall_s = time.perf_counter() - started
     record.detector = shown_url(str(settings.detector))  # a password in its URL is not recorded
     return record
@@ -340,21 +352,21 @@ def _measured(trace: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
+def _program(item: Item, method: str, settings: Settings, condition: Condition) -> Record:
     """A program over the API written by the planner; attr-api has one image and no robot (looking again
     happens within that image), pa-api the item's sensors and a robot that acts."""
     from attribot.session import Scene, ask
 
     sensors = item.sensors if method == "pa-api" else ["camera"]
-    scene = item.scene().model_copy(update={"noise": Condition.parse(noise).world_noise(item.seed)})
+    scene = item.scene().model_copy(update={"noise": condition.world_noise(item.seed)})
     try:
         answer = ask(item.query, Scene(scene, sensors=sensors, still=method == "attr-api"), settings)
     except InputError as exc:  # the planner refused it: what the camera alone cannot settle, say
-        return _record(item, method, noise, error=str(exc), error_category="planner")
+        return _record(item, method, condition, error=str(exc), error_category="planner")
     return _record(
         item,
         method,
-        noise,
+        condition,
         box=list(answer.object.box) if answer.object else None,
         box_from=answer.object.box_from if answer.object else None,
         chosen_id=answer.object.id if answer.object else None,
@@ -375,12 +387,12 @@ def _program(item: Item, method: str, settings: Settings, noise: str) -> Record:
     )
 
 
-def _attr_api(item: Item, settings: Settings, noise: str) -> Record:
-    return _program(item, "attr-api", settings, noise)
+def _attr_api(item: Item, settings: Settings, condition: Condition) -> Record:
+    return _program(item, "attr-api", settings, condition)
 
 
-def _pa_api(item: Item, settings: Settings, noise: str) -> Record:
-    return _program(item, "pa-api", settings, noise)
+def _pa_api(item: Item, settings: Settings, condition: Condition) -> Record:
+    return _program(item, "pa-api", settings, condition)
 
 
 # ---- models asked directly (ovd, vqa, vqa+llm, vlm) -------------------------------------------------------
@@ -392,38 +404,40 @@ def _perception(settings: Settings) -> Any:
     return Perception.from_settings(settings)
 
 
-def _ovd(item: Item, settings: Settings, noise: str) -> Record:
+def _ovd(item: Item, settings: Settings, condition: Condition) -> Record:
     frame, detector = _world_frame(item), _perception(settings).detector
     try:
         best = _best(detector.detect(frame, [item.query]))
     except InputError as exc:  # a closed-set detector that finds no class in the query refuses it
-        return _record(item, "ovd", noise, error=f"the detector refused the query: {exc}",
+        return _record(item, "ovd", condition, error=f"the detector refused the query: {exc}",
                        error_category="perception")  # fmt: skip
     if best is None:
-        return _record(item, "ovd", noise, error="the detector found nothing", error_category="perception")
-    return _record(item, "ovd", noise, box=list(best.box), chosen_id=best.object_id, answer=best.label)
+        return _record(
+            item, "ovd", condition, error="the detector found nothing", error_category="perception"
+        )
+    return _record(item, "ovd", condition, box=list(best.box), chosen_id=best.object_id, answer=best.label)
 
 
-def _vqa(item: Item, settings: Settings, noise: str) -> Record:
+def _vqa(item: Item, settings: Settings, condition: Condition) -> Record:
     perception, frame = _perception(settings), _world_frame(item)
     said = perception.vqa.answer(frame, item.query)
-    return _grounded(item, "vqa", noise, perception, frame, _first_name(said), answer=said)
+    return _grounded(item, "vqa", condition, perception, frame, _first_name(said), answer=said)
 
 
-def _vqa_llm(item: Item, settings: Settings, noise: str) -> Record:
+def _vqa_llm(item: Item, settings: Settings, condition: Condition) -> Record:
     perception, frame = _perception(settings), _world_frame(item)
     items = perception.vqa.answer(frame, "What are the items in this image?")
     choice = perception.language.complete(f"Out of these items: {items}; which one is {item.query}?")
-    return _grounded(item, "vqa+llm", noise, perception, frame, _first_name(choice), answer=choice)
+    return _grounded(item, "vqa+llm", condition, perception, frame, _first_name(choice), answer=choice)
 
 
-def _vlm(item: Item, settings: Settings, noise: str) -> Record:
+def _vlm(item: Item, settings: Settings, condition: Condition) -> Record:
     """An end-to-end vision-chat model asked for the box; not run without one (and no world built)."""
     if not _vlm_configured(settings):
         return _record(
             item,
             "vlm",
-            noise,
+            condition,
             status="not run",
             error="no vision-chat backend is configured (the vlm row needs one: --vqa openai:MODEL)",
         )
@@ -438,14 +452,14 @@ def _vlm(item: Item, settings: Settings, noise: str) -> Record:
         return _record(
             item,
             "vlm",
-            noise,
+            condition,
             answer=said,
             error="the model's reply holds no box",
             error_category="perception",
         )
     x0, y0, x1, y1 = numbers  # corners in another order still name a box
     box = [min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)]
-    return _record(item, "vlm", noise, box=box, answer=said)
+    return _record(item, "vlm", condition, box=box, answer=said)
 
 
 # the paper's rows, in the order of its tables

@@ -68,8 +68,10 @@ def _order(names: list[T], name: T) -> int:
 
 def summarize(records: list[Record]) -> list[dict[str, Any]]:
     """One row per (task, method, noise, detector): items, right, accuracy, Wilson interval, failures by
-    category, and the reason when the method was not run. `series` names the row's condition: its noise
-    level, with its detector when the records hold several (detectors in the order the records meet them)."""
+    category, and the reason when the method was not run. The row's condition is read once from the name its
+    records keep in `noise`: its `preset` and whether it is an `ablation` (data, for the page's JSON too);
+    `series` names it, with its detector when the records hold several (detectors in the order the records
+    meet them)."""
     groups: dict[tuple[str, str, str, str], list[Record]] = defaultdict(list)
     for r in records:
         groups[(r.task, r.method, r.noise, r.detector or "oracle")].append(r)
@@ -82,6 +84,7 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
         return (_order(tasks, key[0]), _order(methods, key[1]), key[2], detectors.index(key[3]))
 
     for (task, method, noise, detector), rs in sorted(groups.items(), key=lambda kv: place(kv[0])):
+        condition = Condition.parse(noise)
         ran = [r for r in rs if r.status != "not run"]
         right = sum(r.right for r in ran)
         lo, hi = wilson(right, len(ran))
@@ -91,6 +94,8 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "task": task,
                 "method": method,
                 "noise": noise,
+                "preset": condition.preset,
+                "ablation": condition.ablation,
                 "detector": detector,
                 "series": series_label(noise, detector, several),
                 "n": len(ran),
@@ -142,13 +147,7 @@ def _figure_groups(task: str, rows: list[dict[str, Any]]) -> list[Group]:
     the paper's best published number."""
     groups = []
     for method in METHODS.names():
-        ran = [
-            r
-            for r in rows
-            if r["method"] == method
-            and r["accuracy"] is not None
-            and not Condition.parse(r["noise"]).ablation
-        ]
+        ran = [r for r in rows if r["method"] == method and r["accuracy"] is not None and not r["ablation"]]
         if not ran:
             continue  # not run: no empty slot
         ran.sort(key=lambda r: _order(list(NOISE_LEVELS), r["noise"]))  # stable: detectors stay in order

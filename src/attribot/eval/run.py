@@ -18,7 +18,7 @@ import os
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -74,24 +74,25 @@ MAX_RECORD_BYTES = 16 * 1024 * 1024
 _IMAGE_BYTES = 50 * 1024 * 1024
 """The largest dataset image copied into a run (ours are PNGs of a few hundred kB)."""
 
-Job = tuple[Item, str, str]  # item, method, noise
+Job = tuple[Item, str, Condition]  # item, method, run condition
 
 
 @dataclass(frozen=True)
 class EvalPlan:
-    """What to run: tasks, methods (None: the paper's per task), noise levels, at most `limit` per task,
-    and the detector whose classes choose the items (None: the run's own; see `attribot.eval.subset`)."""
+    """What to run: tasks, methods (None: the paper's per task), run conditions (noise levels and ablations,
+    given as `Condition`s or by their names, which are read here, once), at most `limit` per task, and the
+    detector whose classes choose the items (None: the run's own; see `attribot.eval.subset`)."""
 
     tasks: tuple[str, ...] = field(default_factory=lambda: tuple(task_names()))
     methods: tuple[str, ...] | None = None
-    noise: tuple[str, ...] = ("clean",)
+    noise: tuple[Condition, ...] = (Condition("clean"),)
     limit: int | None = None
     findable_by: str | None = None
     seed: int = 0  # the root seed every item's seeds derive from (`attribot.eval.datasets.task_seeds`)
 
     def __post_init__(self) -> None:
-        for condition in self.noise:
-            Condition.parse(condition)
+        conditions = tuple(c if isinstance(c, Condition) else Condition.parse(c) for c in self.noise)
+        object.__setattr__(self, "noise", conditions)
         for name, given, known in (
             ("task", self.tasks, task_names(None)),
             ("method", self.methods or (), METHODS.names()),
@@ -467,13 +468,13 @@ def _jobs(items: Iterable[Item], plan: EvalPlan, out: Path) -> tuple[list[Job], 
     jobs, skipped = [], 0
     for item in items:
         for method in plan.methods_for(item.task):
-            for noise in plan.noise:
-                if Condition.parse(noise).ablation and method not in PROGRAM_METHODS:
+            for condition in plan.noise:
+                if condition.ablation and method not in PROGRAM_METHODS:
                     continue  # an ablation of the error-catching mechanisms: only programs have them
-                if (item.task, item.id, method, noise) in done:
+                if (item.task, item.id, method, condition.name) in done:
                     skipped += 1
                 else:
-                    jobs.append((item, method, noise))
+                    jobs.append((item, method, condition))
     return jobs, skipped
 
 
@@ -518,7 +519,8 @@ def _run_job(job_json: str, settings: Settings) -> str:
         ) from None
     try:
         item = Item.model_validate(job["item"])
-        return run_method(item, job["method"], settings, job["noise"]).model_dump_json()
+        condition = Condition(**job["condition"])
+        return run_method(item, job["method"], settings, condition).model_dump_json()
     except BaseException as exc:  # noqa: BLE001
         raise WorkerFailed(_worker_line(exc, f"{job['method']} on item {job['item'].get('id')}")) from None
 
@@ -541,9 +543,14 @@ def _worker_result(future: Any) -> Record:
 
 
 def _job_json(job: Job) -> str:
-    item, method, noise = job
+    item, method, condition = job
     return json.dumps(
-        {"item": item.model_dump(mode="json"), "method": method, "noise": noise, "plugins": plugin_modules()}
+        {
+            "item": item.model_dump(mode="json"),
+            "method": method,
+            "condition": asdict(condition),  # its parsed form: the worker reads no name again
+            "plugins": plugin_modules(),
+        }
     )
 
 
@@ -714,9 +721,9 @@ def _execute(jobs: list[Job], settings: Settings, workers: int, executor: str) -
         yield from _execute_ray(jobs, settings)
         return
     if workers == 1:
-        for item, method, noise in jobs:
+        for item, method, condition in jobs:
             try:
-                record = run_method(item, method, settings, noise)
+                record = run_method(item, method, settings, condition)
             except SystemExit as exc:  # a plug-in's sys.exit: a failure, never the run's success
                 raise ConfigError(
                     _worker_line(exc, f"{method} on item {item.id}"),

@@ -23,7 +23,7 @@ from attribot.registry import Registry
 if TYPE_CHECKING:
     from attribot.config import Settings
     from attribot.eval.datasets import Item
-    from attribot.eval.methods import Record
+    from attribot.eval.methods import Condition, Record
 
 __all__ = [
     "Task",
@@ -43,8 +43,8 @@ Build = Callable[[int, int], Iterator["Item"]]
 BuildIn = Callable[[int, int, tuple[str, ...]], Iterator["Item"]]
 """Builds a task's items in a vocabulary: (queries, seed base, categories) -> items whose scenes draw their
 objects from those categories only (each item records them), deterministic."""
-Run = Callable[["Item", "Settings", str], "Record"]
-"""Runs a method on one item: (item, settings, noise condition) -> its record."""
+Run = Callable[["Item", "Settings", "Condition"], "Record"]
+"""Runs a method on one item: (item, settings, run condition) -> its record."""
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
 
-from attribot.eval.methods import NOISE_LEVELS, Condition, Record
+from attribot.eval.methods import NOISE_LEVELS, Record
 from attribot.eval.suite import METHODS, paper_numbers
 from attribot.mechanisms import MECHANISMS
 
@@ -143,8 +143,8 @@ def checks_table(records: list[Record], program_methods: tuple[str, ...]) -> lis
 def ablation_table(rows: list[dict[str, Any]], fmt: Callable[[dict[str, Any] | None], str]) -> dict[str, Any]:
     """Accuracy with each mechanism off in turn, beside the preset with all of them on (a row per task,
     method and detector)."""
-    ablated = sorted({r["noise"] for r in rows if Condition.parse(r["noise"]).ablation})
-    base = sorted({Condition.parse(n).preset for n in ablated})
+    ablated = sorted({r["noise"] for r in rows if r["ablation"]})
+    base = sorted({r["preset"] for r in rows if r["ablation"]})
     columns = [*base, *ablated]
 
     def cell(task: str, method: str, detector: str, noise: str) -> dict[str, Any] | None:
