@@ -242,7 +242,7 @@ class Settings(BaseSettings):
     remote_token: SecretStr | None = Field(default=None, repr=False)
     remote_timeout_s: float = Field(30.0, gt=0, le=MAX_TIME_S, allow_inf_nan=False)
 
-    # the mechanisms that catch perception and action errors (attribot.api.safeguards)
+    # the mechanisms that catch perception and action errors (attribot.skills.safeguards)
     checks: Annotated[Checks, CommandLine("NAMES")] = Field(
         "all",  # type: ignore[arg-type]  # text, read by `Checks` as every other source's
         description="Error-catching mechanisms: all (default), none, or names (look_again, verify_actions, "
@@ -250,7 +250,7 @@ class Settings(BaseSettings):
     )
     strategies: Annotated[str, CommandLine("NAMES")] = Field(
         "",
-        description="Registered strategies (attribot.api.safeguards.STRATEGIES, from a plug-in) to use in "
+        description="Registered strategies (attribot.skills.safeguards.STRATEGIES, from a plug-in) to use in "
         "place of their mechanisms' own, comma-separated names (default: none).",
     )
     # the perception noise an evaluation condition puts on the oracle backends for one item (its preset and

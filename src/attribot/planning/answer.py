@@ -78,7 +78,7 @@ class Answer(BaseModel):
     error: AnswerError | None = None
     world: dict[str, Any] | None = None  # the world and its config, or the image file
     sim_s: float | None = None  # simulated seconds the robot spent on the query; None outside a simulator
-    checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.api.safeguards)
+    checks: list[dict[str, Any]] = []  # what the error-catching mechanisms did (attribot.skills.safeguards)
     perception: dict[str, int] = {}  # detector calls, those answered from memory, views through a network
 
     @model_validator(mode="before")
