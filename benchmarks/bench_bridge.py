@@ -32,8 +32,9 @@ import threading
 import time
 from typing import Any
 
+from attribot.bridge.driver import Driver
 from attribot.bridge.protocol import PROTOCOL_VERSION, recv_message, send_message
-from attribot.bridge.server import Driver, Limits, RobotServer, serve_in_thread
+from attribot.bridge.server import Limits, RobotServer, serve_in_thread
 from attribot.config import BridgeConfig, SceneConfig, load_settings
 from attribot.embodiments.bridge import BridgeWorld, EmbodimentDriver
 from attribot.embodiments.mujoco import MujocoWorld

@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 import pytest
 
+from attribot.bridge.driver import CameraFrame, Driver
 from attribot.bridge.protocol import PROTOCOL_VERSION, recv_message, send_message
-from attribot.bridge.server import CameraFrame, Driver, Limits, RobotServer, serve_in_thread
+from attribot.bridge.server import Limits, RobotServer, serve_in_thread
 from attribot.config import SceneConfig
 from attribot.embodiments.base import Capability
 from attribot.embodiments.bridge import BridgeError, BridgeWorld, EmbodimentDriver
@@ -76,7 +77,8 @@ def test_a_walrus_free_38_grammar_check_really_rejects_newer_syntax():
 _ROBOT_38 = textwrap.dedent(
     """
     import sys
-    from attribot.bridge.server import Driver, Limits, RobotServer
+    from attribot.bridge.driver import Driver
+    from attribot.bridge.server import Limits, RobotServer
 
     class Wheels(Driver):
         name = "wheels"
@@ -771,7 +773,7 @@ def test_a_compressed_part_is_never_inflated_past_the_frames_size(monkeypatch):
     reading one byte more than the frame's size."""
     import zlib
 
-    from attribot.bridge import server as robot_side
+    from attribot.bridge import requests as robot_side
 
     real = robot_side._frame
 

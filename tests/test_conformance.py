@@ -38,7 +38,7 @@ from attribot.sensors import SENSORS, Need, check_sensors, senses, sensor_method
 from attribot.session import Scene
 from attribot.sim.bodies import BODIES, body_named
 from attribot.sim.catalog import find_category
-from attribot.sim.scene import LAYOUTS
+from attribot.sim.scene_plan import LAYOUTS
 
 SMALL = {"width": 160, "height": 120}
 PROTOCOLS = {"detector": DetectorProtocol, "vqa": VisualQA, "language": LanguageModel}

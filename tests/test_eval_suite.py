@@ -27,7 +27,7 @@ from attribot.eval.run import EvalPlan, run_eval
 from attribot.eval.suite import METHODS, TASKS, tagged, task_names
 from attribot.eval.tasks import still
 from attribot.eval.tasks.still import Place, _in_scene, paper_extremes, paper_places, place_truth
-from attribot.sim.scene import NoRoomOnTable
+from attribot.sim.table_layouts import NoRoomOnTable
 from attribot.sim.world import ObjectInfo
 
 EVAL = Path(__file__).resolve().parents[1] / "src" / "attribot" / "eval"

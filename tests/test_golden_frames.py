@@ -20,7 +20,7 @@ from PIL import Image
 
 from attribot.config import SceneConfig
 from attribot.embodiments.mujoco import MujocoWorld
-from attribot.sim.scene import LAYOUTS
+from attribot.sim.scene_plan import LAYOUTS
 
 GOLDEN = Path(__file__).parent / "artifacts" / "golden"
 FAILURES = Path(__file__).parent / "golden-failures"  # not committed (.gitignore: *.png)

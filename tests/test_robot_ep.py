@@ -34,7 +34,8 @@ from attribot.frame import CameraInfo
 from attribot.planning.answer import Answer
 from attribot.session import Scene, ask
 from attribot.sim.bodies import BODIES
-from attribot.sim.scene import SceneRequest, plan_scene
+from attribot.sim.scene import plan_scene
+from attribot.sim.scene_plan import SceneRequest
 from attribot.sim.world import SceneInfo, SimWorld
 from conftest import EMPTY_SETTINGS, wait_listening
 

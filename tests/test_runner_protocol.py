@@ -29,9 +29,9 @@ def test_neither_end_spells_a_wire_key_itself():
     """Both ends use the protocol's names: no message literal like {"t": ...} or msg.get("m")."""
     import re
 
-    from attribot.runner import calls, host, process, worker
+    from attribot.runner import calls, host, process, worker, worker_guards, worker_pipe, worker_stubs
 
-    for module in (host, calls, process, worker):
+    for module in (host, calls, process, worker, worker_pipe, worker_stubs, worker_guards):
         text = Path(module.__file__).read_text()
         assert not re.search(r"""\{\s*"[a-z]"\s*:|\.get\("[a-z]"\)|\["[a-z]"\]""", text), module.__name__
 

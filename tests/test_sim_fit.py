@@ -8,7 +8,8 @@ import pytest
 
 from attribot.config import SceneConfig
 from attribot.errors import InputError
-from attribot.sim.scene import SceneRequest, plan_scene, resolve_categories
+from attribot.sim.scene import plan_scene, resolve_categories
+from attribot.sim.scene_plan import SceneRequest
 from attribot.sim.world import SimWorld
 
 # seeds whose drawn column of three large objects did not fit on the table before a fitting pattern was

@@ -8,9 +8,11 @@ import pytest
 
 from attribot.errors import InputError
 from attribot.sim.catalog import categories
-from attribot.sim.looks import LOOKS, lathe, look_of, tube, variant_of
+from attribot.sim.looks import LOOKS, look_of, variant_of
+from attribot.sim.meshes import lathe, tube
 from attribot.sim.model import build_model
-from attribot.sim.scene import SceneRequest, plan_scene
+from attribot.sim.scene import plan_scene
+from attribot.sim.scene_plan import SceneRequest
 from attribot.sim.shapes import SHAPES, Part, Shape, build_shape
 from attribot.sim.world import SimWorld
 

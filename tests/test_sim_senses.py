@@ -15,7 +15,8 @@ from attribot.errors import InputError
 from attribot.noise import world_noise
 from attribot.session import Scene, run_program
 from attribot.sim.catalog import get_category
-from attribot.sim.scene import SceneRequest, plan_scene, resolve_categories
+from attribot.sim.scene import plan_scene, resolve_categories
+from attribot.sim.scene_plan import SceneRequest
 from attribot.sim.scripted import pick_object, place_back
 
 

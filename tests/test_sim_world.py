@@ -22,7 +22,7 @@ from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import InputError, UnknownName
 from attribot.sim import scripted
 from attribot.sim.render import gl_backend
-from attribot.sim.scene import LAYOUTS
+from attribot.sim.scene_plan import LAYOUTS
 
 W, H = 200, 150
 G = 9.81

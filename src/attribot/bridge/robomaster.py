@@ -46,8 +46,8 @@ import threading
 import time
 from typing import Any
 
+from attribot.bridge.driver import CameraFrame, Driver
 from attribot.bridge.robomaster_body import EP_BODY, from_sdk_mm, to_sdk_mm
-from attribot.bridge.server import CameraFrame, Driver
 
 __all__ = [
     "LoadCell",

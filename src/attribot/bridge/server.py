@@ -1,6 +1,7 @@
 """The robot side of the bridge: one client at a time, authenticated, rate-limited, watched.
 
-`RobotServer` serves a `Driver` (the robot's own calls) over the protocol of `protocol.py`. Safety lives
+`RobotServer` serves a `Driver` (`driver.py`: the robot's own calls) over the protocol of `protocol.py`, one
+request op at a time through the table of `requests.py`. Safety lives
 here, not in the drivers, so that every robot gets it: the shared-secret token is checked before anything
 moves (a wrong one is refused and logged), base velocities are clipped to the speed limits and ramped at
 most at the acceleration limits, arm and head targets are clipped to the body's travel (a target far
@@ -19,10 +20,10 @@ import queue
 import socket
 import threading
 import time
-import zlib
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from attribot.bridge.driver import Driver
 from attribot.bridge.guard import TOKEN_FIX, WrongTokens, bind_problem
 from attribot.bridge.protocol import (
     MAX_DEPTH,
@@ -33,130 +34,11 @@ from attribot.bridge.protocol import (
     recv_message,
     send_message,
 )
+from attribot.bridge.requests import REQUESTS, Refused, shown
 
-if TYPE_CHECKING:
-    import numpy as np
-
-__all__ = ["Driver", "Limits", "LIMIT_RANGES", "RobotServer", "CameraFrame", "serve_in_thread"]
+__all__ = ["Limits", "LIMIT_RANGES", "RobotServer", "serve_in_thread"]
 
 log = logging.getLogger("attribot.bridge")
-
-
-class CameraFrame:
-    """What a driver's camera gives: JPEG bytes, capture time, optional depth / segmentation / objects, and
-    optionally where the robot sees its own body (`own_body`: bool [H, W], from its joint angles and model:
-    the host's detectors set aside a box on the gripper)."""
-
-    def __init__(
-        self,
-        jpeg: bytes,
-        timestamp: float,
-        depth: np.ndarray | None = None,
-        segmentation: np.ndarray | None = None,
-        objects: list[dict[str, Any]] | None = None,
-        own_body: np.ndarray | None = None,
-    ) -> None:
-        self.jpeg = jpeg
-        self.timestamp = timestamp
-        self.depth = depth
-        self.segmentation = segmentation
-        self.objects = objects
-        self.own_body = own_body
-
-
-class Driver:
-    """The robot's own calls, in the bridge's units (metres, radians, seconds, newtons).
-
-    `realtime` drivers run on the wall clock (`step` waits); simulated ones advance their clock in `step`.
-    A driver lists what it can do in `capabilities()` (the names of `attribot.embodiments.base.Capability`)
-    and overrides those calls; `stop()` must halt the base and hold the arm where it is. Sensors beyond the
-    camera, the rangefinder and the force sensor (an infrared thermometer, a gripper that measures how hard
-    it squeezes, a lab's own: the names of `attribot.sensors`) are listed in `sensors()` and read with
-    `read_sensor(name)`; a driver with none lists none, as drivers written before them do.
-    """
-
-    name = "driver"
-    realtime = True
-
-    def capabilities(self) -> list[str]:
-        return []
-
-    def camera(self) -> dict[str, float]:
-        """Intrinsics: width, height, fx, fy, cx, cy (pixels)."""
-        raise NotImplementedError
-
-    def body(self) -> dict[str, Any] | None:
-        """The body geometry a perception-driven controller needs (the fields of
-        `attribot.control.body.BodyGeometry`: camera_xyz, arm_xy, reach0, arm_range, lift_range, base_half,
-        finger_open; metres, base frame), or None when the robot does not state it."""
-        return None
-
-    def travel(self) -> dict[str, tuple[float, float]]:
-        """Each actuator target's travel, [low, high] in the request's unit: `lift` and `extension` (metres,
-        from the body's lift_range and arm_range when it states a body), `pan` and `tilt` (radians; a
-        head's default: any heading, and from straight down to straight up). The server clips targets
-        into these and refuses those further out than `TRAVEL_TOLERANCE`."""
-        out = dict(_ANY_TRAVEL)
-        body = self.body()
-        if body is not None:
-            for name, field in (("lift", "lift_range"), ("extension", "arm_range")):
-                low, high = body[field]
-                out[name] = (float(low), float(high))
-        return out
-
-    def frame(self) -> CameraFrame:
-        raise NotImplementedError
-
-    def clock(self) -> float:
-        return time.monotonic()
-
-    def step(self, seconds: float) -> None:
-        time.sleep(seconds)
-
-    def drive(self, vx: float, vy: float, wz: float) -> None:
-        raise NotImplementedError
-
-    def set_head(self, pan: float, tilt: float) -> None:
-        raise NotImplementedError
-
-    def set_arm(self, lift: float, extension: float) -> None:
-        raise NotImplementedError
-
-    def grasp(self) -> bool:
-        raise NotImplementedError
-
-    def release(self) -> None:
-        raise NotImplementedError
-
-    def distance(self) -> float:
-        raise NotImplementedError
-
-    def tare_force(self) -> None:
-        raise NotImplementedError
-
-    def force(self) -> list[float]:
-        raise NotImplementedError
-
-    def pose(self) -> list[float]:
-        raise NotImplementedError
-
-    def sensors(self) -> list[str]:
-        """The names of the optional sensors this robot reads with `read_sensor` (stated in its hello)."""
-        return []
-
-    def read_sensor(self, name: str) -> float:
-        """One reading of the optional sensor `name`, in its unit (NaN: it read nothing)."""
-        raise NotImplementedError
-
-    def joints(self) -> dict[str, float]:
-        raise NotImplementedError
-
-    def stop(self) -> None:
-        """Halt the base and hold the arm: called by the watchdog, on disconnect and on `stop`."""
-        self.drive(0.0, 0.0, 0.0)
-
-    def close(self) -> None:
-        pass
 
 
 LIMIT_RANGES = {
@@ -200,7 +82,7 @@ class Limits:
             number = value if isinstance(value, (int, float)) and not isinstance(value, bool) else None
             if number is None or not (math.isfinite(number) and low <= number <= high):
                 raise ValueError(
-                    f"{flag} must lie in its safe range, {low:g} to {high:g} {unit} (got {_shown(value)})"
+                    f"{flag} must lie in its safe range, {low:g} to {high:g} {unit} (got {shown(value)})"
                 )
         self.max_speed = float(max_speed)
         self.max_turn = float(max_turn)
@@ -210,18 +92,6 @@ class Limits:
 
     def as_dict(self) -> dict[str, float]:
         return dict(self.__dict__)
-
-
-def _clip(value: float, bound: float) -> float:
-    return max(-bound, min(bound, value))
-
-
-class _Refused(Exception):
-    def __init__(self, code: str, message: str, fix: str = "") -> None:
-        Exception.__init__(self, message)
-        self.code = code
-        self.message = message
-        self.fix = fix
 
 
 _RAMP_TICK = 0.02  # s: the ramp and the watchdog run at 50 Hz
@@ -237,16 +107,6 @@ payload."""
 MESSAGE_TIMEOUT_S = 10.0
 """Once a request has begun, the rest of it must arrive within this time: one trickled a byte at a time
 must not hold the robot."""
-MAX_STEP_S = 10.0
-"""The longest `step` one request may ask for (a simulator runs it at once; a real robot waits it out)."""
-TRAVEL_TOLERANCE = 0.02
-"""How far (m or rad) beyond an actuator's travel a target is clipped into it; further out it is refused."""
-_ANY_TRAVEL = {
-    "lift": (-10.0, 10.0),  # a robot that states no body: still no arm reaches 10 m
-    "extension": (-10.0, 10.0),
-    "pan": (-math.pi, math.pi),
-    "tilt": (-math.pi / 2, math.pi / 2),
-}
 
 
 def _shut(conn: socket.socket) -> None:
@@ -255,45 +115,6 @@ def _shut(conn: socket.socket) -> None:
         conn.shutdown(socket.SHUT_RDWR)
     except OSError:
         pass
-
-
-def _shown(value: Any, limit: int = 40) -> str:
-    """A short repr of what a client sent, for an error message (a huge string is not echoed back)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def _finite(h: dict[str, Any], key: str, op: str) -> float:
-    """`h[key]` as a finite float; anything else (missing, text, a bool, NaN, an infinity, a number too
-    large for a float: clipping a NaN gives the limit, so NaN would drive the base at full speed) is refused
-    with code `value`."""
-    value = h.get(key)
-    number = None
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        try:
-            number = float(value)
-        except OverflowError:  # an integer of hundreds of digits
-            number = None
-    if number is None or not math.isfinite(number):
-        raise _Refused(
-            "value",
-            f"{op} needs {key} as a finite number, got {_shown(value)}",
-            "send finite numbers (no NaN or infinity, nothing beyond a float's range; JSON has none)",
-        )
-    return number
-
-
-def _within(value: float, travel: tuple[float, float], what: str, unit: str) -> float:
-    """`value` clipped into `travel`; refused (code `value`) when it lies further out than the tolerance:
-    a target that far off is a client's bug, not a robot's reach."""
-    low, high = travel
-    if not low - TRAVEL_TOLERANCE <= value <= high + TRAVEL_TOLERANCE:
-        raise _Refused(
-            "value",
-            f"{what} {value:g} {unit} is outside its travel, {low:g} to {high:g} {unit}",
-            "command targets within the travel the robot states in its hello (`travel`)",
-        )
-    return min(high, max(low, value))
 
 
 _LINGER_S = 1.0
@@ -305,7 +126,7 @@ _READ_FIX = (
 )
 
 
-def _answer(conn: socket.socket, refusal: _Refused, last: bool = False) -> None:
+def _answer(conn: socket.socket, refusal: Refused, last: bool = False) -> None:
     """Tell a client why it is refused, if it still listens. `last`: the connection ends here; what the
     client is still sending is read and dropped for a moment first, so that closing with unread bytes does
     not reset the connection before the client has read why."""
@@ -343,6 +164,8 @@ class RobotServer:
     Beyond loopback the token must be strong (`attribot.bridge.guard.token_problem`; a `ValueError` says
     why not). `throttle`: wrong tokens from one address are answered more and more slowly and then that
     address is refused for a while (`guard.WrongTokens`, in `wrong_tokens`); off only to measure its cost."""
+
+    RAMP_TICK = _RAMP_TICK
 
     def __init__(
         self,
@@ -501,7 +324,7 @@ class RobotServer:
                     self._client = peer
             if busy is not None:
                 log.warning("bridge: refused %s: robot busy with %s", peer, busy)
-                raise _Refused(
+                raise Refused(
                     "busy",
                     f"robot busy: another client ({busy[0] if isinstance(busy, tuple) else busy}) is "
                     "connected, and the robot serves one client at a time",
@@ -510,14 +333,14 @@ class RobotServer:
             conn.settimeout(None)
             self._handoff.put((conn, peer, header))
             handed = True
-        except _Refused as exc:
+        except Refused as exc:
             _answer(conn, exc)
         except MessageError as exc:
-            _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX))
+            _answer(conn, Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX))
         except ProtocolError as exc:
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
             if not isinstance(exc, ConnectionClosed):
-                _answer(conn, _Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX), last=True)
+                _answer(conn, Refused("hello", f"the hello could not be read: {exc}", _HELLO_FIX), last=True)
         except OSError as exc:  # a timeout is an OSError: no hello within the deadline
             log.info("bridge: connection %s dropped before its hello (%s)", peer, exc)
         except Exception:  # nothing a stranger sends may end this thread with a traceback
@@ -556,7 +379,7 @@ class RobotServer:
                 try:
                     header, _ = recv_message(conn, MAX_REQUEST_HEADER, 0, within_s=MESSAGE_TIMEOUT_S)
                 except MessageError as exc:
-                    unread = _Refused("message", f"the request could not be read: {exc}", _READ_FIX)
+                    unread = Refused("message", f"the request could not be read: {exc}", _READ_FIX)
                     self._refuse(conn, unread)
                     continue
                 received = time.monotonic()
@@ -569,14 +392,14 @@ class RobotServer:
                     send_message(conn, {"ok": True})
                     break
                 try:
-                    body, data = self._handle(op if isinstance(op, str) else _shown(op), header, received)
-                except _Refused as exc:
+                    body, data = self._handle(op if isinstance(op, str) else shown(op), header, received)
+                except Refused as exc:
                     self._refuse(conn, exc)
                     continue
                 except Exception as exc:  # a driver failure is the client's answer, not the server's death
-                    log.exception("bridge: %s failed", _shown(op))
-                    failure = f"{_shown(op)} failed on the robot: {str(exc)[:200]}"
-                    self._refuse(conn, _Refused("driver", failure, "see the robot's log"))
+                    log.exception("bridge: %s failed", shown(op))
+                    failure = f"{shown(op)} failed on the robot: {str(exc)[:200]}"
+                    self._refuse(conn, Refused("driver", failure, "see the robot's log"))
                     continue
                 with self._lock:
                     self._last_command = max(self._last_command, received)
@@ -588,27 +411,27 @@ class RobotServer:
                 self.safety_stop(f"client {peer} sent what cannot be read ({exc})")
                 authenticated = False
                 self._free(peer)
-                _answer(conn, _Refused("message", str(exc), _READ_FIX), last=True)
+                _answer(conn, Refused("message", str(exc), _READ_FIX), last=True)
         except OSError as exc:
             log.info("bridge: client %s gone (%s)", peer, exc)
         finally:
             if authenticated:  # a refused client never moved anything
                 self.safety_stop(f"client {peer} disconnected")
 
-    def _refuse(self, conn: socket.socket, refusal: _Refused) -> None:
+    def _refuse(self, conn: socket.socket, refusal: Refused) -> None:
         """Stop the robot (it stops on anything it refuses), then tell the client why."""
         self.safety_stop(f"refused a request ({refusal.code}: {refusal.message[:80]})")
         send_message(conn, {"ok": False, "code": refusal.code, "error": refusal.message, "fix": refusal.fix})
 
     def _check_hello(self, header: dict[str, Any], peer: Any) -> None:
         if header.get("op") != "hello":
-            raise _Refused("hello", "the first message must be hello", _HELLO_FIX)
+            raise Refused("hello", "the first message must be hello", _HELLO_FIX)
         version = header.get("version")
         if type(version) is not int or version != PROTOCOL_VERSION:
             log.warning("bridge: refused %s: protocol version %r", peer, version)
-            raise _Refused(
+            raise Refused(
                 "version",
-                f"protocol version mismatch: the client speaks version {_shown(version)}, "
+                f"protocol version mismatch: the client speaks version {shown(version)}, "
                 f"this robot speaks version {PROTOCOL_VERSION}",
                 "install the same attribot release on the robot and the planner's computer",
             )
@@ -618,7 +441,7 @@ class RobotServer:
             left = throttle.blocked(address)
             if left > 0:
                 time.sleep(throttle.BLOCKED_WAIT_S)  # this hello's thread waits; the robot serves on
-                raise _Refused(
+                raise Refused(
                     "blocked",
                     f"the robot refuses {address} for {left:.0f} s more: too many wrong tokens",
                     "set ATTRIBOT_BRIDGE_TOKEN to the robot's --token, then wait and connect again",
@@ -631,7 +454,7 @@ class RobotServer:
                 log.warning("bridge: refused %s: wrong token", peer)
             else:
                 time.sleep(throttle.wrong(address))  # this hello's thread waits; others are served
-            raise _Refused(
+            raise Refused(
                 "auth",
                 "the robot refused the bridge token (wrong shared secret)",
                 "set ATTRIBOT_BRIDGE_TOKEN to the --token the robot's `attribot bridge serve` was given",
@@ -659,13 +482,13 @@ class RobotServer:
         return reply
 
     def _handle(self, op: str, h: dict[str, Any], received: float) -> tuple[dict[str, Any], bytes]:
-        """Do one request received at `received` (monotonic); `_Refused` when it cannot be done. A motion
+        """Do one request received at `received` (monotonic); `Refused` when it cannot be done. A motion
         command feeds the watchdog as it arms it (a tick in between must not find it armed and late)."""
         with self._lock:
-            request = _REQUESTS.get(op)
+            request = REQUESTS.get(op)
             if request is not None:
                 return request(self, op, h, received)
-        raise _Refused("op", f"unknown bridge request {_shown(op)}", "see docs/bridge-protocol.md")
+        raise Refused("op", f"unknown bridge request {shown(op)}", "see docs/bridge-protocol.md")
 
     def _step(self, seconds: float) -> None:
         d = self.driver
@@ -694,206 +517,6 @@ class RobotServer:
         except OSError:
             pass
         self._watchdog.join(timeout=1.0)
-
-
-# --- requests -------------------------------------------------------------------------------------------
-# One function per request op, called by `RobotServer._handle` with the server's lock held: each returns the
-# reply's header and payload, or raises `_Refused`. A table, not a lookup by name: a client's op string
-# reaches nothing but these.
-
-
-def _need(driver: Driver, capability: str, op: str) -> None:
-    if capability not in driver.capabilities():
-        raise _Refused(
-            "unsupported",
-            f"{driver.name} cannot {op}: it has no {capability} capability",
-            "available here: {}".format(", ".join(sorted(driver.capabilities()))),
-        )
-
-
-def _frame(driver: Driver, frame: CameraFrame) -> tuple[dict[str, Any], bytes]:
-    parts = [("jpeg", frame.jpeg)]
-    header: dict[str, Any] = {"timestamp": frame.timestamp, "camera": dict(driver.camera())}
-    if frame.depth is not None:
-        import numpy as np  # only a robot with depth or segmentation needs it
-
-        depth = np.ascontiguousarray(frame.depth, dtype="<f4")
-        parts.append(("depth", depth.tobytes()))
-        header["depth_shape"] = list(depth.shape)
-    if frame.segmentation is not None:
-        import numpy as np
-
-        seg = np.ascontiguousarray(frame.segmentation, dtype="<i4")
-        parts.append(("segmentation", zlib.compress(seg.tobytes(), 1)))
-        header["segmentation_shape"] = list(seg.shape)
-        header["objects"] = frame.objects or []
-    if frame.own_body is not None:
-        import numpy as np
-
-        own = np.asarray(frame.own_body, dtype=bool)
-        parts.append(("own_body", zlib.compress(np.packbits(own).tobytes(), 1)))
-        header["own_body_shape"] = list(own.shape)
-    header["parts"] = [[name, len(data)] for name, data in parts]
-    return header, b"".join(data for _, data in parts)
-
-
-def _op_observe(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "camera", op)
-    return _frame(server.driver, server.driver.frame())
-
-
-def _op_base(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "base", "drive its base")
-    lim = server.limits
-    server._target = (
-        _clip(_finite(h, "vx", op), lim.max_speed),
-        _clip(_finite(h, "vy", op), lim.max_speed),
-        _clip(_finite(h, "wz", op), lim.max_turn),
-    )
-    server._armed = True
-    server._last_command = max(server._last_command, received)
-    if server.driver.realtime:
-        server._ramp(_RAMP_TICK)
-    return {"commanded": list(server._target)}, b""
-
-
-def _op_step(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    seconds = _finite(h, "seconds", op)
-    if not 0.0 <= seconds <= MAX_STEP_S:
-        raise _Refused(
-            "value",
-            f"step needs seconds from 0 to {MAX_STEP_S:g}, got {seconds:g}",
-            "step in shorter pieces",
-        )
-    server._step(seconds)
-    return {"clock": server.driver.clock()}, b""
-
-
-def _op_stop(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    server._target = (0.0, 0.0, 0.0)
-    server._applied = (0.0, 0.0, 0.0)
-    server._armed = False
-    server.driver.stop()
-    return {}, b""
-
-
-def _op_head(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "head", "move a camera head")
-    pan, tilt = _finite(h, "pan", op), _finite(h, "tilt", op)
-    if abs(pan) > 2 * math.pi:
-        raise _Refused("value", f"head pan {pan:g} rad is more than a turn", "send an angle")
-    pan = _within(math.remainder(pan, 2 * math.pi), server.travel["pan"], "head pan", "rad")
-    tilt = _within(tilt, server.travel["tilt"], "head tilt", "rad")
-    server.driver.set_head(pan, tilt)
-    return {"commanded": [pan, tilt]}, b""
-
-
-def _op_arm(server: RobotServer, op: str, h: dict[str, Any], received: float) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "arm", "move an arm")
-    travel = server.travel
-    lift = _within(_finite(h, "lift", op), travel["lift"], "arm lift", "m")
-    extension = _within(_finite(h, "extension", op), travel["extension"], "arm extension", "m")
-    server._armed = True
-    server._last_command = max(server._last_command, received)
-    server.driver.set_arm(lift, extension)
-    return {"commanded": [lift, extension]}, b""
-
-
-def _op_grasp(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "gripper", op)
-    return {"held": bool(server.driver.grasp())}, b""
-
-
-def _op_release(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "gripper", op)
-    server.driver.release()
-    return {}, b""
-
-
-def _op_distance(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "distance", "measure distance")
-    value = float(server.driver.distance())
-    return {"metres": value if math.isfinite(value) else None}, b""
-
-
-def _op_tare(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "force", "tare a force sensor")
-    server.driver.tare_force()
-    return {}, b""
-
-
-def _op_force(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "force", "measure force")
-    return {"newtons": [float(v) for v in server.driver.force()]}, b""
-
-
-def _op_read(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    d = server.driver
-    name = h.get("sensor")
-    offered = [str(s) for s in d.sensors()]
-    if not isinstance(name, str) or name not in offered:
-        raise _Refused(
-            "unsupported",
-            f"{d.name} has no {name!r} sensor",
-            "its sensors: {}".format(", ".join(offered) or "none beyond its capabilities"),
-        )
-    value = float(d.read_sensor(name))
-    return {"value": value if math.isfinite(value) else None}, b""
-
-
-def _op_pose(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "pose", "report its pose")
-    x, y, yaw = server.driver.pose()
-    return {"x": float(x), "y": float(y), "yaw": float(yaw)}, b""
-
-
-def _op_joints(
-    server: RobotServer, op: str, h: dict[str, Any], received: float
-) -> tuple[dict[str, Any], bytes]:
-    _need(server.driver, "pose", "report joint states")
-    return {"joints": {k: float(v) for k, v in server.driver.joints().items()}}, b""
-
-
-_REQUESTS = {
-    "observe": _op_observe,
-    "base": _op_base,
-    "step": _op_step,
-    "stop": _op_stop,
-    "head": _op_head,
-    "arm": _op_arm,
-    "grasp": _op_grasp,
-    "release": _op_release,
-    "distance": _op_distance,
-    "tare": _op_tare,
-    "force": _op_force,
-    "read": _op_read,
-    "pose": _op_pose,
-    "joints": _op_joints,
-}
 
 
 def serve_in_thread(

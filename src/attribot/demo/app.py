@@ -286,7 +286,7 @@ def _upload(image: _Upload) -> tuple[str, bytes]:
 def _scene_config(form: _RunRequest) -> Any:
     """The SceneConfig of the page's scene fields; a bad field is an `InputError` that names it."""
     from attribot.config import SceneConfig
-    from attribot.sim.scene import LAYOUTS
+    from attribot.sim.scene_plan import LAYOUTS
 
     def number(name: str, value: int | str | None) -> int | None:
         if isinstance(value, int):
@@ -387,7 +387,7 @@ def _add_page_routes(app: Any, shared: _Shared) -> None:
     from starlette.requests import Request
     from starlette.staticfiles import StaticFiles
 
-    from attribot.sim.scene import LAYOUTS
+    from attribot.sim.scene_plan import LAYOUTS
 
     @app.get("/")
     def page(request: Request) -> Any:

@@ -19,8 +19,8 @@ from urllib.parse import urlparse
 
 import numpy as np
 
+from attribot.bridge.driver import CameraFrame, Driver
 from attribot.bridge.protocol import PROTOCOL_VERSION, ProtocolError, recv_message, send_message
-from attribot.bridge.server import CameraFrame, Driver
 from attribot.config import BridgeConfig
 from attribot.control.base import CONTROLLERS
 from attribot.control.body import BodyGeometry

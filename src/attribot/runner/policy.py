@@ -11,6 +11,7 @@ import ast
 import re
 from types import CodeType
 
+from attribot.runner.protocol import PROGRAM_FILENAME
 from attribot.runner.records import Limits, RunError
 
 __all__ = [
@@ -18,13 +19,9 @@ __all__ = [
     "names_sought",
     "prepare_program",
     "snippet_of",
-    "PROGRAM_FILENAME",
     "DENIED_BUILTINS",
     "GUARD_NAMES",
 ]
-
-PROGRAM_FILENAME = "<program>"
-"""The file name compiled into the program's code: the worker finds the program's lines by it."""
 
 DENIED_BUILTINS: frozenset[str] = frozenset(
     {

@@ -12,6 +12,7 @@ structured error).
 """
 
 __all__ = [
+    "PROGRAM_FILENAME",
     "KIND",
     "Kind",
     "Key",
@@ -21,6 +22,9 @@ __all__ = [
     "TAG_SET",
     "WireLimits",
 ]
+
+PROGRAM_FILENAME = "<program>"
+"""The file name compiled into the program's code: the worker finds the program's lines by it."""
 
 KIND = "t"
 """The key of every message's kind."""

@@ -56,8 +56,14 @@ __all__ = [
     "sensor_method_doc",
     "program_steps",
     "vocabulary",
+    "ABSOLUTE",
+    "COMPARATIVE",
+    "SUPERLATIVE",
 ]
 
+
+ABSOLUTE, COMPARATIVE, SUPERLATIVE = "absolute", "comparative", "superlative"
+"""The forms of a sense's words ("hot", "hotter", "hottest"), as `Sense.words` names them."""
 
 GRAVITY = 9.81
 """m/s^2, as MuJoCo's default gravity: what turns a force sensor's newtons into the kilograms of a weight."""
@@ -119,6 +125,11 @@ class Sense:
     quantity's nouns ("temperature"); why, why the camera cannot settle it; doing, what a caption says a
     robot measuring it is doing, before the object's name. digits, scale and suffix: how a value is shown
     (`show`).
+
+    How a planner ranks and says it: most, the end its choices lead with, "the most" of a ranking (True:
+    more of it, the heaviest; False: less, the nearest: distances rank from the robot out); written, the
+    words a program says it with (more and less as comparatives, then as superlatives: `comparative`,
+    `superlative`; empty: the first of each that `more` and `less` list).
     """
 
     quantity: str
@@ -140,6 +151,8 @@ class Sense:
     digits: int = 3
     scale: float = 1.0
     suffix: str | None = None  # None: a space and the unit
+    most: bool = True
+    written: tuple[str, ...] = ()
     words: dict[str, tuple[bool, str]] = field(init=False, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
@@ -181,7 +194,36 @@ class Sense:
                 f"sense {self.quantity!r}: a state is said with one of its absolute words (more or less)",
                 "add the state's word to more or less",
             )
+        if self.written and (
+            len(self.written) != 4
+            or [words.get(w) for w in self.written]
+            != [(True, "comparative"), (False, "comparative"), (True, "superlative"), (False, "superlative")]
+        ):
+            raise BadPlugin(
+                f"sense {self.quantity!r}: written is its comparatives for more and less, then its "
+                "superlatives, each one of its words",
+                "e.g. written=('hotter', 'colder', 'hottest', 'coldest'), or leave it out",
+            )
         object.__setattr__(self, "words", words)
+
+    def comparative(self, more: bool) -> str:
+        """The comparative a program says asking for more (or less) of it: "heavier", "closer"; empty when
+        the sense has none."""
+        return self._said(more, 1)
+
+    def superlative(self, more: bool) -> str:
+        """The superlative a program says asking for more (or less) of it: "heaviest", "nearest"; empty when
+        the sense has none."""
+        return self._said(more, 2)
+
+    def _said(self, more: bool, place: int) -> str:
+        if self.written:
+            return self.written[(0 if more else 1) + 2 * (place - 1)]
+        for entry in self.more if more else self.less:
+            forms = [" ".join(f.split()) for f in entry.lower().split("/")]
+            if len(forms) == 3 and forms[place]:
+                return forms[place]
+        return ""
 
     def state(self, word: str) -> State | None:
         """The state `word` names, or None."""

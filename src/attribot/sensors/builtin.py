@@ -43,6 +43,8 @@ register_sensor(
                 # "near", "close" and "far" alone are places ("the cup near the plate"), not asked-for ends
                 more=("/farther/farthest", "/further/furthest", "/more distant/most distant"),
                 less=("/closer/closest", "/nearer/nearest"),
+                most=False,  # a choice leads with the nearest
+                written=("farther", "closer", "farthest", "nearest"),
                 nouns=("distance",),
                 why="one picture does not tell how far away something is",
                 doing="measuring the distance to",

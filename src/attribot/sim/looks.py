@@ -2,15 +2,15 @@
 
 An object's `Shape` (`attribot.sim.shapes`) is its body: primitives that carry its mass, that the
 rangefinder, the view checks and the truth's bounds read, inside one collision box. Its look is drawn over
-that body: meshes generated here (surfaces of revolution, tubes swept along curves) and primitives with
-procedural materials (wood grain, fabric, brushed metal, printed labels, screens, keys, pages), with the
-parts that define the category: a mug's hollow and handle, a kettle's spout, lid and arched handle, a
-banana's curve, a laptop's lit screen and keyboard, a backpack's zips, straps and pocket, a book's pages
-between its boards and its printed cover, a suitcase's shell and wheels, the open loops of scissors. A
-look reaches at most a tenth of the object's size beyond its body (a test holds every look to it), carries
-no mass and never collides, so physics, sensing and the seeds' scenes are the same with either look; only
-pixels change. Within a category, looks vary with the object (`variant`, drawn
-from its id, never from the scene's generator).
+that body: meshes generated in code (`meshes.py`: surfaces of revolution, tubes swept along curves) and
+primitives with procedural materials (`textures.py`: wood grain, fabric, brushed metal, printed labels,
+screens, keys, pages), with the parts that define the category: a mug's hollow and handle, a kettle's
+spout, lid and arched handle, a banana's curve, a laptop's lit screen and keyboard, a backpack's zips,
+straps and pocket, a book's pages between its boards and its printed cover, a suitcase's shell and wheels,
+the open loops of scissors. A look reaches at most a tenth of the object's size beyond its body (a test
+holds every look to it), carries no mass and never collides, so physics, sensing and the seeds' scenes are
+the same with either look; only pixels change. Within a category, looks vary with the object (`variant`,
+drawn from its id, never from the scene's generator).
 
 `LOOKS` maps a shape name to its look builder; a shape without one is drawn with its body's primitives
 (with the materials of their roles). `SceneConfig.looks = "primitive"` draws every object as its body, the
@@ -23,7 +23,6 @@ import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
 
 import mujoco
 import numpy as np
@@ -31,18 +30,15 @@ import numpy as np
 from attribot.config import OBJECT_LOOKS
 from attribot.registry import Registry
 from attribot.sim.catalog import COLORS
+from attribot.sim.meshes import Mesh, arc, ellipse, extrude, lathe, moved, rounded, rounded_rect, tube
 from attribot.sim.shapes import MATERIALS, Shape, compose_quat, quat_axis_angle
 
 __all__ = [
     "Look",
-    "Mesh",
     "LOOKS",
     "LOOK_STYLES",
     "look_of",
     "variant_of",
-    "add_materials",
-    "lathe",
-    "tube",
     "BODY_GROUP",
     "LOOK_GROUP",
 ]
@@ -61,24 +57,11 @@ _ALONG_Y = quat_axis_angle((1, 0, 0), math.pi / 2)
 
 
 @dataclass(frozen=True)
-class Mesh:
-    """A triangle mesh in the object frame: vertices (N, 3), faces (M, 3), texture coordinates (N, 2)."""
-
-    vertices: np.ndarray
-    faces: np.ndarray
-    texcoords: np.ndarray
-
-    def key(self) -> str:
-        digest = hashlib.sha1(np.round(self.vertices, 5).tobytes() + self.faces.tobytes())
-        return digest.hexdigest()[:16]
-
-
-@dataclass(frozen=True)
 class Look:
     """One visual part: a primitive (MuJoCo half-sizes) or a mesh, its pose, colour and material.
 
     `color` is "main" (the object's colour), a name of `shapes.MATERIALS`, or an RGB triple; `material`
-    is one of `TEXTURES` (or "" for a plain shaded surface) and modulates the colour."""
+    is one of `textures.TEXTURES` (or "" for a plain shaded surface) and modulates the colour."""
 
     kind: str
     size: tuple[float, ...] = (0.0,)
@@ -87,326 +70,6 @@ class Look:
     color: str | tuple[float, float, float] = "main"
     material: str = ""
     mesh: Mesh | None = None
-
-
-# ---- meshes generated in code ----------------------------------------------------------------------------
-
-
-def lathe(profile: list[tuple[float, float]], segments: int = 24) -> Mesh:
-    """The surface swept by the (radius, height) polyline `profile` turning about z (a point at radius 0
-    closes the surface there). Texture u goes round, v along the profile."""
-    prof = np.asarray(profile, float)
-    n = len(prof)
-    ang = np.linspace(0.0, 2 * math.pi, segments + 1)[:-1]
-    c, s = np.cos(ang), np.sin(ang)
-    verts = np.stack(
-        [np.outer(prof[:, 0], c).ravel(), np.outer(prof[:, 0], s).ravel(), np.repeat(prof[:, 1], segments)],
-        axis=1,
-    )
-    seg_len = np.r_[0.0, np.cumsum(np.hypot(*np.diff(prof, axis=0).T))]
-    v = seg_len / max(seg_len[-1], 1e-9)
-    tex = np.stack([np.tile(ang / (2 * math.pi), n), np.repeat(v, segments)], axis=1)
-    faces = []
-    for i in range(n - 1):
-        for j in range(segments):
-            a, b = i * segments + j, i * segments + (j + 1) % segments
-            cc, d = a + segments, b + segments
-            faces += [(a, b, d), (a, d, cc)]
-    return Mesh(verts, np.asarray(faces, np.int32), tex)
-
-
-def tube(path: np.ndarray, radii: np.ndarray | float, segments: int = 10, caps: bool = True) -> Mesh:
-    """A tube of circular cross-section swept along the polyline `path` (N, 3) with radius per point."""
-    p = np.asarray(path, float)
-    n = len(p)
-    r = np.broadcast_to(np.asarray(radii, float), (n,))
-    tangents = np.gradient(p, axis=0)
-    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
-    ref = np.array([0.0, 0.0, 1.0]) if abs(tangents[0, 2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    ang = np.linspace(0.0, 2 * math.pi, segments + 1)[:-1]
-    verts, tex = [], []
-    normal = np.cross(tangents[0], ref)
-    for i in range(n):
-        normal = normal - tangents[i] * (normal @ tangents[i])  # parallel transport: no twist
-        normal /= np.linalg.norm(normal)
-        binormal = np.cross(tangents[i], normal)
-        for k, a in enumerate(ang):
-            verts.append(p[i] + r[i] * (math.cos(a) * normal + math.sin(a) * binormal))
-            tex.append((k / segments, i / max(n - 1, 1)))
-    faces = []
-    for i in range(n - 1):
-        for j in range(segments):
-            a, b = i * segments + j, i * segments + (j + 1) % segments
-            faces += [(a, b, b + segments), (a, b + segments, a + segments)]  # outward, as in `lathe`
-    if caps:
-        for end, flip in ((0, True), (n - 1, False)):
-            centre = len(verts)
-            verts.append(p[end])
-            tex.append((0.5, float(end > 0)))
-            base = end * segments
-            for j in range(segments):
-                a, b = base + j, base + (j + 1) % segments
-                faces.append((centre, b, a) if flip else (centre, a, b))
-    return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
-
-
-def extrude(profile: list[tuple[float, float]], length: float) -> Mesh:
-    """A prism: the convex (x, z) polygon `profile` (counter-clockwise seen from -y) extruded along y over
-    `length`, centred on y = 0, with both ends closed."""
-    prof = np.asarray(profile, float)
-    n = len(prof)
-    ys = (-length / 2, length / 2)
-    verts = [(x, y, z) for y in ys for x, z in prof]
-    per = np.r_[0.0, np.cumsum(np.hypot(*np.diff(np.vstack([prof, prof[:1]]), axis=0).T))]
-    tex = [(per[i] / per[-1], float(k)) for k in (0, 1) for i in range(n)]
-    faces = []
-    for i in range(n):
-        a, b = i, (i + 1) % n
-        faces += [(a, a + n, b + n), (a, b + n, b)]
-    for k, flip in ((0, False), (1, True)):
-        # each end has vertices of its own, so that it shades flat, not blended with the sides
-        ring = len(verts)
-        verts += [(x, ys[k], z) for x, z in prof]
-        tex += [(0.5, 0.5)] * n
-        centre = len(verts)
-        cx, cz = prof.mean(axis=0)
-        verts.append((cx, ys[k], cz))
-        tex.append((0.5, 0.5))
-        for i in range(n):
-            a, b = ring + i, ring + (i + 1) % n
-            faces.append((centre, b, a) if flip else (centre, a, b))
-    return Mesh(np.asarray(verts), np.asarray(faces, np.int32), np.asarray(tex))
-
-
-def _rounded_rect(half_x: float, height: float, radius: float, n: int = 5) -> list[tuple[float, float]]:
-    """A rectangle of width 2 `half_x` from z = 0 to `height` with its top corners rounded, as (x, z)."""
-    pts = [(-half_x, 0.0), (half_x, 0.0)]
-    for cx, a0 in ((half_x - radius, 0.0), (-half_x + radius, math.pi / 2)):
-        for t in np.linspace(a0, a0 + math.pi / 2, n):
-            pts.append((cx + radius * math.cos(t), height - radius + radius * math.sin(t)))
-    return pts
-
-
-def _rounded(
-    half_x: float, z0: float, z1: float, top: float, bottom: float, n: int = 5
-) -> list[tuple[float, float]]:
-    """A rectangle from x = -half_x to half_x and z = z0 to z1 with its top corners rounded by `top` and its
-    bottom ones by `bottom`, as (x, z), counter-clockwise seen from -y (convex, for `extrude`)."""
-    pts: list[tuple[float, float]] = []
-    for cx, cz, r, a0 in (
-        (-half_x + bottom, z0 + bottom, bottom, math.pi),
-        (half_x - bottom, z0 + bottom, bottom, 1.5 * math.pi),
-        (half_x - top, z1 - top, top, 0.0),
-        (-half_x + top, z1 - top, top, 0.5 * math.pi),
-    ):
-        pts += [(cx + r * math.cos(t), cz + r * math.sin(t)) for t in np.linspace(a0, a0 + math.pi / 2, n)]
-    return pts
-
-
-def _moved(m: Mesh, turn: str = "", by: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mesh:
-    """`m` turned a quarter turn, then moved `by`. `turn` "z": about z, its x axis to y and y to -x (an
-    extrusion along y then runs along x); "y": about y, its z axis to x (a lathe's axis lies along x); "x":
-    about x, its z axis to y and y to -z (an extruded (x, z) outline then lies flat)."""
-    x, y, z = m.vertices.T
-    v = {
-        "": (x, y, z),
-        "z": (-y, x, z),
-        "y": (z, y, -x),
-        "x": (x, z, -y),
-    }[turn]
-    return Mesh(np.stack(v, axis=1) + np.asarray(by), m.faces, m.texcoords)
-
-
-def _ring(centre: tuple[float, float, float], radii: tuple[float, float], n: int = 20) -> np.ndarray:
-    """A closed ellipse in the horizontal plane about `centre` (its first point repeated at the end)."""
-    t = np.linspace(0.0, 2 * math.pi, n + 1)
-    return np.stack([centre[0] + radii[0] * np.cos(t), centre[1] + radii[1] * np.sin(t),
-                     np.full(t.shape, centre[2])], axis=1)  # fmt: skip
-
-
-def _arc(centre: tuple[float, float, float], radii: tuple[float, float], t0: float, t1: float, plane: str,
-         n: int = 14) -> np.ndarray:  # fmt: skip
-    """Points of an elliptical arc about `centre` in the plane "yz" or "xz" (angles in radians)."""
-    t = np.linspace(t0, t1, n)
-    a, b = radii[0] * np.cos(t), radii[1] * np.sin(t)
-    cx, cy, cz = centre
-    if plane == "yz":
-        return np.stack([np.full(n, cx), cy + a, cz + b], axis=1)
-    return np.stack([cx + a, np.full(n, cy), cz + b], axis=1)
-
-
-# ---- procedural textures ---------------------------------------------------------------------------------
-
-
-def _wood(rng: np.random.Generator, n: int = 256) -> np.ndarray:
-    y, x = np.mgrid[0:n, 0:n] / n
-    warp = (
-        0.05 * np.sin(2 * math.pi * (3 * y + rng.uniform()))
-        + 0.02 * rng.standard_normal((n, n)).cumsum(0) / 8
-    )
-    rings = 0.5 + 0.5 * np.sin(2 * math.pi * 18 * (x + warp))
-    grain = 0.78 + 0.14 * rings + 0.05 * rng.standard_normal((n, n))
-    return np.clip(grain, 0, 1)[..., None] * np.array([1.0, 0.93, 0.85])
-
-
-def _fabric(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    y, x = np.mgrid[0:n, 0:n]
-    weave = 0.85 + 0.1 * ((x // 2 + y // 2) % 2) + 0.05 * rng.standard_normal((n, n))
-    return np.clip(weave, 0, 1)[..., None] * np.ones(3)
-
-
-def _brushed(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    streaks = rng.standard_normal((1, n)).repeat(n, 0) * 0.04 + rng.standard_normal((n, n)) * 0.015
-    return np.clip(0.9 + streaks, 0, 1)[..., None] * np.ones(3)
-
-
-def _label(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    img = np.ones((n, n, 3)) * np.array([0.95, 0.93, 0.85])
-    img[n // 3 : n // 3 + 10] = (0.85, 0.15, 0.12)
-    for k in range(5):  # lines of print
-        row = n // 2 + 8 * k
-        img[row : row + 3, 20 : n - 20 - 9 * k] = 0.15
-    return img
-
-
-def _screen(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    y, x = np.mgrid[0:n, 0:n] / n
-    img = np.stack([0.15 + 0.35 * y, 0.35 + 0.35 * y, 0.75 + 0.2 * x], axis=-1)  # a desktop's sky
-    img[int(0.15 * n) : int(0.6 * n), int(0.1 * n) : int(0.6 * n)] = 0.95  # a window
-    img[int(0.15 * n) : int(0.22 * n), int(0.1 * n) : int(0.6 * n)] = (0.3, 0.3, 0.35)
-    img[int(0.9 * n) :, :] = (0.12, 0.12, 0.14)  # the task bar
-    for k in range(4):
-        img[int(0.9 * n) + 3 : n - 3, 10 + 14 * k : 20 + 14 * k] = (0.8, 0.6, 0.2)
-    return img
-
-
-def _phone_screen(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    img = np.ones((n, n, 3)) * np.array([0.2, 0.35, 0.6])
-    palette = [(0.9, 0.3, 0.3), (0.3, 0.8, 0.4), (0.95, 0.75, 0.2), (0.9, 0.9, 0.9), (0.4, 0.6, 0.95)]
-    for i in range(5):
-        for j in range(4):
-            x0, y0 = 12 + 28 * j, 10 + 22 * i
-            img[x0 : x0 + 16, y0 : y0 + 14] = palette[(i + j) % len(palette)]
-    return img
-
-
-def _keys(rng: np.random.Generator, n: int = 256) -> np.ndarray:
-    img = np.ones((n, n, 3)) * 0.22
-    rows, cols = 5, 14
-    for i in range(rows):
-        for j in range(cols):
-            y0, x0 = 6 + i * (n - 12) // rows, 4 + j * (n - 8) // cols
-            img[y0 + 3 : y0 + (n - 12) // rows - 3, x0 + 2 : x0 + (n - 8) // cols - 2] = 0.85
-    return img.transpose(1, 0, 2)  # rows of keys across a box's x (depth), keys along its y (width)
-
-
-def _pages(rng: np.random.Generator, n: int = 64) -> np.ndarray:
-    y = np.arange(n)
-    lines = 0.92 - 0.12 * (y % 4 == 0)
-    return np.repeat(lines[:, None], n, 1)[..., None] * np.array([1.0, 0.97, 0.88])
-
-
-def _title(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    """A printed title: two lines of bold letters and a line of small print on paper."""
-    img = np.ones((n, n, 3)) * np.array([0.96, 0.94, 0.88])
-    for top, height, size, count in ((14, 26, 13, 6), (50, 26, 13, 5), (96, 10, 7, 8)):
-        x = 12
-        for _ in range(count):
-            width = int(size * rng.uniform(0.6, 1.0))
-            if x + width > n - 10:
-                break
-            img[top : top + height, x : x + width] = 0.12
-            img[top + height // 3 : top + 2 * height // 3, x + width // 3 : x + 2 * width // 3] = 0.96
-            x += width + 4
-    return img.transpose(1, 0, 2)  # lines across a box's x (a cover's width), as `_keys`
-
-
-def _art(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    """A cover's picture: a sky, a sun and hills."""
-    y, x = np.mgrid[0:n, 0:n] / n
-    img = np.stack([0.55 + 0.3 * y, 0.7 + 0.2 * y, 0.95 - 0.1 * y], axis=-1)
-    img[(x - 0.7) ** 2 + (y - 0.3) ** 2 < 0.02] = (0.98, 0.8, 0.2)
-    img[y > 0.62 + 0.12 * np.sin(2 * math.pi * x * 1.3)] = (0.2, 0.5, 0.25)
-    img[y > 0.8 + 0.06 * np.sin(2 * math.pi * (x * 2 + 0.3))] = (0.12, 0.35, 0.18)
-    return img
-
-
-def _peel(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    bumps = 0.9 + 0.1 * rng.random((n // 4, n // 4)).repeat(4, 0).repeat(4, 1)
-    return bumps[..., None] * np.ones(3)
-
-
-def _leather(rng: np.random.Generator, n: int = 128) -> np.ndarray:
-    dots = 0.85 + 0.15 * (rng.random((n, n)) > 0.5)
-    return dots[..., None] * np.ones(3)
-
-
-def _ribs(rng: np.random.Generator, n: int = 64) -> np.ndarray:
-    x = np.arange(n)
-    ribs = 0.75 + 0.25 * np.abs(np.sin(math.pi * 8 * x / n))
-    return np.repeat(ribs[None, :], n, 0)[..., None] * np.ones(3)
-
-
-def _rings(rng: np.random.Generator, n: int = 64) -> np.ndarray:
-    """Faint rings round a root, unevenly spaced."""
-    v = np.cumsum(rng.uniform(0.5, 1.5, n))
-    rings = 0.88 + 0.12 * np.abs(np.sin(math.pi * 5 * v / v[-1] * 3))
-    return np.repeat(rings[:, None], n, 1)[..., None] * np.ones(3)
-
-
-def _strings(rng: np.random.Generator, n: int = 64) -> np.ndarray:
-    y, x = np.mgrid[0:n, 0:n]
-    grid = ((x % 6) < 1) | ((y % 6) < 1)
-    return np.where(grid, 0.95, 0.5)[..., None] * np.ones(3)  # a string bed, the floor showing through
-
-
-TEXTURES: dict[str, tuple[Callable[[np.random.Generator], np.ndarray], float, float, int]] = {
-    # name: (image maker, specular, shininess, texture repeat)
-    "wood": (_wood, 0.15, 0.3, 1),
-    "fabric": (_fabric, 0.02, 0.05, 4),
-    "brushed": (_brushed, 0.6, 0.7, 1),
-    "label": (_label, 0.1, 0.2, 1),
-    "screen": (_screen, 0.3, 0.8, 1),
-    "phone": (_phone_screen, 0.3, 0.8, 1),
-    "keys": (_keys, 0.1, 0.3, 1),
-    "pages": (_pages, 0.0, 0.1, 1),
-    "peel": (_peel, 0.25, 0.4, 3),
-    "leather": (_leather, 0.1, 0.2, 6),
-    "ribs": (_ribs, 0.1, 0.2, 1),
-    "strings": (_strings, 0.0, 0.1, 1),
-    "rings": (_rings, 0.05, 0.1, 1),
-    "title": (_title, 0.05, 0.1, 1),
-    "art": (_art, 0.2, 0.3, 1),
-}
-"""Procedural textures (grey or coloured images that modulate a look's colour), with their shading."""
-_GLOSS = {"glossy": (0.5, 0.6), "matte": (0.05, 0.1), "plastic": (0.3, 0.4)}
-"""Plain materials without an image: (specular, shininess)."""
-
-
-@cache
-def _texture_images() -> tuple[tuple[str, int, int, bytes], ...]:
-    """Every texture's (name, width, height, RGB bytes): drawn once per process (drawing them took longer
-    than compiling a scene), the same for every model."""
-    rng = np.random.default_rng(20250)
-    images = []
-    for name, (make, _, _, _) in TEXTURES.items():
-        img = np.clip(make(rng) * 255, 0, 255).astype(np.uint8)
-        images.append((name, img.shape[1], img.shape[0], img.tobytes()))
-    return tuple(images)
-
-
-def add_materials(spec: mujoco.MjSpec) -> None:
-    """Add every texture and material a look can name to `spec` (once per model; a few hundred KB)."""
-    for name, w, h, data in _texture_images():
-        _, specular, shininess, repeat = TEXTURES[name]
-        tex = spec.add_texture(name=f"look_{name}", type=mujoco.mjtTexture.mjTEXTURE_2D, width=w, height=h)
-        tex.nchannel = 3
-        tex.data = data
-        mat = spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
-        mat.texrepeat = [repeat, repeat]
-        mat.textures[int(mujoco.mjtTextureRole.mjTEXROLE_RGB)] = f"look_{name}"
-    for name, (specular, shininess) in _GLOSS.items():
-        spec.add_material(name=f"look_{name}", specular=specular, shininess=shininess)
 
 
 def variant_of(object_id: str, n: int) -> int:
@@ -444,7 +107,7 @@ def _mug(s: float, v: int) -> list[Look]:
     rim = r * flare
     profile = [(0.0, 0.0), (r * 0.9, 0.0), (r, s * 0.04), (rim, s * 0.97), (rim * 0.99, s), (rim * 0.9, s),
                (rim * 0.9 - (rim - r) * 0.5, s * 0.12), (0.0, s * 0.1)]  # fmt: skip
-    handle = _arc((0.0, r * 0.92, s * 0.5), (s * 0.2, s * 0.27), -math.pi / 2, math.pi / 2, "yz")
+    handle = arc((0.0, r * 0.92, s * 0.5), (s * 0.2, s * 0.27), -math.pi / 2, math.pi / 2, "yz")
     return [_mesh(lathe(profile, 28)), _mesh(tube(handle, s * 0.045, 10))]
 
 
@@ -675,7 +338,7 @@ def _cactus(s: float, v: int) -> list[Look]:
 def _toaster(s: float, v: int) -> list[Look]:
     """A rounded body with two slots, toast in them, a lever at one end and a dial at the front."""
     d, w, h = s * 0.55, s, s * 0.65
-    body = extrude(_rounded_rect(d / 2, h, d * (0.3, 0.45, 0.2)[v]), w)
+    body = extrude(rounded_rect(d / 2, h, d * (0.3, 0.45, 0.2)[v]), w)
     toast = (0.8, 0.56, 0.28)
     return [
         _mesh(body, material="brushed"),
@@ -716,7 +379,7 @@ def _kettle(s: float, v: int) -> list[Look]:
             (0.0, h)]  # fmt: skip
     lid = [(r * 0.55, h), (r * 0.5, h + s * 0.03), (r * 0.12, h + s * 0.04), (0.0, h + s * 0.04)]
     spout = np.array([[0, -r * 0.8, h * 0.35], [0, -r * 1.1, h * 0.6], [0, -r * 1.3, h * 0.9]])
-    handle = _arc((0.0, 0.0, h), (s * 0.2, s * 0.17), 0.0, math.pi, "yz")
+    handle = arc((0.0, 0.0, h), (s * 0.2, s * 0.17), 0.0, math.pi, "yz")
     return [
         _mesh(lathe(body, 28), material="brushed" if v != 1 else "glossy"),
         _mesh(lathe(lid, 20), color="dark", material="plastic"),
@@ -732,24 +395,24 @@ def _backpack(s: float, v: int) -> list[Look]:
     mesh pockets on the sides, a grab loop on top and padded straps on its back."""
     d, w, h = s * 0.4, s * 0.7, s * 0.85
     crown = h + s * 0.08
-    body = _rounded(w / 2, 0.0, crown, w * 0.42, 0.04)
-    pocket = _rounded(w * 0.36, h * 0.06, h * 0.5, w * (0.12, 0.3, 0.2)[v], 0.03)
+    body = rounded(w / 2, 0.0, crown, w * 0.42, 0.04)
+    pocket = rounded(w * 0.36, h * 0.06, h * 0.5, w * (0.12, 0.3, 0.2)[v], 0.03)
     front = -d / 2 - d * 0.13
     zips = [
-        _arc((-d / 2 - 0.003, 0.0, crown - w * 0.42), (w * 0.38, w * 0.38), 0.15, math.pi - 0.15, "yz"),
+        arc((-d / 2 - 0.003, 0.0, crown - w * 0.42), (w * 0.38, w * 0.38), 0.15, math.pi - 0.15, "yz"),
         np.array([(front - d * 0.15 - 0.003, y, z) for y, z in pocket if z > h * 0.3]),
     ]
     looks = [
-        _mesh(_moved(extrude(body, d), "z"), material="fabric"),
-        _mesh(_moved(extrude(pocket, d * 0.3), "z", (front, 0.0, 0.0)), material="fabric"),
+        _mesh(moved(extrude(body, d), "z"), material="fabric"),
+        _mesh(moved(extrude(pocket, d * 0.3), "z", (front, 0.0, 0.0)), material="fabric"),
         *(_mesh(tube(z, s * 0.008, 6), color="dark", material="plastic") for z in zips),
     ]
     for side in (-1, 1):
-        path = _arc((d / 2, side * w * 0.25, h * 0.55), (d * 0.18, h * 0.42), -math.pi / 2, math.pi / 2, "xz")
+        path = arc((d / 2, side * w * 0.25, h * 0.55), (d * 0.18, h * 0.42), -math.pi / 2, math.pi / 2, "xz")
         looks.append(_mesh(tube(path, s * 0.025, 6), color="dark", material="fabric"))
         looks.append(Look("box", (d * 0.3, 0.012, h * 0.17), (0.0, side * (w / 2 + 0.01), h * 0.2),
                           color=(0.15, 0.15, 0.16), material="strings"))  # fmt: skip
-    loop = _arc((0.0, 0.0, crown), (s * 0.06, s * 0.05), 0.0, math.pi, "yz", n=8)
+    loop = arc((0.0, 0.0, crown), (s * 0.06, s * 0.05), 0.0, math.pi, "yz", n=8)
     looks.append(_mesh(tube(loop, s * 0.012, 6), color="dark", material="fabric"))
     return looks
 
@@ -759,16 +422,16 @@ def _suitcase(s: float, v: int) -> list[Look]:
     """A hard-shell case on four spinner wheels: a rounded shell in its colour, split by a dark seam, with
     ridges down its front, a carry handle on top and the telescopic handle's bar above."""
     d, w, h, lift = s * 0.35, s * 0.7, s * 0.9, 0.03
-    shell = _rounded(w / 2, lift, lift + h, 0.05, 0.04)
-    seam = _rounded(w / 2 + 0.003, lift - 0.003, lift + h + 0.003, 0.053, 0.043)
+    shell = rounded(w / 2, lift, lift + h, 0.05, 0.04)
+    seam = rounded(w / 2 + 0.003, lift - 0.003, lift + h + 0.003, 0.053, 0.043)
     looks = [
-        _mesh(_moved(extrude(shell, d), "z"), material="plastic"),
-        _mesh(_moved(extrude(seam, 0.012), "z"), color="dark", material="plastic"),
+        _mesh(moved(extrude(shell, d), "z"), material="plastic"),
+        _mesh(moved(extrude(seam, 0.012), "z"), color="dark", material="plastic"),
     ]
     for y in (-0.3, -0.1, 0.1, 0.3):  # ridges down the front shell
         looks.append(Look("box", (0.003, w * 0.02, h * 0.38), (-d / 2 - 0.002, y * w, lift + h / 2),
                           material="plastic"))  # fmt: skip
-    carry = _arc((0.0, 0.0, lift + h), (w * 0.13, s * 0.045), 0.0, math.pi, "yz", n=10)
+    carry = arc((0.0, 0.0, lift + h), (w * 0.13, s * 0.045), 0.0, math.pi, "yz", n=10)
     looks.append(_mesh(tube(carry, 0.01, 8), color="dark", material="plastic"))
     top = lift + h + s * 0.1
     for y in (-w * 0.25, w * 0.25):  # the telescopic handle, its rods and its bar
@@ -790,12 +453,12 @@ def _scissors(s: float, v: int) -> list[Look]:
     open_ = (0.06, 0.12, 0.03)[v]
     looks = []
     for side, z in ((1, 0.004), (-1, 0.006)):
-        turned = _moved(_moved(blade, "x"), by=(0.0, 0.0, z))
+        turned = moved(moved(blade, "x"), by=(0.0, 0.0, z))
         c, sn = math.cos(side * open_), math.sin(side * open_)
         x, y, zz = turned.vertices.T
         turned = Mesh(np.stack([c * x - sn * y, sn * x + c * y, zz], 1), turned.faces, turned.texcoords)
         looks.append(_mesh(turned, color="metal", material="brushed"))
-        ring = _ring((-0.2 * s, side * 0.1 * s, 0.01), (0.09 * s, 0.065 * s))
+        ring = ellipse((-0.2 * s, side * 0.1 * s, 0.01), (0.09 * s, 0.065 * s))
         looks.append(_mesh(tube(ring, 0.02 * s, 8, caps=False), material="plastic"))
         shank = np.array([[-0.11 * s, side * 0.07 * s, 0.01], [-0.02 * s, side * 0.012 * s, 0.007]])
         looks.append(_mesh(tube(shank, 0.018 * s, 8), material="plastic"))
@@ -809,7 +472,7 @@ def _carrot(s: float, v: int) -> list[Look]:
     r = s * 0.08
     root = [(0.0, 0.0), (r * 0.8, 0.0), (r, s * 0.04), (r * 0.92, s * 0.25), (r * 0.7, s * 0.5),
             (r * 0.35, s * 0.72), (r * 0.1, s * 0.8), (0.0, s * 0.81)]  # fmt: skip
-    looks = [_mesh(_moved(lathe(root, 16), "y", (-0.35 * s, 0.0, r)), material="rings")]
+    looks = [_mesh(moved(lathe(root, 16), "y", (-0.35 * s, 0.0, r)), material="rings")]
     for k, ang in enumerate((-0.35, 0.0, 0.35, -0.15, 0.2)):
         q = quat_axis_angle((0, 0, 1), ang)
         length = s * (0.14 if k < 3 else 0.1)
@@ -844,7 +507,7 @@ def _knife(s: float, v: int) -> list[Look]:
     """A kitchen knife: a steel blade curving to its point, a bolster, and a handle with three rivets."""
     edge = [(0.0, -0.06 * s), (0.3 * s, -0.055 * s), (0.44 * s, -0.03 * s), (0.5 * s, 0.0),
             (0.0, 0.035 * s)]  # fmt: skip
-    blade = _moved(_moved(extrude(edge, 0.002), "x"), by=(0.0, 0.0, 0.003))
+    blade = moved(moved(extrude(edge, 0.002), "x"), by=(0.0, 0.0, 0.003))
     looks = [
         _mesh(blade, color="metal", material="brushed"),
         Look(

@@ -15,9 +15,10 @@ import numpy as np
 from attribot.errors import InputError
 from attribot.sim.bodies import body_named
 from attribot.sim.catalog import COLORS
-from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, add_materials, look_of, variant_of
-from attribot.sim.scene import ROOM_HALF, SHELF_LOW, WALL_HEIGHT, Furniture, PlacedObject, ScenePlan
+from attribot.sim.looks import BODY_GROUP, LOOK_STYLES, add_looks, look_of, variant_of
+from attribot.sim.scene_plan import ROOM_HALF, SHELF_LOW, WALL_HEIGHT, Furniture, PlacedObject, ScenePlan
 from attribot.sim.shapes import MATERIALS
+from attribot.sim.textures import add_materials
 
 __all__ = ["build_model", "ROOM_CAMERA"]
 

@@ -20,7 +20,7 @@ import numpy as np
 from attribot.errors import AttribotError, UnknownName
 from attribot.gridpath import Cell, astar, shortcut
 from attribot.sim.robot_geometry import GEOMETRY
-from attribot.sim.scene import Furniture
+from attribot.sim.scene_plan import Furniture
 from attribot.sim.world import SimWorld
 
 __all__ = ["ManipulationError", "approach_object", "pick_object", "place_back", "drive_to", "in_reach"]

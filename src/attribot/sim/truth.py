@@ -16,7 +16,7 @@ from pydantic import BaseModel
 
 from attribot.frame import Frame
 from attribot.sim.looks import BODY_GROUP
-from attribot.sim.scene import Furniture, PlacedObject
+from attribot.sim.scene_plan import Furniture, PlacedObject
 
 if TYPE_CHECKING:
     from attribot.sim.world import SimWorld

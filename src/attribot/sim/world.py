@@ -39,15 +39,8 @@ from attribot.sim.looks import BODY_GROUP, LOOK_GROUP
 from attribot.sim.model import ROOM_CAMERA, build_model
 from attribot.sim.readings import ForceSensor, Odometry, Rangefinder
 from attribot.sim.render import SceneRenderer
-from attribot.sim.scene import (
-    LAYOUTS,
-    ScenePlan,
-    SceneRequest,
-    plan_scene,
-    scene_request,
-    scene_requests,
-    what_fits,
-)
+from attribot.sim.scene import plan_scene, scene_request, scene_requests, what_fits
+from attribot.sim.scene_plan import LAYOUTS, ScenePlan, SceneRequest
 from attribot.sim.truth import MIN_VISIBLE_PIXELS, ObjectInfo, RobotInfo, SceneInfo, box_from_mask, name2id
 
 __all__ = ["SimWorld", "SceneInfo", "ObjectInfo", "RobotInfo", "MIN_VISIBLE_PIXELS", "box_from_mask"]

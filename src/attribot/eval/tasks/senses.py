@@ -19,7 +19,8 @@ from attribot.errors import InputError
 from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
 from attribot.sensors import sense_of
-from attribot.sim.scene import SceneRequest, plan_scene, resolve_categories
+from attribot.sim.scene import plan_scene, resolve_categories
+from attribot.sim.scene_plan import SceneRequest
 from attribot.sim.world import ObjectInfo
 
 __all__: list[str] = []

@@ -23,7 +23,7 @@ from attribot.config import SceneConfig
 from attribot.eval.corpus import PaperQuery, paper_queries
 from attribot.eval.datasets import HEIGHT, WIDTH, Item, scene_info
 from attribot.eval.suite import Task, register_task
-from attribot.sim.scene import NoRoomOnTable
+from attribot.sim.table_layouts import NoRoomOnTable
 from attribot.sim.world import ObjectInfo
 
 __all__ = ["Place", "Extreme", "place_truth", "paper_places", "paper_extremes"]

@@ -12,6 +12,19 @@ from attribot.errors import InputError
 from attribot.lexicon import (
     GENERIC_NOUNS,
 )
+from attribot.sensors import Sense, sense_of
+
+MEASURED = ("weight", "distance")
+"""The senses (`attribot.sensors`) that the weight and distance family reads into queries of their own
+(`WeightQuery`, `DistanceQuery`, a narrowing `Among`, a yes/no comparison) and writes programs for; the
+`senses` family reads the others. Their words, ends and units are read from their records."""
+
+
+def measured_sense(quantity: str) -> Sense:
+    """The record of the measured sense `quantity` (one of `MEASURED`: built in, always registered)."""
+    found = sense_of(quantity)
+    assert found is not None, quantity
+    return found[1]
 
 
 class UnsupportedQuery(InputError):

@@ -25,8 +25,10 @@ from attribot.lexicon import (
     WEIGHT_LIGHT,
     expand_contractions,
     paraphrased,
+    sense_words,
 )
 from attribot.planning.rules.forms import (
+    MEASURED,
     ObjectSpec,
     Side,
 )
@@ -171,15 +173,11 @@ _STOP = FUNCTION_WORDS | {
     *_SIZE,
     *_SUPERLATIVE,
     *_COMPARATIVE,
-    "heaviest",
-    "heavier",
-    "heavy",
-    "lightest",
-    "lighter",
-    "lightweight",
+    # the measured senses' words, each word of them ("distant" of "more distant"), but "light", which a
+    # name may hold as a shade ("the light blue mug")
+    *({token for word in sense_words(MEASURED) for token in word.split()} - {"light"}),
     *_NEAR,
     *_FAR,
-    "distant",
 }
 
 

@@ -11,12 +11,14 @@ from attribot.lexicon import (
     GENERIC_NOUNS,
     SURFACE_LEVELS,
     SURFACE_WORDS,
+    sense_words,
 )
 from attribot.planning.query import check_query
 from attribot.planning.rules.families import Reading, readers
 from attribot.planning.rules.families.location import read_line
 from attribot.planning.rules.families.yesno import _parse_yes_no
 from attribot.planning.rules.forms import (
+    MEASURED,
     Among,
     DistanceQuery,
     GroundingQuery,
@@ -34,6 +36,7 @@ from attribot.planning.rules.forms import (
     UnsupportedQuery,
     WeightQuery,
     YesNoQuery,
+    measured_sense,
 )
 from attribot.planning.rules.normalise import (
     _DIST_WORDS,
@@ -50,6 +53,7 @@ from attribot.planning.rules.normalise import (
     _strip_article,
     rx,
 )
+from attribot.sensors import SUPERLATIVE
 
 """The comparative and "out of" forms of weight and distance queries, compiled once."""
 
@@ -370,11 +374,12 @@ def _take_region(text: str) -> tuple[Region | None, str, str | None]:
 
 
 _NUMBER_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "2": 2, "3": 3, "4": 4, "5": 5}
+# the superlatives of the measured senses, each with (its quantity, whether it names the end a ranking leads
+# with: "the two closest", "the two heaviest")
 _AMONG_WORDS = {
-    **{w: ("distance", True) for w in ("closest", "nearest")},
-    **{w: ("distance", False) for w in ("farthest", "furthest", "most distant")},
-    **{w: ("weight", True) for w in ("heaviest",)},
-    **{w: ("weight", False) for w in ("lightest",)},
+    word: (quantity, more == measured_sense(quantity).most)
+    for word, (quantity, more, form) in sense_words(MEASURED).items()
+    if form == SUPERLATIVE
 }
 _AMONG_ADJ = "|".join(sorted(_AMONG_WORDS, key=len, reverse=True))
 _AMONG = re.compile(

@@ -21,6 +21,7 @@ from attribot.planning.rules.forms import (
     Request,
     Understood,
     UnsupportedQuery,
+    measured_sense,
 )
 from attribot.planning.rules.helpers import source as helper_source
 from attribot.planning.rules.understand import kinds_of
@@ -297,9 +298,8 @@ def write_line(w: _Writer, line: LineSpec, phrase: str, var: str = "candidates")
 
 def _write_among(w: _Writer, among: Among) -> None:
     """Narrow `candidates` to the k at one end of another attribute ("of the two closest")."""
-    end = {("distance", True): "nearest", ("distance", False): "farthest"}.get(
-        (among.attribute, among.most), "heaviest" if among.most else "lightest"
-    )
+    sense = measured_sense(among.attribute)
+    end = sense.superlative(among.most == sense.most)
     w.line(f"# first the {among.k} {end}")
     w.fail(
         f"len(candidates) < {among.k}",

@@ -9,6 +9,7 @@ import re
 from collections.abc import Sequence
 
 from attribot.errors import InputError
+from attribot.lexicon import sense_words
 from attribot.planning.rules.families import FAMILY_REGISTRY, Family
 from attribot.planning.rules.forms import (
     DistanceQuery,
@@ -17,6 +18,7 @@ from attribot.planning.rules.forms import (
     SizeQuery,
     UnsupportedQuery,
     WeightQuery,
+    measured_sense,
 )
 from attribot.planning.rules.normalise import (
     _CANDIDATE_SET,
@@ -46,10 +48,7 @@ from attribot.planning.rules.write import (
     _sorted,
     _Writer,
 )
-
-MEASURED = ("weight", "distance")
-"""The senses (`attribot.sensors`) whose questions this family reads and whose programs it writes: the
-`senses` family reads the others."""
+from attribot.sensors import ABSOLUTE
 
 _COMPARE_WORDS = _WEIGHT_WORDS + "|" + _DIST_WORDS
 _COMPARE_FORMS = [
@@ -202,8 +201,8 @@ def _read_by_meaning(text: str, original: str) -> ParsedQuery | None:
     adjective, degree = cue["adj"], cue["deg"]
     if attribute == "weight":
         heavy = adjective in _WEIGHT_HEAVY
-        if degree in ("least", "less") and adjective in ("heavy", "light", "lightweight"):
-            heavy = not heavy
+        if degree in ("least", "less") and sense_words(("weight",))[adjective][2] == ABSOLUTE:
+            heavy = not heavy  # "the least heavy" is the lightest
         return WeightQuery(objects=objects, heaviest=heavy != from_end, named=named, rank=rank)
     return DistanceQuery(objects=objects, nearest=(adjective in _NEAR) != from_end, named=named, rank=rank)
 
@@ -299,7 +298,7 @@ def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -
 
 
 def _write_weight(w: _Writer, q: WeightQuery, sensors: Sequence[str], embodied: bool) -> None:
-    word = "heaviest" if q.heaviest else "lightest"
+    word = measured_sense("weight").superlative(q.heaviest)
     if "force" in sensors and embodied:
         _write_weighed(w, q)
         return

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from attribot.errors import InputError
 from attribot.lexicon import sense_states, sense_words
 from attribot.planning.rules.families import FAMILY_REGISTRY, Family, Reading
-from attribot.planning.rules.families.attributes import MEASURED, _find_all, _write_extreme_loop
-from attribot.planning.rules.forms import SenseQuery
+from attribot.planning.rules.families.attributes import _find_all, _write_extreme_loop
+from attribot.planning.rules.forms import MEASURED, SenseQuery
 from attribot.planning.rules.normalise import (
     _ORD,
     _named,

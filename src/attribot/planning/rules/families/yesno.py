@@ -7,8 +7,10 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from attribot.lexicon import sense_words
 from attribot.planning.rules.families import FAMILY_REGISTRY, Family
 from attribot.planning.rules.forms import (
+    MEASURED,
     YesNoQuery,
 )
 from attribot.planning.rules.normalise import (
@@ -21,12 +23,15 @@ from attribot.planning.rules.write import (
     _q,
     _Writer,
 )
+from attribot.sensors import COMPARATIVE, sense_of
 
 _YES_NO_WORDS = {
-    **{w: ("weight", True) for w in ("heavier", "more heavy")},
-    **{w: ("weight", False) for w in ("lighter", "less heavy")},
-    **{w: ("distance", False) for w in ("closer", "nearer")},
-    **{w: ("distance", True) for w in ("farther", "further", "more distant")},
+    # the measured senses' comparatives, from their records: "heavier", "closer", "more distant"
+    **{
+        w: (quantity, more)
+        for w, (quantity, more, form) in sense_words(MEASURED).items()
+        if form == COMPARATIVE
+    },
     **{w: ("size", True) for w in ("bigger", "larger")},
     **{w: ("size", False) for w in ("smaller",)},
 }
@@ -66,9 +71,7 @@ def _parse_yes_no(text: str, question: bool = False) -> YesNoQuery | None:
 
 
 _YES_NO_TERMS = {
-    # attribute: (sensor, unit, word for more, word for less)
-    "weight": ("force", "kg", "heavier", "lighter"),
-    "distance": ("distance", "m", "farther", "closer"),
+    # attribute: (sensor, unit, word for more, word for less); a sense's from its record (`_terms`)
     "size": ("distance", "m", "bigger", "smaller"),
     "position": ("camera", "px", "further right", "further left"),
 }
@@ -79,13 +82,23 @@ def _write_yes_no(w: _Writer, q: YesNoQuery, sensors: Sequence[str], embodied: b
     _find(w, q.second, "seconds")
     w.line("first = firsts[0]  # find lists the best match first")
     w.line("second = seconds[0]")
-    sensor, unit, more_word, less_word = _YES_NO_TERMS[q.attribute]
+    sensor, unit, more_word, less_word = _terms(q.attribute)
     if sensor == "camera" or (embodied and sensor in sensors):
         _write_measured_values(w, q.attribute)
     else:
         _write_estimated_values(w, q)
         unit = ""
     _write_verdict(w, q, unit, more_word, less_word)
+
+
+def _terms(attribute: str) -> tuple[str, str, str, str]:
+    """The sensor that settles `attribute`, its unit, and the words for more and for less of it: a sense's
+    from its record ("force", "kg", "heavier", "lighter"), size's and position's from `_YES_NO_TERMS`."""
+    found = sense_of(attribute)
+    if found is None:
+        return _YES_NO_TERMS[attribute]
+    sensor, sense = found
+    return sensor.name, sense.unit, sense.comparative(True), sense.comparative(False)
 
 
 def _write_measured_values(w: _Writer, attribute: str) -> None:
