@@ -16,11 +16,6 @@ a scripted OpenAI-compatible endpoint on 127.0.0.1.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-import textwrap
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,23 +23,9 @@ from typing import Any
 import pytest
 
 from attribot.config import SceneConfig, load_settings
-from attribot.embodiments.mujoco import MujocoWorld
 from attribot.session import Scene, run_program
 from conftest import EMPTY_SETTINGS, serve_chat_replies
-
-Truth = Callable[[list[Any]], str]
-
-
-def heaviest(objects: list[Any]) -> str:
-    return max(objects, key=lambda o: o.mass_kg).id
-
-
-def lightest(objects: list[Any]) -> str:
-    return min(objects, key=lambda o: o.mass_kg).id
-
-
-def closest(objects: list[Any]) -> str:
-    return min(objects, key=lambda o: o.distance_m).id
+from fakes.programs import Truth, ask_llm_cli, closest, heaviest, lightest, program, truth_of
 
 
 def rightmost(objects: list[Any]) -> str:
@@ -61,15 +42,6 @@ def of_category(category: str) -> Truth:
         return found.id
 
     return truth
-
-
-def truth_of(config: SceneConfig, truth: Truth) -> str:
-    with MujocoWorld(config) as world:
-        return truth(list(world.scene_info().objects))
-
-
-def program(text: str) -> str:
-    return textwrap.dedent(text).strip("\n") + "\n"
 
 
 DATA = Path(__file__).parent / "data" / "dialect_programs.jsonl"
@@ -222,17 +194,6 @@ WEAK = [
 ]
 
 
-def _ask_cli(
-    query: str, args: tuple[str, ...], prompt: str, url: str, cache: str
-) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS), "ATTRIBOT_CACHE_DIR": cache}
-    return subprocess.run(
-        [sys.executable, "-m", "attribot.cli", "ask", query, *args, "--planner", "llm", "--llm-base-url", url,
-         "--llm-model", "scripted", "--prompt", prompt, "--json"],
-        capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
-
-
 def fenced(source: str) -> str:
     return f"```python\n{source}```\n"
 
@@ -242,7 +203,8 @@ def test_a_weak_program_of_each_dialect_fails_in_its_words_and_its_correction_an
     case, httpserver, tmp_path
 ):
     requests = serve_chat_replies(httpserver, [fenced(case.weak), fenced(case.fixed)])
-    done = _ask_cli(case.query, case.args, case.prompt, httpserver.url_for("/v1"), str(tmp_path / "cache"))
+    url, cache = httpserver.url_for("/v1"), str(tmp_path / "cache")
+    done = ask_llm_cli(case.query, case.args, url, cache, EMPTY_SETTINGS, case.prompt)
     assert done.returncode == 0, done.stderr + done.stdout[-2000:]
     answer = json.loads(done.stdout)
     assert answer["error"] is None and answer["attempts"] == 2 and len(requests) == 2, answer["answer"]

@@ -11,36 +11,16 @@ world's own state (`scene_info()`), never from the code under test.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-import textwrap
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import pytest
 
 from attribot.config import SceneConfig, load_settings
-from attribot.embodiments.mujoco import MujocoWorld
 from attribot.noise import world_noise
 from attribot.session import Scene, run_program
 from conftest import EMPTY_SETTINGS, serve_chat_replies
-
-Truth = Callable[[list[Any]], str]
-"""The id of the right object, from the scene's objects."""
-
-
-def heaviest(objects: list[Any]) -> str:
-    return max(objects, key=lambda o: o.mass_kg).id
-
-
-def lightest(objects: list[Any]) -> str:
-    return min(objects, key=lambda o: o.mass_kg).id
-
-
-def closest(objects: list[Any]) -> str:
-    return min(objects, key=lambda o: o.distance_m).id
+from fakes.programs import Truth, ask_llm_cli, closest, heaviest, lightest, program, truth_of
 
 
 def leftmost(objects: list[Any]) -> str:
@@ -49,15 +29,6 @@ def leftmost(objects: list[Any]) -> str:
 
 def second_from_left(objects: list[Any]) -> str:
     return sorted((o for o in objects if o.box), key=lambda o: o.box[0] + o.box[2])[1].id
-
-
-def truth_of(config: SceneConfig, truth: Truth) -> str:
-    with MujocoWorld(config) as world:
-        return truth(list(world.scene_info().objects))
-
-
-def program(text: str) -> str:
-    return textwrap.dedent(text).strip("\n") + "\n"
 
 
 @dataclass(frozen=True)
@@ -387,15 +358,6 @@ WEAK = [
 ]
 
 
-def _ask_cli(query: str, args: tuple[str, ...], url: str, cache: str) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "ATTRIBOT_CONFIG": str(EMPTY_SETTINGS), "ATTRIBOT_CACHE_DIR": cache}
-    return subprocess.run(
-        [sys.executable, "-m", "attribot.cli", "ask", query, *args, "--planner", "llm", "--llm-base-url", url,
-         "--llm-model", "scripted", "--json"],
-        capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
-
-
 def fenced(source: str) -> str:
     return f"Here is the program:\n\n```python\n{source}```\n"
 
@@ -403,7 +365,8 @@ def fenced(source: str) -> str:
 @pytest.mark.parametrize("case", WEAK, ids=[c.name for c in WEAK])
 def test_a_weak_llm_style_program_fails_to_the_model_and_its_correction_answers(case, httpserver, tmp_path):
     requests = serve_chat_replies(httpserver, [fenced(case.weak), fenced(case.fixed)])
-    done = _ask_cli(case.query, case.args, httpserver.url_for("/v1"), str(tmp_path / "cache"))
+    url, cache = httpserver.url_for("/v1"), str(tmp_path / "cache")
+    done = ask_llm_cli(case.query, case.args, url, cache, EMPTY_SETTINGS)
     assert done.returncode == 0, done.stderr + done.stdout[-2000:]
     answer = json.loads(done.stdout)
     assert answer["error"] is None and answer["attempts"] == 2 and len(requests) == 2
