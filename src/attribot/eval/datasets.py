@@ -100,11 +100,9 @@ def _version() -> str:
         *_package_files("attribot.eval.tasks"),
         # the released phrasings and their meanings, written down once: the location and size truth
         *(("attribot.eval", f"data/{f}") for f in ("paper_queries.jsonl", "paper_meanings.jsonl")),
-        # the scenes, their images and their truth (boxes, distances, masses)
-        *(
-            ("attribot.sim", f)
-            for f in ("scene.py", "catalog.py", "shapes.py", "looks.py", "robot.py", "world.py", "render.py")
-        ),
+        # the scenes, their images and their truth (boxes, distances, masses): every module of the world,
+        # so that a module split off another (the layouts, the meshes) still counts
+        *_package_files("attribot.sim"),
     ):
         digest.update(resources.files(package).joinpath(name).read_bytes())
     return "paper-" + digest.hexdigest()[:12]
