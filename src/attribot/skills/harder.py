@@ -213,15 +213,15 @@ def look_harder(
     if all(d.score < params.unsure for d in kept):
         merged, views = _zoomed_in(detector, frame, name, candidates, kept, params)
         report.views, report.added = len(views), len(merged) - len(kept)
-        if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
+        if not merged:  # nothing of the name seen at all: weaker evidence (`_unseen`), and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-            weighed = (candidates, views, nearer, claimed, report, table, params)
-            merged = _unseen(detector, frame, capture.camera, name, *weighed)
-            report.took = list(merged) if report.taken else []
+        weighed = (candidates, views, nearer, claimed or [], report, table, params)
+        merged = merged or _unseen(detector, frame, capture.camera, name, *weighed)
+        report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
-        if not report.taken:  # the detector's own faint boxes alone: confirmed from nearer
-            kept = _faint_confirmed(kept, candidates, name, nearer, report, params)
+        if not report.taken:  # the detector's own faint boxes alone: in an open room, confirmed nearer
+            kept = _faint_confirmed(detector, frame, capture.camera, name, kept, *weighed)
     kept = _fitted(detector, name, kept, candidates, report, table, params)
     kept = _without_misfits(detector, name, kept, candidates, report, table, params)  # the zoomed views' too
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
@@ -357,8 +357,7 @@ def _unseen(
     if faint is not None:
         report.faint = faint.score
         grown = grown_to_candidates(faint, free, sizes, params).model_copy(update={"evidence": "faint box"})
-        # a box this faint is no evidence a closed world can stand on: from nearer it is the name, or nothing
-        return confirmed([grown], candidates, name, nearer, report)
+        return confirmed([grown], candidates, name, nearer, report, closed)
     others = explaining()
     placement = None if kind is None else kind.placement
     if nearer is not None:
@@ -429,20 +428,29 @@ def closed_world(
 
 
 def _faint_confirmed(
+    detector: Detector,
+    frame: Frame,
+    camera: CameraInfo,
+    name: str,
     kept: list[Detection],
     candidates: list[Candidate],
-    name: str,
+    views: list[tuple[int, int, int, int]],
     nearer: Nearer | None,
+    claimed: list[Detection],
     report: LookHarderReport,
+    table: Priors,
     params: LookHarderParams,
 ) -> list[Detection]:
-    """`kept` (a find's boxes, none sure) with the detector's own faint boxes confirmed by acting: the robot
-    drives nearer to the surest `faint_visits` of them (`confirmed`); those boxed surely there stand as seen
-    nearer, the others are dropped. A world that looks closed does not keep them: a detector that boxes the
-    things it cannot name surely as other classes makes a room of them look closed. For a robot that cannot
-    drive they stand as they are, and an answer resting on one says it is a guess."""
+    """`kept` (a find's boxes, none sure) with the detector's own faint boxes confirmed by acting where the
+    room is open (`closed_world` says no): the robot drives nearer to the surest `faint_visits` of them
+    (`confirmed`); those boxed surely there stand as seen nearer, the others are dropped. In a closed
+    world, or for a robot that cannot drive, they stand as they are, and an answer resting on one says it
+    is a guess."""
     faint = [d for d in kept if d.evidence is None and d.score < params.unsure]
     if nearer is None or not faint:
+        return kept
+    explaining = _explaining(detector, frame, camera, name, views, claimed, table, params)
+    if closed_world(candidates, explaining, frame.width, frame.height, params):
         return kept
     faint.sort(key=lambda d: -d.score)
     report.unvisited += max(0, len(faint) - params.faint_visits)

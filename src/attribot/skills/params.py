@@ -43,9 +43,9 @@ class LookHarderParams:
     eliminated_score: float = 0.001
     """The score of a candidate taken by elimination: no detector saw it as the name."""
     faint_visits: int = 2
-    """A find with only faint boxes of its own has at most this many of them (the surest) confirmed by
-    driving nearer; the others, and those not boxed surely from nearer, are dropped: in a room with things
-    the detector cannot name, a faint box is as often one of those things as the object named."""
+    """In a room with things the detector cannot name, a find with only faint boxes of its own has at most
+    this many of them (the surest) confirmed by driving nearer; the others, and those not seen from nearer,
+    are dropped: there a faint box is as often one of those things as the object named."""
 
     # ---- sizes and heights against the priors --------------------------------------------------------------
     size_slack: tuple[float, float] = (0.5, 1.5)
