@@ -99,7 +99,6 @@ class LookHarderReport:
     fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
     confirmed: int = 0  # inferences (elimination, likeness) the detector confirmed from nearer
     unconfirmed: int = 0  # inferences dropped: from nearer the detector did not name them
-    unvisited: int = 0  # faint boxes past `faint_visits` in an open room: dropped without a visit
     closed: int = 0  # inferences kept unconfirmed, since everything else depth sees here is named
     took: list[Detection] = field(default_factory=list)  # what the find took on that weaker evidence
 
@@ -130,8 +129,6 @@ class LookHarderReport:
             text += f"; {self.confirmed} of them confirmed: seen as the name from nearer"
         if self.unconfirmed:
             text += f"; {self.unconfirmed} dropped: from nearer the detector did not see the name there"
-        if self.unvisited:
-            text += f"; {self.unvisited} more faint boxes dropped unvisited: things here go unnamed"
         if self.closed:
             text += (
                 f"; {self.closed} kept though not seen as the name from nearer: everything else here is named"
@@ -183,9 +180,10 @@ def look_harder(
     table: Priors | None = None,
     params: LookHarderParams = LOOK_HARDER,
 ) -> tuple[list[Detection], LookHarderReport] | None:
-    """The find's detections after looking harder (module docstring) and what it did; None without depth and a
-    camera pose. `nearer`: drives nearer to candidates; `claimed`: the boxes other names' finds took here;
-    `sought`: the other names looked for; `table`: the perception priors (default: unscaled)."""
+    """The find's detections after looking harder (module docstring) and what it did; None without depth and
+    a camera pose. `nearer` (a robot that drives) looks from nearer at the candidates in `visit_order`;
+    `claimed`: the boxes other names' finds took here, each its object's (if of another class); `sought`:
+    the other names looked for; `table`: the perception priors (default: unscaled); `params`: the values."""
     if frame.depth is None or capture.camera is None or capture.view is None:
         return None
     table = table if table is not None else priors()
@@ -197,10 +195,11 @@ def look_harder(
     def best_rivals() -> list[Detection]:  # the other sought names' best boxes, looked for once
         return _best_of(detector, frame, name, sought or [], [])
 
+    mine = class_of_name(detector, name)
+
     def one_each(found: list[Detection]) -> list[Detection]:
         if len(found) < 2:
             return found
-        mine = class_of_name(detector, name)
         taken = [d for d in claimed or [] if class_of_name(detector, d.label) != mine]
         left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates)
         report.yielded += len(found) - len(left)
@@ -213,15 +212,13 @@ def look_harder(
     if all(d.score < params.unsure for d in kept):
         merged, views = _zoomed_in(detector, frame, name, candidates, kept, params)
         report.views, report.added = len(views), len(merged) - len(kept)
-        if not merged:  # nothing of the name seen at all: weaker evidence (`_unseen`), and a closer look
+        if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-        weighed = (candidates, views, nearer, claimed or [], report, table, params)
-        merged = merged or _unseen(detector, frame, capture.camera, name, *weighed)
-        report.took = list(merged) if report.taken else []
+            weighed = (candidates, views, nearer, claimed, report, table, params)
+            merged = _unseen(detector, frame, capture.camera, name, *weighed)
+            report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
         kept = one_each(merged)
-        if not report.taken:  # the detector's own faint boxes alone: in an open room, confirmed nearer
-            kept = _faint_confirmed(detector, frame, capture.camera, name, kept, *weighed)
     kept = _fitted(detector, name, kept, candidates, report, table, params)
     kept = _without_misfits(detector, name, kept, candidates, report, table, params)  # the zoomed views' too
     # each sought name's best box explains its place, as in one_each (alike takes nothing with no example)
@@ -427,37 +424,6 @@ def closed_world(
     return len(unexplained) <= 1
 
 
-def _faint_confirmed(
-    detector: Detector,
-    frame: Frame,
-    camera: CameraInfo,
-    name: str,
-    kept: list[Detection],
-    candidates: list[Candidate],
-    views: list[tuple[int, int, int, int]],
-    nearer: Nearer | None,
-    claimed: list[Detection],
-    report: LookHarderReport,
-    table: Priors,
-    params: LookHarderParams,
-) -> list[Detection]:
-    """`kept` (a find's boxes, none sure) with the detector's own faint boxes confirmed by acting where the
-    room is open (`closed_world` says no): the robot drives nearer to the surest `faint_visits` of them
-    (`confirmed`); those boxed surely there stand as seen nearer, the others are dropped. In a closed
-    world, or for a robot that cannot drive, they stand as they are, and an answer resting on one says it
-    is a guess."""
-    faint = [d for d in kept if d.evidence is None and d.score < params.unsure]
-    if nearer is None or not faint:
-        return kept
-    explaining = _explaining(detector, frame, camera, name, views, claimed, table, params)
-    if closed_world(candidates, explaining, frame.width, frame.height, params):
-        return kept
-    faint.sort(key=lambda d: -d.score)
-    report.unvisited += max(0, len(faint) - params.faint_visits)
-    seen = confirmed(faint[: params.faint_visits], candidates, name, nearer, report, at_least=params.unsure)
-    return [d for d in kept if d not in faint] + seen
-
-
 def confirmed(
     inferred: list[Detection],
     candidates: list[Candidate],
@@ -465,7 +431,6 @@ def confirmed(
     nearer: Nearer | None,
     report: LookHarderReport,
     closed: Callable[[], bool] | None = None,
-    at_least: float = 0.0,
 ) -> list[Detection]:
     """What of `inferred` (objects the detector never named at its threshold: a box fainter than that,
     elimination, likeness) acting confirms: the robot drives nearer to each and looks; where the detector
@@ -474,15 +439,13 @@ def confirmed(
     something else there: a dumbbell taken for an absent toaster, a CD for an absent bowl), and kept as it
     is where the world is closed (`closed`: everything else depth sees is named, so the one thing left is
     the one sought, a toaster the detector never names). A robot that cannot drive there keeps them as they
-    are. An answer resting on a kept elimination or likeness says that it is a guess. `at_least`: the score
-    a box seen nearer needs to confirm (a faint box is confirmed only by a sure one)."""
+    are. An answer resting on a kept elimination or likeness says that it is a guess."""
     if nearer is None or not inferred:
         return inferred
     kept: list[Detection] = []
     for det in inferred:
         place = next((c for c in candidates if c.box == det.box), Candidate(box=det.box, rise=0.0, pixels=0))
         seen, visits = nearer(name, [place])
-        seen = [d for d in seen if d.score >= at_least]
         report.visits += visits
         if seen:
             report.confirmed += 1

@@ -42,10 +42,6 @@ class LookHarderParams:
     candidate."""
     eliminated_score: float = 0.001
     """The score of a candidate taken by elimination: no detector saw it as the name."""
-    faint_visits: int = 2
-    """In a room with things the detector cannot name, a find with only faint boxes of its own has at most
-    this many of them (the surest) confirmed by driving nearer; the others, and those not seen from nearer,
-    are dropped: there a faint box is as often one of those things as the object named."""
 
     # ---- sizes and heights against the priors --------------------------------------------------------------
     size_slack: tuple[float, float] = (0.5, 1.5)
