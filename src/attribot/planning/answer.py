@@ -41,7 +41,7 @@ class AnswerObject(BaseModel):
     @property
     def guess(self) -> bool:
         """Whether the object rests on an inference no detector confirmed (elimination, a likeness) or on a
-        box the detector was not sure of (a faint box, not confirmed from nearer)."""
+        box the detector was not sure of (a faint box)."""
         return any(e in GUESSED for e in self.evidence)
 
 
@@ -216,7 +216,7 @@ def _guessed(obj: AnswerObject | None) -> str:
         return ""
     inferred = [e for e in obj.evidence if e in INFERRED]
     if not inferred:
-        return " (a guess: the detector named it only faintly, and no nearer look made it sure)"
+        return " (a guess: the detector named it only faintly, under its sure score)"
     how = " and ".join(
         {"elimination": "by elimination", "look-alike": "for its likeness to one it saw"}[e] for e in inferred
     )
