@@ -29,6 +29,10 @@ class LookHarderParams:
     """...and at least this many pixels square (a 30-pixel object fills about a quarter of it)."""
     max_views: int = 10
     """The most zoomed views one find looks at (a forward pass each)."""
+    nearer_visits: int = 2
+    """The most places one find drives nearer to, to look again (a robot with a base)..."""
+    nearer_m: float = 0.9
+    """...and how far from each of them it stops to look."""
     small_box: float = 1 / 6
     """Only a box under this share of the image is set aside for standing on nothing: a larger one may be
     furniture or a wall-sized object, whose own depth is its surface."""

@@ -41,6 +41,7 @@ from attribot.skills.checks import check_patch, patch_named
 from attribot.skills.errors import ApiArgumentError, MissingSensor
 from attribot.skills.harder import acting_find, carried_back
 from attribot.skills.looking import View
+from attribot.skills.params import LOOK_HARDER
 from attribot.skills.perception import Perception
 from attribot.skills.preconditions import Dialect, State, Verdict, check_action
 from attribot.skills.safeguards import Safeguards
@@ -126,8 +127,6 @@ class SessionCore:
 
     FOCUS_CORRECTIONS: ClassVar[int] = 3
     FOCUS_TOL_PX: ClassVar[float] = 1.5
-    NEARER_VISITS: ClassVar[int] = 2  # look_harder: places driven nearer to for one find, at most
-    NEARER_M: ClassVar[float] = 0.9  # ...and how far from them it stops to look
     GRIPPER_EMPTY_M: ClassVar[float] = 0.0003  # fingers closer than this hold nothing
 
     def __init__(
@@ -212,10 +211,10 @@ class SessionCore:
         return self._image
 
     def _nearer(self, name: str, candidates: list[Candidate]) -> tuple[list[Detection], int]:
-        """Host side, for `look_harder`: drive nearer to each candidate of the image in turn (at most
-        `NEARER_VISITS`), look for `name` there until it is seen on the candidate (carried back into the
-        image): the candidate's box is then its box in the image; then drive back to where the robot was.
-        Returns the detections in the image and the places visited."""
+        """Host side, for `look_harder`: drive nearer to each candidate of the image in turn (at most its
+        params' `nearer_visits`, stopping `nearer_m` from each), look for `name` there until it is seen on
+        the candidate (carried back into the image): the candidate's box is then its box in the image; then
+        drive back to where the robot was. Returns the detections in the image and the places visited."""
         image, world = self._image, self.world
         look, back = (
             getattr(self.controller, "look_nearer", None),
@@ -228,10 +227,11 @@ class SessionCore:
         first, detector = image.capture, image.perception.detector
         found: list[Detection] = []
         visits = 0
+        params = getattr(self.safeguards.look_harder, "params", LOOK_HARDER)  # a plug-in may hold none
         try:
-            for cand in candidates[: self.NEARER_VISITS]:
+            for cand in candidates[: params.nearer_visits]:
                 try:
-                    look(Target(box=cand.box, capture=first), self.NEARER_M)
+                    look(Target(box=cand.box, capture=first), params.nearer_m)
                 except (ControlError, UnsupportedAction):
                     continue  # no way there, or stopped on the way: the next place, and back from there
                 visits += 1
