@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -106,10 +107,17 @@ def _truth(row: dict[str, Any], visible: list[Any]) -> Any:
     return everyday._truth(row, visible)
 
 
-def scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None:
-    """A scene the phrasing applies to and its truth, or None when none could be generated."""
+def scene_for(
+    row: dict[str, Any],
+    seed: int,
+    config_of: Callable[[dict[str, Any], int], SceneConfig] | None = None,
+    truth_of: Callable[[dict[str, Any], list[Any]], Any] | None = None,
+) -> tuple[SceneConfig, Any] | None:
+    """A scene the phrasing applies to and its truth, or None when none could be generated. `config_of` and
+    `truth_of` draw a row's scene and read its truth (default: this set's own), for sets that build on it."""
+    config_of, truth_of = config_of or _config, truth_of or _truth
     for tries in range(60):
-        config = _config(row, seed * 100 + tries)
+        config = config_of(row, seed * 100 + tries)
         try:
             with MujocoWorld(config) as world:
                 info = world.scene_info()
@@ -119,7 +127,7 @@ def scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None:
         colours = [w for w in words(row["query"]) if w in COLOR_WORDS]
         if colours and not all(o.color == colours[0] for o in visible):
             continue
-        truth = _truth(row, visible)
+        truth = truth_of(row, visible)
         if truth is not None:
             return config, truth
     return None

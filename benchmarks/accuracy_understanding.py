@@ -46,9 +46,6 @@ import accuracy_english as english
 import accuracy_generalisation as everyday
 import accuracy_senses as senses
 from attribot.config import SceneConfig
-from attribot.embodiments.mujoco import MujocoWorld
-from attribot.errors import AttribotError
-from attribot.lexicon import COLOR_WORDS, words
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 PARTS = {
@@ -114,21 +111,7 @@ def _config(row: dict[str, Any], seed: int) -> SceneConfig:
 
 def scene_for(row: dict[str, Any], seed: int) -> tuple[SceneConfig, Any] | None:
     """A scene the question applies to and its truth, or None when none could be generated."""
-    for tries in range(60):
-        config = _config(row, seed * 100 + tries)
-        try:
-            with MujocoWorld(config) as world:
-                info = world.scene_info()
-        except AttribotError:
-            continue
-        visible = [o for o in info.objects if o.box is not None]
-        colours = [w for w in words(row["query"]) if w in COLOR_WORDS]
-        if colours and not all(o.color == colours[0] for o in visible):
-            continue
-        truth = _truth(row, visible)
-        if truth is not None:
-            return config, truth
-    return None
+    return english.scene_for(row, seed, _config, _truth)
 
 
 # ---- the generated set ---------------------------------------------------------------------------------
