@@ -127,21 +127,18 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
     assert not closed_world(things, faint, 640, 480)  # a faint box explains nothing
 
 
-class FaintlyAs(SeesOnly):
-    """`SeesOnly`, which also boxes one thing it cannot name (`thing`) faintly as `as_name`."""
+class CallsItA(SeesOnly):
+    """`SeesOnly`, but it also boxes one category under another name, surely (YOLOv5s calls a potato a
+    sports ball at 0.31) or at `score` (a faint box)."""
 
-    def __init__(self, sees: set[str], thing: str, as_name: str) -> None:
-        super().__init__(sees)
-        self.thing, self.as_name = thing, as_name
+    def __init__(self, sees: set[str], thing: str, called: str, score: float | None = None) -> None:
+        super().__init__(sees | {thing})
+        self.thing, self.called, self.score = thing, called, score
 
     def detect(self, frame: Frame, queries):
-        out = super().detect(frame, queries)
-        for key, obj in (frame.objects or {}).items():
-            ys, xs = np.nonzero(frame.segmentation == key)
-            if self.as_name in queries and obj.category == self.thing and len(xs) >= 20:
-                box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
-                out.append(Detection(box=box, score=0.15, label=self.as_name))
-        return out
+        found = super().detect(frame, [self.thing if q == self.called else q for q in queries])
+        named = {"label": self.called, **({} if self.score is None else {"score": self.score})}
+        return [d.model_copy(update=named) if d.label == self.thing else d for d in found]
 
 
 def test_an_answer_resting_on_a_faint_box_of_an_unnamed_thing_says_it_is_a_guess():
@@ -150,7 +147,7 @@ def test_an_answer_resting_on_a_faint_box_of_an_unnamed_thing_says_it_is_a_guess
     with MujocoWorld(ROOM) as world:
         assert "orange" not in {o.category for o in world.scene_info().objects}
         base = Perception.from_settings(load_settings(detector="oracle"))
-        detector = FaintlyAs({"apple", "mug"}, "tomato", "orange")
+        detector = CallsItA({"apple", "mug"}, "tomato", "orange", score=0.15)
         perception = Perception(detector=detector, vqa=base.vqa, language=base.language)
         robot = Robot(
             sensors=["camera"], world=world, controller=build_controller(world),
@@ -263,19 +260,6 @@ def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_gues
     assert answer_lines([row]) == [
         "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
     ]
-
-
-class CallsItA(SeesOnly):
-    """`SeesOnly`, but it also boxes one category surely under another name (YOLOv5s calls a potato a
-    sports ball at 0.31)."""
-
-    def __init__(self, sees: set[str], thing: str, called: str) -> None:
-        super().__init__(sees | {thing})
-        self.thing, self.called = thing, called
-
-    def detect(self, frame: Frame, queries):
-        found = super().detect(frame, [self.thing if q == self.called else q for q in queries])
-        return [d.model_copy(update={"label": self.called}) if d.label == self.thing else d for d in found]
 
 
 def test_a_sure_box_on_a_thing_of_no_size_the_name_has_is_set_aside():
