@@ -33,6 +33,8 @@ def _ask(query: str, sensors: tuple[str, ...]):
     answer = ask(query, Scene(SCENE, sensors=sensors), load_settings(detector="coco?tiles=1"))
     assert answer.error is None, answer.error
     assert answer.backends["detector"] == "coco:yolov3-tiny"
+    # a real detector's answer rests on no simulator truth: `ask` gives it no oracle VQA either
+    assert answer.backends["vqa"] == "none", answer.backends
     return answer
 
 

@@ -17,7 +17,7 @@ from attribot.eval.compare import read_runs
 from attribot.eval.datasets import read_dataset, scene_info
 from attribot.eval.run import EvalPlan, read_records, run_eval
 from attribot.eval.subset import closed_set_detector
-from attribot.models.base import build_backend, can_find, findable_categories
+from attribot.models.base import build_backend, can_find, findable_categories, without_oracle_vqa
 from conftest import cli
 
 SMALL = dict(width=160, height=120)
@@ -177,3 +177,15 @@ def test_the_acceptance_command_keeps_every_item(tmp_path):
         assert f"{task}: 1 of 1 items kept, drawn in scenes whose objects coco can all find" in said
         assert about["items"][task].startswith("1 of 1 items kept, drawn in scenes")
     assert sorted(r.task for r in read_records(tmp_path / "run")) == ["distance_embodied", "weight_embodied"]
+
+
+def test_only_a_detector_that_reads_pixels_loses_the_oracle_vqa():
+    def vqa_of(detector: str, vqa: str) -> str | None:
+        changed = without_oracle_vqa(load_settings(detector=detector, vqa=vqa))
+        return None if changed is None else changed.vqa
+
+    assert vqa_of("yolov5s", "oracle") == "none"
+    assert vqa_of("coco?tiles=1", "oracle?noise=realistic") == "none"
+    assert vqa_of("oracle", "oracle") is None  # the oracle detector reads the simulator anyway
+    assert vqa_of("oracle?noise=realistic", "oracle") is None
+    assert vqa_of("coco", "hf:Salesforce/blip2-opt-2.7b") is None  # a real VQA stays

@@ -28,6 +28,7 @@ from attribot.config import (
 from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file
 from attribot.frame import load_image
+from attribot.models.base import without_oracle_vqa
 from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 from attribot.saved_runs import (
@@ -531,6 +532,7 @@ def ask(
     _check_watch(watch)
     scene = _scene_of(world)
     settings = _settings_of(settings, overrides)
+    settings = without_oracle_vqa(settings) or settings  # a real detector: no simulator truth
     save = _save_path(save_dir)
     check_save_dir(save)
     from attribot.planning import PlanRequest, build_planner, solve

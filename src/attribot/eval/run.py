@@ -54,7 +54,7 @@ from attribot.files import (
     read_json,
     write_whole,
 )
-from attribot.models.base import findable_categories, parse_spec
+from attribot.models.base import findable_categories, without_oracle_vqa
 from attribot.registry import import_plugins, plugin_modules
 from attribot.shutdown import die_with_parent
 
@@ -589,9 +589,9 @@ def run_eval(
     # the detector whose classes choose the items, asked before any work (a bad spec fails here)
     chooser = plan.findable_by or str(settings.detector)
     closed = closed_set_detector(chooser, settings)
-    if parse_spec(str(settings.detector))[0] != "oracle" and parse_spec(str(settings.vqa))[0] == "oracle":
-        # a real detector's answers rest on no simulator truth: its run asks no oracle VQA
-        settings = settings.model_copy(update={"vqa": "none"})
+    real_eyes = without_oracle_vqa(settings)
+    if real_eyes is not None:
+        settings = real_eyes
         (note or say)("a real detector's run uses no oracle VQA: --vqa none (give --vqa SPEC for a real one)")
     vocabulary = None if closed is None else findable_categories(closed)
     with RunLock(out):

@@ -264,6 +264,16 @@ LANGUAGE_MODELS: Registry[Builder] = Registry("language backend", homes=_BACKEND
 ROLES: dict[str, Registry[Builder]] = {"detector": DETECTORS, "vqa": VQAS, "language": LANGUAGE_MODELS}
 
 
+def without_oracle_vqa(settings: Settings) -> Settings | None:
+    """`settings` asking no oracle VQA (`vqa = "none"`, a backend that refuses every question and names a real
+    one) where the detector reads pixels and the VQA is the oracle's; None where nothing changes. A real
+    detector's answers rest on no simulator truth: the oracle VQA reads the simulator's object records, so
+    with it a real detector's run would still answer colour and state questions from the simulator."""
+    if parse_spec(str(settings.detector))[0] == "oracle" or parse_spec(str(settings.vqa))[0] != "oracle":
+        return None
+    return settings.model_copy(update={"vqa": "none"})
+
+
 def parse_spec(spec: str) -> tuple[str, str | None]:
     """`"hf:owlv2"` -> `("hf", "owlv2")`; `"oracle"` -> `("oracle", None)`; `"oracle?miss=0.1"` ->
     `("oracle", "?miss=0.1")` (the builder reads its options). Empty parts are errors."""
