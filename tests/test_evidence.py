@@ -17,8 +17,9 @@ from attribot.eval.datasets import Item
 from attribot.eval.methods import CLEAN, _record
 from attribot.frame import Frame
 from attribot.models.base import Detection, evidence_of
-from attribot.planning.answer import AnswerObject, _guessed, _last_measurement
+from attribot.planning.answer import AnswerObject, _answer_object, _guessed, _last_measurement
 from attribot.skills.harder import LookHarderReport, confirmed
+from attribot.skills.robot_core import Measurement
 from attribot.skills.safeguards import Safeguards
 
 
@@ -190,6 +191,50 @@ def test_an_answer_resting_on_a_faint_box_says_it_is_a_guess_and_one_seen_nearer
     for sure in ("seen nearer", "sure box"):
         obj = AnswerObject(id=None, category="bowl", box=(0, 0, 1, 1), evidence=(sure, "measurement"))
         assert not obj.guess and _guessed(obj) == ""
+
+
+def test_an_answer_chosen_over_an_object_that_rests_on_a_guess_is_a_guess_too():
+    """ "The mug is closer than the toaster", where what was taken for the toaster is a faint box (in a room
+    with things the detector cannot name, as often one of them), is no surer than that box: the answer says
+    so, naming it. Rivals measured for another quantity, rivals boxed surely and the chosen object's own
+    second reading do not make it a guess."""
+
+    class Patch:  # what the answer reads of a patch
+        def __init__(self, label: str, box: tuple[float, ...], evidence: str) -> None:
+            self.label, self.box, self.evidence, self.object_id = label, box, evidence, None
+
+    def reading(patch: Patch, kind: str, value: float) -> Measurement:
+        return Measurement(kind=kind, object_id=None, label=patch.label, value=value, unit="m",
+                           box=patch.box, evidence=patch.evidence)  # fmt: skip
+
+    mug = Patch("mug", (10.0, 10.0, 30.0, 30.0), "sure box")
+    toaster = Patch("toaster", (50.0, 10.0, 90.0, 40.0), "faint box")
+    bowl = Patch("bowl", (100.0, 10.0, 130.0, 30.0), "sure box")
+    spoon = Patch("spoon", (140.0, 10.0, 150.0, 40.0), "elimination")
+    frame = Frame(rgb=np.zeros((60, 160, 3), np.uint8))
+
+    measured = [
+        reading(mug, "distance", 1.2),
+        reading(toaster, "distance", 1.9),
+        reading(mug, "distance", 1.21),
+    ]
+    obj = _answer_object(mug, frame, measured)
+    assert obj.evidence == ("sure box", "measurement") and obj.rivals_guessed == (
+        "toaster: named only faintly by the detector",
+    )
+    assert (
+        obj.guess
+        and _guessed(obj) == " (a guess: chosen over the toaster, named only faintly by the detector)"
+    )
+    measured += [reading(spoon, "distance", 2.0), reading(spoon, "distance", 2.0)]
+    assert "and the spoon, taken by elimination)" in _guessed(_answer_object(mug, frame, measured))
+
+    sure = [reading(mug, "distance", 1.2), reading(bowl, "distance", 1.5), reading(toaster, "weight", 0.9)]
+    obj = _answer_object(mug, frame, sure)
+    assert obj.rivals_guessed == () and not obj.guess and _guessed(obj) == ""
+    # the guessed object chosen itself says what it rests on, not what it was chosen over
+    obj = _answer_object(toaster, frame, [reading(mug, "distance", 1.2), reading(toaster, "distance", 0.8)])
+    assert obj.guess and "faintly, under its sure score" in _guessed(obj)
 
 
 def test_an_answer_names_what_its_object_rests_on_and_the_measurement_of_it():

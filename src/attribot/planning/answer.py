@@ -37,12 +37,15 @@ class AnswerObject(BaseModel):
     evidence: tuple[str, ...] = ()
     # what the box is: the detection in the image, or the mean of looks at it (ImagePatch.best_box)
     box_from: str | None = None
+    # the objects it was measured against (the same quantity) that rest on a guess, each "name: evidence":
+    # "the mug is closer than the toaster" is no surer than what was taken for the toaster
+    rivals_guessed: tuple[str, ...] = ()
 
     @property
     def guess(self) -> bool:
         """Whether the object rests on an inference no detector confirmed (elimination, a likeness) or on a
-        box the detector was not sure of (a faint box)."""
-        return any(e in GUESSED for e in self.evidence)
+        box the detector was not sure of (a faint box), or was chosen over an object that does."""
+        return any(e in GUESSED for e in self.evidence) or bool(self.rivals_guessed)
 
 
 class AnswerError(BaseModel):
@@ -210,10 +213,20 @@ def _named(obj: AnswerObject) -> str:
     return f"the {obj.category or 'object'}" + (f" ({obj.id})" if obj.id else "") + f" at [{where}]"
 
 
+_HOW_GUESSED = {
+    "faint box": "named only faintly by the detector",
+    "elimination": "taken by elimination",
+    "look-alike": "taken for its likeness to one the detector saw",
+}
+
+
 def _guessed(obj: AnswerObject | None) -> str:
     """What an answer adds where its object is a guess: what it rests on, said plainly."""
     if obj is None or not obj.guess:
         return ""
+    if not any(e in GUESSED for e in obj.evidence):
+        rivals = " and ".join(f"the {r.replace(': ', ', ')}" for r in obj.rivals_guessed)
+        return f" (a guess: chosen over {rivals})"
     inferred = [e for e in obj.evidence if e in INFERRED]
     if not inferred:
         return " (a guess: the detector named it only faintly, under its sure score)"
@@ -303,7 +316,8 @@ def _answer_object(patch: Any, frame: Any, measurements: Sequence[Any] = ()) -> 
     if patch.object_id is not None:
         category = next((t.category for t in frame.objects.values() if t.id == patch.object_id), category)
     evidence = tuple(e for e in (getattr(patch, "evidence", None),) if e)
-    if _last_measurement(patch, measurements) is not None:
+    mine = _last_measurement(patch, measurements)
+    if mine is not None:
         evidence += ("measurement",)
     box, source = patch.best_box() if hasattr(patch, "best_box") else (patch.box, None)
     return AnswerObject(
@@ -312,7 +326,23 @@ def _answer_object(patch: Any, frame: Any, measurements: Sequence[Any] = ()) -> 
         box=tuple(round(v, 1) for v in box),
         box_from=source,
         evidence=evidence,
+        rivals_guessed=() if mine is None else _rivals_guessed(mine, measurements),
     )
+
+
+def _rivals_guessed(mine: Any, measurements: Sequence[Any]) -> tuple[str, ...]:
+    """The other objects measured for the same quantity as `mine` (the chosen object's measurement) whose
+    patches rest on a guess, each "name: how", once each."""
+    out: list[str] = []
+    for m in measurements:
+        if m.kind != mine.kind or getattr(m, "evidence", None) not in GUESSED:
+            continue
+        if (m.object_id, m.label, m.box) == (mine.object_id, mine.label, mine.box):
+            continue  # the chosen object itself, measured again
+        line = f"{m.label}: {_HOW_GUESSED.get(m.evidence, m.evidence)}"
+        if line not in out:
+            out.append(line)
+    return tuple(out)
 
 
 def _last_measurement(patch: Any, measurements: Sequence[Any]) -> Any:

@@ -65,6 +65,7 @@ class Measurement(BaseModel):
     uncertainty: float = 0.0  # one standard deviation, in `unit`
     method: str = ""  # the Robot method that measured it: how `settle` measures again
     box: tuple[float, float, float, float] | None = None  # the object's box when measured (pixels, y down)
+    evidence: str | None = None  # what the object measured rests on (`attribot.models.base.Evidence`)
 
     def reading(self) -> str:
         """The value as a person reads it, as its sense shows it (`attribot.sensors.Sense.show`): "0.308 kg
@@ -451,7 +452,8 @@ class SessionCore:
 
     def record(self, p: Sighting, **reading: Any) -> None:
         """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
-        m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), **reading)
+        evidence = getattr(p, "evidence", None)
+        m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), evidence=evidence, **reading)
         self.measurements.append(m)
         self.measured.append((m, p))
 
