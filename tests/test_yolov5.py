@@ -254,6 +254,35 @@ def test_detect_undoes_the_letterbox_and_keeps_one_box_per_object(folder, checkp
         detector.detect(frame, ["kettle"])
 
 
+def test_flip_also_finds_what_the_network_sees_only_mirrored(folder, checkpoint, monkeypatch):
+    """`flip` sees each view mirrored too and pools both outputs: a network that boxes a thing only one way
+    round (here: a bright patch only while it is in the left half of its input) finds the patch on the right
+    as well, boxed where it is in the image, not where the mirrored view showed it."""
+    image = np.zeros((120, 200, 3), np.uint8)  # seen at 640x384, scale 3.2
+    image[30:50, 150:170] = 255  # the patch, in the right half
+    frame = Frame(rgb=image)
+
+    def one_way_round(batch: np.ndarray) -> list[np.ndarray]:
+        found = []
+        for seen in batch:  # (3, H, W) in [0, 1]
+            ys, xs = np.nonzero(seen[0] > 0.5)
+            left = len(xs) and xs.mean() < seen.shape[2] / 2
+            found.append([(1, 1, int(xs.mean()) // 16, int(ys.mean()) // 16, 41)] if left else [])
+        maps = [_synthetic_maps((batch.shape[2], batch.shape[3]), hits) for hits in found]
+        return [np.concatenate([m[level] for m in maps]) for level in range(len(STRIDES))]
+
+    plain = YoloV5Detector(folder, tiles=1, device="cpu", source_sha256=checkpoint[1])
+    flipped = YoloV5Detector(folder, tiles=1, device="cpu", source_sha256=checkpoint[1], flip=True)
+    for detector in (plain, flipped):
+        monkeypatch.setattr(detector, "_maps", one_way_round)
+    assert plain.detect(frame, ["mug"]) == []
+    (mug,) = flipped.detect(frame, ["mug"])
+    # the mirrored patch's cell, mirrored back: its centre within a cell (16 input pixels) of the patch's
+    cx, cy = (mug.box[0] + mug.box[2]) / 2, (mug.box[1] + mug.box[3]) / 2
+    assert abs(cx - 160) <= 16 / 3.2 and abs(cy - 40) <= 16 / 3.2, mug.box
+    assert flipped.counts()["network_views"] == 1  # one view, seen both ways round in its one pass
+
+
 def test_the_spec_builds_it_with_the_options_of_coco(folder, checkpoint, monkeypatch):
     from attribot.models import yolov5
 
@@ -270,7 +299,8 @@ def test_the_spec_builds_it_with_the_options_of_coco(folder, checkpoint, monkeyp
     assert isinstance(detector, YoloV5Detector)
     assert (detector.tiles, detector.input_size, detector.part_size) == (2, 640, 320)
     plain = build_backend("detector", f"yolov5s:{folder}", settings)
-    assert (plain.tiles, plain.input_size, plain.part_size) == (3, 640, 416)
+    assert (plain.tiles, plain.input_size, plain.part_size, plain.flip) == (3, 640, 416, False)
+    assert build_backend("detector", f"yolov5s:{folder}?flip=1", settings).flip is True
     assert detector.class_of("mug") == "cup" and "pottedplant" in detector.vocabulary
     with pytest.raises(ConfigError, match="yolov5s option"):
         build_backend("detector", f"yolov5s:{folder}?scale=2", settings)

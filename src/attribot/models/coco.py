@@ -222,6 +222,7 @@ class CocoDetector(ClosedSetDetector):
         tiles: int = DEFAULT_TILES,
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
+        flip: bool = False,
     ) -> None:
         super().__init__(
             threshold=threshold,
@@ -231,6 +232,7 @@ class CocoDetector(ClosedSetDetector):
             tiles=tiles,
             batch=batch,
             all_tiles=all_tiles,
+            flip=flip,
         )
         cv2 = _cv2()
         self.folder = (folder or default_folder()).expanduser()
@@ -287,7 +289,7 @@ def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
     (the network's input side, a multiple of 32), `?part_size=S` (the side a tile or a crop is seen at: 416
     is faster and finds fewer small objects), `?batch=B` (views per forward pass) and `?all_tiles=1`
     (look at every tile where the whole image leaves a class unsure, not only at those that show a trace of
-    it: slower, and it finds a few more small objects)."""
+    it: slower, and it finds a few more small objects); `?flip=1` sees each view mirrored too."""
     folder, options = _parse(arg, settings)
     return CocoDetector(
         folder,
@@ -297,6 +299,7 @@ def build_coco_detector(arg: str | None, settings: Settings) -> CocoDetector:
         part_size=options.get("part_size"),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
+        flip=bool(options.get("flip", 0)),
     )
 
 

@@ -312,6 +312,7 @@ class YoloV5Detector(ClosedSetDetector):
         tiles: int = DEFAULT_TILES,
         batch: int = DEFAULT_BATCH,
         all_tiles: bool = False,
+        flip: bool = False,
         device: str = "auto",
         source_sha256: str = PT_SHA256,
     ) -> None:
@@ -323,6 +324,7 @@ class YoloV5Detector(ClosedSetDetector):
             tiles=tiles,
             batch=batch,
             all_tiles=all_tiles,
+            flip=flip,
         )
         self.folder = (folder or default_folder()).expanduser()
         if not weights_present(self.folder, source_sha256=source_sha256):
@@ -407,7 +409,8 @@ def build_yolov5_detector(arg: str | None, settings: Settings) -> YoloV5Detector
     options `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest),
     `?size=S` (the side a whole image is seen at, a multiple of 32; 640 by default), `?part_size=S` (the side
     a tile or a crop is seen at; `DEFAULT_PART_SIZE`, 416), `?batch=B` (views per forward pass) and
-    `?all_tiles=1` (look at every tile where the whole image leaves a class unsure). The device is the
+    `?all_tiles=1` (look at every tile where the whole image leaves a class unsure), `?flip=1` (each view seen
+    mirrored too, and both outputs pooled: a few more objects, two passes a view). The device is the
     `hf_device` setting's (auto: a CUDA GPU where torch sees one, else onnxruntime on the CPU)."""
     folder, options = _parse(arg, settings)
     return YoloV5Detector(
@@ -418,6 +421,7 @@ def build_yolov5_detector(arg: str | None, settings: Settings) -> YoloV5Detector
         part_size=options.get("part_size", DEFAULT_PART_SIZE),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
+        flip=bool(options.get("flip", 0)),
         device=getattr(settings, "hf_device", "auto"),
     )
 
