@@ -37,7 +37,7 @@ class AnswerObject(BaseModel):
     evidence: tuple[str, ...] = ()
     # what the box is: the detection in the image, or the mean of looks at it (ImagePatch.best_box)
     box_from: str | None = None
-    # the objects it was measured against (the same quantity) that rest on a guess, each "name: evidence":
+    # the objects it was measured against (the same quantity) that rest on a guess, each "name: how taken":
     # "the mug is closer than the toaster" is no surer than what was taken for the toaster
     rivals_guessed: tuple[str, ...] = ()
 
