@@ -216,8 +216,9 @@ def _named(obj: AnswerObject) -> str:
 _HOW_GUESSED = {
     "faint box": "named only faintly by the detector",
     "elimination": "taken by elimination",
-    "look-alike": "taken for its likeness to one the detector saw",
+    "look-alike": "taken for its likeness to one it saw",
 }
+"""How an object that rests on a guess was taken, as its answer says it (`GUESSED`)."""
 
 
 def _guessed(obj: AnswerObject | None) -> str:
@@ -230,10 +231,8 @@ def _guessed(obj: AnswerObject | None) -> str:
     inferred = [e for e in obj.evidence if e in INFERRED]
     if not inferred:
         return " (a guess: the detector named it only faintly, under its sure score)"
-    how = " and ".join(
-        {"elimination": "by elimination", "look-alike": "for its likeness to one it saw"}[e] for e in inferred
-    )
-    return f" (a guess: taken {how}; the detector never named it, and no nearer look confirmed it)"
+    how = " and ".join(_HOW_GUESSED[e] for e in inferred)
+    return f" (a guess: {how}; the detector never named it, and no nearer look confirmed it)"
 
 
 def _stated(value_object: Any) -> dict[str, Any] | None:
@@ -335,11 +334,11 @@ def _rivals_guessed(mine: Any, measurements: Sequence[Any]) -> tuple[str, ...]:
     patches rest on a guess, each "name: how", once each."""
     out: list[str] = []
     for m in measurements:
-        if m.kind != mine.kind or getattr(m, "evidence", None) not in GUESSED:
+        if m.kind != mine.kind or m.evidence not in GUESSED:
             continue
         if (m.object_id, m.label, m.box) == (mine.object_id, mine.label, mine.box):
             continue  # the chosen object itself, measured again
-        line = f"{m.label}: {_HOW_GUESSED.get(m.evidence, m.evidence)}"
+        line = f"{m.label}: {_HOW_GUESSED[m.evidence]}"
         if line not in out:
             out.append(line)
     return tuple(out)

@@ -452,8 +452,9 @@ class SessionCore:
 
     def record(self, p: Sighting, **reading: Any) -> None:
         """Keep a reading of `p` (Measurement's fields) for the answer, and with its patch for `settle`."""
-        evidence = getattr(p, "evidence", None)
-        m = Measurement(object_id=p.object_id, label=p.label, box=tuple(p.box), evidence=evidence, **reading)
+        m = Measurement(
+            object_id=p.object_id, label=p.label, box=tuple(p.box), evidence=p.evidence, **reading
+        )
         self.measurements.append(m)
         self.measured.append((m, p))
 
