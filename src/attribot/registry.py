@@ -66,6 +66,7 @@ class Registry(Generic[T]):
         self._loaded = not self._modules
         self._entries: dict[str, T] = {}
         self._aliases: dict[str, str] = {}
+        self._origins: dict[str, int] = {}  # a built-in's name -> the position of the module registering it
         Registry._every.add(self)
 
     @classmethod
@@ -91,6 +92,9 @@ class Registry(Generic[T]):
                         f"give the new {self.kind} another name",
                     )
             self._entries[name] = obj
+            origin = self._origin()
+            if origin is not None:
+                self._origins[name] = origin
             for alias in aliases:
                 self._aliases[alias] = name
             return obj
@@ -106,6 +110,17 @@ class Registry(Generic[T]):
             )
         self._aliases = {a: n for a, n in self._aliases.items() if n != name}
         return self._entries.pop(name)
+
+    def _origin(self) -> int | None:
+        """The position in `_modules` of the built-in module whose import is registering now, or None (a
+        lab's plug-in): the nearest caller that is one, as a module may register through a helper."""
+        frame = sys._getframe(2)
+        while frame is not None:
+            module = frame.f_globals.get("__name__")
+            if module in self._modules:
+                return self._modules.index(module)
+            frame = frame.f_back
+        return None
 
     def _load(self) -> None:
         if not self._loaded:
@@ -136,11 +151,15 @@ class Registry(Generic[T]):
         return self._entries[key]
 
     def names(self) -> list[str]:
-        """Registered names: the built-ins in the order of their homes, then the others in registration
-        order (the same order whichever was looked up first)."""
+        """Registered names: the built-ins in the order of their homes, else of their modules, then the
+        others in registration order: the same order whichever was looked up or imported first."""
         self._load()
         rank = {name: i for i, name in enumerate(self._homes)}
-        return sorted(self._entries, key=lambda name: rank.get(name, len(rank)))
+        last = len(rank)
+        return sorted(
+            self._entries,
+            key=lambda name: (rank.get(name, last), self._origins.get(name, len(self._modules))),
+        )
 
     def items(self) -> Iterator[tuple[str, T]]:
         return iter([(name, self._entries[name]) for name in self.names()])
