@@ -126,6 +126,23 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
     assert closed_world(things, named, 640, 480)  # only the one sought is left unnamed
     faint = [named[0], named[1].model_copy(update={"score": 0.05})]
     assert not closed_world(things, faint, 640, 480)  # a faint box explains nothing
+    # a line one map pixel thick (a seam where a cabinet meets the floor, a chair's edge) is no thing...
+    for seam in ((400.0, 286.0, 408.0, 288.0), (214.0, 440.0, 232.0, 442.0), (282.0, 428.0, 284.0, 458.0)):
+        line = Candidate(box=seam, rise=0.01, pixels=9, size=0.06, across=0.06)
+        assert closed_world([*things, line], named, 640, 480)
+    # ...but a small thing, seen whole, is
+    egg = Candidate(box=(298.0, 300.0, 312.0, 316.0), rise=0.042, pixels=44, size=0.043, across=0.043)
+    assert not closed_world([*things, egg], named, 640, 480)
+    # nor is a table's leg, seen from near and above: short in the image, tall and thin as depth measures
+    leg = Candidate(
+        box=(416.0, 382.0, 454.0, 468.0), rise=0.378, pixels=492, size=0.378, across=0.061, bottom=0.03
+    )
+    assert closed_world([*things, leg], named, 640, 480)
+    # a thing as tall that is not thin across the floor (a backpack) is one more unnamed thing
+    bag = Candidate(
+        box=(416.0, 382.0, 454.0, 468.0), rise=0.378, pixels=492, size=0.378, across=0.25, bottom=0.03
+    )
+    assert not closed_world([*things, bag], named, 640, 480)
 
 
 class CallsItA(SeesOnly):

@@ -477,6 +477,34 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
     assert fits_height(0.04, knife.height_m) and not fits_height(0.08, knife.height_m)
 
 
+def test_elimination_takes_nothing_of_another_shape_than_the_name_has_as_it_rests():
+    """A candle, thin and standing, as tall as a small backpack: by size and height it could be one, by its
+    proportions (its rise against its span across the floor, the priors' of a backpack) it is not; a
+    squat thing of that height is."""
+    from attribot.control.candidates import Candidate
+    from attribot.priors import priors
+    from attribot.skills.fits import shaped_as_kind
+    from attribot.skills.lookalikes import by_elimination
+
+    backpack = priors().find("backpack")
+    assert backpack is not None
+    candle = Candidate((186, 262, 210, 304), 0.143, 177, 0.143, 0.055)
+    bag = Candidate((186, 262, 240, 304), 0.143, 400, 0.2, 0.2)
+    unmeasured = Candidate((186, 262, 210, 304), 0.143, 177, 0.143)  # no span: nothing rules it out
+    assert not shaped_as_kind(candle, backpack)
+    assert shaped_as_kind(bag, backpack) and shaped_as_kind(unmeasured, backpack)
+
+    def eliminated(cand: Candidate, shaped: bool) -> Candidate | None:
+        test = (lambda c: shaped_as_kind(c, backpack)) if shaped else None
+        return by_elimination(
+            [cand], [], backpack.size_m, 640, 480, height_range=backpack.height_m, shaped=test
+        )
+
+    assert eliminated(candle, shaped=False) == candle  # size and height alone let it through
+    assert eliminated(candle, shaped=True) is None
+    assert eliminated(bag, shaped=True) == bag
+
+
 def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
     """The detector never sees the apple surely, from anywhere: the robot re-finds it by name nowhere on its
     way, so it acts on where depth placed it in the first image, and lifts the apple (the world's truth)."""

@@ -47,6 +47,7 @@ __all__ = [
     "proportion",
     "proportion_of",
     "shaped_as_class",
+    "shaped_as_kind",
     "shaped_like",
     "standing_out",
     "stands_in_depth",
@@ -213,14 +214,25 @@ def shaped_as_class(
 def class_proportions(
     class_of: Callable[[str], str | None], label: str, table: Priors, params: LookHarderParams
 ) -> tuple[float, float] | None:
-    # each range's low end is a small one of the kind, its high end a large one: paired, they are the shapes
-    # of a small and a large one as they rest
-    shapes = [
-        proportion_of(across, height, params)
-        for k in class_kinds(class_of, label, table)
-        for across, height in zip(k.across_m, k.height_m, strict=True)
-    ]
+    shapes = [p for k in class_kinds(class_of, label, table) for p in kind_proportions(k, params)]
     return (min(shapes), max(shapes)) if shapes else None
+
+
+def kind_proportions(kind: Kind, params: LookHarderParams = LOOK_HARDER) -> tuple[float, float]:
+    """The `proportion_of` a small and a large one of `kind` as they rest: each range's low end is a small
+    one's, its high end a large one's."""
+    small, large = (proportion_of(a, h, params) for a, h in zip(kind.across_m, kind.height_m, strict=True))
+    return small, large
+
+
+def shaped_as_kind(cand: Candidate, kind: Kind, params: LookHarderParams = LOOK_HARDER) -> bool:
+    """Whether a candidate's proportions are within `alike_shape` of those of `kind` as it rests (a candle,
+    thin and standing, is no backpack of the candle's height); True where depth did not measure its span."""
+    mine = proportion(cand, params)
+    if mine is None:
+        return True
+    shapes = kind_proportions(kind, params)
+    return min(shapes) / params.alike_shape <= mine <= max(shapes) * params.alike_shape
 
 
 def shaped_like(cand: Candidate, examples: list[Candidate], params: LookHarderParams = LOOK_HARDER) -> bool:
@@ -346,11 +358,13 @@ def is_misplaced(cand: Candidate, placement: str | None, params: LookHarderParam
 
 def is_furniture(cand: Candidate, params: LookHarderParams = LOOK_HARDER) -> bool:
     """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
-    the floor, and this much taller than wide in the image), or a panel's edge (under `panel_across`
-    across the floor and rising more than `leg_aspect` times that). A thing that thin and standing (a book
-    on its spine, a candle: the priors know both) is taken for a panel: a limit of this rule."""
+    the floor, and this much taller than wide, in the image or across the floor), or a panel's edge (under
+    `panel_across` across the floor and rising more than `leg_aspect` times that). A thing that thin and
+    standing (a book on its spine, a candle: the priors know both) is taken for a panel: a limit of this
+    rule."""
     x0, y0, x1, y1 = cand.box
-    if (y1 - y0) > params.leg_aspect * max(x1 - x0, 1.0):
+    tall_in_image = (y1 - y0) > params.leg_aspect * max(x1 - x0, 1.0)
+    if tall_in_image or 0.0 < params.leg_aspect * cand.across < cand.rise:
         on_floor = cand.bottom is not None and cand.bottom <= params.floor_m
         if cand.rise > (params.floor_leg_rise_m if on_floor else params.leg_rise_m):
             return True

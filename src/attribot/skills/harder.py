@@ -31,7 +31,7 @@ import numpy as np
 
 from attribot.boxes import at_edge, center, iou, overlap_of_smaller
 from attribot.control.base import Capture
-from attribot.control.candidates import Candidate, StandingMap
+from attribot.control.candidates import STRIDE, Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
@@ -51,6 +51,7 @@ from attribot.skills.fits import (
     is_furniture,
     name_sizes,
     on_candidate,
+    shaped_as_kind,
     stands_in_depth,
 )
 from attribot.skills.lookalikes import (
@@ -374,7 +375,13 @@ def _unseen(
 
     heights = None if kind is None else kind.height_m
     width, height = frame.width, frame.height
-    left = by_elimination(candidates, others, sizes, width, height, placement, coloured, heights, params)
+
+    def shaped(cand: Candidate) -> bool:
+        return kind is None or shaped_as_kind(cand, kind, params)
+
+    left = by_elimination(
+        candidates, others, sizes, width, height, placement, coloured, heights, params, shaped
+    )
     if left is None:
         return []
     report.eliminated = 1
@@ -410,14 +417,17 @@ def closed_world(
     height: int,
     params: LookHarderParams = LOOK_HARDER,
 ) -> bool:
-    """Whether depth sees at most one thing here that no sure box explains (furniture and what the image's
-    edge cuts aside): a world closed enough for an argument by elimination, where everything else is
-    named. A room with things the detector cannot name leaves several unexplained."""
+    """Whether depth sees at most one thing here that no sure box explains (furniture, what the image's
+    edge cuts and lines aside): a world closed enough for an argument by elimination, where everything else
+    is named. A room with things the detector cannot name leaves several unexplained. A line one map pixel
+    thick (where a cabinet meets the floor, a chair's edge) is depth's finest: as often a seam between two
+    surfaces as a thing, it does not open the world; an object seen whole is thicker."""
     sure = [d for d in explaining if d.score >= params.unsure]
     unexplained = [
         c
         for c in candidates
-        if not is_furniture(c, params)
+        if min(c.box[2] - c.box[0], c.box[3] - c.box[1]) > STRIDE
+        and not is_furniture(c, params)
         and not at_edge(c.box, width, height)
         and not any(inside_box(center(c.box), d.box) for d in sure)
     ]

@@ -92,14 +92,16 @@ def by_elimination(
     coloured: Callable[[Candidate], bool] | None = None,
     height_range: tuple[float, float] | None = None,
     params: LookHarderParams = LOOK_HARDER,
+    shaped: Callable[[Candidate], bool] | None = None,
 ) -> Candidate | None:
     """The one candidate that can be the object looked for by elimination, or None where none or several
     can: a candidate no box of another name explains (over its middle, with a score of `unsure`), whose
     size as depth sees it fits `size_range` (`fits_size`) and whose rise fits `height_range` (`fits_height`:
     a knife lies flat, a toaster stands; None: any), whole in the image (a candidate cut by the image's
     edge is most often the furniture the robot stands at), no part of the furniture, and where the object
-    is put (`placement`: "surface", on furniture; "floor"; None: anywhere). Where several are left, the one
-    of them whose colour is the object's (`coloured`: a carrot is orange), if one is."""
+    is put (`placement`: "surface", on furniture; "floor"; None: anywhere), of the object's proportions
+    (`shaped`: None, any). Where several are left, the one of them whose colour is the object's
+    (`coloured`: a carrot is orange), if one is."""
     if size_range is None:
         return None
     sure = [d for d in others if d.score >= params.unsure]
@@ -112,6 +114,7 @@ def by_elimination(
         and not is_misplaced(c, placement, params)
         and not at_edge(c.box, width, height)
         and not any(inside_box(center(c.box), d.box) for d in sure)
+        and (shaped is None or shaped(c))
     ]
     if len(left) > 1 and coloured is not None:
         left = [c for c in left if coloured(c)] or left

@@ -98,6 +98,8 @@ class LookHarderParams:
     """A candidate this tall over its level and `leg_aspect` times taller than wide (in the image) is a leg
     of the furniture it stands under, not an object: not worth a drive..."""
     leg_aspect: float = 2.5
+    """(in the image, or as depth measures its rise against its width across the floor: a leg seen from
+    above, near, is foreshortened in the image)"""
     floor_leg_rise_m: float = 0.15
     """...or this tall where it stands on the floor (a low table's leg)."""
     panel_across: float = 0.03
