@@ -1164,3 +1164,48 @@ def test_a_look_from_nearer_comes_back_to_where_the_image_was_taken():
     tol = robot.controller.base_tol
     assert went
     assert math.hypot(end.x - start.x, end.y - start.y) <= tol and angle_close(end.yaw, start.yaw, tol)
+
+
+def test_a_look_from_nearer_drives_back_facing_the_way_it_goes_and_turns_round_where_it_stood():
+    """Driving back, the robot arrives at each place facing the way it drove, and turns to the pose it left
+    from only where it stood: asked for that pose on the last leg, it turned round as the leg began and
+    drove it backwards, its back sweeping the furniture it had passed (a base stopped against a bookcase
+    failed the whole find)."""
+    from attribot.control.base import Target, angle_close
+
+    config = SceneConfig(
+        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
+    )
+    with MujocoWorld(config) as world:
+        far = [
+            o
+            for o in world.scene_info().objects
+            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
+        ]
+        robot, image = _look(world, NearOnlyDetector())
+        start = world.base_pose()
+        driver = robot.controller.driver
+        assert robot.controller.look_nearer(Target(box=tuple(far[0].box), capture=image.capture), 0.6)
+        asked = []
+        follow = driver.follow
+
+        def recorded(path, pose, look_at, action):
+            asked.append(([np.array(p) for p in path], pose, world.base_pose()))
+            return follow(path, pose, look_at, action)
+
+        driver.follow = recorded
+        robot.controller.return_to()
+        end = world.base_pose()
+
+    def turning(pose) -> bool:  # to the pose it took the image from, where it took it
+        return math.hypot(pose[0] - start.x, pose[1] - start.y) < 1e-6 and angle_close(
+            pose[2], start.yaw, 1e-6
+        )
+
+    turns = [i for i, (_, pose, _) in enumerate(asked) if turning(pose)]
+    assert turns and turns == list(range(turns[0], len(asked))) and turns[0] > 0  # legs first, then turns
+    for path, pose, here in asked[: turns[0]]:
+        before = path[-2] if len(path) > 1 else np.array([here.x, here.y])
+        heading = math.atan2(path[-1][1] - before[1], path[-1][0] - before[0])
+        assert angle_close(pose[2], heading, 1e-6)  # it arrives facing the way it drove
+    assert angle_close(end.yaw, start.yaw, robot.controller.base_tol)

@@ -261,7 +261,12 @@ class ServoController(PointingController):
             # from the waypoint nearest where it stands (a drive that stopped short stopped on the way)
             here = np.array(self.plant.pose()[:2])
             nearest = int(np.argmin([float(np.linalg.norm(w - here)) for w in back]))
-            self.driver.follow(back[nearest + 1 :] or [np.array(start[:2])], start, None, "look_harder")
+            rest = back[nearest + 1 :] or [np.array(start[:2])]
+            # facing the way it drives, to turn round only where it stood: turned to the pose it left from
+            # as the last leg starts, it swept the furniture it had passed with its back (a base is no disc)
+            towards = rest[-1] - (rest[-2] if len(rest) > 1 else here)
+            yaw = math.atan2(towards[1], towards[0]) if float(np.linalg.norm(towards)) > 0.05 else start[2]
+            self.driver.follow(rest, (start[0], start[1], yaw), None, "look_harder")
         for _ in range(3):
             if not moved(self.plant.pose(), pose, 0.004, 0.004):
                 break
