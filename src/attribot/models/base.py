@@ -56,9 +56,9 @@ UNKNOWN = "unknown"
 """What a VQA or language backend answers when it cannot tell."""
 
 Evidence = Literal["sure box", "faint box", "seen nearer", "elimination", "look-alike"]
-"""What a detection rests on: the detector's own box (sure, or fainter than `SURE_SCORE`), the detector's box
-seen from nearer by a robot that drove there, or an inference that names an object the detector never named
-(by elimination, or for its likeness to one it did name)."""
+"""What a detection rests on: the detector's own box (sure, or fainter than `SURE_SCORE`), the detector's sure
+box seen from nearer by a robot that drove there (a faint one is a faint box), or an inference that names an
+object the detector never named (by elimination, or for its likeness to one it did name)."""
 INFERRED: frozenset[str] = frozenset({"elimination", "look-alike"})
 """The evidence of an inference: an answer resting on it unconfirmed is a guess."""
 SURE_SCORE = 0.25
