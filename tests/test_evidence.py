@@ -144,6 +144,19 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
     )
     assert not closed_world([*things, bag], named, 640, 480)
 
+    # asked about a fork and a toaster, neither named: seeking the toaster, the one place only a fork fits is
+    # the fork, not one more unnamed thing; a place a fork or a spoon might be is no more the fork than not
+    from attribot.priors import priors
+
+    fork, spoon = priors().find("fork"), priors().find("spoon")
+    toaster = Candidate(box=(452.0, 100.0, 510.0, 140.0), rise=0.2, pixels=491, size=0.276, across=0.276)
+    flat = Candidate(box=(342.0, 346.0, 364.0, 386.0), rise=0.0, pixels=57, size=0.162, across=0.162)
+    assert not closed_world([*things[:2], toaster, flat], named, 640, 480)
+    assert closed_world([*things[:2], toaster, flat], named, 640, 480, sought=[fork])
+    other = Candidate(box=(100.0, 346.0, 122.0, 386.0), rise=0.0, pixels=57, size=0.17, across=0.17)
+    assert not closed_world([*things[:2], toaster, flat, other], named, 640, 480, sought=[fork])
+    assert not closed_world([*things[:2], toaster, flat, other], named, 640, 480, sought=[fork, spoon])
+
 
 class CallsItA(SeesOnly):
     """`SeesOnly`, but it also boxes one category under another name, surely (YOLOv5s calls a potato a

@@ -48,6 +48,7 @@ __all__ = [
     "proportion_of",
     "shaped_as_class",
     "shaped_as_kind",
+    "fits_kind",
     "shaped_like",
     "standing_out",
     "stands_in_depth",
@@ -223,6 +224,16 @@ def kind_proportions(kind: Kind, params: LookHarderParams = LOOK_HARDER) -> tupl
     one's, its high end a large one's."""
     small, large = (proportion_of(a, h, params) for a, h in zip(kind.across_m, kind.height_m, strict=True))
     return small, large
+
+
+def fits_kind(cand: Candidate, kind: Kind, params: LookHarderParams = LOOK_HARDER) -> bool:
+    """Whether a candidate can be an object of `kind` as depth sees it: its size, its rise and its
+    proportions."""
+    return (
+        fits_size(cand.size, kind.size_m, params.size_slack)
+        and fits_height(cand.rise, kind.height_m, params)
+        and shaped_as_kind(cand, kind, params)
+    )
 
 
 def shaped_as_kind(cand: Candidate, kind: Kind, params: LookHarderParams = LOOK_HARDER) -> bool:

@@ -37,12 +37,13 @@ from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
 from attribot.models.base import Detection, Detector, detect_in_views
-from attribot.priors import Priors, priors
+from attribot.priors import Kind, Priors, priors
 from attribot.skills.fits import (
     box_area,
     class_of_name,
     colour_fits,
     fits_class,
+    fits_kind,
     fits_size,
     fitted_to_depth,
     framed_by,
@@ -215,7 +216,7 @@ def look_harder(
         report.views, report.added = len(views), len(merged) - len(kept)
         if not merged:  # nothing of the name seen at all: weaker evidence, and a closer look
             claimed = [*(claimed or []), *_best_of(detector, frame, name, sought or [], views)]
-            weighed = (candidates, views, nearer, claimed, report, table, params)
+            weighed = (candidates, views, nearer, claimed, sought or [], report, table, params)
             merged = _unseen(detector, frame, capture.camera, name, *weighed)
             report.took = list(merged) if report.taken else []
         merged.sort(key=lambda d: -d.score)
@@ -335,13 +336,14 @@ def _unseen(
     views: list[tuple[int, int, int, int]],
     nearer: Nearer | None,
     claimed: list[Detection],
+    sought: list[str],
     report: LookHarderReport,
     table: Priors,
     params: LookHarderParams,
 ) -> list[Detection]:
     """For a name the zoomed views did not show: a faint box that points at one candidate no other name's
     find took, else what the robot sees from nearer, else the one candidate left by elimination (noted in
-    `report`)."""
+    `report`). `sought`: the program's other names, whose objects no box shows may be what else is left."""
     # a place another name's find took holds that object
     free = [c for c in candidates if not any(inside_box(center(c.box), d.box) for d in claimed)]
     kind = table.find(name)
@@ -349,7 +351,10 @@ def _unseen(
     explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
 
     def closed() -> bool:
-        return closed_world(candidates, explaining(), frame.width, frame.height, params)
+        boxed = {class_of_name(detector, d.label) for d in claimed}
+        unboxed = [table.find(n) for n in sought if class_of_name(detector, n) not in boxed]
+        others = [k for k in unboxed if k is not None and k.name != (kind.name if kind else None)]
+        return closed_world(candidates, explaining(), frame.width, frame.height, params, others)
 
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=params.faint), free, params)
     if faint is not None:
@@ -416,12 +421,15 @@ def closed_world(
     width: int,
     height: int,
     params: LookHarderParams = LOOK_HARDER,
+    sought: Sequence[Kind] = (),
 ) -> bool:
     """Whether depth sees at most one thing here that no sure box explains (furniture, what the image's
     edge cuts and lines aside): a world closed enough for an argument by elimination, where everything else
     is named. A room with things the detector cannot name leaves several unexplained. A line one map pixel
     thick (where a cabinet meets the floor, a chair's edge) is depth's finest: as often a seam between two
-    surfaces as a thing, it does not open the world; an object seen whole is thicker."""
+    surfaces as a thing, it does not open the world; an object seen whole is thicker. `sought`: the kinds of
+    the program's other objects that no box shows (a fork and a toaster asked about together, neither named
+    by the detector): the one place that only one of them fits is that one, not one more unnamed thing."""
     sure = [d for d in explaining if d.score >= params.unsure]
     unexplained = [
         c
@@ -431,6 +439,10 @@ def closed_world(
         and not at_edge(c.box, width, height)
         and not any(inside_box(center(c.box), d.box) for d in sure)
     ]
+    for kind in sought:
+        fitting = [c for c in unexplained if fits_kind(c, kind, params)]
+        if len(fitting) == 1:
+            unexplained.remove(fitting[0])
     return len(unexplained) <= 1
 
 
