@@ -179,7 +179,6 @@ def test_every_built_in_name_has_the_home_that_registers_it():
     assert wrong == []
 
 
-
 def test_the_tasks_are_listed_in_one_order_whichever_module_was_imported_first():
     # a test or a lab that imports the embodied tasks first must not move them ahead of the still-image
     # ones: a dataset's, a report's and the CLI's order is the registry's declared order of its modules

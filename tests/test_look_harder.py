@@ -229,6 +229,21 @@ class NearOnlyDetector:
         return [d for d in self.inner.detect(frame, queries) if d.box[3] - d.box[1] >= 45]
 
 
+FAR_OBJECT_ROOM = SceneConfig(
+    layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
+)
+"""A room with a small far object: a `NearOnlyDetector` sees it only from nearer."""
+
+
+def _far_objects(world: MujocoWorld) -> list:
+    """The objects seen in the first frame under 45 pixels tall: too small for a `NearOnlyDetector`."""
+    return [
+        o
+        for o in world.scene_info().objects
+        if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
+    ]
+
+
 class FaintNearOnlyDetector(NearOnlyDetector):
     """`NearOnlyDetector`, but never sure: from near enough, each box under the sure score."""
 
@@ -243,15 +258,8 @@ def test_an_object_seen_from_nearer_only_faintly_rests_on_a_faint_box():
     a faint box in the image: its find says so, and an answer resting on it is a guess."""
     from attribot.planning.answer import AnswerObject
 
-    config = SceneConfig(
-        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
-    )
-    with MujocoWorld(config) as world:
-        far = [
-            o
-            for o in world.scene_info().objects
-            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
-        ]
+    with MujocoWorld(FAR_OBJECT_ROOM) as world:
+        far = _far_objects(world)
         robot, image = _look(world, FaintNearOnlyDetector())
         found = [p for p in image.find(far[0].category) if _overlaps(p.box, far[0].box)]
     events = [e.detail for e in robot.safeguards.events if e.mechanism == "look_harder"]
@@ -264,16 +272,8 @@ def test_a_small_far_object_is_found_by_driving_nearer_and_the_robot_comes_back(
     """Driving nearer makes a far object large enough for a detector that misses it from afar; seen on the
     place depth found, that place's box is its box in the first image (where the world's truth puts it),
     and the robot returns to where it looked from."""
-    config = SceneConfig(
-        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
-    )
-    with MujocoWorld(config) as world:
-        truth = {o.id: o for o in world.scene_info().objects}
-        far = [
-            o
-            for o in truth.values()
-            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
-        ]
+    with MujocoWorld(FAR_OBJECT_ROOM) as world:
+        far = _far_objects(world)
         assert far, "the scene has a small far object"
         target = far[0]
         robot, image = _look(world, NearOnlyDetector())
@@ -330,10 +330,7 @@ def test_a_robot_that_cannot_drive_back_says_so(monkeypatch):
         raise ControlError("blocked: the base stopped on its way", "clear the way")
 
     monkeypatch.setattr(ServoController, "return_to", blocked)
-    config = SceneConfig(
-        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
-    )
-    with MujocoWorld(config) as world:
+    with MujocoWorld(FAR_OBJECT_ROOM) as world:
         small = [o for o in world.scene_info().objects if o.box is not None and o.box[3] - o.box[1] < 45]
         robot, image = _look(world, NearOnlyDetector())
         with pytest.raises(ControlError, match="could not drive back to where it took the image"):
@@ -1178,15 +1175,8 @@ def test_a_look_from_nearer_comes_back_to_where_the_image_was_taken():
     and the program's next aim was refused."""
     from attribot.control.base import Target, angle_close
 
-    config = SceneConfig(
-        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
-    )
-    with MujocoWorld(config) as world:
-        far = [
-            o
-            for o in world.scene_info().objects
-            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
-        ]
+    with MujocoWorld(FAR_OBJECT_ROOM) as world:
+        far = _far_objects(world)
         robot, image = _look(world, NearOnlyDetector())
         start = world.base_pose()
         robot.controller.driver.straight(0.03)
@@ -1205,15 +1195,8 @@ def test_a_look_from_nearer_drives_back_facing_the_way_it_goes_and_turns_round_w
     failed the whole find)."""
     from attribot.control.base import Target, angle_close
 
-    config = SceneConfig(
-        layout="household", seed=40001, vocabulary=("basketball", "book", "mug", "vase", "bowl")
-    )
-    with MujocoWorld(config) as world:
-        far = [
-            o
-            for o in world.scene_info().objects
-            if o.box is not None and o.visible_pixels >= 100 and o.box[3] - o.box[1] < 45
-        ]
+    with MujocoWorld(FAR_OBJECT_ROOM) as world:
+        far = _far_objects(world)
         robot, image = _look(world, NearOnlyDetector())
         start = world.base_pose()
         driver = robot.controller.driver

@@ -16,6 +16,7 @@ import os
 import sys
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from types import FrameType
 from typing import Any, ClassVar, Generic, TypeVar
 
 from attribot.errors import BadPlugin, UnknownName
@@ -114,7 +115,7 @@ class Registry(Generic[T]):
     def _origin(self) -> int | None:
         """The position in `_modules` of the built-in module whose import is registering now, or None (a
         lab's plug-in): the nearest caller that is one, as a module may register through a helper."""
-        frame = sys._getframe(2)
+        frame: FrameType | None = sys._getframe(2)
         while frame is not None:
             module = frame.f_globals.get("__name__")
             if module in self._modules:

@@ -25,7 +25,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, partial
 
 import numpy as np
 
@@ -351,9 +351,7 @@ def _unseen(
     explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
 
     def closed() -> bool:
-        boxed = {class_of_name(detector, d.label) for d in claimed}
-        unboxed = [table.find(n) for n in sought if class_of_name(detector, n) not in boxed]
-        others = [k for k in unboxed if k is not None and k.name != (kind.name if kind else None)]
+        others = _unboxed(detector, name, sought, claimed, table)
         return closed_world(candidates, explaining(), frame.width, frame.height, params, others)
 
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=params.faint), free, params)
@@ -380,10 +378,7 @@ def _unseen(
 
     heights = None if kind is None else kind.height_m
     width, height = frame.width, frame.height
-
-    def shaped(cand: Candidate) -> bool:
-        return kind is None or shaped_as_kind(cand, kind, params)
-
+    shaped = None if kind is None else partial(shaped_as_kind, kind=kind, params=params)
     left = by_elimination(
         candidates, others, sizes, width, height, placement, coloured, heights, params, shaped
     )
@@ -392,6 +387,15 @@ def _unseen(
     report.eliminated = 1
     eliminated = Detection(box=left.box, score=params.eliminated_score, label=name, evidence="elimination")
     return confirmed([eliminated], candidates, name, nearer, report, closed)
+
+
+def _unboxed(
+    detector: Detector, name: str, sought: list[str], claimed: list[Detection], table: Priors
+) -> list[Kind]:
+    """The kinds of the program's other names (`sought`) that no box here shows (`claimed`)."""
+    boxed = {class_of_name(detector, d.label) for d in claimed} | {class_of_name(detector, name)}
+    kinds = [table.find(n) for n in sought if class_of_name(detector, n) not in boxed]
+    return [k for k in kinds if k is not None]
 
 
 def _explaining(
