@@ -23,6 +23,7 @@ from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
 from attribot.skills.safeguards import (
     MECHANISMS,
     STRATEGIES,
+    Confidence,
     Mechanism,
     Remeasure,
     Safeguards,
@@ -31,6 +32,7 @@ from attribot.skills.safeguards import (
     parse_checks,
     strategies_named,
 )
+from attribot.skills.sighting import Sighting
 
 W, H = 320, 240
 
@@ -803,3 +805,38 @@ def test_lifting_another_object_than_the_one_meant_is_caught_put_back_and_tried_
             assert np.linalg.norm(spoon_now[:2] - spoon_at[:2]) < 0.05  # put back where it stood
         else:  # switched off: the wrong object stays in the gripper, unchecked
             assert w.held_object() == "spoon_1" and not held
+
+
+class _Readings:
+    """A session's combined measurements, fixed: what `Confidence.settle` reads (`Measured`)."""
+
+    def __init__(self, values: list[tuple[float, float, object]]) -> None:
+        self.values, self.again = values, 0
+
+    def last_measurement(self, patch: object) -> object:
+        return dataclasses.make_dataclass("Last", [("kind", str), ("unit", str)])("distance", "m")
+
+    def combined(self, kind: str) -> list[tuple[float, float, object]]:
+        return self.values
+
+    def measure_again(self, measurement: object, patch: object) -> None:
+        self.again += 1
+
+
+@pytest.mark.parametrize(
+    ("rival_label", "rival_score", "settled"),
+    [("orange", 0.15, True), ("Orange", 0.9, False), ("apple", 0.15, False)],
+)
+def test_a_faint_box_of_the_chosen_name_is_that_object_not_a_rival(
+    perception, rival_label, rival_score, settled
+):
+    """ "Is the orange or the toaster closer?": the orange's sure box and a faint box of "orange" on the same
+    orange measure the same. The answer is the orange either way, so the confidence check does not refuse to
+    choose between them; a second sure orange, or a faint apple, measured the same is still a doubt."""
+    frame = Frame(rgb=np.zeros((48, 64, 3), dtype=np.uint8))
+    chosen = Sighting(frame, perception, box=(0, 0, 10, 10), label="orange", score=0.86)
+    rival = Sighting(frame, perception, box=(30, 30, 40, 40), label=rival_label, score=rival_score)
+    readings = _Readings([(1.211, 0.002, chosen), (1.211, 0.002, rival)])
+    doubt = Confidence(Safeguards()).settle(chosen, readings)
+    assert (doubt is None) == settled, doubt
+    assert readings.again == (0 if settled else Confidence.ROUNDS * 2)

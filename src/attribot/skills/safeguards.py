@@ -38,7 +38,7 @@ from attribot.embodiments.base import Embodiment
 from attribot.errors import AttribotError, ConfigError, InputError, UnknownName, UnsupportedAction
 from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
-from attribot.models.base import Detection, Detector
+from attribot.models.base import GUESSED, SURE_SCORE, Detection, Detector
 from attribot.models.cache import cacheable
 from attribot.priors import Priors, priors
 from attribot.registry import Registry
@@ -386,7 +386,9 @@ class Confidence(Safeguard):
             if me is None or len(values) < 2:
                 return None
             close = [
-                r for r in _neighbours(values, me) if abs(r[0] - me[0]) <= self.Z * math.hypot(r[1], me[1])
+                r
+                for r in _neighbours(values, me)
+                if abs(r[0] - me[0]) <= self.Z * math.hypot(r[1], me[1]) and not _one_named(r[2], chosen)
             ]
             if not close:
                 if round_ > 0:
@@ -444,6 +446,22 @@ class WithoutReset(Reset):
 
     def not_restored(self, try_name: str) -> None:
         return None
+
+
+def _one_named(a: Sighting, b: Sighting) -> bool:
+    """Whether two measured patches stand for one named object: boxes of one name, one of them a guess (a
+    box fainter than the detector's sure score, an inference). "The orange" is one object, its sure box; a
+    faint box of the name that measures the same is that orange seen again (or a doubt no answer can name:
+    either way the answer is the orange), so no reason to refuse to choose between them."""
+    if not a.label or a.label.lower() != b.label.lower():
+        return False
+    return any(_guessed(p) for p in (a, b))
+
+
+def _guessed(patch: Sighting) -> bool:
+    if patch.evidence is not None:
+        return patch.evidence in GUESSED
+    return patch.score is not None and patch.score < SURE_SCORE
 
 
 def _neighbours(values: list[Value], me: Value) -> list[Value]:
