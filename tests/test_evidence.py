@@ -108,7 +108,7 @@ def test_an_inference_is_confirmed_by_a_look_from_nearer_or_dropped(
     assert confirmed(inferred, [place], "mug", None, LookHarderReport(1, 0, 0, 0)) == inferred
     # where everything else depth sees is named (a closed world), the one place left stands unconfirmed
     closed = LookHarderReport(1, 0, 0, 0)
-    kept_closed = confirmed(inferred, [place], "mug", nearer, closed, lambda: True)
+    kept_closed = confirmed(inferred, [place], "mug", nearer, closed, lambda taken: True)
     assert kept_closed == (inferred if seen == [] and visits else kept_closed)
     assert closed.closed == (1 if not seen and visits else 0)
 
@@ -124,6 +124,12 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
     assert not closed_world(things, named, 640, 480)  # two things no box explains: others are in the room
     named.append(Detection(box=(145.0, 95.0, 175.0, 135.0), score=0.6, label="apple"))
     assert closed_world(things, named, 640, 480)  # only the one sought is left unnamed
+    # an inference that took the one unnamed thing stands on a closed world; one that took a place a sure box
+    # of another name explains (a faint box of a mouse on what is boxed surely as a cup) leaves the unnamed
+    # thing as likely the object sought: not closed, unless every other thing is named
+    assert closed_world(things, named, 640, 480, taken=things[2].box)
+    assert not closed_world(things, named, 640, 480, taken=things[0].box)
+    assert closed_world(things[:2], named, 640, 480, taken=things[0].box)
     faint = [named[0], named[1].model_copy(update={"score": 0.05})]
     assert not closed_world(things, faint, 640, 480)  # a faint box explains nothing
     # a line one map pixel thick (a seam where a cabinet meets the floor, a chair's edge) is no thing...

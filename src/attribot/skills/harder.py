@@ -36,7 +36,7 @@ from attribot.control.spatial import nearest_surface, projected_box, to_base, to
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
 from attribot.lexicon import SURFACE_WORDS
-from attribot.models.base import Detection, Detector, detect_in_views
+from attribot.models.base import Detection, Detector, detect_in_views, evidence_of
 from attribot.priors import Kind, Priors, priors
 from attribot.skills.fits import (
     box_area,
@@ -348,11 +348,9 @@ def _unseen(
     free = [c for c in candidates if not any(inside_box(center(c.box), d.box) for d in claimed)]
     kind = table.find(name)
     sizes = None if kind is None else kind.size_m
-    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
-
-    def closed() -> bool:
-        others = _unboxed(detector, name, sought, claimed, table)
-        return closed_world(candidates, explaining(), frame.width, frame.height, params, others)
+    explaining, closed = _world_check(
+        detector, frame, camera, name, candidates, views, claimed, sought, table, params
+    )
 
     faint = faint_pick(detect_in_views(detector, frame, [name], views, threshold=params.faint), free, params)
     if faint is not None:
@@ -362,15 +360,9 @@ def _unseen(
     others = explaining()
     placement = None if kind is None else kind.placement
     if nearer is not None:
-        seen, report.visits = nearer(name, visit_order(candidates, others, sizes, placement, params))
-        # boxes of one object seen from two places land on each other: one object
-        kept_seen: list[Detection] = []
-        for det in seen:
-            if all(overlap_of_smaller(det.box, o.box) < 0.5 for o in kept_seen):
-                kept_seen.append(det)
-        report.found_nearer = len(kept_seen)
-        if kept_seen:
-            return kept_seen
+        seen = _seen_nearer(nearer, name, visit_order(candidates, others, sizes, placement, params), report)
+        if seen:
+            return seen if _stands(seen, report, closed) else []
     colours = () if kind is None else kind.colours
 
     def coloured(cand: Candidate) -> bool:
@@ -387,6 +379,53 @@ def _unseen(
     report.eliminated = 1
     eliminated = Detection(box=left.box, score=params.eliminated_score, label=name, evidence="elimination")
     return confirmed([eliminated], candidates, name, nearer, report, closed)
+
+
+def _seen_nearer(
+    nearer: Nearer, name: str, places: list[Candidate], report: LookHarderReport
+) -> list[Detection]:
+    """What the robot sees of `name` driving nearer to `places` in turn, one box per object (boxes of one
+    object seen from two places land on each other), counted in `report`."""
+    seen, report.visits = nearer(name, places)
+    kept: list[Detection] = []
+    for det in seen:
+        if all(overlap_of_smaller(det.box, o.box) < 0.5 for o in kept):
+            kept.append(det)
+    report.found_nearer = len(kept)
+    return kept
+
+
+def _stands(seen: list[Detection], report: LookHarderReport, closed: Callable[[Detection], bool]) -> bool:
+    """Whether what was seen from nearer stands: a sure box does; boxes all under the sure score are an
+    inference like any faint box (in a room of things the detector cannot name, a feather seen nearer as a
+    spoon at 0.13 while no spoon is there), standing only where the world is closed around them."""
+    if any(evidence_of(d) != "faint box" for d in seen) or all(closed(d) for d in seen):
+        return True
+    report.unconfirmed += len(seen)
+    return False
+
+
+def _world_check(
+    detector: Detector,
+    frame: Frame,
+    camera: CameraInfo,
+    name: str,
+    candidates: list[Candidate],
+    views: list[tuple[int, int, int, int]],
+    claimed: list[Detection],
+    sought: list[str],
+    table: Priors,
+    params: LookHarderParams,
+) -> tuple[Callable[[], list[Detection]], Callable[[Detection], bool]]:
+    """The boxes that explain a place while `name` is sought (`_explaining`, looked for once), and whether
+    the world is closed around what an inference took (`closed_world`)."""
+    explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
+
+    def closed(taken: Detection) -> bool:
+        others = _unboxed(detector, name, sought, claimed, table)
+        return closed_world(candidates, explaining(), frame.width, frame.height, params, others, taken.box)
+
+    return explaining, closed
 
 
 def _unboxed(
@@ -426,6 +465,7 @@ def closed_world(
     height: int,
     params: LookHarderParams = LOOK_HARDER,
     sought: Sequence[Kind] = (),
+    taken: tuple[float, float, float, float] | None = None,
 ) -> bool:
     """Whether depth sees at most one thing here that no sure box explains (furniture, what the image's
     edge cuts and lines aside): a world closed enough for an argument by elimination, where everything else
@@ -433,7 +473,11 @@ def closed_world(
     thick (where a cabinet meets the floor, a chair's edge) is depth's finest: as often a seam between two
     surfaces as a thing, it does not open the world; an object seen whole is thicker. `sought`: the kinds of
     the program's other objects that no box shows (a fork and a toaster asked about together, neither named
-    by the detector): the one place that only one of them fits is that one, not one more unnamed thing."""
+    by the detector): the one place that only one of them fits is that one, not one more unnamed thing.
+    `taken`: the box an inference took for the object sought; everything but what lies there must then be
+    named. A faint box of a mouse on what the detector surely boxes as a sports ball, beside one thing
+    nothing names, leaves that thing as likely the mouse; a toaster boxed surely as a suitcase in a room where
+    all else is named is the toaster."""
     sure = [d for d in explaining if d.score >= params.unsure]
     unexplained = [
         c
@@ -443,11 +487,13 @@ def closed_world(
         and not at_edge(c.box, width, height)
         and not any(inside_box(center(c.box), d.box) for d in sure)
     ]
+    if taken is not None:
+        unexplained = [c for c in unexplained if not inside_box(center(c.box), taken)]
     for kind in sought:
         fitting = [c for c in unexplained if fits_kind(c, kind, params)]
         if len(fitting) == 1:
             unexplained.remove(fitting[0])
-    return len(unexplained) <= 1
+    return len(unexplained) <= (0 if taken is not None else 1)
 
 
 def confirmed(
@@ -456,7 +502,7 @@ def confirmed(
     name: str,
     nearer: Nearer | None,
     report: LookHarderReport,
-    closed: Callable[[], bool] | None = None,
+    closed: Callable[[Detection], bool] | None = None,
 ) -> list[Detection]:
     """What of `inferred` (objects the detector never named at its threshold: a box fainter than that,
     elimination, likeness) acting confirms: the robot drives nearer to each and looks; where the detector
@@ -478,7 +524,7 @@ def confirmed(
             kept.extend(s.model_copy(update={"label": name}) for s in seen)
         elif visits == 0:
             kept.append(det)  # no way there: still an inference
-        elif closed is not None and closed():
+        elif closed is not None and closed(det):
             report.closed += 1
             kept.append(det)
         else:
