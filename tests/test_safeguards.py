@@ -17,7 +17,7 @@ from attribot.embodiments.mujoco import MujocoWorld
 from attribot.errors import ConfigError, InputError, UnknownName
 from attribot.eval.methods import Condition, ablations
 from attribot.frame import Frame
-from attribot.models.base import Detection
+from attribot.models.base import Detection, evidence_of
 from attribot.models.noise import DetectorNoise, NoisyDetector
 from attribot.noise import NOISE_PRESETS, WorldNoise, world_noise
 from attribot.skills.safeguards import (
@@ -834,8 +834,15 @@ def test_a_faint_box_of_the_chosen_name_is_that_object_not_a_rival(
     orange measure the same. The answer is the orange either way, so the confidence check does not refuse to
     choose between them; a second sure orange, or a faint apple, measured the same is still a doubt."""
     frame = Frame(rgb=np.zeros((48, 64, 3), dtype=np.uint8))
-    chosen = Sighting(frame, perception, box=(0, 0, 10, 10), label="orange", score=0.86)
-    rival = Sighting(frame, perception, box=(30, 30, 40, 40), label=rival_label, score=rival_score)
+    chosen = Sighting(frame, perception, box=(0, 0, 10, 10), label="orange", score=0.86, evidence="sure box")
+    rival = Sighting(
+        frame,
+        perception,
+        box=(30, 30, 40, 40),
+        label=rival_label,
+        score=rival_score,
+        evidence=evidence_of(Detection(box=(30, 30, 40, 40), score=rival_score, label=rival_label)),
+    )
     readings = _Readings([(1.211, 0.002, chosen), (1.211, 0.002, rival)])
     doubt = Confidence(Safeguards()).settle(chosen, readings)
     assert (doubt is None) == settled, doubt

@@ -38,7 +38,7 @@ from attribot.embodiments.base import Embodiment
 from attribot.errors import AttribotError, ConfigError, InputError, UnknownName, UnsupportedAction
 from attribot.frame import Frame
 from attribot.mechanisms import MECHANISMS, Mechanism, parse_checks
-from attribot.models.base import GUESSED, SURE_SCORE, Detection, Detector
+from attribot.models.base import GUESSED, Detection, Detector
 from attribot.models.cache import cacheable
 from attribot.priors import Priors, priors
 from attribot.registry import Registry
@@ -455,13 +455,7 @@ def _one_named(a: Sighting, b: Sighting) -> bool:
     either way the answer is the orange), so no reason to refuse to choose between them."""
     if not a.label or a.label.lower() != b.label.lower():
         return False
-    return any(_guessed(p) for p in (a, b))
-
-
-def _guessed(patch: Sighting) -> bool:
-    if patch.evidence is not None:
-        return patch.evidence in GUESSED
-    return patch.score is not None and patch.score < SURE_SCORE
+    return a.evidence in GUESSED or b.evidence in GUESSED  # a found patch carries `evidence_of` its box
 
 
 def _neighbours(values: list[Value], me: Value) -> list[Value]:
