@@ -283,29 +283,6 @@ def test_weight_is_measured_with_a_force_sensor():
     assert robot.held is None
 
 
-def test_each_named_object_is_its_best_box_and_a_plural_name_every_box_of_it():
-    """ "the apple" is one object: the detector's best box of it. A fainter second box of "apple" (on an egg
-    beside it, lighter than everything) is not weighed as a second apple, so it cannot be the answer; "the
-    apples" asks about every one of them."""
-    apple, egg_as_apple = (
-        FakePatch("apple", (0, 0, 50, 50), kg=0.18),
-        FakePatch("apple", (60, 0, 90, 30), kg=0.06),
-    )
-    book, cactus = (
-        FakePatch("book", (100, 0, 150, 50), kg=0.39),
-        FakePatch("cactus", (200, 0, 250, 50), kg=0.64),
-    )
-    items = (apple, egg_as_apple, book, cactus)  # found best first, as `find` gives them
-    robot = FakeRobot(["camera", "force"])
-    query = "Out of the apple, the cactus and the book, which one is the most lightweight?"
-    assert run(query, scene(*items), ("camera", "force"), True, robot) is apple
-    assert egg_as_apple not in [patch for _, patch in robot.calls]
-    query = "Out of the apples, the cactus and the book, which one is the most lightweight?"
-    assert (
-        run(query, scene(*items), ("camera", "force"), True, FakeRobot(["camera", "force"])) is egg_as_apple
-    )
-
-
 def test_weight_without_a_force_sensor_asks_vqa_then_the_language_model():
     items = [
         FakePatch("feather", (0, 0, 50, 50), kg=0.01),

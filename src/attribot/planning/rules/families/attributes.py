@@ -9,7 +9,7 @@ import re
 from collections.abc import Sequence
 
 from attribot.errors import InputError
-from attribot.lexicon import sense_words, singular_forms
+from attribot.lexicon import sense_words
 from attribot.planning.rules.families import FAMILY_REGISTRY, Family
 from attribot.planning.rules.forms import (
     DistanceQuery,
@@ -252,9 +252,7 @@ def _size_query(obj: ObjectSpec, adjective: str, degree: str | None, rank: int, 
 
 
 def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
-    """Candidates from several named objects ("the laptop or the tv"): each singular name's best patch (one
-    object: "the apple" is not also a fainter box of "apple" on an egg beside it, nor a can boxed as a second
-    mug), every patch of a plural one ("the apples")."""
+    """Candidates from several named objects ("the laptop or the tv"): every patch of each."""
     if len(objects) == 1:
         _find(w, objects[0])
         return
@@ -262,16 +260,7 @@ def _find_all(w: _Writer, objects: Sequence[ObjectSpec]) -> None:
     for index, obj in enumerate(objects):
         var = f"found{index + 1}"
         _find(w, obj, var)
-        if _singular(obj.noun):
-            w.line(f"candidates = candidates + {var}[:1]  # the {obj.phrase}: one object, its best box")
-        else:
-            w.line(f"candidates = candidates + {var}")
-
-
-def _singular(noun: str) -> bool:
-    """Whether a name is singular: its last word is no plural ("apple", "glass"; "apples", and "scissors"
-    read as a plural too, so that every box of them is kept)."""
-    return singular_forms(noun.split()[-1]) == [noun.split()[-1]]
+        w.line(f"candidates = candidates + {var}")
 
 
 def _write_extreme_loop(w: _Writer, values: str, largest: bool, rank: int = 1) -> None:
