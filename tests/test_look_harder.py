@@ -828,8 +828,14 @@ def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_sure
         on_orange,
         apple,
     ]
-    # and the name keeps a box, whatever yields
-    assert one_name_each([on_orange], [orange]) == [on_orange]
+    # the name keeps its best box where the other name there is faint too (0.31 is sure, 0.2 is not)...
+    assert one_name_each([on_orange], [orange.model_copy(update={"score": 0.2})]) == [on_orange]
+    # ...or where its own box is sure
+    sure_apple = on_orange.model_copy(update={"score": 0.27})
+    assert one_name_each([sure_apple], [orange]) == [sure_apple]
+    # but a faint box alone on what another name boxes surely is that name's object: nothing of this name is
+    # seen (asked "the scissors or the knife" with no scissors in the room, a knife boxed faintly as scissors)
+    assert one_name_each([on_orange], [orange]) == []
 
 
 def test_elimination_and_visits_leave_out_panels_edges_and_places_the_object_is_not_put():

@@ -200,10 +200,10 @@ def look_harder(
     mine = class_of_name(detector, name)
 
     def one_each(found: list[Detection]) -> list[Detection]:
-        if len(found) < 2:
+        if not found:
             return found
         taken = [d for d in claimed or [] if class_of_name(detector, d.label) != mine]
-        left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates)
+        left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates, params.unsure)
         report.yielded += len(found) - len(left)
         return left
 

@@ -37,7 +37,10 @@ __all__ = ["alike", "by_elimination", "faint_pick", "one_name_each", "one_object
 
 
 def one_name_each(
-    found: list[Detection], rivals: list[Detection], candidates: Sequence[Candidate] = ()
+    found: list[Detection],
+    rivals: list[Detection],
+    candidates: Sequence[Candidate] = (),
+    sure: float = LOOK_HARDER.unsure,
 ) -> list[Detection]:
     """`found` (one name's boxes) less those on the object of another name's box in `rivals` (the best box
     of another name the program looks for, or what another name's find took), one object, one name: a box
@@ -45,15 +48,23 @@ def one_name_each(
     clock at 0.19 and as a mouse at 0.18, beside the alarm clock it boxes at 0.63; a bowl as a sports ball
     at 0.18, beside a basketball it boxes at 0.29), and so does its best where the other name scores
     higher there (an orange boxed as an apple at 0.17 and as an orange at 0.31, beside an apple boxed at
-    0.11; a cactus's pot boxed as a vase, under the cactus's box: `one_object`). One box at least is
-    kept."""
+    0.11; a cactus's pot boxed as a vase, under the cactus's box: `one_object`). The best box is kept
+    whatever yields, unless it is faint (under `sure`) and the other name's box there is sure: then the
+    object there is the other name's, and nothing of this name is seen (asked whether the scissors or the
+    knife is closer in a room with no scissors, YOLOv5s boxes the knife as scissors at 0.12 and as a knife
+    at 0.55)."""
+    if not found:
+        return []
     best = max(found, key=lambda d: d.score)
 
     def yields(d: Detection) -> bool:
         return any(one_object(d, r, candidates) and (d is not best or r.score > d.score) for r in rivals)
 
+    def taken_surely(d: Detection) -> bool:
+        return d.score < sure and any(one_object(d, r, candidates) and r.score >= sure for r in rivals)
+
     kept = [d for d in found if not yields(d)]
-    return kept or [best]
+    return kept or ([] if taken_surely(best) else [best])
 
 
 def one_object(a: Detection, b: Detection, candidates: Sequence[Candidate] = ()) -> bool:
