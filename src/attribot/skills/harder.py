@@ -91,7 +91,7 @@ class LookHarderReport:
     candidates: int  # regions where depth sees something stand
     views: int  # zoomed views looked at
     added: int  # detections found in them
-    set_aside: int  # detections where depth sees nothing stand
+    set_aside: int  # boxes on one thing of a size no object of the name has (`_misfits`)
     visits: int = 0  # places the robot drove nearer to
     found_nearer: int = 0  # detections seen from nearer
     faint: float | None = None  # the score of the faint box taken, where one was
@@ -122,7 +122,7 @@ class LookHarderReport:
         if self.alike:
             text += f"; took {self.alike} more that look like the one it saw (their colours, their size)"
         if self.set_aside:
-            text += f"; {self.set_aside} set aside where depth sees nothing stand"
+            text += f"; {self.set_aside} set aside: the thing there is of a size its kind never has"
         if self.yielded:
             text += f"; {self.yielded} left to another name whose object is there"
         if self.fitted:
