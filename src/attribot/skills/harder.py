@@ -13,7 +13,8 @@ first image (`carried_back`: where it lands on the place, the place's box is its
 Robot's `_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where
 it points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
 no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
-and height (a knife lies flat, a toaster stands) that no box of another name explains (`by_elimination`). And
+and height (a knife lies flat, a toaster stands) that no box of another name explains (`by_elimination`; where
+none, that only a box of a name the program does not ask about explains: `_eliminated`). And
 where the detector saw some objects of the name but not all (a row of carrots, one of them boxed), the places
 that look like one it saw, in colour and size, and that nothing else explains are more of it (`alike`). What
 they give has the low score it earned, and the trace says how it was taken. Only detectors that read pixels
@@ -57,7 +58,7 @@ from attribot.skills.fits import (
 )
 from attribot.skills.lookalikes import (
     alike,
-    by_elimination,
+    eliminable,
     faint_pick,
     one_name_each,
     one_object,
@@ -96,6 +97,9 @@ class LookHarderReport:
     found_nearer: int = 0  # detections seen from nearer
     faint: float | None = None  # the score of the faint box taken, where one was
     eliminated: int = 0  # candidates of the name's size no other name explains, where one was taken
+    # the name the detector gives the one taken by elimination, where it names it as something the program
+    # does not ask about (a toaster boxed as a suitcase)
+    named_otherwise: str | None = None
     alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
     yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
     fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
@@ -117,7 +121,12 @@ class LookHarderReport:
             text += f"; drove nearer to {self.visits} of them: {self.found_nearer} found"
         if self.faint is not None:
             text += f"; took the one framed by a faint box of the name (score {self.faint:.3f})"
-        if self.eliminated:
+        if self.eliminated and self.named_otherwise:
+            text += (
+                "; took by elimination the one thing of the name's size and shape, which the detector calls"
+                f" only a {self.named_otherwise}, a name the program does not ask about"
+            )
+        elif self.eliminated:
             text += "; took by elimination the one thing of the name's size that no other name explains"
         if self.alike:
             text += f"; took {self.alike} more that look like the one it saw (their colours, their size)"
@@ -368,17 +377,52 @@ def _unseen(
     def coloured(cand: Candidate) -> bool:
         return colour_fits(frame.rgb, cand.box, colours, table, params)
 
-    heights = None if kind is None else kind.height_m
-    width, height = frame.width, frame.height
-    shaped = None if kind is None else partial(shaped_as_kind, kind=kind, params=params)
-    left = by_elimination(
-        candidates, others, sizes, width, height, placement, coloured, heights, params, shaped
+    weigh = partial(
+        eliminable,
+        size_range=sizes,
+        width=frame.width,
+        height=frame.height,
+        placement=placement,
+        coloured=coloured,
+        height_range=None if kind is None else kind.height_m,
+        params=params,
+        shaped=None if kind is None else partial(shaped_as_kind, kind=kind, params=params),
     )
+    left = _eliminated(detector, weigh, candidates, others, claimed, sought, report, params)
     if left is None:
         return []
-    report.eliminated = 1
     eliminated = Detection(box=left.box, score=params.eliminated_score, label=name, evidence="elimination")
     return confirmed([eliminated], candidates, name, nearer, report, closed)
+
+
+def _eliminated(
+    detector: Detector,
+    weigh: Callable[[list[Candidate], list[Detection]], list[Candidate]],
+    candidates: list[Candidate],
+    others: list[Detection],
+    claimed: list[Detection],
+    sought: list[str],
+    report: LookHarderReport,
+    params: LookHarderParams,
+) -> Candidate | None:
+    """The one candidate left by elimination (`weigh`: `eliminable` with the name's priors), noted in
+    `report`. Where no box leaves one, a closed-set detector may name the object as something else: a
+    toaster, which no detector here names, boxed surely as a suitcase or a book. So where no place nothing
+    explains fits, the one that fits and that only a box of a name the program does not ask about explains
+    is taken (`named_otherwise`), as weak as any elimination: confirmed from nearer, kept only in a closed
+    world, said to be a guess. Where several fit, none is taken."""
+    left = weigh(candidates, others)
+    if not left:
+        asked = {class_of_name(detector, n) for n in sought}
+        theirs = [d for d in others if class_of_name(detector, d.label) in asked]
+        left = weigh(candidates, [*theirs, *(d.model_copy(update={"score": 1.0}) for d in claimed)])
+        if len(left) == 1:
+            there = [d for d in others if d.score >= params.unsure and inside_box(center(left[0].box), d.box)]
+            report.named_otherwise = max(there, key=lambda d: d.score).label if there else None
+    if len(left) != 1:
+        return None
+    report.eliminated = 1
+    return left[0]
 
 
 def _seen_nearer(

@@ -33,7 +33,15 @@ from attribot.skills.fits import (
 )
 from attribot.skills.params import LOOK_HARDER, LookHarderParams
 
-__all__ = ["alike", "by_elimination", "faint_pick", "one_name_each", "one_object", "visit_order"]
+__all__ = [
+    "alike",
+    "by_elimination",
+    "eliminable",
+    "faint_pick",
+    "one_name_each",
+    "one_object",
+    "visit_order",
+]
 
 
 def one_name_each(
@@ -113,8 +121,28 @@ def by_elimination(
     is put (`placement`: "surface", on furniture; "floor"; None: anywhere), of the object's proportions
     (`shaped`: None, any). Where several are left, the one of them whose colour is the object's
     (`coloured`: a carrot is orange), if one is."""
+    left = eliminable(
+        candidates, others, size_range, width, height, placement, coloured, height_range, params, shaped
+    )
+    return left[0] if len(left) == 1 else None
+
+
+def eliminable(
+    candidates: list[Candidate],
+    others: list[Detection],
+    size_range: tuple[float, float] | None,
+    width: int,
+    height: int,
+    placement: str | None = None,
+    coloured: Callable[[Candidate], bool] | None = None,
+    height_range: tuple[float, float] | None = None,
+    params: LookHarderParams = LOOK_HARDER,
+    shaped: Callable[[Candidate], bool] | None = None,
+) -> list[Candidate]:
+    """Every candidate `by_elimination` weighs (the same arguments), those of the object's colour where
+    several are and some are: none, one, or several (no argument by elimination then)."""
     if size_range is None:
-        return None
+        return []
     sure = [d for d in others if d.score >= params.unsure]
     left = [
         c
@@ -129,7 +157,7 @@ def by_elimination(
     ]
     if len(left) > 1 and coloured is not None:
         left = [c for c in left if coloured(c)] or left
-    return left[0] if len(left) == 1 else None
+    return left
 
 
 def alike(
