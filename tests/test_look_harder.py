@@ -476,7 +476,7 @@ def test_a_find_cuts_a_loose_box_to_the_object_in_the_trace_and_not_with_looking
 
 def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
     from attribot.control.candidates import Candidate
-    from attribot.skills.lookalikes import by_elimination
+    from attribot.skills.lookalikes import eliminable
 
     toaster = Candidate((300, 100, 350, 140), 0.19, 340, 0.28)
     bottle = Candidate((250, 110, 262, 142), 0.17, 64, 0.17)
@@ -486,16 +486,16 @@ def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():
     seen = [Detection(box=(245, 105, 266, 146), score=0.6, label="bottle")]
     toaster_size = (0.25, 0.3)
     every = [toaster, bottle, leg, cut, crumb]
-    assert by_elimination(every, seen, toaster_size, 640, 480) == toaster
+    assert eliminable(every, seen, toaster_size, 640, 480) == [toaster]
     # a box of another name over it, if sure, explains it; one under UNSURE does not
     laptop = Detection(box=(295, 95, 355, 145), score=0.21, label="laptop")
-    assert by_elimination(every, [*seen, laptop], toaster_size, 640, 480) == toaster
+    assert eliminable(every, [*seen, laptop], toaster_size, 640, 480) == [toaster]
     sure = laptop.model_copy(update={"score": 0.6})
-    assert by_elimination(every, [*seen, sure], toaster_size, 640, 480) is None
+    assert eliminable(every, [*seen, sure], toaster_size, 640, 480) == []
     # two things could be it: no telling; and a name of no known size cannot be eliminated for
     other = Candidate((450, 100, 500, 140), 0.2, 300, 0.27)
-    assert by_elimination([*every, other], seen, toaster_size, 640, 480) is None
-    assert by_elimination(every, seen, None, 640, 480) is None
+    assert eliminable([*every, other], seen, toaster_size, 640, 480) == [toaster, other]
+    assert eliminable(every, seen, None, 640, 480) == []
 
 
 def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_sees():
@@ -505,7 +505,7 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
     from attribot.control.candidates import Candidate
     from attribot.priors import priors
     from attribot.skills.fits import fits_height
-    from attribot.skills.lookalikes import by_elimination
+    from attribot.skills.lookalikes import eliminable
 
     knife, toaster = priors().find("knife"), priors().find("toaster")
     assert knife is not None and toaster is not None
@@ -518,9 +518,9 @@ def test_elimination_tells_what_lies_flat_from_what_stands_by_the_height_depth_s
     lying = Candidate((320, 312, 330, 358), 0.012, 60, 0.2)
     standing = Candidate((300, 134, 340, 164), 0.184, 300, 0.23)
     both = [lying, standing]
-    assert by_elimination(both, [], knife.size_m, 640, 480) is None  # by size, either
-    assert by_elimination(both, [], knife.size_m, 640, 480, height_range=knife.height_m) == lying
-    assert by_elimination(both, [], toaster.size_m, 640, 480, height_range=toaster.height_m) == standing
+    assert eliminable(both, [], knife.size_m, 640, 480) == both  # by size, either
+    assert eliminable(both, [], knife.size_m, 640, 480, height_range=knife.height_m) == [lying]
+    assert eliminable(both, [], toaster.size_m, 640, 480, height_range=toaster.height_m) == [standing]
     # depth's noise: a flat thing seen a centimetre or two higher is still flat
     assert fits_height(0.04, knife.height_m) and not fits_height(0.08, knife.height_m)
 
@@ -532,7 +532,7 @@ def test_elimination_takes_nothing_of_another_shape_than_the_name_has_as_it_rest
     from attribot.control.candidates import Candidate
     from attribot.priors import priors
     from attribot.skills.fits import shaped_as_kind
-    from attribot.skills.lookalikes import by_elimination
+    from attribot.skills.lookalikes import eliminable
 
     backpack = priors().find("backpack")
     assert backpack is not None
@@ -542,15 +542,13 @@ def test_elimination_takes_nothing_of_another_shape_than_the_name_has_as_it_rest
     assert not shaped_as_kind(candle, backpack)
     assert shaped_as_kind(bag, backpack) and shaped_as_kind(unmeasured, backpack)
 
-    def eliminated(cand: Candidate, shaped: bool) -> Candidate | None:
+    def eliminated(cand: Candidate, shaped: bool) -> list[Candidate]:
         test = (lambda c: shaped_as_kind(c, backpack)) if shaped else None
-        return by_elimination(
-            [cand], [], backpack.size_m, 640, 480, height_range=backpack.height_m, shaped=test
-        )
+        return eliminable([cand], [], backpack.size_m, 640, 480, height_range=backpack.height_m, shaped=test)
 
-    assert eliminated(candle, shaped=False) == candle  # size and height alone let it through
-    assert eliminated(candle, shaped=True) is None
-    assert eliminated(bag, shaped=True) == bag
+    assert eliminated(candle, shaped=False) == [candle]  # size and height alone let it through
+    assert eliminated(candle, shaped=True) == []
+    assert eliminated(bag, shaped=True) == [bag]
 
 
 def test_an_object_taken_on_a_faint_box_is_picked_up_where_depth_placed_it():
@@ -840,19 +838,22 @@ def test_one_object_one_name_even_a_best_box_yields_where_the_other_name_is_sure
 
 def test_elimination_and_visits_leave_out_panels_edges_and_places_the_object_is_not_put():
     from attribot.control.candidates import Candidate
-    from attribot.skills.lookalikes import by_elimination, visit_order
+    from attribot.skills.lookalikes import eliminable, visit_order
 
     fork = Candidate((356, 346, 370, 384), 0.0, 52, 0.16, 0.16, 0.45)  # lying on a table
     # a bookcase's side seen edge-on: 2 cm across, rising 17 cm; no object is so thin and stands
     edge = Candidate((438, 234, 444, 260), 0.17, 21, 0.17, 0.016, 0.22)
     fork_size = (0.17, 0.2)
-    assert by_elimination([fork, edge], [], fork_size, 640, 480) == fork
+    assert eliminable([fork, edge], [], fork_size, 640, 480) == [fork]
     assert visit_order([edge, fork], [], fork_size) == [fork]
     # a thing of a fork's size on the floor: a fork is put on furniture, a basketball on the floor
     on_floor = Candidate((100, 300, 130, 340), 0.15, 80, 0.17, 0.08, 0.01)
-    assert by_elimination([fork, on_floor], [], fork_size, 640, 480, "surface") == fork
-    assert by_elimination([fork, on_floor], [], fork_size, 640, 480) is None  # where it is put unknown
-    assert by_elimination([fork, on_floor], [], fork_size, 640, 480, "floor") == on_floor
+    assert eliminable([fork, on_floor], [], fork_size, 640, 480, "surface") == [fork]
+    assert eliminable([fork, on_floor], [], fork_size, 640, 480) == [
+        fork,
+        on_floor,
+    ]  # where it is put unknown
+    assert eliminable([fork, on_floor], [], fork_size, 640, 480, "floor") == [on_floor]
     assert visit_order([on_floor, fork], [], fork_size, "surface") == [fork, on_floor]
 
 
@@ -874,7 +875,7 @@ def test_a_knifes_raised_handle_and_its_blade_lying_flat_are_one_candidate_of_it
 def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
     from attribot.control.candidates import Candidate
     from attribot.skills.fits import colour_fits
-    from attribot.skills.lookalikes import by_elimination
+    from attribot.skills.lookalikes import eliminable
 
     rgb = np.full((120, 200, 3), (70, 45, 30), np.uint8)  # a dark wooden table
     rgb[40:80, 20:30] = (240, 130, 20)  # an orange carrot lying on it
@@ -889,10 +890,10 @@ def test_where_several_places_are_left_the_one_of_the_objects_colour_is_taken():
     def orange(cand):
         return colour_fits(rgb, cand.box, ("orange",))
 
-    assert by_elimination([carrot, spoon], [], (0.15, 0.2), 200, 120) is None  # two of a carrot's size
-    assert by_elimination([carrot, spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == carrot
+    assert eliminable([carrot, spoon], [], (0.15, 0.2), 200, 120) == [carrot, spoon]  # two of a carrot's size
+    assert eliminable([carrot, spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == [carrot]
     # the colour only chooses among those left: it never rules out the one left
-    assert by_elimination([spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == spoon
+    assert eliminable([spoon], [], (0.15, 0.2), 200, 120, coloured=orange) == [spoon]
 
 
 def test_two_names_boxing_one_object_are_one_object_and_two_objects_are_not():

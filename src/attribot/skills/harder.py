@@ -13,7 +13,7 @@ first image (`carried_back`: where it lands on the place, the place's box is its
 Robot's `_nearer`). Where even that finds nothing, two weaker kinds of evidence are weighed, each only where
 it points at one place: a box of the name fainter than the detector's threshold that frames one candidate and
 no other candidate nearly as well (`faint_pick`), and, by elimination, the one candidate of the name's size
-and height (a knife lies flat, a toaster stands) that no box of another name explains (`by_elimination`; where
+and height (a knife lies flat, a toaster stands) that no box of another name explains (`eliminable`; where
 none, that only a box of a name the program does not ask about explains: `_eliminated`). And
 where the detector saw some objects of the name but not all (a row of carrots, one of them boxed), the places
 that look like one it saw, in colour and size, and that nothing else explains are more of it (`alike`). What

@@ -1,5 +1,5 @@
 """Looking harder's weaker evidence, for a name the detector did not see surely: a faint box that points
-at one place (`faint_pick`), the one place left by elimination (`by_elimination`), places that look like
+at one place (`faint_pick`), the one place left by elimination (`eliminable`), places that look like
 one the detector saw (`alike`), the order to drive nearer to places in (`visit_order`), and one name for
 each object (`one_name_each`, `one_object`). `attribot.skills.harder` weighs them in this order.
 """
@@ -35,7 +35,6 @@ from attribot.skills.params import LOOK_HARDER, LookHarderParams
 
 __all__ = [
     "alike",
-    "by_elimination",
     "eliminable",
     "faint_pick",
     "one_name_each",
@@ -101,32 +100,6 @@ def faint_pick(
     return ranked[0]
 
 
-def by_elimination(
-    candidates: list[Candidate],
-    others: list[Detection],
-    size_range: tuple[float, float] | None,
-    width: int,
-    height: int,
-    placement: str | None = None,
-    coloured: Callable[[Candidate], bool] | None = None,
-    height_range: tuple[float, float] | None = None,
-    params: LookHarderParams = LOOK_HARDER,
-    shaped: Callable[[Candidate], bool] | None = None,
-) -> Candidate | None:
-    """The one candidate that can be the object looked for by elimination, or None where none or several
-    can: a candidate no box of another name explains (over its middle, with a score of `unsure`), whose
-    size as depth sees it fits `size_range` (`fits_size`) and whose rise fits `height_range` (`fits_height`:
-    a knife lies flat, a toaster stands; None: any), whole in the image (a candidate cut by the image's
-    edge is most often the furniture the robot stands at), no part of the furniture, and where the object
-    is put (`placement`: "surface", on furniture; "floor"; None: anywhere), of the object's proportions
-    (`shaped`: None, any). Where several are left, the one of them whose colour is the object's
-    (`coloured`: a carrot is orange), if one is."""
-    left = eliminable(
-        candidates, others, size_range, width, height, placement, coloured, height_range, params, shaped
-    )
-    return left[0] if len(left) == 1 else None
-
-
 def eliminable(
     candidates: list[Candidate],
     others: list[Detection],
@@ -139,8 +112,14 @@ def eliminable(
     params: LookHarderParams = LOOK_HARDER,
     shaped: Callable[[Candidate], bool] | None = None,
 ) -> list[Candidate]:
-    """Every candidate `by_elimination` weighs (the same arguments), those of the object's colour where
-    several are and some are: none, one, or several (no argument by elimination then)."""
+    """The candidates that can be the object looked for by elimination: one to take, else (none, or several)
+    no argument by elimination. A candidate no box of another name explains (over its middle, with a score
+    of `unsure`), whose size as depth sees it fits `size_range` (`fits_size`) and whose rise fits
+    `height_range` (`fits_height`: a knife lies flat, a toaster stands; None: any), whole in the image (a
+    candidate cut by the image's edge is most often the furniture the robot stands at), no part of the
+    furniture, and where the object is put (`placement`: "surface", on furniture; "floor"; None: anywhere),
+    of the object's proportions (`shaped`: None, any). Where several are left, those of them whose colour is
+    the object's (`coloured`: a carrot is orange), where some are."""
     if size_range is None:
         return []
     sure = [d for d in others if d.score >= params.unsure]
