@@ -51,9 +51,9 @@ ROOM = SceneConfig(
 )
 
 
-def _robot_image(world: MujocoWorld, sees: set[str]):
+def _robot_image(world: MujocoWorld, detector: SeesOnly):
     base = Perception.from_settings(load_settings(detector="oracle"))
-    perception = Perception(detector=SeesOnly(sees), vqa=base.vqa, language=base.language)
+    perception = Perception(detector=detector, vqa=base.vqa, language=base.language)
     robot = Robot(
         sensors=["camera"],
         world=world,
@@ -205,7 +205,7 @@ def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elim
     the can or the dumbbell: elimination singles out neither.)"""
     with MujocoWorld(ROOM) as world:
         truth = {o.category for o in world.scene_info().objects}
-        robot, image = _robot_image(world, {"apple", "mug"})
+        robot, image = _robot_image(world, SeesOnly({"apple", "mug"}))
         assert "microwave" not in truth
         assert image.find("microwave") == []
         harder = [e for e in robot.safeguards.events if e.mechanism == "look_harder"]
@@ -233,18 +233,11 @@ class CallsOtherwise(SeesOnly):
         return [d.model_copy(update={"label": self.calls.get(d.label, d.label)}) for d in found]
 
 
-def _find_with(config: SceneConfig, detector, name: str):
+def _find_with(config: SceneConfig, detector: SeesOnly, name: str):
     with MujocoWorld(config) as world:
         truth = {o.category: o.box for o in world.scene_info().objects}
-        base = Perception.from_settings(load_settings(detector="oracle"))
-        perception = Perception(detector=detector, vqa=base.vqa, language=base.language)
-        robot = Robot(
-            sensors=["camera"],
-            world=world,
-            controller=build_controller(world),
-            safeguards=Safeguards("all,-look_again"),
-        )
-        found = robot.look(perception, survey=False).find(name)
+        robot, image = _robot_image(world, detector)
+        found = image.find(name)
     harder = [e.detail for e in robot.safeguards.events if e.mechanism == "look_harder"]
     return truth, found, harder[-1]
 
@@ -398,7 +391,7 @@ def test_a_sure_box_on_a_thing_of_no_size_the_name_has_is_set_aside():
     """The tomato (6-8 cm) boxed surely as a basketball (24 cm across) is not the basketball asked about: the
     room holds none, and the answer is not found."""
     with MujocoWorld(ROOM) as world:
-        robot, image = _robot_image(world, {"apple", "mug"})
+        robot, image = _robot_image(world, SeesOnly({"apple", "mug"}))
         image.perception = Perception(
             detector=CallsItA({"apple", "mug"}, "tomato", "basketball"),
             vqa=image.perception.vqa,
