@@ -33,14 +33,7 @@ from attribot.skills.fits import (
 )
 from attribot.skills.params import LOOK_HARDER, LookHarderParams
 
-__all__ = [
-    "alike",
-    "eliminable",
-    "faint_pick",
-    "one_name_each",
-    "one_object",
-    "visit_order",
-]
+__all__ = ["alike", "eliminable", "faint_pick", "one_name_each", "one_object", "visit_order"]
 
 
 def one_name_each(
