@@ -460,6 +460,26 @@ def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in
     assert fitted_to_depth(loose, [fork, other], fork_size).box == (289, 193, 330, 300)
 
 
+def test_a_sure_box_is_set_aside_for_its_size_only_where_depth_sees_the_whole_thing_in_it():
+    """A far bottle on a shelf whose foot alone depth sees stand (3.6 cm of it) is still the bottle; a thing
+    depth sees whole in the same box, 3.6 cm tall, is no bottle (10 to 40 cm)."""
+    from attribot.control.candidates import Candidate
+    from attribot.priors import priors
+    from attribot.skills.harder import _misfits
+    from attribot.skills.params import LOOK_HARDER
+    from conftest import FakeDetector
+
+    bottle = Detection(box=(256, 120, 270, 160), score=0.85, label="bottle")
+    foot = Candidate((260, 158, 268, 160), 0.0, 4, 0.036)
+    whole = Candidate((257, 121, 270, 160), 0.036, 40, 0.036)
+    detector = FakeDetector()
+    assert _misfits(detector, "bottle", [bottle], [foot], priors(), LOOK_HARDER) == []
+    assert _misfits(detector, "bottle", [bottle], [whole], priors(), LOOK_HARDER) == [bottle]
+    # a thing larger than any bottle is one whatever share of the box depth sees of it
+    wide = Candidate((230, 100, 300, 170), 0.9, 400, 0.9)
+    assert _misfits(detector, "bottle", [bottle], [wide], priors(), LOOK_HARDER) == [bottle]
+
+
 def test_a_find_cuts_a_loose_box_to_the_object_in_the_trace_and_not_with_looking_harder_off():
     with MujocoWorld(SCENES[0]) as world:
         mug = next(o.box for o in world.scene_info().objects if o.category == "mug")

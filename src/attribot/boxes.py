@@ -15,6 +15,7 @@ __all__ = [
     "Box",
     "as_boxes",
     "area",
+    "intersection",
     "iou",
     "iou_matrix",
     "overlap_of_smaller",
@@ -136,6 +137,12 @@ def enclosing(boxes: Sequence[Sequence[float]]) -> Box:
         float(max(b[2] for b in boxes)),
         float(max(b[3] for b in boxes)),
     )
+
+
+def intersection(a: Sequence[float], b: Sequence[float]) -> Box:
+    """The xyxy box two boxes share (empty, its far corner not past its near one, where they do not
+    overlap)."""
+    return (float(max(a[0], b[0])), float(max(a[1], b[1])), float(min(a[2], b[2])), float(min(a[3], b[3])))
 
 
 def crop_array(array: np.ndarray, box: Sequence[float]) -> np.ndarray:

@@ -14,7 +14,7 @@ from functools import cache
 import cv2
 import numpy as np
 
-from attribot.boxes import center, crop_array, enclosing
+from attribot.boxes import Box, center, crop_array, enclosing, intersection
 from attribot.control.candidates import Candidate, StandingMap
 from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, Detector
@@ -31,6 +31,7 @@ __all__ = [
     "colours_of",
     "correlation",
     "could_be",
+    "depth_sees_whole",
     "fits_class",
     "fits_height",
     "fits_kind",
@@ -173,18 +174,19 @@ def fitted_to_depth(
     ]
     if not framed:
         return det
-    x0, y0, x1, y1 = det.box
-    e0, f0, e1, f1 = enclosing(framed)
-    cut = (max(x0, e0), max(y0, f0), min(x1, e1), min(y1, f1))
-    if (
-        cut == det.box
-        or cut[2] <= cut[0]
-        or cut[3] <= cut[1]
-        or box_area(cut) < params.fit_keeps * box_area(det.box)
-    ):
+    cut = intersection(det.box, enclosing(framed))
+    if cut == det.box or not depth_sees_whole(det.box, cut, params):
         return det
-    along = max((cut[2] - cut[0]) / (x1 - x0), (cut[3] - cut[1]) / (y1 - y0))
-    return det if along < params.fit_along else det.model_copy(update={"box": cut})
+    return det.model_copy(update={"box": cut})
+
+
+def depth_sees_whole(box: Box, seen: Box, params: LookHarderParams = LOOK_HARDER) -> bool:
+    """Whether what depth sees in a detection's `box` (`seen`, inside it) is the whole object, not a part:
+    it keeps `fit_keeps` of the box's area at least and `fit_along` of its extent along one side."""
+    if seen[2] <= seen[0] or seen[3] <= seen[1] or box_area(seen) < params.fit_keeps * box_area(box):
+        return False
+    along = max((seen[2] - seen[0]) / (box[2] - box[0]), (seen[3] - seen[1]) / (box[3] - box[1]))
+    return along >= params.fit_along
 
 
 def proportion(cand: Candidate, params: LookHarderParams = LOOK_HARDER) -> float | None:

@@ -30,7 +30,7 @@ from functools import cache, partial
 
 import numpy as np
 
-from attribot.boxes import at_edge, center, iou, overlap_of_smaller
+from attribot.boxes import at_edge, center, intersection, iou, overlap_of_smaller
 from attribot.control.base import Capture
 from attribot.control.candidates import STRIDE, Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
@@ -43,6 +43,7 @@ from attribot.skills.fits import (
     box_area,
     class_of_name,
     colour_fits,
+    depth_sees_whole,
     fits_class,
     fits_kind,
     fits_size,
@@ -283,7 +284,8 @@ def _misfits(
     """The boxes of `found` on one thing whose size, as depth sees it, no object called `name` has
     (`fits_size`): YOLOv3-tiny boxes a 6 cm potato faintly as a sports ball and YOLOv5s surely, and a
     basketball is 24 cm across. A box on several things or on none is left as it is (depth sees it with its
-    neighbour, or not at all)."""
+    neighbour, or not at all), and so is one where depth sees only a part of its thing (`depth_sees_whole`):
+    a far bottle's foot, the near end of a banana lying on a shelf."""
     sizes = name_sizes(detector, name, table)
     if sizes is None:
         return []
@@ -292,8 +294,9 @@ def _misfits(
         framed = framed_by(det, candidates)
         if len(framed) != 1:
             continue
-        size = candidates[framed[0]].size
-        if size > 0 and not fits_size(size, sizes, params.size_slack):
+        cand = candidates[framed[0]]
+        whole = depth_sees_whole(det.box, intersection(det.box, cand.box), params)
+        if cand.size > 0 and whole and not fits_size(cand.size, sizes, params.size_slack):
             out.append(det)
     return out
 
