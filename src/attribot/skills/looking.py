@@ -35,7 +35,7 @@ from attribot.control.spatial import (
 )
 from attribot.embodiments.base import Embodiment
 from attribot.frame import Frame
-from attribot.models.base import Detection, Detector, detect_confirming, detect_in_views
+from attribot.models.base import SURE_SCORE, Detection, Detector, detect_confirming, detect_in_views
 from attribot.skills.harder import zoom_views
 from attribot.skills.params import LOOK_AGAIN
 
@@ -479,13 +479,15 @@ def _mean_of(cluster: dict[int, Detection]) -> Detection:
     )
 
 
-def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, int]:
-    """The best estimate of the box of the object of `name` at `box` in `frame`: `box` looked at again on
-    four crops around it (the object whole in each, at another place in the crop), and the mean of it and
-    the crops' boxes of `name` that overlap it most (IoU 0.1: a thin object's jittered box may share a
-    fifth of its area with a right one, as a 15 px wide bottle's box shifted by 10 px did; a crop three
-    times the box's size holds little else of the name); and how many looks that mean holds (1: none
-    confirmed it, and `box` stands). A detector's jitter is drawn anew for other pixels, so the mean's
+def refit(detector: Detector, frame: Frame, box: Box, name: str, score: float) -> tuple[Box, int]:
+    """The best estimate of the box of the object of `name` at `box` in `frame` (detected at `score`):
+    `box` looked at again on four crops around it (the object whole in each, at another place in the
+    crop), and the mean of it and the crops' boxes of `name` that overlap it most (IoU 0.1: a thin object's
+    jittered box may share a fifth of its area with a right one, as a 15 px wide bottle's box shifted by 10
+    px did; a crop three times the box's size holds little else of the name) and that the detector is as
+    sure of as of `box`, or sure of (`SURE_SCORE`: YOLOv5s boxes a book it named at 0.6 in the image at 0.12
+    to 0.19 in crops, each box a third off it); and how many looks that mean holds (1: none confirmed it,
+    and `box` stands). A detector's jitter is drawn anew for other pixels, so the mean's
     error shrinks; the crops are of the image itself, so nothing is carried from another viewpoint (boxes
     carried from the survey's turned views are a few pixels off even without noise, and their mean lost
     a tenth of a clean box's IoU)."""
@@ -504,6 +506,7 @@ def refit(detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, i
         seen = [
             (d.box[0] + ox, d.box[1] + oy, d.box[2] + ox, d.box[3] + oy)
             for d in detector.detect(crop, [name])
+            if d.score >= min(score, SURE_SCORE)
         ]
         same = [b for b in seen if iou(b, box) >= LOOK_AGAIN.refit_iou]
         if same:

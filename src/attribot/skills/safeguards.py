@@ -136,10 +136,10 @@ class LookAgain(Safeguard):
         )
         return said
 
-    def box(self, detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, str]:
-        """An answer's box: the object's box in its image looked at again (`attribot.skills.looking.refit`),
-        and what it is, for the answer's record."""
-        fused, looks = refit(detector, frame, box, name)
+    def box(self, detector: Detector, frame: Frame, box: Box, name: str, score: float) -> tuple[Box, str]:
+        """An answer's box: the object's box in its image (detected at `score`) looked at again
+        (`attribot.skills.looking.refit`), and what it is, for the answer's record."""
+        fused, looks = refit(detector, frame, box, name, score)
         if looks == 1:
             return box, "the detection in the image (looked at again, no other look saw it there)"
         return fused, f"the mean of {looks} looks at it in the image (its detection and crops around it)"
@@ -165,7 +165,7 @@ class WithoutLookAgain(LookAgain):
     def answer(self, ask: Callable[[Frame], str], frame: Frame, question: str) -> str:
         return ask(frame)
 
-    def box(self, detector: Detector, frame: Frame, box: Box, name: str) -> tuple[Box, str]:
+    def box(self, detector: Detector, frame: Frame, box: Box, name: str, score: float) -> tuple[Box, str]:
         return box, "the detection in the image"
 
     def survey(self, world: Embodiment, first: View) -> Survey | None:

@@ -89,7 +89,13 @@ class Sighting:
         (`LookAgain.box`); else, or for a patch no detection named, the patch's own box."""
         if not self.label or self._whole():
             return self.box, "the patch's own box"
-        return self.safeguards.look_again.box(self.perception.detector, self.frame, self.box, self.label)
+        return self.safeguards.look_again.box(
+            self.perception.detector,
+            self.frame,
+            self.box,
+            self.label,
+            1.0 if self.score is None else self.score,
+        )
 
     def summary(self) -> dict[str, Any]:
         """Host side: JSON-ready description (box in pixels, y down, as answers report boxes)."""
