@@ -262,6 +262,34 @@ def test_a_thing_the_detector_calls_only_by_a_name_not_asked_about_is_left_by_el
     assert "toaster" not in truth and found == []
 
 
+class NamesClassesOtherwise(CallsOtherwise):
+    """`CallsOtherwise` as a closed-set detector: each name is its own class (`class_of`), so the priors'
+    kinds of a class say what shape its boxes' things have."""
+
+    def class_of(self, name: str) -> str | None:
+        return name
+
+
+def test_a_sure_box_explains_a_place_for_a_closed_world_only_where_the_thing_there_has_its_class_shape():
+    """No orange in the room: the tomato, which nothing names, is the one thing of an orange's size left, and
+    nothing sees an orange there from nearer. A CD lying flat, boxed surely as a sports ball, is no ball (a
+    ball is as tall as it is wide): it is one more thing no name explains, so the world is not closed and
+    the inference is dropped (not found). A can boxed surely as a bottle has a bottle's shape: the world
+    stays closed around the tomato, and the elimination stands, as a guess."""
+    room = SceneConfig(layout="household", seed=2, categories=("apple", "mug", "tomato", "cd"), objects=4)
+    flat = NamesClassesOtherwise({"apple", "mug", "cd"}, {"cd": "sports ball"})
+    truth, found, detail = _find_with(room, flat, "orange")
+    assert "orange" not in truth and found == []
+    assert "elimination" in detail and "dropped" in detail
+    standing = SceneConfig(
+        layout="household", seed=1, categories=("apple", "mug", "tomato", "can"), objects=4
+    )
+    truth, found, detail = _find_with(
+        standing, NamesClassesOtherwise({"apple", "mug", "can"}, {"can": "bottle"}), "orange"
+    )
+    assert [p.evidence for p in found] == ["elimination"] and "everything else here is named" in detail
+
+
 def test_an_answer_resting_on_a_faint_box_says_it_is_a_guess_and_one_seen_nearer_does_not():
     """A box the detector scored under its sure score is as often a thing it cannot name as the object named
     (a CD boxed faintly as a bowl that is not in the room): the answer says so plainly. The same object seen

@@ -54,6 +54,7 @@ from attribot.skills.fits import (
     is_furniture,
     name_sizes,
     on_candidate,
+    shaped_as_class,
     shaped_as_kind,
     stands_in_depth,
 )
@@ -468,9 +469,18 @@ def _world_check(
     the world is closed around what an inference took (`closed_world`)."""
     explaining = cache(lambda: _explaining(detector, frame, camera, name, views, claimed, table, params))
 
+    def explains(place: Candidate, box: Detection) -> bool:
+        # another name's object explains its place whatever its shape (that find's own evidence); a box the
+        # detector gave only where depth sees a thing of its class's shape (a CD lying flat, boxed surely
+        # as a sports ball, is no ball: it stays one more thing no name explains)
+        mine = any(box.box == c.box for c in claimed)
+        return mine or shaped_as_class(detector, box.label, place, table, params)
+
     def closed(taken: Detection) -> bool:
         others = _unboxed(detector, name, sought, claimed, table)
-        return closed_world(candidates, explaining(), frame.width, frame.height, params, others, taken.box)
+        return closed_world(
+            candidates, explaining(), frame.width, frame.height, params, others, taken.box, explains
+        )
 
     return explaining, closed
 
@@ -513,6 +523,7 @@ def closed_world(
     params: LookHarderParams = LOOK_HARDER,
     sought: Sequence[Kind] = (),
     taken: tuple[float, float, float, float] | None = None,
+    explains: Callable[[Candidate, Detection], bool] | None = None,
 ) -> bool:
     """Whether depth sees at most one thing here that no sure box explains (furniture, what the image's
     edge cuts and lines aside): a world closed enough for an argument by elimination, where everything else
@@ -524,7 +535,8 @@ def closed_world(
     `taken`: the box an inference took for the object sought; everything but what lies there must then be
     named. A faint box of a mouse on what the detector surely boxes as a sports ball, beside one thing
     nothing names, leaves that thing as likely the mouse; a toaster boxed surely as a suitcase in a room where
-    all else is named is the toaster."""
+    all else is named is the toaster. `explains`: whether a sure box over a place explains it (by default,
+    every one does); a real room's things are boxed surely under names they have nothing of."""
     sure = [d for d in explaining if d.score >= params.unsure]
     unexplained = [
         c
@@ -532,7 +544,7 @@ def closed_world(
         if min(c.box[2] - c.box[0], c.box[3] - c.box[1]) > STRIDE
         and not is_furniture(c, params)
         and not at_edge(c.box, width, height)
-        and not any(inside_box(center(c.box), d.box) for d in sure)
+        and not any(inside_box(center(c.box), d.box) and (explains is None or explains(c, d)) for d in sure)
     ]
     if taken is not None:
         unexplained = [c for c in unexplained if not inside_box(center(c.box), taken)]
