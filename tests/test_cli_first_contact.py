@@ -71,7 +71,7 @@ def test_flags_of_settings_and_scene_fields_take_their_name_type_and_help_from_t
         assert flag.option.default is None
         assert flag.option.help == field.description
     described = [n for m in (Settings, SceneConfig) for n, f in m.model_fields.items() if f.description]
-    assert from_model == len(described) == 22  # every described field is a flag, and only those
+    assert from_model == len(described) == 23  # every described field is a flag, and only those
     text = " ".join(_invoke(["ask", "-h"]).output.replace("│", " ").split())
     assert "Detector backend spec (oracle, coco, yolov5s, hf:MODEL, remote:URL)." in text
 

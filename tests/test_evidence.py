@@ -13,6 +13,7 @@ from attribot.config import SceneConfig, load_settings
 from attribot.control.base import build_controller
 from attribot.control.candidates import Candidate
 from attribot.embodiments.mujoco import MujocoWorld
+from attribot.errors import InvalidSetting
 from attribot.eval.datasets import Item
 from attribot.eval.methods import CLEAN, _record
 from attribot.frame import Frame
@@ -178,22 +179,54 @@ class CallsItA(SeesOnly):
         return [d.model_copy(update=named) if d.label == self.thing else d for d in found]
 
 
-def test_an_answer_resting_on_a_faint_box_of_an_unnamed_thing_says_it_is_a_guess():
-    """The detector boxes the tomato faintly as an orange (there is none): the find keeps the faint box, as
-    it says, and an answer resting on it says plainly that it is a guess, never a confident answer."""
+def _find_in_room(detector: SeesOnly, name: str) -> list:
+    """What `find(name)` gives in `ROOM` seen with `detector` (looking again left out)."""
     with MujocoWorld(ROOM) as world:
-        assert "orange" not in {o.category for o in world.scene_info().objects}
+        assert name not in {o.category for o in world.scene_info().objects}
         base = Perception.from_settings(load_settings(detector="oracle"))
-        detector = CallsItA({"apple", "mug"}, "tomato", "orange", score=0.15)
         perception = Perception(detector=detector, vqa=base.vqa, language=base.language)
         robot = Robot(
             sensors=["camera"], world=world, controller=build_controller(world),
             safeguards=Safeguards("all,-look_again"),
         )  # fmt: skip
-        faint = robot.look(perception, survey=False).find("orange")
+        return robot.look(perception, survey=False).find(name)
+
+
+def test_an_answer_resting_on_a_faint_box_of_an_unnamed_thing_says_it_is_a_guess():
+    """The detector boxes the tomato faintly as an orange (there is none): the find keeps the faint box, as
+    it says, and an answer resting on it says plainly that it is a guess, never a confident answer."""
+    faint = _find_in_room(CallsItA({"apple", "mug"}, "tomato", "orange", score=0.15), "orange")
     assert [p.evidence for p in faint] == ["faint box"] and faint[0].score < 0.25
     obj = AnswerObject(id=None, category="orange", box=faint[0].box, evidence=(faint[0].evidence,))
     assert obj.guess and "faintly" in _guessed(obj)
+
+
+def test_a_robot_that_refuses_guesses_gives_no_answer_where_its_object_rests_on_one():
+    """With guesses refused (`Settings.guesses`), the faint orange (the tomato, as it happens) is no answer:
+    the refusal says why and what the guess was; the sure apple is answered all the same."""
+    from attribot.planning.answer import build_answer
+    from attribot.runner.records import RunResult
+
+    def answer(patch: object, refuse: bool):
+        result = RunResult(ok=True, value={"box": list(patch.box)}, value_object=patch)
+        return build_answer(
+            query="Which one?", planner="rules", program="...", result=result, attempts=1, backends={},
+            measurements=[], world={}, frame=patch.frame, refuse_guesses=refuse,
+        )  # fmt: skip
+
+    faint = _find_in_room(CallsItA({"apple", "mug"}, "tomato", "orange", score=0.15), "orange")[0]
+    said, refused = answer(faint, False), answer(faint, True)
+    assert said.object is not None and said.object.guess and said.error is None
+    assert refused.object is None and refused.value is None and refused.error is not None
+    assert refused.error.category == "uncertain" and "guesses are refused" in refused.error.message
+    assert refused.answer.startswith("no answer:") and said.answer in refused.answer
+    with MujocoWorld(ROOM) as world:
+        robot, image = _robot_image(world, SeesOnly({"apple", "mug"}))
+        apple = image.find("apple")[0]
+    assert answer(apple, True).object is not None and answer(apple, True).error is None
+    assert load_settings(guesses="refuse").guesses == "refuse"
+    with pytest.raises(InvalidSetting, match="guesses"):
+        load_settings(guesses="sometimes")
 
 
 def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elimination():
@@ -410,9 +443,25 @@ def test_the_report_keeps_confidently_wrong_answers_apart_from_refusals_and_gues
         1,
         1,
     )
+    # refusing guesses, the guess on the absent toaster would be no answer: right
+    assert row["right_refusing_guesses"] == 2
     assert answer_lines([row]) == [
-        "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong"
+        "absent_realroom pa-api clean: 1/3 right (0.33), 0 refused, 1 wrong as a guess, 1 confidently wrong; "
+        "with its 1 guess refused: 2/3 right"
     ]
+    # a guess on an object that is there would be no answer too: right no longer
+    present = _absent_item().model_copy(
+        update={"absent": [], "true_id": "toaster_0", "true_box": [1, 2, 30, 40]}
+    )
+    right_guess = _record(present, "pa-api", CLEAN, box=[1.0, 2.0, 30.0, 40.0], guess=True)
+    assert right_guess.right and not right_guess.right_refusing_guesses
+    # a record written before `absent` was kept reads it from its truth: no true object, not there
+    from attribot.eval.methods import Record
+
+    for record, absent in ((records[2], True), (right_guess, False)):
+        legacy = record.model_dump()
+        del legacy["absent"]
+        assert Record.model_validate(legacy).absent is absent
 
 
 def test_a_sure_box_on_a_thing_of_no_size_the_name_has_is_set_aside():

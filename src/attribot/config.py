@@ -265,6 +265,13 @@ class Settings(BaseSettings):
         f"(attribot.priors) by this factor, {PRIORS_SCALE[0]} to {PRIORS_SCALE[1]} (default 1: the table as "
         "written), for an ablation on how much they lean on those numbers.",
     )
+    guesses: Annotated[Literal["say", "refuse"], CommandLine("say|refuse")] = Field(
+        "say",
+        description="An answer whose object rests on a guess (a faint box, elimination, a look-alike that no "
+        "nearer look confirmed, or an object chosen over one): say (default: the answer names it and says "
+        "plainly that it is a guess) or refuse (no answer: nothing was found surely, for a robot that must "
+        "not act on a guess).",
+    )
     program_wall_s: Annotated[float, CommandLine("SECONDS")] = Field(
         60.0,
         gt=0,

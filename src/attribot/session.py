@@ -372,6 +372,7 @@ class Session:
         one was filmed."""
         answer = build_answer(
             doubt=self._doubt(solved.result),
+            refuse_guesses=self.settings.guesses == "refuse",
             error=solved.error,
             query=query,
             planner=planner,

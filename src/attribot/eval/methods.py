@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from pydantic import BaseModel, FiniteFloat, field_validator
+from pydantic import BaseModel, FiniteFloat, field_validator, model_validator
 
 from attribot.boxes import iou
 from attribot.config import Settings
@@ -181,6 +181,7 @@ class Record(BaseModel):
     # seen nearer, elimination, a look-alike, a measurement
     evidence: list[str] = []
     guess: bool = False  # the answer said its object is a guess (an inference no detector confirmed)
+    absent: bool = False  # the query names an object that is not there (the truth: not found)
 
     @property
     def refused(self) -> bool:
@@ -191,6 +192,20 @@ class Record(BaseModel):
     def confidently_wrong(self) -> bool:
         """Wrong, and not said to be a guess."""
         return self.status == "wrong" and not self.guess
+
+    @property
+    def right_refusing_guesses(self) -> bool:
+        """Whether it would be right with guesses refused (`Settings.guesses`): a guess turns into no answer,
+        which is right only where the object is not there."""
+        return self.absent if self.guess else self.right
+
+    @model_validator(mode="before")
+    @classmethod
+    def _absent_of_old_records(cls, data: Any) -> Any:
+        # records written before `absent` was kept: only an absent object's item has no true object
+        if isinstance(data, dict) and "absent" not in data and "true_id" in data:
+            return {**data, "absent": not data["true_id"] and not data.get("true_box")}
+        return data
 
     @field_validator("checks")
     @classmethod
@@ -223,6 +238,7 @@ def _record(item: Item, method: str, condition: Condition, **fields: Any) -> Rec
         iou=overlap,
         true_id=item.true_id,
         true_box=item.true_box,
+        absent=bool(item.absent),
         **fields,
     )
 

@@ -107,6 +107,8 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
                 "refused": sum(r.refused for r in ran),
                 "wrong_guess": sum(r.status == "wrong" and r.guess for r in ran),
                 "confidently_wrong": sum(r.confidently_wrong for r in ran),
+                "guesses": sum(r.guess for r in ran),
+                "right_refusing_guesses": sum(r.right_refusing_guesses for r in ran),
                 "not_run": len(rs) - len(ran),
                 "wall_s": sum(r.wall_s for r in ran) / len(ran) if ran else None,
                 "sim_s": sum(simulated) / len(simulated) if simulated else None,
@@ -120,11 +122,18 @@ def summarize(records: list[Record]) -> list[dict[str, Any]]:
 def answer_lines(rows: list[dict[str, Any]]) -> list[str]:
     """One line per row that ran, for the console: right of n, and the wrong answers kept apart from the
     refusals ("weight_realroom pa-api clean: 44/50 right (0.88), 5 refused, 0 wrong as a guess, 1 confidently
-    wrong")."""
+    wrong"); where some answers were guesses, how many would be right with guesses refused (`--guesses
+    refuse` turns each into no answer: the same run's other operating point)."""
     return [
         f"{r['task']} {r['method']} {r['series']}: {r['right']}/{r['n']} right ({r['accuracy']:.2f}), "
         f"{r['refused']} refused, {r['wrong_guess']} wrong as a guess, "
         f"{r['confidently_wrong']} confidently wrong"
+        + (
+            f"; with its {r['guesses']} guess{'es' if r['guesses'] != 1 else ''} refused: "
+            f"{r['right_refusing_guesses']}/{r['n']} right"
+            if r.get("guesses")
+            else ""
+        )
         for r in rows
         if r["accuracy"] is not None
     ]

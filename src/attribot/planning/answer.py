@@ -145,10 +145,45 @@ def build_answer(
     frame: Any,
     error: Any = None,
     doubt: str | None = None,
+    refuse_guesses: bool = False,
 ) -> Answer:
     """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
     `error` is the planner's own error when no program ever ran (a reply with no code); `doubt` says that
-    the measurements behind the program's choice cannot tell it from another (no object is chosen)."""
+    the measurements behind the program's choice cannot tell it from another (no object is chosen);
+    `refuse_guesses` turns an answer whose object rests on a guess into no answer (`Settings.guesses`)."""
+    answer = _built_answer(
+        query=query, planner=planner, prompt=prompt, program=program, result=result, attempts=attempts,
+        backends=backends, measurements=measurements, world=world, frame=frame, error=error, doubt=doubt,
+    )  # fmt: skip
+    if not refuse_guesses or answer.object is None or not answer.object.guess:
+        return answer
+    # what the guess was stays in the message: a person reading the refusal sees what was not trusted
+    message = f"it would rest on a guess, and guesses are refused (guesses = refuse): {answer.answer}"
+    refused = {"object": None, "value": None, "unit": None, "boolean": None}
+    return answer.model_copy(
+        update={
+            **refused,
+            "answer": f"no answer: {message}",
+            "error": AnswerError(category="uncertain", message=message),
+        }  # fmt: skip
+    )
+
+
+def _built_answer(
+    *,
+    query: str,
+    planner: str,
+    prompt: str | None,
+    program: str | None,
+    result: Any,
+    attempts: int,
+    backends: dict[str, str],
+    measurements: Sequence[Any],
+    world: dict[str, Any],
+    frame: Any,
+    error: Any,
+    doubt: str | None,
+) -> Answer:
     common: dict[str, Any] = dict(
         query=query,
         program=program,
