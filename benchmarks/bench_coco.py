@@ -1,8 +1,8 @@
 """The COCO detectors' recall in the embedded world's robot-camera frames, on tuning and held-out seeds.
 
 Run: `MUJOCO_GL=egl .venv/bin/python benchmarks/bench_coco.py [--detector coco,yolov5s] [--set
-tuning|held-out|both] [--seeds 60] [--quick] [--categories] [--looks detailed,primitive] [--tiles N]
-[--threshold T] [--all-tiles] [--verbose]`
+tuning|held-out|both] [--seeds 60] [--first-seed 0] [--quick] [--categories] [--looks detailed,primitive]
+[--tiles N] [--threshold T] [--all-tiles] [--verbose]`
 
 `--detector` takes one spec or several, comma-separated (`coco`, `yolov5s`, `yolov5s?tiles=1`); each is run on
 the same frames, the first is the reference: each other's recall and its mean time a frame (the detector's
@@ -16,6 +16,7 @@ With `--categories`, instead, each category the detector can find on its own: a 
 
 Seeds 0..N-1 of each layout are dealt into a tuning set (every third seed, 0, 3, 6, ...: the only frames to
 look at while changing looks) and a held-out set (the others: reported, never looked at to change a look).
+`--first-seed N` deals seeds N..N+S-1 the same way: once a held-out set has served a choice, a fresh one.
 Truth comes from the world: every object that shows at least `MIN_PIXELS` pixels, boxed by the
 segmentation. An object is found when a detection of its class overlaps its box with IoU >= 0.5 (each
 detection matches one object at most). Prints one line per set, looks and layout, one per category (its
@@ -52,10 +53,14 @@ NEAR_M = 1.5
 Hit = tuple[str, float, bool, float]  # category, distance (m), found, best IoU with a detection of its class
 
 
-def deal(n: int) -> dict[str, list[int]]:
-    """Seeds 0..n-1 dealt into "tuning" (every third: 0, 3, 6, ...) and "held-out" (the others): a seed
-    stays in its set whatever n, and in every mode."""
-    return {"tuning": list(range(0, n, 3)), "held-out": [s for s in range(n) if s % 3]}
+def deal(n: int, first: int = 0) -> dict[str, list[int]]:
+    """Seeds first..first+n-1 dealt into "tuning" (every third from `first`: 0, 3, 6, ...) and "held-out"
+    (the others): a seed stays in its set whatever n, and in every mode. A `first` past every seed used so
+    far deals frames no one has looked at: a fresh held-out set once the old one has served a choice."""
+    return {
+        "tuning": list(range(first, first + n, 3)),
+        "held-out": [s for s in range(first, first + n) if (s - first) % 3],
+    }
 
 
 def recall_of_frame(
@@ -142,6 +147,7 @@ def main() -> None:
     ap.add_argument("--set", choices=("tuning", "held-out", "both"), default="both", help="which seeds")
     ap.add_argument("--seeds", type=int, default=60, help="seeds per layout before dealing (0 .. N-1)")
     ap.add_argument("--quick", action="store_true", help="6 seeds per layout (a smoke run)")
+    ap.add_argument("--first-seed", type=int, default=0, help="deal seeds from this one (a fresh set)")
     ap.add_argument("--categories", action="store_true", help="each category on its own, close and far")
     ap.add_argument("--looks", default="detailed,primitive", help="detailed, primitive or both")
     ap.add_argument("--verbose", action="store_true", help="one line per frame")
@@ -154,7 +160,7 @@ def main() -> None:
     specs = [_with_options(s.strip(), args) for s in args.detector.split(",") if s.strip()]
     detectors = [build_backend("detector", spec, settings) for spec in specs]
     vocabulary = findable_categories(detectors[0]) or ()
-    dealt = deal(6 if args.quick else args.seeds)
+    dealt = deal(6 if args.quick else args.seeds, args.first_seed)
     sets = ["tuning", "held-out"] if args.set == "both" else [args.set]
     print(_header(sys.argv[1:], dealt, sets), flush=True)
     looks = [lk.strip() for lk in args.looks.split(",") if lk.strip()]

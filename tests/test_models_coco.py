@@ -351,7 +351,7 @@ def test_tiles_with_no_trace_of_the_wanted_class_are_not_looked_at(household_fra
     every = CocoDetector(input_size=SMALL)
     views = every._views(frame.width, frame.height)
     assert found and 1 < gated.forwarded < len(views)
-    assert all(view[1] < 240 for _, view in gated._kept)  # no view of the blank half alone
+    assert all(view[1] < 240 for _, view, _ in gated._kept)  # no view of the blank half alone
     assert _same(found, every.detect_views(frame, ["cup"], views))
     every_tile = CocoDetector(input_size=SMALL, all_tiles=True)  # coco?all_tiles=1: every tile, as before
     assert _same(every_tile.detect(frame, ["cup"]), found) and every_tile.forwarded == len(views)
@@ -359,7 +359,7 @@ def test_tiles_with_no_trace_of_the_wanted_class_are_not_looked_at(household_fra
     unseen = CocoDetector(input_size=SMALL)
     whole = unseen.detect_views(frame, ["book"], [views[0]], threshold=0.0)
     assert whole == [] and unseen.detect(frame, ["book"]) == []
-    assert 1 < unseen.forwarded < len(views) and all(view[1] < 240 for _, view in unseen._kept)
+    assert 1 < unseen.forwarded < len(views) and all(view[1] < 240 for _, view, _ in unseen._kept)
     # nothing to look at closer: no tile at all
     blank = CocoDetector(input_size=SMALL)
     assert blank.detect(Frame(rgb=np.full_like(rgb, 128)), ["cup"]) == [] and blank.forwarded == 1

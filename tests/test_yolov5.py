@@ -255,9 +255,9 @@ def test_detect_undoes_the_letterbox_and_keeps_one_box_per_object(folder, checkp
 
 
 def test_flip_also_finds_what_the_network_sees_only_mirrored(folder, checkpoint, monkeypatch):
-    """`flip` sees each view mirrored too and pools both outputs: a network that boxes a thing only one way
-    round (here: a bright patch only while it is in the left half of its input) finds the patch on the right
-    as well, boxed where it is in the image, not where the mirrored view showed it."""
+    """`flip` sees the image's own views mirrored too and pools both outputs: a network that boxes a thing
+    only one way round (here: a bright patch only while it is in the left half of its input) finds the patch
+    on the right as well, boxed where it is in the image, not where the mirrored view showed it."""
     image = np.zeros((120, 200, 3), np.uint8)  # seen at 640x384, scale 3.2
     image[30:50, 150:170] = 255  # the patch, in the right half
     frame = Frame(rgb=image)
@@ -281,6 +281,16 @@ def test_flip_also_finds_what_the_network_sees_only_mirrored(folder, checkpoint,
     cx, cy = (mug.box[0] + mug.box[2]) / 2, (mug.box[1] + mug.box[3]) / 2
     assert abs(cx - 160) <= 16 / 3.2 and abs(cy - 40) <= 16 / 3.2, mug.box
     assert flipped.counts()["network_views"] == 1  # one view, seen both ways round in its one pass
+    # a zoomed crop is not mirrored (the patch is in its right half)...
+    assert flipped.detect_views(frame, ["mug"], [(100, 0, 200, 120)]) == []
+    assert flipped.counts()["network_views"] == 2
+    # ...but the whole image's kept mirrored output serves a plain request for that view, with no pass
+    (again,) = flipped.detect_views(frame, ["mug"], [(0, 0, 200, 120)])
+    assert again.box == mug.box and flipped.counts() == {"network_views": 2, "network_views_reused": 1}
+    # and a plain output kept for a view does not serve a mirrored request: the view is seen again
+    plain.detect_views(frame, ["mug"], [(0, 0, 200, 120)])
+    plain.flip = True
+    assert len(plain.detect(frame, ["mug"])) == 1 and plain.counts()["network_views"] == 2
 
 
 def test_the_spec_builds_it_with_the_options_of_coco(folder, checkpoint, monkeypatch):
@@ -299,8 +309,8 @@ def test_the_spec_builds_it_with_the_options_of_coco(folder, checkpoint, monkeyp
     assert isinstance(detector, YoloV5Detector)
     assert (detector.tiles, detector.input_size, detector.part_size) == (2, 640, 320)
     plain = build_backend("detector", f"yolov5s:{folder}", settings)
-    assert (plain.tiles, plain.input_size, plain.part_size, plain.flip) == (3, 640, 416, False)
-    assert build_backend("detector", f"yolov5s:{folder}?flip=1", settings).flip is True
+    assert (plain.tiles, plain.input_size, plain.part_size, plain.flip) == (3, 640, 416, True)
+    assert build_backend("detector", f"yolov5s:{folder}?flip=0", settings).flip is False
     assert detector.class_of("mug") == "cup" and "pottedplant" in detector.vocabulary
     with pytest.raises(ConfigError, match="yolov5s option"):
         build_backend("detector", f"yolov5s:{folder}?scale=2", settings)

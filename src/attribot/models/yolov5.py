@@ -55,6 +55,7 @@ __all__ = [
     "LICENSE_NOTE",
     "DEFAULT_TILES",
     "DEFAULT_PART_SIZE",
+    "DEFAULT_FLIP",
     "YoloV5Detector",
     "default_folder",
     "fetch_weights",
@@ -85,6 +86,11 @@ DEFAULT_PART_SIZE = 416
 times, at 640 2.4 times, and YOLOv5s found more at 416, in less time: on the tuning seeds of
 `benchmarks/bench_coco.py` (20 household and 20 triplet frames) 78 of 109 objects at 416, 77 at 320, 74
 at 640, and 67 from the whole image alone (`?tiles=1`); 416 took 0.55 of coco's time a frame and 640 0.98."""
+DEFAULT_FLIP = True
+"""The whole image and its tiles are also seen mirrored (`?flip=0` turns it off). On held-out frames of
+`benchmarks/bench_coco.py` no one had looked at (seeds 600-659), YOLOv5s found 152 of 214 objects with it, 148
+without (recall 0.710 against 0.692); a weight item took 2.5 times the oracle's time with it, 2.1 without
+(`benchmarks/bench_real_eyes.py`; results in benchmarks/results/2026-12-03_real_eyes_round8.txt)."""
 _PURPOSE = "the yolov5s detector (YOLOv5s v6.1 on onnxruntime)"
 _INSTALL = f"{install_line('coco')}, then attribot fetch yolov5s"
 
@@ -409,8 +415,9 @@ def build_yolov5_detector(arg: str | None, settings: Settings) -> YoloV5Detector
     options `?tiles=N` (views per side besides the whole image; 1 is the whole image only, fastest),
     `?size=S` (the side a whole image is seen at, a multiple of 32; 640 by default), `?part_size=S` (the side
     a tile or a crop is seen at; `DEFAULT_PART_SIZE`, 416), `?batch=B` (views per forward pass) and
-    `?all_tiles=1` (look at every tile where the whole image leaves a class unsure), `?flip=1` (each view seen
-    mirrored too, and both outputs pooled: a few more objects, two passes a view). The device is the
+    `?all_tiles=1` (look at every tile where the whole image leaves a class unsure), `?flip=0` (the whole
+    image and its tiles are not also seen mirrored: `DEFAULT_FLIP`, on, finds a few more objects in two
+    passes a view). The device is the
     `hf_device` setting's (auto: a CUDA GPU where torch sees one, else onnxruntime on the CPU)."""
     folder, options = _parse(arg, settings)
     return YoloV5Detector(
@@ -421,7 +428,7 @@ def build_yolov5_detector(arg: str | None, settings: Settings) -> YoloV5Detector
         part_size=options.get("part_size", DEFAULT_PART_SIZE),
         batch=options.get("batch", DEFAULT_BATCH),
         all_tiles=bool(options.get("all_tiles", 0)),
-        flip=bool(options.get("flip", 0)),
+        flip=bool(options.get("flip", DEFAULT_FLIP)),
         device=getattr(settings, "hf_device", "auto"),
     )
 
