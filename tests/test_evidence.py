@@ -204,29 +204,51 @@ def test_an_answer_resting_on_a_faint_box_of_an_unnamed_thing_says_it_is_a_guess
 def test_a_robot_that_refuses_guesses_gives_no_answer_where_its_object_rests_on_one():
     """With guesses refused (`Settings.guesses`), the faint orange (the tomato, as it happens) is no answer:
     the refusal says why and what the guess was; the sure apple is answered all the same."""
-    from attribot.planning.answer import build_answer
+    from attribot.planning.answer import build_answer, refusing_guess
     from attribot.runner.records import RunResult
 
-    def answer(patch: object, refuse: bool):
+    def answer(patch: object):
         result = RunResult(ok=True, value={"box": list(patch.box)}, value_object=patch)
         return build_answer(
             query="Which one?", planner="rules", program="...", result=result, attempts=1, backends={},
-            measurements=[], world={}, frame=patch.frame, refuse_guesses=refuse,
+            measurements=[], world={}, frame=patch.frame,
         )  # fmt: skip
 
     faint = _find_in_room(CallsItA({"apple", "mug"}, "tomato", "orange", score=0.15), "orange")[0]
-    said, refused = answer(faint, False), answer(faint, True)
+    said = answer(faint)
+    refused = refusing_guess(said)
     assert said.object is not None and said.object.guess and said.error is None
     assert refused.object is None and refused.value is None and refused.error is not None
     assert refused.error.category == "uncertain" and "guesses are refused" in refused.error.message
     assert refused.answer.startswith("no answer:") and said.answer in refused.answer
     with MujocoWorld(ROOM) as world:
         robot, image = _robot_image(world, SeesOnly({"apple", "mug"}))
-        apple = image.find("apple")[0]
-    assert answer(apple, True).object is not None and answer(apple, True).error is None
+        apple = answer(image.find("apple")[0])
+    assert refusing_guess(apple) == apple and apple.object is not None
     assert load_settings(guesses="refuse").guesses == "refuse"
     with pytest.raises(InvalidSetting, match="guesses"):
         load_settings(guesses="sometimes")
+
+
+def test_ask_refuses_an_answer_resting_on_a_guess_only_where_the_settings_say_so(monkeypatch):
+    """The session applies `guesses`: the same answer, its object made a guess (a faint box), is answered
+    with its guess said by default and refused with guesses = refuse."""
+    import attribot.session as session
+    from attribot import Scene, ask
+
+    def faintly(**kw):
+        built = build(**kw)
+        guessed = built.object.model_copy(update={"evidence": ("faint box", "measurement")})
+        return built.model_copy(update={"object": guessed})
+
+    build = session.build_answer
+    monkeypatch.setattr(session, "build_answer", faintly)
+    config = SceneConfig(layout="household", seed=3, categories=("apple", "mug"), objects=2)
+    query = "How far away is the apple?"
+    said = ask(query, Scene(config, sensors=["camera", "distance"]), load_settings())
+    refused = ask(query, Scene(config, sensors=["camera", "distance"]), load_settings(guesses="refuse"))
+    assert said.object is not None and said.object.guess and said.error is None
+    assert refused.object is None and refused.error is not None and refused.error.category == "uncertain"
 
 
 def test_an_object_not_in_the_room_is_not_found_though_one_thing_is_left_by_elimination():

@@ -29,7 +29,7 @@ from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file
 from attribot.frame import load_image
 from attribot.models.base import without_oracle_vqa
-from attribot.planning.answer import Answer, answer_patch, build_answer, result_problem
+from attribot.planning.answer import Answer, answer_patch, build_answer, refusing_guess, result_problem
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 from attribot.saved_runs import (
     answer_image,
@@ -372,7 +372,6 @@ class Session:
         one was filmed."""
         answer = build_answer(
             doubt=self._doubt(solved.result),
-            refuse_guesses=self.settings.guesses == "refuse",
             error=solved.error,
             query=query,
             planner=planner,
@@ -385,6 +384,8 @@ class Session:
             world=self.scene.describe(),
             frame=self.image.frame,
         )
+        if self.settings.guesses == "refuse":
+            answer = refusing_guess(answer)
         answer.checks = [e.model_dump() for e in self.safeguards.events]
         answer.perception = self.perception.counts()
         if self.world_started is not None:

@@ -19,6 +19,7 @@ __all__ = [
     "Answer",
     "STATED_KEYS",
     "build_answer",
+    "refusing_guess",
     "answer_patch",
     "result_problem",
 ]
@@ -145,45 +146,10 @@ def build_answer(
     frame: Any,
     error: Any = None,
     doubt: str | None = None,
-    refuse_guesses: bool = False,
 ) -> Answer:
     """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
     `error` is the planner's own error when no program ever ran (a reply with no code); `doubt` says that
-    the measurements behind the program's choice cannot tell it from another (no object is chosen);
-    `refuse_guesses` turns an answer whose object rests on a guess into no answer (`Settings.guesses`)."""
-    answer = _built_answer(
-        query=query, planner=planner, prompt=prompt, program=program, result=result, attempts=attempts,
-        backends=backends, measurements=measurements, world=world, frame=frame, error=error, doubt=doubt,
-    )  # fmt: skip
-    if not refuse_guesses or answer.object is None or not answer.object.guess:
-        return answer
-    # what the guess was stays in the message: a person reading the refusal sees what was not trusted
-    message = f"it would rest on a guess, and guesses are refused (guesses = refuse): {answer.answer}"
-    refused = {"object": None, "value": None, "unit": None, "boolean": None}
-    return answer.model_copy(
-        update={
-            **refused,
-            "answer": f"no answer: {message}",
-            "error": AnswerError(category="uncertain", message=message),
-        }  # fmt: skip
-    )
-
-
-def _built_answer(
-    *,
-    query: str,
-    planner: str,
-    prompt: str | None,
-    program: str | None,
-    result: Any,
-    attempts: int,
-    backends: dict[str, str],
-    measurements: Sequence[Any],
-    world: dict[str, Any],
-    frame: Any,
-    error: Any,
-    doubt: str | None,
-) -> Answer:
+    the measurements behind the program's choice cannot tell it from another (no object is chosen)."""
     common: dict[str, Any] = dict(
         query=query,
         program=program,
@@ -222,6 +188,18 @@ def _built_answer(
     number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
     text = value if isinstance(value, str) else json.dumps(value, default=str)
     return Answer(answer=str(text), value=number, **common)
+
+
+def refusing_guess(answer: Answer) -> Answer:
+    """`answer` as a robot that must not act on a guess gives it (`Settings.guesses` = refuse): where its
+    object rests on a guess, no answer, whose message keeps what the guess was (a person reading the
+    refusal sees what was not trusted); any other answer as it is."""
+    if answer.object is None or not answer.object.guess:
+        return answer
+    message = f"it would rest on a guess, and guesses are refused (guesses = refuse): {answer.answer}"
+    refused = {"object": None, "value": None, "unit": None, "boolean": None}
+    error = AnswerError(category="uncertain", message=message)
+    return answer.model_copy(update={**refused, "answer": f"no answer: {message}", "error": error})
 
 
 def _chosen_answer(
