@@ -88,9 +88,10 @@ times, at 640 2.4 times, and YOLOv5s found more at 416, in less time: on the tun
 at 640, and 67 from the whole image alone (`?tiles=1`); 416 took 0.55 of coco's time a frame and 640 0.98."""
 DEFAULT_FLIP = True
 """The whole image and its tiles are also seen mirrored (`?flip=0` turns it off). On held-out frames of
-`benchmarks/bench_coco.py` no one had looked at (seeds 600-659), YOLOv5s found 152 of 214 objects with it, 148
-without (recall 0.710 against 0.692); a weight item took 2.5 times the oracle's time with it, 2.1 without
-(`benchmarks/bench_real_eyes.py`; results in benchmarks/results/2026-12-03_real_eyes_round8.txt)."""
+`benchmarks/bench_coco.py` no one had looked at, YOLOv5s found 152 of 214 objects with it and 148 without
+(seeds 600-659, where it was chosen), then 153 of 215 and 145 (seeds 900-959: recall 0.712 against 0.674);
+a weight item took 2.6 times the oracle's time with it, 2.0 without (`benchmarks/bench_real_eyes.py`;
+benchmarks/results/2026-12-03_real_eyes_round8.txt)."""
 _PURPOSE = "the yolov5s detector (YOLOv5s v6.1 on onnxruntime)"
 _INSTALL = f"{install_line('coco')}, then attribot fetch yolov5s"
 
