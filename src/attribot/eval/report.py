@@ -131,7 +131,7 @@ def answer_lines(rows: list[dict[str, Any]]) -> list[str]:
         + (
             f"; with its {r['guesses']} guess{'es' if r['guesses'] != 1 else ''} refused: "
             f"{r['right_refusing_guesses']}/{r['n']} right"
-            if r.get("guesses")
+            if r["guesses"]
             else ""
         )
         for r in rows
