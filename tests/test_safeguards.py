@@ -728,6 +728,44 @@ def test_an_unsettled_answer_tells_apart_two_objects_found_under_one_word():
     assert len(boxes) == 2 and boxes[0] != boxes[1], answer.error.message
 
 
+class _GivesItBothNames:
+    """Wraps a detector: `other` is found as `meant`'s object, with `meant`'s box and id (an apple boxed as
+    an orange as well, in a room with no orange)."""
+
+    def __init__(self, inner: object, meant: str, other: str) -> None:
+        self.inner, self.meant, self.other, self.name = inner, meant, other, "both-names"
+
+    def detect(self, frame: Frame, queries: list[str]) -> list[Detection]:
+        if list(queries) != [self.other]:
+            return self.inner.detect(frame, queries)  # type: ignore[attr-defined]
+        found = self.inner.detect(frame, [self.meant])  # type: ignore[attr-defined]
+        return [d.model_copy(update={"label": self.other}) for d in found]
+
+
+@pytest.mark.parametrize("confused", [False, True])
+def test_two_names_measured_on_one_object_are_no_answer(perception, confused):
+    """ "Is the A or the B closer?": where the detector gives A's object the name B too, both distances are
+    of one object, and the choice says so (no answer, naming both); told apart, the choice stands. The same
+    name found twice, or a generic word, is one object by design and no reason to refuse."""
+    with world() as w:
+        first, second = [o for o in w.scene_info().objects if o.box is not None][:2]
+        detector = _GivesItBothNames(perception.detector, first.category, second.category)
+        seen = dataclasses.replace(perception, detector=detector) if confused else perception
+        robot = Robot(["camera", "distance"], world=w, safeguards=Safeguards("all,-look_again,-confidence"))
+        image = robot.look(seen, survey=False)
+        a, b = image.find(first.category)[0], image.find(second.category)[0]
+        again, anything = image.find(first.category)[0], image.find("object")[0]
+        for patch in (a, b, again, anything):
+            robot.measure_distance(patch)
+        doubt = robot.settle(a)
+    assert (b.object_id == a.object_id) is confused
+    if confused:
+        assert doubt is not None and "are one object" in doubt, doubt
+        assert f"the {first.category}" in doubt and f"the {second.category}" in doubt
+    else:
+        assert doubt is None
+
+
 def test_a_light_object_under_heavy_force_noise_is_weighed_without_bias():
     """Readings are averaged signed: folding each about zero would weigh a 20 g sponge at about 0.4 kg
     under 5 N of noise. The value lies within its stated uncertainty of the world's mass."""

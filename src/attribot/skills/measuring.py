@@ -14,6 +14,7 @@ import numpy as np
 from attribot.control.base import (
     Target,
 )
+from attribot.lexicon import GENERIC_NOUNS
 from attribot.sensors import (
     Need,
     Sense,
@@ -21,9 +22,9 @@ from attribot.sensors import (
     sense_of_method,
 )
 from attribot.skills.acting import Acting
-from attribot.skills.checks import check_patch
+from attribot.skills.checks import check_patch, patch_named
 from attribot.skills.errors import ActionFailed, ApiArgumentError, PreconditionError
-from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
+from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _name_key, _own_sense
 from attribot.skills.sighting import Sighting
 
 __all__ = ["Measuring"]
@@ -48,8 +49,35 @@ class Measuring:
     def settle(self, chosen: Sighting) -> str | None:
         """Host side, after a program chose `chosen`: `confidence` measures again where the choice rests on
         values closer than their uncertainty (`attribot.skills.safeguards.Confidence`); None when settled,
-        otherwise the sentence that says it cannot tell."""
+        otherwise the sentence that says it cannot tell. A choice among measurements of which two names
+        took one object (`named_twice`) is never settled, whatever the mechanisms."""
+        last = self.last_measurement(chosen)
+        twice = None if last is None else self.named_twice(last.kind)
+        if last is not None and twice is not None:
+            one, other = twice
+            return (
+                f"{patch_named(one)} and {patch_named(other)} are one object: the detector gave it both "
+                f"names, so at most one of them is found here, and a {last.kind} compared with itself is no "
+                "answer (ask about each on its own, or look from elsewhere)"
+            )
         return self.core.safeguards.confidence.settle(chosen, self)
+
+    def named_twice(self, kind: str) -> tuple[Sighting, Sighting] | None:
+        """Two patches measured for `kind` under different names that show one object (`same_object`), or
+        None. A question about the orange and the apple asks about two objects: where the detector gave one
+        object both names (an apple boxed as an orange at 0.32 and as an apple at 0.35, in a room with no
+        orange), at most one of them is found, and a comparison of that object with itself is no answer.
+        Two names of one thing by design are not counted: a generic word ("object") and the name, or one
+        name twice ("the mug" found again)."""
+        seen: list[Sighting] = []
+        for m, p in self.core.measured:
+            if m.kind == kind and all(p is not q for q in seen):
+                seen.append(p)
+        for at, one in enumerate(seen):
+            for other in seen[at + 1 :]:
+                if _two_names(one.label, other.label) and one.same_object(other):
+                    return one, other
+        return None
 
     def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
@@ -353,3 +381,10 @@ def _std(values: Sequence[float]) -> float:
         return 0.0
     mean = sum(values) / len(values)
     return math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
+
+
+def _two_names(a: str | None, b: str | None) -> bool:
+    """Whether two labels name two objects: both given, neither a generic word, and different as compared
+    (`_name_key`: "the Mugs" is "mug")."""
+    keys = [_name_key(x or "") for x in (a, b)]
+    return all(k and k.split()[-1] not in GENERIC_NOUNS for k in keys) and keys[0] != keys[1]
