@@ -730,40 +730,68 @@ def test_an_unsettled_answer_tells_apart_two_objects_found_under_one_word():
 
 class _GivesItBothNames:
     """Wraps a detector: `other` is found as `meant`'s object, with `meant`'s box and id (an apple boxed as
-    an orange as well, in a room with no orange)."""
+    an orange as well, in a room with no orange); with `also_own`, as its own object too, second."""
 
-    def __init__(self, inner: object, meant: str, other: str) -> None:
-        self.inner, self.meant, self.other, self.name = inner, meant, other, "both-names"
+    def __init__(self, inner: object, meant: str, other: str, also_own: bool) -> None:
+        self.inner, self.meant, self.other, self.also_own = inner, meant, other, also_own
+        self.name = "both-names"
 
     def detect(self, frame: Frame, queries: list[str]) -> list[Detection]:
         if list(queries) != [self.other]:
             return self.inner.detect(frame, queries)  # type: ignore[attr-defined]
-        found = self.inner.detect(frame, [self.meant])  # type: ignore[attr-defined]
-        return [d.model_copy(update={"label": self.other}) for d in found]
+        found = [
+            d.model_copy(update={"label": self.other, "score": 0.9})
+            for d in self.inner.detect(frame, [self.meant])
+        ]  # type: ignore[attr-defined]
+        own = self.inner.detect(frame, queries) if self.also_own else []  # type: ignore[attr-defined]
+        return found + [d.model_copy(update={"score": 0.5}) for d in own]
 
 
-@pytest.mark.parametrize("confused", [False, True])
-def test_two_names_measured_on_one_object_are_no_answer(perception, confused):
-    """ "Is the A or the B closer?": where the detector gives A's object the name B too, both distances are
-    of one object, and the choice says so (no answer, naming both); told apart, the choice stands. The same
-    name found twice, or a generic word, is one object by design and no reason to refuse."""
+@pytest.mark.parametrize("confusion", ["none", "only", "besides its own"])
+def test_a_name_whose_only_object_is_another_names_is_no_answer(perception, confusion):
+    """ "Is the A or the B closer?": where the detector gives A's object the name B too and B has no object
+    of its own, both distances are of one object, and the choice says so (no answer, naming both). Told
+    apart, or where B's boxes are A's object and B's own (a program that measures every box of each name),
+    the choice stands. The same name found twice, or a generic word, is one object by design."""
     with world() as w:
         first, second = [o for o in w.scene_info().objects if o.box is not None][:2]
-        detector = _GivesItBothNames(perception.detector, first.category, second.category)
-        seen = dataclasses.replace(perception, detector=detector) if confused else perception
+        confused = _GivesItBothNames(
+            perception.detector, first.category, second.category, confusion != "only"
+        )
+        seen = dataclasses.replace(perception, detector=confused) if confusion != "none" else perception
         robot = Robot(["camera", "distance"], world=w, safeguards=Safeguards("all,-look_again,-confidence"))
         image = robot.look(seen, survey=False)
-        a, b = image.find(first.category)[0], image.find(second.category)[0]
+        a, b = image.find(first.category)[0], image.find(second.category)
         again, anything = image.find(first.category)[0], image.find("object")[0]
-        for patch in (a, b, again, anything):
+        for patch in (a, *b, again, anything):
             robot.measure_distance(patch)
         doubt = robot.settle(a)
-    assert (b.object_id == a.object_id) is confused
-    if confused:
+    assert (b[0].object_id == a.object_id) is (confusion != "none")
+    assert {p.object_id for p in b} >= ({second.id} if confusion != "only" else set())
+    if confusion == "only":
         assert doubt is not None and "are one object" in doubt, doubt
         assert f"the {first.category}" in doubt and f"the {second.category}" in doubt
     else:
-        assert doubt is None
+        assert doubt is None, doubt
+
+
+@pytest.mark.parametrize(
+    ("objects_of", "found_all"),
+    [
+        ({"orange": {0}, "apple": {0}}, False),
+        ({"mug": {0}, "vase": {0, 1}}, True),
+        ({"mug": {0, 1}, "vase": {1}}, True),
+        ({"mug": {0, 1}, "vase": {0}, "bowl": {1}}, False),
+        ({"mug": {0, 1}, "vase": {0, 2}, "bowl": {1}}, True),
+    ],
+)
+def test_names_each_take_an_object_of_their_own_where_they_can(objects_of, found_all):
+    """Each name takes one of its objects, no two the same, where any such choice exists (a mug boxed on
+    the vase as well, the vase boxed on its own too: both found); otherwise one name is left without."""
+    from attribot.skills.measuring import _without_object
+
+    left = _without_object(objects_of)
+    assert (left is None) is found_all and (left is None or left in objects_of)
 
 
 def test_a_light_object_under_heavy_force_noise_is_weighed_without_bias():

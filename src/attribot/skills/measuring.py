@@ -63,21 +63,39 @@ class Measuring:
         return self.core.safeguards.confidence.settle(chosen, self)
 
     def named_twice(self, kind: str) -> tuple[Sighting, Sighting] | None:
-        """Two patches measured for `kind` under different names that show one object (`same_object`), or
-        None. A question about the orange and the apple asks about two objects: where the detector gave one
-        object both names (an apple boxed as an orange at 0.32 and as an apple at 0.35, in a room with no
-        orange), at most one of them is found, and a comparison of that object with itself is no answer.
-        Two names of one thing by design are not counted: a generic word ("object") and the name, or one
-        name twice ("the mug" found again)."""
+        """Two patches of different names measured for `kind` that show one object, where the names cannot
+        each have an object of their own among those measured; or None. A question about the orange and the
+        apple asks about two objects: where the detector gave one object both names (an apple boxed as an
+        orange at 0.32 and as an apple at 0.35, in a room with no orange), the orange is not found, and a
+        comparison of that object with itself is no answer. Names that each have an object besides are
+        found: a program that measures every box of each name (a second box of "mug" on the vase) chose
+        among objects, each measured. Two names of one thing by design are not counted: a generic word
+        ("object") and the name, or one name twice ("the mug" found again)."""
         seen: list[Sighting] = []
         for m, p in self.core.measured:
             if m.kind == kind and all(p is not q for q in seen):
                 seen.append(p)
-        for at, one in enumerate(seen):
-            for other in seen[at + 1 :]:
-                if _two_names(one.label, other.label) and one.same_object(other):
-                    return one, other
-        return None
+        objects: list[Sighting] = []  # one patch per object measured
+        of: dict[str, set[int]] = {}  # each name's objects
+        for p in seen:
+            at = next((i for i, o in enumerate(objects) if o is p or o.same_object(p)), None)
+            if at is None:
+                objects.append(p)
+                at = len(objects) - 1
+            key = _name_key(p.label or "")
+            if key and key.split()[-1] not in GENERIC_NOUNS:
+                of.setdefault(key, set()).add(at)
+        unmatched = _without_object(of)
+        if unmatched is None:
+            return None
+        pairs = (
+            (mine, other)
+            for mine in seen
+            if _name_key(mine.label or "") == unmatched
+            for other in seen
+            if _two_names(mine.label, other.label) and other.same_object(mine)
+        )
+        return next(pairs, None)
 
     def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
@@ -388,3 +406,19 @@ def _two_names(a: str | None, b: str | None) -> bool:
     (`_name_key`: "the Mugs" is "mug")."""
     keys = [_name_key(x or "") for x in (a, b)]
     return all(k and k.split()[-1] not in GENERIC_NOUNS for k in keys) and keys[0] != keys[1]
+
+
+def _without_object(of: dict[str, set[int]]) -> str | None:
+    """A name that cannot have an object of its own when each name takes one of its objects, no two names
+    the same (a matching of names to objects, by augmenting paths); None where every name can."""
+    taken: dict[int, str] = {}
+
+    def place(name: str, tried: set[int]) -> bool:
+        for obj in sorted(of[name] - tried):
+            tried.add(obj)
+            if obj not in taken or place(taken[obj], tried):
+                taken[obj] = name
+                return True
+        return False
+
+    return next((name for name in of if not place(name, set())), None)
