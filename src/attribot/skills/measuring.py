@@ -78,12 +78,12 @@ class Measuring:
         objects: list[Sighting] = []  # one patch per object measured
         of: dict[str, set[int]] = {}  # each name's objects
         for p in seen:
-            at = next((i for i, o in enumerate(objects) if o is p or o.same_object(p)), None)
+            at = _object_at(objects, p)
             if at is None:
                 objects.append(p)
                 at = len(objects) - 1
             key = _name_key(p.label or "")
-            if key and key.split()[-1] not in GENERIC_NOUNS:
+            if _names_one(key):
                 of.setdefault(key, set()).add(at)
         unmatched = _without_object(of)
         if unmatched is None:
@@ -107,11 +107,11 @@ class Measuring:
         for m, p in self.core.measured:
             if m.kind != kind:
                 continue
-            home = next((g for g in groups if g[0][1].same_object(p) or g[0][1] is p), None)
-            if home is None:
+            at = _object_at([g[0][1] for g in groups], p)
+            if at is None:
                 groups.append([(m, p)])
             else:
-                home.append((m, p))
+                groups[at].append((m, p))
         out = []
         for g in groups:
             weights = [1.0 / max(m.uncertainty, 1e-6) ** 2 for m, _ in g]
@@ -405,7 +405,18 @@ def _two_names(a: str | None, b: str | None) -> bool:
     """Whether two labels name two objects: both given, neither a generic word, and different as compared
     (`_name_key`: "the Mugs" is "mug")."""
     keys = [_name_key(x or "") for x in (a, b)]
-    return all(k and k.split()[-1] not in GENERIC_NOUNS for k in keys) and keys[0] != keys[1]
+    return all(_names_one(k) for k in keys) and keys[0] != keys[1]
+
+
+def _names_one(key: str) -> bool:
+    """Whether a compared name (`_name_key`) names one kind of object: given, and no generic word."""
+    return bool(key) and key.split()[-1] not in GENERIC_NOUNS
+
+
+def _object_at(objects: Sequence[Sighting], patch: Sighting) -> int | None:
+    """Where `patch`'s object is among `objects` (one patch per object: the same patch, or `same_object`),
+    or None."""
+    return next((i for i, o in enumerate(objects) if o is patch or o.same_object(patch)), None)
 
 
 def _without_object(of: dict[str, set[int]]) -> str | None:
