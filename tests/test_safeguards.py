@@ -788,7 +788,7 @@ def test_a_name_whose_only_object_is_another_names_is_no_answer(perception, conf
 def test_names_each_take_an_object_of_their_own_where_they_can(objects_of, found_all):
     """Each name takes one of its objects, no two the same, where any such choice exists (a mug boxed on
     the vase as well, the vase boxed on its own too: both found); otherwise one name is left without."""
-    from attribot.skills.measuring import _without_object
+    from attribot.skills.named import _without_object
 
     left = _without_object(objects_of)
     assert (left is None) is found_all and (left is None or left in objects_of)

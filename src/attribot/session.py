@@ -29,7 +29,14 @@ from attribot.errors import ConfigError, InputError
 from attribot.files import check_regular_file
 from attribot.frame import load_image
 from attribot.models.base import without_oracle_vqa
-from attribot.planning.answer import Answer, answer_patch, build_answer, refusing_guess, result_problem
+from attribot.planning.answer import (
+    Answer,
+    answer_patch,
+    build_answer,
+    refusing_guess,
+    result_problem,
+    with_chosen,
+)
 from attribot.planning.query import asks_for_object, check_query, is_utf8_text
 from attribot.saved_runs import (
     answer_image,
@@ -343,6 +350,18 @@ class Session:
             self.image = self.robot.look(self.perception, survey=not self.scene.still)
             self.safeguards.reset.not_restored(try_name)
 
+    def _as_named(self, result: Any) -> tuple[Any, str | None]:
+        """The run's result with the object the question's names choose where the program chose another
+        (`Robot.as_named`: a name means the object the detector is surest of under it), and the sentence
+        that says why; the result as it was, and None, otherwise."""
+        chosen = answer_patch(result.value_object) if result is not None and result.error is None else None
+        named = None if chosen is None else self.robot.as_named(chosen)
+        if named is None:
+            return result, None
+        other, why = named
+        update = {"value_object": with_chosen(result.value_object, chosen, other)}
+        return result.model_copy(update=update), why
+
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;
         the sentence saying it cannot tell, with both values, when it is still unsettled."""
@@ -370,14 +389,16 @@ class Session:
         """The answer to `query` from the last run (`solved`: program, result, attempts, error; `prompt`: the
         prompt the planner showed a model, if any); saved in `save_dir` with the video of the episode when
         one was filmed."""
+        result, named = self._as_named(solved.result)
         answer = build_answer(
-            doubt=self._doubt(solved.result),
+            doubt=self._doubt(result),
+            named=named,
             error=solved.error,
             query=query,
             planner=planner,
             prompt=prompt,
             program=solved.program,
-            result=solved.result,
+            result=result,
             attempts=len(solved.attempts),
             backends=self.backends(),
             measurements=list(self.robot.measurements),

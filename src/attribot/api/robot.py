@@ -104,6 +104,7 @@ class Robot(metaclass=_RobotApi):
         "from_program",
         "called_on",
         "settle",
+        "as_named",
         "snapshot",
         "restore",
         "take_notes",
@@ -203,6 +204,11 @@ class Robot(metaclass=_RobotApi):
         """Host side, after a program chose `chosen`: measure again where the choice is not yet settled
         (`RobotSession.settle`); the sentence that says it cannot tell, or None."""
         return self._session.settle(chosen)
+
+    def as_named(self, chosen: ImagePatch) -> tuple[ImagePatch, str] | None:
+        """Host side, after a program chose `chosen`: the object the question's names choose where it is
+        another (`Measuring.as_named`), with the sentence that says why; or None."""
+        return cast(tuple[ImagePatch, str] | None, self._session.as_named(chosen))
 
     def snapshot(self) -> Any:
         """Host side: the robot's state now, or None where the world cannot put it back."""

@@ -21,6 +21,7 @@ __all__ = [
     "build_answer",
     "refusing_guess",
     "answer_patch",
+    "with_chosen",
     "result_problem",
 ]
 
@@ -146,10 +147,12 @@ def build_answer(
     frame: Any,
     error: Any = None,
     doubt: str | None = None,
+    named: str | None = None,
 ) -> Answer:
     """Turn a run result into an `Answer`: the chosen object, its measured value, a sentence for a person.
     `error` is the planner's own error when no program ever ran (a reply with no code); `doubt` says that
-    the measurements behind the program's choice cannot tell it from another (no object is chosen)."""
+    the measurements behind the program's choice cannot tell it from another (no object is chosen); `named`
+    says why the chosen object is not the one the program returned (`with_chosen`), and ends the answer."""
     common: dict[str, Any] = dict(
         query=query,
         program=program,
@@ -183,7 +186,8 @@ def build_answer(
         return _stated_answer(stated, frame, measurements, common)
     chosen = answer_patch(result.value_object)
     if chosen is not None:
-        return _chosen_answer(chosen, result.value_object, frame, measurements, common)
+        answer = _chosen_answer(chosen, result.value_object, frame, measurements, common)
+        return answer if named is None else answer.model_copy(update={"answer": f"{answer.answer} ({named})"})
     value = result.value
     number = float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
     text = value if isinstance(value, str) else json.dumps(value, default=str)
@@ -302,6 +306,22 @@ def answer_patch(value_object: Any) -> Any:
         if len(patches) == 1:
             return patches[0]
     return None
+
+
+def with_chosen(value_object: Any, chosen: Any, other: Any) -> Any:
+    """A program's return with `other` where it chose `chosen` (`answer_patch`): the patch itself, a stated
+    answer's "object", or that patch in a returned list, tuple or dict; the rest as it was."""
+    if value_object is chosen:
+        return other
+    stated = _stated(value_object)
+    if stated is not None:
+        return {**stated, "object": with_chosen(stated.get("object"), chosen, other)}
+    if isinstance(value_object, dict):
+        return {k: other if v is chosen else v for k, v in value_object.items()}
+    if isinstance(value_object, list | tuple):
+        out = [other if v is chosen else v for v in value_object]
+        return tuple(out) if isinstance(value_object, tuple) else out
+    return value_object
 
 
 def _patches(value_object: Any) -> bool:

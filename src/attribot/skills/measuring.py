@@ -14,7 +14,6 @@ import numpy as np
 from attribot.control.base import (
     Target,
 )
-from attribot.lexicon import GENERIC_NOUNS
 from attribot.sensors import (
     Need,
     Sense,
@@ -24,7 +23,8 @@ from attribot.sensors import (
 from attribot.skills.acting import Acting
 from attribot.skills.checks import check_patch, patch_named
 from attribot.skills.errors import ActionFailed, ApiArgumentError, PreconditionError
-from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _name_key, _own_sense
+from attribot.skills.named import as_named, by_object, combined, named_twice
+from attribot.skills.robot_core import FULL, GRAVITY, Measurement, SessionCore, _own_sense
 from attribot.skills.sighting import Sighting
 
 __all__ = ["Measuring"]
@@ -57,67 +57,30 @@ class Measuring:
             one, other = twice
             return (
                 f"{patch_named(one)} and {patch_named(other)} are one object: the detector gave it both "
-                f"names, so at most one of them is found here, and a {last.kind} compared with itself is no "
-                "answer (ask about each on its own, or look from elsewhere)"
+                f"names, and the {one.label} has no object of its own among those measured, so it is not "
+                f"found here; a {last.kind} compared with itself is no answer (ask about each on its own, or "
+                "look from elsewhere)"
             )
         return self.core.safeguards.confidence.settle(chosen, self)
 
     def named_twice(self, kind: str) -> tuple[Sighting, Sighting] | None:
-        """Two patches of different names measured for `kind` that show one object, where the names cannot
-        each have an object of their own among those measured; or None. A question about the orange and the
-        apple asks about two objects: where the detector gave one object both names (an apple boxed as an
-        orange at 0.32 and as an apple at 0.35, in a room with no orange), the orange is not found, and a
-        comparison of that object with itself is no answer. Names that each have an object besides are
-        found: a program that measures every box of each name (a second box of "mug" on the vase) chose
-        among objects, each measured. Two names of one thing by design are not counted: a generic word
-        ("object") and the name, or one name twice ("the mug" found again)."""
-        seen: list[Sighting] = []
-        for m, p in self.core.measured:
-            if m.kind == kind and all(p is not q for q in seen):
-                seen.append(p)
-        objects: list[Sighting] = []  # one patch per object measured
-        of: dict[str, set[int]] = {}  # each name's objects
-        for p in seen:
-            at = _object_at(objects, p)
-            if at is None:
-                objects.append(p)
-                at = len(objects) - 1
-            key = _name_key(p.label or "")
-            if _names_one(key):
-                of.setdefault(key, set()).add(at)
-        unmatched = _without_object(of)
-        if unmatched is None:
-            return None
-        pairs = (
-            (mine, other)
-            for mine in seen
-            if _name_key(mine.label or "") == unmatched
-            for other in seen
-            if _two_names(mine.label, other.label) and other.same_object(mine)
-        )
-        return next(pairs, None)
+        """Two patches of different names measured for `kind` that show one object where a name has no
+        object of its own (`attribot.skills.named.named_twice`), or None."""
+        return named_twice(self.core.measured, kind)
 
     def last_measurement(self, patch: Sighting) -> Measurement | None:
         """The latest measurement of the object of `patch`."""
         return next((m for m, p in reversed(self.core.measured) if p is patch or p.same_object(patch)), None)
 
+    def as_named(self, chosen: Sighting) -> tuple[Sighting, str] | None:
+        """Host side, after a program chose `chosen`: the object the question's names choose where it is not
+        `chosen`, with the sentence that says why (`attribot.skills.named.as_named`); or None."""
+        last = self.last_measurement(chosen)
+        return None if last is None else as_named(self.core.measured, last.kind, chosen)
+
     def combined(self, kind: str) -> list[tuple[float, float, Sighting]]:
         """Each measured object's readings of `kind` combined (inverse-variance mean): (value, sd, patch)."""
-        groups: list[list[tuple[Measurement, Sighting]]] = []
-        for m, p in self.core.measured:
-            if m.kind != kind:
-                continue
-            at = _object_at([g[0][1] for g in groups], p)
-            if at is None:
-                groups.append([(m, p)])
-            else:
-                groups[at].append((m, p))
-        out = []
-        for g in groups:
-            weights = [1.0 / max(m.uncertainty, 1e-6) ** 2 for m, _ in g]
-            value = sum(w * m.value for w, (m, _) in zip(weights, g, strict=True)) / sum(weights)
-            out.append((value, 1.0 / math.sqrt(sum(weights)), g[0][1]))
-        return out
+        return combined(by_object(self.core.measured, kind))
 
     def measure_again(self, measurement: Measurement, patch: Sighting) -> None:
         """Measure `patch` again as `measurement` was measured, arranging first what its reading needs."""
@@ -399,37 +362,3 @@ def _std(values: Sequence[float]) -> float:
         return 0.0
     mean = sum(values) / len(values)
     return math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
-
-
-def _two_names(a: str | None, b: str | None) -> bool:
-    """Whether two labels name two objects: both given, neither a generic word, and different as compared
-    (`_name_key`: "the Mugs" is "mug")."""
-    keys = [_name_key(x or "") for x in (a, b)]
-    return all(_names_one(k) for k in keys) and keys[0] != keys[1]
-
-
-def _names_one(key: str) -> bool:
-    """Whether a compared name (`_name_key`) names one kind of object: given, and no generic word."""
-    return bool(key) and key.split()[-1] not in GENERIC_NOUNS
-
-
-def _object_at(objects: Sequence[Sighting], patch: Sighting) -> int | None:
-    """Where `patch`'s object is among `objects` (one patch per object: the same patch, or `same_object`),
-    or None."""
-    return next((i for i, o in enumerate(objects) if o is patch or o.same_object(patch)), None)
-
-
-def _without_object(of: dict[str, set[int]]) -> str | None:
-    """A name that cannot have an object of its own when each name takes one of its objects, no two names
-    the same (a matching of names to objects, by augmenting paths); None where every name can."""
-    taken: dict[int, str] = {}
-
-    def place(name: str, tried: set[int]) -> bool:
-        for obj in sorted(of[name] - tried):
-            tried.add(obj)
-            if obj not in taken or place(taken[obj], tried):
-                taken[obj] = name
-                return True
-        return False
-
-    return next((name for name in of if not place(name, set())), None)

@@ -40,6 +40,9 @@ class RobotSession(SessionCore):
     def settle(self, chosen: Sighting) -> str | None:
         return self.measuring.settle(chosen)
 
+    def as_named(self, chosen: Sighting) -> tuple[Sighting, str] | None:
+        return self.measuring.as_named(chosen)
+
     def measure_distance(self, patch: Sighting) -> float:
         return self.measuring.measure_distance(patch)
 
