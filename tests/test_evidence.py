@@ -395,6 +395,10 @@ def test_an_answer_chosen_over_an_object_that_rests_on_a_guess_is_a_guess_too():
     sure = [reading(mug, "distance", 1.2), reading(bowl, "distance", 1.5), reading(toaster, "weight", 0.9)]
     obj = _answer_object(mug, frame, sure)
     assert obj.rivals_guessed == () and not obj.guess and _guessed(obj) == ""
+    # a faint second box of the chosen name is another of that name, not "the" one the answer names
+    faint_mug = Patch("mug", (50.0, 10.0, 90.0, 40.0), "faint box")
+    obj = _answer_object(mug, frame, [reading(mug, "distance", 1.2), reading(faint_mug, "distance", 1.9)])
+    assert _guessed(obj) == " (a guess: chosen over another mug, named only faintly by the detector)"
     # the guessed object chosen itself says what it rests on, not what it was chosen over
     obj = _answer_object(toaster, frame, [reading(mug, "distance", 1.2), reading(toaster, "distance", 0.8)])
     assert obj.guess and "faintly, under its sure score" in _guessed(obj)

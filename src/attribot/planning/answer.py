@@ -243,13 +243,20 @@ def _guessed(obj: AnswerObject | None) -> str:
     if obj is None or not obj.guess:
         return ""
     if not any(e in GUESSED for e in obj.evidence):
-        rivals = " and ".join(f"the {r.replace(': ', ', ')}" for r in obj.rivals_guessed)
+        rivals = " and ".join(_rival_named(r, obj.category) for r in obj.rivals_guessed)
         return f" (a guess: chosen over {rivals})"
     inferred = [e for e in obj.evidence if e in INFERRED]
     if not inferred:
         return " (a guess: the detector named it only faintly, under its sure score)"
     how = " and ".join(_HOW_GUESSED[e] for e in inferred)
     return f" (a guess: {how}; the detector never named it, and no nearer look confirmed it)"
+
+
+def _rival_named(rival: str, chosen: str | None) -> str:
+    """A guessed rival ("name: how") as an answer says it: "the toaster, named only faintly by the detector",
+    or "another book, ..." where it bears the chosen object's own name (a second, faint box of "book")."""
+    name, _, how = rival.partition(": ")
+    return f"{'another' if name == chosen else 'the'} {name}, {how}"
 
 
 def _stated(value_object: Any) -> dict[str, Any] | None:
