@@ -50,6 +50,7 @@ def _measured(*readings: tuple[str, float, float]) -> tuple[Measuring, list[Sigh
         ([("alarm clock", 0.66, 1.35), ("vase", 0.90, 2.36), ("vase", 0.59, 1.18)], 2, 0),
         # a name that ends in "s" and is no plural ("cactus") is one object too
         ([("bowl", 0.61, 0.42), ("cactus", 0.18, 0.64), ("apple", 0.46, 0.17), ("apple", 0.31, 0.12)], 3, 2),
+        ([("cactus", 0.9, 0.5), ("cactus", 0.3, 0.9), ("mug", 0.6, 0.7)], 1, 2),
         # a faint box is less sure than a sure one whatever the numbers
         ([("apple", 0.30, 1.5), ("orange", 0.20, 1.1), ("orange", 0.26, 1.4)], 1, 2),
     ],
@@ -58,8 +59,9 @@ def test_each_name_means_the_object_the_detector_is_surest_of(readings, chosen, 
     measuring, patches = _measured(*readings)
     named = measuring.as_named(patches[chosen])
     assert named is not None and named[0] is patches[becomes]
-    said = f"the program chose the {readings[chosen][0]} at [{round(patches[chosen].box[0])}"
-    assert "the question names one" in named[1] and said in named[1], named[1]
+    name = readings[chosen][0]
+    said = f"the program chose the {name} at [{round(patches[chosen].box[0])}"
+    assert f"the question names one {name}: " in named[1] and said in named[1], named[1]
 
 
 @pytest.mark.parametrize(

@@ -120,9 +120,10 @@ def as_named(measured: Measured, kind: str, chosen: Sighting) -> tuple[Sighting,
         return None
     count = len({at for at, _ in of[mine_name]})
     surest_box = ", ".join(str(round(v)) for v in surest[mine_name][1].box)
+    said = " ".join(w for w in (chosen.label or "").split() if w.lower() not in ("the", "a", "an"))
     return patch, (
-        f"the question names one {mine_name}: the one at [{surest_box}], the surest of the {count} the "
-        f"detector boxed as {mine_name}; the program chose {patch_named(chosen)}"
+        f"the question names one {said}: the one at [{surest_box}], the surest of the {count} the detector "
+        f"boxed as {said}; the program chose {patch_named(chosen)}"
     )
 
 
