@@ -356,11 +356,10 @@ class Session:
         that says why; the result as it was, and None, otherwise."""
         chosen = answer_patch(result.value_object) if result is not None and result.error is None else None
         named = None if chosen is None else self.robot.as_named(chosen)
-        if named is None:
+        replaced = None if named is None else with_chosen(result.value_object, chosen, named[0])
+        if named is None or replaced is None:
             return result, None
-        other, why = named
-        update = {"value_object": with_chosen(result.value_object, chosen, other)}
-        return result.model_copy(update=update), why
+        return result.model_copy(update={"value_object": replaced}), named[1]
 
     def _doubt(self, result: Any) -> str | None:
         """With `confidence`: a choice resting on measurements inside their uncertainty is measured again;

@@ -315,14 +315,14 @@ def answer_patch(value_object: Any) -> Any:
     return None
 
 
-def with_chosen(value_object: Any, chosen: Any, other: Any) -> Any:
-    """A program's return with `other` where it chose `chosen` (`answer_patch`): the patch itself, a stated
-    answer's "object", or that patch in a returned list, tuple or dict; the rest as it was."""
+def with_chosen(value_object: Any, chosen: Any, other: Any) -> Any | None:
+    """A program's return with `other` where it chose `chosen` (`answer_patch`): the patch itself, or that
+    patch in a returned list, tuple or dict; the rest as it was. None for a stated answer (`{"object": ...,
+    "text": ...}`): its words are the program's own, and an object put under them would contradict them."""
     if value_object is chosen:
         return other
-    stated = _stated(value_object)
-    if stated is not None:
-        return {**stated, "object": with_chosen(stated.get("object"), chosen, other)}
+    if _stated(value_object) is not None:
+        return None
     if isinstance(value_object, dict):
         return {k: other if v is chosen else v for k, v in value_object.items()}
     if isinstance(value_object, list | tuple):
