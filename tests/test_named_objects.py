@@ -73,6 +73,7 @@ def test_each_name_means_the_object_the_detector_is_surest_of(readings, chosen, 
         ([("bottle", 0.85, 2.70), ("object", 0.9, 1.25), ("object", 0.4, 1.19)], 2),  # a generic word
         ([("bottle", 0.85, 2.70), ("apples", 0.9, 1.25), ("apples", 0.4, 1.19)], 2),  # a plural name
         ([("bottle", 1.0, 2.70), ("vase", 1.0, 1.25), ("vase", 1.0, 1.19)], 2),  # equally sure (an oracle)
+        ([("bottle", 0.85, 2.70), ("vase", 0.20, 1.25), ("vase", 0.12, 1.19)], 2),  # all faint
         (
             [("bottle", 0.85, 2.70), ("vase", 0.89, 1.25), ("vase", 0.40, 1.19), ("cup", 0.5, 1.0)],
             2,

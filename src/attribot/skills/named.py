@@ -168,7 +168,9 @@ both an inference (elimination, a look-alike) or none."""
 
 def _surest(found: list[tuple[int, Sighting]]) -> tuple[int, Sighting] | None:
     """The object (its index, its patch) the detector is surest of among those `found` under one name: by
-    evidence, then score; None where two objects are equally sure (the oracle's boxes all score 1)."""
+    evidence, then score; None where two objects are equally sure (the oracle's boxes all score 1), or
+    where the surest of several is no sure box: among faint boxes and inferences the score does not tell
+    the object named from the things it cannot name (`attribot.models.base.GUESSED`)."""
 
     def sureness(p: Sighting) -> tuple[int, float]:
         return _SURENESS.get(p.evidence or "", 0), p.score if p.score is not None else 0.0
@@ -178,7 +180,7 @@ def _surest(found: list[tuple[int, Sighting]]) -> tuple[int, Sighting] | None:
         if at not in best or sureness(p) > best[at][0]:
             best[at] = (sureness(p), p)
     ranked = sorted(best.items(), key=lambda item: item[1][0], reverse=True)
-    if len(ranked) > 1 and ranked[0][1][0] == ranked[1][1][0]:
+    if len(ranked) > 1 and (ranked[0][1][0] == ranked[1][1][0] or ranked[0][1][0][0] < _SURENESS["sure box"]):
         return None
     return ranked[0][0], ranked[0][1][1]
 
