@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from attribot.lexicon import GENERIC_NOUNS, IRREGULAR_PLURALS
 from attribot.priors import priors
 from attribot.skills.checks import patch_named
-from attribot.skills.robot_core import Measurement, _name_key
+from attribot.skills.robot_core import Measurement, _name_key, _without_article
 from attribot.skills.sighting import Sighting
 
 __all__ = ["named_twice", "as_named", "by_object", "combined", "Measured"]
@@ -92,7 +92,8 @@ def as_named(measured: Measured, kind: str, chosen: Sighting) -> tuple[Sighting,
     under it (`_surest`: a sure box before a faint one or an inference, then the higher score), and the
     program's own comparison (the largest or the smallest of the values it measured) is made again
     among those. Nothing changes where a name is generic ("object") or plural, where every name has
-    one object, where two names' surest objects are one, or where the chosen value is no extreme."""
+    one object, where a name's objects are equally sure or the surest is no sure box, where two names'
+    surest objects are one, or where the chosen value is no extreme."""
     groups = by_object(measured, kind)
     values = [v for v, _, _ in combined(groups)]
     of: dict[str, list[tuple[int, Sighting]]] = {}  # each name's objects (index, patch)
@@ -120,7 +121,7 @@ def as_named(measured: Measured, kind: str, chosen: Sighting) -> tuple[Sighting,
         return None
     count = len({at for at, _ in of[mine_name]})
     surest_box = ", ".join(str(round(v)) for v in surest[mine_name][1].box)
-    said = " ".join(w for w in (chosen.label or "").split() if w.lower() not in ("the", "a", "an"))
+    said = _without_article(chosen.label or "")
     return patch, (
         f"the question names one {said}: the one at [{surest_box}], the surest of the {count} the detector "
         f"boxed as {said}; the program chose {patch_named(chosen)}"
@@ -200,11 +201,11 @@ def _extreme_among(values: Sequence[float], mine: int, among: Sequence[int]) -> 
 def _plural(label: str) -> bool:
     """Whether an object's name reads as a plural ("the apples", "two mice"): such a name may mean several
     objects. A name whose last word is itself a kind's word in the priors ("cactus", "scissors") is not."""
-    words = [w for w in label.lower().split() if w not in ("the", "a", "an")]
-    last = words[-1] if words else ""
+    name = _without_article(label.lower())
+    last = name.split()[-1] if name else ""
     if last in IRREGULAR_PLURALS:
         return True
     if not last.endswith("s") or last.endswith("ss"):
         return False
-    kind = priors().find(" ".join(words))
+    kind = priors().find(name)
     return kind is None or all(w.split()[-1] != last for w in kind.words)

@@ -493,8 +493,13 @@ def _camera_info(world: Embodiment) -> Any:
 
 def _name_key(name: str) -> str:
     """An object's name as compared: lower case, no article, singular ("the Books" -> "book")."""
-    words = name.lower().split()
-    while words and words[0] in ("the", "a", "an"):
-        words = words[1:]
-    text = " ".join(words)
+    text = _without_article(name.lower())
     return text[:-1] if text.endswith("s") and not text.endswith("ss") else text
+
+
+def _without_article(name: str) -> str:
+    """An object's name without the articles it opens with ("the red mug" -> "red mug"), as written."""
+    words = name.split()
+    while words and words[0].lower() in ("the", "a", "an"):
+        words = words[1:]
+    return " ".join(words)
