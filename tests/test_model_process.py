@@ -234,3 +234,21 @@ def test_the_child_dies_with_its_parent(tmp_path):
     finally:
         parent.kill()
         parent.wait()
+
+
+def test_a_pipe_closed_twice_does_not_stop_the_shared_memory_being_freed():
+    """A request thread whose child was killed under it closes the pipe as `close` does: the loser of that
+    race gets EBADF, and the shutdown still frees the shared memory block."""
+    from multiprocessing import shared_memory
+
+    class ClosedAlready:
+        def send(self, message: object) -> None:
+            raise OSError(9, "Bad file descriptor")
+
+        def close(self) -> None:
+            raise OSError(9, "Bad file descriptor")
+
+    block = shared_memory.SharedMemory(create=True, size=64)
+    name = block.name
+    ModelProcess._shutdown({"conn": ClosedAlready(), "process": None, "block": block})
+    assert not Path(f"/dev/shm/{name}").exists()

@@ -252,7 +252,7 @@ class ModelProcess:
                 conn.send(("stop",))
             except (OSError, ValueError):
                 pass
-            conn.close()
+            _close_quietly(conn)
         if process is not None:
             process.join(STOP_TIMEOUT_S)  # a child inside a model call reads "stop" only after it
             if process.is_alive():
@@ -354,7 +354,7 @@ class ModelProcess:
         self._process = self._conn = None
         self._sync_state()
         if conn is not None:
-            conn.close()
+            _close_quietly(conn)
         if process is None:
             return None
         if kill:
@@ -410,3 +410,13 @@ def start_model_process(
         f"only the detector and VQA run in a model process, not the {role!r}",
         "serve the language role in the server's own process (it is a passthrough)",
     )
+
+
+def _close_quietly(conn: Any) -> None:
+    """Close a pipe end that another thread may be closing too: a request thread whose child was killed
+    under it (`_lost`) races `close` (`_shutdown`), and the loser's EBADF must not stop the shutdown before
+    it frees the shared memory."""
+    try:
+        conn.close()
+    except OSError:
+        pass
