@@ -58,17 +58,8 @@ def named_twice(measured: Measured, kind: str) -> tuple[Sighting, Sighting] | No
     for m, p in measured:
         if m.kind == kind and all(p is not q for q in seen):
             seen.append(p)
-    objects: list[Sighting] = []  # one patch per object measured
-    of: dict[str, set[int]] = {}  # each name's objects
-    for p in seen:
-        at = _object_at(objects, p)
-        if at is None:
-            objects.append(p)
-            at = len(objects) - 1
-        key = _name_key(p.label or "")
-        if _names_one(key):
-            of.setdefault(key, set()).add(at)
-    unmatched = _without_object(of)
+    names = _names_of(by_object(measured, kind))
+    unmatched = _without_object({k: {at for at, _ in found} for k, found in names.items() if _names_one(k)})
     if unmatched is None:
         return None
     pairs = (
@@ -96,13 +87,9 @@ def as_named(measured: Measured, kind: str, chosen: Sighting) -> tuple[Sighting,
     surest objects are one, or where the chosen value is no extreme."""
     groups = by_object(measured, kind)
     values = [v for v, _, _ in combined(groups)]
-    of: dict[str, list[tuple[int, Sighting]]] = {}  # each name's objects (index, patch)
-    for at, group in enumerate(groups):
-        for _, p in group:
-            label = p.label or ""
-            if _plural(label) or not _names_one(_name_key(label)):
-                return None
-            of.setdefault(_name_key(label), []).append((at, p))
+    of = _names_of(groups)
+    if any(not _names_one(k) or any(_plural(p.label or "") for _, p in found) for k, found in of.items()):
+        return None
     if len(of) < 2 or all(len({at for at, _ in found}) == 1 for found in of.values()):
         return None
     surest: dict[str, tuple[int, Sighting]] = {}
@@ -126,6 +113,16 @@ def as_named(measured: Measured, kind: str, chosen: Sighting) -> tuple[Sighting,
         f"the question names one {said}: the one at [{surest_box}], the surest of the {count} the detector "
         f"boxed as {said}; the program chose {patch_named(chosen)}"
     )
+
+
+def _names_of(groups: list[list[tuple[Measurement, Sighting]]]) -> dict[str, list[tuple[int, Sighting]]]:
+    """Each name measured (as compared, `_name_key`) with its objects: (the object's index among
+    `by_object`'s groups, the patch measured under that name), one pair a measurement."""
+    of: dict[str, list[tuple[int, Sighting]]] = {}
+    for at, group in enumerate(groups):
+        for _, p in group:
+            of.setdefault(_name_key(p.label or ""), []).append((at, p))
+    return of
 
 
 def _two_names(a: str | None, b: str | None) -> bool:
