@@ -59,6 +59,31 @@ def test_signal_to_exec_stops_the_sandbox_worker(tmp_path, sig):
                 os.kill(p, signal.SIGKILL)
 
 
+SWALLOWED = """
+import signal, time, weakref
+from attribot.shutdown import termination_as_exit
+
+class Thing:
+    pass
+
+with termination_as_exit():
+    thing = Thing()
+    # the signal lands inside a weakref callback, where Python prints an exception and drops it (as in
+    # importlib's module-lock clean-up, where a CI run once lost a SIGTERM)
+    ref = weakref.ref(thing, lambda _: signal.raise_signal(signal.SIGTERM))
+    del thing
+    time.sleep(20)
+    print("outlived the signal", flush=True)
+"""
+
+
+def test_a_signal_dropped_by_a_callback_still_ends_the_program():
+    proc = subprocess.run([sys.executable, "-c", SWALLOWED], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 128 + signal.SIGTERM, proc.stdout + proc.stderr
+    assert "outlived" not in proc.stdout
+    assert "Traceback" not in proc.stderr, proc.stderr
+
+
 def _cpu_ticks(pid: int) -> int:
     try:
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
