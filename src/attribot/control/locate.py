@@ -36,7 +36,7 @@ from attribot.control.spatial import (
 )
 from attribot.frame import CameraInfo, Frame
 
-__all__ = ["Locator", "view_of"]
+__all__ = ["Locator", "beneath", "view_of"]
 
 Accept = Callable[[Frame, Box], ObjectEstimate | None]
 
@@ -47,6 +47,21 @@ noise the first image may put an object 20 cm off, and depth finds something els
 STILL_THERE_HEIGHT = 0.3
 """An object the detector no longer sees is still where it was when depth sees something there whose top is
 within this share of its height (at least 5 cm) of its top before."""
+BENEATH_DROP_M = 0.1
+"""A box located as something that stands this much lower than the object did (metres, more than a board
+is thick) and spreads far wider (`BENEATH_SPREAD`) is the furniture under the object, not it."""
+BENEATH_SPREAD = (2.0, 0.05)
+"""Far wider: a radius over this factor times the object's, plus this margin (metres)."""
+
+
+def beneath(new: ObjectEstimate, old: ObjectEstimate) -> bool:
+    """Whether `new` is the furniture under the object `old` located rather than the object: seen nearer,
+    a detector may box a whole table under a flat book, and the box's middle is still the book's. It stands
+    lower than the object by more than a board's thickness and spreads far wider (`BENEATH_DROP_M`,
+    `BENEATH_SPREAD`). Where the object was first placed too high (its foot hidden behind an edge), the
+    nearer view lowers its support but not its width."""
+    factor, margin = BENEATH_SPREAD
+    return new.support_z < old.support_z - BENEATH_DROP_M and new.radius > factor * old.radius + margin
 
 
 @dataclass
@@ -155,8 +170,9 @@ class Locator:
                 return est
             pose = self.plant.pose()
             new = estimate_object(depth, camera, self.plant.view(body), pose, box, ignore)
-            near = new is not None and float(np.linalg.norm(new.xy() - est.xy())) <= reach
-            return new if near else None
+            if new is None or float(np.linalg.norm(new.xy() - est.xy())) > reach:
+                return None
+            return None if beneath(new, est) else new
 
         return where
 
