@@ -104,6 +104,7 @@ class LookHarderReport:
     named_otherwise: str | None = None
     alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
     yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
+    doubled: int = 0  # faint boxes on the object a surer box of the name is on (`_one_box_each_object`)
     fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
     confirmed: int = 0  # inferences (elimination, likeness) the detector confirmed from nearer
     unconfirmed: int = 0  # inferences dropped: from nearer the detector did not name them
@@ -136,6 +137,8 @@ class LookHarderReport:
             text += f"; {self.set_aside} set aside: the thing there is of a size its kind never has"
         if self.yielded:
             text += f"; {self.yielded} left to another name whose object is there"
+        if self.doubled:
+            text += f"; {self.doubled} faint boxes dropped: each on the object a surer box of the name is on"
         if self.fitted:
             text += f"; {self.fitted} boxes cut to what depth sees of the object in them"
         if self.confirmed:
@@ -216,7 +219,7 @@ def look_harder(
         taken = [d for d in claimed or [] if class_of_name(detector, d.label) != mine]
         left = one_name_each(found, [*taken, *(best_rivals() if sought else [])], candidates, params.unsure)
         report.yielded += len(found) - len(left)
-        return left
+        return _one_box_each_object(left, candidates, report, params)
 
     kept = one_each(kept)
     if not candidates:
@@ -241,6 +244,23 @@ def look_harder(
     report.alike, more = len(more), confirmed(more, candidates, name, nearer, report)
     report.took = [*report.took, *more]
     return kept + more, report
+
+
+def _one_box_each_object(
+    found: list[Detection], candidates: list[Candidate], report: LookHarderReport, params: LookHarderParams
+) -> list[Detection]:
+    """`found` (one name's boxes) less each faint box on the object a surer box of the name is on
+    (`one_object`), counted in `report`: a bookcase boxed faintly as a book around the book on its shelf, or
+    a table around the book on it, would be measured as one more book, and the gripper sent to it closes on
+    nothing."""
+    surest_first = sorted(found, key=lambda d: -d.score)
+    doubled = [
+        d
+        for i, d in enumerate(surest_first)
+        if d.score < params.unsure and any(one_object(d, surer, candidates) for surer in surest_first[:i])
+    ]
+    report.doubled += len(doubled)
+    return [d for d in found if not any(d is x for x in doubled)]
 
 
 def _standing(

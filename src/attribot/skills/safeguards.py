@@ -207,7 +207,14 @@ class LookHarder(Safeguard):
         harder, report = looked
         if harder:
             patch.named[name] = max(harder, key=lambda d: d.score)
-        if report.views or report.set_aside or report.alike or report.yielded or report.fitted:
+        if (
+            report.views
+            or report.set_aside
+            or report.alike
+            or report.yielded
+            or report.fitted
+            or report.doubled
+        ):
             caught = (
                 report.added
                 or report.set_aside
@@ -215,6 +222,7 @@ class LookHarder(Safeguard):
                 or report.taken
                 or report.yielded
                 or report.fitted
+                or report.doubled
             )
             self.note(f"find({name!r})", "caught" if caught else "unsettled", report.describe())
         return harder, report.took
