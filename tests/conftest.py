@@ -39,7 +39,7 @@ from fakes.balls import (
     world_perception,
 )
 from fakes.chat import serve_chat_replies
-from fakes.frames import bright_box, frame_with_box, random_frame
+from fakes.frames import bright_box, frame_with_box, grown_box, random_frame
 from fakes.worlds import TruthBlindWorld
 
 ARTIFACTS = Path(__file__).parent / "artifacts"
@@ -124,6 +124,7 @@ __all__ = [
     "random_frame",
     "frame_with_box",
     "bright_box",
+    "grown_box",
     "mean_colour",
     "MeanColourVQA",
     "WholeImageDetector",

@@ -15,23 +15,12 @@ from attribot.frame import Frame
 from attribot.models.base import Detection
 from attribot.session import Scene, run_program
 from attribot.skills.perception import Perception
+from conftest import grown_box
 
 # a book lying flat on a coffee table, alone in the room
 BOOK_ON_TABLE = SceneConfig(
     layout="household", seed=1, categories=("book",), objects=1, width=320, height=240
 )
-
-
-def _around(box: tuple[float, float, float, float], frame: Frame, times: float) -> tuple[float, ...]:
-    """`box` grown `times` about its middle, within the image: what holds the object, boxed with it."""
-    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
-    hw, hh = (box[2] - box[0]) * times / 2, (box[3] - box[1]) * times / 2
-    return (
-        max(cx - hw, 0.0),
-        max(cy - hh, 0.0),
-        min(cx + hw, frame.width - 1.0),
-        min(cy + hh, frame.height - 1.0),
-    )
 
 
 class _BoxesWhatHoldsIt:
@@ -51,7 +40,9 @@ class _BoxesWhatHoldsIt:
         if self.meant not in queries or (self.later_only and key == self.first):
             return found
         holders = [
-            d.model_copy(update={"box": _around(d.box, frame, 3.0), "score": self.score})
+            d.model_copy(
+                update={"box": grown_box(d.box, 3.0, frame.width, frame.height), "score": self.score}
+            )
             for d in found
             if d.label == self.meant
         ]

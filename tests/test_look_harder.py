@@ -22,6 +22,7 @@ from attribot.frame import CameraInfo, Frame
 from attribot.models.base import Detection, detect_in_views, findable_categories
 from attribot.skills.harder import acting_find, standing_in, zoom_views
 from attribot.skills.safeguards import Safeguards
+from conftest import grown_box
 
 SCENES = [
     SceneConfig(layout="household", seed=seed, categories=categories, objects=len(categories))
@@ -1270,12 +1271,6 @@ def test_a_look_from_nearer_drives_back_facing_the_way_it_goes_and_turns_round_w
     assert angle_close(end.yaw, start.yaw, robot.controller.base_tol)
 
 
-def _grown(box: tuple[float, ...], times: float) -> tuple[float, float, float, float]:
-    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
-    hw, hh = (box[2] - box[0]) * times / 2, (box[3] - box[1]) * times / 2
-    return (max(cx - hw, 0.0), max(cy - hh, 0.0), min(cx + hw, 639.0), min(cy + hh, 479.0))
-
-
 def test_a_faint_box_around_a_surely_boxed_object_is_that_object_and_one_elsewhere_is_another():
     """A book lying on a coffee table, boxed surely, and the table around it boxed faintly as a book (as
     YOLOv5s boxes a bookcase around the book on its shelf): one book, not two (a program weighing every
@@ -1286,7 +1281,7 @@ def test_a_faint_box_around_a_surely_boxed_object_is_that_object_and_one_elsewhe
         answers = {
             "book": [
                 Detection(box=book, score=0.6, label="book"),
-                Detection(box=_grown(book, 3.0), score=0.12, label="book"),
+                Detection(box=grown_box(book, 3.0, 640, 480), score=0.12, label="book"),
             ]
         }
         robot, image = _look(world, AnswersDetector(answers))

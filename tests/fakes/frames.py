@@ -1,4 +1,5 @@
-"""Frames for tests: random pixels, one bright box, and the box of the bright pixels."""
+"""Frames for tests: random pixels, one bright box, the box of the bright pixels, and a box grown about its
+middle (what holds an object, boxed with it)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 
 from attribot.frame import Frame
 
-__all__ = ["random_frame", "frame_with_box", "bright_box"]
+__all__ = ["random_frame", "frame_with_box", "bright_box", "grown_box"]
 
 
 def random_frame(h: int, w: int, seed: int = 0) -> Frame:
@@ -27,3 +28,13 @@ def bright_box(rgb: np.ndarray) -> tuple[float, float, float, float]:
     a wire can be checked against the one that was sent."""
     ys, xs = np.nonzero(rgb.max(axis=2) > 40)
     return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
+
+
+def grown_box(
+    box: tuple[float, ...], times: float, width: int, height: int
+) -> tuple[float, float, float, float]:
+    """`box` grown `times` about its middle, within a `width` x `height` image: the furniture that holds an
+    object, as a detector boxes it with the object (a table under a book, a bookcase round it)."""
+    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+    hw, hh = (box[2] - box[0]) * times / 2, (box[3] - box[1]) * times / 2
+    return (max(cx - hw, 0.0), max(cy - hh, 0.0), min(cx + hw, width - 1.0), min(cy + hh, height - 1.0))
