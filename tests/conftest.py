@@ -25,6 +25,7 @@ from fakes.backends import (
     WholeImageDetector,
     mean_colour,
     perception_for,
+    wrap_detector,
 )
 from fakes.balls import (
     BALLS,
@@ -135,6 +136,7 @@ __all__ = [
     "FakeVQA",
     "FakeLanguage",
     "perception_for",
+    "wrap_detector",
     "Ball",
     "CAM",
     "CAM_HEIGHT",

@@ -4,8 +4,6 @@ object the robot came to grasp. (A faint such box in the program's image: `tests
 
 from __future__ import annotations
 
-import dataclasses
-
 import pytest
 
 from attribot.config import SceneConfig, Settings
@@ -14,8 +12,7 @@ from attribot.control.spatial import ObjectEstimate
 from attribot.frame import Frame
 from attribot.models.base import Detection
 from attribot.session import Scene, run_program
-from attribot.skills.perception import Perception
-from conftest import grown_box
+from conftest import grown_box, wrap_detector
 
 # a book lying flat on a coffee table, alone in the room
 BOOK_ON_TABLE = SceneConfig(
@@ -50,13 +47,7 @@ class _BoxesWhatHoldsIt:
 
 
 def _with_detector(monkeypatch: pytest.MonkeyPatch, score: float, later_only: bool) -> None:
-    real = Perception.from_settings
-
-    def wrapped(settings: Settings) -> Perception:
-        p = real(settings)
-        return dataclasses.replace(p, detector=_BoxesWhatHoldsIt(p.detector, "book", score, later_only))
-
-    monkeypatch.setattr(Perception, "from_settings", staticmethod(wrapped))
+    wrap_detector(monkeypatch, lambda inner: _BoxesWhatHoldsIt(inner, "book", score, later_only))
 
 
 WEIGH_EVERY_BOOK = """

@@ -4,7 +4,6 @@ surest of under each name (`Measuring.as_named`)."""
 
 from __future__ import annotations
 
-import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -20,6 +19,7 @@ from attribot.skills.measuring import Measuring
 from attribot.skills.perception import Perception
 from attribot.skills.robot_core import Measurement
 from attribot.skills.sighting import Sighting
+from conftest import wrap_detector
 
 _FRAME = Frame(rgb=np.zeros((200, 300, 3), dtype=np.uint8))
 
@@ -137,14 +137,8 @@ def test_an_answer_is_the_object_named_not_a_closer_look_alike_of_it(monkeypatch
         objects = sorted((o for o in w.scene_info().objects if o.box is not None), key=lambda o: o.distance_m)
     assert len(objects) == 3
     nearest, a, b = objects
-    real = Perception.from_settings
-
-    def wrapped(settings: Settings) -> Perception:
-        p = real(settings)
-        return dataclasses.replace(p, detector=_AlsoNames(p.detector, b.category, nearest.category))
-
     if confused:
-        monkeypatch.setattr(Perception, "from_settings", staticmethod(wrapped))
+        wrap_detector(monkeypatch, lambda inner: _AlsoNames(inner, b.category, nearest.category))
     program = _CLOSEST_OF_ALL.format(a=a.category, b=b.category)
     answer = run_program(program, Scene(config, sensors=["camera", "distance"]), Settings(checks="none"))
     assert answer.error is None and answer.object is not None, answer.answer

@@ -3,10 +3,12 @@ what they were given (a mean colour, a box of bright pixels, a frame's size), an
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -27,6 +29,7 @@ __all__ = [
     "FakeVQA",
     "FakeLanguage",
     "perception_for",
+    "wrap_detector",
 ]
 
 
@@ -154,3 +157,15 @@ class FakeLanguage:
 
 def perception_for(things: Sequence[Thing] = (), answers: dict[str, str] | None = None) -> Perception:
     return Perception(FakeDetector(things), FakeVQA(), FakeLanguage(answers))
+
+
+def wrap_detector(monkeypatch: Any, wrap: Callable[[Any], Any]) -> None:
+    """Every `Perception` built from settings for the rest of the test has its detector wrapped by `wrap`
+    (a detector that also boxes what it should not: a jug as a second vase, a table under a book)."""
+    real = Perception.from_settings
+
+    def wrapped(settings: Any) -> Perception:
+        p = real(settings)
+        return dataclasses.replace(p, detector=wrap(p.detector))
+
+    monkeypatch.setattr(Perception, "from_settings", staticmethod(wrapped))
