@@ -58,6 +58,9 @@ LOW_RISE_M = 0.03
 """What lies flat is at least this many map pixels and at most this long (a rug or a board is longer), and
 no nearer than this many pixels to something standing (its shadow, its foot), unless that rises under
 `LOW_RISE_M` (then it is that thing's flat part)."""
+BOARD_M = 0.04
+"""A shelf's or a table's board is at most this thick: what rises to this under a level over it holds it
+up."""
 FINER_JUMP = 0.4
 SLIVER = 2.5
 SPLIT_MIN_SIDE = 3
@@ -71,7 +74,9 @@ class Candidate:
     """A region of the image where depth sees something stand on a level: its box (pixels, xyxy, y down),
     how high it rises over the level (metres), how many map pixels it holds, its longest side as depth
     sees it (its rise or its span across the floor, metres; 0 where not measured), that span across the
-    floor, and the height of its lowest point over the floor (metres; None where not measured)."""
+    floor, the height of its lowest point over the floor (metres; None where not measured), and whether its
+    top meets a level over it (`capped`: it holds that level up, as a bookcase's side between two boards
+    does)."""
 
     box: Box
     rise: float
@@ -79,26 +84,29 @@ class Candidate:
     size: float = 0.0
     across: float = 0.0
     bottom: float | None = None
+    capped: bool = False
 
 
 @dataclass(frozen=True)
 class StandingMap:
     """One depth image read for what stands on its levels, once: its point map (every `STRIDE`-th pixel,
-    base frame) and each map pixel's height over the level under it (None where the image holds no level).
-    `candidates()` and `stands_out(box)` both read it."""
+    base frame), each map pixel's height over the level under it (None where the image holds no level), and
+    the levels themselves on their floor plan. `candidates()` and `stands_out(box)` both read it."""
 
     points: np.ndarray
     rise: np.ndarray | None
     depth: np.ndarray
     rgb: np.ndarray | None = None
+    levels: tuple[tuple[float, np.ndarray], ...] = ()
+    plan: _Plan | None = None
 
     @classmethod
     def of(
         cls, depth: np.ndarray, camera: CameraInfo, view: CameraPose, rgb: np.ndarray | None = None
     ) -> StandingMap:
         """The map of one depth image; given the image's `rgb` too, its candidates hold what lies flat."""
-        points, rise = _rise_map(depth, camera, view)
-        return cls(points, rise, depth, None if rgb is None else rgb[::STRIDE, ::STRIDE])
+        points, rise, levels, plan = _rise_map(depth, camera, view)
+        return cls(points, rise, depth, None if rgb is None else rgb[::STRIDE, ::STRIDE], tuple(levels), plan)
 
     def candidates(self) -> list[Candidate]:
         """Regions of the image where something stands on a horizontal level (see the module docstring),
@@ -128,11 +136,14 @@ class StandingMap:
         """What lies flat on a level (a fork, a knife: too thin to rise out of it in depth), seen by its
         colour (`_odd_on_levels`), in regions no longer than an object. A region beside something low that
         stands is that thing's flat part (a knife's blade beside its raised handle): the two are one
-        candidate; beside anything else, it is a shadow or a foot, and left out. `standing` (those
+        candidate; beside anything else, it is a shadow or a foot, and left out, as it is beside what stands
+        and is no candidate (a bookcase's foot on the floor: furniture is too wide). `standing` (those
         candidates) is updated in place; the regions on their own are returned, largest first."""
         odd = self._odd_on_levels()
-        if odd is None:
+        if odd is None or self.rise is None:
             return []
+        with np.errstate(invalid="ignore"):
+            tall = _standing(self.rise) & (self.rise >= LOW_RISE_M)
         count, labels, stats, _ = cv2.connectedComponentsWithStats(odd, connectivity=8)
         found: list[Candidate] = []
         for k in range(1, count):
@@ -155,11 +166,22 @@ class StandingMap:
                     for i in near[1:]:
                         standing[i] = replace(standing[i], pixels=0)  # joined: dropped below
                 continue
+            if self._next_to_standing(tall, (x, y, w, h)):
+                continue  # the foot or shadow of what stands and is no candidate: furniture
             span = float(np.ptp(xyz[:, :2], axis=0).max())
             if 0.0 < span <= LYING_MAX_M:
                 found.append(Candidate(box, 0.0, area, span, span, float(np.percentile(xyz[:, 2], 5))))
         found.sort(key=lambda c: -c.pixels)
         return found
+
+    @staticmethod
+    def _next_to_standing(tall: np.ndarray, region: tuple[int, int, int, int]) -> bool:
+        """Whether a few map pixels `tall` (standing higher than something flat's raised part) lie within
+        `SHADOW_PX` of `region` (x, y, w, h in map pixels)."""
+        x, y, w, h = region
+        by = SHADOW_PX // STRIDE
+        near = tall[max(y - by, 0) : y + h + by, max(x - by, 0) : x + w + by]
+        return int(near.sum()) >= MIN_PIXELS
 
     def _odd_on_levels(self) -> np.ndarray | None:
         """Map pixels of a level whose colour stands out from the level's own around them (uint8 mask), or
@@ -214,10 +236,22 @@ class StandingMap:
                 wide[y : y + h, x : x + w] |= inside
                 continue
             top = float(rise[y : y + h, x : x + w][inside].max())
-            bottom = float(np.percentile(pts[y : y + h, x : x + w][inside][:, 2], 5))
+            xyz = pts[y : y + h, x : x + w][inside]
+            bottom = float(np.percentile(xyz[:, 2], 5))
             box = (float(x * STRIDE), float(y * STRIDE), float((x + w) * STRIDE), float((y + h) * STRIDE))
-            found.append(Candidate(box, top, area, max(span, top), span, bottom))
+            found.append(Candidate(box, top, area, max(span, top), span, bottom, self._capped(xyz)))
         return wide
+
+    def _capped(self, xyz: np.ndarray) -> bool:
+        """Whether the top of the points `xyz` (N, 3) meets the lowest level over them, under a board's
+        thickness below it: what holds a board up (a bookcase's side between two of its boards), not a thing
+        standing under it with room above."""
+        if self.plan is None or len(xyz) == 0:
+            return False
+        top = float(np.percentile(xyz[:, 2], 98))
+        cells = self.plan.cells_of(xyz)
+        over = [height for height, place in self.levels if height > top and place[cells].mean() >= 0.5]
+        return bool(over) and min(over) - top <= BOARD_M
 
     def stands_out(self, box: Box) -> bool | None:
         """Whether depth sees something stand on a level inside `box` (pixels, xyxy): a few of its pixels
@@ -251,9 +285,10 @@ class StandingMap:
 
 def _rise_map(
     depth: np.ndarray, camera: CameraInfo, view: CameraPose
-) -> tuple[np.ndarray, np.ndarray | None]:
+) -> tuple[np.ndarray, np.ndarray | None, list[tuple[float, np.ndarray]], _Plan]:
     """The point map and each of its pixels' height over the level under it (NaN where depth is not valid
-    or no level is under it); None for the heights where the image holds no level. The level under a point
+    or no level is under it; None for the heights where the image holds no level), the levels (`_levels`)
+    and their floor plan. The level under a point
     is the highest one below it whose place on the floor plan holds the point; where none within an
     object's height does (a level hidden by what stands on it), the highest level below it anywhere."""
     pts = point_map(depth, camera, view, STRIDE)
@@ -261,7 +296,7 @@ def _rise_map(
     plan = _Plan.of(pts[valid])
     levels = _levels(pts[_horizontal(pts) & valid], plan)
     if not levels:
-        return pts, None
+        return pts, None, levels, plan
     z = np.where(valid, pts[..., 2], -np.inf)
     cells = plan.cells_of(np.where(valid[..., None], pts, 0.0))
     under = np.full(z.shape, np.nan)
@@ -273,7 +308,7 @@ def _rise_map(
     with np.errstate(invalid="ignore"):
         under = np.where(np.isnan(under) | (z - under > RISE_M[1]), nearest, under)
     rise = np.where(valid, z - under, np.nan)
-    return pts, rise
+    return pts, rise, levels, plan
 
 
 def _standing(rise: np.ndarray) -> np.ndarray:

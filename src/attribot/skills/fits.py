@@ -373,9 +373,12 @@ def is_misplaced(cand: Candidate, placement: str | None, params: LookHarderParam
 def is_furniture(cand: Candidate, params: LookHarderParams = LOOK_HARDER) -> bool:
     """A candidate that is part of the furniture, not an object: a leg (this tall over its level, or over
     the floor, and this much taller than wide, in the image or across the floor), or a panel's edge (under
-    `panel_across` across the floor and rising more than `leg_aspect` times that). A thing that thin and
-    standing (a book on its spine, a candle: the priors know both) is taken for a panel: a limit of this
-    rule."""
+    `panel_across` across the floor and rising more than `leg_aspect` times that), or what holds a board up
+    (`capped`: a bookcase's side between two boards). A thing that thin and standing (a book on its spine,
+    a candle: the priors know both) is taken for a panel, and one that fills the room under a shelf to its
+    board for a side: limits of this rule."""
+    if cand.capped:
+        return True
     x0, y0, x1, y1 = cand.box
     tall_in_image = (y1 - y0) > params.leg_aspect * max(x1 - x0, 1.0)
     if tall_in_image or 0.0 < params.leg_aspect * cand.across < cand.rise:
