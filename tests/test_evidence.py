@@ -165,6 +165,31 @@ def test_a_closed_world_is_one_where_at_most_one_thing_depth_sees_is_unexplained
     assert not closed_world([*things[:2], toaster, flat, other], named, 640, 480, sought=[fork, spoon])
 
 
+def test_pieces_of_one_thing_that_depth_parted_are_no_more_things():
+    from attribot.skills.harder import closed_world
+
+    # one thing no box explains (the one sought, say) leaves the world closed; a second opens it
+    cup = Candidate(box=(50.0, 100.0, 70.0, 130.0), rise=0.1, pixels=40, size=0.1, bottom=0.45)
+    # a chair the image's bottom edge cuts, and a post of it that depth parted from its seat: the post's
+    # foot is within the chair's heights and half of its box on the chair's
+    chair = Candidate((338.0, 432.0, 406.0, 480.0), 0.226, 234, 0.2, 0.2, 0.196)
+    post = Candidate((340.0, 424.0, 346.0, 448.0), 0.218, 20, 0.22, 0.02, 0.218)
+    assert closed_world([cup, chair, post], [], 640, 480)
+    # a thing standing on the chair's seat stands above the chair's heights: one more thing
+    on_seat = Candidate((360.0, 420.0, 380.0, 446.0), 0.08, 40, 0.08, 0.08, 0.43)
+    assert not closed_world([cup, chair, on_seat], [], 640, 480)
+    # a spoon lying flat, seen by depth as its bowl and its handle: taking one takes the other
+    handle = Candidate((294.0, 220.0, 300.0, 238.0), 0.011, 9, 0.04, 0.04, 0.457)
+    bowl = Candidate((288.0, 206.0, 298.0, 216.0), 0.013, 20, 0.04, 0.04, 0.457)
+    named = [Detection(box=(40.0, 90.0, 80.0, 140.0), score=0.8, label="cup")]
+    assert closed_world([cup, handle, bowl], named, 640, 480, taken=handle.box)
+    # a thing that stands beside what was taken, or one lying farther off, is another thing
+    mug = Candidate((300.0, 196.0, 318.0, 220.0), 0.09, 60, 0.09, 0.09, 0.457)
+    assert not closed_world([cup, handle, mug], named, 640, 480, taken=handle.box)
+    apart = Candidate((270.0, 200.0, 280.0, 212.0), 0.01, 20, 0.04, 0.04, 0.457)
+    assert not closed_world([cup, handle, apart], named, 640, 480, taken=handle.box)
+
+
 class CallsItA(SeesOnly):
     """`SeesOnly`, but it also boxes one category under another name, surely (YOLOv5s calls a potato a
     sports ball at 0.31) or at `score` (a faint box)."""

@@ -32,7 +32,7 @@ import numpy as np
 
 from attribot.boxes import at_edge, center, intersection, iou, overlap_of_smaller
 from attribot.control.base import Capture
-from attribot.control.candidates import STRIDE, Candidate, StandingMap
+from attribot.control.candidates import LOW_RISE_M, STRIDE, Candidate, StandingMap
 from attribot.control.spatial import nearest_surface, projected_box, to_base, to_world
 from attribot.errors import InputError
 from attribot.frame import CameraInfo, Frame
@@ -556,23 +556,46 @@ def closed_world(
     named. A faint box of a mouse on what the detector surely boxes as a sports ball, beside one thing
     nothing names, leaves that thing as likely the mouse; a toaster boxed surely as a suitcase in a room where
     all else is named is the toaster. `explains`: whether a sure box over a place explains it (by default,
-    every one does); a real room's things are boxed surely under names they have nothing of."""
+    every one does); a real room's things are boxed surely under names they have nothing of. A piece of
+    what the edge cuts (a chair's post beside its seat) or of what was taken (a spoon lying flat, which
+    depth sees in two pieces) is no other thing."""
     sure = [d for d in explaining if d.score >= params.unsure]
+    cut = [c for c in candidates if at_edge(c.box, width, height)]
     unexplained = [
         c
         for c in candidates
         if min(c.box[2] - c.box[0], c.box[3] - c.box[1]) > STRIDE
         and not is_furniture(c, params)
         and not at_edge(c.box, width, height)
+        and not any(_piece_of(c, edge) for edge in cut)
         and not any(inside_box(center(c.box), d.box) and (explains is None or explains(c, d)) for d in sure)
     ]
     if taken is not None:
-        unexplained = [c for c in unexplained if not inside_box(center(c.box), taken)]
+        unexplained = [c for c in unexplained if not (inside_box(center(c.box), taken) or _beside(c, taken))]
     for kind in sought:
         fitting = [c for c in unexplained if fits_kind(c, kind, params)]
         if len(fitting) == 1:
             unexplained.remove(fitting[0])
     return len(unexplained) <= (0 if taken is not None else 1)
+
+
+def _piece_of(cand: Candidate, whole: Candidate) -> bool:
+    """Whether `cand` is a piece of `whole` that depth parted from it: half of its box on the whole's, its
+    foot within the whole's heights (a chair's post beside its seat; a thing on that seat stands above
+    it)."""
+    if cand.bottom is None or whole.bottom is None:
+        return False
+    within = whole.bottom - 0.02 <= cand.bottom <= whole.bottom + whole.rise
+    smaller = box_area(cand.box) <= box_area(whole.box)
+    return within and smaller and overlap_of_smaller(cand.box, whole.box) >= 0.5
+
+
+def _beside(cand: Candidate, taken: tuple[float, float, float, float]) -> bool:
+    """Whether `cand` lies flat within two map pixels of `taken`: a piece of a thing lying flat (a spoon's
+    bowl and its handle), which depth sees in parts where it rises least."""
+    x0, y0, x1, y1 = cand.box
+    gap = max(taken[0] - x1, x0 - taken[2], taken[1] - y1, y0 - taken[3])
+    return cand.rise < LOW_RISE_M and gap <= 2 * STRIDE
 
 
 def confirmed(
