@@ -288,9 +288,9 @@ def _rise_map(
 ) -> tuple[np.ndarray, np.ndarray | None, list[tuple[float, np.ndarray]], _Plan]:
     """The point map and each of its pixels' height over the level under it (NaN where depth is not valid
     or no level is under it; None for the heights where the image holds no level), the levels (`_levels`)
-    and their floor plan. The level under a point
-    is the highest one below it whose place on the floor plan holds the point; where none within an
-    object's height does (a level hidden by what stands on it), the highest level below it anywhere."""
+    and their floor plan. The level under a point is the highest one below it whose place on the floor plan
+    holds the point; where none within an object's height does (a level hidden by what stands on it), the
+    highest level below it anywhere."""
     pts = point_map(depth, camera, view, STRIDE)
     valid = np.isfinite(pts[..., 2])
     plan = _Plan.of(pts[valid])

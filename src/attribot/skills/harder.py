@@ -571,7 +571,8 @@ def closed_world(
         and not any(inside_box(center(c.box), d.box) and (explains is None or explains(c, d)) for d in sure)
     ]
     if taken is not None:
-        unexplained = [c for c in unexplained if not (inside_box(center(c.box), taken) or _beside(c, taken))]
+        of_taken = [c for c in unexplained if inside_box(center(c.box), taken) or _lying_beside(c, taken)]
+        unexplained = [c for c in unexplained if c not in of_taken]
     for kind in sought:
         fitting = [c for c in unexplained if fits_kind(c, kind, params)]
         if len(fitting) == 1:
@@ -585,12 +586,13 @@ def _piece_of(cand: Candidate, whole: Candidate) -> bool:
     it)."""
     if cand.bottom is None or whole.bottom is None:
         return False
+    # a foot as low as the whole's, give or take depth's 2 cm at a few metres, up to the whole's top
     within = whole.bottom - 0.02 <= cand.bottom <= whole.bottom + whole.rise
     smaller = box_area(cand.box) <= box_area(whole.box)
     return within and smaller and overlap_of_smaller(cand.box, whole.box) >= 0.5
 
 
-def _beside(cand: Candidate, taken: tuple[float, float, float, float]) -> bool:
+def _lying_beside(cand: Candidate, taken: tuple[float, float, float, float]) -> bool:
     """Whether `cand` lies flat within two map pixels of `taken`: a piece of a thing lying flat (a spoon's
     bowl and its handle), which depth sees in parts where it rises least."""
     x0, y0, x1, y1 = cand.box
