@@ -435,17 +435,19 @@ def test_a_faint_box_grows_to_the_candidate_it_frames_where_that_is_the_names_si
     assert grown_to_candidates(spine, [elsewhere], book_size).box == spine.box
 
 
-def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in_it():
-    """YOLOv3-tiny boxes a fork lying on a table twice as wide as it is: the box is cut to the candidate it
-    frames, never grown; a part too small to be a fork, a thing cut to a sliver of the box or no candidate
-    leave the detector's box as it was."""
+def test_a_box_is_fitted_to_what_depth_sees_of_the_one_object_of_the_names_size_in_it():
+    """YOLOv3-tiny boxes a fork lying on a table twice as wide as it is, and YOLOv5s boxes only the head of
+    one: either box is fitted to the candidate it frames, cut or grown to it; a part too small to be a
+    fork, a thing cut to a sliver of the box or no candidate leave the detector's box as it was."""
     from attribot.control.candidates import Candidate
     from attribot.skills.fits import fitted_to_depth
 
     loose = Detection(box=(288, 193, 341, 300), score=0.4, label="fork")
     fork = Candidate((304, 192, 330, 303), 0.01, 90, 0.18)
     fork_size = (0.17, 0.2)
-    assert fitted_to_depth(loose, [fork], fork_size).box == (304, 193, 330, 300)
+    assert fitted_to_depth(loose, [fork], fork_size).box == fork.box
+    head = Detection(box=(305, 192, 329, 215), score=0.4, label="fork")  # the tines, a fifth of it
+    assert fitted_to_depth(head, [fork], fork_size).box == fork.box
     tines = Candidate((306, 194, 328, 215), 0.01, 20, 0.04)  # a part of it, under half a fork
     assert fitted_to_depth(loose, [tines], fork_size).box == loose.box
     sliver = Candidate((318, 192, 322, 303), 0.01, 10, 0.18)  # 4 of 53 pixels wide: not the fork's extent
@@ -456,9 +458,13 @@ def test_a_loose_box_is_cut_to_what_depth_sees_of_an_object_of_the_names_size_in
     piece = Candidate((300, 220, 336, 285), 0.01, 60, 0.12)
     assert fitted_to_depth(loose, [piece], fork_size).box == loose.box
     assert fitted_to_depth(loose, [fork], None).box == loose.box  # a name of no known size
-    # two forks side by side in one box: the box holds both, as it did
+    # two forks side by side in one box: the box holds both, as it did, and grows to neither
     other = Candidate((289, 195, 303, 298), 0.01, 80, 0.18)
     assert fitted_to_depth(loose, [fork, other], fork_size).box == (289, 193, 330, 300)
+    # a thing of a fork's size as a look-alike's may be, but larger than the priors give a fork (two things
+    # depth sees as one): the head's box is not grown to it
+    long = Candidate((304, 192, 330, 380), 0.01, 150, 0.34)
+    assert fitted_to_depth(head, [long], fork_size).box == head.box
 
 
 def test_a_sure_box_is_set_aside_for_its_size_only_where_depth_sees_the_whole_thing_in_it():
@@ -492,7 +498,7 @@ def test_a_find_cuts_a_loose_box_to_the_object_in_the_trace_and_not_with_looking
         assert [p.box for p in trusting.find("mug")] == [loose]
     assert iou(found.box, mug) >= 0.7 > iou(loose, mug)
     assert _inside(center(found.box), loose) and found.box[0] >= loose[0] and found.box[2] <= loose[2]
-    assert any("cut to what depth sees" in e.detail for e in robot.safeguards.events)
+    assert any("fitted to what depth sees" in e.detail for e in robot.safeguards.events)
 
 
 def test_elimination_takes_the_one_thing_of_the_size_no_other_name_explains():

@@ -160,24 +160,30 @@ def fitted_to_depth(
     size_range: tuple[float, float] | None,
     params: LookHarderParams = LOOK_HARDER,
 ) -> Detection:
-    """`det` cut to the candidates it frames whose size fits the name's as a look-alike's must (`alike_slack`:
-    things of one kind differ in size more than the priors' range). YOLOv3-tiny boxes a fork or a knife
-    lying on a table up to twice as wide as it is, where depth and colour see its extent. A box is never
-    grown here; one framing no such candidate, or one the cut would leave under `fit_keeps` of its area or
-    short of it both ways (`fit_along`), is kept as the detector gave it."""
+    """`det` fitted to the candidates it frames whose size fits the name's as a look-alike's must
+    (`alike_slack`: things of one kind differ in size more than the priors' range). YOLOv3-tiny boxes a fork
+    or a knife lying on a table up to twice as wide as it is, where depth and colour see its extent: the box
+    is cut to them. YOLOv5s boxes the head of a fork lying flat, a carrot's body without its leaves, the
+    lower half of a clock: where the box frames one candidate, of the name's size as the priors give it
+    (`size_slack`), that candidate is the object the detector boxed a part of, and its box the object's. A
+    box framing no such candidate, or one the cut would leave under `fit_keeps` of its area or short of it
+    both ways (`fit_along`: depth sees a piece of the object), is kept as the detector gave it."""
     if size_range is None:
         return det
     framed = [
-        candidates[i].box
+        candidates[i]
         for i in framed_by(det, candidates)
         if fits_size(candidates[i].size, size_range, params.alike_slack)
     ]
     if not framed:
         return det
-    cut = intersection(det.box, enclosing(framed))
-    if cut == det.box or not depth_sees_whole(det.box, cut, params):
+    seen = enclosing([c.box for c in framed])
+    cut = intersection(det.box, seen)
+    if not depth_sees_whole(det.box, cut, params):
         return det
-    return det.model_copy(update={"box": cut})
+    one = len(framed) == 1 and fits_size(framed[0].size, size_range, params.size_slack)
+    fitted = seen if one else cut
+    return det if fitted == det.box else det.model_copy(update={"box": fitted})
 
 
 def depth_sees_whole(box: Box, seen: Box, params: LookHarderParams = LOOK_HARDER) -> bool:

@@ -105,7 +105,7 @@ class LookHarderReport:
     alike: int = 0  # candidates that look like an object of the name the detector saw, taken as more of it
     yielded: int = 0  # boxes left to another name whose object is there (`one_name_each`)
     doubled: int = 0  # faint boxes on the object a surer box of the name is on (`_one_box_each_object`)
-    fitted: int = 0  # boxes cut to what depth sees of the object in them (`fitted_to_depth`)
+    fitted: int = 0  # boxes fitted to what depth sees of the object in them (`fitted_to_depth`)
     confirmed: int = 0  # inferences (elimination, likeness) the detector confirmed from nearer
     unconfirmed: int = 0  # inferences dropped: from nearer the detector did not name them
     closed: int = 0  # inferences kept unconfirmed, since everything else depth sees here is named
@@ -140,7 +140,7 @@ class LookHarderReport:
         if self.doubled:
             text += f"; {self.doubled} faint boxes dropped: each on the object a surer box of the name is on"
         if self.fitted:
-            text += f"; {self.fitted} boxes cut to what depth sees of the object in them"
+            text += f"; {self.fitted} boxes fitted to what depth sees of the object in them"
         if self.confirmed:
             text += f"; {self.confirmed} of them confirmed: seen as the name from nearer"
         if self.unconfirmed:
@@ -350,7 +350,7 @@ def _fitted(
     table: Priors,
     params: LookHarderParams,
 ) -> list[Detection]:
-    """`kept` with what the detector boxed cut to what depth sees (`fitted_to_depth`), counted in `report`;
+    """`kept` with what the detector boxed fitted to what depth sees (`fitted_to_depth`), counted in `report`;
     what weaker evidence took (a candidate's box, a faint box grown to it) as it was taken."""
     sizes = name_sizes(detector, name, table)
     fitted = [
