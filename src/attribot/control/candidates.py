@@ -140,10 +140,8 @@ class StandingMap:
         and is no candidate (a bookcase's foot on the floor: furniture is too wide). `standing` (those
         candidates) is updated in place; the regions on their own are returned, largest first."""
         odd = self._odd_on_levels()
-        if odd is None or self.rise is None:
+        if odd is None:
             return []
-        with np.errstate(invalid="ignore"):
-            tall = _standing(self.rise) & (self.rise >= LOW_RISE_M)
         count, labels, stats, _ = cv2.connectedComponentsWithStats(odd, connectivity=8)
         found: list[Candidate] = []
         for k in range(1, count):
@@ -166,7 +164,7 @@ class StandingMap:
                     for i in near[1:]:
                         standing[i] = replace(standing[i], pixels=0)  # joined: dropped below
                 continue
-            if self._next_to_standing(tall, (x, y, w, h)):
+            if self._next_to_standing(box):
                 continue  # the foot or shadow of what stands and is no candidate: furniture
             span = float(np.ptp(xyz[:, :2], axis=0).max())
             if 0.0 < span <= LYING_MAX_M:
@@ -174,14 +172,14 @@ class StandingMap:
         found.sort(key=lambda c: -c.pixels)
         return found
 
-    @staticmethod
-    def _next_to_standing(tall: np.ndarray, region: tuple[int, int, int, int]) -> bool:
-        """Whether a few map pixels `tall` (standing higher than something flat's raised part) lie within
-        `SHADOW_PX` of `region` (x, y, w, h in map pixels)."""
-        x, y, w, h = region
-        by = SHADOW_PX // STRIDE
-        near = tall[max(y - by, 0) : y + h + by, max(x - by, 0) : x + w + by]
-        return int(near.sum()) >= MIN_PIXELS
+    def _next_to_standing(self, box: Box) -> bool:
+        """Whether a few map pixels within `SHADOW_PX` of `box` stand higher than something flat's raised
+        part (`LOW_RISE_M`)."""
+        around = self._inside(_grown(box, SHADOW_PX))
+        if around is None:
+            return False
+        with np.errstate(invalid="ignore"):
+            return int((_standing(around) & (around >= LOW_RISE_M)).sum()) >= MIN_PIXELS
 
     def _odd_on_levels(self) -> np.ndarray | None:
         """Map pixels of a level whose colour stands out from the level's own around them (uint8 mask), or
